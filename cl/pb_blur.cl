@@ -1,0 +1,298 @@
+/* The kernels: one work item per tomograph-space voxel W (gather form, no
+ * atomics). W's centre is mapped into object space at the key poses; the
+ * methods differ in how they sample the object volume along the path.
+ *
+ * Compiled as OpenCL C (the library embeds this file with its includes inlined)
+ * and as CUDA (cuda/ includes this very file); pb_shim.h is the only difference. */
+#include "pb_shim.h"
+#include "pb_kernel_types.h"
+
+/* Object texel coordinates of tomograph texel coordinates u under a 3x4 map. */
+PB_FN void pb_map_point(PB_GLOBAL_RO float *m, float ux, float uy, float uz, float *o)
+{
+    o[0] = m[0] * ux + m[1] * uy + m[2] * uz + m[3];
+    o[1] = m[4] * ux + m[5] * uy + m[6] * uz + m[7];
+    o[2] = m[8] * ux + m[9] * uy + m[10] * uz + m[11];
+}
+
+/* Trilinear sample at texel coordinates: one linear fetch, or eight nearest
+ * reads weighted in float. */
+PB_FN float pb_trilinear(pb_image img, int exact, float x, float y, float z)
+{
+    if (!exact)
+        return PB_FETCH_LINEAR(img, x, y, z);
+    float cx = x - 0.5f, cy = y - 0.5f, cz = z - 0.5f;
+    float x0 = floor(cx), y0 = floor(cy), z0 = floor(cz);
+    float fx = cx - x0, fy = cy - y0, fz = cz - z0;
+    x0 += 0.5f;
+    y0 += 0.5f;
+    z0 += 0.5f;
+    float c00 = (1.0f - fx) * PB_FETCH_NEAREST(img, x0, y0, z0) + fx * PB_FETCH_NEAREST(img, x0 + 1.0f, y0, z0);
+    float c10 = (1.0f - fx) * PB_FETCH_NEAREST(img, x0, y0 + 1.0f, z0) +
+                fx * PB_FETCH_NEAREST(img, x0 + 1.0f, y0 + 1.0f, z0);
+    float c01 = (1.0f - fx) * PB_FETCH_NEAREST(img, x0, y0, z0 + 1.0f) +
+                fx * PB_FETCH_NEAREST(img, x0 + 1.0f, y0, z0 + 1.0f);
+    float c11 = (1.0f - fx) * PB_FETCH_NEAREST(img, x0, y0 + 1.0f, z0 + 1.0f) +
+                fx * PB_FETCH_NEAREST(img, x0 + 1.0f, y0 + 1.0f, z0 + 1.0f);
+    return (1.0f - fz) * ((1.0f - fy) * c00 + fy * c10) + fz * ((1.0f - fy) * c01 + fy * c11);
+}
+
+/* Bilinear sample inside one slice, at texel coordinates whose major
+ * coordinate is the slice's centre. HARDWARE: the trilinear fetch's weight along
+ * the major axis is exactly 1 there, so the sampler's weights are AB's four
+ * weights (the paper, section 3.2). EXACT: the same four voxels read and
+ * weighted in float. */
+PB_FN float pb_slice_sample(pb_image img, int exact, int major, float x, float y, float z)
+{
+    if (!exact)
+        return PB_FETCH_LINEAR(img, x, y, z);
+    /* The two transverse coordinates, in the order (t1, t2) = (major+1, major+2). */
+    float c1 = (major == 0 ? y : (major == 1 ? z : x)) - 0.5f;
+    float c2 = (major == 0 ? z : (major == 1 ? x : y)) - 0.5f;
+    float i1 = floor(c1), i2 = floor(c2);
+    float f1 = c1 - i1, f2 = c2 - i2;
+    i1 += 0.5f;
+    i2 += 0.5f;
+    float v[4];
+    for (int c = 0; c < 4; c++) {
+        float t1 = i1 + (float)(c & 1), t2 = i2 + (float)(c >> 1);
+        float px = major == 0 ? x : (major == 1 ? t2 : t1);
+        float py = major == 0 ? t1 : (major == 1 ? y : t2);
+        float pz = major == 0 ? t2 : (major == 1 ? t1 : z);
+        v[c] = PB_FETCH_NEAREST(img, px, py, pz);
+    }
+    return (1.0f - f2) * ((1.0f - f1) * v[0] + f1 * v[1]) + f2 * ((1.0f - f1) * v[2] + f1 * v[3]);
+}
+
+/* The axis along which the segment a-b changes most (ties: the lower axis). */
+PB_FN int pb_major_axis(float dx, float dy, float dz)
+{
+    float ax = fabs(dx), ay = fabs(dy), az = fabs(dz);
+    int m = ay > ax ? 1 : 0;
+    float am = ay > ax ? ay : ax;
+    return az > am ? 2 : m;
+}
+
+/* Slices AB visits on a segment: those whose tent weight is not zero. */
+PB_FN int pb_ab_slices(const float *a, const float *b)
+{
+    int m = pb_major_axis(b[0] - a[0], b[1] - a[1], b[2] - a[2]);
+    float am = (m == 0 ? a[0] : (m == 1 ? a[1] : a[2])) - 0.5f;
+    float bm = (m == 0 ? b[0] : (m == 1 ? b[1] : b[2])) - 0.5f;
+    return (int)ceil(fmax(am, bm)) - (int)floor(fmin(am, bm)) + 1;
+}
+
+/* Share of a slice in a path [r0, r1] (relative to the slice's centre, in
+ * voxels along the major axis): the integral of the tent 1 - |r|, which is the
+ * overlap of the moving voxel with the slice. *mean receives the tent-weighted
+ * mean of r, where the slice is sampled. Summed piecewise over the tent's two
+ * linear halves (midpoint rule plus the exact moment correction) so that short
+ * pieces lose no precision to cancellation. */
+PB_FN float pb_tent_share(float r0, float r1, float *mean)
+{
+    if (r0 <= -1.0f && r1 >= 1.0f) {
+        *mean = 0.0f;
+        return 1.0f;
+    }
+    float w = 0.0f, mo = 0.0f;
+    float p0 = fmax(r0, -1.0f), p1 = fmin(r1, 0.0f);
+    if (p1 > p0) {
+        float l = p1 - p0, c = 0.5f * (p0 + p1), t = 1.0f + c;
+        w += l * t;
+        mo += l * (c * t + l * l * (1.0f / 12.0f));
+    }
+    p0 = fmax(r0, 0.0f);
+    p1 = fmin(r1, 1.0f);
+    if (p1 > p0) {
+        float l = p1 - p0, c = 0.5f * (p0 + p1), t = 1.0f - c;
+        w += l * t;
+        mo += l * (c * t - l * l * (1.0f / 12.0f));
+    }
+    *mean = w > 0.0f ? mo / w : 0.0f;
+    return w;
+}
+
+/* Antialiased Bresenham walk along a-b (texel coordinates): one slice at a
+ * time along the major axis, one sample per slice at the path's position there. */
+PB_FN float pb_ab_segment(pb_image img, int exact, const float *a, const float *b)
+{
+    int m = pb_major_axis(b[0] - a[0], b[1] - a[1], b[2] - a[2]);
+    /* Major coordinate in voxel-centre units (voxel k's centre at k); transverse
+     * ones stay texel coordinates. */
+    float am = (m == 0 ? a[0] : (m == 1 ? a[1] : a[2])) - 0.5f;
+    float bm = (m == 0 ? b[0] : (m == 1 ? b[1] : b[2])) - 0.5f;
+    float a1 = m == 0 ? a[1] : (m == 1 ? a[2] : a[0]);
+    float a2 = m == 0 ? a[2] : (m == 1 ? a[0] : a[1]);
+    float d1 = (m == 0 ? b[1] : (m == 1 ? b[2] : b[0])) - a1;
+    float d2 = (m == 0 ? b[2] : (m == 1 ? b[0] : b[1])) - a2;
+    float lo = fmin(am, bm), hi = fmax(am, bm);
+    if (hi - lo < 1e-4f) {
+        /* A point: tent weights of two slices times bilinear weights are the
+         * trilinear weights, and a trilinear sample costs one fetch. */
+        return pb_trilinear(img, exact, 0.5f * (a[0] + b[0]), 0.5f * (a[1] + b[1]), 0.5f * (a[2] + b[2]));
+    }
+    float inv = 1.0f / (bm - am);
+    int k0 = (int)floor(lo), k1 = (int)ceil(hi);
+    float sum = 0.0f, wsum = 0.0f;
+    for (int k = k0; k <= k1; k++) {
+        float kf = (float)k, mean;
+        float w = pb_tent_share(lo - kf, hi - kf, &mean);
+        float s = fmin(fmax((mean - (am - kf)) * inv, 0.0f), 1.0f);
+        float t1 = a1 + s * d1, t2 = a2 + s * d2, km = kf + 0.5f;
+        float x = m == 0 ? km : (m == 1 ? t2 : t1);
+        float y = m == 0 ? t1 : (m == 1 ? km : t2);
+        float z = m == 0 ? t2 : (m == 1 ? t1 : km);
+        sum += w * pb_slice_sample(img, exact, m, x, y, z);
+        wsum += w;
+    }
+    /* The shares add up to the path length; dividing by their float sum makes
+     * the weights sum to 1 exactly as the walk computed them. */
+    return sum / wsum;
+}
+
+/* p' = R(q)^T p for a unit quaternion q = (w, v): p - 2w (v x p) + 2 v x (v x p). */
+PB_FN void pb_rotate_inverse(const float *q, const float *p, float *o)
+{
+    float cx = q[2] * p[2] - q[3] * p[1], cy = q[3] * p[0] - q[1] * p[2], cz = q[1] * p[1] - q[2] * p[0];
+    float ccx = q[2] * cz - q[3] * cy, ccy = q[3] * cx - q[1] * cz, ccz = q[1] * cy - q[2] * cx;
+    o[0] = p[0] - 2.0f * q[0] * cx + 2.0f * ccx;
+    o[1] = p[1] - 2.0f * q[0] * cy + 2.0f * ccy;
+    o[2] = p[2] - 2.0f * q[0] * cz + 2.0f * ccz;
+}
+
+/* Classical motion blur's step: the pose at fraction s of segment p0-p1,
+ * LERP of translations and SLERP of rotations, then W's centre u (texel
+ * coordinates) into object texel coordinates. */
+PB_FN void pb_classical_point(PB_GLOBAL_RO pb_kpose *p0, PB_GLOBAL_RO pb_kpose *p1, float s, pb_kparams prm,
+                              const float *u, float *o)
+{
+    float wa = 1.0f - s, wb = s;
+    if (p0->angle > 1e-4f) {
+        float inv = 1.0f / sin(p0->angle);
+        wa = sin((1.0f - s) * p0->angle) * inv;
+        wb = sin(s * p0->angle) * inv;
+    }
+    float q[4], n = 0.0f;
+    for (int i = 0; i < 4; i++) {
+        q[i] = wa * p0->rotation[i] + wb * p1->rotation[i];
+        n += q[i] * q[i];
+    }
+    n = 1.0f / sqrt(n);
+    for (int i = 0; i < 4; i++)
+        q[i] *= n;
+    float d[3], r[3];
+    for (int i = 0; i < 3; i++)
+        d[i] = u[i] * prm.voxel[i] - prm.center[i] - ((1.0f - s) * p0->translation[i] + s * p1->translation[i]);
+    pb_rotate_inverse(q, d, r);
+    for (int i = 0; i < 3; i++)
+        o[i] = (r[i] + prm.center[i]) / prm.voxel[i];
+}
+
+PB_KERNEL void pb_blur_ab(pb_image img, PB_GLOBAL_RO pb_kpose *poses, pb_kparams prm, PB_GLOBAL float *out)
+{
+    int ix = PB_GID_X, iy = PB_GID_Y, iz = PB_GID_Z;
+    if (ix >= prm.dims[0] || iy >= prm.dims[1] || iz >= prm.dims[2])
+        return;
+    float ux = (float)ix + 0.5f, uy = (float)iy + 0.5f, uz = (float)iz + 0.5f;
+    float total = 0.0f, a[3], b[3];
+    pb_map_point(poses[0].map, ux, uy, uz, b);
+    for (int j = 0; j < prm.segments; j++) {
+        for (int i = 0; i < 3; i++)
+            a[i] = b[i];
+        pb_map_point(poses[j + 1].map, ux, uy, uz, b);
+        float seg = 0.0f, inv = 1.0f / (float)prm.steps;
+        for (int r = 0; r < prm.steps; r++) {
+            float pa[3], pb[3];
+            for (int i = 0; i < 3; i++) {
+                pa[i] = a[i] + (b[i] - a[i]) * ((float)r * inv);
+                pb[i] = a[i] + (b[i] - a[i]) * ((float)(r + 1) * inv);
+            }
+            seg += pb_ab_segment(img, prm.exact, pa, pb);
+        }
+        total += poses[j].weight * seg * inv;
+    }
+    out[ix + prm.dims[0] * (iy + prm.dims[1] * iz)] = total;
+}
+
+PB_KERNEL void pb_blur_rm(pb_image img, PB_GLOBAL_RO pb_kpose *poses, pb_kparams prm, PB_GLOBAL float *out)
+{
+    int ix = PB_GID_X, iy = PB_GID_Y, iz = PB_GID_Z;
+    if (ix >= prm.dims[0] || iy >= prm.dims[1] || iz >= prm.dims[2])
+        return;
+    float ux = (float)ix + 0.5f, uy = (float)iy + 0.5f, uz = (float)iz + 0.5f;
+    float total = 0.0f, a[3], b[3];
+    pb_map_point(poses[0].map, ux, uy, uz, b);
+    for (int j = 0; j < prm.segments; j++) {
+        for (int i = 0; i < 3; i++)
+            a[i] = b[i];
+        pb_map_point(poses[j + 1].map, ux, uy, uz, b);
+        int n = prm.steps > 0 ? prm.steps : pb_ab_slices(a, b);
+        float seg = 0.0f;
+        for (int i = 0; i < n; i++) {
+            float s = ((float)i + 0.5f) / (float)n;
+            seg += pb_trilinear(img, prm.exact, a[0] + s * (b[0] - a[0]), a[1] + s * (b[1] - a[1]),
+                                a[2] + s * (b[2] - a[2]));
+        }
+        total += poses[j].weight * seg / (float)n;
+    }
+    out[ix + prm.dims[0] * (iy + prm.dims[1] * iz)] = total;
+}
+
+PB_KERNEL void pb_blur_cl(pb_image img, PB_GLOBAL_RO pb_kpose *poses, pb_kparams prm, PB_GLOBAL float *out)
+{
+    int ix = PB_GID_X, iy = PB_GID_Y, iz = PB_GID_Z;
+    if (ix >= prm.dims[0] || iy >= prm.dims[1] || iz >= prm.dims[2])
+        return;
+    float u[3] = {(float)ix + 0.5f, (float)iy + 0.5f, (float)iz + 0.5f};
+    float total = 0.0f;
+    for (int j = 0; j < prm.segments; j++) {
+        int n = prm.steps;
+        if (n == 0) {
+            float a[3], b[3];
+            pb_map_point(poses[j].map, u[0], u[1], u[2], a);
+            pb_map_point(poses[j + 1].map, u[0], u[1], u[2], b);
+            n = pb_ab_slices(a, b);
+        }
+        float seg = 0.0f;
+        for (int i = 0; i < n; i++) {
+            float o[3];
+            pb_classical_point(&poses[j], &poses[j + 1], ((float)i + 0.5f) / (float)n, prm, u, o);
+            seg += pb_trilinear(img, prm.exact, o[0], o[1], o[2]);
+        }
+        total += poses[j].weight * seg / (float)n;
+    }
+    out[ix + prm.dims[0] * (iy + prm.dims[1] * iz)] = total;
+}
+
+/* The reference: dense time steps, and at each, ref_points random points inside
+ * W, each reading the object voxel that holds it (box model). */
+PB_KERNEL void pb_blur_ref(pb_image img, PB_GLOBAL_RO pb_kstep *steps, pb_kparams prm, PB_GLOBAL float *out)
+{
+    int ix = PB_GID_X, iy = PB_GID_Y, iz = PB_GID_Z;
+    if (ix >= prm.dims[0] || iy >= prm.dims[1] || iz >= prm.dims[2])
+        return;
+    int voxel = ix + prm.dims[0] * (iy + prm.dims[1] * iz);
+    unsigned int key = pb_ref_key(prm.seed, (unsigned int)voxel);
+    const float scale = 1.0f / 16777216.0f;
+    float total = 0.0f;
+    for (int s = 0; s < prm.ref_steps; s++) {
+        PB_GLOBAL_RO float *m = steps[s].map;
+        /* The voxel's corner once, the small in-voxel offsets per point, so the
+         * offsets keep their precision. */
+        float base[3];
+        pb_map_point(m, (float)ix, (float)iy, (float)iz, base);
+        float acc = 0.0f;
+        for (int k = 0; k < prm.ref_points; k++) {
+            unsigned int c = (unsigned int)(s * prm.ref_points + k);
+            float px = ((float)pb_ref_bits(key, c, 0u) + 0.5f) * scale;
+            float py = ((float)pb_ref_bits(key, c, 1u) + 0.5f) * scale;
+            float pz = ((float)pb_ref_bits(key, c, 2u) + 0.5f) * scale;
+            float ox = base[0] + m[0] * px + m[1] * py + m[2] * pz;
+            float oy = base[1] + m[4] * px + m[5] * py + m[6] * pz;
+            float oz = base[2] + m[8] * px + m[9] * py + m[10] * pz;
+            acc += PB_FETCH_NEAREST(img, ox, oy, oz);
+        }
+        total += steps[s].weight * acc / (float)prm.ref_points;
+    }
+    out[voxel] = total;
+}

@@ -1,0 +1,64 @@
+/* Types and pure integer helpers shared, byte for byte, by the host C code and
+ * the kernels (OpenCL C and CUDA). Only 4-byte scalars, so the layout is the same
+ * for every compiler. */
+#ifndef PB_KERNEL_TYPES_H
+#define PB_KERNEL_TYPES_H
+
+#ifndef PB_FN
+#define PB_FN static inline
+#endif
+
+/* Kernel arguments that are the same for every voxel. */
+typedef struct pb_kparams {
+    int dims[3];
+    int segments;    /* key poses - 1 */
+    int exact;       /* 1: nearest reads weighted in float; 0: one linear fetch */
+    int steps;       /* CL/RM: samples per segment (0: AB's slice count); AB: sub-segments (>= 1) */
+    int ref_points;  /* REF: points per voxel */
+    int ref_steps;   /* REF: time steps over the frame */
+    unsigned int seed;
+    float voxel[3];  /* mm */
+    float center[3]; /* mm from the grid's corner */
+} pb_kparams;
+
+/* One key pose, as the kernels read it. */
+typedef struct pb_kpose {
+    float map[12];      /* object texel coords from tomograph texel coords, row-major 3x4 */
+    float rotation[4];  /* unit quaternion w, x, y, z, same hemisphere as the previous pose */
+    float translation[3]; /* mm */
+    float weight;       /* fraction of the frame spent on the segment to the next pose */
+    float angle;        /* SLERP angle to the next pose's rotation, from the host in double:
+                         * acos of a float dot product near 1 would lose most of it */
+} pb_kpose;
+
+/* One REF time step. */
+typedef struct pb_kstep {
+    float map[12];
+    float weight;
+} pb_kstep;
+
+/* Counter-based random numbers (lowbias32 hash), so that REF's points are a
+ * pure function of (seed, voxel, sample) on every backend. */
+PB_FN unsigned int pb_hash(unsigned int x)
+{
+    x ^= x >> 16;
+    x *= 0x7feb352du;
+    x ^= x >> 15;
+    x *= 0x846ca68bu;
+    x ^= x >> 16;
+    return x;
+}
+
+PB_FN unsigned int pb_ref_key(unsigned int seed, unsigned int voxel)
+{
+    return pb_hash(voxel ^ pb_hash(seed));
+}
+
+/* Coordinate d (0..2) of REF sample c of a voxel, as a 24-bit integer: the
+ * point's offset inside the voxel is (value + 0.5) / 2^24, exact in float. */
+PB_FN unsigned int pb_ref_bits(unsigned int key, unsigned int c, unsigned int d)
+{
+    return pb_hash(key + 3u * c + d) >> 8;
+}
+
+#endif

@@ -1,0 +1,52 @@
+/* The shim: the only place that knows whether this file is compiled as OpenCL C
+ * or as CUDA. It maps qualifiers, thread ids (x, y and z), the volume type and
+ * the two fetches; kernel bodies use nothing else.
+ *
+ * Coordinates, on every backend: unnormalized texel coordinates, texel i's
+ * centre at i + 0.5, border addressing (zero outside the volume), x fastest.
+ * The CUDA backend binds one texture object per filter to the same cudaArray;
+ * OpenCL picks the sampler here. */
+#ifndef PB_SHIM_H
+#define PB_SHIM_H
+
+#if defined(__OPENCL_VERSION__)
+
+#define PB_KERNEL __kernel
+#define PB_FN static inline
+#define PB_GLOBAL __global
+#define PB_GLOBAL_RO __global const
+#define PB_GID_X ((int)get_global_id(0))
+#define PB_GID_Y ((int)get_global_id(1))
+#define PB_GID_Z ((int)get_global_id(2))
+/* A macro, not a typedef: PoCL 3.1 reads garbage through a typedef that carries
+ * the access qualifier (seen: every fetch returned 123). */
+#define pb_image __read_only image3d_t
+
+__constant sampler_t pb_sampler_linear = CLK_NORMALIZED_COORDS_FALSE | CLK_ADDRESS_CLAMP | CLK_FILTER_LINEAR;
+__constant sampler_t pb_sampler_nearest = CLK_NORMALIZED_COORDS_FALSE | CLK_ADDRESS_CLAMP | CLK_FILTER_NEAREST;
+
+/* Border colour of a single-channel image is (0, 0, 0, 1): .x is zero outside. */
+#define PB_FETCH_LINEAR(img, px, py, pz) read_imagef((img), pb_sampler_linear, (float4)((px), (py), (pz), 0.0f)).x
+#define PB_FETCH_NEAREST(img, px, py, pz) read_imagef((img), pb_sampler_nearest, (float4)((px), (py), (pz), 0.0f)).x
+
+#elif defined(__CUDACC__)
+
+#define PB_KERNEL extern "C" __global__
+#define PB_FN static __device__ __forceinline__
+#define PB_GLOBAL
+#define PB_GLOBAL_RO const
+#define PB_GID_X ((int)(blockIdx.x * blockDim.x + threadIdx.x))
+#define PB_GID_Y ((int)(blockIdx.y * blockDim.y + threadIdx.y))
+#define PB_GID_Z ((int)(blockIdx.z * blockDim.z + threadIdx.z))
+typedef cudaTextureObject_t pb_image;
+
+/* The texture object's own filter mode decides: the backend passes a linear one
+ * for HARDWARE fetches and a point one for EXACT reads. */
+#define PB_FETCH_LINEAR(img, px, py, pz) tex3D<float>((img), (px), (py), (pz))
+#define PB_FETCH_NEAREST(img, px, py, pz) tex3D<float>((img), (px), (py), (pz))
+
+#else
+#error "pb_shim.h is for OpenCL C or CUDA kernels"
+#endif
+
+#endif

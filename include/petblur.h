@@ -1,0 +1,225 @@
+/*
+ * petblur: 3-D motion blur of PET activity volumes on GPUs and CPUs.
+ *
+ * One header, plain C99. All handles are opaque; every call returns a pb_status
+ * (0 = OK, negative = error) and, on error, leaves a message in the context's
+ * last-error text that says what went wrong and how to fix it. The library never
+ * prints, exits or aborts.
+ *
+ * Conventions (the same on every backend):
+ *  - Volumes are float32, x fastest: value (i, j, k) sits at i + nx * (j + ny * k).
+ *  - Positions are in mm from the grid's corner; voxel i spans [i*d, (i+1)*d] and
+ *    its centre is (i + 0.5) * d. Outside the grid the activity is zero.
+ *  - A pose maps object space to tomograph space:
+ *        p_tomo = R(q) (p_obj - c) + c + t
+ *    with t in mm, q a unit quaternion (w, x, y, z) and c the rotation centre
+ *    (default: the grid's centre).
+ */
+#ifndef PETBLUR_H
+#define PETBLUR_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+#if defined(_WIN32) && defined(PB_BUILDING_LIBRARY)
+#define PB_API __declspec(dllexport)
+#elif defined(PB_BUILDING_LIBRARY)
+#define PB_API __attribute__((visibility("default")))
+#else
+#define PB_API
+#endif
+
+/* Status codes, grouped in numeric ranges. */
+typedef enum pb_status {
+    PB_OK = 0,
+
+    /* -1 .. -99: arguments and inputs */
+    PB_ERR_INVALID_ARGUMENT = -1,  /* NULL pointer, unknown enum, bad option value */
+    PB_ERR_ZERO_DIMS = -2,         /* a volume dimension is zero */
+    PB_ERR_BAD_VOXEL_SIZE = -3,    /* a voxel size is zero, negative or not finite */
+    PB_ERR_NOT_FINITE = -4,        /* NaN or infinity in a time, translation, quaternion or centre */
+    PB_ERR_BAD_QUATERNION = -5,    /* a zero quaternion, or one far from unit norm */
+    PB_ERR_BAD_FRAME = -6,         /* the frame's end is not after its start */
+    PB_ERR_TRACK_ORDER = -7,       /* track times are not strictly increasing, or fewer than 2 poses */
+    PB_ERR_TRACK_GAP = -8,         /* the track does not cover the whole frame */
+    PB_ERR_SIZE_MISMATCH = -9,     /* two volumes differ in size, or belong to different contexts */
+
+    /* -200 .. -299: backends and devices */
+    PB_ERR_BACKEND_UNAVAILABLE = -200, /* the backend was not compiled into this build */
+    PB_ERR_NO_DEVICE = -201,           /* no device of the backend, or no device with that index */
+    PB_ERR_NO_IMAGE_SUPPORT = -202,    /* the device cannot hold 3-D float images with linear filtering */
+    PB_ERR_VOLUME_TOO_LARGE = -203,    /* beyond the device's 3-D image limits */
+    PB_ERR_DEVICE = -204,              /* a runtime call failed; the last-error text has the native detail */
+
+    /* -300 .. -399: kernel build */
+    PB_ERR_BUILD = -300, /* the kernel did not compile; the last-error text holds the build log */
+
+    /* -400 .. -499: kernel launch */
+    PB_ERR_LAUNCH = -400,
+
+    /* -500 .. -599: memory */
+    PB_ERR_OUT_OF_MEMORY = -500 /* host or device memory */
+} pb_status;
+
+/* A short fixed description of a status ("out of memory"). Never NULL. */
+PB_API const char *pb_status_string(pb_status status);
+
+typedef enum pb_backend {
+    PB_BACKEND_AUTO = 0, /* CUDA if a GPU is there, else an OpenCL GPU, else OpenCL on the CPU */
+    PB_BACKEND_HOST = 1, /* plain C, double precision: the reference, slow */
+    PB_BACKEND_OPENCL = 2,
+    PB_BACKEND_CUDA = 3
+} pb_backend;
+
+PB_API const char *pb_backend_name(pb_backend backend);
+
+/* 1 when the backend was compiled into this build (it may still find no device). */
+PB_API int pb_backend_compiled(pb_backend backend);
+
+typedef struct pb_device_info {
+    char name[256];     /* "NVIDIA H100 80GB HBM3", "pthread-skylake-avx512-..." */
+    char platform[256]; /* OpenCL platform, "CUDA" or "host" */
+    int is_gpu;
+    int image_support;         /* 3-D float images with linear filtering */
+    size_t image3d_max[3];     /* largest 3-D image (x, y, z); 0 = no limit */
+    uint64_t max_alloc_bytes;  /* largest single allocation; 0 = no limit known */
+    uint64_t global_mem_bytes; /* 0 = unknown */
+    unsigned compute_units;
+} pb_device_info;
+
+/* Devices of a backend (PB_BACKEND_AUTO is not a backend here). A backend that
+ * is compiled in but finds no device reports a count of 0 and PB_OK. */
+PB_API pb_status pb_device_count(pb_backend backend, int *count);
+PB_API pb_status pb_device_get_info(pb_backend backend, int index, pb_device_info *info);
+
+typedef struct pb_context pb_context;
+
+typedef struct pb_context_options {
+    pb_backend backend; /* PB_BACKEND_AUTO by zero-initialisation */
+    int device_index;   /* within the backend; ignored for AUTO and HOST */
+    /* Extra OpenCL compiler options (for example "-cl-fast-relaxed-math"); NULL for
+     * none. Ignored by the host and CUDA backends. */
+    const char *build_options;
+} pb_context_options;
+
+/* Creates a context on a device and, for device backends, builds the kernels
+ * once. options may be NULL (auto). On failure *ctx is NULL and the message is
+ * in pb_last_error(NULL) of the calling thread. */
+PB_API pb_status pb_context_create(const pb_context_options *options, pb_context **ctx);
+PB_API void pb_context_destroy(pb_context *ctx);
+
+/* The backend and device the context runs on. */
+PB_API pb_backend pb_context_backend(const pb_context *ctx);
+PB_API pb_status pb_context_device_info(const pb_context *ctx, pb_device_info *info);
+
+/* The text of the last error on ctx (or, for ctx == NULL, of the calling
+ * thread's last failed call that had no context). "" when there was none. */
+PB_API const char *pb_last_error(const pb_context *ctx);
+
+/* Kernel time in milliseconds of the context's last pb_blur, from device
+ * events (OpenCL profiling events, CUDA events) or the host clock. */
+PB_API pb_status pb_context_last_kernel_ms(const pb_context *ctx, double *ms);
+
+/* ---- volumes ----------------------------------------------------------- */
+
+typedef struct pb_geometry {
+    size_t dims[3];        /* nx, ny, nz; any size, not only cubes */
+    double voxel_size[3];  /* mm */
+} pb_geometry;
+
+typedef struct pb_volume pb_volume;
+
+/* A float32 volume held on the context's device, uninitialised until uploaded
+ * or written by pb_blur. */
+PB_API pb_status pb_volume_create(pb_context *ctx, const pb_geometry *geometry, pb_volume **volume);
+PB_API void pb_volume_destroy(pb_volume *volume);
+PB_API pb_status pb_volume_get_geometry(const pb_volume *volume, pb_geometry *geometry);
+/* host holds nx*ny*nz floats, x fastest. */
+PB_API pb_status pb_volume_upload(pb_volume *volume, const float *host);
+PB_API pb_status pb_volume_download(const pb_volume *volume, float *host);
+
+/* ---- motion ------------------------------------------------------------ */
+
+typedef struct pb_pose {
+    double translation[3]; /* mm */
+    double rotation[4];    /* unit quaternion w, x, y, z. Quaternions whose norm is
+                            * within 1e-3 of 1 are normalised; a zero quaternion or
+                            * one farther from unit norm is refused
+                            * (PB_ERR_BAD_QUATERNION). q and -q are the same pose. */
+} pb_pose;
+
+/* Motion inside one frame: a track of time-stamped poses that covers
+ * [frame_start, frame_end] (at least its two ends). Between two tracked poses the
+ * translation is interpolated linearly and the rotation spherically (SLERP). */
+typedef struct pb_motion {
+    const double *times;  /* seconds, strictly increasing */
+    const pb_pose *poses;
+    size_t count;         /* >= 2 */
+    double frame_start, frame_end;
+    int has_center;       /* 0: rotate about the grid's centre */
+    double center[3];     /* mm from the grid's corner, when has_center */
+} pb_motion;
+
+/* The pose at time t of a track (LERP / SLERP between its tracked poses). */
+PB_API pb_status pb_motion_pose_at(const pb_motion *motion, double t, pb_pose *pose);
+
+/* Rotation of angle_deg (right-hand rule) about axis (need not be unit). */
+PB_API pb_status pb_quaternion_from_axis_angle(const double axis[3], double angle_deg, double q[4]);
+
+/* ---- blurring ---------------------------------------------------------- */
+
+typedef enum pb_method {
+    /* Antialiased Bresenham: each tomograph voxel's object-space path is a
+     * polyline (one segment per pair of consecutive poses), walked slice by slice
+     * along its major axis, four voxels weighted per slice. */
+    PB_METHOD_AB = 0,
+    /* Ray marching: S equidistant trilinear samples along each polyline segment. */
+    PB_METHOD_RM = 1,
+    /* Classical: S time steps per segment, each interpolates the pose (LERP and
+     * SLERP) and takes one trilinear sample. */
+    PB_METHOD_CL = 2,
+    /* The paper's reference: classical with dense time steps and K random points
+     * inside each tomograph voxel, each looking up the object voxel that holds it. */
+    PB_METHOD_REF = 3
+} pb_method;
+
+typedef enum pb_filter {
+    /* One linearly filtered image/texture fetch per sample (per slice for AB).
+     * On NVIDIA hardware the weights carry 8 fractional bits. */
+    PB_FILTER_HARDWARE = 0,
+    /* Nearest reads weighted in float (4 per slice for AB, 8 per trilinear sample). */
+    PB_FILTER_EXACT = 1
+} pb_filter;
+
+/* Zero-initialised options are the defaults. */
+typedef struct pb_blur_options {
+    pb_method method;
+    pb_filter filter;
+    /* CL and RM: samples per segment; 0 takes as many as AB visits slices on that
+     * segment for that voxel (the paper's choice). AB: sub-segments per segment;
+     * 0 means 1 (the paper). REF: unused. */
+    unsigned steps;
+    unsigned ref_points;     /* REF: random points per voxel; 0 = 200 (the paper) */
+    /* REF: time steps per segment; 0 = max(16, 2 * the largest displacement of the
+     * grid's corners over the segment, in voxels), so that every path is sampled
+     * at least every half voxel. */
+    unsigned ref_time_steps;
+    uint32_t seed;           /* REF: random points are a pure function of the seed */
+} pb_blur_options;
+
+/* Blurs an object-space volume along the motion into a tomograph-space volume of
+ * the same geometry (the paper's eq. 1, gather form: one work item per
+ * tomograph voxel). options may be NULL (defaults). object and tomograph must be
+ * different volumes of the same context. */
+PB_API pb_status pb_blur(pb_context *ctx, const pb_volume *object, const pb_motion *motion,
+                         const pb_blur_options *options, pb_volume *tomograph);
+
+#ifdef __cplusplus
+}
+#endif
+
+#endif /* PETBLUR_H */

@@ -1,0 +1,57 @@
+/* The one backend boundary. Everything above this table (context.c, motion.c)
+ * dispatches through it and never asks which backend it is talking to; only a
+ * backend's own file includes its runtime's headers. */
+#ifndef PB_BACKEND_H
+#define PB_BACKEND_H
+
+#include "error.h"
+#include "motion.h"
+#include "petblur.h"
+
+typedef struct pb_backend_ops {
+    pb_backend id;
+    /* Device listing; errors go to the calling thread's last-error text. */
+    pb_status (*device_count)(int *count);
+    pb_status (*device_info)(int index, pb_device_info *info);
+    /* Opens device index and builds what it needs; fills ctx->device and ctx->impl. */
+    pb_status (*context_init)(struct pb_context *ctx, int index, const char *build_options);
+    void (*context_release)(struct pb_context *ctx);
+    /* Volumes: geometry is set and checked against the device before volume_init. */
+    pb_status (*volume_init)(struct pb_volume *vol);
+    void (*volume_release)(struct pb_volume *vol);
+    pb_status (*volume_upload)(struct pb_volume *vol, const float *host);
+    pb_status (*volume_download)(const struct pb_volume *vol, float *host);
+    /* Blurs with a validated plan; sets ctx->last_kernel_ms. */
+    pb_status (*blur)(struct pb_context *ctx, const struct pb_volume *object, const pb_plan *plan,
+                      const pb_blur_options *options, struct pb_volume *tomograph);
+} pb_backend_ops;
+
+struct pb_context {
+    const pb_backend_ops *ops;
+    pb_device_info device;
+    void *impl;
+    double last_kernel_ms;
+    char last_error[PB_ERROR_TEXT_MAX];
+};
+
+struct pb_volume {
+    struct pb_context *ctx;
+    pb_geometry geometry;
+    size_t count; /* voxels */
+    void *impl;
+};
+
+extern const pb_backend_ops pb_backend_host_ops;
+#ifdef PB_HAVE_OPENCL
+extern const pb_backend_ops pb_backend_opencl_ops;
+#endif
+#ifdef PB_HAVE_CUDA
+extern const pb_backend_ops pb_backend_cuda_ops;
+#endif
+
+/* Whether a volume of geometry g fits the device: image support, 3-D image
+ * limits and largest allocation. A pure function of the device's reported
+ * capabilities, so that every refusal can be tested without such a device. */
+pb_status pb_device_check_volume(struct pb_context *ctx, const pb_device_info *info, const pb_geometry *g);
+
+#endif

@@ -1,0 +1,3 @@
+#include <stdio.h>
+#include "petblur.h"
+int main(void) { return 0; }

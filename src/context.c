@@ -1,0 +1,328 @@
+/* The public API above the backend boundary: argument checks, backend choice,
+ * and dispatch through the ops table. */
+#include <math.h>
+#include <stdint.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "backend.h"
+
+static const pb_backend_ops *backend_ops(pb_backend backend)
+{
+    switch (backend) {
+    case PB_BACKEND_HOST: return &pb_backend_host_ops;
+#ifdef PB_HAVE_OPENCL
+    case PB_BACKEND_OPENCL: return &pb_backend_opencl_ops;
+#endif
+#ifdef PB_HAVE_CUDA
+    case PB_BACKEND_CUDA: return &pb_backend_cuda_ops;
+#endif
+    default: return NULL;
+    }
+}
+
+const char *pb_backend_name(pb_backend backend)
+{
+    switch (backend) {
+    case PB_BACKEND_AUTO: return "auto";
+    case PB_BACKEND_HOST: return "host";
+    case PB_BACKEND_OPENCL: return "opencl";
+    case PB_BACKEND_CUDA: return "cuda";
+    }
+    return "unknown";
+}
+
+int pb_backend_compiled(pb_backend backend)
+{
+    return backend_ops(backend) != NULL;
+}
+
+static pb_status require_ops(pb_backend backend, const pb_backend_ops **ops)
+{
+    *ops = backend_ops(backend);
+    if (*ops)
+        return PB_OK;
+    if (backend == PB_BACKEND_OPENCL || backend == PB_BACKEND_CUDA)
+        return pb_error(NULL, PB_ERR_BACKEND_UNAVAILABLE,
+                        "the %s backend is not compiled into this build of petblur; rebuild with -D%s=enabled "
+                        "(and its SDK installed) or choose another backend",
+                        pb_backend_name(backend), pb_backend_name(backend));
+    return pb_error(NULL, PB_ERR_INVALID_ARGUMENT, "unknown backend %d; use host, opencl, cuda or auto",
+                    (int)backend);
+}
+
+pb_status pb_device_count(pb_backend backend, int *count)
+{
+    const pb_backend_ops *ops;
+    if (!count)
+        return pb_error(NULL, PB_ERR_INVALID_ARGUMENT, "count must not be NULL");
+    *count = 0;
+    pb_status st = require_ops(backend, &ops);
+    return st == PB_OK ? ops->device_count(count) : st;
+}
+
+pb_status pb_device_get_info(pb_backend backend, int index, pb_device_info *info)
+{
+    const pb_backend_ops *ops;
+    if (!info)
+        return pb_error(NULL, PB_ERR_INVALID_ARGUMENT, "info must not be NULL");
+    pb_status st = require_ops(backend, &ops);
+    if (st != PB_OK)
+        return st;
+    int n = 0;
+    st = ops->device_count(&n);
+    if (st != PB_OK)
+        return st;
+    if (index < 0 || index >= n)
+        return pb_error(NULL, PB_ERR_NO_DEVICE, "%s device %d does not exist (%d found); pick 0 to %d",
+                        pb_backend_name(backend), index, n, n - 1);
+    return ops->device_info(index, info);
+}
+
+/* CUDA if a GPU is there, else an OpenCL GPU, else the first OpenCL device. */
+static pb_status choose_auto(pb_backend *backend, int *index)
+{
+    int n = 0;
+    if (backend_ops(PB_BACKEND_CUDA) && pb_device_count(PB_BACKEND_CUDA, &n) == PB_OK && n > 0) {
+        *backend = PB_BACKEND_CUDA;
+        *index = 0;
+        return PB_OK;
+    }
+    if (backend_ops(PB_BACKEND_OPENCL) && pb_device_count(PB_BACKEND_OPENCL, &n) == PB_OK && n > 0) {
+        *backend = PB_BACKEND_OPENCL;
+        *index = 0;
+        for (int i = 0; i < n; i++) {
+            pb_device_info info;
+            if (pb_device_get_info(PB_BACKEND_OPENCL, i, &info) == PB_OK && info.is_gpu) {
+                *index = i;
+                break;
+            }
+        }
+        return PB_OK;
+    }
+    return pb_error(NULL, PB_ERR_NO_DEVICE,
+                    "no CUDA or OpenCL device found; install an OpenCL driver (on Debian: apt-get install "
+                    "pocl-opencl-icd) or choose the host backend");
+}
+
+pb_status pb_context_create(const pb_context_options *options, pb_context **out)
+{
+    if (!out)
+        return pb_error(NULL, PB_ERR_INVALID_ARGUMENT, "the context pointer must not be NULL");
+    *out = NULL;
+    pb_context_options opt = {PB_BACKEND_AUTO, 0, NULL};
+    if (options)
+        opt = *options;
+    pb_status st = PB_OK;
+    if (opt.backend == PB_BACKEND_AUTO)
+        st = choose_auto(&opt.backend, &opt.device_index);
+    const pb_backend_ops *ops = NULL;
+    if (st == PB_OK)
+        st = require_ops(opt.backend, &ops);
+    if (st != PB_OK)
+        return st;
+    if (opt.device_index < 0)
+        return pb_error(NULL, PB_ERR_NO_DEVICE, "device index %d is negative; count devices from 0",
+                        opt.device_index);
+
+    pb_context *ctx = calloc(1, sizeof *ctx);
+    if (!ctx)
+        return pb_error(NULL, PB_ERR_OUT_OF_MEMORY, "out of host memory for a context");
+    ctx->ops = ops;
+    st = ops->context_init(ctx, opt.device_index, opt.build_options);
+    if (st != PB_OK) {
+        /* The backend wrote its message on ctx; hand it to the thread. */
+        pb_error(NULL, st, "%s", ctx->last_error);
+        ops->context_release(ctx);
+        free(ctx);
+        return st;
+    }
+    *out = ctx;
+    return PB_OK;
+}
+
+void pb_context_destroy(pb_context *ctx)
+{
+    if (!ctx)
+        return;
+    ctx->ops->context_release(ctx);
+    free(ctx);
+}
+
+pb_backend pb_context_backend(const pb_context *ctx)
+{
+    return ctx ? ctx->ops->id : PB_BACKEND_AUTO;
+}
+
+pb_status pb_context_device_info(const pb_context *ctx, pb_device_info *info)
+{
+    if (!ctx || !info)
+        return pb_error(NULL, PB_ERR_INVALID_ARGUMENT, "ctx and info must not be NULL");
+    *info = ctx->device;
+    return PB_OK;
+}
+
+pb_status pb_context_last_kernel_ms(const pb_context *ctx, double *ms)
+{
+    if (!ctx || !ms)
+        return pb_error(NULL, PB_ERR_INVALID_ARGUMENT, "ctx and ms must not be NULL");
+    *ms = ctx->last_kernel_ms;
+    return PB_OK;
+}
+
+/* ---- volumes ----------------------------------------------------------- */
+
+static pb_status check_geometry(pb_context *ctx, const pb_geometry *g, size_t *count)
+{
+    for (int i = 0; i < 3; i++) {
+        if (g->dims[i] == 0)
+            return pb_error(ctx, PB_ERR_ZERO_DIMS, "volume dimension %c is 0 (dims %zu x %zu x %zu); every dimension needs at least one voxel",
+                            "xyz"[i], g->dims[0], g->dims[1], g->dims[2]);
+        if (!isfinite(g->voxel_size[i]) || !(g->voxel_size[i] > 0.0))
+            return pb_error(ctx, PB_ERR_BAD_VOXEL_SIZE, "voxel size %c is %g mm; give a positive, finite size in mm",
+                            "xyz"[i], g->voxel_size[i]);
+    }
+    /* Kernels index voxels with 32-bit ints and bytes with size_t. */
+    if (g->dims[0] > INT32_MAX / g->dims[1] || g->dims[0] * g->dims[1] > INT32_MAX / g->dims[2])
+        return pb_error(ctx, PB_ERR_VOLUME_TOO_LARGE,
+                        "volume %zu x %zu x %zu has more than 2^31 - 1 voxels; split it into slabs",
+                        g->dims[0], g->dims[1], g->dims[2]);
+    *count = g->dims[0] * g->dims[1] * g->dims[2];
+    return PB_OK;
+}
+
+pb_status pb_device_check_volume(pb_context *ctx, const pb_device_info *info, const pb_geometry *g)
+{
+    if (!info->image_support)
+        return pb_error(ctx, PB_ERR_NO_IMAGE_SUPPORT,
+                        "device '%s' cannot hold 3-D float images with linear filtering, which every method "
+                        "samples; choose another device or the host backend",
+                        info->name);
+    for (int i = 0; i < 3; i++) {
+        if (info->image3d_max[i] && g->dims[i] > info->image3d_max[i])
+            return pb_error(ctx, PB_ERR_VOLUME_TOO_LARGE,
+                            "volume %zu x %zu x %zu exceeds the largest 3-D image of device '%s' (%zu x %zu x %zu); "
+                            "crop or resample the volume, or use a device with larger images",
+                            g->dims[0], g->dims[1], g->dims[2], info->name, info->image3d_max[0],
+                            info->image3d_max[1], info->image3d_max[2]);
+    }
+    uint64_t bytes = (uint64_t)g->dims[0] * g->dims[1] * g->dims[2] * sizeof(float);
+    if (info->max_alloc_bytes && bytes > info->max_alloc_bytes)
+        return pb_error(ctx, PB_ERR_OUT_OF_MEMORY,
+                        "volume %zu x %zu x %zu needs %.1f MiB in one allocation, more than device '%s' allows "
+                        "(%.1f MiB); use a smaller volume or a device with more memory",
+                        g->dims[0], g->dims[1], g->dims[2], bytes / 1048576.0, info->name,
+                        info->max_alloc_bytes / 1048576.0);
+    return PB_OK;
+}
+
+pb_status pb_volume_create(pb_context *ctx, const pb_geometry *g, pb_volume **out)
+{
+    if (!ctx || !g || !out)
+        return pb_error(ctx, PB_ERR_INVALID_ARGUMENT, "ctx, geometry and volume must not be NULL");
+    *out = NULL;
+    size_t count = 0;
+    pb_status st = check_geometry(ctx, g, &count);
+    if (st == PB_OK)
+        st = pb_device_check_volume(ctx, &ctx->device, g);
+    if (st != PB_OK)
+        return st;
+    pb_volume *vol = calloc(1, sizeof *vol);
+    if (!vol)
+        return pb_error(ctx, PB_ERR_OUT_OF_MEMORY, "out of host memory for a volume");
+    vol->ctx = ctx;
+    vol->geometry = *g;
+    vol->count = count;
+    st = ctx->ops->volume_init(vol);
+    if (st != PB_OK) {
+        free(vol);
+        return st;
+    }
+    *out = vol;
+    return PB_OK;
+}
+
+void pb_volume_destroy(pb_volume *vol)
+{
+    if (!vol)
+        return;
+    vol->ctx->ops->volume_release(vol);
+    free(vol);
+}
+
+pb_status pb_volume_get_geometry(const pb_volume *vol, pb_geometry *g)
+{
+    if (!vol || !g)
+        return pb_error(NULL, PB_ERR_INVALID_ARGUMENT, "volume and geometry must not be NULL");
+    *g = vol->geometry;
+    return PB_OK;
+}
+
+pb_status pb_volume_upload(pb_volume *vol, const float *host)
+{
+    if (!vol || !host)
+        return pb_error(vol ? vol->ctx : NULL, PB_ERR_INVALID_ARGUMENT, "volume and host data must not be NULL");
+    return vol->ctx->ops->volume_upload(vol, host);
+}
+
+pb_status pb_volume_download(const pb_volume *vol, float *host)
+{
+    if (!vol || !host)
+        return pb_error(vol ? vol->ctx : NULL, PB_ERR_INVALID_ARGUMENT, "volume and host data must not be NULL");
+    return vol->ctx->ops->volume_download(vol, host);
+}
+
+/* ---- blurring ---------------------------------------------------------- */
+
+static pb_status check_options(pb_context *ctx, const pb_blur_options *o)
+{
+    if ((unsigned)o->method > PB_METHOD_REF)
+        return pb_error(ctx, PB_ERR_INVALID_ARGUMENT, "unknown method %d; use AB, RM, CL or REF", (int)o->method);
+    if ((unsigned)o->filter > PB_FILTER_EXACT)
+        return pb_error(ctx, PB_ERR_INVALID_ARGUMENT, "unknown filter %d; use HARDWARE or EXACT", (int)o->filter);
+    /* Bounds keep per-voxel loops and step lists within what a kernel can run. */
+    if (o->steps > 100000)
+        return pb_error(ctx, PB_ERR_INVALID_ARGUMENT, "steps %u is above 100000; use fewer", o->steps);
+    if (o->ref_points > 100000)
+        return pb_error(ctx, PB_ERR_INVALID_ARGUMENT, "ref_points %u is above 100000; use fewer", o->ref_points);
+    if (o->ref_time_steps > 100000)
+        return pb_error(ctx, PB_ERR_INVALID_ARGUMENT, "ref_time_steps %u is above 100000; use fewer",
+                        o->ref_time_steps);
+    return PB_OK;
+}
+
+pb_status pb_blur(pb_context *ctx, const pb_volume *object, const pb_motion *motion,
+                  const pb_blur_options *options, pb_volume *tomograph)
+{
+    if (!ctx || !object || !motion || !tomograph)
+        return pb_error(ctx, PB_ERR_INVALID_ARGUMENT, "ctx, object, motion and tomograph must not be NULL");
+    if (object->ctx != ctx || tomograph->ctx != ctx)
+        return pb_error(ctx, PB_ERR_SIZE_MISMATCH, "both volumes must belong to the context that blurs them");
+    if (object == tomograph)
+        return pb_error(ctx, PB_ERR_INVALID_ARGUMENT,
+                        "object and tomograph are the same volume; blur into a second volume");
+    const pb_geometry *a = &object->geometry, *b = &tomograph->geometry;
+    for (int i = 0; i < 3; i++)
+        if (a->dims[i] != b->dims[i] || a->voxel_size[i] != b->voxel_size[i])
+            return pb_error(ctx, PB_ERR_SIZE_MISMATCH,
+                            "object %zu x %zu x %zu and tomograph %zu x %zu x %zu volumes differ in size or voxel "
+                            "size; blur into a volume of the object's geometry",
+                            a->dims[0], a->dims[1], a->dims[2], b->dims[0], b->dims[1], b->dims[2]);
+    pb_blur_options opt = {PB_METHOD_AB, PB_FILTER_HARDWARE, 0, 0, 0, 0};
+    if (options)
+        opt = *options;
+    pb_status st = check_options(ctx, &opt);
+    if (st != PB_OK)
+        return st;
+    if (opt.ref_points == 0)
+        opt.ref_points = 200;
+
+    pb_plan plan;
+    st = pb_plan_create(ctx, a, motion, &opt, &plan);
+    if (st != PB_OK)
+        return st;
+    ctx->last_kernel_ms = 0.0;
+    st = ctx->ops->blur(ctx, object, &plan, &opt, tomograph);
+    pb_plan_destroy(&plan);
+    return st;
+}

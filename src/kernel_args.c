@@ -1,0 +1,53 @@
+#include "kernel_args.h"
+
+#include <math.h>
+#include <string.h>
+
+void pb_kparams_from_plan(const pb_plan *plan, const pb_blur_options *opt, pb_kparams *prm)
+{
+    memset(prm, 0, sizeof *prm);
+    for (int d = 0; d < 3; d++) {
+        prm->dims[d] = (int)plan->geometry.dims[d];
+        prm->voxel[d] = (float)plan->geometry.voxel_size[d];
+        prm->center[d] = (float)plan->center[d];
+    }
+    prm->segments = (int)plan->count - 1;
+    prm->exact = opt->filter == PB_FILTER_EXACT;
+    /* AB's steps are sub-segments, at least one; CL and RM's 0 means "as many as
+     * AB's slices", decided per voxel in the kernel. */
+    prm->steps = opt->method == PB_METHOD_AB && opt->steps == 0 ? 1 : (int)opt->steps;
+    prm->ref_points = (int)opt->ref_points;
+    prm->ref_steps = (int)plan->ref_count;
+    prm->seed = opt->seed;
+}
+
+void pb_kpose_from_plan(const pb_plan *plan, size_t index, pb_kpose *out)
+{
+    const pb_plan_pose *p = &plan->poses[index];
+    memset(out, 0, sizeof *out);
+    for (int k = 0; k < 12; k++)
+        out->map[k] = (float)p->map[k];
+    for (int k = 0; k < 4; k++)
+        out->rotation[k] = (float)p->pose.rotation[k];
+    for (int k = 0; k < 3; k++)
+        out->translation[k] = (float)p->pose.translation[k];
+    out->weight = (float)p->weight;
+    if (index + 1 < plan->count) {
+        /* SLERP's angle between the two quaternions, 2 atan2(|a - b|, |a + b|),
+         * which stays accurate for tiny angles where acos(a . b) does not. */
+        const double *a = p->pose.rotation, *b = plan->poses[index + 1].pose.rotation;
+        double dm = 0.0, dp = 0.0;
+        for (int k = 0; k < 4; k++) {
+            dm += (a[k] - b[k]) * (a[k] - b[k]);
+            dp += (a[k] + b[k]) * (a[k] + b[k]);
+        }
+        out->angle = (float)(2.0 * atan2(sqrt(dm), sqrt(dp)));
+    }
+}
+
+void pb_kstep_from_plan(const pb_plan *plan, size_t index, pb_kstep *out)
+{
+    for (int k = 0; k < 12; k++)
+        out->map[k] = (float)plan->ref_steps[index].map[k];
+    out->weight = (float)plan->ref_steps[index].weight;
+}

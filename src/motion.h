@@ -1,0 +1,70 @@
+/* Host maths shared by every backend: quaternions, poses, and the plan that turns
+ * a frame's pose track into the key poses whose segments the methods walk.
+ * Double precision throughout; no backend knows how a plan was made. */
+#ifndef PB_MOTION_H
+#define PB_MOTION_H
+
+#include "petblur.h"
+
+/* Quaternions are w, x, y, z. */
+void pb_quat_mul(const double a[4], const double b[4], double out[4]);
+void pb_quat_conj(const double q[4], double out[4]);
+double pb_quat_dot(const double a[4], const double b[4]);
+/* Shorter-arc SLERP: the result for s in [0, 1] runs from a to b (or -b). */
+void pb_quat_slerp(const double a[4], const double b[4], double s, double out[4]);
+/* Row-major 3x3 rotation matrix of a unit quaternion. */
+void pb_quat_to_matrix(const double q[4], double r[9]);
+void pb_quat_rotate(const double q[4], const double v[3], double out[3]);
+
+/* A pose with its centre: p_tomo = R(q) (p_obj - c) + c + t. */
+void pb_pose_apply(const pb_pose *pose, const double center[3], const double p[3], double out[3]);
+void pb_pose_apply_inverse(const pb_pose *pose, const double center[3], const double p[3], double out[3]);
+/* For poses about one common centre, which cancels: (a o b)(p) = a(b(p)). */
+void pb_pose_compose(const pb_pose *a, const pb_pose *b, pb_pose *out);
+void pb_pose_invert(const pb_pose *pose, pb_pose *out);
+/* LERP of translations, shorter-arc SLERP of rotations. */
+void pb_pose_interpolate(const pb_pose *a, const pb_pose *b, double s, pb_pose *out);
+
+/* The affine map from tomograph texel coordinates to object texel coordinates
+ * (texel i's centre at i + 0.5) of a pose: u_obj = M[:, 0:3] u_tomo + M[:, 3],
+ * row-major 3x4. */
+void pb_pose_texel_map(const pb_pose *pose, const double center[3], const double voxel[3], double m[12]);
+
+/* One key pose of a plan. */
+typedef struct pb_plan_pose {
+    double time;
+    pb_pose pose;      /* unit quaternion on the same hemisphere as the previous key pose */
+    double map[12];    /* pb_pose_texel_map of the pose */
+    double weight;     /* fraction of the frame spent on the segment to the next key pose */
+} pb_plan_pose;
+
+/* One REF time step: where it is, and its share of the frame. */
+typedef struct pb_plan_step {
+    double map[12];
+    double weight;
+} pb_plan_step;
+
+typedef struct pb_plan {
+    pb_geometry geometry;
+    double center[3];        /* mm */
+    size_t count;            /* key poses: frame start, tracked poses inside, frame end */
+    pb_plan_pose *poses;
+    size_t ref_count;        /* REF time steps over the whole frame (0 unless REF) */
+    pb_plan_step *ref_steps;
+} pb_plan;
+
+struct pb_context;
+
+/* Checks a motion: every problem gets its own status and a message (on ctx, or
+ * the thread's when ctx is NULL) naming what to fix. */
+pb_status pb_motion_validate(struct pb_context *ctx, const pb_motion *motion);
+
+/* The pose of a validated motion at time t in [times[0], times[count-1]]. */
+void pb_motion_interpolate(const pb_motion *motion, double t, pb_pose *pose);
+
+/* Validates the motion and options and builds the plan. */
+pb_status pb_plan_create(struct pb_context *ctx, const pb_geometry *geometry, const pb_motion *motion,
+                         const pb_blur_options *options, pb_plan *plan);
+void pb_plan_destroy(pb_plan *plan);
+
+#endif

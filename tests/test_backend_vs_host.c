@@ -1,0 +1,109 @@
+/* Every method and filter on a device backend against the host backend (double
+ * precision, independent code) on small random volumes and random motions. */
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+
+#include "testlib.h"
+
+/* Relative to the largest value: float arithmetic on positions of a few tens of
+ * voxels (ulp ~ 4e-6) times gradients of order one. */
+#define TOL_EXACT 2e-5
+/* The sampler's interpolation weights: NVIDIA's texture unit keeps 8 fractional
+ * bits, so each of the three weights may be off by 2^-9, and a value by
+ * 3 * 2^-9 of the local range (cuda issue derives the bound per method). */
+#define TOL_HARDWARE (3.0 / 512.0)
+
+static void random_volume(const pb_geometry *g, float *v)
+{
+    size_t n = g->dims[0] * g->dims[1] * g->dims[2];
+    for (size_t i = 0; i < n; i++)
+        v[i] = (float)pb_rand_uniform();
+}
+
+static void random_motion(const pb_geometry *g, pb_test_motion *tm, double *times, pb_pose *poses, int *count)
+{
+    /* Up to 4 tracked poses; the frame lies inside the track. */
+    int n = 2 + (int)(pb_rand_uniform() * 3);
+    double t = pb_rand_range(-1.0, 0.0);
+    for (int i = 0; i < n; i++) {
+        double axis[3] = {pb_rand_range(-1, 1), pb_rand_range(-1, 1), pb_rand_range(-1, 1)};
+        double deg = pb_rand_uniform() < 0.3 ? 0.0 : pb_rand_range(-25, 25);
+        poses[i] = pb_test_pose(pb_rand_range(-4, 4) * g->voxel_size[0], pb_rand_range(-4, 4) * g->voxel_size[1],
+                                pb_rand_range(-4, 4) * g->voxel_size[2], axis, deg);
+        times[i] = t;
+        t += pb_rand_range(0.2, 1.0);
+    }
+    pb_test_motion_init(tm, &poses[0], &poses[1]);
+    tm->motion.times = times;
+    tm->motion.poses = poses;
+    tm->motion.count = (size_t)n;
+    tm->motion.frame_start = pb_rand_range(times[0], 0.5 * (times[0] + times[1]));
+    tm->motion.frame_end = pb_rand_range(0.5 * (times[n - 2] + times[n - 1]), times[n - 1]);
+    if (pb_rand_uniform() < 0.5) {
+        tm->motion.has_center = 1;
+        for (int d = 0; d < 3; d++)
+            tm->motion.center[d] = pb_rand_range(0.2, 0.8) * (double)g->dims[d] * g->voxel_size[d];
+    }
+    *count = n;
+}
+
+int main(int argc, char **argv)
+{
+    pb_test_seed();
+    pb_context *dev = pb_test_context(argc, argv);
+    pb_context *host = NULL;
+    pb_context_options ho = {PB_BACKEND_HOST, 0, NULL};
+    if (!pb_check(pb_context_create(&ho, &host) == PB_OK, "host context"))
+        return pb_test_finish();
+
+    static const char *names[] = {"AB", "RM", "CL", "REF"};
+    double worst[4][2] = {{0}};
+    for (int trial = 0; trial < 6; trial++) {
+        pb_geometry g = {{0}, {0}};
+        for (int d = 0; d < 3; d++) {
+            g.dims[d] = 6 + (size_t)(pb_rand_uniform() * 14);
+            g.voxel_size[d] = pb_rand_range(0.8, 2.5);
+        }
+        size_t n = g.dims[0] * g.dims[1] * g.dims[2];
+        float *in = malloc(n * sizeof *in), *a = malloc(n * sizeof *a), *b = malloc(n * sizeof *b);
+        random_volume(&g, in);
+        pb_test_motion tm;
+        double times[4];
+        pb_pose poses[4];
+        int count;
+        random_motion(&g, &tm, times, poses, &count);
+        for (int method = 0; method < 4; method++) {
+            for (int filter = 0; filter < 2; filter++) {
+                pb_blur_options opt = {(pb_method)method, (pb_filter)filter, 0, 0, 0, 0};
+                if (method == PB_METHOD_REF) {
+                    opt.ref_points = 24;
+                    opt.ref_time_steps = 4;
+                    opt.seed = (uint32_t)(pb_rand_uniform() * 4e9);
+                }
+                if (method == PB_METHOD_AB && pb_rand_uniform() < 0.3)
+                    opt.steps = 2;
+                if (pb_test_blur(host, &g, in, &tm.motion, &opt, a) != PB_OK ||
+                    pb_test_blur(dev, &g, in, &tm.motion, &opt, b) != PB_OK) {
+                    pb_check(0, "blur %s failed", names[method]);
+                    continue;
+                }
+                double rel = pb_max_abs_diff(a, b, n) / pb_max_abs(a, n);
+                if (isnan(rel) || rel > worst[method][filter])
+                    worst[method][filter] = rel;
+                double tol = method == PB_METHOD_REF ? 1.0 : (filter ? TOL_EXACT : TOL_HARDWARE);
+                pb_check(rel <= tol, "trial %d %s %s: %zux%zux%zu, %d poses: max rel diff %.3g > %.3g", trial,
+                         names[method], filter ? "EXACT" : "HARDWARE", g.dims[0], g.dims[1], g.dims[2], count, rel,
+                         tol);
+            }
+        }
+        free(in);
+        free(a);
+        free(b);
+    }
+    for (int m = 0; m < 4; m++)
+        printf("%-3s largest relative difference: HARDWARE %.3g, EXACT %.3g\n", names[m], worst[m][0], worst[m][1]);
+    pb_context_destroy(host);
+    pb_context_destroy(dev);
+    return pb_test_finish();
+}

@@ -1,0 +1,58 @@
+/* Small helpers shared by the tests: checks that count, fresh random inputs,
+ * and the backend named on the command line. */
+#ifndef PB_TESTLIB_H
+#define PB_TESTLIB_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "petblur.h"
+
+/* Exit status that meson reads as "skipped". */
+#define PB_TEST_SKIP 77
+
+extern int pb_test_failed, pb_test_passed;
+
+/* Records one check; prints the message when it fails. Returns cond. */
+int pb_check(int cond, const char *fmt, ...)
+#if defined(__GNUC__)
+    __attribute__((format(printf, 2, 3)))
+#endif
+    ;
+
+/* Prints "N passed, N failed" and returns the exit status. */
+int pb_test_finish(void);
+
+/* Seeds the generator from PB_TEST_SEED or the clock and prints the seed, so
+ * every run draws fresh inputs and any failure can be replayed. */
+void pb_test_seed(void);
+double pb_rand_uniform(void); /* [0, 1) */
+double pb_rand_range(double lo, double hi);
+
+/* argv[1] names the backend ("host", "opencl", "cuda"). Creates a context on
+ * it, or exits 77 (skipped) when the backend has no device. */
+pb_context *pb_test_context(int argc, char **argv);
+pb_backend pb_test_backend(int argc, char **argv);
+
+/* Blurs host data through a context: uploads, blurs, downloads. out is poisoned
+ * with NaN first so that a voxel the kernel never wrote shows. */
+pb_status pb_test_blur(pb_context *ctx, const pb_geometry *g, const float *in, const pb_motion *m,
+                       const pb_blur_options *opt, float *out);
+
+/* A two-pose motion over the frame [0, 1]. */
+typedef struct pb_test_motion {
+    double times[2];
+    pb_pose poses[2];
+    pb_motion motion;
+} pb_test_motion;
+
+void pb_test_motion_init(pb_test_motion *tm, const pb_pose *start, const pb_pose *end);
+/* A pose of translation t (mm) and rotation deg about axis. */
+pb_pose pb_test_pose(double tx, double ty, double tz, const double axis[3], double deg);
+
+/* Largest |a - b| and largest |b|. */
+double pb_max_abs_diff(const float *a, const float *b, size_t n);
+double pb_max_abs(const float *a, size_t n);
+double pb_sum(const float *a, size_t n);
+
+#endif
