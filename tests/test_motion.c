@@ -1,0 +1,167 @@
+/* Quaternion, SLERP, pose and plan identities of the host maths (src/motion.c),
+ * on fresh random poses each run. */
+#include <math.h>
+#include <stdio.h>
+#include <string.h>
+
+#include "motion.h"
+#include "testlib.h"
+
+static pb_pose random_pose(void)
+{
+    double axis[3] = {pb_rand_range(-1, 1), pb_rand_range(-1, 1), pb_rand_range(-1, 1)};
+    return pb_test_pose(pb_rand_range(-30, 30), pb_rand_range(-30, 30), pb_rand_range(-30, 30), axis,
+                        pb_rand_range(-179, 179));
+}
+
+static double dist3(const double a[3], const double b[3])
+{
+    return sqrt((a[0] - b[0]) * (a[0] - b[0]) + (a[1] - b[1]) * (a[1] - b[1]) + (a[2] - b[2]) * (a[2] - b[2]));
+}
+
+/* Angle of the rotation taking a to b, in radians: 4 atan2(|a - b|, |a + b|)
+ * with b on a's hemisphere, accurate for tiny angles where acos is not. */
+static double quat_angle(const double a[4], const double b[4])
+{
+    double sign = pb_quat_dot(a, b) < 0.0 ? -1.0 : 1.0, dm = 0.0, dp = 0.0;
+    for (int k = 0; k < 4; k++) {
+        dm += (a[k] - sign * b[k]) * (a[k] - sign * b[k]);
+        dp += (a[k] + sign * b[k]) * (a[k] + sign * b[k]);
+    }
+    return 4.0 * atan2(sqrt(dm), sqrt(dp));
+}
+
+static void test_quaternions(void)
+{
+    for (int i = 0; i < 200; i++) {
+        pb_pose a = random_pose(), b = random_pose();
+        double ab[4], conj[4], id[4];
+        pb_quat_mul(a.rotation, b.rotation, ab);
+        pb_check(fabs(sqrt(pb_quat_dot(ab, ab)) - 1.0) < 1e-12, "product of unit quaternions is unit");
+        pb_quat_conj(a.rotation, conj);
+        pb_quat_mul(a.rotation, conj, id);
+        pb_check(fabs(id[0] - 1.0) < 1e-12 && fabs(id[1]) + fabs(id[2]) + fabs(id[3]) < 1e-12, "q q* = 1");
+        /* Rotating by a product is rotating twice. */
+        double v[3] = {pb_rand_range(-5, 5), pb_rand_range(-5, 5), pb_rand_range(-5, 5)}, r1[3], r2[3], r3[3];
+        pb_quat_rotate(ab, v, r1);
+        pb_quat_rotate(b.rotation, v, r2);
+        pb_quat_rotate(a.rotation, r2, r3);
+        pb_check(dist3(r1, r3) < 1e-12, "R(ab) v = R(a) R(b) v");
+        pb_check(fabs(sqrt(r1[0] * r1[0] + r1[1] * r1[1] + r1[2] * r1[2]) -
+                      sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2])) < 1e-12,
+                 "rotation keeps lengths");
+    }
+    /* Right-hand rule: +90 degrees about z takes x to y. */
+    double z[3] = {0, 0, 1}, q[4], x[3] = {1, 0, 0}, y[3];
+    pb_quaternion_from_axis_angle(z, 90.0, q);
+    pb_quat_rotate(q, x, y);
+    pb_check(fabs(y[0]) < 1e-15 && fabs(y[1] - 1.0) < 1e-15 && fabs(y[2]) < 1e-15, "+90 deg about z: x -> y");
+}
+
+static void test_slerp(void)
+{
+    for (int i = 0; i < 200; i++) {
+        pb_pose a = random_pose(), b = random_pose();
+        double q[4], neg[4];
+        pb_quat_slerp(a.rotation, b.rotation, 0.0, q);
+        pb_check(quat_angle(q, a.rotation) < 1e-7, "slerp(0) = a");
+        pb_quat_slerp(a.rotation, b.rotation, 1.0, q);
+        pb_check(quat_angle(q, b.rotation) < 1e-7, "slerp(1) = b");
+        /* Constant angular speed: the angle from a grows linearly in s. */
+        double total = quat_angle(a.rotation, b.rotation), s = pb_rand_uniform();
+        pb_quat_slerp(a.rotation, b.rotation, s, q);
+        pb_check(fabs(quat_angle(a.rotation, q) - s * total) < 1e-9 &&
+                     fabs(quat_angle(q, b.rotation) - (1.0 - s) * total) < 1e-9,
+                 "slerp at s = %.3f lies on the geodesic at s of its length (%.3g rad)", s, total);
+        /* q and -q are one rotation: the shorter arc either way. */
+        for (int k = 0; k < 4; k++)
+            neg[k] = -b.rotation[k];
+        double q2[4];
+        pb_quat_slerp(a.rotation, neg, s, q2);
+        pb_check(quat_angle(q, q2) < 1e-9, "slerp(a, -b) = slerp(a, b)");
+        pb_check(total <= 3.14159265358979323846 + 1e-12, "shorter arc");
+    }
+}
+
+static void test_poses(void)
+{
+    double c[3] = {pb_rand_range(0, 200), pb_rand_range(0, 200), pb_rand_range(0, 100)};
+    for (int i = 0; i < 200; i++) {
+        pb_pose a = random_pose(), b = random_pose(), ab, inv, id;
+        double p[3] = {pb_rand_range(-50, 250), pb_rand_range(-50, 250), pb_rand_range(-50, 150)};
+        double r1[3], r2[3], r3[3];
+        pb_pose_compose(&a, &b, &ab);
+        pb_pose_apply(&ab, c, p, r1);
+        pb_pose_apply(&b, c, p, r2);
+        pb_pose_apply(&a, c, r2, r3);
+        pb_check(dist3(r1, r3) < 1e-9, "(a o b)(p) = a(b(p))");
+        pb_pose_invert(&a, &inv);
+        pb_pose_compose(&a, &inv, &id);
+        pb_pose_apply(&id, c, p, r1);
+        pb_check(dist3(r1, p) < 1e-9, "a o a^-1 = identity");
+        pb_pose_apply(&a, c, p, r1);
+        pb_pose_apply_inverse(&a, c, r1, r2);
+        pb_check(dist3(r2, p) < 1e-9, "apply_inverse undoes apply");
+        pb_pose_apply(&inv, c, r1, r2);
+        pb_check(dist3(r2, p) < 1e-9, "invert agrees with apply_inverse");
+        /* The centre is fixed by a pure rotation. */
+        pb_pose rot = a;
+        memset(rot.translation, 0, sizeof rot.translation);
+        pb_pose_apply(&rot, c, c, r1);
+        pb_check(dist3(r1, c) < 1e-9, "rotation centre stays put");
+        /* The texel map is apply_inverse in texel units. */
+        double vox[3] = {pb_rand_range(0.5, 3), pb_rand_range(0.5, 3), pb_rand_range(0.5, 3)}, m[12];
+        pb_pose_texel_map(&a, c, vox, m);
+        double u[3] = {p[0] / vox[0], p[1] / vox[1], p[2] / vox[2]}, o[3];
+        for (int r = 0; r < 3; r++)
+            o[r] = (m[4 * r] * u[0] + m[4 * r + 1] * u[1] + m[4 * r + 2] * u[2] + m[4 * r + 3]) * vox[r];
+        pb_pose_apply_inverse(&a, c, p, r1);
+        pb_check(dist3(o, r1) < 1e-9, "texel map = inverse pose in texel units");
+    }
+}
+
+static void test_plan(void)
+{
+    pb_pose poses[5];
+    double times[5] = {-1.0, 0.3, 0.9, 1.7, 4.0};
+    for (int i = 0; i < 5; i++)
+        poses[i] = random_pose();
+    pb_motion m = {times, poses, 5, 0.1, 2.0, 0, {0, 0, 0}};
+    pb_geometry g = {{20, 30, 10}, {2.0, 1.5, 3.0}};
+    pb_blur_options opt = {PB_METHOD_REF, PB_FILTER_EXACT, 0, 0, 0, 0};
+    pb_plan plan;
+    if (!pb_check(pb_plan_create(NULL, &g, &m, &opt, &plan) == PB_OK, "plan: %s", pb_last_error(NULL)))
+        return;
+    pb_check(plan.count == 5, "key poses: frame start, 0.3, 0.9, 1.7, frame end (got %zu)", plan.count);
+    double wsum = 0.0, rsum = 0.0;
+    for (size_t j = 0; j < plan.count; j++)
+        wsum += plan.poses[j].weight;
+    for (size_t k = 0; k < plan.ref_count; k++)
+        rsum += plan.ref_steps[k].weight;
+    pb_check(fabs(wsum - 1.0) < 1e-12, "segment weights sum to 1 (%.15g)", wsum);
+    pb_check(fabs(rsum - 1.0) < 1e-12, "reference step weights sum to 1 (%.15g)", rsum);
+    pb_check(fabs(plan.poses[0].time - 0.1) < 1e-15 && fabs(plan.poses[4].time - 2.0) < 1e-15, "frame ends");
+    pb_check(fabs(plan.center[0] - 20.0) < 1e-12 && fabs(plan.center[1] - 22.5) < 1e-12 &&
+                 fabs(plan.center[2] - 15.0) < 1e-12,
+             "default centre is the grid's centre");
+    /* The start pose is the track's pose at 0.1, on the arc from pose 0 to pose 1. */
+    pb_pose expect;
+    pb_pose_interpolate(&poses[0], &poses[1], 1.1 / 1.3, &expect);
+    pb_check(dist3(expect.translation, plan.poses[0].pose.translation) < 1e-12 &&
+                 quat_angle(expect.rotation, plan.poses[0].pose.rotation) < 1e-7,
+             "frame start interpolated in the track");
+    for (size_t j = 1; j < plan.count; j++)
+        pb_check(pb_quat_dot(plan.poses[j].pose.rotation, plan.poses[j - 1].pose.rotation) >= 0.0,
+                 "key pose %zu on the previous one's hemisphere", j);
+    pb_plan_destroy(&plan);
+}
+
+int main(void)
+{
+    pb_test_seed();
+    test_quaternions();
+    test_slerp();
+    test_poses();
+    test_plan();
+    return pb_test_finish();
+}
