@@ -91,7 +91,20 @@ int main(int argc, char **argv)
                 double rel = pb_max_abs_diff(a, b, n) / pb_max_abs(a, n);
                 if (isnan(rel) || rel > worst[method][filter])
                     worst[method][filter] = rel;
-                double tol = method == PB_METHOD_REF ? 1.0 : (filter ? TOL_EXACT : TOL_HARDWARE);
+                double tol = filter ? TOL_EXACT : TOL_HARDWARE;
+                if (method == PB_METHOD_REF) {
+                    /* REF's points are the same on both sides, but a point within
+                     * float rounding of a voxel face may land in the neighbour:
+                     * one such flip moves a voxel by 1 / (points x steps) of a
+                     * value. Allow two in the worst voxel, and flips in at most
+                     * 1% of the voxels. */
+                    tol = 2.0 / (opt.ref_points * opt.ref_time_steps);
+                    size_t flipped = 0;
+                    for (size_t i = 0; i < n; i++)
+                        flipped += fabs((double)a[i] - (double)b[i]) > 1e-5;
+                    pb_check(flipped <= n / 100, "trial %d REF: %zu of %zu voxels differ by more than 1e-5", trial,
+                             flipped, n);
+                }
                 pb_check(rel <= tol, "trial %d %s %s: %zux%zux%zu, %d poses: max rel diff %.3g > %.3g", trial,
                          names[method], filter ? "EXACT" : "HARDWARE", g.dims[0], g.dims[1], g.dims[2], count, rel,
                          tol);

@@ -1,0 +1,223 @@
+/* Every refusal the library makes: each bad input is triggered and its own
+ * status checked, with a message that names the problem. */
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "backend.h"
+#include "testlib.h"
+
+static void expect(pb_status got, pb_status want, const char *what, const char *text, const char *needle)
+{
+    pb_check(got == want, "%s: got %s (%d), want %s (%d): %s", what, pb_status_string(got), (int)got,
+             pb_status_string(want), (int)want, text);
+    if (needle)
+        pb_check(strstr(text, needle) != NULL, "%s: message \"%s\" does not mention \"%s\"", what, text, needle);
+}
+
+static void test_volumes(pb_context *ctx)
+{
+    pb_volume *v = NULL;
+    pb_geometry zero = {{8, 0, 8}, {1, 1, 1}};
+    expect(pb_volume_create(ctx, &zero, &v), PB_ERR_ZERO_DIMS, "zero dim", pb_last_error(ctx), "dimension y is 0");
+    pb_check(v == NULL, "no volume on failure");
+    pb_geometry neg = {{8, 8, 8}, {1, -2, 1}};
+    expect(pb_volume_create(ctx, &neg, &v), PB_ERR_BAD_VOXEL_SIZE, "negative voxel", pb_last_error(ctx), "voxel size y");
+    pb_geometry nan_vox = {{8, 8, 8}, {NAN, 1, 1}};
+    expect(pb_volume_create(ctx, &nan_vox, &v), PB_ERR_BAD_VOXEL_SIZE, "NaN voxel", pb_last_error(ctx), NULL);
+    pb_geometry huge = {{4096, 4096, 4096}, {1, 1, 1}};
+    expect(pb_volume_create(ctx, &huge, &v), PB_ERR_VOLUME_TOO_LARGE, "2^36 voxels", pb_last_error(ctx), "2^31");
+    expect(pb_volume_create(ctx, NULL, &v), PB_ERR_INVALID_ARGUMENT, "NULL geometry", pb_last_error(ctx), NULL);
+
+    pb_device_info info;
+    pb_context_device_info(ctx, &info);
+    /* Beyond the device's 3-D image limit along x, within every other limit. */
+    if (info.image3d_max[0] && info.image3d_max[0] < 1u << 20) {
+        pb_geometry wide = {{info.image3d_max[0] + 1, 2, 2}, {1, 1, 1}};
+        expect(pb_volume_create(ctx, &wide, &v), PB_ERR_VOLUME_TOO_LARGE, "wider than the image limit",
+               pb_last_error(ctx), "largest 3-D image");
+    }
+    /* More bytes than one allocation may hold, when a volume of fewer than 2^31
+     * voxels inside the image limits can ask for that (PoCL: 1 GiB). */
+    if (info.max_alloc_bytes && info.max_alloc_bytes < (1ull << 33) - 64 && info.image3d_max[2] >= 1024) {
+        size_t depth = (size_t)(info.max_alloc_bytes / (1024 * 1024 * 4)) + 1;
+        pb_geometry big = {{1024, 1024, depth}, {1, 1, 1}};
+        expect(pb_volume_create(ctx, &big, &v), PB_ERR_OUT_OF_MEMORY, "more than the largest allocation",
+               pb_last_error(ctx), "allocation");
+    } else {
+        printf("note: no volume here can exceed the device's largest allocation (%.1f GiB, 0 = no limit); the "
+               "limit is checked on a described device below\n",
+               info.max_alloc_bytes / 1073741824.0);
+    }
+
+    pb_geometry a = {{8, 8, 8}, {1, 1, 1}}, b = {{8, 8, 9}, {1, 1, 1}};
+    pb_volume *va = NULL, *vb = NULL;
+    pb_volume_create(ctx, &a, &va);
+    pb_volume_create(ctx, &b, &vb);
+    pb_pose p = pb_test_pose(1, 0, 0, NULL, 0);
+    pb_test_motion tm;
+    pb_test_motion_init(&tm, &p, &p);
+    expect(pb_blur(ctx, va, &tm.motion, NULL, vb), PB_ERR_SIZE_MISMATCH, "different sizes", pb_last_error(ctx),
+           "differ");
+    expect(pb_blur(ctx, va, &tm.motion, NULL, va), PB_ERR_INVALID_ARGUMENT, "in place", pb_last_error(ctx), "same");
+    pb_volume_destroy(va);
+    pb_volume_destroy(vb);
+}
+
+/* The device checks are a pure function of what a device reports, so the
+ * refusals a real device here may not provoke are checked on described ones. */
+static void test_device_limits(void)
+{
+    pb_device_info info;
+    memset(&info, 0, sizeof info);
+    strcpy(info.name, "described device");
+    pb_geometry g = {{64, 64, 64}, {1, 1, 1}};
+    expect(pb_device_check_volume(NULL, &info, &g), PB_ERR_NO_IMAGE_SUPPORT, "no image support", pb_last_error(NULL),
+           "3-D float images");
+    info.image_support = 1;
+    info.image3d_max[0] = info.image3d_max[1] = info.image3d_max[2] = 2048;
+    info.max_alloc_bytes = 512 * 1024;
+    expect(pb_device_check_volume(NULL, &info, &g), PB_ERR_OUT_OF_MEMORY, "beyond the largest allocation",
+           pb_last_error(NULL), "1.0 MiB");
+    info.max_alloc_bytes = 1024 * 1024;
+    expect(pb_device_check_volume(NULL, &info, &g), PB_OK, "exactly the largest allocation", pb_last_error(NULL),
+           NULL);
+    pb_geometry deep = {{16, 16, 2049}, {1, 1, 1}};
+    expect(pb_device_check_volume(NULL, &info, &deep), PB_ERR_VOLUME_TOO_LARGE, "deeper than the image limit",
+           pb_last_error(NULL), "2048");
+}
+
+static void test_motions(pb_context *ctx)
+{
+    pb_geometry g = {{6, 6, 6}, {2, 2, 2}};
+    pb_volume *in = NULL, *out = NULL;
+    pb_volume_create(ctx, &g, &in);
+    pb_volume_create(ctx, &g, &out);
+    float data[216];
+    for (int i = 0; i < 216; i++)
+        data[i] = (float)pb_rand_uniform();
+    pb_volume_upload(in, data);
+
+    double times[3] = {0.0, 1.0, 2.0};
+    pb_pose poses[3];
+    for (int i = 0; i < 3; i++)
+        poses[i] = pb_test_pose(i, -i, 0.5 * i, NULL, 0);
+    pb_motion good = {times, poses, 3, 0.0, 2.0, 0, {0, 0, 0}};
+    pb_check(pb_blur(ctx, in, &good, NULL, out) == PB_OK, "the good motion blurs: %s", pb_last_error(ctx));
+
+    pb_motion m = good;
+    m.frame_end = 0.0;
+    expect(pb_blur(ctx, in, &m, NULL, out), PB_ERR_BAD_FRAME, "empty frame", pb_last_error(ctx), "not after");
+    m.frame_end = -1.0;
+    expect(pb_blur(ctx, in, &m, NULL, out), PB_ERR_BAD_FRAME, "reversed frame", pb_last_error(ctx), NULL);
+
+    m = good;
+    m.frame_end = 2.5;
+    expect(pb_blur(ctx, in, &m, NULL, out), PB_ERR_TRACK_GAP, "frame past the track", pb_last_error(ctx),
+           "covers [0, 2]");
+    m = good;
+    m.frame_start = -0.1;
+    expect(pb_blur(ctx, in, &m, NULL, out), PB_ERR_TRACK_GAP, "frame before the track", pb_last_error(ctx), NULL);
+
+    double back[3] = {0.0, 1.5, 1.0};
+    m = good;
+    m.times = back;
+    m.frame_end = 1.0;
+    expect(pb_blur(ctx, in, &m, NULL, out), PB_ERR_TRACK_ORDER, "time going backwards", pb_last_error(ctx),
+           "track time 2");
+    m = good;
+    m.count = 1;
+    expect(pb_blur(ctx, in, &m, NULL, out), PB_ERR_TRACK_ORDER, "one pose", pb_last_error(ctx), NULL);
+
+    double nan_times[3] = {0.0, NAN, 2.0};
+    m = good;
+    m.times = nan_times;
+    expect(pb_blur(ctx, in, &m, NULL, out), PB_ERR_NOT_FINITE, "NaN time", pb_last_error(ctx), "time 1");
+    m = good;
+    m.frame_end = INFINITY;
+    expect(pb_blur(ctx, in, &m, NULL, out), PB_ERR_NOT_FINITE, "infinite frame", pb_last_error(ctx), NULL);
+    pb_pose bad[3] = {poses[0], poses[1], poses[2]};
+    bad[1].translation[2] = NAN;
+    m = good;
+    m.poses = bad;
+    expect(pb_blur(ctx, in, &m, NULL, out), PB_ERR_NOT_FINITE, "NaN translation", pb_last_error(ctx), "pose 1");
+    bad[1] = poses[1];
+    bad[2].rotation[3] = INFINITY;
+    expect(pb_blur(ctx, in, &m, NULL, out), PB_ERR_NOT_FINITE, "infinite quaternion", pb_last_error(ctx), NULL);
+    m = good;
+    m.has_center = 1;
+    m.center[1] = NAN;
+    expect(pb_blur(ctx, in, &m, NULL, out), PB_ERR_NOT_FINITE, "NaN centre", pb_last_error(ctx), "centre");
+
+    bad[2] = poses[2];
+    memset(bad[0].rotation, 0, sizeof bad[0].rotation);
+    m = good;
+    m.poses = bad;
+    expect(pb_blur(ctx, in, &m, NULL, out), PB_ERR_BAD_QUATERNION, "zero quaternion", pb_last_error(ctx),
+           "zero quaternion");
+    bad[0] = poses[0];
+    bad[0].rotation[0] = 2.0;
+    expect(pb_blur(ctx, in, &m, NULL, out), PB_ERR_BAD_QUATERNION, "norm 2 quaternion", pb_last_error(ctx), "norm 2");
+
+    /* Near-unit quaternions are normalised: the blur equals the unit one's. */
+    float ref[216], near[216];
+    double axis[3] = {0.2, 0.4, 1.0};
+    pb_pose unit[2] = {pb_test_pose(0, 0, 0, NULL, 0), pb_test_pose(1.5, 0, -1, axis, 20)};
+    pb_pose scaled[2] = {unit[0], unit[1]};
+    for (int k = 0; k < 4; k++)
+        scaled[1].rotation[k] *= 1.0 + 5e-4;
+    pb_motion mu = {times, unit, 2, 0.0, 1.0, 0, {0, 0, 0}}, ms = mu;
+    ms.poses = scaled;
+    pb_check(pb_blur(ctx, in, &mu, NULL, out) == PB_OK && pb_volume_download(out, ref) == PB_OK, "unit blur");
+    pb_check(pb_blur(ctx, in, &ms, NULL, out) == PB_OK && pb_volume_download(out, near) == PB_OK,
+             "near-unit quaternion accepted: %s", pb_last_error(ctx));
+    pb_check(pb_max_abs_diff(ref, near, 216) <= 1e-6, "near-unit quaternion normalised (diff %.3g)",
+             pb_max_abs_diff(ref, near, 216));
+
+    pb_blur_options opt = {(pb_method)7, PB_FILTER_EXACT, 0, 0, 0, 0};
+    expect(pb_blur(ctx, in, &good, &opt, out), PB_ERR_INVALID_ARGUMENT, "unknown method", pb_last_error(ctx),
+           "method");
+    expect(pb_blur(ctx, in, NULL, NULL, out), PB_ERR_INVALID_ARGUMENT, "NULL motion", pb_last_error(ctx), NULL);
+    pb_volume_destroy(in);
+    pb_volume_destroy(out);
+}
+
+static void test_contexts(pb_backend backend)
+{
+    pb_context *ctx = (pb_context *)1;
+    pb_context_options o = {backend, 99, NULL};
+    expect(pb_context_create(&o, &ctx), PB_ERR_NO_DEVICE, "device 99", pb_last_error(NULL), "99");
+    pb_check(ctx == NULL, "no context on failure");
+    o.backend = (pb_backend)42;
+    expect(pb_context_create(&o, &ctx), PB_ERR_INVALID_ARGUMENT, "unknown backend", pb_last_error(NULL), "42");
+    for (int b = PB_BACKEND_OPENCL; b <= PB_BACKEND_CUDA; b++) {
+        if (pb_backend_compiled((pb_backend)b))
+            continue;
+        o.backend = (pb_backend)b;
+        o.device_index = 0;
+        expect(pb_context_create(&o, &ctx), PB_ERR_BACKEND_UNAVAILABLE, "backend not built", pb_last_error(NULL),
+               "not compiled");
+    }
+    if (backend == PB_BACKEND_OPENCL) {
+        /* A build that cannot compile: the status and the compiler's log. */
+        pb_context_options broken = {PB_BACKEND_OPENCL, 0, "-Dfloat=undefined_type"};
+        expect(pb_context_create(&broken, &ctx), PB_ERR_BUILD, "broken build", pb_last_error(NULL), "Build log");
+        pb_check(strstr(pb_last_error(NULL), "undefined_type") != NULL, "the build log names the error: %s",
+                 pb_last_error(NULL));
+    }
+    for (int s = PB_OK; s >= PB_ERR_OUT_OF_MEMORY; s--)
+        pb_check(strlen(pb_status_string((pb_status)s)) > 0, "status %d has a string", s);
+}
+
+int main(int argc, char **argv)
+{
+    pb_test_seed();
+    pb_context *ctx = pb_test_context(argc, argv);
+    test_volumes(ctx);
+    test_motions(ctx);
+    test_device_limits();
+    test_contexts(pb_test_backend(argc, argv));
+    pb_context_destroy(ctx);
+    return pb_test_finish();
+}
