@@ -1,0 +1,179 @@
+/* Times every method on one device with device events (OpenCL profiling events,
+ * CUDA events; the host clock for the host backend): warm-up, then the median
+ * of --runs kernel times. The motions default to the paper's eight scenarios
+ * (translations in voxels; rotations in degrees about z through the centre). */
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "petblur.h"
+
+typedef struct scenario {
+    double t[3];
+    double deg;
+} scenario;
+
+/* ../shared/paper/paper_tables.csv, scenarios 1-8. */
+static const scenario paper[8] = {{{2, 2, 2}, 0},  {{12, 10, -11}, 0}, {{-20, 30, 15}, 0},     {{-20, 30, 0}, 0},
+                                  {{0, 0, 0}, 10}, {{0, 0, 0}, 60},    {{2.5, -3.2, -0.7}, -5}, {{42, 21, 12}, 20}};
+
+static int cmp_double(const void *a, const void *b)
+{
+    double x = *(const double *)a, y = *(const double *)b;
+    return (x > y) - (x < y);
+}
+
+static void usage(void)
+{
+    fputs("usage: pb_bench [--device auto|host|opencl[:N]|cuda[:N]] [--size N | --dims X,Y,Z] [--runs N]\n"
+          "                [--scenario 1-8 | --translate TX,TY,TZ --rotate DEG] [--csv FILE] [--label TEXT]\n"
+          "Times AB, RM and CL (HARDWARE and EXACT) with device events: one warm-up, median of --runs.\n"
+          "Translations in voxels, rotations in degrees about z through the grid's centre.\n",
+          stderr);
+}
+
+static int parse3(const char *s, double v[3])
+{
+    char tail;
+    return sscanf(s, "%lf,%lf,%lf%c", &v[0], &v[1], &v[2], &tail) == 3;
+}
+
+int main(int argc, char **argv)
+{
+    pb_context_options copt = {PB_BACKEND_AUTO, 0, NULL};
+    double dims[3] = {128, 128, 128};
+    int runs = 20, only = 0;
+    scenario custom = {{0, 0, 0}, 0};
+    int have_custom = 0;
+    const char *csv = NULL, *label = "";
+    for (int i = 1; i < argc; i++) {
+        const char *a = argv[i], *v = i + 1 < argc ? argv[i + 1] : NULL;
+        if (!v) {
+            usage();
+            return 2;
+        }
+        i++;
+        if (!strcmp(a, "--device")) {
+            const char *colon = strchr(v, ':');
+            size_t len = colon ? (size_t)(colon - v) : strlen(v);
+            copt.device_index = colon ? atoi(colon + 1) : 0;
+            copt.backend = !strncmp(v, "host", len)     ? PB_BACKEND_HOST
+                           : !strncmp(v, "opencl", len) ? PB_BACKEND_OPENCL
+                           : !strncmp(v, "cuda", len)   ? PB_BACKEND_CUDA
+                                                        : PB_BACKEND_AUTO;
+        } else if (!strcmp(a, "--size")) {
+            dims[0] = dims[1] = dims[2] = atof(v);
+        } else if (!strcmp(a, "--dims")) {
+            if (!parse3(v, dims)) {
+                usage();
+                return 2;
+            }
+        } else if (!strcmp(a, "--runs")) {
+            runs = atoi(v);
+        } else if (!strcmp(a, "--scenario")) {
+            only = atoi(v);
+        } else if (!strcmp(a, "--translate")) {
+            have_custom = parse3(v, custom.t);
+        } else if (!strcmp(a, "--rotate")) {
+            custom.deg = atof(v);
+            have_custom = 1;
+        } else if (!strcmp(a, "--csv")) {
+            csv = v;
+        } else if (!strcmp(a, "--label")) {
+            label = v;
+        } else {
+            usage();
+            return 2;
+        }
+    }
+    if (runs < 1 || only < 0 || only > 8 || dims[0] < 1 || dims[1] < 1 || dims[2] < 1) {
+        usage();
+        return 2;
+    }
+
+    pb_context *ctx = NULL;
+    pb_status st = pb_context_create(&copt, &ctx);
+    if (st != PB_OK) {
+        fprintf(stderr, "pb_bench: %s: %s\n", pb_status_string(st), pb_last_error(NULL));
+        return 3;
+    }
+    pb_device_info info;
+    pb_context_device_info(ctx, &info);
+    pb_geometry g = {{(size_t)dims[0], (size_t)dims[1], (size_t)dims[2]}, {1, 1, 1}};
+    size_t count = g.dims[0] * g.dims[1] * g.dims[2];
+    float *data = malloc(count * sizeof *data);
+    pb_volume *in = NULL, *out = NULL;
+    if (!data || pb_volume_create(ctx, &g, &in) != PB_OK || pb_volume_create(ctx, &g, &out) != PB_OK) {
+        fprintf(stderr, "pb_bench: cannot allocate %zu voxels: %s\n", count, pb_last_error(ctx));
+        return 3;
+    }
+    srand(1);
+    for (size_t i = 0; i < count; i++)
+        data[i] = (float)rand() / (float)RAND_MAX;
+    pb_volume_upload(in, data);
+
+    FILE *fcsv = csv ? fopen(csv, "w") : NULL;
+    if (csv && !fcsv) {
+        fprintf(stderr, "pb_bench: cannot write %s\n", csv);
+        return 2;
+    }
+    if (fcsv)
+        fprintf(fcsv, "label,backend,device,nx,ny,nz,scenario,tx,ty,tz,rot_deg,method,filter,runs,median_ms,min_ms,"
+                      "gvoxels_per_s\n");
+    printf("# %s:%d %s [%s], %zu x %zu x %zu float, median of %d runs after one warm-up (device events)\n",
+           pb_backend_name(pb_context_backend(ctx)), copt.device_index, info.name, info.platform, g.dims[0],
+           g.dims[1], g.dims[2], runs);
+    printf("%-3s %-22s %-3s %-8s %10s %10s\n", "#", "translation (voxels)", "deg", "method", "median ms", "min ms");
+
+    static const struct {
+        const char *name;
+        pb_method method;
+        pb_filter filter;
+    } methods[] = {{"AB-hw", PB_METHOD_AB, PB_FILTER_HARDWARE}, {"AB-ex", PB_METHOD_AB, PB_FILTER_EXACT},
+                   {"RM-hw", PB_METHOD_RM, PB_FILTER_HARDWARE}, {"RM-ex", PB_METHOD_RM, PB_FILTER_EXACT},
+                   {"CL-hw", PB_METHOD_CL, PB_FILTER_HARDWARE}, {"CL-ex", PB_METHOD_CL, PB_FILTER_EXACT}};
+    double *ms = malloc((size_t)runs * sizeof *ms);
+    for (int s = have_custom ? 0 : 1; s <= (have_custom ? 0 : 8); s++) {
+        if (only && s != only)
+            continue;
+        scenario sc = have_custom ? custom : paper[s - 1];
+        double z[3] = {0, 0, 1}, times[2] = {0, 1};
+        pb_pose poses[2] = {{{0, 0, 0}, {1, 0, 0, 0}}, {{sc.t[0], sc.t[1], sc.t[2]}, {1, 0, 0, 0}}};
+        pb_quaternion_from_axis_angle(z, sc.deg, poses[1].rotation);
+        pb_motion motion = {times, poses, 2, 0.0, 1.0, 0, {0, 0, 0}};
+        for (size_t m = 0; m < sizeof methods / sizeof methods[0]; m++) {
+            pb_blur_options opt = {methods[m].method, methods[m].filter, 0, 0, 0, 0};
+            st = pb_blur(ctx, in, &motion, &opt, out); /* warm-up */
+            for (int r = 0; r < runs && st == PB_OK; r++) {
+                st = pb_blur(ctx, in, &motion, &opt, out);
+                pb_context_last_kernel_ms(ctx, &ms[r]);
+            }
+            if (st != PB_OK) {
+                fprintf(stderr, "pb_bench: %s: %s: %s\n", methods[m].name, pb_status_string(st), pb_last_error(ctx));
+                return 3;
+            }
+            qsort(ms, (size_t)runs, sizeof *ms, cmp_double);
+            double med = runs % 2 ? ms[runs / 2] : 0.5 * (ms[runs / 2 - 1] + ms[runs / 2]);
+            printf("%-3d (%6.1f, %6.1f, %6.1f)   %-3.0f %-8s %10.3f %10.3f\n", s, sc.t[0], sc.t[1], sc.t[2], sc.deg,
+                   methods[m].name, med, ms[0]);
+            if (fcsv)
+                fprintf(fcsv, "%s,%s,%s,%zu,%zu,%zu,%d,%g,%g,%g,%g,%s,%s,%d,%.4f,%.4f,%.3f\n", label,
+                        pb_backend_name(pb_context_backend(ctx)), info.name, g.dims[0], g.dims[1], g.dims[2], s,
+                        sc.t[0], sc.t[1], sc.t[2], sc.deg, methods[m].method == PB_METHOD_AB   ? "AB"
+                                                           : methods[m].method == PB_METHOD_RM ? "RM"
+                                                                                               : "CL",
+                        methods[m].filter == PB_FILTER_EXACT ? "exact" : "hardware", runs, med, ms[0],
+                        (double)count / (med * 1e6));
+            fflush(stdout);
+        }
+    }
+    free(ms);
+    free(data);
+    if (fcsv)
+        fclose(fcsv);
+    pb_volume_destroy(in);
+    pb_volume_destroy(out);
+    pb_context_destroy(ctx);
+    return 0;
+}
