@@ -262,6 +262,15 @@ pb_status pb_volume_upload(pb_volume *vol, const float *host)
 {
     if (!vol || !host)
         return pb_error(vol ? vol->ctx : NULL, PB_ERR_INVALID_ARGUMENT, "volume and host data must not be NULL");
+    /* One NaN would spread through every blur that reads it; refuse it here,
+     * where the voxel can still be named. */
+    const size_t *n = vol->geometry.dims;
+    for (size_t i = 0; i < vol->count; i++)
+        if (!isfinite(host[i]))
+            return pb_error(vol->ctx, PB_ERR_NOT_FINITE,
+                            "activity at voxel (%zu, %zu, %zu) is %g; replace NaN and infinite values (for "
+                            "example by 0) before uploading",
+                            i % n[0], i / n[0] % n[1], i / (n[0] * n[1]), (double)host[i]);
     return vol->ctx->ops->volume_upload(vol, host);
 }
 

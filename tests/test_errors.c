@@ -97,7 +97,12 @@ static void test_motions(pb_context *ctx)
     float data[216];
     for (int i = 0; i < 216; i++)
         data[i] = (float)pb_rand_uniform();
-    pb_volume_upload(in, data);
+    data[100] = NAN;
+    expect(pb_volume_upload(in, data), PB_ERR_NOT_FINITE, "NaN activity", pb_last_error(ctx), "(4, 4, 2)");
+    data[100] = -INFINITY;
+    expect(pb_volume_upload(in, data), PB_ERR_NOT_FINITE, "infinite activity", pb_last_error(ctx), "-inf");
+    data[100] = 0.5f;
+    pb_check(pb_volume_upload(in, data) == PB_OK, "finite upload: %s", pb_last_error(ctx));
 
     double times[3] = {0.0, 1.0, 2.0};
     pb_pose poses[3];

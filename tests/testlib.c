@@ -101,7 +101,7 @@ pb_status pb_test_blur(pb_context *ctx, const pb_geometry *g, const float *in, c
 {
     size_t n = g->dims[0] * g->dims[1] * g->dims[2];
     for (size_t i = 0; i < n; i++)
-        out[i] = NAN;
+        out[i] = -1e30f; /* finite, since uploads refuse NaN, and far outside any result */
     pb_volume *a = NULL, *b = NULL;
     pb_status st = pb_volume_create(ctx, g, &a);
     if (st == PB_OK)
@@ -110,6 +110,8 @@ pb_status pb_test_blur(pb_context *ctx, const pb_geometry *g, const float *in, c
         st = pb_volume_upload(a, in);
     if (st == PB_OK)
         st = pb_volume_upload(b, out); /* poison the device copy too */
+    for (size_t i = 0; i < n && st == PB_OK; i++)
+        out[i] = NAN; /* and the host copy, so a download that did not happen shows */
     if (st == PB_OK)
         st = pb_blur(ctx, a, m, opt, b);
     if (st == PB_OK)

@@ -34,8 +34,9 @@ double pb_rand_range(double lo, double hi);
 pb_context *pb_test_context(int argc, char **argv);
 pb_backend pb_test_backend(int argc, char **argv);
 
-/* Blurs host data through a context: uploads, blurs, downloads. out is poisoned
- * with NaN first so that a voxel the kernel never wrote shows. */
+/* Blurs host data through a context: uploads, blurs, downloads. The device
+ * output is poisoned with -1e30 and the host copy with NaN first, so that a
+ * voxel the kernel never wrote shows. */
 pb_status pb_test_blur(pb_context *ctx, const pb_geometry *g, const float *in, const pb_motion *m,
                        const pb_blur_options *opt, float *out);
 
