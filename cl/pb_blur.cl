@@ -188,11 +188,38 @@ PB_FN void pb_classical_point(PB_GLOBAL_RO pb_kpose *p0, PB_GLOBAL_RO pb_kpose *
         o[i] = (r[i] + prm.center[i]) / prm.voxel[i];
 }
 
-PB_KERNEL void pb_blur_ab(pb_image img, PB_GLOBAL_RO pb_kpose *poses, pb_kparams prm, PB_GLOBAL float *out)
+/* AB over one segment, split into prm.steps equal sub-segments. */
+PB_FN float pb_ab_sampled(pb_image img, pb_kparams prm, const float *a, const float *b)
 {
-    int ix = PB_GID_X, iy = PB_GID_Y, iz = PB_GID_Z;
-    if (ix >= prm.dims[0] || iy >= prm.dims[1] || iz >= prm.dims[2])
-        return;
+    float sum = 0.0f, inv = 1.0f / (float)prm.steps;
+    for (int r = 0; r < prm.steps; r++) {
+        float pa[3], pb[3];
+        for (int i = 0; i < 3; i++) {
+            pa[i] = a[i] + (b[i] - a[i]) * ((float)r * inv);
+            pb[i] = a[i] + (b[i] - a[i]) * ((float)(r + 1) * inv);
+        }
+        sum += pb_ab_segment(img, prm.exact, pa, pb);
+    }
+    return sum * inv;
+}
+
+/* RM over one segment: n equidistant trilinear samples (n: AB's slices). */
+PB_FN float pb_rm_sampled(pb_image img, pb_kparams prm, const float *a, const float *b)
+{
+    int n = prm.steps > 0 ? prm.steps : pb_ab_slices(a, b);
+    float sum = 0.0f;
+    for (int i = 0; i < n; i++) {
+        float s = ((float)i + 0.5f) / (float)n;
+        sum += pb_trilinear(img, prm.exact, a[0] + s * (b[0] - a[0]), a[1] + s * (b[1] - a[1]),
+                            a[2] + s * (b[2] - a[2]));
+    }
+    return sum / (float)n;
+}
+
+/* The polyline methods: W's object-space path through the key poses, one
+ * straight segment per pair, each weighed by its share of the frame. */
+PB_FN float pb_polyline(pb_image img, PB_GLOBAL_RO pb_kpose *poses, pb_kparams prm, int ix, int iy, int iz, int ab)
+{
     float ux = (float)ix + 0.5f, uy = (float)iy + 0.5f, uz = (float)iz + 0.5f;
     float total = 0.0f, a[3], b[3];
     pb_map_point(poses[0].map, ux, uy, uz, b);
@@ -200,42 +227,23 @@ PB_KERNEL void pb_blur_ab(pb_image img, PB_GLOBAL_RO pb_kpose *poses, pb_kparams
         for (int i = 0; i < 3; i++)
             a[i] = b[i];
         pb_map_point(poses[j + 1].map, ux, uy, uz, b);
-        float seg = 0.0f, inv = 1.0f / (float)prm.steps;
-        for (int r = 0; r < prm.steps; r++) {
-            float pa[3], pb[3];
-            for (int i = 0; i < 3; i++) {
-                pa[i] = a[i] + (b[i] - a[i]) * ((float)r * inv);
-                pb[i] = a[i] + (b[i] - a[i]) * ((float)(r + 1) * inv);
-            }
-            seg += pb_ab_segment(img, prm.exact, pa, pb);
-        }
-        total += poses[j].weight * seg * inv;
+        total += poses[j].weight * (ab ? pb_ab_sampled(img, prm, a, b) : pb_rm_sampled(img, prm, a, b));
     }
-    out[ix + prm.dims[0] * (iy + prm.dims[1] * iz)] = total;
+    return total;
+}
+
+PB_KERNEL void pb_blur_ab(pb_image img, PB_GLOBAL_RO pb_kpose *poses, pb_kparams prm, PB_GLOBAL float *out)
+{
+    int ix = PB_GID_X, iy = PB_GID_Y, iz = PB_GID_Z;
+    if (ix < prm.dims[0] && iy < prm.dims[1] && iz < prm.dims[2])
+        out[ix + prm.dims[0] * (iy + prm.dims[1] * iz)] = pb_polyline(img, poses, prm, ix, iy, iz, 1);
 }
 
 PB_KERNEL void pb_blur_rm(pb_image img, PB_GLOBAL_RO pb_kpose *poses, pb_kparams prm, PB_GLOBAL float *out)
 {
     int ix = PB_GID_X, iy = PB_GID_Y, iz = PB_GID_Z;
-    if (ix >= prm.dims[0] || iy >= prm.dims[1] || iz >= prm.dims[2])
-        return;
-    float ux = (float)ix + 0.5f, uy = (float)iy + 0.5f, uz = (float)iz + 0.5f;
-    float total = 0.0f, a[3], b[3];
-    pb_map_point(poses[0].map, ux, uy, uz, b);
-    for (int j = 0; j < prm.segments; j++) {
-        for (int i = 0; i < 3; i++)
-            a[i] = b[i];
-        pb_map_point(poses[j + 1].map, ux, uy, uz, b);
-        int n = prm.steps > 0 ? prm.steps : pb_ab_slices(a, b);
-        float seg = 0.0f;
-        for (int i = 0; i < n; i++) {
-            float s = ((float)i + 0.5f) / (float)n;
-            seg += pb_trilinear(img, prm.exact, a[0] + s * (b[0] - a[0]), a[1] + s * (b[1] - a[1]),
-                                a[2] + s * (b[2] - a[2]));
-        }
-        total += poses[j].weight * seg / (float)n;
-    }
-    out[ix + prm.dims[0] * (iy + prm.dims[1] * iz)] = total;
+    if (ix < prm.dims[0] && iy < prm.dims[1] && iz < prm.dims[2])
+        out[ix + prm.dims[0] * (iy + prm.dims[1] * iz)] = pb_polyline(img, poses, prm, ix, iy, iz, 0);
 }
 
 PB_KERNEL void pb_blur_cl(pb_image img, PB_GLOBAL_RO pb_kpose *poses, pb_kparams prm, PB_GLOBAL float *out)

@@ -218,6 +218,10 @@ typedef struct pb_blur_options {
 PB_API pb_status pb_blur(pb_context *ctx, const pb_volume *object, const pb_motion *motion,
                          const pb_blur_options *options, pb_volume *tomograph);
 
+/* The paper's eq. (5): 100 * sum (x - ref)^2 / sum ref^2 over n voxels, in
+ * double. Returns NaN when ref is all zeros. */
+PB_API double pb_error_percent(const float *reference, const float *x, size_t n);
+
 #ifdef __cplusplus
 }
 #endif

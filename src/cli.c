@@ -102,17 +102,6 @@ static void make_cubes(size_t n, float *v)
             }
 }
 
-static double error_percent(const float *ref, const float *x, size_t n)
-{
-    double num = 0.0, den = 0.0;
-    for (size_t i = 0; i < n; i++) {
-        double d = (double)x[i] - (double)ref[i];
-        num += d * d;
-        den += (double)ref[i] * (double)ref[i];
-    }
-    return 100.0 * num / den;
-}
-
 static int fail(pb_context *ctx, pb_status st, const char *what)
 {
     fprintf(stderr, "petblur: %s failed: %s: %s\n", what, pb_status_string(st), pb_last_error(ctx));
@@ -212,7 +201,7 @@ static int cmd_demo(int argc, char **argv)
             printf("%-4s %-9s %12s %12.2f   (%ld points per voxel)\n", runs[r].name, "box", "reference", ms, points);
         else
             printf("%-4s %-9s %12.4f %12.2f\n", runs[r].name,
-                   runs[r].filter == PB_FILTER_EXACT ? "exact" : "hardware", error_percent(ref, out, count), ms);
+                   runs[r].filter == PB_FILTER_EXACT ? "exact" : "hardware", pb_error_percent(ref, out, count), ms);
     }
     pb_volume_destroy(in);
     pb_volume_destroy(res);

@@ -335,3 +335,14 @@ pb_status pb_blur(pb_context *ctx, const pb_volume *object, const pb_motion *mot
     pb_plan_destroy(&plan);
     return st;
 }
+
+double pb_error_percent(const float *reference, const float *x, size_t n)
+{
+    double num = 0.0, den = 0.0;
+    for (size_t i = 0; i < n; i++) {
+        double d = (double)x[i] - (double)reference[i];
+        num += d * d;
+        den += (double)reference[i] * (double)reference[i];
+    }
+    return den > 0.0 ? 100.0 * num / den : NAN;
+}
