@@ -344,5 +344,5 @@ double pb_error_percent(const float *reference, const float *x, size_t n)
         num += d * d;
         den += (double)reference[i] * (double)reference[i];
     }
-    return den > 0.0 ? 100.0 * num / den : NAN;
+    return den > 0.0 ? 100.0 * num / den : (double)NAN;
 }
