@@ -10,8 +10,9 @@
  * voxels (ulp ~ 4e-6) times gradients of order one. */
 #define TOL_EXACT 2e-5
 /* The sampler's interpolation weights: NVIDIA's texture unit keeps 8 fractional
- * bits, so each of the three weights may be off by 2^-9, and a value by
- * 3 * 2^-9 of the local range (cuda issue derives the bound per method). */
+ * bits, so each axis's weight may be off by 2^-9 and a trilinear value by at
+ * most 3 * 2^-9 of the largest value it mixes; an average of such samples (every
+ * method here) keeps that bound. PoCL filters in float and stays far inside. */
 #define TOL_HARDWARE (3.0 / 512.0)
 
 static void random_volume(const pb_geometry *g, float *v)
