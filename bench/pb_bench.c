@@ -55,13 +55,10 @@ int main(int argc, char **argv)
         }
         i++;
         if (!strcmp(a, "--device")) {
-            const char *colon = strchr(v, ':');
-            size_t len = colon ? (size_t)(colon - v) : strlen(v);
-            copt.device_index = colon ? atoi(colon + 1) : 0;
-            copt.backend = !strncmp(v, "host", len)     ? PB_BACKEND_HOST
-                           : !strncmp(v, "opencl", len) ? PB_BACKEND_OPENCL
-                           : !strncmp(v, "cuda", len)   ? PB_BACKEND_CUDA
-                                                        : PB_BACKEND_AUTO;
+            if (pb_device_parse(v, &copt.backend, &copt.device_index) != PB_OK) {
+                fprintf(stderr, "pb_bench: --device: %s\n", pb_last_error(NULL));
+                return 2;
+            }
         } else if (!strcmp(a, "--size")) {
             dims[0] = dims[1] = dims[2] = atof(v);
         } else if (!strcmp(a, "--dims")) {

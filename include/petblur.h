@@ -77,6 +77,10 @@ typedef enum pb_backend {
 
 PB_API const char *pb_backend_name(pb_backend backend);
 
+/* Parses a device name as the command line takes it: "auto", "host",
+ * "opencl", "opencl:N", "cuda" or "cuda:N" (N from 0). */
+PB_API pb_status pb_device_parse(const char *spec, pb_backend *backend, int *index);
+
 /* 1 when the backend was compiled into this build (it may still find no device). */
 PB_API int pb_backend_compiled(pb_backend backend);
 

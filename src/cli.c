@@ -1,6 +1,5 @@
 /* petblur: the command-line program. This first version runs the main job
  * (demo) and lists devices; the file-format subcommands come with the CLI issue. */
-#include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -25,34 +24,6 @@ static void usage(FILE *f)
           "  --points K      REF's random points per voxel (default 200, the paper's)\n"
           "  --help          this text\n",
           f);
-}
-
-/* "opencl:1" -> backend and index. */
-static int parse_device(const char *s, pb_backend *backend, int *index)
-{
-    static const struct {
-        const char *name;
-        pb_backend backend;
-    } names[] = {{"auto", PB_BACKEND_AUTO}, {"host", PB_BACKEND_HOST}, {"opencl", PB_BACKEND_OPENCL},
-                 {"cuda", PB_BACKEND_CUDA}};
-    for (size_t i = 0; i < sizeof names / sizeof names[0]; i++) {
-        size_t n = strlen(names[i].name);
-        if (strncmp(s, names[i].name, n) != 0)
-            continue;
-        *backend = names[i].backend;
-        *index = 0;
-        if (s[n] == '\0')
-            return 1;
-        char *end;
-        if (s[n] == ':' && s[n + 1] && i >= 2) {
-            long v = strtol(s + n + 1, &end, 10);
-            if (*end == '\0' && v >= 0 && v < 1000) {
-                *index = (int)v;
-                return 1;
-            }
-        }
-    }
-    return 0;
 }
 
 static int cmd_devices(void)
@@ -121,8 +92,8 @@ static int cmd_demo(int argc, char **argv)
             usage(stdout);
             return 0;
         } else if (!strcmp(a, "--device") && val) {
-            if (!parse_device(val, &copt.backend, &copt.device_index)) {
-                fprintf(stderr, "petblur: --device %s: use auto, host, opencl[:N] or cuda[:N]\n", val);
+            if (pb_device_parse(val, &copt.backend, &copt.device_index) != PB_OK) {
+                fprintf(stderr, "petblur: --device: %s\n", pb_last_error(NULL));
                 return EXIT_USAGE;
             }
             i++;

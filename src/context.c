@@ -1,5 +1,6 @@
 /* The public API above the backend boundary: argument checks, backend choice,
  * and dispatch through the ops table. */
+#include <ctype.h>
 #include <math.h>
 #include <stdint.h>
 #include <stdlib.h>
@@ -35,6 +36,32 @@ const char *pb_backend_name(pb_backend backend)
 int pb_backend_compiled(pb_backend backend)
 {
     return backend_ops(backend) != NULL;
+}
+
+pb_status pb_device_parse(const char *spec, pb_backend *backend, int *index)
+{
+    if (!spec || !backend || !index)
+        return pb_error(NULL, PB_ERR_INVALID_ARGUMENT, "spec, backend and index must not be NULL");
+    for (int b = PB_BACKEND_AUTO; b <= PB_BACKEND_CUDA; b++) {
+        const char *name = pb_backend_name((pb_backend)b);
+        size_t n = strlen(name);
+        if (strncmp(spec, name, n) != 0)
+            continue;
+        *backend = (pb_backend)b;
+        *index = 0;
+        if (spec[n] == '\0')
+            return PB_OK;
+        /* Only device backends have several devices to number. */
+        if (spec[n] == ':' && (b == PB_BACKEND_OPENCL || b == PB_BACKEND_CUDA) && isdigit((unsigned char)spec[n + 1])) {
+            char *end;
+            long v = strtol(spec + n + 1, &end, 10);
+            if (*end == '\0' && v < 1000) {
+                *index = (int)v;
+                return PB_OK;
+            }
+        }
+    }
+    return pb_error(NULL, PB_ERR_INVALID_ARGUMENT, "device '%s' is not auto, host, opencl[:N] or cuda[:N]", spec);
 }
 
 static pb_status require_ops(pb_backend backend, const pb_backend_ops **ops)

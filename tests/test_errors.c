@@ -211,6 +211,15 @@ static void test_contexts(pb_backend backend)
         pb_check(strstr(pb_last_error(NULL), "undefined_type") != NULL, "the build log names the error: %s",
                  pb_last_error(NULL));
     }
+    pb_backend pb = PB_BACKEND_HOST;
+    int idx = -1;
+    pb_check(pb_device_parse("opencl:3", &pb, &idx) == PB_OK && pb == PB_BACKEND_OPENCL && idx == 3, "parse opencl:3");
+    pb_check(pb_device_parse("cuda", &pb, &idx) == PB_OK && pb == PB_BACKEND_CUDA && idx == 0, "parse cuda");
+    pb_check(pb_device_parse("auto", &pb, &idx) == PB_OK && pb == PB_BACKEND_AUTO, "parse auto");
+    static const char *bad[] = {"o", "gpu", "host:1", "opencl:", "opencl:-1", "opencl:x", "cuda:2a", ""};
+    for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++)
+        expect(pb_device_parse(bad[i], &pb, &idx), PB_ERR_INVALID_ARGUMENT, bad[i], pb_last_error(NULL),
+               "opencl[:N]");
     for (int s = PB_OK; s >= PB_ERR_OUT_OF_MEMORY; s--)
         pb_check(strlen(pb_status_string((pb_status)s)) > 0, "status %d has a string", s);
 }
