@@ -1,9 +1,11 @@
 #!/usr/bin/env bash
 # One run on the GPU machine answers every question about a kernel change:
-# build, the host and opencl suites on NVIDIA's OpenCL and on PoCL, then the
-# benchmark of every method on a 256^3 volume for the paper's eight motions.
-# Tables go to $OUT (the device tool brings them back); commit them under
-# bench/results/ with the date, GPU and commit.
+# build (CUDA and OpenCL), the host suite, the opencl suite on NVIDIA's OpenCL
+# and on PoCL, the cuda suite, how far CUDA is from PoCL and from NVIDIA's
+# OpenCL on the same inputs, then the benchmark of every method on a 256^3
+# volume for the paper's eight motions on CUDA (CUDA events) and on NVIDIA's
+# OpenCL (profiling events). Tables go to $OUT (the device tool brings them
+# back); commit them under bench/results/ with the date, GPU and commit.
 #
 # The machine has no Khronos CL/ headers and no libOpenCL.so link name: bring
 # them in .device/ (git-ignored) with bench/gpu-prepare.sh on this machine.
@@ -14,6 +16,7 @@ mkdir -p "$OUT"
 dev=$PWD/.device
 export CFLAGS="-I$dev/include" LDFLAGS="-L$dev/lib" LIBRARY_PATH="$dev/lib"
 export LD_LIBRARY_PATH="$dev/lib${LD_LIBRARY_PATH:+:$LD_LIBRARY_PATH}"
+export PATH="$PATH:/usr/local/cuda/bin"
 meson=(meson)
 command -v meson >/dev/null || meson=(python3 -m mesonbuild.mesonmain)
 
@@ -21,10 +24,15 @@ command -v meson >/dev/null || meson=(python3 -m mesonbuild.mesonmain)
     echo "date: $(date -u +%Y-%m-%dT%H:%MZ)"
     echo "commit: $(git rev-parse --short HEAD 2>/dev/null || echo unknown)$(git diff --quiet 2>/dev/null || echo +dirty)"
     nvidia-smi --query-gpu=name,driver_version,memory.total --format=csv,noheader 2>&1
+    nvcc --version | tail -2
+    nproc | sed 's/^/cpu cores: /'
 } | tee "$OUT/machine.txt"
 
-"${meson[@]}" setup build-gpu --buildtype=release >"$OUT/setup.log" 2>&1 &&
+"${meson[@]}" setup build-gpu --buildtype=release -Dcuda=enabled -Dopencl=enabled >"$OUT/setup.log" 2>&1 &&
     ninja -C build-gpu >"$OUT/build.log" 2>&1 || { tail -40 "$OUT/setup.log" "$OUT/build.log"; exit 1; }
+# Registers and spills of the CUDA kernels, for the record.
+nvcc -arch=sm_90 -O3 -std=c++17 -Xptxas -v -c cuda/pb_kernels.cu -o /dev/null 2>&1 |
+    grep -E 'entry function|registers' >"$OUT/cuda-registers.txt"
 
 # Each OpenCL platform on its own, through a vendor folder of its own.
 vend=$(mktemp -d)
@@ -33,19 +41,37 @@ echo libnvidia-opencl.so.1 >"$vend/nvidia/nvidia.icd"
 [ -f /etc/OpenCL/vendors/pocl.icd ] && cp /etc/OpenCL/vendors/pocl.icd "$vend/pocl/"
 
 status=0
-for platform in nvidia pocl; do
-    echo "== tests on $platform OpenCL =="
-    OCL_ICD_VENDORS="$vend/$platform" ./build-gpu/src/petblur devices
-    OCL_ICD_VENDORS="$vend/$platform" "${meson[@]}" test -C build-gpu --no-rebuild --print-errorlogs \
-        --suite host --suite opencl >"$OUT/test-$platform.log" 2>&1 || status=1
-    grep -E '^(Ok|Fail|Skipped):' "$OUT/test-$platform.log"
-    grep -h 'largest relative difference' build-gpu/meson-logs/testlog.txt | sed "s/^/$platform: /"
-done
+run_suites() { # name, vendor folder, suites...
+    local name=$1 vendors=$2
+    shift 2
+    echo "== tests: $name =="
+    local args=()
+    for s in "$@"; do args+=(--suite "$s"); done
+    OCL_ICD_VENDORS=$vendors "${meson[@]}" test -C build-gpu --no-rebuild --print-errorlogs "${args[@]}" \
+        >"$OUT/test-$name.log" 2>&1 || status=1
+    cp build-gpu/meson-logs/testlog.txt "$OUT/testlog-$name.txt"
+    grep -E '^ *[0-9]+/[0-9]+ |^(Ok|Fail|Skipped):' "$OUT/test-$name.log"
+    grep -h 'largest relative difference\|hardware weights' build-gpu/meson-logs/testlog.txt | sed "s/^/$name: /"
+}
+OCL_ICD_VENDORS="$vend/nvidia:$vend/pocl" ./build-gpu/src/petblur devices
+run_suites host "$vend/pocl" host
+run_suites cuda "$vend/pocl" cuda
+run_suites nvidia-opencl "$vend/nvidia" opencl
+run_suites pocl "$vend/pocl" opencl
 
+echo "== CUDA against PoCL and against NVIDIA OpenCL, same inputs =="
+OCL_ICD_VENDORS="$vend/pocl" ./build-gpu/bench/pb_compare --size 64 cuda opencl:0 | tee "$OUT/compare-cuda-pocl.txt"
+OCL_ICD_VENDORS="$vend/nvidia" ./build-gpu/bench/pb_compare --size 64 cuda opencl:0 | tee "$OUT/compare-cuda-nvidia-opencl.txt"
+
+echo "== benchmark: CUDA, 256^3, paper scenarios 1-8 =="
+./build-gpu/bench/pb_bench --device cuda --size 256 --runs 20 --ref-runs 3 \
+    --label cuda --csv "$OUT/bench-cuda.csv" | tee "$OUT/bench-cuda.txt" || status=1
 echo "== benchmark: NVIDIA OpenCL, 256^3, paper scenarios 1-8 =="
-OCL_ICD_VENDORS="$vend/nvidia" ./build-gpu/bench/pb_bench --device opencl --size 256 --runs 20 \
-    --label nvidia-opencl --csv "$OUT/bench-nvidia-opencl.csv" | tee "$OUT/bench-nvidia-opencl.txt"
+OCL_ICD_VENDORS="$vend/nvidia" ./build-gpu/bench/pb_bench --device opencl --size 256 --runs 20 --ref-runs 3 \
+    --label nvidia-opencl --csv "$OUT/bench-nvidia-opencl.csv" | tee "$OUT/bench-nvidia-opencl.txt" || status=1
 echo "== benchmark: PoCL on the GPU machine's CPU, 128^3, scenario 2 =="
-OCL_ICD_VENDORS="$vend/pocl" ./build-gpu/bench/pb_bench --device opencl --size 128 --runs 5 --scenario 2 \
-    --label pocl-cpu --csv "$OUT/bench-pocl.csv" | tee "$OUT/bench-pocl.txt"
+OCL_ICD_VENDORS="$vend/pocl" ./build-gpu/bench/pb_bench --device opencl --size 128 --runs 5 --ref-runs 0 \
+    --scenario 2 --label pocl-cpu --csv "$OUT/bench-pocl.csv" | tee "$OUT/bench-pocl.txt" || status=1
+
+python3 bench/summarize.py "$OUT" | tee "$OUT/tables.md"
 exit $status

@@ -2,21 +2,14 @@
  * CUDA events; the host clock for the host backend): warm-up, then the median
  * of --runs kernel times. The motions default to the paper's eight scenarios
  * (translations in voxels; rotations in degrees about z through the centre). */
+#include <errno.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
 #include "petblur.h"
-
-typedef struct scenario {
-    double t[3];
-    double deg;
-} scenario;
-
-/* ../shared/paper/paper_tables.csv, scenarios 1-8. */
-static const scenario paper[8] = {{{2, 2, 2}, 0},  {{12, 10, -11}, 0}, {{-20, 30, 15}, 0},     {{-20, 30, 0}, 0},
-                                  {{0, 0, 0}, 10}, {{0, 0, 0}, 60},    {{2.5, -3.2, -0.7}, -5}, {{42, 21, 12}, 20}};
+#include "scenarios.h"
 
 static int cmp_double(const void *a, const void *b)
 {
@@ -27,8 +20,10 @@ static int cmp_double(const void *a, const void *b)
 static void usage(void)
 {
     fputs("usage: pb_bench [--device auto|host|opencl[:N]|cuda[:N]] [--size N | --dims X,Y,Z] [--runs N]\n"
-          "                [--scenario 1-8 | --translate TX,TY,TZ --rotate DEG] [--csv FILE] [--label TEXT]\n"
-          "Times AB, RM and CL (HARDWARE and EXACT) with device events: one warm-up, median of --runs.\n"
+          "                [--ref-runs N] [--scenario 1-8 | --translate TX,TY,TZ --rotate DEG] [--csv FILE]\n"
+          "                [--label TEXT]\n"
+          "Times AB, RM and CL (HARDWARE and EXACT) and REF (200 points, default time steps) with device\n"
+          "events: one warm-up, median of --runs (REF: --ref-runs, default 3, 0 to leave it out).\n"
           "Translations in voxels, rotations in degrees about z through the grid's centre.\n",
           stderr);
 }
@@ -43,8 +38,8 @@ int main(int argc, char **argv)
 {
     pb_context_options copt = {PB_BACKEND_AUTO, 0, NULL};
     double dims[3] = {128, 128, 128};
-    int runs = 20, only = 0;
-    scenario custom = {{0, 0, 0}, 0};
+    int runs = 20, ref_runs = 3, only = 0;
+    pb_scenario custom = {{0, 0, 0}, 0};
     int have_custom = 0;
     const char *csv = NULL, *label = "";
     for (int i = 1; i < argc; i++) {
@@ -68,6 +63,8 @@ int main(int argc, char **argv)
             }
         } else if (!strcmp(a, "--runs")) {
             runs = atoi(v);
+        } else if (!strcmp(a, "--ref-runs")) {
+            ref_runs = atoi(v);
         } else if (!strcmp(a, "--scenario")) {
             only = atoi(v);
         } else if (!strcmp(a, "--translate")) {
@@ -84,7 +81,7 @@ int main(int argc, char **argv)
             return 2;
         }
     }
-    if (runs < 1 || only < 0 || only > 8 || dims[0] < 1 || dims[1] < 1 || dims[2] < 1) {
+    if (runs < 1 || ref_runs < 0 || only < 0 || only > 8 || dims[0] < 1 || dims[1] < 1 || dims[2] < 1) {
         usage();
         return 2;
     }
@@ -112,15 +109,16 @@ int main(int argc, char **argv)
 
     FILE *fcsv = csv ? fopen(csv, "w") : NULL;
     if (csv && !fcsv) {
-        fprintf(stderr, "pb_bench: cannot write %s\n", csv);
+        fprintf(stderr, "pb_bench: cannot write %s: %s; pick a writable path for --csv\n", csv, strerror(errno));
         return 2;
     }
     if (fcsv)
         fprintf(fcsv, "label,backend,device,nx,ny,nz,scenario,tx,ty,tz,rot_deg,method,filter,runs,median_ms,min_ms,"
                       "gvoxels_per_s\n");
-    printf("# %s:%d %s [%s], %zu x %zu x %zu float, median of %d runs after one warm-up (device events)\n",
+    printf("# %s:%d %s [%s], %zu x %zu x %zu float, median of %d runs (REF: %d) after one warm-up (device "
+           "events)\n",
            pb_backend_name(pb_context_backend(ctx)), copt.device_index, info.name, info.platform, g.dims[0],
-           g.dims[1], g.dims[2], runs);
+           g.dims[1], g.dims[2], runs, ref_runs);
     printf("%-3s %-22s %-3s %-8s %10s %10s\n", "#", "translation (voxels)", "deg", "method", "median ms", "min ms");
 
     static const struct {
@@ -129,20 +127,24 @@ int main(int argc, char **argv)
         pb_filter filter;
     } methods[] = {{"AB-hw", PB_METHOD_AB, PB_FILTER_HARDWARE}, {"AB-ex", PB_METHOD_AB, PB_FILTER_EXACT},
                    {"RM-hw", PB_METHOD_RM, PB_FILTER_HARDWARE}, {"RM-ex", PB_METHOD_RM, PB_FILTER_EXACT},
-                   {"CL-hw", PB_METHOD_CL, PB_FILTER_HARDWARE}, {"CL-ex", PB_METHOD_CL, PB_FILTER_EXACT}};
-    double *ms = malloc((size_t)runs * sizeof *ms);
+                   {"CL-hw", PB_METHOD_CL, PB_FILTER_HARDWARE}, {"CL-ex", PB_METHOD_CL, PB_FILTER_EXACT},
+                   {"REF", PB_METHOD_REF, PB_FILTER_EXACT}};
+    static const char *method_names[] = {"AB", "RM", "CL", "REF"};
+    double *ms = malloc((size_t)(runs > ref_runs ? runs : ref_runs) * sizeof *ms);
     for (int s = have_custom ? 0 : 1; s <= (have_custom ? 0 : 8); s++) {
         if (only && s != only)
             continue;
-        scenario sc = have_custom ? custom : paper[s - 1];
-        double z[3] = {0, 0, 1}, times[2] = {0, 1};
-        pb_pose poses[2] = {{{0, 0, 0}, {1, 0, 0, 0}}, {{sc.t[0], sc.t[1], sc.t[2]}, {1, 0, 0, 0}}};
-        pb_quaternion_from_axis_angle(z, sc.deg, poses[1].rotation);
-        pb_motion motion = {times, poses, 2, 0.0, 1.0, 0, {0, 0, 0}};
+        pb_scenario sc = have_custom ? custom : pb_paper_scenarios[s - 1];
+        double times[2];
+        pb_pose poses[2];
+        pb_motion motion = pb_scenario_motion(&sc, g.voxel_size, times, poses);
         for (size_t m = 0; m < sizeof methods / sizeof methods[0]; m++) {
+            int n_runs = methods[m].method == PB_METHOD_REF ? ref_runs : runs;
+            if (n_runs == 0)
+                continue;
             pb_blur_options opt = {methods[m].method, methods[m].filter, 0, 0, 0, 0};
             st = pb_blur(ctx, in, &motion, &opt, out); /* warm-up */
-            for (int r = 0; r < runs && st == PB_OK; r++) {
+            for (int r = 0; r < n_runs && st == PB_OK; r++) {
                 st = pb_blur(ctx, in, &motion, &opt, out);
                 pb_context_last_kernel_ms(ctx, &ms[r]);
             }
@@ -150,17 +152,15 @@ int main(int argc, char **argv)
                 fprintf(stderr, "pb_bench: %s: %s: %s\n", methods[m].name, pb_status_string(st), pb_last_error(ctx));
                 return 3;
             }
-            qsort(ms, (size_t)runs, sizeof *ms, cmp_double);
-            double med = runs % 2 ? ms[runs / 2] : 0.5 * (ms[runs / 2 - 1] + ms[runs / 2]);
+            qsort(ms, (size_t)n_runs, sizeof *ms, cmp_double);
+            double med = n_runs % 2 ? ms[n_runs / 2] : 0.5 * (ms[n_runs / 2 - 1] + ms[n_runs / 2]);
             printf("%-3d (%6.1f, %6.1f, %6.1f)   %-3.0f %-8s %10.3f %10.3f\n", s, sc.t[0], sc.t[1], sc.t[2], sc.deg,
                    methods[m].name, med, ms[0]);
             if (fcsv)
                 fprintf(fcsv, "%s,%s,%s,%zu,%zu,%zu,%d,%g,%g,%g,%g,%s,%s,%d,%.4f,%.4f,%.3f\n", label,
                         pb_backend_name(pb_context_backend(ctx)), info.name, g.dims[0], g.dims[1], g.dims[2], s,
-                        sc.t[0], sc.t[1], sc.t[2], sc.deg, methods[m].method == PB_METHOD_AB   ? "AB"
-                                                           : methods[m].method == PB_METHOD_RM ? "RM"
-                                                                                               : "CL",
-                        methods[m].filter == PB_FILTER_EXACT ? "exact" : "hardware", runs, med, ms[0],
+                        sc.t[0], sc.t[1], sc.t[2], sc.deg, method_names[methods[m].method],
+                        methods[m].filter == PB_FILTER_EXACT ? "exact" : "hardware", n_runs, med, ms[0],
                         (double)count / (med * 1e6));
             fflush(stdout);
         }

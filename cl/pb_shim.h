@@ -1,6 +1,7 @@
-/* The shim: the only place that knows whether this file is compiled as OpenCL C
- * or as CUDA. It maps qualifiers, thread ids (x, y and z), the volume type and
- * the two fetches; kernel bodies use nothing else.
+/* The shim, OpenCL side: the only place that knows the kernels are compiled as
+ * OpenCL C. It maps qualifiers, thread ids (x, y and z), the volume type and the
+ * two fetches; kernel bodies use nothing else. The CUDA side, with the same
+ * names, is cuda/pb_shim_cuda.h.
  *
  * Coordinates, on every backend: unnormalized texel coordinates, texel i's
  * centre at i + 0.5, border addressing (zero outside the volume), x fastest.
@@ -29,24 +30,11 @@ __constant sampler_t pb_sampler_nearest = CLK_NORMALIZED_COORDS_FALSE | CLK_ADDR
 #define PB_FETCH_LINEAR(img, px, py, pz) read_imagef((img), pb_sampler_linear, (float4)((px), (py), (pz), 0.0f)).x
 #define PB_FETCH_NEAREST(img, px, py, pz) read_imagef((img), pb_sampler_nearest, (float4)((px), (py), (pz), 0.0f)).x
 
-#elif defined(__CUDACC__)
-
-#define PB_KERNEL extern "C" __global__
-#define PB_FN static __device__ __forceinline__
-#define PB_GLOBAL
-#define PB_GLOBAL_RO const
-#define PB_GID_X ((int)(blockIdx.x * blockDim.x + threadIdx.x))
-#define PB_GID_Y ((int)(blockIdx.y * blockDim.y + threadIdx.y))
-#define PB_GID_Z ((int)(blockIdx.z * blockDim.z + threadIdx.z))
-typedef cudaTextureObject_t pb_image;
-
-/* The texture object's own filter mode decides: the backend passes a linear one
- * for HARDWARE fetches and a point one for EXACT reads. */
-#define PB_FETCH_LINEAR(img, px, py, pz) tex3D<float>((img), (px), (py), (pz))
-#define PB_FETCH_NEAREST(img, px, py, pz) tex3D<float>((img), (px), (py), (pz))
-
+#elif defined(PB_SHIM_CUDA)
+/* CUDA: cuda/pb_shim_cuda.h has defined the same names before including the
+ * kernels. */
 #else
-#error "pb_shim.h is for OpenCL C or CUDA kernels"
+#error "pb_shim.h is for OpenCL C; CUDA includes cuda/pb_shim_cuda.h first"
 #endif
 
 #endif

@@ -9,11 +9,8 @@
 /* Relative to the largest value: float arithmetic on positions of a few tens of
  * voxels (ulp ~ 4e-6) times gradients of order one. */
 #define TOL_EXACT 2e-5
-/* The sampler's interpolation weights: NVIDIA's texture unit keeps 8 fractional
- * bits, so each axis's weight may be off by 2^-9 and a trilinear value by at
- * most 3 * 2^-9 of the largest value it mixes; an average of such samples (every
- * method here) keeps that bound. PoCL filters in float and stays far inside. */
-#define TOL_HARDWARE (3.0 / 512.0)
+/* HARDWARE: the texture unit's weights, PB_TEX_TRILINEAR_ERROR (derived in
+ * testlib.h) times the largest input value, on top of float arithmetic. */
 
 static void random_volume(const pb_geometry *g, float *v)
 {
@@ -92,7 +89,9 @@ int main(int argc, char **argv)
                 double rel = pb_max_abs_diff(a, b, n) / pb_max_abs(a, n);
                 if (isnan(rel) || rel > worst[method][filter])
                     worst[method][filter] = rel;
-                double tol = filter ? TOL_EXACT : TOL_HARDWARE;
+                double tol = TOL_EXACT;
+                if (filter == PB_FILTER_HARDWARE && method != PB_METHOD_REF)
+                    tol += PB_TEX_TRILINEAR_ERROR * pb_max_abs(in, n) / pb_max_abs(a, n);
                 if (method == PB_METHOD_REF) {
                     /* REF's points are the same on both sides, but a point within
                      * float rounding of a voxel face may land in the neighbour:

@@ -248,10 +248,47 @@ static void test_analytic_translation(pb_context *ctx)
     free(out);
 }
 
+/* The premise of PB_TEX_TRILINEAR_ERROR, measured: CL with one step samples
+ * once, at the frame's middle pose, so a translation by 2 f voxels along x
+ * fetches every voxel at x - f. On a 0, 1, 0, 1, ... row that fetch returns the
+ * interpolation weight itself. f is a multiple of 2^-20, so every coordinate is
+ * exact in float and only the filter's weights differ from the exact lerp. */
+static void test_hardware_weights(pb_context *ctx)
+{
+    enum { N = 16 };
+    pb_geometry g = {{N, 1, 1}, {1.0, 1.0, 1.0}};
+    float in[N], out[N];
+    for (int i = 0; i < N; i++)
+        in[i] = (float)(i & 1);
+    double worst = 0.0, off_grid = 0.0;
+    for (int trial = 0; trial < 48; trial++) {
+        double f = (double)(1 + (long)(pb_rand_uniform() * 1048575.0)) / 1048576.0; /* (0, 1) */
+        pb_pose still = pb_test_pose(0, 0, 0, NULL, 0), moved = pb_test_pose(2.0 * f, 0, 0, NULL, 0);
+        pb_test_motion tm;
+        pb_test_motion_init(&tm, &still, &moved);
+        pb_blur_options opt = {PB_METHOD_CL, PB_FILTER_HARDWARE, 1, 0, 0, 0};
+        if (!pb_check(pb_test_blur(ctx, &g, in, &tm.motion, &opt, out) == PB_OK, "hardware weights blur"))
+            return;
+        for (int i = 1; i < N; i++) {
+            /* x - 0.5 = i - f lies between voxels i - 1 and i, weight 1 - f on i. */
+            double exact = f * (double)in[i - 1] + (1.0 - f) * (double)in[i];
+            double e = fabs((double)out[i] - exact);
+            worst = e > worst ? e : worst;
+            double steps = (double)out[i] / PB_TEX_WEIGHT_STEP;
+            off_grid = fmax(off_grid, fabs(steps - floor(steps + 0.5)));
+        }
+    }
+    printf("hardware weights: largest error %.3g (bound 2^-9 = %.3g); largest distance of a weight from the 1/256 "
+           "grid %.3g steps\n",
+           worst, PB_TEX_STAGE_ERROR, off_grid);
+    pb_check(worst <= PB_TEX_STAGE_ERROR + 1e-6, "a linear fetch's weight is off by %.3g > 2^-9", worst);
+}
+
 int main(int argc, char **argv)
 {
     pb_test_seed();
     pb_context *ctx = pb_test_context(argc, argv);
+    test_hardware_weights(ctx);
     test_zero_motion(ctx);
     test_conservation(ctx);
     test_analytic_translation(ctx);

@@ -8,6 +8,27 @@
 
 #include "petblur.h"
 
+/* The HARDWARE filter's error, derived from how the texture unit interpolates.
+ *
+ * NVIDIA's texture unit (CUDA textures and NVIDIA's OpenCL images alike) keeps
+ * each axis's interpolation weight alpha in 9-bit fixed point with 8 fractional
+ * bits (CUDA C Programming Guide, "Linear Filtering"). Rounded to the nearest
+ * step, the weight it uses is off by at most PB_TEX_WEIGHT_STEP / 2 = 2^-9; the
+ * test `properties` measures this bound on the device (test_hardware_weights),
+ * so the premise below is checked, not assumed.
+ *
+ * One linear interpolation (1 - a) v0 + a v1 with a off by d is off by
+ * d (v1 - v0). Trilinear is three such stages, and a stage averages the errors
+ * of the stage before with weights that sum to 1, so a trilinear fetch of
+ * values in [0, vmax] is off by at most 3 x 2^-9 x vmax. AB's slice samples sit
+ * on slice centres along the major axis, where the weight is 0 or 1 exactly (2
+ * stages), so 3 stages bound every method. Every method returns an average of
+ * fetches with weights summing to 1 (AB divides by its weight sum), which keeps
+ * the bound. PoCL interpolates in float and stays far inside it. */
+#define PB_TEX_WEIGHT_STEP (1.0 / 256.0)
+#define PB_TEX_STAGE_ERROR (PB_TEX_WEIGHT_STEP / 2.0)
+#define PB_TEX_TRILINEAR_ERROR (3.0 * PB_TEX_STAGE_ERROR) /* times the largest input value */
+
 /* Exit status that meson reads as "skipped". */
 #define PB_TEST_SKIP 77
 

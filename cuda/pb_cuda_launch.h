@@ -1,0 +1,36 @@
+/* The C-callable edge of cuda/pb_kernels.cu: the backend (src/backend_cuda.c,
+ * plain C) launches the kernels through this one function and never sees CUDA
+ * C++. */
+#ifndef PB_CUDA_LAUNCH_H
+#define PB_CUDA_LAUNCH_H
+
+#include <cuda_runtime_api.h>
+
+#include "../cl/pb_kernel_types.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+/* Threads per block: x-contiguous rows of 32 for coalesced writes, as the
+ * OpenCL backend's work groups. */
+#define PB_CUDA_BLOCK_X 32
+#define PB_CUDA_BLOCK_Y 4
+#define PB_CUDA_BLOCK_Z 2
+
+/* Launches kernel `method` (pb_method order: AB, RM, CL, REF) over the grid
+ * prm->dims on `stream`. `plan` holds prm->segments + 1 pb_kpose, or
+ * prm->ref_steps pb_kstep for REF, in device memory. Returns the launch's error
+ * (cudaSuccess when it was queued). */
+cudaError_t pb_cuda_launch(int method, cudaTextureObject_t volume, const void *plan, const pb_kparams *prm,
+                           float *out, cudaStream_t stream);
+
+/* cudaSuccess when the current device can run every kernel (the fat binary
+ * holds code for it); otherwise the error a launch would give. */
+cudaError_t pb_cuda_check_kernels(void);
+
+#ifdef __cplusplus
+}
+#endif
+
+#endif

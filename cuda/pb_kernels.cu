@@ -1,0 +1,39 @@
+/* The CUDA translation unit of the kernels: the CUDA side of the shim, then the
+ * very source the OpenCL backend embeds (cl/pb_blur.cl). Nothing of the kernels
+ * is copied here. */
+#include <cuda_runtime.h>
+
+#include "pb_shim_cuda.h"
+#include "../cl/pb_blur.cl"
+#include "pb_cuda_launch.h"
+
+extern "C" cudaError_t pb_cuda_launch(int method, cudaTextureObject_t volume, const void *plan,
+                                      const pb_kparams *prm, float *out, cudaStream_t stream)
+{
+    dim3 block(PB_CUDA_BLOCK_X, PB_CUDA_BLOCK_Y, PB_CUDA_BLOCK_Z);
+    dim3 grid((unsigned)(prm->dims[0] + PB_CUDA_BLOCK_X - 1) / PB_CUDA_BLOCK_X,
+              (unsigned)(prm->dims[1] + PB_CUDA_BLOCK_Y - 1) / PB_CUDA_BLOCK_Y,
+              (unsigned)(prm->dims[2] + PB_CUDA_BLOCK_Z - 1) / PB_CUDA_BLOCK_Z);
+    const pb_kpose *poses = static_cast<const pb_kpose *>(plan);
+    switch (method) {
+    case 0: pb_blur_ab<<<grid, block, 0, stream>>>(volume, poses, *prm, out); break;
+    case 1: pb_blur_rm<<<grid, block, 0, stream>>>(volume, poses, *prm, out); break;
+    case 2: pb_blur_cl<<<grid, block, 0, stream>>>(volume, poses, *prm, out); break;
+    case 3: pb_blur_ref<<<grid, block, 0, stream>>>(volume, static_cast<const pb_kstep *>(plan), *prm, out); break;
+    default: return cudaErrorInvalidValue;
+    }
+    return cudaGetLastError();
+}
+
+extern "C" cudaError_t pb_cuda_check_kernels(void)
+{
+    const void *kernels[] = {(const void *)pb_blur_ab, (const void *)pb_blur_rm, (const void *)pb_blur_cl,
+                             (const void *)pb_blur_ref};
+    for (const void *k : kernels) {
+        cudaFuncAttributes attr;
+        cudaError_t e = cudaFuncGetAttributes(&attr, k);
+        if (e != cudaSuccess)
+            return e;
+    }
+    return cudaSuccess;
+}

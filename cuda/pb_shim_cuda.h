@@ -1,0 +1,39 @@
+/* The shim, CUDA side: the names cl/pb_shim.h gives the OpenCL C compiler,
+ * spelled for nvcc. cuda/pb_kernels.cu includes this, then the very kernel
+ * source in cl/. Kernel bodies use nothing else, so both compilers see the same
+ * arithmetic.
+ *
+ * Coordinates, as in OpenCL: unnormalized texel coordinates, texel i's centre at
+ * i + 0.5, border addressing (zero outside the volume), x fastest. */
+#ifndef PB_SHIM_CUDA_H
+#define PB_SHIM_CUDA_H
+
+#ifndef __CUDACC__
+#error "cuda/pb_shim_cuda.h is for nvcc"
+#endif
+
+#define PB_SHIM_CUDA 1
+
+/* extern "C": unmangled names, the same ones the OpenCL program exports. */
+#define PB_KERNEL extern "C" __global__
+#define PB_FN static __device__ __forceinline__
+#define PB_GLOBAL
+#define PB_GLOBAL_RO const
+#define PB_GID_X ((int)(blockIdx.x * blockDim.x + threadIdx.x))
+#define PB_GID_Y ((int)(blockIdx.y * blockDim.y + threadIdx.y))
+#define PB_GID_Z ((int)(blockIdx.z * blockDim.z + threadIdx.z))
+typedef cudaTextureObject_t pb_image;
+
+/* A CUDA texture object carries its filter mode, where OpenCL passes a sampler
+ * per read. The backend binds two texture objects to the volume's cudaArray,
+ * one linear and one point, and passes the one the launch's reads need: linear
+ * for HARDWARE (every fetch of AB, RM and CL goes through PB_FETCH_LINEAR), point
+ * for EXACT and REF (every fetch goes through PB_FETCH_NEAREST). */
+#define PB_FETCH_LINEAR(img, px, py, pz) tex3D<float>((img), (px), (py), (pz))
+#define PB_FETCH_NEAREST(img, px, py, pz) tex3D<float>((img), (px), (py), (pz))
+
+/* Float maths: for float arguments C++ overloads pick the float versions
+ * (floorf, fabsf, fmaxf, sinf, sqrtf), as OpenCL C does. (The only double code
+ * in the PTX is sinf's own slow path for huge arguments.) */
+
+#endif

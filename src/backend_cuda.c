@@ -1,0 +1,375 @@
+/* The CUDA backend: the kernels of cl/pb_blur.cl compiled by nvcc
+ * (cuda/pb_kernels.cu), run through the CUDA runtime. The only library file that
+ * includes a CUDA header; plain C, so it reaches the kernels through
+ * cuda/pb_cuda_launch.h. Every runtime call is checked and its error text
+ * reaches the caller. */
+#include <cuda_runtime_api.h>
+
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "../cuda/pb_cuda_launch.h"
+#include "backend.h"
+#include "kernel_args.h"
+
+typedef struct cu_impl {
+    int device;
+    cudaStream_t stream; /* every copy and launch of the context, in order */
+    cudaEvent_t start, stop;
+    void *plan;          /* key poses or REF steps of the current launch */
+    size_t plan_bytes;
+} cu_impl;
+
+typedef struct cu_volume {
+    float *buffer;               /* what the kernels write and the host reads */
+    cudaArray_t array;           /* what the kernels sample; made on first use as an input */
+    cudaTextureObject_t linear;  /* HARDWARE fetches */
+    cudaTextureObject_t point;   /* EXACT and REF reads */
+    int array_stale;
+} cu_volume;
+
+/* Maps a failed CUDA call to a status; allocation failures are memory errors.
+ * Clears the runtime's last error, so that one failure is reported once. */
+static pb_status cu_fail(pb_context *ctx, pb_status kind, const char *call, cudaError_t e)
+{
+    (void)cudaGetLastError();
+    const char *hint = "";
+    if (e == cudaErrorMemoryAllocation) {
+        kind = PB_ERR_OUT_OF_MEMORY;
+        hint = "; free device memory or use a smaller volume";
+    } else if (e == cudaErrorNoKernelImageForDevice || e == cudaErrorUnsupportedPtxVersion) {
+        kind = PB_ERR_BUILD;
+        hint = "; petblur's CUDA kernels were not built for this GPU: rebuild with -Dgpu_archs=<its compute "
+               "capability, e.g. 90> or use --device opencl";
+    } else if (e == cudaErrorInsufficientDriver) {
+        hint = "; the NVIDIA driver is older than this CUDA toolkit: update the driver or use --device opencl";
+    }
+    return pb_error(ctx, kind, "%s() failed: %s (%s, %d)%s", call, cudaGetErrorString(e), cudaGetErrorName(e),
+                    (int)e, hint);
+}
+
+/* No GPU, or no driver to reach one (CI machines): zero devices, not an error. */
+static int means_no_device(cudaError_t e)
+{
+    return e == cudaErrorNoDevice || e == cudaErrorInsufficientDriver;
+}
+
+static pb_status cuda_device_count(int *count)
+{
+    *count = 0;
+    cudaError_t e = cudaGetDeviceCount(count);
+    if (means_no_device(e)) {
+        (void)cudaGetLastError();
+        *count = 0;
+        return PB_OK;
+    }
+    return e == cudaSuccess ? PB_OK : cu_fail(NULL, PB_ERR_DEVICE, "cudaGetDeviceCount", e);
+}
+
+static pb_status fill_info(pb_context *ctx, int index, pb_device_info *info)
+{
+    struct cudaDeviceProp p;
+    cudaError_t e = cudaGetDeviceProperties(&p, index);
+    if (e != cudaSuccess)
+        return cu_fail(ctx, PB_ERR_DEVICE, "cudaGetDeviceProperties", e);
+    int runtime = 0, driver = 0;
+    cudaRuntimeGetVersion(&runtime);
+    cudaDriverGetVersion(&driver);
+    memset(info, 0, sizeof *info);
+    snprintf(info->name, sizeof info->name, "%s", p.name);
+    snprintf(info->platform, sizeof info->platform, "CUDA %d.%d (driver API %d.%d), sm_%d%d", runtime / 1000,
+             runtime % 1000 / 10, driver / 1000, driver % 1000 / 10, p.major, p.minor);
+    info->is_gpu = 1;
+    info->image_support = 1; /* every CUDA GPU filters float textures linearly */
+    for (int d = 0; d < 3; d++)
+        info->image3d_max[d] = (size_t)p.maxTexture3D[d];
+    info->max_alloc_bytes = p.totalGlobalMem;
+    info->global_mem_bytes = p.totalGlobalMem;
+    info->compute_units = (unsigned)p.multiProcessorCount;
+    return PB_OK;
+}
+
+static pb_status cuda_device_info(int index, pb_device_info *info)
+{
+    return fill_info(NULL, index, info);
+}
+
+/* The runtime's current device is per thread; a context may be used from any
+ * thread, so every entry point selects its device first. */
+static pb_status use_device(pb_context *ctx)
+{
+    cu_impl *cu = ctx->impl;
+    cudaError_t e = cudaSetDevice(cu->device);
+    return e == cudaSuccess ? PB_OK : cu_fail(ctx, PB_ERR_DEVICE, "cudaSetDevice", e);
+}
+
+static pb_status cuda_context_init(pb_context *ctx, int index, const char *build_options)
+{
+    (void)build_options; /* the kernels were compiled with the library */
+    int n = 0;
+    cudaError_t e = cudaGetDeviceCount(&n);
+    if (e != cudaSuccess && !means_no_device(e))
+        return cu_fail(ctx, PB_ERR_DEVICE, "cudaGetDeviceCount", e);
+    if (e != cudaSuccess || n == 0) {
+        (void)cudaGetLastError();
+        return pb_error(ctx, PB_ERR_NO_DEVICE,
+                        "no CUDA device found (%s); check the NVIDIA driver with nvidia-smi, or use --device opencl "
+                        "or --device host",
+                        e != cudaSuccess ? cudaGetErrorString(e) : "the driver lists none");
+    }
+    if (index >= n)
+        return pb_error(ctx, PB_ERR_NO_DEVICE, "CUDA device %d does not exist (%d found); pick 0 to %d", index, n,
+                        n - 1);
+    cu_impl *cu = calloc(1, sizeof *cu);
+    if (!cu)
+        return pb_error(ctx, PB_ERR_OUT_OF_MEMORY, "out of host memory for a CUDA context");
+    ctx->impl = cu;
+    cu->device = index;
+    pb_status st = use_device(ctx);
+    if (st == PB_OK)
+        st = fill_info(ctx, index, &ctx->device);
+    if (st != PB_OK)
+        return st;
+    if ((e = cudaStreamCreateWithFlags(&cu->stream, cudaStreamNonBlocking)) != cudaSuccess)
+        return cu_fail(ctx, PB_ERR_DEVICE, "cudaStreamCreateWithFlags", e);
+    if ((e = cudaEventCreate(&cu->start)) != cudaSuccess || (e = cudaEventCreate(&cu->stop)) != cudaSuccess)
+        return cu_fail(ctx, PB_ERR_DEVICE, "cudaEventCreate", e);
+    /* A GPU the fat binary has no code for fails here, not at the first blur. */
+    if ((e = pb_cuda_check_kernels()) != cudaSuccess)
+        return cu_fail(ctx, PB_ERR_BUILD, "cudaFuncGetAttributes", e);
+    return PB_OK;
+}
+
+static void cuda_context_release(pb_context *ctx)
+{
+    cu_impl *cu = ctx->impl;
+    if (!cu)
+        return;
+    cudaSetDevice(cu->device);
+    if (cu->plan)
+        cudaFree(cu->plan);
+    if (cu->start)
+        cudaEventDestroy(cu->start);
+    if (cu->stop)
+        cudaEventDestroy(cu->stop);
+    if (cu->stream)
+        cudaStreamDestroy(cu->stream);
+    (void)cudaGetLastError();
+    free(cu);
+    ctx->impl = NULL;
+}
+
+static pb_status cuda_volume_init(pb_volume *vol)
+{
+    pb_status st = use_device(vol->ctx);
+    if (st != PB_OK)
+        return st;
+    cu_volume *v = calloc(1, sizeof *v);
+    if (!v)
+        return pb_error(vol->ctx, PB_ERR_OUT_OF_MEMORY, "out of host memory for a volume");
+    cudaError_t e = cudaMalloc((void **)&v->buffer, vol->count * sizeof(float));
+    if (e != cudaSuccess) {
+        free(v);
+        return cu_fail(vol->ctx, PB_ERR_DEVICE, "cudaMalloc", e);
+    }
+    v->array_stale = 1;
+    vol->impl = v;
+    return PB_OK;
+}
+
+static void release_array(cu_volume *v)
+{
+    if (v->linear)
+        cudaDestroyTextureObject(v->linear);
+    if (v->point)
+        cudaDestroyTextureObject(v->point);
+    if (v->array)
+        cudaFreeArray(v->array);
+    v->linear = v->point = 0;
+    v->array = NULL;
+}
+
+static void cuda_volume_release(pb_volume *vol)
+{
+    cu_volume *v = vol->impl;
+    use_device(vol->ctx);
+    release_array(v);
+    cudaFree(v->buffer);
+    (void)cudaGetLastError();
+    free(v);
+}
+
+static pb_status cuda_volume_upload(pb_volume *vol, const float *host)
+{
+    cu_impl *cu = vol->ctx->impl;
+    cu_volume *v = vol->impl;
+    pb_status st = use_device(vol->ctx);
+    if (st != PB_OK)
+        return st;
+    cudaError_t e = cudaMemcpyAsync(v->buffer, host, vol->count * sizeof(float), cudaMemcpyHostToDevice, cu->stream);
+    if (e == cudaSuccess)
+        e = cudaStreamSynchronize(cu->stream);
+    if (e != cudaSuccess)
+        return cu_fail(vol->ctx, PB_ERR_DEVICE, "cudaMemcpyAsync (upload)", e);
+    v->array_stale = 1;
+    return PB_OK;
+}
+
+static pb_status cuda_volume_download(const pb_volume *vol, float *host)
+{
+    cu_impl *cu = vol->ctx->impl;
+    const cu_volume *v = vol->impl;
+    pb_status st = use_device(vol->ctx);
+    if (st != PB_OK)
+        return st;
+    cudaError_t e = cudaMemcpyAsync(host, v->buffer, vol->count * sizeof(float), cudaMemcpyDeviceToHost, cu->stream);
+    if (e == cudaSuccess)
+        e = cudaStreamSynchronize(cu->stream);
+    if (e != cudaSuccess)
+        return cu_fail(vol->ctx, PB_ERR_DEVICE, "cudaMemcpyAsync (download)", e);
+    return PB_OK;
+}
+
+/* One texture object on the volume's array: border addressing (zero outside),
+ * unnormalized coordinates (texel i's centre at i + 0.5), float reads. */
+static cudaError_t make_texture(cudaArray_t array, enum cudaTextureFilterMode filter, cudaTextureObject_t *tex)
+{
+    struct cudaResourceDesc res;
+    struct cudaTextureDesc td;
+    memset(&res, 0, sizeof res);
+    memset(&td, 0, sizeof td); /* border colour (0, 0, 0, 0) */
+    res.resType = cudaResourceTypeArray;
+    res.res.array.array = array;
+    for (int d = 0; d < 3; d++)
+        td.addressMode[d] = cudaAddressModeBorder;
+    td.filterMode = filter;
+    td.readMode = cudaReadModeElementType;
+    td.normalizedCoords = 0;
+    return cudaCreateTextureObject(tex, &res, &td, NULL);
+}
+
+/* Brings the volume's array up to date with its buffer (a device-side copy). */
+static pb_status refresh_array(pb_context *ctx, const pb_volume *vol)
+{
+    cu_impl *cu = ctx->impl;
+    cu_volume *v = vol->impl;
+    const size_t *n = vol->geometry.dims;
+    struct cudaExtent extent = {n[0], n[1], n[2]}; /* in elements, for arrays */
+    cudaError_t e;
+    if (!v->array) {
+        struct cudaChannelFormatDesc fmt = cudaCreateChannelDesc(32, 0, 0, 0, cudaChannelFormatKindFloat);
+        if ((e = cudaMalloc3DArray(&v->array, &fmt, extent, 0)) != cudaSuccess) {
+            v->array = NULL;
+            return cu_fail(ctx, PB_ERR_DEVICE, "cudaMalloc3DArray", e);
+        }
+        if ((e = make_texture(v->array, cudaFilterModeLinear, &v->linear)) != cudaSuccess ||
+            (e = make_texture(v->array, cudaFilterModePoint, &v->point)) != cudaSuccess) {
+            release_array(v);
+            return cu_fail(ctx, PB_ERR_DEVICE, "cudaCreateTextureObject", e);
+        }
+        v->array_stale = 1;
+    }
+    if (v->array_stale) {
+        struct cudaMemcpy3DParms cp;
+        memset(&cp, 0, sizeof cp);
+        cp.srcPtr.ptr = v->buffer;
+        cp.srcPtr.pitch = n[0] * sizeof(float);
+        cp.srcPtr.xsize = n[0];
+        cp.srcPtr.ysize = n[1];
+        cp.dstArray = v->array;
+        cp.extent = extent;
+        cp.kind = cudaMemcpyDeviceToDevice;
+        if ((e = cudaMemcpy3DAsync(&cp, cu->stream)) != cudaSuccess)
+            return cu_fail(ctx, PB_ERR_DEVICE, "cudaMemcpy3DAsync (buffer to array)", e);
+        v->array_stale = 0;
+    }
+    return PB_OK;
+}
+
+/* The plan's key poses (or REF steps) in the kernels' float layout, copied into
+ * the context's plan buffer, which grows as needed. */
+static pb_status upload_plan(pb_context *ctx, const pb_plan *plan, const pb_blur_options *opt)
+{
+    cu_impl *cu = ctx->impl;
+    size_t bytes;
+    void *data;
+    if (opt->method == PB_METHOD_REF) {
+        pb_kstep *s = calloc(plan->ref_count, sizeof *s);
+        if (!s)
+            return pb_error(ctx, PB_ERR_OUT_OF_MEMORY, "out of host memory for the reference's steps");
+        for (size_t i = 0; i < plan->ref_count; i++)
+            pb_kstep_from_plan(plan, i, &s[i]);
+        data = s;
+        bytes = plan->ref_count * sizeof *s;
+    } else {
+        pb_kpose *p = calloc(plan->count, sizeof *p);
+        if (!p)
+            return pb_error(ctx, PB_ERR_OUT_OF_MEMORY, "out of host memory for the key poses");
+        for (size_t i = 0; i < plan->count; i++)
+            pb_kpose_from_plan(plan, i, &p[i]);
+        data = p;
+        bytes = plan->count * sizeof *p;
+    }
+    cudaError_t e = cudaSuccess;
+    if (bytes > cu->plan_bytes) {
+        if (cu->plan)
+            cudaFree(cu->plan);
+        cu->plan = NULL;
+        cu->plan_bytes = 0;
+        if ((e = cudaMalloc(&cu->plan, bytes)) != cudaSuccess) {
+            cu->plan = NULL;
+            free(data);
+            return cu_fail(ctx, PB_ERR_DEVICE, "cudaMalloc (plan)", e);
+        }
+        cu->plan_bytes = bytes;
+    }
+    /* From pageable memory the call returns once the data is staged, so the
+     * host copy may go right away. */
+    e = cudaMemcpyAsync(cu->plan, data, bytes, cudaMemcpyHostToDevice, cu->stream);
+    free(data);
+    return e == cudaSuccess ? PB_OK : cu_fail(ctx, PB_ERR_DEVICE, "cudaMemcpyAsync (plan)", e);
+}
+
+static pb_status cuda_blur(pb_context *ctx, const pb_volume *object, const pb_plan *plan,
+                           const pb_blur_options *opt, pb_volume *tomograph)
+{
+    cu_impl *cu = ctx->impl;
+    pb_status st = use_device(ctx);
+    if (st == PB_OK)
+        st = refresh_array(ctx, object);
+    if (st == PB_OK)
+        st = upload_plan(ctx, plan, opt);
+    if (st != PB_OK)
+        return st;
+    pb_kparams prm;
+    pb_kparams_from_plan(plan, opt, &prm);
+    const cu_volume *in = object->impl;
+    cu_volume *out = tomograph->impl;
+    /* Which texture object: see cuda/pb_shim_cuda.h. */
+    int point = opt->method == PB_METHOD_REF || opt->filter == PB_FILTER_EXACT;
+
+    cudaError_t e = cudaEventRecord(cu->start, cu->stream);
+    if (e != cudaSuccess)
+        return cu_fail(ctx, PB_ERR_LAUNCH, "cudaEventRecord", e);
+    e = pb_cuda_launch((int)opt->method, point ? in->point : in->linear, cu->plan, &prm, out->buffer, cu->stream);
+    if (e != cudaSuccess)
+        return cu_fail(ctx, PB_ERR_LAUNCH, "the kernel launch", e);
+    if ((e = cudaEventRecord(cu->stop, cu->stream)) != cudaSuccess)
+        return cu_fail(ctx, PB_ERR_LAUNCH, "cudaEventRecord", e);
+    /* A kernel that faulted reports here. */
+    if ((e = cudaEventSynchronize(cu->stop)) != cudaSuccess)
+        return cu_fail(ctx, PB_ERR_LAUNCH, "cudaEventSynchronize (the kernel failed)", e);
+    float ms = 0.0f;
+    if ((e = cudaEventElapsedTime(&ms, cu->start, cu->stop)) != cudaSuccess)
+        return cu_fail(ctx, PB_ERR_LAUNCH, "cudaEventElapsedTime", e);
+    ctx->last_kernel_ms = (double)ms;
+    out->array_stale = 1;
+    return PB_OK;
+}
+
+const pb_backend_ops pb_backend_cuda_ops = {
+    PB_BACKEND_CUDA,      cuda_device_count,  cuda_device_info,    cuda_context_init,
+    cuda_context_release, cuda_volume_init,   cuda_volume_release, cuda_volume_upload,
+    cuda_volume_download, cuda_blur,
+};
