@@ -4,8 +4,10 @@
 # and on PoCL, the cuda suite, how far CUDA is from PoCL and from NVIDIA's
 # OpenCL on the same inputs, then the benchmark of every method on a 256^3
 # volume for the paper's eight motions on CUDA (CUDA events) and on NVIDIA's
-# OpenCL (profiling events). Tables go to $OUT (the device tool brings them
-# back); commit them under bench/results/ with the date, GPU and commit.
+# OpenCL (profiling events). What comes back through $OUT (the device tool
+# returns at most 8 files): tables.md, the three bench CSVs, compare.txt,
+# tests.txt and logs.tar.gz with everything else. Commit them under
+# bench/results/ with the date, GPU and commit.
 #
 # The machine has no Khronos CL/ headers and no libOpenCL.so link name: bring
 # them in .device/ (git-ignored) with bench/gpu-prepare.sh on this machine.
@@ -13,6 +15,8 @@ set -uo pipefail
 cd "$(dirname "$0")/.."
 OUT=${OUT:-$PWD/gpu-out}
 mkdir -p "$OUT"
+LOG=$(mktemp -d)/logs
+mkdir -p "$LOG"
 dev=$PWD/.device
 export CFLAGS="-I$dev/include" LDFLAGS="-L$dev/lib" LIBRARY_PATH="$dev/lib"
 export LD_LIBRARY_PATH="$dev/lib${LD_LIBRARY_PATH:+:$LD_LIBRARY_PATH}"
@@ -26,13 +30,13 @@ command -v meson >/dev/null || meson=(python3 -m mesonbuild.mesonmain)
     nvidia-smi --query-gpu=name,driver_version,memory.total --format=csv,noheader 2>&1
     nvcc --version | tail -2
     nproc | sed 's/^/cpu cores: /'
-} | tee "$OUT/machine.txt"
+} | tee "$LOG/machine.txt"
 
-"${meson[@]}" setup build-gpu --buildtype=release -Dcuda=enabled -Dopencl=enabled >"$OUT/setup.log" 2>&1 &&
-    ninja -C build-gpu >"$OUT/build.log" 2>&1 || { tail -40 "$OUT/setup.log" "$OUT/build.log"; exit 1; }
+"${meson[@]}" setup build-gpu --buildtype=release -Dcuda=enabled -Dopencl=enabled >"$LOG/setup.log" 2>&1 &&
+    ninja -C build-gpu >"$LOG/build.log" 2>&1 || { tail -40 "$LOG/setup.log" "$LOG/build.log"; exit 1; }
 # Registers and spills of the CUDA kernels, for the record.
 nvcc -arch=sm_90 -O3 -std=c++17 -Xptxas -v -c cuda/pb_kernels.cu -o /dev/null 2>&1 |
-    grep -E 'entry function|registers' >"$OUT/cuda-registers.txt"
+    grep -E 'entry function|registers' >"$LOG/cuda-registers.txt"
 
 # Each OpenCL platform on its own, through a vendor folder of its own.
 vend=$(mktemp -d)
@@ -48,10 +52,13 @@ run_suites() { # name, vendor folder, suites...
     local args=()
     for s in "$@"; do args+=(--suite "$s"); done
     OCL_ICD_VENDORS=$vendors "${meson[@]}" test -C build-gpu --no-rebuild --print-errorlogs "${args[@]}" \
-        >"$OUT/test-$name.log" 2>&1 || status=1
-    cp build-gpu/meson-logs/testlog.txt "$OUT/testlog-$name.txt"
-    grep -E '^ *[0-9]+/[0-9]+ |^(Ok|Fail|Skipped):' "$OUT/test-$name.log"
-    grep -h 'largest relative difference\|hardware weights' build-gpu/meson-logs/testlog.txt | sed "s/^/$name: /"
+        >"$LOG/test-$name.log" 2>&1 || status=1
+    cp build-gpu/meson-logs/testlog.txt "$LOG/testlog-$name.txt"
+    {
+        echo "== $name"
+        grep -E '^ *[0-9]+/[0-9]+ |^(Ok|Fail|Skipped):' "$LOG/test-$name.log"
+        grep -h 'largest relative difference\|hardware weights' build-gpu/meson-logs/testlog.txt | sed "s/^/$name: /"
+    } | tee -a "$OUT/tests.txt"
 }
 OCL_ICD_VENDORS="$vend/nvidia:$vend/pocl" ./build-gpu/src/petblur devices
 run_suites host "$vend/pocl" host
@@ -60,18 +67,30 @@ run_suites nvidia-opencl "$vend/nvidia" opencl
 run_suites pocl "$vend/pocl" opencl
 
 echo "== CUDA against PoCL and against NVIDIA OpenCL, same inputs =="
-OCL_ICD_VENDORS="$vend/pocl" ./build-gpu/bench/pb_compare --size 64 cuda opencl:0 | tee "$OUT/compare-cuda-pocl.txt"
-OCL_ICD_VENDORS="$vend/nvidia" ./build-gpu/bench/pb_compare --size 64 cuda opencl:0 | tee "$OUT/compare-cuda-nvidia-opencl.txt"
+: >"$OUT/compare.txt"
+for platform in pocl nvidia; do
+    echo "## CUDA (A) against $platform OpenCL (B)" | tee -a "$OUT/compare.txt"
+    OCL_ICD_VENDORS="$vend/$platform" ./build-gpu/bench/pb_compare --size 64 cuda opencl:0 |
+        tee -a "$OUT/compare.txt" || status=1
+done
 
 echo "== benchmark: CUDA, 256^3, paper scenarios 1-8 =="
 ./build-gpu/bench/pb_bench --device cuda --size 256 --runs 20 --ref-runs 3 \
-    --label cuda --csv "$OUT/bench-cuda.csv" | tee "$OUT/bench-cuda.txt" || status=1
+    --label cuda --csv "$OUT/bench-cuda.csv" | tee "$LOG/bench-cuda.txt" || status=1
 echo "== benchmark: NVIDIA OpenCL, 256^3, paper scenarios 1-8 =="
 OCL_ICD_VENDORS="$vend/nvidia" ./build-gpu/bench/pb_bench --device opencl --size 256 --runs 20 --ref-runs 3 \
-    --label nvidia-opencl --csv "$OUT/bench-nvidia-opencl.csv" | tee "$OUT/bench-nvidia-opencl.txt" || status=1
+    --label nvidia-opencl --csv "$OUT/bench-nvidia-opencl.csv" | tee "$LOG/bench-nvidia-opencl.txt" || status=1
 echo "== benchmark: PoCL on the GPU machine's CPU, 128^3, scenario 2 =="
 OCL_ICD_VENDORS="$vend/pocl" ./build-gpu/bench/pb_bench --device opencl --size 128 --runs 5 --ref-runs 0 \
-    --scenario 2 --label pocl-cpu --csv "$OUT/bench-pocl.csv" | tee "$OUT/bench-pocl.txt" || status=1
+    --scenario 2 --label pocl-cpu --csv "$OUT/bench-pocl.csv" | tee "$LOG/bench-pocl.txt" || status=1
 
-python3 bench/summarize.py "$OUT" | tee "$OUT/tables.md"
+{
+    sed 's/^/    /' "$LOG/machine.txt"
+    echo
+    python3 bench/summarize.py "$OUT"
+    echo "PoCL on the GPU machine's CPU, 128^3, scenario 2:"
+    echo
+    grep -v '^#' "$LOG/bench-pocl.txt" | sed 's/^/    /'
+} | tee "$OUT/tables.md"
+tar -C "$(dirname "$LOG")" -czf "$OUT/logs.tar.gz" logs
 exit $status

@@ -113,18 +113,19 @@ PB_FN float pb_tent_share(float r0, float r1, float *mean)
 }
 
 /* Antialiased Bresenham walk along a-b (texel coordinates): one slice at a
- * time along the major axis, one sample per slice at the path's position there. */
+ * time along the major axis, one sample per slice. Slice k is sampled on its
+ * centre plane (major coordinate k + 0.5 exactly, so the filter's weight along
+ * the major axis is 0 or 1) where the path crosses it; that point is linear in
+ * k, C + k G. Slices the moving voxel covers fully have share 1; the at most two
+ * partly covered slices at each end get their tent share and are sampled at the
+ * share's weighted mean position, shifted along the path by H (G without its
+ * major component). */
 PB_FN float pb_ab_segment(pb_image img, int exact, const float *a, const float *b)
 {
     int m = pb_major_axis(b[0] - a[0], b[1] - a[1], b[2] - a[2]);
-    /* Major coordinate in voxel-centre units (voxel k's centre at k); transverse
-     * ones stay texel coordinates. */
+    /* Major coordinate in voxel-centre units (voxel k's centre at k). */
     float am = (m == 0 ? a[0] : (m == 1 ? a[1] : a[2])) - 0.5f;
     float bm = (m == 0 ? b[0] : (m == 1 ? b[1] : b[2])) - 0.5f;
-    float a1 = m == 0 ? a[1] : (m == 1 ? a[2] : a[0]);
-    float a2 = m == 0 ? a[2] : (m == 1 ? a[0] : a[1]);
-    float d1 = (m == 0 ? b[1] : (m == 1 ? b[2] : b[0])) - a1;
-    float d2 = (m == 0 ? b[2] : (m == 1 ? b[0] : b[1])) - a2;
     float lo = fmin(am, bm), hi = fmax(am, bm);
     if (hi - lo < 1e-4f) {
         /* A point: tent weights of two slices times bilinear weights are the
@@ -132,17 +133,42 @@ PB_FN float pb_ab_segment(pb_image img, int exact, const float *a, const float *
         return pb_trilinear(img, exact, 0.5f * (a[0] + b[0]), 0.5f * (a[1] + b[1]), 0.5f * (a[2] + b[2]));
     }
     float inv = 1.0f / (bm - am);
+    /* G: the path's step per slice; C: its point on plane k = 0. */
+    float gx = (b[0] - a[0]) * inv, gy = (b[1] - a[1]) * inv, gz = (b[2] - a[2]) * inv;
+    float hx = m == 0 ? 0.0f : gx, hy = m == 1 ? 0.0f : gy, hz = m == 2 ? 0.0f : gz;
+    gx = m == 0 ? 1.0f : gx;
+    gy = m == 1 ? 1.0f : gy;
+    gz = m == 2 ? 1.0f : gz;
+    float cx = m == 0 ? 0.5f : a[0] - am * gx;
+    float cy = m == 1 ? 0.5f : a[1] - am * gy;
+    float cz = m == 2 ? 0.5f : a[2] - am * gz;
     int k0 = (int)floor(lo), k1 = (int)ceil(hi);
-    float sum = 0.0f, wsum = 0.0f;
-    for (int k = k0; k <= k1; k++) {
+    /* Fully covered slices: k - 1 >= lo and k + 1 <= hi. */
+    int f0 = (int)ceil(lo + 1.0f), f1 = (int)floor(hi - 1.0f);
+    if (f1 < f0) {
+        f0 = k1 + 1; /* none: the first end loop takes every slice */
+        f1 = k1;
+    }
+    /* The fully covered slices get a loop of their own, free of branches, so
+     * the compiler can keep several fetches in flight. */
+    float sum = 0.0f;
+    for (int k = f0; k <= f1; k++) {
+        float kf = (float)k;
+        sum += pb_slice_sample(img, exact, m, kf * gx + cx, kf * gy + cy, kf * gz + cz);
+    }
+    float wsum = (float)(f1 - f0 + 1);
+    for (int k = k0; k < f0; k++) {
         float kf = (float)k, mean;
         float w = pb_tent_share(lo - kf, hi - kf, &mean);
-        float s = fmin(fmax((mean - (am - kf)) * inv, 0.0f), 1.0f);
-        float t1 = a1 + s * d1, t2 = a2 + s * d2, km = kf + 0.5f;
-        float x = m == 0 ? km : (m == 1 ? t2 : t1);
-        float y = m == 0 ? t1 : (m == 1 ? km : t2);
-        float z = m == 0 ? t2 : (m == 1 ? t1 : km);
-        sum += w * pb_slice_sample(img, exact, m, x, y, z);
+        sum += w * pb_slice_sample(img, exact, m, kf * gx + cx + mean * hx, kf * gy + cy + mean * hy,
+                                   kf * gz + cz + mean * hz);
+        wsum += w;
+    }
+    for (int k = f1 + 1; k <= k1; k++) {
+        float kf = (float)k, mean;
+        float w = pb_tent_share(lo - kf, hi - kf, &mean);
+        sum += w * pb_slice_sample(img, exact, m, kf * gx + cx + mean * hx, kf * gy + cy + mean * hy,
+                                   kf * gz + cz + mean * hz);
         wsum += w;
     }
     /* The shares add up to the path length; dividing by their float sum makes
@@ -189,7 +215,7 @@ PB_FN void pb_classical_point(PB_GLOBAL_RO pb_kpose *p0, PB_GLOBAL_RO pb_kpose *
 }
 
 /* AB over one segment, split into prm.steps equal sub-segments. */
-PB_FN float pb_ab_sampled(pb_image img, pb_kparams prm, const float *a, const float *b)
+PB_FN float pb_ab_sampled(pb_image img, pb_kparams prm, int exact, const float *a, const float *b)
 {
     float sum = 0.0f, inv = 1.0f / (float)prm.steps;
     for (int r = 0; r < prm.steps; r++) {
@@ -198,19 +224,19 @@ PB_FN float pb_ab_sampled(pb_image img, pb_kparams prm, const float *a, const fl
             pa[i] = a[i] + (b[i] - a[i]) * ((float)r * inv);
             pb[i] = a[i] + (b[i] - a[i]) * ((float)(r + 1) * inv);
         }
-        sum += pb_ab_segment(img, prm.exact, pa, pb);
+        sum += pb_ab_segment(img, exact, pa, pb);
     }
     return sum * inv;
 }
 
 /* RM over one segment: n equidistant trilinear samples (n: AB's slices). */
-PB_FN float pb_rm_sampled(pb_image img, pb_kparams prm, const float *a, const float *b)
+PB_FN float pb_rm_sampled(pb_image img, pb_kparams prm, int exact, const float *a, const float *b)
 {
     int n = prm.steps > 0 ? prm.steps : pb_ab_slices(a, b);
     float sum = 0.0f;
     for (int i = 0; i < n; i++) {
         float s = ((float)i + 0.5f) / (float)n;
-        sum += pb_trilinear(img, prm.exact, a[0] + s * (b[0] - a[0]), a[1] + s * (b[1] - a[1]),
+        sum += pb_trilinear(img, exact, a[0] + s * (b[0] - a[0]), a[1] + s * (b[1] - a[1]),
                             a[2] + s * (b[2] - a[2]));
     }
     return sum / (float)n;
@@ -218,7 +244,8 @@ PB_FN float pb_rm_sampled(pb_image img, pb_kparams prm, const float *a, const fl
 
 /* The polyline methods: W's object-space path through the key poses, one
  * straight segment per pair, each weighed by its share of the frame. */
-PB_FN float pb_polyline(pb_image img, PB_GLOBAL_RO pb_kpose *poses, pb_kparams prm, int ix, int iy, int iz, int ab)
+PB_FN float pb_polyline(pb_image img, PB_GLOBAL_RO pb_kpose *poses, pb_kparams prm, int ix, int iy, int iz, int ab,
+                        int exact)
 {
     float ux = (float)ix + 0.5f, uy = (float)iy + 0.5f, uz = (float)iz + 0.5f;
     float total = 0.0f, a[3], b[3];
@@ -227,30 +254,15 @@ PB_FN float pb_polyline(pb_image img, PB_GLOBAL_RO pb_kpose *poses, pb_kparams p
         for (int i = 0; i < 3; i++)
             a[i] = b[i];
         pb_map_point(poses[j + 1].map, ux, uy, uz, b);
-        total += poses[j].weight * (ab ? pb_ab_sampled(img, prm, a, b) : pb_rm_sampled(img, prm, a, b));
+        total += poses[j].weight * (ab ? pb_ab_sampled(img, prm, exact, a, b) : pb_rm_sampled(img, prm, exact, a, b));
     }
     return total;
 }
 
-PB_KERNEL void pb_blur_ab(pb_image img, PB_GLOBAL_RO pb_kpose *poses, pb_kparams prm, PB_GLOBAL float *out)
+/* Classical motion blur: the pose interpolated at every step. */
+PB_FN float pb_classical(pb_image img, PB_GLOBAL_RO pb_kpose *poses, pb_kparams prm, int ix, int iy, int iz,
+                         int exact)
 {
-    int ix = PB_GID_X, iy = PB_GID_Y, iz = PB_GID_Z;
-    if (ix < prm.dims[0] && iy < prm.dims[1] && iz < prm.dims[2])
-        out[ix + prm.dims[0] * (iy + prm.dims[1] * iz)] = pb_polyline(img, poses, prm, ix, iy, iz, 1);
-}
-
-PB_KERNEL void pb_blur_rm(pb_image img, PB_GLOBAL_RO pb_kpose *poses, pb_kparams prm, PB_GLOBAL float *out)
-{
-    int ix = PB_GID_X, iy = PB_GID_Y, iz = PB_GID_Z;
-    if (ix < prm.dims[0] && iy < prm.dims[1] && iz < prm.dims[2])
-        out[ix + prm.dims[0] * (iy + prm.dims[1] * iz)] = pb_polyline(img, poses, prm, ix, iy, iz, 0);
-}
-
-PB_KERNEL void pb_blur_cl(pb_image img, PB_GLOBAL_RO pb_kpose *poses, pb_kparams prm, PB_GLOBAL float *out)
-{
-    int ix = PB_GID_X, iy = PB_GID_Y, iz = PB_GID_Z;
-    if (ix >= prm.dims[0] || iy >= prm.dims[1] || iz >= prm.dims[2])
-        return;
     float u[3] = {(float)ix + 0.5f, (float)iy + 0.5f, (float)iz + 0.5f};
     float total = 0.0f;
     for (int j = 0; j < prm.segments; j++) {
@@ -265,11 +277,59 @@ PB_KERNEL void pb_blur_cl(pb_image img, PB_GLOBAL_RO pb_kpose *poses, pb_kparams
         for (int i = 0; i < n; i++) {
             float o[3];
             pb_classical_point(&poses[j], &poses[j + 1], ((float)i + 0.5f) / (float)n, prm, u, o);
-            seg += pb_trilinear(img, prm.exact, o[0], o[1], o[2]);
+            seg += pb_trilinear(img, exact, o[0], o[1], o[2]);
         }
         total += poses[j].weight * seg / (float)n;
     }
-    out[ix + prm.dims[0] * (iy + prm.dims[1] * iz)] = total;
+    return total;
+}
+
+/* One kernel per method and filter: the filter is a compile-time constant in
+ * each, so a HARDWARE kernel carries none of EXACT's code or registers (more
+ * threads in flight to hide texture latency). Names as in pb_kernel_names. */
+#define PB_IN_GRID(ix, iy, iz) ((ix) < prm.dims[0] && (iy) < prm.dims[1] && (iz) < prm.dims[2])
+#define PB_OUT(ix, iy, iz) out[(ix) + prm.dims[0] * ((iy) + prm.dims[1] * (iz))]
+
+PB_KERNEL void pb_blur_ab(pb_image img, PB_GLOBAL_RO pb_kpose *poses, pb_kparams prm, PB_GLOBAL float *out)
+{
+    int ix = PB_GID_X, iy = PB_GID_Y, iz = PB_GID_Z;
+    if (PB_IN_GRID(ix, iy, iz))
+        PB_OUT(ix, iy, iz) = pb_polyline(img, poses, prm, ix, iy, iz, 1, 0);
+}
+
+PB_KERNEL void pb_blur_ab_exact(pb_image img, PB_GLOBAL_RO pb_kpose *poses, pb_kparams prm, PB_GLOBAL float *out)
+{
+    int ix = PB_GID_X, iy = PB_GID_Y, iz = PB_GID_Z;
+    if (PB_IN_GRID(ix, iy, iz))
+        PB_OUT(ix, iy, iz) = pb_polyline(img, poses, prm, ix, iy, iz, 1, 1);
+}
+
+PB_KERNEL void pb_blur_rm(pb_image img, PB_GLOBAL_RO pb_kpose *poses, pb_kparams prm, PB_GLOBAL float *out)
+{
+    int ix = PB_GID_X, iy = PB_GID_Y, iz = PB_GID_Z;
+    if (PB_IN_GRID(ix, iy, iz))
+        PB_OUT(ix, iy, iz) = pb_polyline(img, poses, prm, ix, iy, iz, 0, 0);
+}
+
+PB_KERNEL void pb_blur_rm_exact(pb_image img, PB_GLOBAL_RO pb_kpose *poses, pb_kparams prm, PB_GLOBAL float *out)
+{
+    int ix = PB_GID_X, iy = PB_GID_Y, iz = PB_GID_Z;
+    if (PB_IN_GRID(ix, iy, iz))
+        PB_OUT(ix, iy, iz) = pb_polyline(img, poses, prm, ix, iy, iz, 0, 1);
+}
+
+PB_KERNEL void pb_blur_cl(pb_image img, PB_GLOBAL_RO pb_kpose *poses, pb_kparams prm, PB_GLOBAL float *out)
+{
+    int ix = PB_GID_X, iy = PB_GID_Y, iz = PB_GID_Z;
+    if (PB_IN_GRID(ix, iy, iz))
+        PB_OUT(ix, iy, iz) = pb_classical(img, poses, prm, ix, iy, iz, 0);
+}
+
+PB_KERNEL void pb_blur_cl_exact(pb_image img, PB_GLOBAL_RO pb_kpose *poses, pb_kparams prm, PB_GLOBAL float *out)
+{
+    int ix = PB_GID_X, iy = PB_GID_Y, iz = PB_GID_Z;
+    if (PB_IN_GRID(ix, iy, iz))
+        PB_OUT(ix, iy, iz) = pb_classical(img, poses, prm, ix, iy, iz, 1);
 }
 
 /* The reference: dense time steps, and at each, ref_points random points inside

@@ -12,7 +12,6 @@
 typedef struct pb_kparams {
     int dims[3];
     int segments;    /* key poses - 1 */
-    int exact;       /* 1: nearest reads weighted in float; 0: one linear fetch */
     int steps;       /* CL/RM: samples per segment (0: AB's slice count); AB: sub-segments (>= 1) */
     int ref_points;  /* REF: points per voxel */
     int ref_steps;   /* REF: time steps over the frame */
@@ -20,6 +19,18 @@ typedef struct pb_kparams {
     float voxel[3];  /* mm */
     float center[3]; /* mm from the grid's corner */
 } pb_kparams;
+
+/* The kernels, one per method and filter (REF reads nearest voxels only);
+ * pb_kernel_index gives a launch's entry. */
+#define PB_KERNEL_COUNT 7
+#define PB_KERNEL_NAMES                                                                                         \
+    {"pb_blur_ab", "pb_blur_ab_exact", "pb_blur_rm", "pb_blur_rm_exact", "pb_blur_cl", "pb_blur_cl_exact",     \
+     "pb_blur_ref"}
+
+PB_FN int pb_kernel_index(int method, int exact)
+{
+    return method == 3 ? 6 : 2 * method + (exact ? 1 : 0); /* pb_method order: AB, RM, CL, REF */
+}
 
 /* One key pose, as the kernels read it. */
 typedef struct pb_kpose {

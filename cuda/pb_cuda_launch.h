@@ -18,11 +18,11 @@ extern "C" {
 #define PB_CUDA_BLOCK_Y 4
 #define PB_CUDA_BLOCK_Z 2
 
-/* Launches kernel `method` (pb_method order: AB, RM, CL, REF) over the grid
- * prm->dims on `stream`. `plan` holds prm->segments + 1 pb_kpose, or
+/* Launches kernel `kernel` (pb_kernel_index) over the grid prm->dims on
+ * `stream`. `plan` holds prm->segments + 1 pb_kpose, or
  * prm->ref_steps pb_kstep for REF, in device memory. Returns the launch's error
  * (cudaSuccess when it was queued). */
-cudaError_t pb_cuda_launch(int method, cudaTextureObject_t volume, const void *plan, const pb_kparams *prm,
+cudaError_t pb_cuda_launch(int kernel, cudaTextureObject_t volume, const void *plan, const pb_kparams *prm,
                            float *out, cudaStream_t stream);
 
 /* cudaSuccess when the current device can run every kernel (the fat binary

@@ -7,7 +7,7 @@
 #include "../cl/pb_blur.cl"
 #include "pb_cuda_launch.h"
 
-extern "C" cudaError_t pb_cuda_launch(int method, cudaTextureObject_t volume, const void *plan,
+extern "C" cudaError_t pb_cuda_launch(int kernel, cudaTextureObject_t volume, const void *plan,
                                       const pb_kparams *prm, float *out, cudaStream_t stream)
 {
     dim3 block(PB_CUDA_BLOCK_X, PB_CUDA_BLOCK_Y, PB_CUDA_BLOCK_Z);
@@ -15,11 +15,14 @@ extern "C" cudaError_t pb_cuda_launch(int method, cudaTextureObject_t volume, co
               (unsigned)(prm->dims[1] + PB_CUDA_BLOCK_Y - 1) / PB_CUDA_BLOCK_Y,
               (unsigned)(prm->dims[2] + PB_CUDA_BLOCK_Z - 1) / PB_CUDA_BLOCK_Z);
     const pb_kpose *poses = static_cast<const pb_kpose *>(plan);
-    switch (method) {
+    switch (kernel) { /* PB_KERNEL_NAMES order */
     case 0: pb_blur_ab<<<grid, block, 0, stream>>>(volume, poses, *prm, out); break;
-    case 1: pb_blur_rm<<<grid, block, 0, stream>>>(volume, poses, *prm, out); break;
-    case 2: pb_blur_cl<<<grid, block, 0, stream>>>(volume, poses, *prm, out); break;
-    case 3: pb_blur_ref<<<grid, block, 0, stream>>>(volume, static_cast<const pb_kstep *>(plan), *prm, out); break;
+    case 1: pb_blur_ab_exact<<<grid, block, 0, stream>>>(volume, poses, *prm, out); break;
+    case 2: pb_blur_rm<<<grid, block, 0, stream>>>(volume, poses, *prm, out); break;
+    case 3: pb_blur_rm_exact<<<grid, block, 0, stream>>>(volume, poses, *prm, out); break;
+    case 4: pb_blur_cl<<<grid, block, 0, stream>>>(volume, poses, *prm, out); break;
+    case 5: pb_blur_cl_exact<<<grid, block, 0, stream>>>(volume, poses, *prm, out); break;
+    case 6: pb_blur_ref<<<grid, block, 0, stream>>>(volume, static_cast<const pb_kstep *>(plan), *prm, out); break;
     default: return cudaErrorInvalidValue;
     }
     return cudaGetLastError();
@@ -27,8 +30,10 @@ extern "C" cudaError_t pb_cuda_launch(int method, cudaTextureObject_t volume, co
 
 extern "C" cudaError_t pb_cuda_check_kernels(void)
 {
-    const void *kernels[] = {(const void *)pb_blur_ab, (const void *)pb_blur_rm, (const void *)pb_blur_cl,
-                             (const void *)pb_blur_ref};
+    const void *kernels[PB_KERNEL_COUNT] = {
+        (const void *)pb_blur_ab, (const void *)pb_blur_ab_exact, (const void *)pb_blur_rm,
+        (const void *)pb_blur_rm_exact, (const void *)pb_blur_cl, (const void *)pb_blur_cl_exact,
+        (const void *)pb_blur_ref};
     for (const void *k : kernels) {
         cudaFuncAttributes attr;
         cudaError_t e = cudaFuncGetAttributes(&attr, k);

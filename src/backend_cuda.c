@@ -352,7 +352,7 @@ static pb_status cuda_blur(pb_context *ctx, const pb_volume *object, const pb_pl
     cudaError_t e = cudaEventRecord(cu->start, cu->stream);
     if (e != cudaSuccess)
         return cu_fail(ctx, PB_ERR_LAUNCH, "cudaEventRecord", e);
-    e = pb_cuda_launch((int)opt->method, point ? in->point : in->linear, cu->plan, &prm, out->buffer, cu->stream);
+    e = pb_cuda_launch(pb_kernel_index((int)opt->method, opt->filter == PB_FILTER_EXACT), point ? in->point : in->linear, cu->plan, &prm, out->buffer, cu->stream);
     if (e != cudaSuccess)
         return cu_fail(ctx, PB_ERR_LAUNCH, "the kernel launch", e);
     if ((e = cudaEventRecord(cu->stop, cu->stream)) != cudaSuccess)

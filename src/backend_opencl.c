@@ -18,7 +18,7 @@ typedef struct cl_impl {
     cl_context context;
     cl_command_queue queue;
     cl_program program;
-    cl_kernel kernels[4]; /* indexed by pb_method */
+    cl_kernel kernels[PB_KERNEL_COUNT]; /* indexed by pb_kernel_index */
     int is_gpu;
 } cl_impl;
 
@@ -28,7 +28,7 @@ typedef struct cl_volume {
     int image_stale;
 } cl_volume;
 
-static const char *const kernel_names[4] = {"pb_blur_ab", "pb_blur_rm", "pb_blur_cl", "pb_blur_ref"};
+static const char *const kernel_names[PB_KERNEL_COUNT] = PB_KERNEL_NAMES;
 
 static const char *cl_error_name(cl_int e)
 {
@@ -181,7 +181,7 @@ static pb_status build_program(pb_context *ctx, cl_impl *cl, const char *extra)
         free(log);
         return PB_ERR_BUILD;
     }
-    for (int k = 0; k < 4; k++) {
+    for (int k = 0; k < PB_KERNEL_COUNT; k++) {
         cl->kernels[k] = clCreateKernel(cl->program, kernel_names[k], &e);
         if (e != CL_SUCCESS)
             return cl_fail(ctx, PB_ERR_BUILD, "clCreateKernel", e);
@@ -232,7 +232,7 @@ static void ocl_context_release(pb_context *ctx)
     cl_impl *cl = ctx->impl;
     if (!cl)
         return;
-    for (int k = 0; k < 4; k++)
+    for (int k = 0; k < PB_KERNEL_COUNT; k++)
         if (cl->kernels[k])
             clReleaseKernel(cl->kernels[k]);
     if (cl->program)
@@ -367,7 +367,7 @@ static pb_status ocl_blur(pb_context *ctx, const pb_volume *object, const pb_pla
     pb_kparams prm;
     pb_kparams_from_plan(plan, opt, &prm);
 
-    cl_kernel k = cl->kernels[opt->method];
+    cl_kernel k = cl->kernels[pb_kernel_index((int)opt->method, opt->filter == PB_FILTER_EXACT)];
     cl_volume *in = object->impl, *out = tomograph->impl;
     cl_int e = clSetKernelArg(k, 0, sizeof(cl_mem), &in->image);
     e |= clSetKernelArg(k, 1, sizeof(cl_mem), &poses);

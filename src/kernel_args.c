@@ -12,7 +12,6 @@ void pb_kparams_from_plan(const pb_plan *plan, const pb_blur_options *opt, pb_kp
         prm->center[d] = (float)plan->center[d];
     }
     prm->segments = (int)plan->count - 1;
-    prm->exact = opt->filter == PB_FILTER_EXACT;
     /* AB's steps are sub-segments, at least one; CL and RM's 0 means "as many as
      * AB's slices", decided per voxel in the kernel. */
     prm->steps = opt->method == PB_METHOD_AB && opt->steps == 0 ? 1 : (int)opt->steps;
