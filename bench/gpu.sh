@@ -11,6 +11,8 @@
 #
 # The machine has no Khronos CL/ headers and no libOpenCL.so link name: bring
 # them in .device/ (git-ignored) with bench/gpu-prepare.sh on this machine.
+# The copy there has no trustworthy git state: pass the commit in, as
+#   PB_COMMIT=$(git rev-parse --short HEAD) bash bench/gpu.sh
 set -uo pipefail
 cd "$(dirname "$0")/.."
 OUT=${OUT:-$PWD/gpu-out}
@@ -26,7 +28,7 @@ command -v meson >/dev/null || meson=(python3 -m mesonbuild.mesonmain)
 
 {
     echo "date: $(date -u +%Y-%m-%dT%H:%MZ)"
-    echo "commit: $(git rev-parse --short HEAD 2>/dev/null || echo unknown)$(git diff --quiet 2>/dev/null || echo +dirty)"
+    echo "commit: ${PB_COMMIT:-$(git rev-parse --short HEAD 2>/dev/null || echo unknown)}"
     nvidia-smi --query-gpu=name,driver_version,memory.total --format=csv,noheader 2>&1
     nvcc --version | tail -2
     nproc | sed 's/^/cpu cores: /'
