@@ -4,7 +4,8 @@
 # and on PoCL, the cuda suite, how far CUDA is from PoCL and from NVIDIA's
 # OpenCL on the same inputs, then the benchmark of every method on a 256^3
 # volume for the paper's eight motions on CUDA (CUDA events) and on NVIDIA's
-# OpenCL (profiling events). What comes back through $OUT (the device tool
+# OpenCL (profiling events), and the texture unit's fetch floor
+# (bench/fetch_rate.cu). What comes back through $OUT (the device tool
 # returns at most 8 files): tables.md, the three bench CSVs, compare.txt,
 # tests.txt and logs.tar.gz with everything else. Commit them under
 # bench/results/ with the date, GPU and commit.
@@ -86,6 +87,10 @@ echo "== benchmark: PoCL on the GPU machine's CPU, 128^3, scenario 2 =="
 OCL_ICD_VENDORS="$vend/pocl" ./build-gpu/bench/pb_bench --device opencl --size 128 --runs 5 --ref-runs 0 \
     --scenario 2 --label pocl-cpu --csv "$OUT/bench-pocl.csv" | tee "$LOG/bench-pocl.txt" || status=1
 
+echo "== the texture unit's fetch floor (bench/fetch_rate.cu) =="
+nvcc -O3 -arch=sm_90 -o build-gpu/fetch_rate bench/fetch_rate.cu && ./build-gpu/fetch_rate | tee "$LOG/fetch-rate.txt" ||
+    status=1
+
 {
     sed 's/^/    /' "$LOG/machine.txt"
     echo
@@ -93,6 +98,10 @@ OCL_ICD_VENDORS="$vend/pocl" ./build-gpu/bench/pb_bench --device opencl --size 1
     echo "PoCL on the GPU machine's CPU, 128^3, scenario 2:"
     echo
     grep -v '^#' "$LOG/bench-pocl.txt" | sed 's/^/    /'
+    echo
+    echo "The texture unit's fetch floor (only AB's fetches, 256^3):"
+    echo
+    sed 's/^/    /' "$LOG/fetch-rate.txt"
 } | tee "$OUT/tables.md"
 tar -C "$(dirname "$LOG")" -czf "$OUT/logs.tar.gz" logs
 exit $status
