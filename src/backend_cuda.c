@@ -293,24 +293,10 @@ static pb_status upload_plan(pb_context *ctx, const pb_plan *plan, const pb_blur
 {
     cu_impl *cu = ctx->impl;
     size_t bytes;
-    void *data;
-    if (opt->method == PB_METHOD_REF) {
-        pb_kstep *s = calloc(plan->ref_count, sizeof *s);
-        if (!s)
-            return pb_error(ctx, PB_ERR_OUT_OF_MEMORY, "out of host memory for the reference's steps");
-        for (size_t i = 0; i < plan->ref_count; i++)
-            pb_kstep_from_plan(plan, i, &s[i]);
-        data = s;
-        bytes = plan->ref_count * sizeof *s;
-    } else {
-        pb_kpose *p = calloc(plan->count, sizeof *p);
-        if (!p)
-            return pb_error(ctx, PB_ERR_OUT_OF_MEMORY, "out of host memory for the key poses");
-        for (size_t i = 0; i < plan->count; i++)
-            pb_kpose_from_plan(plan, i, &p[i]);
-        data = p;
-        bytes = plan->count * sizeof *p;
-    }
+    void *data = pb_kernel_plan_pack(plan, opt->method, &bytes);
+    if (!data)
+        return pb_error(ctx, PB_ERR_OUT_OF_MEMORY, "out of host memory for the %s",
+                        opt->method == PB_METHOD_REF ? "reference's steps" : "key poses");
     cudaError_t e = cudaSuccess;
     if (bytes > cu->plan_bytes) {
         if (cu->plan)

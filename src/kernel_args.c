@@ -1,6 +1,7 @@
 #include "kernel_args.h"
 
 #include <math.h>
+#include <stdlib.h>
 #include <string.h>
 
 void pb_kparams_from_plan(const pb_plan *plan, const pb_blur_options *opt, pb_kparams *prm)
@@ -20,7 +21,7 @@ void pb_kparams_from_plan(const pb_plan *plan, const pb_blur_options *opt, pb_kp
     prm->seed = opt->seed;
 }
 
-void pb_kpose_from_plan(const pb_plan *plan, size_t index, pb_kpose *out)
+static void kpose_from_plan(const pb_plan *plan, size_t index, pb_kpose *out)
 {
     const pb_plan_pose *p = &plan->poses[index];
     memset(out, 0, sizeof *out);
@@ -44,9 +45,25 @@ void pb_kpose_from_plan(const pb_plan *plan, size_t index, pb_kpose *out)
     }
 }
 
-void pb_kstep_from_plan(const pb_plan *plan, size_t index, pb_kstep *out)
+static void kstep_from_plan(const pb_plan *plan, size_t index, pb_kstep *out)
 {
     for (int k = 0; k < 12; k++)
         out->map[k] = (float)plan->ref_steps[index].map[k];
     out->weight = (float)plan->ref_steps[index].weight;
+}
+
+void *pb_kernel_plan_pack(const pb_plan *plan, pb_method method, size_t *bytes)
+{
+    if (method == PB_METHOD_REF) {
+        pb_kstep *s = calloc(plan->ref_count, sizeof *s);
+        for (size_t i = 0; s && i < plan->ref_count; i++)
+            kstep_from_plan(plan, i, &s[i]);
+        *bytes = plan->ref_count * sizeof *s;
+        return s;
+    }
+    pb_kpose *p = calloc(plan->count, sizeof *p);
+    for (size_t i = 0; p && i < plan->count; i++)
+        kpose_from_plan(plan, i, &p[i]);
+    *bytes = plan->count * sizeof *p;
+    return p;
 }

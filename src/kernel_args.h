@@ -7,7 +7,10 @@
 #include "../cl/pb_kernel_types.h"
 
 void pb_kparams_from_plan(const pb_plan *plan, const pb_blur_options *opt, pb_kparams *prm);
-void pb_kpose_from_plan(const pb_plan *plan, size_t index, pb_kpose *out);
-void pb_kstep_from_plan(const pb_plan *plan, size_t index, pb_kstep *out);
+/* What a launch of `method` reads besides its parameters, in the kernels'
+ * layout: the plan's key poses (pb_kpose), or for REF its time steps
+ * (pb_kstep), in one malloc'd block of *bytes for the backend to copy to the
+ * device and free. NULL when the host is out of memory. */
+void *pb_kernel_plan_pack(const pb_plan *plan, pb_method method, size_t *bytes);
 
 #endif
