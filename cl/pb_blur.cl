@@ -146,7 +146,7 @@ PB_FN float pb_ab_segment(pb_image img, int exact, const float *a, const float *
     /* Fully covered slices: k - 1 >= lo and k + 1 <= hi. */
     int f0 = (int)ceil(lo + 1.0f), f1 = (int)floor(hi - 1.0f);
     if (f1 < f0) {
-        f0 = k1 + 1; /* none: the first end loop takes every slice */
+        f0 = k1 + 1; /* none: the end-slice loop takes every slice */
         f1 = k1;
     }
     /* The fully covered slices get a loop of their own, free of branches, so
@@ -157,14 +157,9 @@ PB_FN float pb_ab_segment(pb_image img, int exact, const float *a, const float *
         sum += pb_slice_sample(img, exact, m, kf * gx + cx, kf * gy + cy, kf * gz + cz);
     }
     float wsum = (float)(f1 - f0 + 1);
-    for (int k = k0; k < f0; k++) {
-        float kf = (float)k, mean;
-        float w = pb_tent_share(lo - kf, hi - kf, &mean);
-        sum += w * pb_slice_sample(img, exact, m, kf * gx + cx + mean * hx, kf * gy + cy + mean * hy,
-                                   kf * gz + cz + mean * hz);
-        wsum += w;
-    }
-    for (int k = f1 + 1; k <= k1; k++) {
+    /* The partly covered slices, k0 .. f0 - 1 and f1 + 1 .. k1: one loop that
+     * steps over the fully covered ones. */
+    for (int k = k0; k <= k1; k = k + 1 == f0 ? f1 + 1 : k + 1) {
         float kf = (float)k, mean;
         float w = pb_tent_share(lo - kf, hi - kf, &mean);
         sum += w * pb_slice_sample(img, exact, m, kf * gx + cx + mean * hx, kf * gy + cy + mean * hy,
