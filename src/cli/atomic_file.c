@@ -1,0 +1,120 @@
+/* Whole-or-nothing output files: temporary name beside the target, rename when
+ * complete. */
+#include <ctype.h>
+#include <errno.h>
+#include <fcntl.h>
+#include <stdio.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include "atomic_file.h"
+#include "cli.h"
+
+void pbc_file_extension(const char *path, char *ext, size_t size)
+{
+    const char *base = strrchr(path, '/');
+    base = base ? base + 1 : path;
+    /* ".nii.gz" is one extension; any other ".gz" is not one of ours. */
+    const char *dot = strrchr(base, '.');
+    if (dot && dot != base && !strcmp(dot, ".gz")) {
+        const char *prev = dot;
+        while (prev > base && prev[-1] != '.')
+            prev--;
+        if (prev > base + 1)
+            dot = prev - 1;
+    }
+    if (!dot || dot == base) {
+        if (size)
+            ext[0] = '\0';
+        return;
+    }
+    size_t i = 0;
+    for (; dot[i] && i + 1 < size; i++)
+        ext[i] = (char)tolower((unsigned char)dot[i]);
+    if (size)
+        ext[i] = '\0';
+}
+
+int pbc_temp_reserve(pbc_temp *t, const char *path)
+{
+    char ext[32];
+    pbc_file_extension(path, ext, sizeof ext);
+    const char *slash = strrchr(path, '/');
+    int dirlen = slash ? (int)(slash - path + 1) : 0;
+    const char *base = path + dirlen;
+    if (snprintf(t->path, sizeof t->path, "%s", path) >= (int)sizeof t->path)
+        return pbc_fail(PBC_EXIT_USAGE, "%s: the output path is too long; choose a shorter one", path);
+    /* A hidden name in the same folder: rename() is then atomic, and a crash
+     * leaves at most a dot-file behind, never a half-written OUT. */
+    for (unsigned attempt = 0; attempt < 100; attempt++) {
+        if (snprintf(t->temp, sizeof t->temp, "%.*s.%s.petblur-%ld-%u%s", dirlen, path, base, (long)getpid(),
+                     attempt, ext) >= (int)sizeof t->temp)
+            return pbc_fail(PBC_EXIT_USAGE, "%s: the output path is too long; choose a shorter one", path);
+        int fd = open(t->temp, O_WRONLY | O_CREAT | O_EXCL, 0666);
+        if (fd >= 0) {
+            close(fd);
+            return 0;
+        }
+        if (errno != EEXIST)
+            return pbc_fail(PBC_EXIT_RUNTIME, "%s: cannot create a file in that folder (%s); check that the folder "
+                            "exists and is writable", path, strerror(errno));
+    }
+    return pbc_fail(PBC_EXIT_RUNTIME, "%s: cannot find a free temporary name beside it; remove stale "
+                    ".*.petblur-* files from that folder", path);
+}
+
+int pbc_temp_open(pbc_temp *t, const char *path, FILE **f)
+{
+    *f = NULL;
+    int rc = pbc_temp_reserve(t, path);
+    if (rc)
+        return rc;
+    *f = fopen(t->temp, "wb");
+    if (!*f) {
+        int e = errno;
+        remove(t->temp);
+        return pbc_fail(PBC_EXIT_RUNTIME, "%s: cannot write (%s)", path, strerror(e));
+    }
+    return 0;
+}
+
+int pbc_temp_commit(pbc_temp *t, FILE *f)
+{
+    if (f) {
+        /* A full disk often shows only at the last flush or at close. */
+        int bad = fflush(f) != 0 || ferror(f) || fsync(fileno(f)) != 0;
+        int e = errno;
+        if (fclose(f) != 0 && !bad) {
+            bad = 1;
+            e = errno;
+        }
+        if (bad) {
+            remove(t->temp);
+            return pbc_fail(PBC_EXIT_RUNTIME, "%s: writing failed (%s); nothing was written; free some space or "
+                            "choose another folder", t->path, strerror(e));
+        }
+    }
+    if (rename(t->temp, t->path) != 0) {
+        int e = errno;
+        remove(t->temp);
+        return pbc_fail(PBC_EXIT_RUNTIME, "%s: cannot move the finished file into place (%s); nothing was written",
+                        t->path, strerror(e));
+    }
+    return 0;
+}
+
+void pbc_temp_abort(pbc_temp *t, FILE *f)
+{
+    if (f)
+        fclose(f);
+    remove(t->temp);
+}
+
+int pbc_same_file(const char *a, const char *b)
+{
+    if (!strcmp(a, b))
+        return 1;
+    struct stat sa, sb;
+    return stat(a, &sa) == 0 && stat(b, &sb) == 0 && sa.st_dev == sb.st_dev && sa.st_ino == sb.st_ino;
+}

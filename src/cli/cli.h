@@ -1,0 +1,28 @@
+/* The command line's shared conventions: exit statuses and messages. The
+ * library never prints; the program does, always as "petblur: what is wrong;
+ * how to fix it" on stderr. */
+#ifndef PBC_CLI_H
+#define PBC_CLI_H
+
+#include <stddef.h>
+
+enum {
+    PBC_EXIT_OK = 0,
+    PBC_EXIT_USAGE = 2,  /* bad usage or bad input: the user can fix it */
+    PBC_EXIT_RUNTIME = 3 /* device or runtime failure: out of memory, no device, I/O errors */
+};
+
+#if defined(__GNUC__)
+#define PBC_PRINTF(f, a) __attribute__((format(printf, f, a)))
+#else
+#define PBC_PRINTF(f, a)
+#endif
+
+/* Prints "petblur: <message>\n" on stderr and returns code, so that callers can
+ * write `return pbc_fail(PBC_EXIT_USAGE, "...")`. */
+int pbc_fail(int code, const char *fmt, ...) PBC_PRINTF(2, 3);
+
+/* 1 when stderr is a terminal and not --quiet: progress lines are shown then. */
+extern int pbc_show_progress;
+
+#endif

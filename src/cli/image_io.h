@@ -1,0 +1,52 @@
+/* Volumes in files: NIfTI-1 (.nii, .nii.gz, through nifti_clib), Interfile as
+ * STIR writes it (.hv with its data file), and bare float32 (.raw). The format
+ * is chosen by the extension. */
+#ifndef PBC_IMAGE_IO_H
+#define PBC_IMAGE_IO_H
+
+#include <stddef.h>
+
+/* Where the grid sits in scanner space, kept from a NIfTI input so that the
+ * output lands on the same place; zeros (codes 0) when the source had none. */
+typedef struct pbc_orientation {
+    int qform_code, sform_code;
+    double qto_xyz[4][4];  /* voxel index -> mm, from the quaternion fields */
+    double sto_xyz[4][4];  /* voxel index -> mm, the general affine */
+    char descrip[80];
+} pbc_orientation;
+
+typedef struct pbc_image {
+    size_t dims[3];        /* nx, ny, nz */
+    double voxel_size[3];  /* mm */
+    float *data;           /* nx*ny*nz floats, x fastest, scaling already applied */
+    pbc_orientation orientation;
+} pbc_image;
+
+/* What the command line adds: --dims (needed for .raw, checked against the
+ * header otherwise) and --voxel-size (.raw; checked against the header
+ * otherwise). NULL members are "not given". */
+typedef struct pbc_read_hints {
+    const size_t *dims;
+    const double *voxel_size;
+} pbc_read_hints;
+
+/* 1 when path's extension is one that pbc_image_read/pbc_image_write handle. */
+int pbc_image_format_known(const char *path);
+
+/* Reads a volume; hints may be NULL. On success img->data is malloc'ed (free
+ * with pbc_image_free). Returns 0, or an exit status after printing
+ * "petblur: <path>: what is wrong; how to fix it". */
+int pbc_image_read(const char *path, const pbc_read_hints *hints, pbc_image *img);
+
+/* Writes img as float32 in the format of path's extension, atomically. Returns
+ * 0 or an exit status after printing the message. */
+int pbc_image_write(const char *path, const pbc_image *img);
+
+/* A fresh image of geometry dims/voxel_size with zeroed data and no
+ * orientation (the NIfTI writer then uses a plain scaling affine). Returns 0,
+ * or PBC_EXIT_RUNTIME after printing the message when memory runs out. */
+int pbc_image_alloc(pbc_image *img, const size_t dims[3], const double voxel_size[3]);
+
+void pbc_image_free(pbc_image *img);
+
+#endif

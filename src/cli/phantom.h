@@ -1,0 +1,26 @@
+/* The paper's three phantoms (section 4), made analytically at any grid size. */
+#ifndef PBC_PHANTOM_H
+#define PBC_PHANTOM_H
+
+#include <stddef.h>
+
+typedef enum pbc_phantom_kind {
+    PBC_PHANTOM_HOMOGENEITY, /* 8 cubes of constant, different activities; default 256^3, 1 mm */
+    PBC_PHANTOM_DERENZO,     /* rods between two plates, six sectors of one rod diameter each; default 256^3, 1 mm */
+    PBC_PHANTOM_BRAIN        /* analytic head (scalp, skull, grey/white matter, ventricles, lesions); default 128x128x64, 2 mm */
+} pbc_phantom_kind;
+
+/* Parses "homogeneity", "derenzo" or "brain"; returns 0 on success, -1 otherwise. */
+int pbc_phantom_parse(const char *name, pbc_phantom_kind *kind);
+const char *pbc_phantom_name(pbc_phantom_kind kind);
+
+/* The default grid of a kind. */
+void pbc_phantom_default_geometry(pbc_phantom_kind kind, size_t dims[3], double voxel_size[3]);
+
+/* Fills out (dims[0]*dims[1]*dims[2] floats, x fastest) with the phantom's
+ * activity (arbitrary units, kBq/ml-like ratios) on the given grid. The object
+ * is defined in mm and centred on the grid, so that a finer grid samples the
+ * same object; it is scaled to fit the grid's field of view. */
+void pbc_phantom_make(pbc_phantom_kind kind, const size_t dims[3], const double voxel_size[3], float *out);
+
+#endif

@@ -1,0 +1,26 @@
+/* Pictures of volumes for people: three orthogonal central slices (axial,
+ * coronal, sagittal) of each volume side by side, one row per volume, in a
+ * colour map with a labelled colour bar; written as PNG through libpng. */
+#ifndef PBC_PICTURE_H
+#define PBC_PICTURE_H
+
+#include <stddef.h>
+
+typedef struct pbc_picture_row {
+    const char *title;      /* "input", "output", "difference": drawn left of the row */
+    const float *data;      /* nx*ny*nz, x fastest */
+    int signed_map;         /* 1: a diverging map symmetric about zero (differences) */
+} pbc_picture_row;
+
+typedef struct pbc_picture {
+    size_t dims[3];
+    double voxel_size[3];   /* mm; slices are drawn with their true aspect ratio */
+    const pbc_picture_row *rows;
+    int row_count;          /* 1 to 4 */
+} pbc_picture;
+
+/* Renders and writes the picture to path (.png), atomically. Returns 0 or an
+ * exit status after printing the message. */
+int pbc_picture_write(const char *path, const pbc_picture *picture);
+
+#endif
