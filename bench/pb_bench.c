@@ -7,6 +7,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <unistd.h>
 
 #include "petblur.h"
 #include "scenarios.h"
@@ -130,6 +131,7 @@ int main(int argc, char **argv)
                    {"CL-hw", PB_METHOD_CL, PB_FILTER_HARDWARE}, {"CL-ex", PB_METHOD_CL, PB_FILTER_EXACT},
                    {"REF", PB_METHOD_REF, PB_FILTER_EXACT}};
     static const char *method_names[] = {"AB", "RM", "CL", "REF"};
+    int tty = isatty(STDERR_FILENO);
     double *ms = malloc((size_t)(runs > ref_runs ? runs : ref_runs) * sizeof *ms);
     for (int s = have_custom ? 0 : 1; s <= (have_custom ? 0 : 8); s++) {
         if (only && s != only)
@@ -143,6 +145,10 @@ int main(int argc, char **argv)
             if (n_runs == 0)
                 continue;
             pb_blur_options opt = {methods[m].method, methods[m].filter, 0, 0, 0, 0};
+            /* Progress on a terminal only, outside the timed calls (a library
+             * progress callback would split the launches and change the times). */
+            if (tty)
+                fprintf(stderr, "\rpb_bench: scenario %d, %-6s %d runs ...", s, methods[m].name, n_runs + 1);
             st = pb_blur(ctx, in, &motion, &opt, out); /* warm-up */
             for (int r = 0; r < n_runs && st == PB_OK; r++) {
                 st = pb_blur(ctx, in, &motion, &opt, out);
@@ -152,6 +158,8 @@ int main(int argc, char **argv)
                 fprintf(stderr, "pb_bench: %s: %s: %s\n", methods[m].name, pb_status_string(st), pb_last_error(ctx));
                 return 3;
             }
+            if (tty)
+                fprintf(stderr, "\r%50s\r", "");
             qsort(ms, (size_t)n_runs, sizeof *ms, cmp_double);
             double med = n_runs % 2 ? ms[n_runs / 2] : 0.5 * (ms[n_runs / 2 - 1] + ms[n_runs / 2]);
             printf("%-3d (%6.1f, %6.1f, %6.1f)   %-3.0f %-8s %10.3f %10.3f\n", s, sc.t[0], sc.t[1], sc.t[2], sc.deg,

@@ -124,6 +124,15 @@ PB_API pb_status pb_context_device_info(const pb_context *ctx, pb_device_info *i
  * thread's last failed call that had no context). "" when there was none. */
 PB_API const char *pb_last_error(const pb_context *ctx);
 
+/* Progress of long work (REF on large volumes on a CPU takes minutes): fn is
+ * called from the thread in pb_blur with the fraction done, between pieces of
+ * the work, and with 1 at the end. The host and OpenCL backends then run the
+ * volume in slabs of z-slices (a little slower: one launch and wait per slab);
+ * CUDA, which blurs even REF on 256^3 in seconds, calls fn only at the end.
+ * fn == NULL (the default) turns it off. */
+typedef void (*pb_progress_fn)(double fraction, void *user);
+PB_API pb_status pb_context_set_progress(pb_context *ctx, pb_progress_fn fn, void *user);
+
 /* Kernel time in milliseconds of the context's last pb_blur, from device
  * events (OpenCL profiling events, CUDA events) or the host clock. */
 PB_API pb_status pb_context_last_kernel_ms(const pb_context *ctx, double *ms);

@@ -31,6 +31,8 @@ struct pb_context {
     pb_device_info device;
     void *impl;
     double last_kernel_ms;
+    pb_progress_fn progress;
+    void *progress_user;
     char last_error[PB_ERROR_TEXT_MAX];
 };
 
@@ -52,6 +54,10 @@ extern const pb_backend_ops pb_backend_cuda_ops;
 /* Whether a volume of geometry g fits the device: image support, 3-D image
  * limits and largest allocation. A pure function of the device's reported
  * capabilities, so that every refusal can be tested without such a device. */
+/* Slabs of z-slices for progress reports: how many slices per launch, so that
+ * a volume takes about 32 launches. */
+size_t pb_progress_slab(size_t nz);
+
 pb_status pb_device_check_volume(struct pb_context *ctx, const pb_device_info *info, const pb_geometry *g);
 
 #endif

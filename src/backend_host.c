@@ -270,10 +270,13 @@ static pb_status host_blur(pb_context *ctx, const pb_volume *object, const pb_pl
     host_grid g = {object->impl, {(long)object->geometry.dims[0], (long)object->geometry.dims[1],
                                   (long)object->geometry.dims[2]}};
     float *out = tomograph->impl;
-    for (long iz = 0; iz < g.n[2]; iz++)
+    for (long iz = 0; iz < g.n[2]; iz++) {
         for (long iy = 0; iy < g.n[1]; iy++)
             for (long ix = 0; ix < g.n[0]; ix++)
                 out[ix + g.n[0] * (iy + g.n[1] * iz)] = (float)blur_voxel(&g, plan, opt, ix, iy, iz);
+        if (ctx->progress && iz + 1 < g.n[2])
+            ctx->progress((double)(iz + 1) / (double)g.n[2], ctx->progress_user);
+    }
     clock_gettime(CLOCK_MONOTONIC, &t1);
     ctx->last_kernel_ms = (t1.tv_sec - t0.tv_sec) * 1e3 + (t1.tv_nsec - t0.tv_nsec) * 1e-6;
     return PB_OK;

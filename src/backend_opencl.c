@@ -339,6 +339,25 @@ static pb_status upload_plan(pb_context *ctx, const pb_plan *plan, const pb_blur
     return e == CL_SUCCESS ? PB_OK : cl_fail(ctx, PB_ERR_DEVICE, "clCreateBuffer", e);
 }
 
+/* One launch, waited for; adds its event time to the context's kernel time. */
+static cl_int launch(pb_context *ctx, cl_kernel k, const size_t *offset, const size_t *global, const size_t *local)
+{
+    cl_impl *cl = ctx->impl;
+    cl_event ev;
+    cl_int e = clEnqueueNDRangeKernel(cl->queue, k, 3, offset, global, local, 0, NULL, &ev);
+    if (e != CL_SUCCESS)
+        return e;
+    e = clWaitForEvents(1, &ev);
+    cl_ulong t0 = 0, t1 = 0;
+    if (e == CL_SUCCESS) {
+        clGetEventProfilingInfo(ev, CL_PROFILING_COMMAND_START, sizeof t0, &t0, NULL);
+        clGetEventProfilingInfo(ev, CL_PROFILING_COMMAND_END, sizeof t1, &t1, NULL);
+        ctx->last_kernel_ms += (double)(t1 - t0) * 1e-6;
+    }
+    clReleaseEvent(ev);
+    return e;
+}
+
 static pb_status ocl_blur(pb_context *ctx, const pb_volume *object, const pb_plan *plan,
                           const pb_blur_options *opt, pb_volume *tomograph)
 {
@@ -364,27 +383,22 @@ static pb_status ocl_blur(pb_context *ctx, const pb_volume *object, const pb_pla
         return cl_fail(ctx, PB_ERR_LAUNCH, "clSetKernelArg", e);
     }
     /* GPUs: x-contiguous groups of 256 for coalesced writes; CPUs: let the
-     * runtime split the exact grid. */
-    size_t local[3] = {32, 4, 2}, global[3];
-    for (int d = 0; d < 3; d++)
-        global[d] = cl->is_gpu ? (plan->geometry.dims[d] + local[d] - 1) / local[d] * local[d] : plan->geometry.dims[d];
-    cl_event ev;
-    e = clEnqueueNDRangeKernel(cl->queue, k, 3, NULL, global, cl->is_gpu ? local : NULL, 0, NULL, &ev);
-    if (e != CL_SUCCESS) {
-        clReleaseMemObject(poses);
-        return cl_fail(ctx, PB_ERR_LAUNCH, "clEnqueueNDRangeKernel", e);
+     * runtime split the exact grid. With a progress report, slabs of z-slices
+     * through the global offset (the kernels see absolute ids and check bounds). */
+    size_t local[3] = {32, 4, 2}, global[3], offset[3] = {0, 0, 0};
+    size_t nz = plan->geometry.dims[2], slab = ctx->progress ? pb_progress_slab(nz) : nz;
+    ctx->last_kernel_ms = 0.0;
+    for (; offset[2] < nz && e == CL_SUCCESS; offset[2] += slab) {
+        size_t dims[3] = {plan->geometry.dims[0], plan->geometry.dims[1], nz - offset[2] < slab ? nz - offset[2] : slab};
+        for (int d = 0; d < 3; d++)
+            global[d] = cl->is_gpu ? (dims[d] + local[d] - 1) / local[d] * local[d] : dims[d];
+        e = launch(ctx, k, offset, global, cl->is_gpu ? local : NULL);
+        if (e == CL_SUCCESS && ctx->progress && offset[2] + slab < nz)
+            ctx->progress((double)(offset[2] + slab) / (double)nz, ctx->progress_user);
     }
-    e = clWaitForEvents(1, &ev);
-    cl_ulong t0 = 0, t1 = 0;
-    if (e == CL_SUCCESS) {
-        clGetEventProfilingInfo(ev, CL_PROFILING_COMMAND_START, sizeof t0, &t0, NULL);
-        clGetEventProfilingInfo(ev, CL_PROFILING_COMMAND_END, sizeof t1, &t1, NULL);
-        ctx->last_kernel_ms = (double)(t1 - t0) * 1e-6;
-    }
-    clReleaseEvent(ev);
     clReleaseMemObject(poses);
     if (e != CL_SUCCESS)
-        return cl_fail(ctx, PB_ERR_LAUNCH, "clWaitForEvents (the kernel failed)", e);
+        return cl_fail(ctx, PB_ERR_LAUNCH, "clEnqueueNDRangeKernel or the kernel", e);
     out->image_stale = 1;
     return PB_OK;
 }

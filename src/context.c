@@ -197,6 +197,20 @@ pb_status pb_context_last_kernel_ms(const pb_context *ctx, double *ms)
     return PB_OK;
 }
 
+pb_status pb_context_set_progress(pb_context *ctx, pb_progress_fn fn, void *user)
+{
+    if (!ctx)
+        return pb_error(NULL, PB_ERR_INVALID_ARGUMENT, "ctx must not be NULL");
+    ctx->progress = fn;
+    ctx->progress_user = user;
+    return PB_OK;
+}
+
+size_t pb_progress_slab(size_t nz)
+{
+    return nz < 32 ? 1 : (nz + 31) / 32;
+}
+
 /* ---- volumes ----------------------------------------------------------- */
 
 static pb_status check_geometry(pb_context *ctx, const pb_geometry *g, size_t *count)
@@ -360,6 +374,8 @@ pb_status pb_blur(pb_context *ctx, const pb_volume *object, const pb_motion *mot
     ctx->last_kernel_ms = 0.0;
     st = ctx->ops->blur(ctx, object, &plan, &opt, tomograph);
     pb_plan_destroy(&plan);
+    if (st == PB_OK && ctx->progress)
+        ctx->progress(1.0, ctx->progress_user);
     return st;
 }
 

@@ -284,6 +284,57 @@ static void test_hardware_weights(pb_context *ctx)
     pb_check(worst <= PB_TEX_STAGE_ERROR + 1e-6, "a linear fetch's weight is off by %.3g > 2^-9", worst);
 }
 
+typedef struct progress_log {
+    int calls, backwards;
+    double last;
+} progress_log;
+
+static void record_progress(double fraction, void *user)
+{
+    progress_log *log = user;
+    log->backwards += fraction < log->last || fraction > 1.0;
+    log->last = fraction;
+    log->calls++;
+}
+
+/* A progress report must not change the result: the host and OpenCL backends
+ * then run the volume in slabs of z-slices (through the global offset), which
+ * every voxel must see exactly as in one launch. nz = 70 is not a multiple of
+ * the slab (3) nor of a GPU work-group's depth. */
+static void test_progress(pb_context *ctx, pb_backend backend)
+{
+    pb_geometry g = {{9, 11, 70}, {1.0, 1.2, 1.1}};
+    size_t n = 9 * 11 * 70;
+    float *in = random_volume(&g, 0), *plain = malloc(n * sizeof *plain), *sliced = malloc(n * sizeof *sliced);
+    double axis[3] = {0.2, 1.0, 0.4};
+    pb_pose a = pb_test_pose(0, 0, 0, axis, 0.0), b = pb_test_pose(2.5, -1.5, 6.0, axis, 7.0);
+    pb_test_motion tm;
+    pb_test_motion_init(&tm, &a, &b);
+    for (int method = 0; method < 4; method++) {
+        pb_blur_options opt = {(pb_method)method, PB_FILTER_HARDWARE, 0, 8, 0, 5};
+        progress_log log = {0, 0, 0.0};
+        pb_context_set_progress(ctx, NULL, NULL);
+        pb_status s1 = pb_test_blur(ctx, &g, in, &tm.motion, &opt, plain);
+        pb_context_set_progress(ctx, record_progress, &log);
+        pb_status s2 = pb_test_blur(ctx, &g, in, &tm.motion, &opt, sliced);
+        pb_context_set_progress(ctx, NULL, NULL);
+        if (!pb_check(s1 == PB_OK && s2 == PB_OK, "progress %s: blur failed", names[method]))
+            continue;
+        double d = pb_max_abs_diff(plain, sliced, n);
+        pb_check(d == 0.0, "progress %s: slabbed result differs from one launch by %.3g", names[method], d);
+        pb_check(log.backwards == 0 && log.last == 1.0, "progress %s: fractions not increasing to 1 (last %g)",
+                 names[method], log.last);
+        /* CUDA runs the volume in one launch and reports only the end. */
+        int want = backend == PB_BACKEND_CUDA ? 1 : 24;
+        pb_check(backend == PB_BACKEND_CUDA ? log.calls == 1 : log.calls >= want,
+                 "progress %s: %d calls, expected %s%d", names[method], log.calls,
+                 backend == PB_BACKEND_CUDA ? "" : "at least ", want);
+    }
+    free(in);
+    free(plain);
+    free(sliced);
+}
+
 int main(int argc, char **argv)
 {
     pb_test_seed();
@@ -292,6 +343,7 @@ int main(int argc, char **argv)
     test_zero_motion(ctx);
     test_conservation(ctx);
     test_analytic_translation(ctx);
+    test_progress(ctx, pb_test_backend(argc, argv));
     pb_context_destroy(ctx);
     return pb_test_finish();
 }
