@@ -5,6 +5,7 @@
 #include <fcntl.h>
 #include <stdio.h>
 #include <string.h>
+#include <strings.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
@@ -17,7 +18,7 @@ void pbc_file_extension(const char *path, char *ext, size_t size)
     base = base ? base + 1 : path;
     /* ".nii.gz" is one extension; any other ".gz" is not one of ours. */
     const char *dot = strrchr(base, '.');
-    if (dot && dot != base && !strcmp(dot, ".gz")) {
+    if (dot && dot != base && !strcasecmp(dot, ".gz")) {
         const char *prev = dot;
         while (prev > base && prev[-1] != '.')
             prev--;

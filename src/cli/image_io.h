@@ -7,7 +7,9 @@
 #include <stddef.h>
 
 /* Where the grid sits in scanner space, kept from a NIfTI input so that the
- * output lands on the same place; zeros (codes 0) when the source had none. */
+ * output lands on the same place; converted to mm whatever the input's units.
+ * A matrix means something only when its code is > 0; codes 0 and zero
+ * matrices when the source had none. */
 typedef struct pbc_orientation {
     int qform_code, sform_code;
     double qto_xyz[4][4];  /* voxel index -> mm, from the quaternion fields */
@@ -23,8 +25,9 @@ typedef struct pbc_image {
 } pbc_image;
 
 /* What the command line adds: --dims (needed for .raw, checked against the
- * header otherwise) and --voxel-size (.raw; checked against the header
- * otherwise). NULL members are "not given". */
+ * header otherwise) and --voxel-size (.raw, default 1 mm; checked against the
+ * header otherwise, and filling in a header that gives none). NULL members are
+ * "not given". */
 typedef struct pbc_read_hints {
     const size_t *dims;
     const double *voxel_size;
@@ -34,17 +37,20 @@ typedef struct pbc_read_hints {
 int pbc_image_format_known(const char *path);
 
 /* Reads a volume; hints may be NULL. On success img->data is malloc'ed (free
- * with pbc_image_free). Returns 0, or an exit status after printing
- * "petblur: <path>: what is wrong; how to fix it". */
+ * with pbc_image_free). Volumes with NaN or infinite voxels are refused. Returns
+ * 0, or an exit status after printing "petblur: <path>: what is wrong; how to
+ * fix it" (img->data is then NULL). */
 int pbc_image_read(const char *path, const pbc_read_hints *hints, pbc_image *img);
 
-/* Writes img as float32 in the format of path's extension, atomically. Returns
- * 0 or an exit status after printing the message. */
+/* Writes img as float32 in the format of path's extension, atomically (OUT.hv
+ * also writes its data file OUT.v, before the header). Returns 0 or an exit
+ * status after printing the message. */
 int pbc_image_write(const char *path, const pbc_image *img);
 
 /* A fresh image of geometry dims/voxel_size with zeroed data and no
- * orientation (the NIfTI writer then uses a plain scaling affine). Returns 0,
- * or PBC_EXIT_RUNTIME after printing the message when memory runs out. */
+ * orientation (the NIfTI writer then writes pixdim only, codes 0). Returns 0,
+ * or after printing the message PBC_EXIT_USAGE for a grid with no voxels or
+ * more than 2^31 - 1, PBC_EXIT_RUNTIME when memory runs out. */
 int pbc_image_alloc(pbc_image *img, const size_t dims[3], const double voxel_size[3]);
 
 void pbc_image_free(pbc_image *img);

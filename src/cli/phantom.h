@@ -18,9 +18,10 @@ const char *pbc_phantom_name(pbc_phantom_kind kind);
 void pbc_phantom_default_geometry(pbc_phantom_kind kind, size_t dims[3], double voxel_size[3]);
 
 /* Fills out (dims[0]*dims[1]*dims[2] floats, x fastest) with the phantom's
- * activity (arbitrary units, kBq/ml-like ratios) on the given grid. The object
- * is defined in mm and centred on the grid, so that a finer grid samples the
- * same object; it is scaled to fit the grid's field of view. */
-void pbc_phantom_make(pbc_phantom_kind kind, const size_t dims[3], const double voxel_size[3], float *out);
+ * activity (relative units, FDG-like ratios) on the given grid. The object is
+ * defined in mm and centred on the grid, so that a finer grid samples the same
+ * object; it is scaled to fit the grid's field of view. Returns 0, or an exit
+ * status after printing the message. */
+int pbc_phantom_make(pbc_phantom_kind kind, const size_t dims[3], const double voxel_size[3], float *out);
 
 #endif

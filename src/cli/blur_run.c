@@ -1,0 +1,136 @@
+/* Devices, motions and one blur, in the command line's terms. */
+#include <math.h>
+#include <stdio.h>
+#include <string.h>
+
+#include "blur_run.h"
+#include "cli.h"
+
+int pbc_exit_for(pb_status st)
+{
+    return st > -100 ? PBC_EXIT_USAGE : PBC_EXIT_RUNTIME;
+}
+
+int pbc_open_device(const char *spec, pb_context **ctx)
+{
+    pb_context_options opt = {PB_BACKEND_AUTO, 0, NULL};
+    if (spec && pb_device_parse(spec, &opt.backend, &opt.device_index) != PB_OK)
+        return pbc_fail(PBC_EXIT_USAGE, "--device %s: %s", spec, pb_last_error(NULL));
+    pb_status st = pb_context_create(&opt, ctx);
+    if (st != PB_OK)
+        /* No device or no driver is not the user's typo: a runtime failure. */
+        return pbc_fail(st == PB_ERR_INVALID_ARGUMENT ? PBC_EXIT_USAGE : PBC_EXIT_RUNTIME,
+                        "cannot open device '%s': %s: %s", spec ? spec : "auto", pb_status_string(st),
+                        pb_last_error(NULL));
+    return 0;
+}
+
+void pbc_describe_device(pb_context *ctx, char *text, size_t size)
+{
+    pb_device_info info;
+    pb_context_device_info(ctx, &info);
+    snprintf(text, size, "%s  %s [%s]", pb_backend_name(pb_context_backend(ctx)), info.name, info.platform);
+}
+
+static int motion_from_track(const pbc_command *cmd, const pbc_args *args, pbc_motion *m)
+{
+    const char *path = pbc_arg(cmd, args, "--motion"), *frame = pbc_arg(cmd, args, "--frame");
+    int rc = pbc_track_read(path, &m->track);
+    if (rc)
+        return rc;
+    const pbc_track *t = &m->track;
+    double f[2] = {t->times[0], t->times[t->count - 1]};
+    if (frame && (rc = pbc_parse_interval("--frame", frame, f)))
+        return rc;
+    if (f[0] < t->times[0] || f[1] > t->times[t->count - 1])
+        return pbc_fail(PBC_EXIT_USAGE, "--frame %.9g,%.9g: the track %s covers %.9g to %.9g s only; choose a "
+                        "frame inside it", f[0], f[1], path, t->times[0], t->times[t->count - 1]);
+    m->motion = (pb_motion){t->times, t->poses, t->count, f[0], f[1], 0, {0, 0, 0}};
+    return 0;
+}
+
+static int motion_from_pose(const pbc_command *cmd, const pbc_args *args, pbc_motion *m)
+{
+    const char *tr = pbc_arg(cmd, args, "--translate"), *rot = pbc_arg(cmd, args, "--rotate"),
+               *axis = pbc_arg(cmd, args, "--axis");
+    double t[3] = {0, 0, 0}, a[3] = {0, 0, 1}, deg = 0.0;
+    int rc = 0;
+    if ((tr && (rc = pbc_parse_vec3("--translate", tr, 0, t))) || (rot && (rc = pbc_parse_number("--rotate", rot, &deg))) ||
+        (axis && (rc = pbc_parse_vec3("--axis", axis, 0, a))))
+        return rc;
+    if (axis && !rot)
+        return pbc_fail(PBC_EXIT_USAGE, "--axis without --rotate turns nothing; add --rotate DEG");
+    if (a[0] == 0.0 && a[1] == 0.0 && a[2] == 0.0)
+        return pbc_fail(PBC_EXIT_USAGE, "--axis %s: the rotation axis must not be zero; e.g. 0,0,1 (z, the scanner "
+                        "axis)", axis);
+    m->times[0] = 0.0;
+    m->times[1] = 1.0;
+    m->poses[0] = (pb_pose){{0, 0, 0}, {1, 0, 0, 0}};
+    memcpy(m->poses[1].translation, t, sizeof t);
+    pb_quaternion_from_axis_angle(a, deg, m->poses[1].rotation);
+    m->motion = (pb_motion){m->times, m->poses, 2, 0.0, 1.0, 0, {0, 0, 0}};
+    return 0;
+}
+
+int pbc_motion_from_args(const pbc_command *cmd, const pbc_args *args, pbc_motion *m)
+{
+    memset(m, 0, sizeof *m);
+    int has_track = pbc_arg(cmd, args, "--motion") != NULL;
+    int has_pose = pbc_arg(cmd, args, "--translate") || pbc_arg(cmd, args, "--rotate");
+    if (has_track && has_pose)
+        return pbc_fail(PBC_EXIT_USAGE, "give either --motion TRACK.csv or --translate/--rotate, not both");
+    if (!has_track && !has_pose)
+        return pbc_fail(PBC_EXIT_USAGE, "no motion given; use --translate TX,TY,TZ and/or --rotate DEG, or "
+                        "--motion TRACK.csv");
+    if (!has_track && pbc_arg(cmd, args, "--frame"))
+        return pbc_fail(PBC_EXIT_USAGE, "--frame picks a frame inside a --motion track; give --motion too");
+    int rc = has_track ? motion_from_track(cmd, args, m) : motion_from_pose(cmd, args, m);
+    const char *center = pbc_arg(cmd, args, "--center");
+    if (!rc && center && !(rc = pbc_parse_vec3("--center", center, 0, m->motion.center)))
+        m->motion.has_center = 1;
+    if (rc)
+        pbc_motion_free(m);
+    return rc;
+}
+
+void pbc_motion_free(pbc_motion *m)
+{
+    pbc_track_free(&m->track);
+}
+
+static void show_progress(double fraction, void *label)
+{
+    /* \r rewrites one line; the final call clears it. */
+    if (fraction < 1.0)
+        fprintf(stderr, "\rpetblur: %s %3d%%", (const char *)label, (int)(100.0 * fraction));
+    else
+        fprintf(stderr, "\r%*s\r", 40, "");
+    fflush(stderr);
+}
+
+static int blur_failed(pb_context *ctx, pb_status st, const char *label)
+{
+    return pbc_fail(pbc_exit_for(st), "%s: %s: %s", label, pb_status_string(st), pb_last_error(ctx));
+}
+
+int pbc_blur_image(pb_context *ctx, const pbc_image *in, const pb_motion *motion, const pb_blur_options *options,
+                   const char *label, float *out, double *ms)
+{
+    pb_geometry g = {{in->dims[0], in->dims[1], in->dims[2]}, {in->voxel_size[0], in->voxel_size[1], in->voxel_size[2]}};
+    pb_volume *obj = NULL, *tomo = NULL;
+    pb_status st;
+    pb_context_set_progress(ctx, pbc_show_progress ? show_progress : NULL, (void *)label);
+    if ((st = pb_volume_create(ctx, &g, &obj)) != PB_OK || (st = pb_volume_create(ctx, &g, &tomo)) != PB_OK ||
+        (st = pb_volume_upload(obj, in->data)) != PB_OK || (st = pb_blur(ctx, obj, motion, options, tomo)) != PB_OK ||
+        (st = pb_volume_download(tomo, out)) != PB_OK) {
+        if (pbc_show_progress)
+            show_progress(1.0, NULL);
+        pb_volume_destroy(obj);
+        pb_volume_destroy(tomo);
+        return blur_failed(ctx, st, label);
+    }
+    pb_context_last_kernel_ms(ctx, ms);
+    pb_volume_destroy(obj);
+    pb_volume_destroy(tomo);
+    return 0;
+}

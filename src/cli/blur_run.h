@@ -1,0 +1,40 @@
+/* What blur and demo share: a device opened from --device, motions built from
+ * the command line, and one blur of a host volume with progress and errors in
+ * the program's terms. */
+#ifndef PBC_BLUR_RUN_H
+#define PBC_BLUR_RUN_H
+
+#include "image_io.h"
+#include "options.h"
+#include "petblur.h"
+#include "track_csv.h"
+
+/* The exit status for a library status: bad inputs (-1 .. -99) are the
+ * user's to fix (2); devices, builds, launches and memory are runtime (3). */
+int pbc_exit_for(pb_status st);
+
+/* Opens spec ("auto", "host", "opencl:1", ...; NULL = auto). Prints the
+ * library's message and returns an exit status on failure. */
+int pbc_open_device(const char *spec, pb_context **ctx);
+
+/* "opencl:0  pthread-... [Portable Computing Language]" */
+void pbc_describe_device(pb_context *ctx, char *text, size_t size);
+
+/* A motion from --translate/--rotate/--axis/--center (two poses, the frame
+ * [0, 1]) or from --motion TRACK.csv [--frame T0,T1] [--center]. */
+typedef struct pbc_motion {
+    pb_motion motion;
+    double times[2];
+    pb_pose poses[2];
+    pbc_track track;
+} pbc_motion;
+
+int pbc_motion_from_args(const pbc_command *cmd, const pbc_args *args, pbc_motion *m);
+void pbc_motion_free(pbc_motion *m);
+
+/* Blurs in into out (the same geometry) on ctx. label names the run in
+ * progress lines and messages; *ms gets the kernel time. */
+int pbc_blur_image(pb_context *ctx, const pbc_image *in, const pb_motion *motion, const pb_blur_options *options,
+                   const char *label, float *out, double *ms);
+
+#endif

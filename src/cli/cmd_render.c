@@ -1,0 +1,54 @@
+/* petblur render: a picture of a volume's central slices. */
+#include <string.h>
+
+#include "cli.h"
+#include "commands.h"
+#include "image_io.h"
+#include "options.h"
+#include "picture.h"
+
+static const pbc_option options[] = {
+    {"--output", "-o", "PICTURE.png", "the picture"},
+    {"--dims", NULL, "NX,NY,NZ", "grid of a .raw input"},
+    {"--voxel-size", NULL, "DX,DY,DZ", "voxel size in mm of a .raw input (default 1,1,1)"},
+    {"--title", NULL, "TEXT", "the row's title (default the file's name)"},
+};
+
+static const pbc_command command = {
+    "render", "IN -o PICTURE.png [options]",
+    "Draws the axial, coronal and sagittal central slices of a volume side by side, with a colour bar.",
+    options, (int)(sizeof options / sizeof options[0]), 1, 1,
+    "example:\n  petblur render blurred.nii.gz -o blurred.png"};
+
+int pbc_cmd_render(int argc, char **argv)
+{
+    pbc_args args;
+    int rc = pbc_parse_args(&command, argc, argv, &args);
+    if (rc)
+        return rc < 0 ? 0 : rc;
+    const char *in = args.positional[0], *out = pbc_arg(&command, &args, "--output"),
+               *d = pbc_arg(&command, &args, "--dims"), *v = pbc_arg(&command, &args, "--voxel-size"),
+               *title = pbc_arg(&command, &args, "--title");
+    if (!out)
+        return pbc_fail(PBC_EXIT_USAGE, "render needs -o PICTURE.png; see petblur render --help");
+    if ((rc = pbc_check_output("-o", out, 1)) || (rc = pbc_check_distinct(out, in)))
+        return rc;
+    size_t dims[3];
+    double vs[3];
+    if ((d && (rc = pbc_parse_dims("--dims", d, dims))) || (v && (rc = pbc_parse_vec3("--voxel-size", v, 1, vs))))
+        return rc;
+    pbc_read_hints hints = {d ? dims : NULL, v ? vs : NULL};
+    pbc_image img = {0};
+    if ((rc = pbc_image_read(in, &hints, &img)))
+        return rc;
+    if (!title) {
+        const char *slash = strrchr(in, '/');
+        title = slash ? slash + 1 : in;
+    }
+    pbc_picture_row row = {title, img.data, 0};
+    pbc_picture pic = {{img.dims[0], img.dims[1], img.dims[2]},
+                       {img.voxel_size[0], img.voxel_size[1], img.voxel_size[2]}, &row, 1};
+    rc = pbc_picture_write(out, &pic);
+    pbc_image_free(&img);
+    return rc;
+}

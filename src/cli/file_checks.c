@@ -1,0 +1,35 @@
+/* Checks of output paths, made before any work so that a typo costs nothing. */
+#include <errno.h>
+#include <stdio.h>
+#include <string.h>
+#include <unistd.h>
+
+#include "atomic_file.h"
+#include "cli.h"
+#include "commands.h"
+#include "image_io.h"
+
+int pbc_check_output(const char *option, const char *path, int picture)
+{
+    char ext[32];
+    pbc_file_extension(path, ext, sizeof ext);
+    if (picture ? strcmp(ext, ".png") != 0 : !pbc_image_format_known(path))
+        return pbc_fail(PBC_EXIT_USAGE, "%s %s: unknown extension '%s'; use %s", option, path, ext,
+                        picture ? ".png" : ".nii, .nii.gz, .hv or .raw");
+    /* The folder must take a new file now, not after minutes of blurring. */
+    char dir[4096];
+    const char *slash = strrchr(path, '/');
+    snprintf(dir, sizeof dir, "%.*s", slash ? (int)(slash - path) + 1 : 1, slash ? path : ".");
+    if (access(dir, W_OK | X_OK) != 0)
+        return pbc_fail(PBC_EXIT_USAGE, "%s %s: cannot write into the folder %s (%s); create it or choose another",
+                        option, path, dir, strerror(errno));
+    return 0;
+}
+
+int pbc_check_distinct(const char *out, const char *in)
+{
+    if (pbc_same_file(out, in))
+        return pbc_fail(PBC_EXIT_USAGE, "%s is also the input; petblur never overwrites its inputs, so choose "
+                        "another output name", out);
+    return 0;
+}

@@ -1,0 +1,64 @@
+/* Private to the image readers and writers: what image_io.c offers the
+ * per-format files (image_nifti.c, image_interfile.c, image_raw.c), and what
+ * they offer it. */
+#ifndef PBC_IMAGE_FORMATS_H
+#define PBC_IMAGE_FORMATS_H
+
+#include <stddef.h>
+#include <stdio.h>
+
+#include "image_io.h"
+
+/* The sample types found in files; every one is read into float. */
+typedef enum pbc_sample_type {
+    PBC_SAMPLE_U8, PBC_SAMPLE_I8, PBC_SAMPLE_U16, PBC_SAMPLE_I16,
+    PBC_SAMPLE_U32, PBC_SAMPLE_I32, PBC_SAMPLE_F32, PBC_SAMPLE_F64
+} pbc_sample_type;
+
+typedef struct pbc_sample_format {
+    pbc_sample_type type;
+    int swap;               /* the file's byte order differs from this machine's */
+    double slope, inter;    /* value = slope * stored + inter */
+} pbc_sample_format;
+
+/* Reads up to `bytes` bytes into buf from source; returns how many it read
+ * (fewer only at the end of the data or on an error). */
+typedef size_t (*pbc_read_fn)(void *source, void *buf, size_t bytes);
+
+size_t pbc_sample_size(pbc_sample_type type);
+int pbc_host_is_big_endian(void);
+
+/* Refuses a grid with no voxels or more than 2^31 - 1; path (may be NULL) names
+ * the file in the message. Returns 0 or an exit status. */
+int pbc_image_check_grid(const char *path, const size_t dims[3]);
+
+/* Called by each reader once the header is parsed and img->dims and
+ * img->voxel_size are set (a voxel size of 0 where the header gives none):
+ * settles the geometry against the hints, checks the grid's size and
+ * allocates img->data. Returns 0 or an exit status after printing the message. */
+int pbc_image_prepare(const char *path, const pbc_read_hints *hints, pbc_image *img);
+
+/* Reads img's voxel count of samples from source into img->data. data_path
+ * names the file the samples come from, for the message when they run out. */
+int pbc_samples_read(const char *data_path, pbc_read_fn read, void *source, const pbc_sample_format *format,
+                     pbc_image *img);
+
+/* fread as a pbc_read_fn, for a FILE *. */
+size_t pbc_read_stdio(void *file, void *buf, size_t bytes);
+
+/* Writes n floats as little-endian float32; returns 0 or -1 (errno set). */
+int pbc_write_f32le(FILE *f, const float *data, size_t n);
+
+/* The voxel count of img (its dims are already checked). */
+size_t pbc_image_voxels(const pbc_image *img);
+
+/* The per-format halves of pbc_image_read and pbc_image_write, with the same
+ * contracts; path's extension is already known to be theirs. */
+int pbc_nifti_read(const char *path, const pbc_read_hints *hints, pbc_image *img);
+int pbc_nifti_write(const char *path, const pbc_image *img);
+int pbc_interfile_read(const char *path, const pbc_read_hints *hints, pbc_image *img);
+int pbc_interfile_write(const char *path, const pbc_image *img);
+int pbc_raw_read(const char *path, const pbc_read_hints *hints, pbc_image *img);
+int pbc_raw_write(const char *path, const pbc_image *img);
+
+#endif

@@ -1,0 +1,311 @@
+/* NIfTI images through nifti_clib: any single-file NIfTI-1 (or NIfTI-2) volume
+ * in, float32 NIfTI-1 out, with the input's placement in scanner space kept. */
+#include <errno.h>
+#include <fcntl.h>
+#include <math.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <string.h>
+#include <unistd.h>
+
+#include <nifti2_io.h>
+
+#include "atomic_file.h"
+#include "cli.h"
+#include "image_formats.h"
+
+_Static_assert(sizeof(nifti_1_header) == 348, "a NIfTI-1 header is 348 bytes");
+
+/* NIfTI-1 keeps dimensions in shorts. */
+#define NIFTI1_MAX_DIM 32767
+/* The header, then the 4-byte extender saying "no extensions". */
+#define NIFTI1_DATA_OFFSET 352
+
+/* nifti_clib prints its own "** ERROR" lines on stderr unless its debug level
+ * is 0; every message of the program starts with "petblur:", so the library
+ * is kept quiet and its failures are told here in our words. Its helpers that
+ * print whatever the level (nifti_read_header and kin) are not used. */
+static void quiet_library(void)
+{
+    nifti_set_debug_level(0);
+}
+
+/* znzread passes on gzread's -1 for a damaged stream. */
+static size_t read_znz(void *source, void *buf, size_t bytes)
+{
+    size_t n = znzread(buf, 1, bytes, source);
+    return n > bytes ? 0 : n;
+}
+
+/* nifti_clib takes any file named .nii for a single-file NIfTI and turns a
+ * pixdim of 0 into 1 mm, so what the header really says about both is read
+ * here, from a header the library has already found good. */
+static int read_raw_facts(const char *path, int *single_file, double pixdim[3])
+{
+    unsigned char b[348];
+    znzFile fp = znzopen(path, "rb", nifti_is_gzfile(path));
+    size_t n = znz_isnull(fp) ? 0 : read_znz(fp, b, sizeof b);
+    if (!znz_isnull(fp))
+        znzclose(fp);
+    if (n != sizeof b)
+        return pbc_fail(PBC_EXIT_USAGE, "%s: its header cannot be read (%s); check the file", path, strerror(errno));
+    int32_t size;
+    memcpy(&size, b, sizeof size);
+    int swap = size != 348 && size != 540;
+    if (swap)
+        nifti_swap_4bytes(1, &size);
+    int v2 = size == 540;
+    if (v2)
+        *single_file = !memcmp(b + offsetof(nifti_2_header, magic), "n+2", 4);
+    else
+        *single_file = !memcmp(b + offsetof(nifti_1_header, magic), "n+1", 4);
+    for (int i = 0; i < 3; i++) {
+        float f;
+        double d;
+        memcpy(&f, b + offsetof(nifti_1_header, pixdim) + sizeof f * (i + 1), sizeof f);
+        memcpy(&d, b + offsetof(nifti_2_header, pixdim) + sizeof d * (i + 1), sizeof d);
+        if (swap) {
+            nifti_swap_4bytes(1, &f);
+            nifti_swap_8bytes(1, &d);
+        }
+        pixdim[i] = v2 ? d : (double)f;
+    }
+    return 0;
+}
+
+static int check_layout(const char *path, const nifti_image *nim, int single_file)
+{
+    if (!single_file)
+        return pbc_fail(PBC_EXIT_USAGE, "%s: its header is that of a .hdr/.img pair (two-file NIfTI or Analyze); "
+                        "convert it to a single-file .nii first", path);
+    for (int d = 4; d <= nim->ndim && d < 8; d++) {
+        if (nim->dim[d] <= 1)
+            continue;
+        if (d == 4)
+            return pbc_fail(PBC_EXIT_USAGE, "%s: has %lld time frames (a 4-D image) and petblur blurs one 3-D "
+                            "volume; extract one frame first, e.g. fslroi %s frame.nii.gz 0 1", path,
+                            (long long)nim->dim[d], path);
+        return pbc_fail(PBC_EXIT_USAGE, "%s: is a %lld-D image with %lld entries along dimension %d and petblur "
+                        "blurs one 3-D volume; extract one volume first", path, (long long)nim->ndim,
+                        (long long)nim->dim[d], d);
+    }
+    return 0;
+}
+
+static int sample_format(const char *path, const nifti_image *nim, pbc_sample_format *format)
+{
+    static const struct { int datatype; pbc_sample_type type; } types[] = {
+        {NIFTI_TYPE_UINT8, PBC_SAMPLE_U8}, {NIFTI_TYPE_INT8, PBC_SAMPLE_I8},
+        {NIFTI_TYPE_UINT16, PBC_SAMPLE_U16}, {NIFTI_TYPE_INT16, PBC_SAMPLE_I16},
+        {NIFTI_TYPE_UINT32, PBC_SAMPLE_U32}, {NIFTI_TYPE_INT32, PBC_SAMPLE_I32},
+        {NIFTI_TYPE_FLOAT32, PBC_SAMPLE_F32}, {NIFTI_TYPE_FLOAT64, PBC_SAMPLE_F64},
+    };
+    for (size_t i = 0; i < sizeof types / sizeof types[0]; i++) {
+        if (types[i].datatype != nim->datatype)
+            continue;
+        format->type = types[i].type;
+        format->swap = nim->byteorder != nifti_short_order();
+        /* The standard: a slope of 0 means the stored values are the values
+         * (the library has already turned non-finite ones into 0). */
+        format->slope = nim->scl_slope != 0 ? nim->scl_slope : 1;
+        format->inter = nim->scl_slope != 0 ? nim->scl_inter : 0;
+        return 0;
+    }
+    return pbc_fail(PBC_EXIT_USAGE, "%s: its data type %s is not supported (use float32, float64, int8, int16, "
+                    "int32, uint8, uint16 or uint32); convert it, e.g. fslmaths %s out.nii.gz -odt float", path,
+                    nifti_datatype_string(nim->datatype), path);
+}
+
+static double unit_in_mm(int xyz_units)
+{
+    switch (xyz_units) {
+    case NIFTI_UNITS_METER: return 1000;
+    case NIFTI_UNITS_MICRON: return 1e-3;
+    default: return 1; /* mm, or unknown: millimetres are what everyone means then */
+    }
+}
+
+static void copy_affine(double to[4][4], const nifti_dmat44 *from, double mm)
+{
+    for (int r = 0; r < 4; r++)
+        for (int c = 0; c < 4; c++)
+            to[r][c] = r < 3 ? from->m[r][c] * mm : from->m[r][c];
+}
+
+/* Sizes and the affines are kept in mm, so that the output, written in mm,
+ * lands where the input was whatever its units. A pixdim of 0 (or NaN) is left
+ * as 0 for --voxel-size to fill in. */
+static void take_geometry(const nifti_image *nim, const double pixdim[3], pbc_image *img)
+{
+    double mm = unit_in_mm(nim->xyz_units);
+    for (int i = 0; i < 3; i++) {
+        img->dims[i] = i < nim->ndim ? (size_t)nim->dim[i + 1] : 1;
+        img->voxel_size[i] = isfinite(pixdim[i]) ? fabs(pixdim[i]) * mm : 0;
+    }
+    pbc_orientation *o = &img->orientation;
+    o->qform_code = nim->qform_code;
+    o->sform_code = nim->sform_code;
+    if (o->qform_code > 0)
+        copy_affine(o->qto_xyz, &nim->qto_xyz, mm);
+    if (o->sform_code > 0)
+        copy_affine(o->sto_xyz, &nim->sto_xyz, mm);
+    memcpy(o->descrip, nim->descrip, sizeof o->descrip);
+    o->descrip[sizeof o->descrip - 1] = '\0';
+}
+
+static int read_data(const char *path, const nifti_image *nim, const pbc_sample_format *format, pbc_image *img)
+{
+    znzFile fp = znzopen(nim->iname, "rb", nifti_is_gzfile(nim->iname));
+    if (znz_isnull(fp))
+        return pbc_fail(PBC_EXIT_USAGE, "%s: cannot open it to read the data (%s); check its permissions", path,
+                        strerror(errno));
+    int rc;
+    if (znzseek(fp, (znz_off_t)nim->iname_offset, SEEK_SET) < 0)
+        rc = pbc_fail(PBC_EXIT_USAGE, "%s: ends before its data starts (at byte %lld); the file is truncated or "
+                      "damaged; copy or write it again", path, (long long)nim->iname_offset);
+    else
+        rc = pbc_samples_read(path, read_znz, fp, format, img);
+    znzclose(fp);
+    return rc;
+}
+
+int pbc_nifti_read(const char *path, const pbc_read_hints *hints, pbc_image *img)
+{
+    quiet_library();
+    nifti_image *nim = nifti_image_read(path, 0);
+    if (!nim)
+        return pbc_fail(PBC_EXIT_USAGE, "%s: not a readable NIfTI file (its header is missing or damaged); check "
+                        "that it is a NIfTI-1 image", path);
+    pbc_sample_format format;
+    int single_file = 0;
+    double pixdim[3];
+    int rc = read_raw_facts(path, &single_file, pixdim);
+    if (!rc)
+        rc = check_layout(path, nim, single_file);
+    if (!rc)
+        rc = sample_format(path, nim, &format);
+    if (!rc) {
+        take_geometry(nim, pixdim, img);
+        rc = pbc_image_prepare(path, hints, img);
+    }
+    if (!rc)
+        rc = read_data(path, nim, &format, img);
+    nifti_image_free(nim);
+    return rc;
+}
+
+static void set_orientation(nifti_image *nim, const pbc_orientation *o)
+{
+    /* Codes 0 are written as they are, with pixdim only: the grid's place in
+     * the scanner is unknown then, and a nonzero code with a made-up affine
+     * would claim a placement that nobody measured. Readers fall back to the
+     * pixdim scaling, which is all that is known. */
+    nim->qform_code = o->qform_code;
+    nim->sform_code = o->sform_code;
+    if (o->qform_code > 0) {
+        nifti_dmat44 q;
+        memcpy(q.m, o->qto_xyz, sizeof q.m);
+        /* The header keeps the qform as a quaternion, an offset and qfac. */
+        nifti_dmat44_to_quatern(q, &nim->quatern_b, &nim->quatern_c, &nim->quatern_d, &nim->qoffset_x,
+                                &nim->qoffset_y, &nim->qoffset_z, NULL, NULL, NULL, &nim->qfac);
+    }
+    if (o->sform_code > 0)
+        memcpy(nim->sto_xyz.m, o->sto_xyz, sizeof nim->sto_xyz.m);
+    memcpy(nim->descrip, o->descrip, sizeof nim->descrip);
+    nim->descrip[sizeof nim->descrip - 1] = '\0';
+}
+
+/* cal_min/cal_max tell viewers the display range. */
+static void set_range(nifti_image *nim, const pbc_image *img)
+{
+    size_t n = pbc_image_voxels(img);
+    float lo = img->data[0], hi = img->data[0];
+    for (size_t i = 1; i < n; i++) {
+        lo = img->data[i] < lo ? img->data[i] : lo;
+        hi = img->data[i] > hi ? img->data[i] : hi;
+    }
+    nim->cal_min = (double)lo;
+    nim->cal_max = (double)hi;
+}
+
+static int make_header(const char *path, const pbc_image *img, nifti_1_header *hdr)
+{
+    const int64_t dims[8] = {3, (int64_t)img->dims[0], (int64_t)img->dims[1], (int64_t)img->dims[2], 1, 1, 1, 1};
+    nifti_image *nim = nifti_make_new_nim(dims, NIFTI_TYPE_FLOAT32, 0);
+    if (!nim)
+        return pbc_fail(PBC_EXIT_RUNTIME, "%s: not enough memory to make the NIfTI header", path);
+    nim->nifti_type = NIFTI_FTYPE_NIFTI1_1;
+    nim->dx = nim->pixdim[1] = img->voxel_size[0];
+    nim->dy = nim->pixdim[2] = img->voxel_size[1];
+    nim->dz = nim->pixdim[3] = img->voxel_size[2];
+    nim->xyz_units = NIFTI_UNITS_MM;
+    nim->scl_slope = 1;
+    nim->scl_inter = 0;
+    nim->iname_offset = NIFTI1_DATA_OFFSET;
+    set_range(nim, img);
+    set_orientation(nim, &img->orientation);
+    int bad = nifti_convert_nim2n1hdr(nim, hdr) != 0;
+    nifti_image_free(nim);
+    if (bad)
+        return pbc_fail(PBC_EXIT_USAGE, "%s: this image does not fit a NIfTI-1 header; write .hv or .raw instead",
+                        path);
+    return 0;
+}
+
+/* The temporary is written by znzlib, not through a FILE of ours, so it is
+ * synced here before the rename makes it the output. */
+static int sync_file(const char *name)
+{
+    int fd = open(name, O_RDONLY);
+    if (fd < 0)
+        return -1;
+    int rc = fsync(fd);
+    close(fd);
+    return rc;
+}
+
+/* Returns 0 or the errno of the first failure. */
+static int write_file(const char *name, int compress, const nifti_1_header *hdr, const pbc_image *img)
+{
+    static const char extender[4] = {0};
+    size_t n = pbc_image_voxels(img);
+    errno = 0;
+    znzFile fp = znzopen(name, "wb", compress);
+    if (znz_isnull(fp))
+        return errno ? errno : EIO;
+    int ok = znzwrite(hdr, sizeof *hdr, 1, fp) == 1 && znzwrite(extender, 1, sizeof extender, fp) == sizeof extender
+             && znzwrite(img->data, sizeof *img->data, n, fp) == n;
+    int e = ok ? 0 : errno ? errno : EIO;
+    /* A full disk often shows only when the last block is written at close. */
+    if (znzclose(fp) != 0 && !e)
+        e = errno ? errno : EIO;
+    if (!e && sync_file(name) != 0)
+        e = errno;
+    return e;
+}
+
+int pbc_nifti_write(const char *path, const pbc_image *img)
+{
+    const size_t *d = img->dims;
+    if (d[0] > NIFTI1_MAX_DIM || d[1] > NIFTI1_MAX_DIM || d[2] > NIFTI1_MAX_DIM)
+        return pbc_fail(PBC_EXIT_USAGE, "%s: NIfTI-1 holds at most %d voxels along an axis and the grid is "
+                        "%zux%zux%zu; write .hv or .raw instead", path, NIFTI1_MAX_DIM, d[0], d[1], d[2]);
+    quiet_library();
+    nifti_1_header hdr;
+    int rc = make_header(path, img, &hdr);
+    if (rc)
+        return rc;
+    pbc_temp t;
+    rc = pbc_temp_reserve(&t, path);
+    if (rc)
+        return rc;
+    char ext[16];
+    pbc_file_extension(path, ext, sizeof ext);
+    int e = write_file(t.temp, !strcmp(ext, ".nii.gz"), &hdr, img);
+    if (e) {
+        pbc_temp_abort(&t, NULL);
+        return pbc_fail(PBC_EXIT_RUNTIME, "%s: writing failed (%s); nothing was written; free some space or choose "
+                        "another folder", path, strerror(e));
+    }
+    return pbc_temp_commit(&t, NULL);
+}

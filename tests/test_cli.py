@@ -1,0 +1,359 @@
+"""The command-line contract, end to end: formats, tracks, phantoms, pictures,
+errors. Drives the real program in a fresh folder; volumes written by another
+tool (nibabel) are read back and compared with numpy.
+
+usage: test_cli.py PATH/TO/petblur
+"""
+import os
+import struct
+import subprocess
+import sys
+import tempfile
+import unittest
+import zlib
+
+import nibabel as nib
+import numpy as np
+
+PETBLUR = None
+RNG = np.random.default_rng()
+
+
+def run(*args, expect=0):
+    """Runs petblur; asserts the exit status and returns (stdout, stderr)."""
+    p = subprocess.run([PETBLUR, *map(str, args)], capture_output=True, text=True, timeout=600)
+    if p.returncode != expect:
+        raise AssertionError(f"petblur {' '.join(map(str, args))}: exit {p.returncode}, expected {expect}\n"
+                             f"stdout: {p.stdout}\nstderr: {p.stderr}")
+    return p.stdout, p.stderr
+
+
+def read_raw(path, dims):
+    return np.fromfile(path, dtype="<f4").reshape(dims[::-1])
+
+
+def slurp(path):
+    with open(path, "rb") as f:
+        return f.read()
+
+
+def spill(path, data):
+    with open(path, "wb") as f:
+        f.write(data)
+
+
+def write_raw(path, vol):
+    vol.astype("<f4").tofile(path)
+
+
+def png_size(path):
+    with open(path, "rb") as f:
+        data = f.read()
+    assert data[:8] == b"\x89PNG\r\n\x1a\n", f"{path} is not a PNG"
+    assert data[12:16] == b"IHDR"
+    w, h = struct.unpack(">II", data[16:24])
+    # Every chunk's CRC must hold: a truncated or garbled file fails here.
+    pos = 8
+    while pos < len(data):
+        n = struct.unpack(">I", data[pos:pos + 4])[0]
+        body = data[pos + 4:pos + 8 + n]
+        assert struct.unpack(">I", data[pos + 8 + n:pos + 12 + n])[0] == zlib.crc32(body), "bad PNG chunk CRC"
+        pos += 12 + n
+    return w, h
+
+
+class Case(unittest.TestCase):
+    def setUp(self):
+        self.dir = tempfile.TemporaryDirectory(prefix="petblur-cli-")
+        self.d = self.dir.name
+
+    def tearDown(self):
+        self.dir.cleanup()
+
+    def p(self, name):
+        return os.path.join(self.d, name)
+
+    def assert_clean(self, *absent):
+        """No output of a failed run exists, and no temporary is left behind."""
+        for name in absent:
+            self.assertFalse(os.path.exists(self.p(name)), f"{name} exists after a failed run")
+        left = [f for f in os.listdir(self.d) if ".petblur-" in f]
+        self.assertEqual(left, [], "temporaries left behind")
+
+    def random_volume(self, dims=(13, 11, 7)):
+        vol = RNG.random(dims[::-1], dtype=np.float32) * 10
+        vol[RNG.random(vol.shape) < 0.3] = 0
+        return vol
+
+
+class Formats(Case):
+    """Zero motion returns the input bit for bit, so `blur` with no motion is
+    a format converter: every round trip must be exact."""
+
+    def convert(self, src, dst, *extra):
+        run("blur", "-i", self.p(src), "-o", self.p(dst), "--translate", "0,0,0", "--device", "host", "-q", *extra)
+
+    def test_round_trip_every_format(self):
+        vol = self.random_volume()
+        write_raw(self.p("a.raw"), vol)
+        self.convert("a.raw", "b.nii", "--dims", "13,11,7", "--voxel-size", "2,2.5,3")
+        self.convert("b.nii", "c.nii.gz")
+        self.convert("c.nii.gz", "d.hv")
+        self.convert("d.hv", "e.raw")
+        np.testing.assert_array_equal(read_raw(self.p("e.raw"), (13, 11, 7)), vol)
+        # The voxel size travelled through NIfTI and Interfile headers.
+        img = nib.load(self.p("c.nii.gz"))
+        np.testing.assert_allclose(img.header.get_zooms()[:3], (2, 2.5, 3))
+        with open(self.p("d.hv")) as f:
+            header = f.read().lower()
+        self.assertIn("scaling factor (mm/pixel) [2] := 2.5", header)
+
+    def test_nibabel_files_read_with_scaling(self):
+        for dtype in (np.float32, np.float64, np.int16, np.uint16, np.uint8):
+            with self.subTest(dtype=dtype.__name__):
+                info = np.iinfo(dtype) if np.issubdtype(dtype, np.integer) else None
+                hi = min(info.max, 1000) if info else 100
+                stored = (RNG.random((7, 9, 5)) * hi).astype(dtype)  # nibabel arrays are x, y, z
+                affine = np.diag([1.5, 2.0, 2.5, 1.0])
+                affine[:3, 3] = (-40, 12, 7)
+                img = nib.Nifti1Image(stored, affine)
+                img.header.set_data_dtype(dtype)
+                slope, inter = (0.5, 3.0) if info else (1.0, 0.0)
+                img.header.set_slope_inter(slope, inter)
+                name = f"n_{dtype.__name__}.nii"
+                nib.save(img, self.p(name))
+                expected = nib.load(self.p(name)).get_fdata()  # nibabel applies slope and inter
+                self.convert(name, "back.raw")
+                got = read_raw(self.p("back.raw"), (7, 9, 5)).transpose(2, 1, 0)
+                np.testing.assert_allclose(got, expected, rtol=1e-6, atol=1e-6 * np.abs(expected).max())
+                # The float32 output keeps the input's geometry.
+                self.convert(name, "back.nii")
+                out = nib.load(self.p("back.nii"))
+                self.assertEqual(out.get_data_dtype(), np.float32)
+                np.testing.assert_allclose(out.affine, affine, atol=1e-5)
+                np.testing.assert_allclose(out.get_fdata(), expected, rtol=1e-6, atol=1e-6 * np.abs(expected).max())
+
+    def test_big_endian_interfile(self):
+        vol = self.random_volume((6, 5, 4))
+        with open(self.p("be.v"), "wb") as f:
+            f.write(b"\0" * 16 + vol.astype(">f4").tobytes())
+        with open(self.p("be.hv"), "w") as f:
+            f.write("!INTERFILE  :=\n!imaging modality := PT\n!name of data file := be.v\n"
+                    "!GENERAL DATA :=\n!GENERAL IMAGE DATA :=\n!type of data := PET\n"
+                    "imagedata byte order := BIGENDIAN\n!number format := float\n!number of bytes per pixel := 4\n"
+                    "number of dimensions := 3\n!matrix size [1] := 6\n!matrix size [2] := 5\n"
+                    "!matrix size [3] := 4\nscaling factor (mm/pixel) [1] := 2\nscaling factor (mm/pixel) [2] := 2\n"
+                    "scaling factor (mm/pixel) [3] := 3.27\ndata offset in bytes [1] := 16\n!END OF INTERFILE :=\n")
+        self.convert("be.hv", "be.raw")
+        np.testing.assert_array_equal(read_raw(self.p("be.raw"), (6, 5, 4)), vol)
+
+    def test_compare_prints_eq5(self):
+        ref, test = self.random_volume(), self.random_volume()
+        write_raw(self.p("ref.raw"), ref)
+        write_raw(self.p("test.raw"), test)
+        out, _ = run("compare", self.p("ref.raw"), self.p("test.raw"), "--dims", "13,11,7")
+        last = out.strip().splitlines()[-1]
+        self.assertTrue(last.startswith("error% = "), last)
+        r, t = ref.astype(np.float64), test.astype(np.float64)
+        expected = 100 * ((t - r) ** 2).sum() / (r ** 2).sum()
+        self.assertAlmostEqual(float(last.split("=")[1]), expected, delta=1e-5 * expected)
+
+
+class Motion(Case):
+    def setUp(self):
+        super().setUp()
+        self.vol = self.random_volume((12, 10, 8))
+        write_raw(self.p("in.raw"), self.vol)
+
+    def blur(self, out, *motion, device="host"):
+        run("blur", "-i", self.p("in.raw"), "--dims", "12,10,8", "-o", self.p(out), "--device", device, "-q",
+            *motion)
+        return read_raw(self.p(out), (12, 10, 8))
+
+    def write_track(self, rows, name="track.csv"):
+        with open(self.p(name), "w") as f:
+            f.write("t,tx,ty,tz,qw,qx,qy,qz\n")
+            for r in rows:
+                f.write(",".join(map(str, r)) + "\n")
+        return self.p(name)
+
+    def test_track_equals_the_same_pose(self):
+        """A two-pose track is the --translate/--rotate frame; half of a
+        straight track is the same frame with half the motion."""
+        angle = np.radians(8.0)
+        q = (np.cos(angle / 2), 0, 0, np.sin(angle / 2))
+        a = self.blur("a.raw", "--translate", "1.5,-2,0.5", "--rotate", "8")
+        track = self.write_track([(0, 0, 0, 0, 1, 0, 0, 0), (1, 1.5, -2, 0.5, *q)])
+        b = self.blur("b.raw", "--motion", track)
+        np.testing.assert_allclose(b, a, rtol=1e-6, atol=1e-6)
+        self.assertGreater(np.abs(a - self.vol).max(), 0.1, "the motion did nothing")
+        track2 = self.write_track([(0, 0, 0, 0, 1, 0, 0, 0), (2, 3, -4, 1, 1, 0, 0, 0)], "t2.csv")
+        c = self.blur("c.raw", "--motion", track2, "--frame", "0,1")
+        d = self.blur("d.raw", "--translate", "1.5,-2,0.5")
+        np.testing.assert_allclose(c, d, rtol=1e-6, atol=1e-6)
+
+    def test_translation_along_x_is_the_analytic_box_blur(self):
+        """Moving by 2 voxels along x over the frame blurs each voxel over
+        [x-2, x] with the trilinear kernel: check one interior row by hand."""
+        out = self.blur("x.raw", "--translate", "2,0,0", "--method", "ab", "--filter", "exact")
+        f = self.vol[4, 5, :].astype(np.float64)
+        # The mean over s in [0, 2] of the linear interpolant at x - s.
+        for x in range(3, 11):
+            xs = x - np.linspace(0, 2, 20001)
+            expected = np.interp(xs, np.arange(12), f).mean()
+            self.assertAlmostEqual(float(out[4, 5, x]), expected, delta=1e-4 * max(1.0, abs(expected)))
+
+    def test_default_device_runs(self):
+        a = self.blur("auto.raw", "--translate", "1,2,-1", "--rotate", "5", device="auto")
+        h = self.blur("host.raw", "--translate", "1,2,-1", "--rotate", "5", "--filter", "exact")
+        np.testing.assert_allclose(a, h, atol=1e-2 * self.vol.max())
+
+
+class Phantoms(Case):
+    def test_each_kind(self):
+        for kind, dims in (("homogeneity", (32, 32, 32)), ("derenzo", (64, 64, 16)), ("brain", None)):
+            with self.subTest(kind=kind):
+                args = ["phantom", "--kind", kind, "-o", self.p(f"{kind}.nii.gz"), "--png", self.p(f"{kind}.png")]
+                if dims:
+                    args += ["--dims", ",".join(map(str, dims))]
+                run(*args)
+                img = nib.load(self.p(f"{kind}.nii.gz"))
+                self.assertEqual(img.shape, dims or (128, 128, 64))
+                data = img.get_fdata()
+                self.assertGreaterEqual(data.min(), 0.0)
+                self.assertGreater(data.max(), 0.0)
+                w, h = png_size(self.p(f"{kind}.png"))
+                self.assertGreater(w, 200)
+                self.assertGreater(h, 100)
+        cubes = nib.load(self.p("homogeneity.nii.gz")).get_fdata()
+        # Eight cubes of distinct activity: the centre of each octant.
+        centres = {round(cubes[x, y, z], 4) for x in (8, 24) for y in (8, 24) for z in (8, 24)}
+        self.assertEqual(len(centres), 8)
+
+    def test_render_and_blur_picture(self):
+        run("phantom", "--kind", "homogeneity", "--dims", "24,24,24", "-o", self.p("c.hv"), "-q")
+        run("render", self.p("c.hv"), "-o", self.p("c.png"))
+        png_size(self.p("c.png"))
+        run("blur", "-i", self.p("c.hv"), "-o", self.p("b.hv"), "--translate", "3,0,0", "--png", self.p("b.png"),
+            "--device", "host", "-q")
+        w1, h1 = png_size(self.p("c.png"))
+        w3, h3 = png_size(self.p("b.png"))
+        self.assertGreater(h3, 2 * h1, "the blur picture should hold three rows")
+
+
+class BadInput(Case):
+    """Each bad input: its exit status, a message that starts with petblur:
+    and names the problem, and no output file."""
+
+    def setUp(self):
+        super().setUp()
+        write_raw(self.p("in.raw"), self.random_volume((8, 8, 8)))
+
+    def fails(self, status, words, *args, out="out.nii"):
+        _, err = run(*args, expect=status)
+        self.assertTrue(err.startswith("petblur: "), err)
+        for w in words:
+            self.assertIn(w, err)
+        self.assert_clean(out)
+        return err
+
+    def blur(self, *args, device="host"):
+        return ("blur", "-i", self.p("in.raw"), "--dims", "8,8,8", "-o", self.p("out.nii"), "--device", device, *args)
+
+    def track(self, *rows, header="t,tx,ty,tz,qw,qx,qy,qz"):
+        with open(self.p("t.csv"), "w") as f:
+            f.write(header + "\n" + "".join(r + "\n" for r in rows))
+        return self.p("t.csv")
+
+    def test_files(self):
+        self.fails(2, ["missing.nii", "No such file"], "blur", "-i", self.p("missing.nii"), "-o", self.p("out.nii"),
+                   "--translate", "1,0,0")
+        self.fails(2, ["--dims"], "blur", "-i", self.p("in.raw"), "-o", self.p("out.nii"), "--translate", "1,0,0")
+        self.fails(2, ["8,8,9"], "blur", "-i", self.p("in.raw"), "--dims", "8,8,9", "-o", self.p("out.nii"),
+                   "--translate", "1,0,0")
+        self.fails(2, [".xyz"], *self.blur("--translate", "1,0,0")[:5], "-o", self.p("out.xyz"), "--translate",
+                   "1,0,0", out="out.xyz")
+        self.fails(2, ["folder", "nowhere"], *self.blur("--translate", "1,0,0")[:5], "-o",
+                   self.p("nowhere/out.nii"), "--translate", "1,0,0")
+        spill(self.p("in.xyz"), b"\0" * 2048)
+        self.fails(2, [".xyz"], "blur", "-i", self.p("in.xyz"), "-o", self.p("out.nii"), "--translate", "1,0,0")
+
+    def test_truncated_files(self):
+        img = nib.Nifti1Image(np.ones((8, 8, 8), np.float32), np.eye(4))
+        nib.save(img, self.p("full.nii"))
+        spill(self.p("cut.nii"), slurp(self.p("full.nii"))[:-100])
+        self.fails(2, ["cut.nii"], "blur", "-i", self.p("cut.nii"), "-o", self.p("out.nii"), "--translate", "1,0,0")
+        run("blur", *self.blur("--translate", "0,0,0")[1:5], "-o", self.p("ok.hv"), "--translate", "0,0,0",
+            "--device", "host")
+        with open(self.p("ok.v"), "r+b") as f:
+            f.truncate(8 * 8 * 8 * 4 - 4)
+        self.fails(2, ["ok.v"], "blur", "-i", self.p("ok.hv"), "-o", self.p("out.nii"), "--translate", "1,0,0")
+
+    def test_tracks(self):
+        ok = "1,0,0,0,1,0,0,0"
+        cases = [
+            (["1,0,,0,1,0,0,0", "2,1,0,0,1,0,0,0"], ["field ty", "empty"]),
+            (["0,0,0,0,1,0,0,0", "1,nan,0,0,1,0,0,0"], ["tx", "nan"]),
+            (["0,0,0,0,1,0,0,0", "2,0,0,0,1,0,0,0", ok], ["time", "increase"]),
+            (["0,0,0,0,1,0,0,0", "2,0,0,0,0,0,0,0"], ["quaternion", "zero"]),
+            ([], ["at least two"]),
+        ]
+        for rows, words in cases:
+            with self.subTest(rows=rows):
+                self.fails(2, words, *self.blur("--motion", self.track(*rows)))
+        open(self.p("t.csv"), "w").close()
+        self.fails(2, ["empty"], *self.blur("--motion", self.p("t.csv")))
+        self.fails(2, ["header"], *self.blur("--motion", self.track(ok, ok, header="time,x,y,z")))
+        track = self.track("0,0,0,0,1,0,0,0", "10,1,0,0,1,0,0,0")
+        self.fails(2, ["--frame", "covers 0 to 10"], *self.blur("--motion", track, "--frame", "5,12"))
+
+    def test_output_equal_to_input_is_refused(self):
+        before = slurp(self.p("in.raw"))
+        _, err = run("blur", "-i", self.p("in.raw"), "--dims", "8,8,8", "-o", self.p("in.raw"), "--translate",
+                     "1,0,0", expect=2)
+        self.assertIn("input", err)
+        # The same file by another name is refused too.
+        _, err = run("blur", "-i", self.p("in.raw"), "--dims", "8,8,8", "-o", self.d + "/./in.raw", "--translate",
+                     "1,0,0", expect=2)
+        self.assertEqual(slurp(self.p("in.raw")), before)
+
+    def test_failed_run_keeps_an_existing_output(self):
+        with open(self.p("out.nii"), "w") as f:
+            f.write("keep me")
+        _, err = run(*self.blur("--motion", self.track("0,0,0,0,1,0,0,0", "1,0,0,0,0,0,0,0")), expect=2)
+        self.assertEqual(slurp(self.p("out.nii")), b"keep me")
+        self.assert_clean()
+
+    def test_usage_and_devices(self):
+        self.fails(2, ["--bogus"], *self.blur("--translate", "1,0,0", "--bogus"))
+        self.fails(2, ["no motion"], *self.blur())
+        self.fails(2, ["--method"], *self.blur("--translate", "1,0,0", "--method", "fast"))
+        self.fails(2, ["--dims"], *self.blur("--translate", "1,0,0")[:4], "1,x,8", "-o", self.p("out.nii"),
+                   "--translate", "1,0,0")
+        self.fails(2, ["unknown command"], "frobnicate")
+        self.fails(3, ["opencl:99"], *self.blur("--translate", "1,0,0", device="opencl:99"))
+        out, _ = run("devices")
+        self.assertIn("host:0", out)
+        for cmd in ("blur", "phantom", "compare", "render", "devices", "demo"):
+            with self.subTest(cmd=cmd):
+                text, _ = run(cmd, "--help")
+                self.assertIn(f"usage: petblur {cmd}", text)
+
+
+class Demo(Case):
+    def test_demo_small(self):
+        out, _ = run("demo", "--size", "16", "--points", "20", "--out-dir", self.p("demo"))
+        for name in ("REF", "AB", "RM", "CL"):
+            self.assertIn(name, out)
+        errors = [float(line.split()[2]) for line in out.splitlines() if line.split()[:1] in (["AB"], ["RM"], ["CL"])]
+        self.assertEqual(len(errors), 3)
+        for e in errors:
+            self.assertTrue(0 <= e < 20, out)
+        for f in ("phantom", "ref", "ab", "rm", "cl"):
+            self.assertEqual(nib.load(self.p(f"demo/{f}.nii.gz")).shape, (16, 16, 8))
+        png_size(self.p("demo/demo.png"))
+
+
+if __name__ == "__main__":
+    PETBLUR = os.path.abspath(sys.argv.pop(1))
+    unittest.main(verbosity=2)
