@@ -16,7 +16,7 @@
 static const pbc_option options[] = {
     {"--device", NULL, "DEV", "auto (default), host, opencl[:N] or cuda[:N]"},
     {"--kind", NULL, "KIND", "phantom: brain (default), homogeneity or derenzo"},
-    {"--size", NULL, "N", "in-plane voxels (default 64; brain: N x N x N/2)"},
+    {"--size", NULL, "N", "in-plane voxels (default 96; brain: N x N x N/2)"},
     {"--points", NULL, "K", "REF's random points per voxel (default 200, the paper's)"},
     {"--out-dir", NULL, "DIR", "where the volumes and demo.png go (default petblur-demo)"},
     {"--quiet", "-q", NULL, "no progress lines"},
@@ -44,7 +44,7 @@ enum { RUNS = sizeof runs / sizeof runs[0] };
 static int make_phantom(const pbc_args *args, pbc_image *img, pbc_phantom_kind *kind)
 {
     const char *k = pbc_arg(&command, args, "--kind"), *s = pbc_arg(&command, args, "--size");
-    unsigned long n = 64;
+    unsigned long n = 96;
     int rc = 0;
     *kind = PBC_PHANTOM_BRAIN;
     if (k && pbc_phantom_parse(k, kind) != 0)
