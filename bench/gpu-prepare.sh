@@ -9,3 +9,19 @@ cp -r /usr/include/CL .device/include/
 loader=$(readlink -f /usr/lib/x86_64-linux-gnu/libOpenCL.so.1)
 cp "$loader" .device/lib/libOpenCL.so
 cp "$loader" .device/lib/libOpenCL.so.1
+
+# The petblur program's libraries (nifti_clib, libpng, zlib): headers, shared
+# objects and pkg-config files, whose prefix is rewritten by gpu.sh on arrival.
+mkdir -p .device/include/nifti .device/lib/pkgconfig
+cp /usr/include/nifti/*.h .device/include/nifti/
+cp /usr/include/png.h /usr/include/pngconf.h /usr/include/pnglibconf.h /usr/include/zlib.h /usr/include/zconf.h \
+    .device/include/
+cp -r /usr/include/libpng16 .device/include/
+for lib in libnifti2 libznz libpng16 libz; do
+    cp -L /usr/lib/x86_64-linux-gnu/$lib.so* .device/lib/
+done
+for pc in libpng libpng16 zlib; do
+    sed 's|^prefix=.*|prefix=@DEVICE@|; s|^libdir=.*|libdir=${prefix}/lib|; s|^includedir=.*|includedir=${prefix}/include|' \
+        /usr/lib/x86_64-linux-gnu/pkgconfig/$pc.pc >.device/lib/pkgconfig/$pc.pc
+done
+du -sh .device

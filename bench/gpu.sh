@@ -21,7 +21,11 @@ mkdir -p "$OUT"
 LOG=$(mktemp -d)/logs
 mkdir -p "$LOG"
 dev=$PWD/.device
-export CFLAGS="-I$dev/include" LDFLAGS="-L$dev/lib" LIBRARY_PATH="$dev/lib"
+export CFLAGS="-I$dev/include -I$dev/include/nifti" LDFLAGS="-L$dev/lib" LIBRARY_PATH="$dev/lib"
+# The program's libraries travel in .device too, with pkg-config files that
+# point there.
+sed -i "s|@DEVICE@|$dev|" "$dev"/lib/pkgconfig/*.pc
+export PKG_CONFIG_PATH="$dev/lib/pkgconfig"
 export LD_LIBRARY_PATH="$dev/lib${LD_LIBRARY_PATH:+:$LD_LIBRARY_PATH}"
 export PATH="$PATH:/usr/local/cuda/bin"
 meson=(meson)
@@ -63,11 +67,19 @@ run_suites() { # name, vendor folder, suites...
         grep -h 'largest relative difference\|hardware weights' build-gpu/meson-logs/testlog.txt | sed "s/^/$name: /"
     } | tee -a "$OUT/tests.txt"
 }
-OCL_ICD_VENDORS="$vend/nvidia:$vend/pocl" ./build-gpu/src/petblur devices
+OCL_ICD_VENDORS="$vend/nvidia:$vend/pocl" ./build-gpu/src/cli/petblur devices
 run_suites host "$vend/pocl" host
 run_suites cuda "$vend/pocl" cuda
 run_suites nvidia-opencl "$vend/nvidia" opencl
 run_suites pocl "$vend/pocl" opencl
+
+echo "== the main job: petblur demo on CUDA and NVIDIA OpenCL (brain phantom, full 128x128x64) =="
+for d in cuda opencl; do
+    OCL_ICD_VENDORS="$vend/nvidia" ./build-gpu/src/cli/petblur demo --device $d --size 128 --out-dir "$LOG/demo-$d" \
+        2>&1 | tee "$LOG/demo-$d.txt" || status=1
+    rm -f "$LOG/demo-$d"/*.nii.gz
+done
+cp "$LOG/demo-cuda/demo.png" "$OUT/demo-cuda.png" 2>/dev/null
 
 echo "== CUDA against PoCL and against NVIDIA OpenCL, same inputs =="
 : >"$OUT/compare.txt"
@@ -99,6 +111,12 @@ nvcc -O3 -arch=sm_90 -o build-gpu/fetch_rate bench/fetch_rate.cu && ./build-gpu/
     echo
     grep -v '^#' "$LOG/bench-pocl.txt" | sed 's/^/    /'
     echo
+    for d in cuda opencl; do
+        echo "petblur demo --device $d --size 128:"
+        echo
+        sed 's/^/    /' "$LOG/demo-$d.txt"
+        echo
+    done
     echo "The texture unit's fetch floor (only AB's fetches, 256^3):"
     echo
     sed 's/^/    /' "$LOG/fetch-rate.txt"
