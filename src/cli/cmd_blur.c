@@ -98,14 +98,9 @@ static int read_input(const pbc_args *args, const char *in, pbc_image *img)
 {
     size_t dims[3];
     double vs[3];
-    pbc_read_hints hints = {NULL, NULL};
-    const char *d = pbc_arg(&command, args, "--dims"), *v = pbc_arg(&command, args, "--voxel-size");
-    int rc = 0;
-    if ((d && (rc = pbc_parse_dims("--dims", d, dims))) || (v && (rc = pbc_parse_vec3("--voxel-size", v, 1, vs))))
-        return rc;
-    hints.dims = d ? dims : NULL;
-    hints.voxel_size = v ? vs : NULL;
-    return pbc_image_read(in, &hints, img);
+    pbc_read_hints hints;
+    int rc = pbc_hints_from_args(&command, args, dims, vs, &hints);
+    return rc ? rc : pbc_image_read(in, &hints, img);
 }
 
 static int write_picture(const char *png, const pbc_image *in, const float *out)

@@ -25,12 +25,9 @@ static int read_both(const pbc_args *args, pbc_image *ref, pbc_image *test)
 {
     size_t dims[3];
     double vs[3];
-    const char *d = pbc_arg(&command, args, "--dims"), *v = pbc_arg(&command, args, "--voxel-size");
-    int rc = 0;
-    if ((d && (rc = pbc_parse_dims("--dims", d, dims))) || (v && (rc = pbc_parse_vec3("--voxel-size", v, 1, vs))))
-        return rc;
-    pbc_read_hints hints = {d ? dims : NULL, v ? vs : NULL};
-    if ((rc = pbc_image_read(args->positional[0], &hints, ref)) ||
+    pbc_read_hints hints;
+    int rc = pbc_hints_from_args(&command, args, dims, vs, &hints);
+    if (rc || (rc = pbc_image_read(args->positional[0], &hints, ref)) ||
         (rc = pbc_image_read(args->positional[1], &hints, test)))
         return rc;
     for (int i = 0; i < 3; i++)

@@ -27,7 +27,6 @@ int pbc_cmd_render(int argc, char **argv)
     if (rc)
         return rc < 0 ? 0 : rc;
     const char *in = args.positional[0], *out = pbc_arg(&command, &args, "--output"),
-               *d = pbc_arg(&command, &args, "--dims"), *v = pbc_arg(&command, &args, "--voxel-size"),
                *title = pbc_arg(&command, &args, "--title");
     if (!out)
         return pbc_fail(PBC_EXIT_USAGE, "render needs -o PICTURE.png; see petblur render --help");
@@ -35,11 +34,9 @@ int pbc_cmd_render(int argc, char **argv)
         return rc;
     size_t dims[3];
     double vs[3];
-    if ((d && (rc = pbc_parse_dims("--dims", d, dims))) || (v && (rc = pbc_parse_vec3("--voxel-size", v, 1, vs))))
-        return rc;
-    pbc_read_hints hints = {d ? dims : NULL, v ? vs : NULL};
+    pbc_read_hints hints;
     pbc_image img = {0};
-    if ((rc = pbc_image_read(in, &hints, &img)))
+    if ((rc = pbc_hints_from_args(&command, &args, dims, vs, &hints)) || (rc = pbc_image_read(in, &hints, &img)))
         return rc;
     if (!title) {
         const char *slash = strrchr(in, '/');

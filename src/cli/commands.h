@@ -3,6 +3,9 @@
 #ifndef PBC_COMMANDS_H
 #define PBC_COMMANDS_H
 
+#include "image_io.h"
+#include "options.h"
+
 int pbc_cmd_blur(int argc, char **argv);
 int pbc_cmd_phantom(int argc, char **argv);
 int pbc_cmd_compare(int argc, char **argv);
@@ -15,5 +18,10 @@ int pbc_cmd_demo(int argc, char **argv);
 int pbc_check_output(const char *option, const char *path, int picture);
 /* Refuses an output that names the same file as an input. */
 int pbc_check_distinct(const char *out, const char *in);
+
+/* The read hints of a command's --dims and --voxel-size (either may be absent);
+ * dims and voxel_size hold the parsed values that hints points to. */
+int pbc_hints_from_args(const pbc_command *cmd, const pbc_args *args, size_t dims[3], double voxel_size[3],
+                        pbc_read_hints *hints);
 
 #endif

@@ -33,3 +33,16 @@ int pbc_check_distinct(const char *out, const char *in)
                         "another output name", out);
     return 0;
 }
+
+int pbc_hints_from_args(const pbc_command *cmd, const pbc_args *args, size_t dims[3], double voxel_size[3],
+                        pbc_read_hints *hints)
+{
+    const char *d = pbc_arg(cmd, args, "--dims"), *v = pbc_arg(cmd, args, "--voxel-size");
+    int rc = 0;
+    if ((d && (rc = pbc_parse_dims("--dims", d, dims))) ||
+        (v && (rc = pbc_parse_vec3("--voxel-size", v, 1, voxel_size))))
+        return rc;
+    hints->dims = d ? dims : NULL;
+    hints->voxel_size = v ? voxel_size : NULL;
+    return 0;
+}
