@@ -171,8 +171,9 @@ class Motion(Case):
         return read_raw(self.p(out), (12, 10, 8))
 
     def write_track(self, rows, name="track.csv"):
-        with open(self.p(name), "w") as f:
-            f.write("t,tx,ty,tz,qw,qx,qy,qz\n")
+        # As a spreadsheet saves it: a byte-order mark, CRLF line ends, spaces.
+        with open(self.p(name), "w", encoding="utf-8-sig", newline="\r\n") as f:
+            f.write("t, tx, ty, tz, qw, qx, qy, qz\n")
             for r in rows:
                 f.write(",".join(map(str, r)) + "\n")
         return self.p(name)

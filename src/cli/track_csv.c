@@ -124,6 +124,9 @@ static int read_rows(const char *path, FILE *f, pbc_track *tr)
                             lineno, sizeof line - 1);
         char *s = trim(line);
         if (lineno == 1) {
+            /* Spreadsheets often start a CSV with a UTF-8 byte-order mark. */
+            if (!strncmp(s, "\xEF\xBB\xBF", 3))
+                s += 3;
             rc = check_header(path, s);
             continue;
         }
