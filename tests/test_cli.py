@@ -318,6 +318,25 @@ class BadInput(Case):
                      "1,0,0", expect=2)
         self.assertEqual(slurp(self.p("in.raw")), before)
 
+    def test_interfile_data_file_is_an_input_too(self):
+        """An Interfile input's data file may have any name: an output (or the
+        .v that an .hv output writes) that names it is refused."""
+        for data, out in (("data.raw", "data.raw"), ("other.v", "other.hv")):
+            with self.subTest(out=out):
+                run("blur", *self.blur()[1:5], "-o", self.p("a.hv"), "--translate", "0,0,0", "--device", "host")
+                os.rename(self.p("a.v"), self.p(data))
+                with open(self.p("a.hv")) as f:
+                    header = f.read().replace("a.v", data)
+                with open(self.p("a.hv"), "w") as f:
+                    f.write(header)
+                before = slurp(self.p(data))
+                _, err = run("blur", "-i", self.p("a.hv"), "-o", self.p(out), "--translate", "1,0,0", "--device",
+                             "host", expect=2)
+                self.assertIn("data file", err)
+                self.assertEqual(slurp(self.p(data)), before)
+                self.assertFalse(os.path.exists(self.p("other.hv")))
+                self.assert_clean()
+
     def test_failed_run_keeps_an_existing_output(self):
         with open(self.p("out.nii"), "w") as f:
             f.write("keep me")

@@ -130,7 +130,9 @@ static int run(const pbc_args *args, const char *in_path, const char *out_path, 
     int rc = blur_options(args, &opt);
     if (rc || (rc = pbc_motion_from_args(&command, args, &motion)))
         return rc;
-    if (!(rc = read_input(args, in_path, &in)) && !(rc = pbc_image_alloc(&out, in.dims, in.voxel_size)) &&
+    if (!(rc = read_input(args, in_path, &in)) && !(rc = pbc_image_check_not_input(out_path, in_path, &in)) &&
+        !(png && (rc = pbc_image_check_not_input(png, in_path, &in))) &&
+        !(rc = pbc_image_alloc(&out, in.dims, in.voxel_size)) &&
         !(rc = pbc_open_device(pbc_arg(&command, args, "--device"), &ctx))) {
         out.orientation = in.orientation;
         rc = pbc_blur_image(ctx, &in, &motion.motion, &opt, method_names[opt.method], out.data, &ms);

@@ -58,6 +58,8 @@ int pbc_nifti_read(const char *path, const pbc_read_hints *hints, pbc_image *img
 int pbc_nifti_write(const char *path, const pbc_image *img);
 int pbc_interfile_read(const char *path, const pbc_read_hints *hints, pbc_image *img);
 int pbc_interfile_write(const char *path, const pbc_image *img);
+/* The data file that writing the header path (OUT.hv) also writes (OUT.v). */
+int pbc_interfile_data_name(const char *path, char *out, size_t size);
 int pbc_raw_read(const char *path, const pbc_read_hints *hints, pbc_image *img);
 int pbc_raw_write(const char *path, const pbc_image *img);
 

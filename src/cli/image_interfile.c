@@ -336,6 +336,9 @@ int pbc_interfile_read(const char *path, const pbc_read_hints *hints, pbc_image 
         rc = data_file_path(path, h.data_file, data_path, sizeof data_path);
     if (!rc)
         rc = pbc_image_prepare(path, hints, img);
+    if (!rc && snprintf(img->source, sizeof img->source, "%s", data_path) >= (int)sizeof img->source)
+        rc = pbc_fail(PBC_EXIT_USAGE, "%s: the path of its data file is too long; move the files to a shorter path",
+                      path);
     return rc ? rc : read_data(path, data_path, offset, &format, img);
 }
 
@@ -366,7 +369,7 @@ static void write_header(FILE *f, const char *data_name, const pbc_image *img)
 }
 
 /* OUT.hv's data goes to OUT.v, as STIR names it. */
-static int data_name_for(const char *path, char *out, size_t size)
+int pbc_interfile_data_name(const char *path, char *out, size_t size)
 {
     if (snprintf(out, size, "%.*s.v", (int)strlen(path) - 3, path) >= (int)size)
         return pbc_fail(PBC_EXIT_USAGE, "%s: the output path is too long; choose a shorter one", path);
@@ -378,7 +381,7 @@ static int data_name_for(const char *path, char *out, size_t size)
 int pbc_interfile_write(const char *path, const pbc_image *img)
 {
     char data_path[4096];
-    int rc = data_name_for(path, data_path, sizeof data_path);
+    int rc = pbc_interfile_data_name(path, data_path, sizeof data_path);
     if (rc)
         return rc;
     const char *slash = strrchr(data_path, '/');

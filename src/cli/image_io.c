@@ -194,9 +194,27 @@ int pbc_image_read(const char *path, const pbc_read_hints *hints, pbc_image *img
         rc = format->read(path, hints, img);
     if (!rc)
         rc = check_finite(path, img);
+    if (!rc && !img->source[0])
+        snprintf(img->source, sizeof img->source, "%s", path);
     if (rc)
         pbc_image_free(img);
     return rc;
+}
+
+int pbc_image_check_not_input(const char *out, const char *in_path, const pbc_image *in)
+{
+    char ext[32], data[4096];
+    const char *written[2] = {out, NULL};
+    pbc_file_extension(out, ext, sizeof ext);
+    if (!strcmp(ext, ".hv") && pbc_interfile_data_name(out, data, sizeof data) == 0)
+        written[1] = data;
+    for (int w = 0; w < 2 && written[w]; w++)
+        if (pbc_same_file(written[w], in_path) || (in->source[0] && pbc_same_file(written[w], in->source)))
+            return pbc_fail(PBC_EXIT_USAGE, "%s would overwrite the input %s%s%s; petblur never overwrites its "
+                            "inputs, so choose another output name", written[w], in_path,
+                            strcmp(in->source, in_path) ? " or its data file " : "",
+                            strcmp(in->source, in_path) ? in->source : "");
+    return 0;
 }
 
 int pbc_image_write(const char *path, const pbc_image *img)

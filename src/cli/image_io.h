@@ -22,6 +22,8 @@ typedef struct pbc_image {
     double voxel_size[3];  /* mm */
     float *data;           /* nx*ny*nz floats, x fastest, scaling already applied */
     pbc_orientation orientation;
+    char source[4096];     /* the file the voxels were read from: an Interfile header's data file, else the
+                            * file itself; "" for an image made here */
 } pbc_image;
 
 /* What the command line adds: --dims (needed for .raw, checked against the
@@ -54,5 +56,10 @@ int pbc_image_write(const char *path, const pbc_image *img);
 int pbc_image_alloc(pbc_image *img, const size_t dims[3], const double voxel_size[3]);
 
 void pbc_image_free(pbc_image *img);
+
+/* Refuses (PBC_EXIT_USAGE, with the message) an output path that would
+ * overwrite the input in_path or the file its voxels came from, counting the
+ * data file that an Interfile output writes beside its header. */
+int pbc_image_check_not_input(const char *out, const char *in_path, const pbc_image *in);
 
 #endif
