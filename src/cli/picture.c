@@ -77,6 +77,11 @@ typedef struct layout {
     int legend_y;                  /* the line that explains the not-finite colour; -1 when not needed */
 } layout;
 
+static int max_int(int a, int b)
+{
+    return a > b ? a : b;
+}
+
 static int validate(const char *path, const pbc_picture *p)
 {
     if (!p->rows || p->row_count < 1 || p->row_count > 4)
@@ -137,9 +142,10 @@ static int set_scales(const pbc_picture *p, colour_bar bars[2])
     bars[1].lo = -extreme;
     bars[1].hi = extreme;
     for (int b = 0; b < 2; b++) {
-        format_value(bars[b].labels[0], bars[b].hi, b);
-        format_value(bars[b].labels[1], (bars[b].lo + bars[b].hi) / 2, b);
-        format_value(bars[b].labels[2], bars[b].lo, b);
+        int with_plus = bars[b].map == PBC_COLORMAP_SIGNED;
+        format_value(bars[b].labels[0], bars[b].hi, with_plus);
+        format_value(bars[b].labels[1], (bars[b].lo + bars[b].hi) / 2, with_plus);
+        format_value(bars[b].labels[2], bars[b].lo, with_plus);
     }
     return odd;
 }
@@ -179,7 +185,7 @@ static int bar_column_width(const colour_bar *bar)
 {
     int w = 0;
     for (int i = 0; i < 3; i++)
-        w = w > pbc_font_text_width(bar->labels[i], TEXT_SCALE) ? w : pbc_font_text_width(bar->labels[i], TEXT_SCALE);
+        w = max_int(w, pbc_font_text_width(bar->labels[i], TEXT_SCALE));
     return BAR_WIDTH + TICK_LENGTH + TICK_GAP + w;
 }
 
@@ -202,8 +208,7 @@ static int place_bars(const layout *l, colour_bar bars[2], int x)
         bar->x = beside ? right + BAR_GAP : x;
         bar->top = row_top(l, bar->first_row) + BAR_INSET;
         bar->height = row_top(l, bar->last_row) + l->row_h - BAR_INSET - bar->top;
-        int edge = bar->x + bar_column_width(bar);
-        right = right > edge ? right : edge;
+        right = max_int(right, bar->x + bar_column_width(bar));
     }
     return right;
 }
@@ -215,17 +220,15 @@ static void plan_layout(const pbc_picture *p, colour_bar bars[2], int odd, layou
     for (int r = 0; r < p->row_count; r++) {
         char title[TITLE_CHARS + 1];
         shorten_title(title, p->rows[r].title);
-        int w = pbc_font_text_width(title, TEXT_SCALE);
-        title_w = title_w > w ? title_w : w;
+        title_w = max_int(title_w, pbc_font_text_width(title, TEXT_SCALE));
     }
     int x = MARGIN + (title_w ? title_w + TITLE_GAP : 0);
     l->row_h = MIN_ROW_HEIGHT;
     for (int k = 0; k < 3; k++) {
-        int label_w = pbc_font_text_width(l->panel_labels[k], TEXT_SCALE);
         l->column_x[k] = x;
-        l->column_w[k] = l->panel_w[k] > label_w ? l->panel_w[k] : label_w;
+        l->column_w[k] = max_int(l->panel_w[k], pbc_font_text_width(l->panel_labels[k], TEXT_SCALE));
         x += l->column_w[k] + PANEL_GAP;
-        l->row_h = l->row_h > l->panel_h[k] ? l->row_h : l->panel_h[k];
+        l->row_h = max_int(l->row_h, l->panel_h[k]);
     }
     l->rows_top = MARGIN + TEXT_HEIGHT + LABEL_GAP;
     l->width = place_bars(l, bars, x - PANEL_GAP + BAR_GAP) + MARGIN;
@@ -250,8 +253,9 @@ static void draw_frame(pbc_canvas *c, box b)
     pbc_canvas_fill(c, b.x + b.w, b.y, 1, b.h, frame_grey);
 }
 
+/* A central slice in the view's own axes: voxel (u, v) is origin[u * stride_u + v * stride_v]. */
 typedef struct slice {
-    const float *origin;           /* voxel (0, 0) of the slice */
+    const float *origin;
     size_t stride_u, stride_v, n_u, n_v;
 } slice;
 
