@@ -7,7 +7,8 @@
 typedef enum pbc_phantom_kind {
     PBC_PHANTOM_HOMOGENEITY, /* 8 cubes of constant, different activities; default 256^3, 1 mm */
     PBC_PHANTOM_DERENZO,     /* rods between two plates, six sectors of one rod diameter each; default 256^3, 1 mm */
-    PBC_PHANTOM_BRAIN        /* analytic head (scalp, skull, grey/white matter, ventricles, lesions); default 128x128x64, 2 mm */
+    PBC_PHANTOM_BRAIN        /* analytic head (scalp, skull, grey/white matter, ventricles, lesions);
+                                default 128x128x64, 2.2 x 2.2 x 2.8 mm (the Zubal head's field of view) */
 } pbc_phantom_kind;
 
 /* Parses "homogeneity", "derenzo" or "brain"; returns 0 on success, -1 otherwise. */
