@@ -7,6 +7,7 @@
 #include <stddef.h>
 #include <stdio.h>
 
+#include "atomic_file.h"
 #include "image_io.h"
 
 /* The sample types found in files; every one is read into float. */
@@ -62,5 +63,9 @@ int pbc_interfile_write(const char *path, const pbc_image *img);
 int pbc_interfile_data_name(const char *path, char *out, size_t size);
 int pbc_raw_read(const char *path, const pbc_read_hints *hints, pbc_image *img);
 int pbc_raw_write(const char *path, const pbc_image *img);
+/* The voxels as bare float32 in a fresh temporary for path, left open for the
+ * caller to commit (an Interfile header's data file is one). On failure the
+ * temporary is gone and the message printed. */
+int pbc_raw_write_temp(const char *path, const pbc_image *img, pbc_temp *t, FILE **f);
 
 #endif

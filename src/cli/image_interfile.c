@@ -387,15 +387,9 @@ int pbc_interfile_write(const char *path, const pbc_image *img)
     const char *slash = strrchr(data_path, '/');
     pbc_temp data_temp, header_temp;
     FILE *data, *header;
-    rc = pbc_temp_open(&data_temp, data_path, &data);
+    rc = pbc_raw_write_temp(data_path, img, &data_temp, &data);
     if (rc)
         return rc;
-    if (pbc_write_f32le(data, img->data, pbc_image_voxels(img)) != 0) {
-        int e = errno;
-        pbc_temp_abort(&data_temp, data);
-        return pbc_fail(PBC_EXIT_RUNTIME, "%s: writing failed (%s); nothing was written; free some space or choose "
-                        "another folder", data_path, strerror(e));
-    }
     rc = pbc_temp_open(&header_temp, path, &header);
     if (rc) {
         pbc_temp_abort(&data_temp, data);

@@ -47,18 +47,24 @@ int pbc_raw_read(const char *path, const pbc_read_hints *hints, pbc_image *img)
     return rc;
 }
 
+int pbc_raw_write_temp(const char *path, const pbc_image *img, pbc_temp *t, FILE **f)
+{
+    int rc = pbc_temp_open(t, path, f);
+    if (rc)
+        return rc;
+    if (pbc_write_f32le(*f, img->data, pbc_image_voxels(img)) != 0) {
+        int e = errno;
+        pbc_temp_abort(t, *f);
+        return pbc_fail(PBC_EXIT_RUNTIME, "%s: writing failed (%s); nothing was written; free some space or choose "
+                        "another folder", path, strerror(e));
+    }
+    return 0;
+}
+
 int pbc_raw_write(const char *path, const pbc_image *img)
 {
     pbc_temp t;
     FILE *f;
-    int rc = pbc_temp_open(&t, path, &f);
-    if (rc)
-        return rc;
-    if (pbc_write_f32le(f, img->data, pbc_image_voxels(img)) != 0) {
-        int e = errno;
-        pbc_temp_abort(&t, f);
-        return pbc_fail(PBC_EXIT_RUNTIME, "%s: writing failed (%s); nothing was written; free some space or choose "
-                        "another folder", path, strerror(e));
-    }
-    return pbc_temp_commit(&t, f);
+    int rc = pbc_raw_write_temp(path, img, &t, &f);
+    return rc ? rc : pbc_temp_commit(&t, f);
 }
