@@ -30,7 +30,7 @@ int pbc_cmd_render(int argc, char **argv)
                *title = pbc_arg(&command, &args, "--title");
     if (!out)
         return pbc_fail(PBC_EXIT_USAGE, "render needs -o PICTURE.png; see petblur render --help");
-    if ((rc = pbc_check_output("-o", out, 1)) || (rc = pbc_check_distinct(out, in)))
+    if ((rc = pbc_check_output("-o", out, 1)))
         return rc;
     size_t dims[3];
     double vs[3];
@@ -38,6 +38,10 @@ int pbc_cmd_render(int argc, char **argv)
     pbc_image img = {0};
     if ((rc = pbc_hints_from_args(&command, &args, dims, vs, &hints)) || (rc = pbc_image_read(in, &hints, &img)))
         return rc;
+    if ((rc = pbc_image_check_not_input(out, in, &img))) {
+        pbc_image_free(&img);
+        return rc;
+    }
     if (!title) {
         const char *slash = strrchr(in, '/');
         title = slash ? slash + 1 : in;

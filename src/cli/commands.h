@@ -16,8 +16,6 @@ int pbc_cmd_demo(int argc, char **argv);
 /* Shared checks of file arguments. */
 /* Refuses an output path whose extension no writer knows (before any work). */
 int pbc_check_output(const char *option, const char *path, int picture);
-/* Refuses an output that names the same file as an input. */
-int pbc_check_distinct(const char *out, const char *in);
 
 /* The read hints of a command's --dims and --voxel-size (either may be absent);
  * dims and voxel_size hold the parsed values that hints points to. */

@@ -26,14 +26,6 @@ int pbc_check_output(const char *option, const char *path, int picture)
     return 0;
 }
 
-int pbc_check_distinct(const char *out, const char *in)
-{
-    if (pbc_same_file(out, in))
-        return pbc_fail(PBC_EXIT_USAGE, "%s is also the input; petblur never overwrites its inputs, so choose "
-                        "another output name", out);
-    return 0;
-}
-
 int pbc_hints_from_args(const pbc_command *cmd, const pbc_args *args, size_t dims[3], double voxel_size[3],
                         pbc_read_hints *hints)
 {
