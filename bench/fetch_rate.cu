@@ -3,8 +3,11 @@
 // slice centres, so a bilinear fetch from a 2-D layered texture could stand in
 // for the trilinear 3-D fetch. Each thread of a 256^3 grid makes `steps`
 // fetches along z with fractional x and y offsets, the access pattern of AB on
-// a diagonal translation. CUDA events, warm-up, median of 20.
-//   nvcc -O3 -arch=sm_90 -o fetch_rate bench/fetch_rate.cu && ./fetch_rate
+// a diagonal translation. CUDA events, warm-up, median of 20. With a file
+// argument it also writes the rates as CSV (kind,steps,ms,rate; rate in G
+// fetches/s, or GB/s for the copy), which bench/paper_report.py reads for AB's
+// floor.
+//   nvcc -O3 -arch=sm_90 -o fetch_rate bench/fetch_rate.cu && ./fetch_rate [rates.csv]
 #include <algorithm>
 #include <cstdio>
 #include <cstdlib>
@@ -77,8 +80,15 @@ template <class F> static double median_ms(F launch)
     return 0.5 * (ms[9] + ms[10]);
 }
 
-int main()
+int main(int argc, char **argv)
 {
+    FILE *csv = argc > 1 ? std::fopen(argv[1], "w") : nullptr;
+    if (argc > 1 && !csv) {
+        std::perror(argv[1]);
+        return 1;
+    }
+    if (csv)
+        std::fprintf(csv, "kind,steps,ms,rate\n");
     size_t n = (size_t)N * N * N;
     std::vector<float> h(n);
     for (size_t i = 0; i < n; i++)
@@ -108,12 +118,12 @@ int main()
     const float gx = 10.0f / 11.0f, gy = 0.37f; /* fractional in-slice steps, as on a diagonal path */
     for (int steps : {1, 13, 31}) {
         struct {
-            const char *name;
+            const char *name, *key;
             cudaTextureObject_t t;
             bool layered;
-        } kinds[] = {{"3-D trilinear (linear filter)", lin3, false},
-                     {"3-D nearest (point filter)", pt3, false},
-                     {"2-D layered bilinear", linl, true}};
+        } kinds[] = {{"3-D trilinear (linear filter)", "trilinear3d", lin3, false},
+                     {"3-D nearest (point filter)", "nearest3d", pt3, false},
+                     {"2-D layered bilinear", "bilinear_layered", linl, true}};
         for (auto &k : kinds) {
             double ms = median_ms([&] {
                 if (k.layered)
@@ -122,10 +132,16 @@ int main()
                     fetch3d<<<grid, block>>>(k.t, steps, gx, gy, out);
             });
             std::printf("%-34s %6d %10.4f %14.1f\n", k.name, steps, ms, (double)n * steps / (ms * 1e6));
+            if (csv)
+                std::fprintf(csv, "%s,%d,%.5f,%.2f\n", k.key, steps, ms, (double)n * steps / (ms * 1e6));
         }
     }
     double ms = median_ms([&] { CHECK(cudaMemcpyAsync(copy, out, n * sizeof(float), cudaMemcpyDeviceToDevice)); });
     std::printf("device-to-device copy of 64 MiB: %.4f ms, %.0f GB/s (read + write)\n", ms,
                 2.0 * n * sizeof(float) / (ms * 1e6));
+    if (csv) {
+        std::fprintf(csv, "copy,0,%.5f,%.2f\n", ms, 2.0 * n * sizeof(float) / (ms * 1e6));
+        std::fclose(csv);
+    }
     return 0;
 }

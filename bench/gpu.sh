@@ -2,13 +2,14 @@
 # One run on the GPU machine answers every question about a kernel change:
 # build (CUDA and OpenCL), the host suite, the opencl suite on NVIDIA's OpenCL
 # and on PoCL, the cuda suite, how far CUDA is from PoCL and from NVIDIA's
-# OpenCL on the same inputs, then the benchmark of every method on a 256^3
+# OpenCL on the same inputs, the demo, the benchmark of every method on a 256^3
 # volume for the paper's eight motions on CUDA (CUDA events) and on NVIDIA's
-# OpenCL (profiling events), and the texture unit's fetch floor
-# (bench/fetch_rate.cu). What comes back through $OUT (the device tool
-# returns at most 8 files): tables.md, the three bench CSVs, compare.txt,
-# tests.txt and logs.tar.gz with everything else. Commit them under
-# bench/results/ with the date, GPU and commit.
+# OpenCL (profiling events), and the paper's Tables 1-3 with the peers, AB's
+# floor and the plots (bench/paper.sh). What comes back through $OUT (the
+# device tool returns at most 8 files): tables.md, tests.txt, paper.md,
+# paper.tar.gz (its CSVs, plots and logs), demo-cuda.png and logs.tar.gz with
+# everything else. Commit them under bench/results/ with the date, GPU and
+# commit.
 #
 # The machine has no Khronos CL/ headers and no libOpenCL.so link name: bring
 # them in .device/ (git-ignored) with bench/gpu-prepare.sh on this machine.
@@ -82,31 +83,33 @@ done
 cp "$LOG/demo-cuda/demo.png" "$OUT/demo-cuda.png" 2>/dev/null
 
 echo "== CUDA against PoCL and against NVIDIA OpenCL, same inputs =="
-: >"$OUT/compare.txt"
 for platform in pocl nvidia; do
-    echo "## CUDA (A) against $platform OpenCL (B)" | tee -a "$OUT/compare.txt"
+    echo "## CUDA (A) against $platform OpenCL (B)" | tee -a "$LOG/compare.txt"
     OCL_ICD_VENDORS="$vend/$platform" ./build-gpu/bench/pb_compare --size 64 cuda opencl:0 |
-        tee -a "$OUT/compare.txt" || status=1
+        tee -a "$LOG/compare.txt" || status=1
 done
 
 echo "== benchmark: CUDA, 256^3, paper scenarios 1-8 =="
-./build-gpu/bench/pb_bench --device cuda --size 256 --runs 20 --ref-runs 3 \
-    --label cuda --csv "$OUT/bench-cuda.csv" | tee "$LOG/bench-cuda.txt" || status=1
+./build-gpu/bench/pb_bench --device cuda --size 256 --runs 20 --ref-runs 0 \
+    --label cuda --csv "$LOG/bench-cuda.csv" | tee "$LOG/bench-cuda.txt" || status=1
 echo "== benchmark: NVIDIA OpenCL, 256^3, paper scenarios 1-8 =="
-OCL_ICD_VENDORS="$vend/nvidia" ./build-gpu/bench/pb_bench --device opencl --size 256 --runs 20 --ref-runs 3 \
-    --label nvidia-opencl --csv "$OUT/bench-nvidia-opencl.csv" | tee "$LOG/bench-nvidia-opencl.txt" || status=1
+OCL_ICD_VENDORS="$vend/nvidia" ./build-gpu/bench/pb_bench --device opencl --size 256 --runs 20 --ref-runs 0 \
+    --label nvidia-opencl --csv "$LOG/bench-nvidia-opencl.csv" | tee "$LOG/bench-nvidia-opencl.txt" || status=1
 echo "== benchmark: PoCL on the GPU machine's CPU, 128^3, scenario 2 =="
 OCL_ICD_VENDORS="$vend/pocl" ./build-gpu/bench/pb_bench --device opencl --size 128 --runs 5 --ref-runs 0 \
-    --scenario 2 --label pocl-cpu --csv "$OUT/bench-pocl.csv" | tee "$LOG/bench-pocl.txt" || status=1
+    --scenario 2 --label pocl-cpu --csv "$LOG/bench-pocl.csv" | tee "$LOG/bench-pocl.txt" || status=1
 
-echo "== the texture unit's fetch floor (bench/fetch_rate.cu) =="
-nvcc -O3 -arch=sm_90 -o build-gpu/fetch_rate bench/fetch_rate.cu && ./build-gpu/fetch_rate | tee "$LOG/fetch-rate.txt" ||
-    status=1
+echo "== the paper's Tables 1-3 with the peers, AB's floor and the plots (bench/paper.sh) =="
+paper=$(mktemp -d)/paper
+OCL_ICD_VENDORS="$vend/pocl" PYTHON=python3 bash bench/paper.sh build-gpu "$paper" --device cuda \
+    --cpu-device opencl || status=1
+cp "$paper/paper.md" "$OUT/paper.md" 2>/dev/null
+tar -C "$(dirname "$paper")" -czf "$OUT/paper.tar.gz" paper
 
 {
     sed 's/^/    /' "$LOG/machine.txt"
     echo
-    python3 bench/summarize.py "$OUT"
+    python3 bench/summarize.py "$LOG"
     echo "PoCL on the GPU machine's CPU, 128^3, scenario 2:"
     echo
     grep -v '^#' "$LOG/bench-pocl.txt" | sed 's/^/    /'
@@ -117,9 +120,11 @@ nvcc -O3 -arch=sm_90 -o build-gpu/fetch_rate bench/fetch_rate.cu && ./build-gpu/
         sed 's/^/    /' "$LOG/demo-$d.txt"
         echo
     done
-    echo "The texture unit's fetch floor (only AB's fetches, 256^3):"
+    echo "The texture unit's fetch floor (only AB's fetches, 256^3; bench/fetch_rate.cu):"
     echo
-    sed 's/^/    /' "$LOG/fetch-rate.txt"
+    sed 's/^/    /' "$paper/fetch-rate.txt"
+    echo
+    echo "The paper's tables: paper.md"
 } | tee "$OUT/tables.md"
 tar -C "$(dirname "$LOG")" -czf "$OUT/logs.tar.gz" logs
 exit $status

@@ -41,7 +41,7 @@ def main():
     out = sys.argv[1]
     cuda = load(os.path.join(out, "bench-cuda.csv"))
     ocl = load(os.path.join(out, "bench-nvidia-opencl.csv"))
-    print("Kernel time in ms, 256^3 float, median of 20 runs (REF: 3) after a warm-up; scenarios as in the paper "
+    print("Kernel time in ms, 256^3 float, median of 20 runs after a warm-up (REF is timed by bench/paper.sh); scenarios as in the paper "
           "(1 (2,2,2), 2 (12,10,-11), 3 (-20,30,15), 4 (-20,30,0) voxels; 5 10 deg, 6 60 deg; "
           "7 (2.5,-3.2,-0.7) and -5 deg; 8 (42,21,12) and 20 deg; rotations about z through the centre).\n")
     for label, data in (("CUDA (CUDA events)", cuda), ("NVIDIA OpenCL (profiling events)", ocl)):

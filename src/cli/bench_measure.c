@@ -85,7 +85,11 @@ static void to_object(const pb_pose *p, const double c[3], const double vs[3], c
         o[i] = (r[i] + c[i]) / vs[i];
 }
 
-/* The kernel's pb_ab_slices; a path shorter than 1e-4 voxels is one fetch. */
+/* The kernel's pb_ab_slices; a path shorter than 1e-4 voxels is one fetch.
+ * Ends within 1e-6 voxels of a slice centre count as on it: an integer
+ * translation then visits its length + 1 slices, not one or two more for the
+ * last bits of the mm-to-texel arithmetic (the kernel gives those slices zero
+ * share). */
 static unsigned ab_slices(const double a[3], const double b[3])
 {
     double ad[3] = {fabs(b[0] - a[0]), fabs(b[1] - a[1]), fabs(b[2] - a[2])};
@@ -94,7 +98,7 @@ static unsigned ab_slices(const double a[3], const double b[3])
     double lo = fmin(a[m], b[m]) - 0.5, hi = fmax(a[m], b[m]) - 0.5;
     if (hi - lo < 1e-4)
         return 1;
-    return (unsigned)(ceil(hi) - floor(lo) + 1.0);
+    return (unsigned)(ceil(hi - 1e-6) - floor(lo + 1e-6) + 1.0);
 }
 
 int pbc_ab_work_of(const pb_geometry *g, const pb_motion *motion, pbc_ab_work *work)
