@@ -166,6 +166,22 @@ class Bench(unittest.TestCase):
             self.assertFalse([f for f in os.listdir(target) if f.startswith(".")] if os.path.isdir(target) else [])
 
 
+    def test_brain_file_is_never_rewritten(self):
+        d = os.path.join(self.tmp.name, "own")
+        os.makedirs(os.path.join(d, "volumes"), exist_ok=True)
+        brain = os.path.join(d, "volumes", "brain.raw")
+        run(PETBLUR, "phantom", "--kind", "brain", "--dims", "16,16,8", "-o", brain)
+        with open(brain, "rb") as f:
+            before = f.read()
+        _, err = run(PETBLUR, "bench", "--device", "opencl", "--phantoms", "brain", "--brain", brain, "--dims",
+                     "16,16,8", "--scenarios", "2", "--runs", "1", "--points", "4", "--keep-volumes", "--out-dir", d,
+                     "-q", expect=2)
+        self.assertIn("choose another --out-dir", err)
+        with open(brain, "rb") as f:
+            self.assertEqual(f.read(), before)
+        self.assertFalse(os.path.exists(os.path.join(d, "results.csv")))
+
+
 class Pipeline(unittest.TestCase):
     """bench/paper.sh --quick end to end: bench, the CPU bench against the same
     references, the peers, the report."""

@@ -33,7 +33,7 @@ static const pbc_option options[] = {
     {"--points", NULL, "K", "REF's random points per voxel (default 200, the paper's)"},
     {"--runs", NULL, "N", "timed runs per method; the median is reported (default 20)"},
     {"--reference", NULL, "DIR", "read the references from DIR/volumes (an earlier run's --out-dir with "
-                                 "--keep-volumes) instead of computing them"},
+                                 "--keep-volumes) instead of computing them (ref_points is then 0: unknown here)"},
     {"--out-dir", NULL, "DIR", "where results.csv and cases.csv go (default petblur-bench)"},
     {"--keep-volumes", NULL, NULL, "also write the phantoms and references (float32 .raw) to DIR/volumes"},
     {"--quick", NULL, NULL, "a small version (CI): grids of 48 voxels, 32 points, 3 runs"},
@@ -303,7 +303,7 @@ static int bench_case(pb_context *ctx, const bench_config *c, bench_files *f, co
                motion_text, "box", noise, ref_ms, "", c->points);
     row_prefix(f->results, name, ph, s, sc);
     fprintf(f->results, ",%s,REF,exact,%.6g,%.6g,%.6g,,,1,%.0f,%u,%lu\n", device, noise, noise, ref_ms, work.fetches,
-            work.max_slices, c->points);
+            work.max_slices, c->reference ? 0UL : c->points);
     for (size_t m = 0; m < sizeof methods / sizeof methods[0]; m++)
         for (int filt = 0; filt < 2; filt++) {
             pb_blur_options opt = {methods[m].method, (pb_filter)filt, 0, 0, 0, 0};
@@ -324,7 +324,7 @@ static int bench_case(pb_context *ctx, const bench_config *c, bench_files *f, co
             row_prefix(f->results, name, ph, s, sc);
             fprintf(f->results, ",%s,%s,%s,%.6g,%.6g,%.6g,%.6g,%.6g,%lu,%.0f,%u,%lu\n", device, methods[m].name,
                     filter_names[filt], err, noise, t.kernel_ms, t.kernel_min_ms, t.e2e_ms, c->runs, work.fetches,
-                    work.max_slices, c->points);
+                    work.max_slices, c->reference ? 0UL : c->points);
         }
     /* Paths in cases.csv are relative to its folder: ours in ./volumes, those of
      * --reference (its phantom too: the same one) made absolute. */
@@ -365,7 +365,16 @@ static int bench_phantom(pb_context *ctx, const bench_config *c, bench_files *f,
         rc = pbc_fail(PBC_EXIT_RUNTIME, "out of memory for the %s phantom's volumes; use a smaller --size", name);
         goto done;
     }
-    if (c->keep && ((rc = volume_path(path, sizeof path, c->dir, name, 0, 0)) || (rc = pbc_image_write(path, &ph))))
+    if (c->keep && (rc = volume_path(path, sizeof path, c->dir, name, 0, 0)))
+        goto done;
+    /* A --brain file inside DIR/volumes must not be replaced by its own copy. */
+    if (c->keep && c->brain && kind == PBC_PHANTOM_BRAIN &&
+        (pbc_same_file(path, c->brain) || pbc_same_file(path, ph.source))) {
+        rc = pbc_fail(PBC_EXIT_USAGE, "--brain %s: --keep-volumes would rewrite it as %s; choose another --out-dir",
+                      c->brain, path);
+        goto done;
+    }
+    if (c->keep && (rc = pbc_image_write(path, &ph)))
         goto done;
     for (int s = 1; s <= 8 && !rc; s++)
         if (c->scenario[s - 1])
