@@ -20,8 +20,9 @@ import sys
 NAMES = {"homogeneity": "Homogeneity phantom (Table 1)", "derenzo": "Derenzo phantom (Table 2)",
          "brain": "Brain phantom (Table 3)"}
 METHODS = [("CL", "hardware"), ("RM", "hardware"), ("AB", "hardware"), ("AB", "exact"), ("RM", "exact"),
-           ("CL", "exact")]
-COLOURS = {"CL": "#1f77b4", "RM": "#2ca02c", "AB": "#d62728", "torch": "#9467bd", "scipy": "#8c564b"}
+           ("CL", "exact"), ("AB-E", "hardware"), ("AB-E", "exact"), ("RM-E", "hardware"), ("RM-E", "exact")]
+COLOURS = {"CL": "#1f77b4", "RM": "#2ca02c", "AB": "#d62728", "AB-E": "#ff7f0e", "RM-E": "#17becf",
+           "torch": "#9467bd", "scipy": "#8c564b"}
 
 
 def read_csv(path):
@@ -87,10 +88,12 @@ def phantom_tables(run, p):
                                                                  first["vx"], first["vy"], first["vz"]), ""]
     dagger = False
     out += ["Error % (eq. 5) against REF. Ours: HARDWARE filter unless marked EX; the paper's: GTX 960M. "
-            "REF noise: the error between two references of different seeds; an error below it (marked †) is "
-            "not resolved by the reference.", "",
-            "| # | motion | REF noise | CL | CL paper | RM | RM paper | AB | AB paper | AB EX | PyTorch | SciPy |",
-            "|---|---|---|---|---|---|---|---|---|---|---|---|"]
+            "AB and RM walk one segment per frame, as the paper's; AB-E and RM-E cut it to petblur's default path "
+            "error bound (segments: how many). REF noise: the error between two references of different seeds; "
+            "an error below it (marked †) is not resolved by the reference.", "",
+            "| # | motion | REF noise | CL | CL paper | RM | RM paper | AB | AB paper | AB EX | AB-E | RM-E | "
+            "segments | PyTorch | SciPy |",
+            "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for s in run.scenarios(p):
         noise = run.get(run.ours, p, s, "REF", "exact", "error_pct")
         pap = run.paper.get((p, s), {})
@@ -109,6 +112,10 @@ def phantom_tables(run, p):
         for m in ("CL", "RM", "AB"):
             cells += [mark(run.get(run.ours, p, s, m, "hardware", "error_pct")), fmt(num(pap.get("error_" + m.lower())))]
         cells.append(mark(run.get(run.ours, p, s, "AB", "exact", "error_pct")))
+        cells.append(mark(run.get(run.ours, p, s, "AB-E", "hardware", "error_pct")))
+        cells.append(mark(run.get(run.ours, p, s, "RM-E", "hardware", "error_pct")))
+        seg = run.ours.get((p, s, "AB-E", "hardware"))
+        cells.append(seg["segments"] if seg else "")
         for peer in ("torch", "scipy"):
             r = run.peers.get((p, s, peer))
             cells.append(mark(num(r["error_pct"])) if r else "")
@@ -116,9 +123,9 @@ def phantom_tables(run, p):
     out += ["", "Time in ms. Ours: kernel time from device events (median after a warm-up); AB e2e adds the upload "
             "and download; PyTorch: its S poses of affine_grid + grid_sample, CUDA events. Floor: AB's fetches over "
             "the texture unit's measured rate, or its bytes over the measured bandwidth, whichever is longer.", "",
-            "| # | S | CL | CL paper | RM | RM paper | AB | AB paper | AB EX | AB e2e | PyTorch | PyTorch / AB | "
-            "AB floor | AB / floor |",
-            "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
+            "| # | S | CL | CL paper | RM | RM paper | AB | AB paper | AB EX | AB e2e | AB-E | AB-E / AB | PyTorch | "
+            "PyTorch / AB | AB floor | AB / floor |",
+            "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for s in run.scenarios(p):
         pap = run.paper.get((p, s), {})
         ab = run.get(run.ours, p, s, "AB", "hardware", "kernel_ms")
@@ -128,6 +135,8 @@ def phantom_tables(run, p):
                       fmt(num(pap.get("time_" + m.lower())), 2)]
         cells += [fmt(run.get(run.ours, p, s, "AB", "exact", "kernel_ms"), 3),
                   fmt(run.get(run.ours, p, s, "AB", "hardware", "e2e_ms"), 3)]
+        abe = run.get(run.ours, p, s, "AB-E", "hardware", "kernel_ms")
+        cells += [fmt(abe, 3), fmt(abe / ab if abe and ab else None, 2)]
         t = run.peers.get((p, s, "torch"))
         tt = num(t["time_ms"]) if t else None
         cells += [fmt(tt, 3), fmt(tt / ab if tt and ab else None, 1)]
@@ -179,6 +188,18 @@ def targets(run):
         if have:
             out.append("- AB error at or below the paper's, translations (1-4), %s: %s" % (
                 p, "met" if not worse else "NOT met in " + ", ".join(worse)))
+    for p in run.phantoms:
+        bad = []
+        for s in (6, 8):
+            e = run.get(run.ours, p, s, "AB-E", "hardware", "error_pct")
+            t, t1 = (run.get(run.ours, p, s, m, "hardware", "kernel_ms") for m in ("AB-E", "AB"))
+            if e is None or t is None or t1 is None:
+                continue
+            if e > 0.5 or t > 1.5 * t1:
+                bad.append("%d (%.3f %%, %.2fx)" % (s, e, t / t1))
+        if any((p, s, "AB-E", "hardware") in run.ours for s in (6, 8)):
+            out.append("- AB with the default path error bound, scenarios 6 and 8, %s: error at most 0.5 %% and time "
+                       "at most 1.5x one-segment AB: %s" % (p, "met" if not bad else "NOT met in " + ", ".join(bad)))
     ratios = []
     for p in run.phantoms:
         for s in run.scenarios(p):

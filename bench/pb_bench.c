@@ -144,7 +144,8 @@ int main(int argc, char **argv)
             int n_runs = methods[m].method == PB_METHOD_REF ? ref_runs : runs;
             if (n_runs == 0)
                 continue;
-            pb_blur_options opt = {methods[m].method, methods[m].filter, 0, 0, 0, 0};
+            /* The paper's polyline (one segment), as in the earlier runs. */
+            pb_blur_options opt = {methods[m].method, methods[m].filter, 0, 0, 0, 0, -1.0};
             /* Progress on a terminal only, outside the timed calls (a library
              * progress callback would split the launches and change the times). */
             if (tty)

@@ -222,7 +222,37 @@ typedef struct pb_blur_options {
      * at least every half voxel. */
     unsigned ref_time_steps;
     uint32_t seed;           /* REF: random points are a pure function of the seed */
+    /* AB and RM walk straight segments between key poses; a voxel's true path
+     * (LERP translation, SLERP rotation) bends away from them under rotation.
+     * max_path_error bounds that: every tracked interval is cut into as many
+     * equal pieces as it takes for no voxel centre of the grid to leave its
+     * polyline by more than max_path_error voxels (of the smallest voxel size).
+     * 0 = PB_DEFAULT_MAX_PATH_ERROR; negative = no cuts, one segment per tracked
+     * interval (the paper's polyline). CL and REF follow the true path and
+     * ignore it. pb_path_segments says how many segments a motion gets. */
+    double max_path_error;
 } pb_blur_options;
+
+/* The default bound of a voxel's polyline against its true path, in voxels.
+ * Measured on the Derenzo phantom (96^3, 60 degrees): AB's error against REF
+ * is 28.6 % on one segment, 0.32 % at 1 voxel, 0.14 % at 0.5, 0.047 % at 0.25
+ * and 0.020 % at 0.1. At 0.25 it is below AB's own error on short straight
+ * paths, and a 60 degree turn of 256^3 takes 12 segments (about 14 % more
+ * slices than one). */
+#define PB_DEFAULT_MAX_PATH_ERROR 0.25
+
+/* The segments AB and RM walk for a motion on a grid under options (NULL:
+ * defaults): each tracked interval inside the frame gets
+ *     n = max(1, ceil(sqrt(D / (8 E))))
+ * equal pieces, where D bounds the path's curvature |p''| over the interval in
+ * voxels: D = (theta^2 (r + |t|max) + 2 theta |dt|) / vmin, with theta the
+ * interval's rotation angle (radians), r the largest distance of a voxel
+ * centre from the rotation centre, |t|max the larger translation of its two
+ * poses, |dt| the translation's change (all in mm), vmin the smallest voxel
+ * size and E = max_path_error. A C2 curve leaves its chord over a piece of
+ * parameter length h by at most h^2 max|p''| / 8. */
+PB_API pb_status pb_path_segments(const pb_geometry *geometry, const pb_motion *motion,
+                                  const pb_blur_options *options, size_t *segments);
 
 /* Blurs an object-space volume along the motion into a tomograph-space volume of
  * the same geometry (the paper's eq. 1, gather form: one work item per

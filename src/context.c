@@ -338,6 +338,34 @@ static pb_status check_options(pb_context *ctx, const pb_blur_options *o)
     if (o->ref_time_steps > 100000)
         return pb_error(ctx, PB_ERR_INVALID_ARGUMENT, "ref_time_steps %u is above 100000; use fewer",
                         o->ref_time_steps);
+    if (!isfinite(o->max_path_error))
+        return pb_error(ctx, PB_ERR_INVALID_ARGUMENT, "max_path_error is %g; give a finite bound in voxels (0: the "
+                        "default %g, negative: no cuts)", o->max_path_error, PB_DEFAULT_MAX_PATH_ERROR);
+    return PB_OK;
+}
+
+pb_status pb_path_segments(const pb_geometry *geometry, const pb_motion *motion, const pb_blur_options *options,
+                           size_t *segments)
+{
+    size_t count;
+    if (!geometry || !motion || !segments)
+        return pb_error(NULL, PB_ERR_INVALID_ARGUMENT, "geometry, motion and segments must not be NULL");
+    pb_blur_options opt = {PB_METHOD_AB, PB_FILTER_HARDWARE, 0, 0, 0, 0, 0.0};
+    if (options)
+        opt = *options;
+    pb_status st = check_geometry(NULL, geometry, &count);
+    if (st == PB_OK)
+        st = check_options(NULL, &opt);
+    if (st != PB_OK)
+        return st;
+    /* AB's plan: CL and REF follow the path itself, but the question is what
+     * a polyline of these options would need. */
+    opt.method = PB_METHOD_AB;
+    pb_plan plan;
+    if ((st = pb_plan_create(NULL, geometry, motion, &opt, &plan)) != PB_OK)
+        return st;
+    *segments = plan.count - 1;
+    pb_plan_destroy(&plan);
     return PB_OK;
 }
 
@@ -358,7 +386,7 @@ pb_status pb_blur(pb_context *ctx, const pb_volume *object, const pb_motion *mot
                             "object %zu x %zu x %zu and tomograph %zu x %zu x %zu volumes differ in size or voxel "
                             "size; blur into a volume of the object's geometry",
                             a->dims[0], a->dims[1], a->dims[2], b->dims[0], b->dims[1], b->dims[2]);
-    pb_blur_options opt = {PB_METHOD_AB, PB_FILTER_HARDWARE, 0, 0, 0, 0};
+    pb_blur_options opt = {PB_METHOD_AB, PB_FILTER_HARDWARE, 0, 0, 0, 0, 0.0};
     if (options)
         opt = *options;
     pb_status st = check_options(ctx, &opt);

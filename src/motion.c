@@ -361,14 +361,23 @@ pb_status pb_plan_create(struct pb_context *ctx, const pb_geometry *g, const pb_
     plan->poses[k].time = m->frame_end;
     pb_motion_interpolate(m, m->frame_end, &plan->poses[k].pose);
 
+    /* Same hemisphere as the previous pose, so a plain SLERP between
+     * neighbours (as the kernels do it) takes the shorter arc. */
+    for (size_t j = 1; j < plan->count; j++)
+        if (pb_quat_dot(plan->poses[j].pose.rotation, plan->poses[j - 1].pose.rotation) < 0.0)
+            for (int i = 0; i < 4; i++)
+                plan->poses[j].pose.rotation[i] = -plan->poses[j].pose.rotation[i];
+    /* The polyline methods get their intervals cut to the path error bound. */
+    if ((opt->method == PB_METHOD_AB || opt->method == PB_METHOD_RM) && opt->max_path_error >= 0.0) {
+        st = pb_plan_split(ctx, plan, opt->max_path_error > 0.0 ? opt->max_path_error : PB_DEFAULT_MAX_PATH_ERROR);
+        if (st != PB_OK) {
+            pb_plan_destroy(plan);
+            return st;
+        }
+    }
     double span = m->frame_end - m->frame_start;
     for (size_t j = 0; j < plan->count; j++) {
         pb_plan_pose *p = &plan->poses[j];
-        /* Same hemisphere as the previous pose, so a plain SLERP between
-         * neighbours (as the kernels do it) takes the shorter arc. */
-        if (j > 0 && pb_quat_dot(p->pose.rotation, plan->poses[j - 1].pose.rotation) < 0.0)
-            for (int i = 0; i < 4; i++)
-                p->pose.rotation[i] = -p->pose.rotation[i];
         pb_pose_texel_map(&p->pose, plan->center, g->voxel_size, p->map);
         p->weight = j + 1 < plan->count ? (plan->poses[j + 1].time - p->time) / span : 0.0;
     }

@@ -73,7 +73,7 @@ int main(int argc, char **argv)
         random_motion(&g, &tm, times, poses, &count);
         for (int method = 0; method < 4; method++) {
             for (int filter = 0; filter < 2; filter++) {
-                pb_blur_options opt = {(pb_method)method, (pb_filter)filter, 0, 0, 0, 0};
+                pb_blur_options opt = {(pb_method)method, (pb_filter)filter, 0, 0, 0, 0, 0.0};
                 if (method == PB_METHOD_REF) {
                     opt.ref_points = 24;
                     opt.ref_time_steps = 4;

@@ -204,6 +204,19 @@ class Motion(Case):
             expected = np.interp(xs, np.arange(12), f).mean()
             self.assertAlmostEqual(float(out[4, 5, x]), expected, delta=1e-4 * max(1.0, abs(expected)))
 
+    def test_max_path_error(self):
+        """A 40 degree turn: AB's distance to the true path (CL with dense
+        steps) falls from the paper's one segment to the default bound to a
+        tighter one."""
+        truth = self.blur("cl.raw", "--rotate", "40", "--method", "cl", "--filter", "exact", "--steps", "2000")
+
+        def err(x):
+            return float(np.sum((x - truth) ** 2.0) / np.sum(truth ** 2.0))
+        errs = [err(self.blur(f"ab{i}.raw", "--rotate", "40", "--filter", "exact", *bound))
+                for i, bound in enumerate((("--max-path-error", "paper"), (), ("--max-path-error", "0.05")))]
+        self.assertLess(errs[1], errs[0] / 5, errs)
+        self.assertLess(errs[2], errs[1], errs)
+
     def test_default_device_runs(self):
         a = self.blur("auto.raw", "--translate", "1,2,-1", "--rotate", "5", device="auto")
         h = self.blur("host.raw", "--translate", "1,2,-1", "--rotate", "5", "--filter", "exact")
@@ -348,6 +361,8 @@ class BadInput(Case):
         self.fails(2, ["--bogus"], *self.blur("--translate", "1,0,0", "--bogus"))
         self.fails(2, ["no motion"], *self.blur())
         self.fails(2, ["--method"], *self.blur("--translate", "1,0,0", "--method", "fast"))
+        for bad in ("0", "-1", "nan", "tight"):
+            self.fails(2, ["--max-path-error"], *self.blur("--rotate", "10", "--max-path-error", bad))
         self.fails(2, ["--dims"], *self.blur("--translate", "1,0,0")[:4], "1,x,8", "-o", self.p("out.nii"),
                    "--translate", "1,0,0")
         self.fails(2, ["unknown command"], "frobnicate")

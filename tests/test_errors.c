@@ -180,10 +180,27 @@ static void test_motions(pb_context *ctx)
     pb_check(pb_max_abs_diff(ref, near, 216) <= 1e-6, "near-unit quaternion normalised (diff %.3g)",
              pb_max_abs_diff(ref, near, 216));
 
-    pb_blur_options opt = {(pb_method)7, PB_FILTER_EXACT, 0, 0, 0, 0};
+    pb_blur_options opt = {(pb_method)7, PB_FILTER_EXACT, 0, 0, 0, 0, 0.0};
     expect(pb_blur(ctx, in, &good, &opt, out), PB_ERR_INVALID_ARGUMENT, "unknown method", pb_last_error(ctx),
            "method");
     expect(pb_blur(ctx, in, NULL, NULL, out), PB_ERR_INVALID_ARGUMENT, "NULL motion", pb_last_error(ctx), NULL);
+    /* The path error bound: not a number, and one that would need absurdly many
+     * segments for a 20 degree turn. */
+    pb_blur_options bound = {PB_METHOD_AB, PB_FILTER_EXACT, 0, 0, 0, 0, (double)NAN};
+    expect(pb_blur(ctx, in, &mu, &bound, out), PB_ERR_INVALID_ARGUMENT, "NaN max_path_error", pb_last_error(ctx),
+           "max_path_error");
+    bound.max_path_error = 1e-12;
+    expect(pb_blur(ctx, in, &mu, &bound, out), PB_ERR_INVALID_ARGUMENT, "tiny max_path_error", pb_last_error(ctx),
+           "raise it");
+    pb_geometry g6 = {{6, 6, 6}, {1, 1, 1}};
+    size_t segments = 0;
+    expect(pb_path_segments(&g6, &mu, &bound, &segments), PB_ERR_INVALID_ARGUMENT, "pb_path_segments, tiny bound",
+           pb_last_error(NULL), "raise it");
+    expect(pb_path_segments(&g6, NULL, NULL, &segments), PB_ERR_INVALID_ARGUMENT, "pb_path_segments, NULL motion",
+           pb_last_error(NULL), "NULL");
+    bound.max_path_error = -1.0; /* the paper's one segment */
+    pb_check(pb_path_segments(&g6, &mu, &bound, &segments) == PB_OK && segments == 1,
+             "no cuts with a negative bound (%zu segments)", segments);
     pb_volume_destroy(in);
     pb_volume_destroy(out);
 }

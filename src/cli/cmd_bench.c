@@ -70,10 +70,15 @@ typedef struct bench_files {
     FILE *results, *cases;
 } bench_files;
 
+/* The paper's methods as the paper ran them (AB and RM on one segment per
+ * tracked interval), then every method petblur adds: AB-E and RM-E are AB and
+ * RM with the default bound on the path error (pb_blur_options). */
 static const struct {
     const char *name;
     pb_method method;
-} methods[] = {{"AB", PB_METHOD_AB}, {"RM", PB_METHOD_RM}, {"CL", PB_METHOD_CL}};
+    double max_path_error;
+} methods[] = {{"AB", PB_METHOD_AB, -1.0},  {"RM", PB_METHOD_RM, -1.0},  {"CL", PB_METHOD_CL, 0.0},
+               {"AB-E", PB_METHOD_AB, 0.0}, {"RM-E", PB_METHOD_RM, 0.0}};
 static const char *filter_names[] = {"hardware", "exact"};
 
 /* "a,b,c" into tokens of at most 31 characters; calls take(token) for each. */
@@ -254,7 +259,7 @@ static int references(pb_context *ctx, const bench_config *c, const char *name, 
             pbc_image_free(&r);
             continue;
         }
-        pb_blur_options opt = {PB_METHOD_REF, PB_FILTER_EXACT, 0, (unsigned)c->points, 0, (uint32_t)seed};
+        pb_blur_options opt = {PB_METHOD_REF, PB_FILTER_EXACT, 0, (unsigned)c->points, 0, (uint32_t)seed, 0.0};
         pbc_timing t;
         if ((rc = pbc_bench_time(ctx, in, out, ph->data, motion, &opt, 0, 0, ref[seed - 1], &t)))
             return rc;
@@ -268,6 +273,15 @@ static int references(pb_context *ctx, const bench_config *c, const char *name, 
         }
     }
     return 0;
+}
+
+static int segments_of(const pb_geometry *g, const pb_motion *motion, const pb_blur_options *opt, size_t *n)
+{
+    *n = 1;
+    if (opt->method != PB_METHOD_AB && opt->method != PB_METHOD_RM)
+        return 0; /* CL and REF follow the path itself */
+    pb_status st = pb_path_segments(g, motion, opt, n);
+    return st == PB_OK ? 0 : pbc_fail(pbc_exit_for(st), "path segments: %s", pb_last_error(NULL));
 }
 
 static void row_prefix(FILE *f, const char *name, const pbc_image *ph, int s, const pb_scenario *sc)
@@ -302,11 +316,14 @@ static int bench_case(pb_context *ctx, const bench_config *c, bench_files *f, co
         printf("%-11s %d %-22s REF %-8s %9.4f %11.3f %10s   (noise: seed 2 against seed 1; %lu points)\n", name, s,
                motion_text, "box", noise, ref_ms, "", c->points);
     row_prefix(f->results, name, ph, s, sc);
-    fprintf(f->results, ",%s,REF,exact,%.6g,%.6g,%.6g,,,1,%.0f,%u,%lu\n", device, noise, noise, ref_ms, work.fetches,
-            work.max_slices, c->reference ? 0UL : c->points);
+    fprintf(f->results, ",%s,REF,exact,%.6g,%.6g,%.6g,,,1,%.0f,%u,%lu,,1\n", device, noise, noise, ref_ms,
+            work.fetches, work.max_slices, c->reference ? 0UL : c->points);
     for (size_t m = 0; m < sizeof methods / sizeof methods[0]; m++)
         for (int filt = 0; filt < 2; filt++) {
-            pb_blur_options opt = {methods[m].method, (pb_filter)filt, 0, 0, 0, 0};
+            pb_blur_options opt = {methods[m].method, (pb_filter)filt, 0, 0, 0, 0, methods[m].max_path_error};
+            size_t segments = 1;
+            if ((rc = segments_of(&g, &motion, &opt, &segments)))
+                return rc;
             pbc_timing t;
             char what[32];
             snprintf(what, sizeof what, "%s %s", methods[m].name, filter_names[filt]);
@@ -318,13 +335,18 @@ static int bench_case(pb_context *ctx, const bench_config *c, bench_files *f, co
                 return rc;
             double err = pb_error_percent(ref[0], res, n);
             progress_clear();
-            printf("%-11s %d %-22s %-3s %-8s %9.4f %11.3f %10.3f\n", name, s, motion_text, methods[m].name,
+            printf("%-11s %d %-22s %-4s %-8s %9.4f %11.3f %10.3f\n", name, s, motion_text, methods[m].name,
                    filter_names[filt], err, t.kernel_ms, t.e2e_ms);
             fflush(stdout);
             row_prefix(f->results, name, ph, s, sc);
-            fprintf(f->results, ",%s,%s,%s,%.6g,%.6g,%.6g,%.6g,%.6g,%lu,%.0f,%u,%lu\n", device, methods[m].name,
-                    filter_names[filt], err, noise, t.kernel_ms, t.kernel_min_ms, t.e2e_ms, c->runs, work.fetches,
-                    work.max_slices, c->reference ? 0UL : c->points);
+            /* The bound in force: -1 for the paper's one segment, empty for CL. */
+            char bound[32] = "";
+            if (methods[m].method != PB_METHOD_CL)
+                snprintf(bound, sizeof bound, "%g",
+                         opt.max_path_error == 0.0 ? PB_DEFAULT_MAX_PATH_ERROR : fmax(opt.max_path_error, -1.0));
+            fprintf(f->results, ",%s,%s,%s,%.6g,%.6g,%.6g,%.6g,%.6g,%lu,%.0f,%u,%lu,%s,%zu\n", device,
+                    methods[m].name, filter_names[filt], err, noise, t.kernel_ms, t.kernel_min_ms, t.e2e_ms, c->runs,
+                    work.fetches, work.max_slices, c->reference ? 0UL : c->points, bound, segments);
         }
     /* Paths in cases.csv are relative to its folder: ours in ./volumes, those of
      * --reference (its phantom too: the same one) made absolute. */
@@ -412,7 +434,7 @@ static int open_outputs(const bench_config *c, bench_files *f)
     }
     static const char prefix[] = "phantom,nx,ny,nz,vx,vy,vz,scenario,tx,ty,tz,rot_deg";
     fprintf(f->results, "%s,backend,device,method,filter,error_pct,ref_noise_pct,kernel_ms,kernel_min_ms,e2e_ms,runs,"
-                        "ab_fetches,ab_max_slices,ref_points\n", prefix);
+                        "ab_fetches,ab_max_slices,ref_points,max_path_error,segments\n", prefix);
     fprintf(f->cases, "%s,S,phantom_file,ref_file,ref2_file,ref_noise_pct\n", prefix);
     return 0;
 }

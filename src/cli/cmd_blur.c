@@ -23,6 +23,8 @@ static const pbc_option options[] = {
     {"--method", NULL, "ab|rm|cl|ref", "AB (default), ray marching, classical, or the multi-point reference"},
     {"--filter", NULL, "hardware|exact", "one filtered fetch per sample (default), or float weights; REF: unused"},
     {"--steps", NULL, "N", "RM, CL: samples per segment (default: as many slices as AB visits); AB: sub-segments"},
+    {"--max-path-error", NULL, "E", "AB, RM: the most a voxel's path may leave its polyline, voxels (default 0.25; "
+                                    "'paper': one segment per tracked interval)"},
     {"--points", NULL, "K", "REF: random points per voxel (default 200)"},
     {"--seed", NULL, "S", "REF: seed of the random points (default 1)"},
     {"--device", NULL, "DEV", "auto (default), host, opencl[:N] or cuda[:N]"},
@@ -65,6 +67,15 @@ static int blur_options(const pbc_args *args, pb_blur_options *opt)
         opt->steps = (unsigned)n;
     else if (v)
         return rc;
+    if ((v = pbc_arg(&command, args, "--max-path-error"))) {
+        if (!strcmp(v, "paper"))
+            opt->max_path_error = -1.0;
+        else if ((rc = pbc_parse_number("--max-path-error", v, &opt->max_path_error)))
+            return rc;
+        else if (!(opt->max_path_error > 0.0))
+            return pbc_fail(PBC_EXIT_USAGE, "--max-path-error %s: give a bound in voxels above 0 (e.g. 0.25), or "
+                            "'paper' for one segment per tracked interval", v);
+    }
     if ((v = pbc_arg(&command, args, "--points")) && (rc = pbc_parse_count("--points", v, 1, 100000, &n)) == 0)
         opt->ref_points = (unsigned)n;
     else if (v)
