@@ -261,6 +261,19 @@ PB_API pb_status pb_path_segments(const pb_geometry *geometry, const pb_motion *
 PB_API pb_status pb_blur(pb_context *ctx, const pb_volume *object, const pb_motion *motion,
                          const pb_blur_options *options, pb_volume *tomograph);
 
+/* Dynamic PET: the frames of one pose track (markers at 30 Hz or more over
+ * minutes) in one call. Frame i spans [bounds[i], bounds[i+1]] (frames + 1
+ * increasing bounds inside the track); objects[i] is its activity (one volume
+ * may serve several frames: it stays on the device, its image refreshed once)
+ * and tomographs[i] receives its blur, which equals pb_blur's of that frame.
+ * The track's frame_start and frame_end are not used. Every frame is checked
+ * and planned before any is blurred: on an error nothing was written. A
+ * frame's tomograph must not be any frame's object or another frame's
+ * tomograph. pb_context_last_kernel_ms then gives the frames' total. */
+PB_API pb_status pb_blur_frames(pb_context *ctx, const pb_volume *const *objects, const pb_motion *track,
+                                const double *bounds, size_t frames, const pb_blur_options *options,
+                                pb_volume *const *tomographs);
+
 /* The paper's eq. (5): 100 * sum (x - ref)^2 / sum ref^2 over n voxels, in
  * double. Returns NaN when ref is all zeros. */
 PB_API double pb_error_percent(const float *reference, const float *x, size_t n);

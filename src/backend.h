@@ -58,6 +58,11 @@ extern const pb_backend_ops pb_backend_cuda_ops;
  * a volume takes about 32 launches. */
 size_t pb_progress_slab(size_t nz);
 
+/* The checks every blur makes (context, volumes, options) before any work;
+ * opt receives the options with their defaults filled in. */
+pb_status pb_blur_prepare(struct pb_context *ctx, const struct pb_volume *object, const pb_blur_options *options,
+                          const struct pb_volume *tomograph, pb_blur_options *opt);
+
 pb_status pb_device_check_volume(struct pb_context *ctx, const pb_device_info *info, const pb_geometry *g);
 
 #endif

@@ -369,10 +369,10 @@ pb_status pb_path_segments(const pb_geometry *geometry, const pb_motion *motion,
     return PB_OK;
 }
 
-pb_status pb_blur(pb_context *ctx, const pb_volume *object, const pb_motion *motion,
-                  const pb_blur_options *options, pb_volume *tomograph)
+pb_status pb_blur_prepare(pb_context *ctx, const pb_volume *object, const pb_blur_options *options,
+                          const pb_volume *tomograph, pb_blur_options *opt)
 {
-    if (!ctx || !object || !motion || !tomograph)
+    if (!ctx || !object || !tomograph)
         return pb_error(ctx, PB_ERR_INVALID_ARGUMENT, "ctx, object, motion and tomograph must not be NULL");
     if (object->ctx != ctx || tomograph->ctx != ctx)
         return pb_error(ctx, PB_ERR_SIZE_MISMATCH, "both volumes must belong to the context that blurs them");
@@ -386,17 +386,26 @@ pb_status pb_blur(pb_context *ctx, const pb_volume *object, const pb_motion *mot
                             "object %zu x %zu x %zu and tomograph %zu x %zu x %zu volumes differ in size or voxel "
                             "size; blur into a volume of the object's geometry",
                             a->dims[0], a->dims[1], a->dims[2], b->dims[0], b->dims[1], b->dims[2]);
-    pb_blur_options opt = {PB_METHOD_AB, PB_FILTER_HARDWARE, 0, 0, 0, 0, 0.0};
+    *opt = (pb_blur_options){PB_METHOD_AB, PB_FILTER_HARDWARE, 0, 0, 0, 0, 0.0};
     if (options)
-        opt = *options;
-    pb_status st = check_options(ctx, &opt);
+        *opt = *options;
+    pb_status st = check_options(ctx, opt);
+    if (st == PB_OK && opt->ref_points == 0)
+        opt->ref_points = 200;
+    return st;
+}
+
+pb_status pb_blur(pb_context *ctx, const pb_volume *object, const pb_motion *motion,
+                  const pb_blur_options *options, pb_volume *tomograph)
+{
+    pb_blur_options opt;
+    pb_status st = pb_blur_prepare(ctx, object, options, tomograph, &opt);
+    if (st == PB_OK && !motion)
+        st = pb_error(ctx, PB_ERR_INVALID_ARGUMENT, "ctx, object, motion and tomograph must not be NULL");
     if (st != PB_OK)
         return st;
-    if (opt.ref_points == 0)
-        opt.ref_points = 200;
-
     pb_plan plan;
-    st = pb_plan_create(ctx, a, motion, &opt, &plan);
+    st = pb_plan_create(ctx, &object->geometry, motion, &opt, &plan);
     if (st != PB_OK)
         return st;
     ctx->last_kernel_ms = 0.0;

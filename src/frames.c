@@ -1,0 +1,103 @@
+/* Dynamic PET: many frames of one pose track in one call. Every frame is
+ * checked and planned before any work, so a bad frame costs nothing and
+ * writes nothing; then the frames run in order on the device, each exactly as
+ * pb_blur would run it. An object volume shared by several frames stays on
+ * the device: its image or texture is refreshed once, not per frame. */
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+
+#include "backend.h"
+
+/* The progress of frame `done` of `frames`, handed on as the whole call's. */
+typedef struct frames_progress {
+    pb_progress_fn fn;
+    void *user;
+    size_t done, frames;
+} frames_progress;
+
+static void frame_progress(double fraction, void *user)
+{
+    frames_progress *p = user;
+    double f = ((double)p->done + fraction) / (double)p->frames;
+    if (f < 1.0)
+        p->fn(f, p->user);
+}
+
+static pb_status check_frames(pb_context *ctx, const pb_volume *const *objects, const pb_motion *track,
+                              const double *bounds, size_t frames, pb_volume *const *tomographs)
+{
+    if (!objects || !track || !bounds || !tomographs)
+        return pb_error(ctx, PB_ERR_INVALID_ARGUMENT, "objects, track, bounds and tomographs must not be NULL");
+    if (frames == 0)
+        return pb_error(ctx, PB_ERR_INVALID_ARGUMENT, "no frames: give at least one frame (two bounds)");
+    for (size_t i = 0; i <= frames; i++)
+        if (!isfinite(bounds[i]))
+            return pb_error(ctx, PB_ERR_NOT_FINITE, "frame bound %zu is %g; give finite times in seconds", i,
+                            bounds[i]);
+    for (size_t i = 0; i < frames; i++)
+        if (!(bounds[i + 1] > bounds[i]))
+            return pb_error(ctx, PB_ERR_BAD_FRAME, "frame %zu ends at %.9g s, not after its start %.9g s; frame "
+                            "bounds must increase", i, bounds[i + 1], bounds[i]);
+    /* A frame's output must not be another frame's input, nor another
+     * frame's output: either would be overwritten before it is used. */
+    for (size_t i = 0; i < frames; i++)
+        for (size_t j = 0; j < frames; j++) {
+            if (tomographs[i] && tomographs[i] == objects[j])
+                return pb_error(ctx, PB_ERR_INVALID_ARGUMENT, "frame %zu's tomograph is frame %zu's object; give "
+                                "every frame an output volume of its own", i, j);
+            if (i < j && tomographs[i] && tomographs[i] == tomographs[j])
+                return pb_error(ctx, PB_ERR_INVALID_ARGUMENT, "frames %zu and %zu share one tomograph volume; "
+                                "give every frame an output volume of its own", i, j);
+        }
+    return PB_OK;
+}
+
+pb_status pb_blur_frames(pb_context *ctx, const pb_volume *const *objects, const pb_motion *track,
+                         const double *bounds, size_t frames, const pb_blur_options *options,
+                         pb_volume *const *tomographs)
+{
+    if (!ctx)
+        return pb_error(NULL, PB_ERR_INVALID_ARGUMENT, "ctx must not be NULL");
+    pb_status st = check_frames(ctx, objects, track, bounds, frames, tomographs);
+    if (st != PB_OK)
+        return st;
+    pb_blur_options opt;
+    pb_plan *plans = calloc(frames, sizeof *plans);
+    if (!plans)
+        return pb_error(ctx, PB_ERR_OUT_OF_MEMORY, "out of host memory for %zu frame plans", frames);
+    size_t planned = 0;
+    for (; planned < frames && st == PB_OK; planned++) {
+        pb_motion m = *track;
+        m.frame_start = bounds[planned];
+        m.frame_end = bounds[planned + 1];
+        st = pb_blur_prepare(ctx, objects[planned], options, tomographs[planned], &opt);
+        if (st == PB_OK)
+            st = pb_plan_create(ctx, &objects[planned]->geometry, &m, &opt, &plans[planned]);
+        if (st != PB_OK) {
+            char where[96];
+            snprintf(where, sizeof where, " (frame %zu of %zu; no frame was blurred)", planned, frames);
+            pb_error_append(ctx, where);
+        }
+    }
+    frames_progress prog = {ctx->progress, ctx->progress_user, 0, frames};
+    if (st == PB_OK && ctx->progress)
+        ctx->progress = frame_progress, ctx->progress_user = &prog;
+    double total = 0.0;
+    for (size_t i = 0; i < frames && st == PB_OK; i++) {
+        prog.done = i;
+        st = ctx->ops->blur(ctx, objects[i], &plans[i], &opt, tomographs[i]);
+        total += ctx->last_kernel_ms;
+    }
+    if (prog.fn) {
+        ctx->progress = prog.fn;
+        ctx->progress_user = prog.user;
+    }
+    for (size_t i = 0; i < planned; i++) /* a failed frame's plan is empty: safe to destroy */
+        pb_plan_destroy(&plans[i]);
+    free(plans);
+    ctx->last_kernel_ms = total;
+    if (st == PB_OK && ctx->progress)
+        ctx->progress(1.0, ctx->progress_user);
+    return st;
+}
