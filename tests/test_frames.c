@@ -27,21 +27,6 @@ static void make_track(double *times, pb_pose *poses)
     }
 }
 
-typedef struct progress_log {
-    int calls, bad;
-    double last;
-} progress_log;
-
-static void record_progress(double fraction, void *user)
-{
-    progress_log *log = user;
-    /* Each call must rise, and 1 only once, at the end. */
-    if (fraction < log->last || log->last == 1.0 || fraction > 1.0)
-        log->bad++;
-    log->last = fraction;
-    log->calls++;
-}
-
 static float *random_data(size_t n)
 {
     float *v = malloc(n * sizeof *v);
@@ -118,8 +103,8 @@ int main(int argc, char **argv)
         }
 
     /* Progress runs over the whole call: rising, below 1 until the end, 1 last. */
-    progress_log log = {0, 0, 0.0};
-    pb_context_set_progress(ctx, record_progress, &log);
+    pb_test_progress_log log = {0, 0, 0.0};
+    pb_context_set_progress(ctx, pb_test_record_progress, &log);
     pb_blur_options rm = {PB_METHOD_RM, PB_FILTER_EXACT, 0, 0, 0, 0, 0.0};
     pb_check(pb_blur_frames(ctx, objects, &track, bounds, FRAMES, &rm, tomo) == PB_OK, "frames with progress");
     pb_check(log.calls >= 1 && log.last == 1.0 && !log.bad, "progress: %d calls, last %g, %d out of order",

@@ -285,19 +285,6 @@ static void test_hardware_weights(pb_context *ctx)
     pb_check(worst <= PB_TEX_STAGE_ERROR + 1e-6, "a linear fetch's weight is off by %.3g > 2^-9", worst);
 }
 
-typedef struct progress_log {
-    int calls, backwards;
-    double last;
-} progress_log;
-
-static void record_progress(double fraction, void *user)
-{
-    progress_log *log = user;
-    log->backwards += fraction < log->last || fraction > 1.0;
-    log->last = fraction;
-    log->calls++;
-}
-
 /* A progress report must not change the result: the host and OpenCL backends
  * then run the volume in slabs of z-slices (through the global offset), which
  * every voxel must see exactly as in one launch. nz = 70 is not a multiple of
@@ -313,17 +300,17 @@ static void test_progress(pb_context *ctx, pb_backend backend)
     pb_test_motion_init(&tm, &a, &b);
     for (int method = 0; method < 4; method++) {
         pb_blur_options opt = {(pb_method)method, PB_FILTER_HARDWARE, 0, 8, 0, 5, 0.0};
-        progress_log log = {0, 0, 0.0};
+        pb_test_progress_log log = {0, 0, 0.0};
         pb_context_set_progress(ctx, NULL, NULL);
         pb_status s1 = pb_test_blur(ctx, &g, in, &tm.motion, &opt, plain);
-        pb_context_set_progress(ctx, record_progress, &log);
+        pb_context_set_progress(ctx, pb_test_record_progress, &log);
         pb_status s2 = pb_test_blur(ctx, &g, in, &tm.motion, &opt, sliced);
         pb_context_set_progress(ctx, NULL, NULL);
         if (!pb_check(s1 == PB_OK && s2 == PB_OK, "progress %s: blur failed", names[method]))
             continue;
         double d = pb_max_abs_diff(plain, sliced, n);
         pb_check(d == 0.0, "progress %s: slabbed result differs from one launch by %.3g", names[method], d);
-        pb_check(log.backwards == 0 && log.last == 1.0, "progress %s: fractions not increasing to 1 (last %g)",
+        pb_check(log.bad == 0 && log.last == 1.0, "progress %s: fractions not increasing to 1 (last %g)",
                  names[method], log.last);
         /* CUDA runs the volume in one launch and reports only the end. */
         int want = backend == PB_BACKEND_CUDA ? 1 : 24;

@@ -96,6 +96,15 @@ pb_context *pb_test_context(int argc, char **argv)
     return ctx;
 }
 
+void pb_test_record_progress(double fraction, void *user)
+{
+    pb_test_progress_log *log = user;
+    if (fraction < log->last || log->last == 1.0 || fraction > 1.0)
+        log->bad++;
+    log->last = fraction;
+    log->calls++;
+}
+
 pb_status pb_test_blur(pb_context *ctx, const pb_geometry *g, const float *in, const pb_motion *m,
                        const pb_blur_options *opt, float *out)
 {

@@ -72,6 +72,16 @@ void pb_test_motion_init(pb_test_motion *tm, const pb_pose *start, const pb_pose
 /* A pose of translation t (mm) and rotation deg about axis. */
 pb_pose pb_test_pose(double tx, double ty, double tz, const double axis[3], double deg);
 
+/* Records pb_progress_fn calls (pass pb_test_record_progress with a zeroed
+ * log): how many, the last fraction, and how many broke the contract (a
+ * fraction below the one before, above 1, or any call after 1). */
+typedef struct pb_test_progress_log {
+    int calls, bad;
+    double last;
+} pb_test_progress_log;
+
+void pb_test_record_progress(double fraction, void *log);
+
 /* Largest |a - b| and largest |b|. */
 double pb_max_abs_diff(const float *a, const float *b, size_t n);
 double pb_max_abs(const float *a, size_t n);
