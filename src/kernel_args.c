@@ -1,6 +1,5 @@
 #include "kernel_args.h"
 
-#include <math.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -32,17 +31,8 @@ static void kpose_from_plan(const pb_plan *plan, size_t index, pb_kpose *out)
     for (int k = 0; k < 3; k++)
         out->translation[k] = (float)p->pose.translation[k];
     out->weight = (float)p->weight;
-    if (index + 1 < plan->count) {
-        /* SLERP's angle between the two quaternions, 2 atan2(|a - b|, |a + b|),
-         * which stays accurate for tiny angles where acos(a . b) does not. */
-        const double *a = p->pose.rotation, *b = plan->poses[index + 1].pose.rotation;
-        double dm = 0.0, dp = 0.0;
-        for (int k = 0; k < 4; k++) {
-            dm += (a[k] - b[k]) * (a[k] - b[k]);
-            dp += (a[k] + b[k]) * (a[k] + b[k]);
-        }
-        out->angle = (float)(2.0 * atan2(sqrt(dm), sqrt(dp)));
-    }
+    if (index + 1 < plan->count)
+        out->angle = (float)pb_quat_angle(p->pose.rotation, plan->poses[index + 1].pose.rotation);
 }
 
 static void kstep_from_plan(const pb_plan *plan, size_t index, pb_kstep *out)

@@ -31,6 +31,16 @@ double pb_quat_dot(const double a[4], const double b[4])
     return a[0] * b[0] + a[1] * b[1] + a[2] * b[2] + a[3] * b[3];
 }
 
+double pb_quat_angle(const double a[4], const double b[4])
+{
+    double dm = 0.0, dp = 0.0;
+    for (int k = 0; k < 4; k++) {
+        dm += (a[k] - b[k]) * (a[k] - b[k]);
+        dp += (a[k] + b[k]) * (a[k] + b[k]);
+    }
+    return 2.0 * atan2(sqrt(dm), sqrt(dp));
+}
+
 static void quat_normalize(const double q[4], double out[4])
 {
     double n = sqrt(pb_quat_dot(q, q));

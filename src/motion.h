@@ -10,6 +10,10 @@
 void pb_quat_mul(const double a[4], const double b[4], double out[4]);
 void pb_quat_conj(const double q[4], double out[4]);
 double pb_quat_dot(const double a[4], const double b[4]);
+/* The angle between two unit quaternions as 4-vectors (SLERP's angle; half the
+ * rotation from a to b when they share a hemisphere), as 2 atan2(|a - b|,
+ * |a + b|), which stays accurate for tiny angles where acos(a . b) does not. */
+double pb_quat_angle(const double a[4], const double b[4]);
 /* Shorter-arc SLERP: the result for s in [0, 1] runs from a to b (or -b). */
 void pb_quat_slerp(const double a[4], const double b[4], double s, double out[4]);
 /* Row-major 3x3 rotation matrix of a unit quaternion. */

@@ -31,19 +31,6 @@ static double norm3(const double v[3])
     return sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
 }
 
-/* The angle of the rotation from a to b (unit quaternions on one hemisphere):
- * twice the angle between them as 4-vectors, 2 atan2(|a - b|, |a + b|), which
- * stays accurate for tiny angles where acos(a . b) does not. */
-static double rotation_angle(const double a[4], const double b[4])
-{
-    double dm = 0.0, dp = 0.0;
-    for (int k = 0; k < 4; k++) {
-        dm += (a[k] - b[k]) * (a[k] - b[k]);
-        dp += (a[k] + b[k]) * (a[k] + b[k]);
-    }
-    return 4.0 * atan2(sqrt(dm), sqrt(dp));
-}
-
 size_t pb_path_pieces(const pb_geometry *g, const double center[3], const pb_pose *a, const pb_pose *b,
                       double max_error)
 {
@@ -58,7 +45,7 @@ size_t pb_path_pieces(const pb_geometry *g, const double center[3], const pb_pos
     }
     double dt[3] = {b->translation[0] - a->translation[0], b->translation[1] - a->translation[1],
                     b->translation[2] - a->translation[2]};
-    double theta = rotation_angle(a->rotation, b->rotation);
+    double theta = 2.0 * pb_quat_angle(a->rotation, b->rotation); /* the turn: twice SLERP's angle */
     double tmax = fmax(norm3(a->translation), norm3(b->translation));
     double curvature = (theta * theta * (r + tmax) + 2.0 * theta * norm3(dt)) / vmin;
     double n = ceil(sqrt(curvature / (8.0 * max_error)));
