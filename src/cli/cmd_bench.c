@@ -11,7 +11,6 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <sys/stat.h>
 #include <unistd.h>
 
 #include "atomic_file.h"
@@ -168,14 +167,6 @@ static int parse_config(const pbc_args *args, bench_config *c)
     if (c->reference && c->keep)
         return pbc_fail(PBC_EXIT_USAGE, "--keep-volumes with --reference would copy the references; the volumes "
                         "are in %s/volumes already", c->reference);
-    return 0;
-}
-
-static int make_dir(const char *dir, const char *option)
-{
-    if (mkdir(dir, 0777) != 0 && errno != EEXIST)
-        return pbc_fail(PBC_EXIT_RUNTIME, "%s %s: cannot create the folder (%s); choose another", option, dir,
-                        strerror(errno));
     return 0;
 }
 
@@ -415,11 +406,11 @@ static int open_outputs(const bench_config *c, bench_files *f)
 {
     char path[4096];
     int rc;
-    if ((rc = make_dir(c->dir, "--out-dir")))
+    if ((rc = pbc_make_dir("--out-dir", c->dir)))
         return rc;
     if (c->keep) {
         snprintf(path, sizeof path, "%s/volumes", c->dir);
-        if ((rc = make_dir(path, "--out-dir")))
+        if ((rc = pbc_make_dir("--out-dir", path)))
             return rc;
     }
     if (snprintf(path, sizeof path, "%s/results.csv", c->dir) >= (int)sizeof path)

@@ -1,11 +1,9 @@
 /* petblur demo: the main job end to end. A phantom moves through a frame with
  * a translation and a rotation; AB, RM and CL blur it on the default device and
  * are compared with the paper's multi-point reference (REF). */
-#include <errno.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <sys/stat.h>
 
 #include "blur_run.h"
 #include "cli.h"
@@ -119,14 +117,6 @@ static int run_all(pb_context *ctx, unsigned long points, const pbc_image *phant
     return rc;
 }
 
-static int make_dir(const char *dir)
-{
-    if (mkdir(dir, 0777) != 0 && errno != EEXIST)
-        return pbc_fail(PBC_EXIT_RUNTIME, "--out-dir %s: cannot create the folder (%s); choose another with "
-                        "--out-dir", dir, strerror(errno));
-    return 0;
-}
-
 static int demo(pb_context *ctx, const pbc_args *args, const pbc_image *phantom, const pb_motion *motion,
                 const char *dir)
 {
@@ -139,7 +129,7 @@ static int demo(pb_context *ctx, const pbc_args *args, const pbc_image *phantom,
     for (int r = 0; r < RUNS && !rc; r++)
         if (!(vols[r] = malloc(n * sizeof(float))))
             rc = pbc_fail(PBC_EXIT_RUNTIME, "out of memory for the demo's volumes; use a smaller --size");
-    if (!rc && !(rc = make_dir(dir)) && !(rc = out_path(path, sizeof path, dir, "phantom", ".nii.gz")) &&
+    if (!rc && !(rc = pbc_make_dir("--out-dir", dir)) && !(rc = out_path(path, sizeof path, dir, "phantom", ".nii.gz")) &&
         !(rc = pbc_image_write(path, phantom)) && !(rc = run_all(ctx, points, phantom, motion, dir, vols)))
         rc = write_picture(dir, phantom, vols[1], vols[0]);
     if (!rc)

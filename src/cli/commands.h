@@ -18,6 +18,9 @@ int pbc_cmd_bench(int argc, char **argv);
 /* Refuses an output path whose extension no writer knows (before any work). */
 int pbc_check_output(const char *option, const char *path, int picture);
 
+/* Creates the folder dir (named by option, e.g. "--out-dir") unless it exists. */
+int pbc_make_dir(const char *option, const char *dir);
+
 /* The read hints of a command's --dims and --voxel-size (either may be absent);
  * dims and voxel_size hold the parsed values that hints points to. */
 int pbc_hints_from_args(const pbc_command *cmd, const pbc_args *args, size_t dims[3], double voxel_size[3],

@@ -2,6 +2,7 @@
 #include <errno.h>
 #include <stdio.h>
 #include <string.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include "atomic_file.h"
@@ -36,5 +37,13 @@ int pbc_hints_from_args(const pbc_command *cmd, const pbc_args *args, size_t dim
         return rc;
     hints->dims = d ? dims : NULL;
     hints->voxel_size = v ? voxel_size : NULL;
+    return 0;
+}
+
+int pbc_make_dir(const char *option, const char *dir)
+{
+    if (mkdir(dir, 0777) != 0 && errno != EEXIST)
+        return pbc_fail(PBC_EXIT_RUNTIME, "%s %s: cannot create the folder (%s); choose another with %s", option, dir,
+                        strerror(errno), option);
     return 0;
 }
