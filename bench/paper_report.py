@@ -97,7 +97,6 @@ def phantom_tables(run, p):
     for s in run.scenarios(p):
         noise = run.get(run.ours, p, s, "REF", "exact", "error_pct")
         pap = run.paper.get((p, s), {})
-        cells = []
 
         def mark(v):
             nonlocal dagger
@@ -129,7 +128,7 @@ def phantom_tables(run, p):
     for s in run.scenarios(p):
         pap = run.paper.get((p, s), {})
         ab = run.get(run.ours, p, s, "AB", "hardware", "kernel_ms")
-        cells = [str(s), first and run.ours[(p, s, "REF", "exact")]["ab_max_slices"]]
+        cells = [str(s), run.ours[(p, s, "REF", "exact")]["ab_max_slices"]]
         for m in ("CL", "RM", "AB"):
             cells += [fmt(run.get(run.ours, p, s, m, "hardware", "kernel_ms"), 3),
                       fmt(num(pap.get("time_" + m.lower())), 2)]
