@@ -22,7 +22,7 @@
 #include "phantom.h"
 
 static const pbc_option options[] = {
-    {"--device", NULL, "DEV", "auto (default), host, opencl[:N] or cuda[:N]"},
+    PBC_OPTION_DEVICE,
     {"--phantoms", NULL, "LIST", "some of homogeneity,derenzo,brain (default all three)"},
     {"--scenarios", NULL, "LIST", "some of the paper's motions 1-8, e.g. 2,3,6 (default all)"},
     {"--size", NULL, "N", "in-plane voxels of the phantoms (default 256; the brain 128 x 128 x 64, else N x N x N/2)"},

@@ -27,7 +27,7 @@ static const pbc_option options[] = {
                                     "'paper': one segment per tracked interval)"},
     {"--points", NULL, "K", "REF: random points per voxel (default 200)"},
     {"--seed", NULL, "S", "REF: seed of the random points (default 1)"},
-    {"--device", NULL, "DEV", "auto (default), host, opencl[:N] or cuda[:N]"},
+    PBC_OPTION_DEVICE,
     {"--png", NULL, "PICTURE.png", "picture of input, output and difference (central slices)"},
     {"--quiet", "-q", NULL, "print nothing but errors"},
 };

@@ -12,7 +12,7 @@
 #include "picture.h"
 
 static const pbc_option options[] = {
-    {"--device", NULL, "DEV", "auto (default), host, opencl[:N] or cuda[:N]"},
+    PBC_OPTION_DEVICE,
     {"--kind", NULL, "KIND", "phantom: brain (default), homogeneity or derenzo"},
     {"--size", NULL, "N", "in-plane voxels (default 96; brain: N x N x N/2)"},
     {"--points", NULL, "K", "REF's random points per voxel (default 200, the paper's)"},

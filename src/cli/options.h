@@ -14,6 +14,9 @@ typedef struct pbc_option {
 
 enum { PBC_MAX_OPTIONS = 32, PBC_MAX_POSITIONAL = 4 };
 
+/* The --device row, the same in every command that opens a device. */
+#define PBC_OPTION_DEVICE {"--device", NULL, "DEV", "auto (default), host, opencl[:N] or cuda[:N]"}
+
 typedef struct pbc_command {
     const char *name;     /* "blur" */
     const char *synopsis; /* "-i IN -o OUT [options]" */
