@@ -119,52 +119,76 @@ PB_FN float pb_tent_share(float r0, float r1, float *mean)
  * k, C + k G. Slices the moving voxel covers fully have share 1; the at most two
  * partly covered slices at each end get their tent share and are sampled at the
  * share's weighted mean position, shifted along the path by H (G without its
- * major component). */
-PB_FN float pb_ab_segment(pb_image img, int exact, const float *a, const float *b)
+ * major component). The forward gather and the adjoint's scatter both start
+ * here, so they visit the same slices at the same points. */
+typedef struct pb_ab_walk {
+    int m;                 /* major axis */
+    float lo, hi;          /* the path's extent along it, voxel k's centre at k */
+    float g[3], c[3], h[3];
+    int k0, k1;            /* every slice with a share */
+    int f0, f1;            /* the fully covered ones (f0 = k1 + 1, f1 = k1: none) */
+} pb_ab_walk;
+
+/* Sets up the walk; returns 1 when a-b is a point, which has no walk. */
+PB_FN int pb_ab_walk_init(const float *a, const float *b, pb_ab_walk *w)
 {
     int m = pb_major_axis(b[0] - a[0], b[1] - a[1], b[2] - a[2]);
-    /* Major coordinate in voxel-centre units (voxel k's centre at k). */
     float am = (m == 0 ? a[0] : (m == 1 ? a[1] : a[2])) - 0.5f;
     float bm = (m == 0 ? b[0] : (m == 1 ? b[1] : b[2])) - 0.5f;
-    float lo = fmin(am, bm), hi = fmax(am, bm);
-    if (hi - lo < 1e-4f) {
+    w->m = m;
+    w->lo = fmin(am, bm);
+    w->hi = fmax(am, bm);
+    if (w->hi - w->lo < 1e-4f)
+        return 1;
+    float inv = 1.0f / (bm - am);
+    /* G: the path's step per slice; C: its point on plane k = 0. */
+    for (int i = 0; i < 3; i++) {
+        float g = (b[i] - a[i]) * inv;
+        w->h[i] = i == m ? 0.0f : g;
+        w->g[i] = i == m ? 1.0f : g;
+        w->c[i] = i == m ? 0.5f : a[i] - am * g;
+    }
+    w->k0 = (int)floor(w->lo);
+    w->k1 = (int)ceil(w->hi);
+    /* Fully covered slices: k - 1 >= lo and k + 1 <= hi. */
+    w->f0 = (int)ceil(w->lo + 1.0f);
+    w->f1 = (int)floor(w->hi - 1.0f);
+    if (w->f1 < w->f0) {
+        w->f0 = w->k1 + 1; /* none: the end-slice loop takes every slice */
+        w->f1 = w->k1;
+    }
+    return 0;
+}
+
+/* The next partly covered slice after k: the loop over k0 .. f0 - 1 and
+ * f1 + 1 .. k1 steps over the fully covered ones. */
+PB_FN int pb_ab_next_partial(const pb_ab_walk *w, int k)
+{
+    return k + 1 == w->f0 ? w->f1 + 1 : k + 1;
+}
+
+PB_FN float pb_ab_segment(pb_image img, int exact, const float *a, const float *b)
+{
+    pb_ab_walk w;
+    if (pb_ab_walk_init(a, b, &w)) {
         /* A point: tent weights of two slices times bilinear weights are the
          * trilinear weights, and a trilinear sample costs one fetch. */
         return pb_trilinear(img, exact, 0.5f * (a[0] + b[0]), 0.5f * (a[1] + b[1]), 0.5f * (a[2] + b[2]));
     }
-    float inv = 1.0f / (bm - am);
-    /* G: the path's step per slice; C: its point on plane k = 0. */
-    float gx = (b[0] - a[0]) * inv, gy = (b[1] - a[1]) * inv, gz = (b[2] - a[2]) * inv;
-    float hx = m == 0 ? 0.0f : gx, hy = m == 1 ? 0.0f : gy, hz = m == 2 ? 0.0f : gz;
-    gx = m == 0 ? 1.0f : gx;
-    gy = m == 1 ? 1.0f : gy;
-    gz = m == 2 ? 1.0f : gz;
-    float cx = m == 0 ? 0.5f : a[0] - am * gx;
-    float cy = m == 1 ? 0.5f : a[1] - am * gy;
-    float cz = m == 2 ? 0.5f : a[2] - am * gz;
-    int k0 = (int)floor(lo), k1 = (int)ceil(hi);
-    /* Fully covered slices: k - 1 >= lo and k + 1 <= hi. */
-    int f0 = (int)ceil(lo + 1.0f), f1 = (int)floor(hi - 1.0f);
-    if (f1 < f0) {
-        f0 = k1 + 1; /* none: the end-slice loop takes every slice */
-        f1 = k1;
-    }
     /* The fully covered slices get a loop of their own, free of branches, so
      * the compiler can keep several fetches in flight. */
     float sum = 0.0f;
-    for (int k = f0; k <= f1; k++) {
+    for (int k = w.f0; k <= w.f1; k++) {
         float kf = (float)k;
-        sum += pb_slice_sample(img, exact, m, kf * gx + cx, kf * gy + cy, kf * gz + cz);
+        sum += pb_slice_sample(img, exact, w.m, kf * w.g[0] + w.c[0], kf * w.g[1] + w.c[1], kf * w.g[2] + w.c[2]);
     }
-    float wsum = (float)(f1 - f0 + 1);
-    /* The partly covered slices, k0 .. f0 - 1 and f1 + 1 .. k1: one loop that
-     * steps over the fully covered ones. */
-    for (int k = k0; k <= k1; k = k + 1 == f0 ? f1 + 1 : k + 1) {
+    float wsum = (float)(w.f1 - w.f0 + 1);
+    for (int k = w.k0; k <= w.k1; k = pb_ab_next_partial(&w, k)) {
         float kf = (float)k, mean;
-        float w = pb_tent_share(lo - kf, hi - kf, &mean);
-        sum += w * pb_slice_sample(img, exact, m, kf * gx + cx + mean * hx, kf * gy + cy + mean * hy,
-                                   kf * gz + cz + mean * hz);
-        wsum += w;
+        float s = pb_tent_share(w.lo - kf, w.hi - kf, &mean);
+        sum += s * pb_slice_sample(img, exact, w.m, kf * w.g[0] + w.c[0] + mean * w.h[0],
+                                   kf * w.g[1] + w.c[1] + mean * w.h[1], kf * w.g[2] + w.c[2] + mean * w.h[2]);
+        wsum += s;
     }
     /* The shares add up to the path length; dividing by their float sum makes
      * the weights sum to 1 exactly as the walk computed them. */
@@ -359,3 +383,5 @@ PB_KERNEL void pb_blur_ref(pb_image img, PB_GLOBAL_RO pb_kstep *steps, pb_kparam
     }
     out[voxel] = total;
 }
+
+#include "pb_adjoint.cl"

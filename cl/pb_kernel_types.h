@@ -18,18 +18,27 @@ typedef struct pb_kparams {
     unsigned int seed;
     float voxel[3];  /* mm */
     float center[3]; /* mm from the grid's corner */
+    /* Adjoint: the steps the forward's texture unit rounds its weights to (256
+     * on NVIDIA: 8 fractional bits), or 0 for float weights. */
+    float weight_steps;
 } pb_kparams;
 
-/* The kernels, one per method and filter (REF reads nearest voxels only);
- * pb_kernel_index gives a launch's entry. */
-#define PB_KERNEL_COUNT 7
+/* The kernels: the forward ones, one per method and filter (REF reads nearest
+ * voxels only), then the adjoints, one per method (they read no texture).
+ * pb_kernel_index and pb_adjoint_index give a launch's entry. */
+#define PB_KERNEL_COUNT 11
 #define PB_KERNEL_NAMES                                                                                         \
     {"pb_blur_ab", "pb_blur_ab_exact", "pb_blur_rm", "pb_blur_rm_exact", "pb_blur_cl", "pb_blur_cl_exact",     \
-     "pb_blur_ref"}
+     "pb_blur_ref", "pb_adjoint_ab", "pb_adjoint_rm", "pb_adjoint_cl", "pb_adjoint_ref"}
 
 PB_FN int pb_kernel_index(int method, int exact)
 {
     return method == 3 ? 6 : 2 * method + (exact ? 1 : 0); /* pb_method order: AB, RM, CL, REF */
+}
+
+PB_FN int pb_adjoint_index(int method)
+{
+    return 7 + method;
 }
 
 /* One key pose, as the kernels read it. */

@@ -1,6 +1,6 @@
 /* The shim, OpenCL side: the only place that knows the kernels are compiled as
- * OpenCL C. It maps qualifiers, thread ids (x, y and z), the volume type and the
- * two fetches; kernel bodies use nothing else. The CUDA side, with the same
+ * OpenCL C. It maps qualifiers, thread ids (x, y and z), the volume type, the
+ * two fetches and the adjoint's float atomic add; kernel bodies use nothing else. The CUDA side, with the same
  * names, is cuda/pb_shim_cuda.h.
  *
  * Coordinates, on every backend: unnormalized texel coordinates, texel i's
@@ -29,6 +29,27 @@ __constant sampler_t pb_sampler_nearest = CLK_NORMALIZED_COORDS_FALSE | CLK_ADDR
 /* Border colour of a single-channel image is (0, 0, 0, 1): .x is zero outside. */
 #define PB_FETCH_LINEAR(img, px, py, pz) read_imagef((img), pb_sampler_linear, (float4)((px), (py), (pz), 0.0f)).x
 #define PB_FETCH_NEAREST(img, px, py, pz) read_imagef((img), pb_sampler_nearest, (float4)((px), (py), (pz), 0.0f)).x
+
+/* Float atomic add, for the adjoint's scatter. OpenCL 1.2 has none. On
+ * NVIDIA's platform (the backend defines PB_OPENCL_NVIDIA) PTX's
+ * red.global.add.f32 is what CUDA's atomicAdd compiles to; elsewhere a
+ * compare-and-swap loop on the float's bits, which on CPUs (PoCL) seldom
+ * retries. */
+#if defined(PB_OPENCL_NVIDIA)
+static inline void pb_atomic_add(volatile __global float *p, float v)
+{
+    asm volatile("red.global.add.f32 [%0], %1;" : : "l"(p), "f"(v) : "memory");
+}
+#else
+static inline void pb_atomic_add(volatile __global float *p, float v)
+{
+    volatile __global unsigned int *u = (volatile __global unsigned int *)p;
+    unsigned int old = *u, seen;
+    while ((seen = atomic_cmpxchg(u, old, as_uint(as_float(old) + v))) != old)
+        old = seen;
+}
+#endif
+#define PB_ATOMIC_ADD(p, v) pb_atomic_add((p), (v))
 
 #elif defined(PB_SHIM_CUDA)
 /* CUDA: cuda/pb_shim_cuda.h has defined the same names before including the

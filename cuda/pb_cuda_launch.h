@@ -25,6 +25,11 @@ extern "C" {
 cudaError_t pb_cuda_launch(int kernel, cudaTextureObject_t volume, const void *plan, const pb_kparams *prm,
                            float *out, cudaStream_t stream);
 
+/* Launches adjoint kernel `kernel` (pb_adjoint_index): reads the tomograph
+ * buffer `in`, adds into `out`, which must hold zeros (or what to add to). */
+cudaError_t pb_cuda_launch_adjoint(int kernel, const float *in, const void *plan, const pb_kparams *prm, float *out,
+                                   cudaStream_t stream);
+
 /* cudaSuccess when the current device can run every kernel (the fat binary
  * holds code for it); otherwise the error a launch would give. */
 cudaError_t pb_cuda_check_kernels(void);

@@ -28,12 +28,31 @@ extern "C" cudaError_t pb_cuda_launch(int kernel, cudaTextureObject_t volume, co
     return cudaGetLastError();
 }
 
+extern "C" cudaError_t pb_cuda_launch_adjoint(int kernel, const float *in, const void *plan, const pb_kparams *prm,
+                                              float *out, cudaStream_t stream)
+{
+    dim3 block(PB_CUDA_BLOCK_X, PB_CUDA_BLOCK_Y, PB_CUDA_BLOCK_Z);
+    dim3 grid((unsigned)(prm->dims[0] + PB_CUDA_BLOCK_X - 1) / PB_CUDA_BLOCK_X,
+              (unsigned)(prm->dims[1] + PB_CUDA_BLOCK_Y - 1) / PB_CUDA_BLOCK_Y,
+              (unsigned)(prm->dims[2] + PB_CUDA_BLOCK_Z - 1) / PB_CUDA_BLOCK_Z);
+    const pb_kpose *poses = static_cast<const pb_kpose *>(plan);
+    switch (kernel) { /* PB_KERNEL_NAMES order */
+    case 7: pb_adjoint_ab<<<grid, block, 0, stream>>>(in, poses, *prm, out); break;
+    case 8: pb_adjoint_rm<<<grid, block, 0, stream>>>(in, poses, *prm, out); break;
+    case 9: pb_adjoint_cl<<<grid, block, 0, stream>>>(in, poses, *prm, out); break;
+    case 10: pb_adjoint_ref<<<grid, block, 0, stream>>>(in, static_cast<const pb_kstep *>(plan), *prm, out); break;
+    default: return cudaErrorInvalidValue;
+    }
+    return cudaGetLastError();
+}
+
 extern "C" cudaError_t pb_cuda_check_kernels(void)
 {
     const void *kernels[PB_KERNEL_COUNT] = {
         (const void *)pb_blur_ab, (const void *)pb_blur_ab_exact, (const void *)pb_blur_rm,
         (const void *)pb_blur_rm_exact, (const void *)pb_blur_cl, (const void *)pb_blur_cl_exact,
-        (const void *)pb_blur_ref};
+        (const void *)pb_blur_ref, (const void *)pb_adjoint_ab, (const void *)pb_adjoint_rm,
+        (const void *)pb_adjoint_cl, (const void *)pb_adjoint_ref};
     for (const void *k : kernels) {
         cudaFuncAttributes attr;
         cudaError_t e = cudaFuncGetAttributes(&attr, k);

@@ -34,6 +34,9 @@ typedef cudaTextureObject_t pb_image;
 #define PB_FETCH_LINEAR(img, px, py, pz) tex3D<float>((img), (px), (py), (pz))
 #define PB_FETCH_NEAREST(img, px, py, pz) tex3D<float>((img), (px), (py), (pz))
 
+/* The adjoint's scatter; with its result unused nvcc emits RED.ADD.F32. */
+#define PB_ATOMIC_ADD(p, v) atomicAdd((p), (v))
+
 /* Float maths: for float arguments C++ overloads pick the float versions
  * (floorf, fabsf, fmaxf, sinf, sqrtf), as OpenCL C does. (The only double code
  * in the PTX is sinf's own slow path for huge arguments.) */

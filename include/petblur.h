@@ -261,6 +261,18 @@ PB_API pb_status pb_path_segments(const pb_geometry *geometry, const pb_motion *
 PB_API pb_status pb_blur(pb_context *ctx, const pb_volume *object, const pb_motion *motion,
                          const pb_blur_options *options, pb_volume *tomograph);
 
+/* The transpose of pb_blur, for back projection (MLEM's B^T): with the same
+ * motion and options, <pb_blur(x), y> = <x, pb_blur_adjoint(y)> for every
+ * object x and tomograph y, for every method. It reads the tomograph-space
+ * volume and overwrites the object-space one. Each tomograph voxel walks the
+ * very path the forward walks and scatters its value with the forward's
+ * weights (float atomic adds on devices, so the last bits of a sum may differ
+ * between runs). The weights are the forward's own: for HARDWARE on NVIDIA
+ * (CUDA, and NVIDIA's OpenCL) rounded to the texture unit's 8 fractional bits,
+ * as it rounded them; elsewhere float. */
+PB_API pb_status pb_blur_adjoint(pb_context *ctx, const pb_volume *tomograph, const pb_motion *motion,
+                                 const pb_blur_options *options, pb_volume *object);
+
 /* Dynamic PET: the frames of one pose track (markers at 30 Hz or more over
  * minutes) in one call. Frame i spans [bounds[i], bounds[i+1]] (frames + 1
  * increasing bounds inside the track); objects[i] is its activity (one volume

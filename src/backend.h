@@ -24,6 +24,10 @@ typedef struct pb_backend_ops {
     /* Blurs with a validated plan; sets ctx->last_kernel_ms. */
     pb_status (*blur)(struct pb_context *ctx, const struct pb_volume *object, const pb_plan *plan,
                       const pb_blur_options *options, struct pb_volume *tomograph);
+    /* The transpose of blur with the same plan: reads tomograph, overwrites
+     * object; sets ctx->last_kernel_ms. */
+    pb_status (*adjoint)(struct pb_context *ctx, const struct pb_volume *tomograph, const pb_plan *plan,
+                         const pb_blur_options *options, struct pb_volume *object);
 } pb_backend_ops;
 
 struct pb_context {

@@ -354,8 +354,46 @@ static pb_status cuda_blur(pb_context *ctx, const pb_volume *object, const pb_pl
     return PB_OK;
 }
 
+static pb_status cuda_adjoint(pb_context *ctx, const pb_volume *tomograph, const pb_plan *plan,
+                              const pb_blur_options *opt, pb_volume *object)
+{
+    cu_impl *cu = ctx->impl;
+    pb_status st = use_device(ctx);
+    if (st == PB_OK)
+        st = upload_plan(ctx, plan, opt);
+    if (st != PB_OK)
+        return st;
+    pb_kparams prm;
+    pb_kparams_from_plan(plan, opt, &prm);
+    /* The transpose of what the texture unit computed (cl/pb_adjoint.cl). */
+    if (opt->filter == PB_FILTER_HARDWARE)
+        prm.weight_steps = PB_NVIDIA_WEIGHT_STEPS;
+    const cu_volume *in = tomograph->impl;
+    cu_volume *out = object->impl;
+    out->array_stale = 1;
+    /* The zeroing the scatter adds into counts with the kernel's time. */
+    cudaError_t e = cudaEventRecord(cu->start, cu->stream);
+    if (e != cudaSuccess)
+        return cu_fail(ctx, PB_ERR_LAUNCH, "cudaEventRecord", e);
+    if ((e = cudaMemsetAsync(out->buffer, 0, object->count * sizeof(float), cu->stream)) != cudaSuccess)
+        return cu_fail(ctx, PB_ERR_DEVICE, "cudaMemsetAsync", e);
+    e = pb_cuda_launch_adjoint(pb_adjoint_index((int)opt->method), in->buffer, cu->plan, &prm, out->buffer,
+                               cu->stream);
+    if (e != cudaSuccess)
+        return cu_fail(ctx, PB_ERR_LAUNCH, "the adjoint kernel launch", e);
+    if ((e = cudaEventRecord(cu->stop, cu->stream)) != cudaSuccess)
+        return cu_fail(ctx, PB_ERR_LAUNCH, "cudaEventRecord", e);
+    if ((e = cudaEventSynchronize(cu->stop)) != cudaSuccess)
+        return cu_fail(ctx, PB_ERR_LAUNCH, "cudaEventSynchronize (the adjoint kernel failed)", e);
+    float ms = 0.0f;
+    if ((e = cudaEventElapsedTime(&ms, cu->start, cu->stop)) != cudaSuccess)
+        return cu_fail(ctx, PB_ERR_LAUNCH, "cudaEventElapsedTime", e);
+    ctx->last_kernel_ms = (double)ms;
+    return PB_OK;
+}
+
 const pb_backend_ops pb_backend_cuda_ops = {
     PB_BACKEND_CUDA,      cuda_device_count,  cuda_device_info,    cuda_context_init,
     cuda_context_release, cuda_volume_init,   cuda_volume_release, cuda_volume_upload,
-    cuda_volume_download, cuda_blur,
+    cuda_volume_download, cuda_blur,          cuda_adjoint,
 };

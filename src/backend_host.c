@@ -11,21 +11,33 @@
 #include "backend.h"
 #include "../cl/pb_kernel_types.h"
 
-typedef struct host_grid {
-    const float *data;
+/* The operator's two directions share every weight: the forward reads
+ * weight times an object voxel, the adjoint adds weight times the tomograph
+ * voxel's value into it. Each function below gets the product of the weights
+ * above it as `scale` and hands every voxel weight to touch(). */
+typedef struct host_io {
+    const float *in; /* forward: the object volume */
+    double *acc;     /* adjoint: the object volume being summed into */
     long n[3];
-} host_grid;
+} host_io;
 
-/* Activity of voxel (i, j, k); zero outside the grid. */
-static double voxel_at(const host_grid *g, long i, long j, long k)
+/* Forward: scale * w * activity of voxel (i, j, k); adjoint: adds scale * w
+ * to it and returns 0. Outside the grid the activity is zero and nothing is
+ * added. */
+static double touch(const host_io *io, long i, long j, long k, double w)
 {
-    if (i < 0 || j < 0 || k < 0 || i >= g->n[0] || j >= g->n[1] || k >= g->n[2])
+    if (i < 0 || j < 0 || k < 0 || i >= io->n[0] || j >= io->n[1] || k >= io->n[2])
         return 0.0;
-    return g->data[i + g->n[0] * (j + g->n[1] * k)];
+    size_t idx = (size_t)(i + io->n[0] * (j + io->n[1] * k));
+    if (io->acc) {
+        io->acc[idx] += w;
+        return 0.0;
+    }
+    return w * (double)io->in[idx];
 }
 
 /* Trilinear interpolation at texel coordinates u (texel i's centre at i + 0.5). */
-static double trilinear(const host_grid *g, const double u[3])
+static double trilinear(const host_io *io, const double u[3], double scale)
 {
     double f[3];
     long i0[3];
@@ -36,21 +48,21 @@ static double trilinear(const host_grid *g, const double u[3])
     }
     double sum = 0.0;
     for (int corner = 0; corner < 8; corner++) {
-        double w = 1.0;
+        double w = scale;
         long idx[3];
         for (int d = 0; d < 3; d++) {
             int up = corner >> d & 1;
             idx[d] = i0[d] + up;
             w *= up ? f[d] : 1.0 - f[d];
         }
-        sum += w * voxel_at(g, idx[0], idx[1], idx[2]);
+        sum += touch(io, idx[0], idx[1], idx[2], w);
     }
     return sum;
 }
 
 /* Bilinear interpolation inside slice k orthogonal to axis m, at the transverse
  * texel coordinates of u (u[m] is ignored). */
-static double bilinear_in_slice(const host_grid *g, int m, long k, const double u[3])
+static double bilinear_in_slice(const host_io *io, int m, long k, const double u[3], double scale)
 {
     int t1 = (m + 1) % 3, t2 = (m + 2) % 3;
     double c1 = u[t1] - 0.5, c2 = u[t2] - 0.5;
@@ -63,7 +75,7 @@ static double bilinear_in_slice(const host_grid *g, int m, long k, const double 
         idx[t1] = i1 + (corner & 1);
         idx[t2] = i2 + (corner >> 1);
         double w = ((corner & 1) ? f1 : 1.0 - f1) * ((corner >> 1) ? f2 : 1.0 - f2);
-        sum += w * voxel_at(g, idx[0], idx[1], idx[2]);
+        sum += touch(io, idx[0], idx[1], idx[2], scale * w);
     }
     return sum;
 }
@@ -112,7 +124,7 @@ static long ab_slice_count(const double a[3], const double b[3])
  * axis gets the share of the path that overlaps it, the time average of the
  * tent 1 - |x - k|; inside the slice, the four voxels around the path's
  * tent-weighted mean position get bilinear (the paper's A_S, A_T) weights. */
-static double ab_segment(const host_grid *g, const double a[3], const double b[3])
+static double ab_segment(const host_io *io, const double a[3], const double b[3], double scale)
 {
     int m = major_axis(a, b);
     double am = a[m] - 0.5, bm = b[m] - 0.5;
@@ -121,7 +133,7 @@ static double ab_segment(const host_grid *g, const double a[3], const double b[3
         /* A point: the tent weights of its two slices times bilinear weights are
          * the trilinear weights. */
         double mid[3] = {0.5 * (a[0] + b[0]), 0.5 * (a[1] + b[1]), 0.5 * (a[2] + b[2])};
-        return trilinear(g, mid);
+        return trilinear(io, mid, scale);
     }
     double sum = 0.0;
     for (long k = (long)floor(lo); k <= (long)ceil(hi); k++) {
@@ -133,22 +145,24 @@ static double ab_segment(const host_grid *g, const double a[3], const double b[3
         double p[3];
         for (int d = 0; d < 3; d++)
             p[d] = a[d] + s * (b[d] - a[d]);
-        sum += w / len * bilinear_in_slice(g, m, k, p);
+        sum += bilinear_in_slice(io, m, k, p, scale * w / len);
     }
     return sum;
 }
 
-static double blur_voxel(const host_grid *g, const pb_plan *plan, const pb_blur_options *opt, long ix, long iy,
-                         long iz)
+/* Tomograph voxel (ix, iy, iz) under the plan: its blurred value (forward), or
+ * with io->acc, scale spread over the object voxels it reads (adjoint). */
+static double blur_voxel(const host_io *io, const pb_plan *plan, const pb_blur_options *opt, long ix, long iy,
+                         long iz, double scale)
 {
     const double u[3] = {ix + 0.5, iy + 0.5, iz + 0.5};
     double total = 0.0;
 
     if (opt->method == PB_METHOD_REF) {
-        unsigned voxel = (unsigned)(ix + g->n[0] * (iy + g->n[1] * iz));
+        unsigned voxel = (unsigned)(ix + io->n[0] * (iy + io->n[1] * iz));
         unsigned key = pb_ref_key(opt->seed, voxel);
         for (size_t s = 0; s < plan->ref_count; s++) {
-            double acc = 0.0;
+            double w = scale * plan->ref_steps[s].weight / opt->ref_points;
             for (unsigned k = 0; k < opt->ref_points; k++) {
                 unsigned c = (unsigned)(s * opt->ref_points + k);
                 double p[3] = {ix + (pb_ref_bits(key, c, 0) + 0.5) / 16777216.0,
@@ -157,9 +171,8 @@ static double blur_voxel(const host_grid *g, const pb_plan *plan, const pb_blur_
                 double o[3];
                 apply_map(plan->ref_steps[s].map, p, o);
                 /* Box model: the object voxel that holds the point. */
-                acc += voxel_at(g, (long)floor(o[0]), (long)floor(o[1]), (long)floor(o[2]));
+                total += touch(io, (long)floor(o[0]), (long)floor(o[1]), (long)floor(o[2]), w);
             }
-            total += plan->ref_steps[s].weight * acc / opt->ref_points;
         }
         return total;
     }
@@ -169,7 +182,7 @@ static double blur_voxel(const host_grid *g, const pb_plan *plan, const pb_blur_
         double a[3], b[3];
         apply_map(p0->map, u, a);
         apply_map(p1->map, u, b);
-        double seg = 0.0;
+        double seg_scale = scale * p0->weight;
         if (opt->method == PB_METHOD_AB) {
             unsigned parts = opt->steps ? opt->steps : 1;
             for (unsigned r = 0; r < parts; r++) {
@@ -178,7 +191,7 @@ static double blur_voxel(const host_grid *g, const pb_plan *plan, const pb_blur_
                     pa[d] = a[d] + (b[d] - a[d]) * r / parts;
                     pb[d] = a[d] + (b[d] - a[d]) * (r + 1) / parts;
                 }
-                seg += ab_segment(g, pa, pb) / parts;
+                total += ab_segment(io, pa, pb, seg_scale / parts);
             }
         } else {
             long n = opt->steps ? (long)opt->steps : ab_slice_count(a, b);
@@ -195,10 +208,9 @@ static double blur_voxel(const host_grid *g, const pb_plan *plan, const pb_blur_
                     pb_pose_texel_map(&pose, plan->center, plan->geometry.voxel_size, map);
                     apply_map(map, u, o);
                 }
-                seg += trilinear(g, o) / n;
+                total += trilinear(io, o, seg_scale / n);
             }
         }
-        total += p0->weight * seg;
     }
     return total;
 }
@@ -262,28 +274,65 @@ static pb_status host_volume_download(const pb_volume *vol, float *host)
     return PB_OK;
 }
 
+static double elapsed_ms(const struct timespec *t0)
+{
+    struct timespec t1;
+    clock_gettime(CLOCK_MONOTONIC, &t1);
+    return (t1.tv_sec - t0->tv_sec) * 1e3 + (t1.tv_nsec - t0->tv_nsec) * 1e-6;
+}
+
 static pb_status host_blur(pb_context *ctx, const pb_volume *object, const pb_plan *plan,
                            const pb_blur_options *opt, pb_volume *tomograph)
 {
-    struct timespec t0, t1;
+    struct timespec t0;
     clock_gettime(CLOCK_MONOTONIC, &t0);
-    host_grid g = {object->impl, {(long)object->geometry.dims[0], (long)object->geometry.dims[1],
-                                  (long)object->geometry.dims[2]}};
+    const size_t *d = object->geometry.dims;
+    host_io io = {object->impl, NULL, {(long)d[0], (long)d[1], (long)d[2]}};
     float *out = tomograph->impl;
-    for (long iz = 0; iz < g.n[2]; iz++) {
-        for (long iy = 0; iy < g.n[1]; iy++)
-            for (long ix = 0; ix < g.n[0]; ix++)
-                out[ix + g.n[0] * (iy + g.n[1] * iz)] = (float)blur_voxel(&g, plan, opt, ix, iy, iz);
-        if (ctx->progress && iz + 1 < g.n[2])
-            ctx->progress((double)(iz + 1) / (double)g.n[2], ctx->progress_user);
+    for (long iz = 0; iz < io.n[2]; iz++) {
+        for (long iy = 0; iy < io.n[1]; iy++)
+            for (long ix = 0; ix < io.n[0]; ix++)
+                out[ix + io.n[0] * (iy + io.n[1] * iz)] = (float)blur_voxel(&io, plan, opt, ix, iy, iz, 1.0);
+        if (ctx->progress && iz + 1 < io.n[2])
+            ctx->progress((double)(iz + 1) / (double)io.n[2], ctx->progress_user);
     }
-    clock_gettime(CLOCK_MONOTONIC, &t1);
-    ctx->last_kernel_ms = (t1.tv_sec - t0.tv_sec) * 1e3 + (t1.tv_nsec - t0.tv_nsec) * 1e-6;
+    ctx->last_kernel_ms = elapsed_ms(&t0);
+    return PB_OK;
+}
+
+/* The transpose, summed in double and rounded once. */
+static pb_status host_adjoint(pb_context *ctx, const pb_volume *tomograph, const pb_plan *plan,
+                              const pb_blur_options *opt, pb_volume *object)
+{
+    struct timespec t0;
+    clock_gettime(CLOCK_MONOTONIC, &t0);
+    const size_t *d = object->geometry.dims;
+    double *acc = calloc(object->count, sizeof *acc);
+    if (!acc)
+        return pb_error(ctx, PB_ERR_OUT_OF_MEMORY, "out of host memory for the adjoint's %.1f MiB sum",
+                        object->count * 8.0 / 1048576.0);
+    host_io io = {NULL, acc, {(long)d[0], (long)d[1], (long)d[2]}};
+    const float *in = tomograph->impl;
+    for (long iz = 0; iz < io.n[2]; iz++) {
+        for (long iy = 0; iy < io.n[1]; iy++)
+            for (long ix = 0; ix < io.n[0]; ix++) {
+                double v = in[ix + io.n[0] * (iy + io.n[1] * iz)];
+                if (v != 0.0)
+                    blur_voxel(&io, plan, opt, ix, iy, iz, v);
+            }
+        if (ctx->progress && iz + 1 < io.n[2])
+            ctx->progress((double)(iz + 1) / (double)io.n[2], ctx->progress_user);
+    }
+    float *out = object->impl;
+    for (size_t i = 0; i < object->count; i++)
+        out[i] = (float)acc[i];
+    free(acc);
+    ctx->last_kernel_ms = elapsed_ms(&t0);
     return PB_OK;
 }
 
 const pb_backend_ops pb_backend_host_ops = {
     PB_BACKEND_HOST,   host_device_count,   host_device_info,     host_context_init,
     host_context_release, host_volume_init, host_volume_release, host_volume_upload,
-    host_volume_download, host_blur,
+    host_volume_download, host_blur,      host_adjoint,
 };

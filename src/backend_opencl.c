@@ -20,6 +20,7 @@ typedef struct cl_impl {
     cl_program program;
     cl_kernel kernels[PB_KERNEL_COUNT]; /* indexed by pb_kernel_index */
     int is_gpu;
+    int nvidia; /* NVIDIA's platform: its texture unit rounds weights to 8 bits */
 } cl_impl;
 
 typedef struct cl_volume {
@@ -161,8 +162,11 @@ static pb_status build_program(pb_context *ctx, cl_impl *cl, const char *extra)
     cl->program = clCreateProgramWithSource(cl->context, 1, &src, NULL, &e);
     if (e != CL_SUCCESS)
         return cl_fail(ctx, PB_ERR_BUILD, "clCreateProgramWithSource", e);
+    /* NVIDIA's compiler takes inline PTX, which gives the adjoint a native
+     * float atomic add (cl/pb_shim.h). */
+    const char *vendor = cl->nvidia ? "-DPB_OPENCL_NVIDIA " : "";
     char options[1024];
-    snprintf(options, sizeof options, "-cl-std=CL1.2 %s", extra ? extra : "");
+    snprintf(options, sizeof options, "-cl-std=CL1.2 %s%s", vendor, extra ? extra : "");
     e = clBuildProgram(cl->program, 1, &cl->device, options, NULL, NULL);
     if (e != CL_SUCCESS) {
         size_t len = 0;
@@ -211,6 +215,7 @@ static pb_status ocl_context_init(pb_context *ctx, int index, const char *build_
     cl->device = devs[index];
     fill_info(cl->device, plats[index], &ctx->device);
     cl->is_gpu = ctx->device.is_gpu;
+    cl->nvidia = strstr(ctx->device.platform, "NVIDIA") != NULL;
 
     cl_int e;
     cl_context_properties props[] = {CL_CONTEXT_PLATFORM, (cl_context_properties)plats[index], 0};
@@ -358,6 +363,38 @@ static cl_int launch(pb_context *ctx, cl_kernel k, const size_t *offset, const s
     return e;
 }
 
+/* Launches kernel k, its arguments set, over the plan's grid. GPUs:
+ * x-contiguous groups of 256 for coalesced writes; CPUs: the runtime splits the
+ * exact grid. With a progress report, slabs of z-slices through the global
+ * offset (the kernels see absolute ids and check bounds). */
+static cl_int launch_grid(pb_context *ctx, cl_kernel k, const pb_plan *plan)
+{
+    cl_impl *cl = ctx->impl;
+    size_t local[3] = {32, 4, 2}, global[3], offset[3] = {0, 0, 0};
+    size_t nz = plan->geometry.dims[2], slab = ctx->progress ? pb_progress_slab(nz) : nz;
+    cl_int e = CL_SUCCESS;
+    for (; offset[2] < nz && e == CL_SUCCESS; offset[2] += slab) {
+        size_t dims[3] = {plan->geometry.dims[0], plan->geometry.dims[1], nz - offset[2] < slab ? nz - offset[2] : slab};
+        for (int d = 0; d < 3; d++)
+            global[d] = cl->is_gpu ? (dims[d] + local[d] - 1) / local[d] * local[d] : dims[d];
+        e = launch(ctx, k, offset, global, cl->is_gpu ? local : NULL);
+        if (e == CL_SUCCESS && ctx->progress && offset[2] + slab < nz)
+            ctx->progress((double)(offset[2] + slab) / (double)nz, ctx->progress_user);
+    }
+    return e;
+}
+
+/* Sets kernel k's four arguments: what it reads, the plan, the parameters and
+ * the buffer it writes. */
+static cl_int set_args(cl_kernel k, cl_mem in, cl_mem poses, const pb_kparams *prm, cl_mem out)
+{
+    cl_int e = clSetKernelArg(k, 0, sizeof(cl_mem), &in);
+    e |= clSetKernelArg(k, 1, sizeof(cl_mem), &poses);
+    e |= clSetKernelArg(k, 2, sizeof *prm, prm);
+    e |= clSetKernelArg(k, 3, sizeof(cl_mem), &out);
+    return e;
+}
+
 static pb_status ocl_blur(pb_context *ctx, const pb_volume *object, const pb_plan *plan,
                           const pb_blur_options *opt, pb_volume *tomograph)
 {
@@ -374,28 +411,13 @@ static pb_status ocl_blur(pb_context *ctx, const pb_volume *object, const pb_pla
 
     cl_kernel k = cl->kernels[pb_kernel_index((int)opt->method, opt->filter == PB_FILTER_EXACT)];
     cl_volume *in = object->impl, *out = tomograph->impl;
-    cl_int e = clSetKernelArg(k, 0, sizeof(cl_mem), &in->image);
-    e |= clSetKernelArg(k, 1, sizeof(cl_mem), &poses);
-    e |= clSetKernelArg(k, 2, sizeof prm, &prm);
-    e |= clSetKernelArg(k, 3, sizeof(cl_mem), &out->buffer);
+    cl_int e = set_args(k, in->image, poses, &prm, out->buffer);
     if (e != CL_SUCCESS) {
         clReleaseMemObject(poses);
         return cl_fail(ctx, PB_ERR_LAUNCH, "clSetKernelArg", e);
     }
-    /* GPUs: x-contiguous groups of 256 for coalesced writes; CPUs: let the
-     * runtime split the exact grid. With a progress report, slabs of z-slices
-     * through the global offset (the kernels see absolute ids and check bounds). */
-    size_t local[3] = {32, 4, 2}, global[3], offset[3] = {0, 0, 0};
-    size_t nz = plan->geometry.dims[2], slab = ctx->progress ? pb_progress_slab(nz) : nz;
     ctx->last_kernel_ms = 0.0;
-    for (; offset[2] < nz && e == CL_SUCCESS; offset[2] += slab) {
-        size_t dims[3] = {plan->geometry.dims[0], plan->geometry.dims[1], nz - offset[2] < slab ? nz - offset[2] : slab};
-        for (int d = 0; d < 3; d++)
-            global[d] = cl->is_gpu ? (dims[d] + local[d] - 1) / local[d] * local[d] : dims[d];
-        e = launch(ctx, k, offset, global, cl->is_gpu ? local : NULL);
-        if (e == CL_SUCCESS && ctx->progress && offset[2] + slab < nz)
-            ctx->progress((double)(offset[2] + slab) / (double)nz, ctx->progress_user);
-    }
+    e = launch_grid(ctx, k, plan);
     clReleaseMemObject(poses);
     if (e != CL_SUCCESS)
         return cl_fail(ctx, PB_ERR_LAUNCH, "clEnqueueNDRangeKernel or the kernel", e);
@@ -403,8 +425,63 @@ static pb_status ocl_blur(pb_context *ctx, const pb_volume *object, const pb_pla
     return PB_OK;
 }
 
+/* Zeros a buffer (the scatter adds into it); its time counts with the kernel's. */
+static cl_int zero_buffer(pb_context *ctx, cl_mem buffer, size_t bytes)
+{
+    cl_impl *cl = ctx->impl;
+    const float zero = 0.0f;
+    cl_event ev;
+    cl_int e = clEnqueueFillBuffer(cl->queue, buffer, &zero, sizeof zero, 0, bytes, 0, NULL, &ev);
+    if (e != CL_SUCCESS)
+        return e;
+    e = clWaitForEvents(1, &ev);
+    cl_ulong t0 = 0, t1 = 0;
+    if (e == CL_SUCCESS) {
+        clGetEventProfilingInfo(ev, CL_PROFILING_COMMAND_START, sizeof t0, &t0, NULL);
+        clGetEventProfilingInfo(ev, CL_PROFILING_COMMAND_END, sizeof t1, &t1, NULL);
+        ctx->last_kernel_ms += (double)(t1 - t0) * 1e-6;
+    }
+    clReleaseEvent(ev);
+    return e;
+}
+
+static pb_status ocl_adjoint(pb_context *ctx, const pb_volume *tomograph, const pb_plan *plan,
+                             const pb_blur_options *opt, pb_volume *object)
+{
+    cl_impl *cl = ctx->impl;
+    cl_mem poses;
+    pb_status st = upload_plan(ctx, plan, opt, &poses);
+    if (st != PB_OK)
+        return st;
+    pb_kparams prm;
+    pb_kparams_from_plan(plan, opt, &prm);
+    /* The transpose of what the image sampler computed (cl/pb_adjoint.cl);
+     * PoCL's weights are float. */
+    if (opt->filter == PB_FILTER_HARDWARE && cl->nvidia)
+        prm.weight_steps = PB_NVIDIA_WEIGHT_STEPS;
+    cl_kernel k = cl->kernels[pb_adjoint_index((int)opt->method)];
+    cl_volume *in = tomograph->impl, *out = object->impl;
+    ctx->last_kernel_ms = 0.0;
+    cl_int e = set_args(k, in->buffer, poses, &prm, out->buffer);
+    if (e != CL_SUCCESS) {
+        clReleaseMemObject(poses);
+        return cl_fail(ctx, PB_ERR_LAUNCH, "clSetKernelArg", e);
+    }
+    e = zero_buffer(ctx, out->buffer, object->count * sizeof(float));
+    if (e != CL_SUCCESS) {
+        clReleaseMemObject(poses);
+        return cl_fail(ctx, PB_ERR_DEVICE, "clEnqueueFillBuffer", e);
+    }
+    e = launch_grid(ctx, k, plan);
+    clReleaseMemObject(poses);
+    out->image_stale = 1;
+    if (e != CL_SUCCESS)
+        return cl_fail(ctx, PB_ERR_LAUNCH, "clEnqueueNDRangeKernel or the kernel", e);
+    return PB_OK;
+}
+
 const pb_backend_ops pb_backend_opencl_ops = {
     PB_BACKEND_OPENCL,  ocl_device_count,  ocl_device_info,    ocl_context_init,
     ocl_context_release, ocl_volume_init, ocl_volume_release, ocl_volume_upload,
-    ocl_volume_download, ocl_blur,
+    ocl_volume_download, ocl_blur,         ocl_adjoint,
 };

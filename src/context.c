@@ -416,6 +416,27 @@ pb_status pb_blur(pb_context *ctx, const pb_volume *object, const pb_motion *mot
     return st;
 }
 
+pb_status pb_blur_adjoint(pb_context *ctx, const pb_volume *tomograph, const pb_motion *motion,
+                          const pb_blur_options *options, pb_volume *object)
+{
+    pb_blur_options opt;
+    pb_status st = pb_blur_prepare(ctx, object, options, tomograph, &opt);
+    if (st == PB_OK && !motion)
+        st = pb_error(ctx, PB_ERR_INVALID_ARGUMENT, "ctx, object, motion and tomograph must not be NULL");
+    if (st != PB_OK)
+        return st;
+    pb_plan plan;
+    st = pb_plan_create(ctx, &object->geometry, motion, &opt, &plan);
+    if (st != PB_OK)
+        return st;
+    ctx->last_kernel_ms = 0.0;
+    st = ctx->ops->adjoint(ctx, tomograph, &plan, &opt, object);
+    pb_plan_destroy(&plan);
+    if (st == PB_OK && ctx->progress)
+        ctx->progress(1.0, ctx->progress_user);
+    return st;
+}
+
 double pb_error_percent(const float *reference, const float *x, size_t n)
 {
     double num = 0.0, den = 0.0;

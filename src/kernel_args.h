@@ -6,6 +6,11 @@
 #include "motion.h"
 #include "../cl/pb_kernel_types.h"
 
+/* NVIDIA's texture unit keeps each linear-filter weight in 9-bit fixed point
+ * with 8 fractional bits (CUDA C Programming Guide, "Linear Filtering"); the
+ * device test test_hardware_weights checks the rounding to the nearest step. */
+#define PB_NVIDIA_WEIGHT_STEPS 256.0f
+
 void pb_kparams_from_plan(const pb_plan *plan, const pb_blur_options *opt, pb_kparams *prm);
 /* What a launch of `method` reads besides its parameters, in the kernels'
  * layout: the plan's key poses (pb_kpose), or for REF its time steps

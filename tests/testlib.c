@@ -105,8 +105,10 @@ void pb_test_record_progress(double fraction, void *user)
     log->calls++;
 }
 
-pb_status pb_test_blur(pb_context *ctx, const pb_geometry *g, const float *in, const pb_motion *m,
-                       const pb_blur_options *opt, float *out)
+/* One direction of the operator on host data: in -> out through fresh
+ * volumes, the output poisoned on both sides first. */
+static pb_status apply(pb_context *ctx, const pb_geometry *g, const float *in, const pb_motion *m,
+                       const pb_blur_options *opt, int adjoint, float *out)
 {
     size_t n = g->dims[0] * g->dims[1] * g->dims[2];
     for (size_t i = 0; i < n; i++)
@@ -122,14 +124,26 @@ pb_status pb_test_blur(pb_context *ctx, const pb_geometry *g, const float *in, c
     for (size_t i = 0; i < n && st == PB_OK; i++)
         out[i] = NAN; /* and the host copy, so a download that did not happen shows */
     if (st == PB_OK)
-        st = pb_blur(ctx, a, m, opt, b);
+        st = adjoint ? pb_blur_adjoint(ctx, a, m, opt, b) : pb_blur(ctx, a, m, opt, b);
     if (st == PB_OK)
         st = pb_volume_download(b, out);
     if (st != PB_OK)
-        printf("blur failed: %s: %s\n", pb_status_string(st), pb_last_error(ctx));
+        printf("%s failed: %s: %s\n", adjoint ? "adjoint" : "blur", pb_status_string(st), pb_last_error(ctx));
     pb_volume_destroy(a);
     pb_volume_destroy(b);
     return st;
+}
+
+pb_status pb_test_blur(pb_context *ctx, const pb_geometry *g, const float *in, const pb_motion *m,
+                       const pb_blur_options *opt, float *out)
+{
+    return apply(ctx, g, in, m, opt, 0, out);
+}
+
+pb_status pb_test_adjoint(pb_context *ctx, const pb_geometry *g, const float *in, const pb_motion *m,
+                          const pb_blur_options *opt, float *out)
+{
+    return apply(ctx, g, in, m, opt, 1, out);
 }
 
 void pb_test_motion_init(pb_test_motion *tm, const pb_pose *start, const pb_pose *end)

@@ -61,6 +61,10 @@ pb_backend pb_test_backend(int argc, char **argv);
 pb_status pb_test_blur(pb_context *ctx, const pb_geometry *g, const float *in, const pb_motion *m,
                        const pb_blur_options *opt, float *out);
 
+/* The same for pb_blur_adjoint: in is tomograph-space, out object-space. */
+pb_status pb_test_adjoint(pb_context *ctx, const pb_geometry *g, const float *in, const pb_motion *m,
+                          const pb_blur_options *opt, float *out);
+
 /* A two-pose motion over the frame [0, 1]. */
 typedef struct pb_test_motion {
     double times[2];

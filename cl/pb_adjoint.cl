@@ -1,0 +1,216 @@
+/* The adjoint kernels: the transpose of the forward kernels in pb_blur.cl, for
+ * back projection. One work item per tomograph voxel W walks W's path exactly
+ * as the forward gather does (the same walk set-up, the same shares, the same
+ * sample points) and adds y[W] times each weight into the object voxels the
+ * forward would have read, with atomic adds.
+ *
+ * Why a scatter and not a gather: a gather per object voxel V would have to
+ * find every W whose path passes near V (V's own path, mapped forward) and
+ * then rebuild each such W's walk to learn its weight on V, that is about S
+ * candidate walks of S slices each, S^2 work per voxel against the scatter's
+ * S. The scatter's price is its atomics, measured in bench/ (adjoint rows).
+ *
+ * Weights are the forward's: computed in float as the EXACT filter computes
+ * them, and for the HARDWARE filter on NVIDIA rounded as its texture unit
+ * rounds them (prm.weight_steps), so that the scatter is the transpose of the
+ * forward the GPU actually ran. */
+
+/* An interpolation weight as the forward used it: f itself, or f rounded to
+ * the texture unit's nearest step. Rounding the fraction of x - 0.5 gives the
+ * same pair of weights as rounding x - 0.5 itself to fixed point: a fraction
+ * that rounds up to 1 puts all the weight on the upper voxel either way. */
+PB_FN float pb_texture_weight(float f, pb_kparams prm)
+{
+    return prm.weight_steps > 0.0f ? rint(f * prm.weight_steps) / prm.weight_steps : f;
+}
+
+/* A voxel index from a floored texel coordinate, clamped so that paths far
+ * outside the grid neither overflow int nor wrap into it. */
+PB_FN int pb_voxel_index(float f)
+{
+    return (int)fmin(fmax(f, -2.0f), 16777216.0f);
+}
+
+/* Adds v into object voxel (i, j, k); outside the grid the forward read zero,
+ * so the transpose drops it. */
+PB_FN void pb_scatter(PB_GLOBAL float *out, pb_kparams prm, int i, int j, int k, float v)
+{
+    if (v != 0.0f && i >= 0 && j >= 0 && k >= 0 && i < prm.dims[0] && j < prm.dims[1] && k < prm.dims[2])
+        PB_ATOMIC_ADD(&out[i + prm.dims[0] * (j + prm.dims[1] * k)], v);
+}
+
+/* Transpose of pb_trilinear: v spread over the eight voxels around (x, y, z). */
+PB_FN void pb_trilinear_scatter(PB_GLOBAL float *out, pb_kparams prm, float x, float y, float z, float v)
+{
+    float cx = x - 0.5f, cy = y - 0.5f, cz = z - 0.5f;
+    float x0 = floor(cx), y0 = floor(cy), z0 = floor(cz);
+    float fx = pb_texture_weight(cx - x0, prm), fy = pb_texture_weight(cy - y0, prm);
+    float fz = pb_texture_weight(cz - z0, prm);
+    int i = pb_voxel_index(x0), j = pb_voxel_index(y0), k = pb_voxel_index(z0);
+    for (int c = 0; c < 8; c++) {
+        float w = ((c & 1) ? fx : 1.0f - fx) * ((c & 2) ? fy : 1.0f - fy) * ((c & 4) ? fz : 1.0f - fz);
+        pb_scatter(out, prm, i + (c & 1), j + ((c >> 1) & 1), k + (c >> 2), v * w);
+    }
+}
+
+/* Transpose of pb_slice_sample: v spread over the four voxels of the slice
+ * around the point, whose major coordinate is the slice's centre. */
+PB_FN void pb_slice_scatter(PB_GLOBAL float *out, pb_kparams prm, int major, float x, float y, float z, float v)
+{
+    int km = pb_voxel_index(floor(major == 0 ? x : (major == 1 ? y : z)));
+    float c1 = (major == 0 ? y : (major == 1 ? z : x)) - 0.5f;
+    float c2 = (major == 0 ? z : (major == 1 ? x : y)) - 0.5f;
+    float i1 = floor(c1), i2 = floor(c2);
+    float f1 = pb_texture_weight(c1 - i1, prm), f2 = pb_texture_weight(c2 - i2, prm);
+    for (int c = 0; c < 4; c++) {
+        int t1 = pb_voxel_index(i1) + (c & 1), t2 = pb_voxel_index(i2) + (c >> 1);
+        float w = ((c & 1) ? f1 : 1.0f - f1) * ((c >> 1) ? f2 : 1.0f - f2);
+        int px = major == 0 ? km : (major == 1 ? t2 : t1);
+        int py = major == 0 ? t1 : (major == 1 ? km : t2);
+        int pz = major == 0 ? t2 : (major == 1 ? t1 : km);
+        pb_scatter(out, prm, px, py, pz, v * w);
+    }
+}
+
+/* Transpose of pb_ab_segment. The forward divides by the float sum of the
+ * shares at the end; the scatter needs that sum before its first slice, so the
+ * partial shares are computed twice (they are a few flops each). */
+PB_FN void pb_ab_segment_adjoint(PB_GLOBAL float *out, pb_kparams prm, const float *a, const float *b, float v)
+{
+    pb_ab_walk w;
+    if (pb_ab_walk_init(a, b, &w)) {
+        pb_trilinear_scatter(out, prm, 0.5f * (a[0] + b[0]), 0.5f * (a[1] + b[1]), 0.5f * (a[2] + b[2]), v);
+        return;
+    }
+    float wsum = (float)(w.f1 - w.f0 + 1), mean;
+    for (int k = w.k0; k <= w.k1; k = pb_ab_next_partial(&w, k))
+        wsum += pb_tent_share(w.lo - (float)k, w.hi - (float)k, &mean);
+    float vw = v / wsum;
+    for (int k = w.f0; k <= w.f1; k++) {
+        float kf = (float)k;
+        pb_slice_scatter(out, prm, w.m, kf * w.g[0] + w.c[0], kf * w.g[1] + w.c[1], kf * w.g[2] + w.c[2], vw);
+    }
+    for (int k = w.k0; k <= w.k1; k = pb_ab_next_partial(&w, k)) {
+        float kf = (float)k;
+        float s = pb_tent_share(w.lo - kf, w.hi - kf, &mean);
+        pb_slice_scatter(out, prm, w.m, kf * w.g[0] + w.c[0] + mean * w.h[0], kf * w.g[1] + w.c[1] + mean * w.h[1],
+                         kf * w.g[2] + w.c[2] + mean * w.h[2], s * vw);
+    }
+}
+
+/* Transpose of pb_polyline: v = y[W], spread along every segment with the
+ * segment's share of the frame. */
+PB_FN void pb_polyline_adjoint(PB_GLOBAL float *out, PB_GLOBAL_RO pb_kpose *poses, pb_kparams prm, int ix, int iy,
+                               int iz, int ab, float v)
+{
+    float ux = (float)ix + 0.5f, uy = (float)iy + 0.5f, uz = (float)iz + 0.5f;
+    float a[3], b[3];
+    pb_map_point(poses[0].map, ux, uy, uz, b);
+    for (int j = 0; j < prm.segments; j++) {
+        for (int i = 0; i < 3; i++)
+            a[i] = b[i];
+        pb_map_point(poses[j + 1].map, ux, uy, uz, b);
+        float vj = v * poses[j].weight;
+        if (ab) {
+            float inv = 1.0f / (float)prm.steps;
+            for (int r = 0; r < prm.steps; r++) {
+                float pa[3], pb[3];
+                for (int i = 0; i < 3; i++) {
+                    pa[i] = a[i] + (b[i] - a[i]) * ((float)r * inv);
+                    pb[i] = a[i] + (b[i] - a[i]) * ((float)(r + 1) * inv);
+                }
+                pb_ab_segment_adjoint(out, prm, pa, pb, vj * inv);
+            }
+        } else {
+            int n = prm.steps > 0 ? prm.steps : pb_ab_slices(a, b);
+            for (int i = 0; i < n; i++) {
+                float s = ((float)i + 0.5f) / (float)n;
+                pb_trilinear_scatter(out, prm, a[0] + s * (b[0] - a[0]), a[1] + s * (b[1] - a[1]),
+                                     a[2] + s * (b[2] - a[2]), vj / (float)n);
+            }
+        }
+    }
+}
+
+/* Transpose of pb_classical. */
+PB_FN void pb_classical_adjoint(PB_GLOBAL float *out, PB_GLOBAL_RO pb_kpose *poses, pb_kparams prm, int ix, int iy,
+                                int iz, float v)
+{
+    float u[3] = {(float)ix + 0.5f, (float)iy + 0.5f, (float)iz + 0.5f};
+    for (int j = 0; j < prm.segments; j++) {
+        int n = prm.steps;
+        if (n == 0) {
+            float a[3], b[3];
+            pb_map_point(poses[j].map, u[0], u[1], u[2], a);
+            pb_map_point(poses[j + 1].map, u[0], u[1], u[2], b);
+            n = pb_ab_slices(a, b);
+        }
+        float vn = v * poses[j].weight / (float)n;
+        for (int i = 0; i < n; i++) {
+            float o[3];
+            pb_classical_point(&poses[j], &poses[j + 1], ((float)i + 0.5f) / (float)n, prm, u, o);
+            pb_trilinear_scatter(out, prm, o[0], o[1], o[2], vn);
+        }
+    }
+}
+
+/* The tomograph voxel's value, or 0 (nothing to spread) outside the grid. */
+PB_FN float pb_adjoint_input(PB_GLOBAL_RO float *in, pb_kparams prm, int ix, int iy, int iz)
+{
+    return PB_IN_GRID(ix, iy, iz) ? in[ix + prm.dims[0] * (iy + prm.dims[1] * iz)] : 0.0f;
+}
+
+/* One kernel per method: the scatter reads no texture, so the filter does not
+ * change it. out must hold zeros before the launch. */
+PB_KERNEL void pb_adjoint_ab(PB_GLOBAL_RO float *in, PB_GLOBAL_RO pb_kpose *poses, pb_kparams prm, PB_GLOBAL float *out)
+{
+    int ix = PB_GID_X, iy = PB_GID_Y, iz = PB_GID_Z;
+    float v = pb_adjoint_input(in, prm, ix, iy, iz);
+    if (v != 0.0f)
+        pb_polyline_adjoint(out, poses, prm, ix, iy, iz, 1, v);
+}
+
+PB_KERNEL void pb_adjoint_rm(PB_GLOBAL_RO float *in, PB_GLOBAL_RO pb_kpose *poses, pb_kparams prm, PB_GLOBAL float *out)
+{
+    int ix = PB_GID_X, iy = PB_GID_Y, iz = PB_GID_Z;
+    float v = pb_adjoint_input(in, prm, ix, iy, iz);
+    if (v != 0.0f)
+        pb_polyline_adjoint(out, poses, prm, ix, iy, iz, 0, v);
+}
+
+PB_KERNEL void pb_adjoint_cl(PB_GLOBAL_RO float *in, PB_GLOBAL_RO pb_kpose *poses, pb_kparams prm, PB_GLOBAL float *out)
+{
+    int ix = PB_GID_X, iy = PB_GID_Y, iz = PB_GID_Z;
+    float v = pb_adjoint_input(in, prm, ix, iy, iz);
+    if (v != 0.0f)
+        pb_classical_adjoint(out, poses, prm, ix, iy, iz, v);
+}
+
+/* Transpose of pb_blur_ref: each random point's share goes to the object voxel
+ * that holds it (the point's texel coordinates, floored, as a nearest read). */
+PB_KERNEL void pb_adjoint_ref(PB_GLOBAL_RO float *in, PB_GLOBAL_RO pb_kstep *steps, pb_kparams prm, PB_GLOBAL float *out)
+{
+    int ix = PB_GID_X, iy = PB_GID_Y, iz = PB_GID_Z;
+    float v = pb_adjoint_input(in, prm, ix, iy, iz);
+    if (v == 0.0f)
+        return;
+    int voxel = ix + prm.dims[0] * (iy + prm.dims[1] * iz);
+    unsigned int key = pb_ref_key(prm.seed, (unsigned int)voxel);
+    const float scale = 1.0f / 16777216.0f;
+    for (int s = 0; s < prm.ref_steps; s++) {
+        PB_GLOBAL_RO float *m = steps[s].map;
+        float base[3];
+        pb_map_point(m, (float)ix, (float)iy, (float)iz, base);
+        float vs = v * steps[s].weight / (float)prm.ref_points;
+        for (int k = 0; k < prm.ref_points; k++) {
+            unsigned int c = (unsigned int)(s * prm.ref_points + k);
+            float px = ((float)pb_ref_bits(key, c, 0u) + 0.5f) * scale;
+            float py = ((float)pb_ref_bits(key, c, 1u) + 0.5f) * scale;
+            float pz = ((float)pb_ref_bits(key, c, 2u) + 0.5f) * scale;
+            float ox = base[0] + m[0] * px + m[1] * py + m[2] * pz;
+            float oy = base[1] + m[4] * px + m[5] * py + m[6] * pz;
+            float oz = base[2] + m[8] * px + m[9] * py + m[10] * pz;
+            pb_scatter(out, prm, pb_voxel_index(floor(ox)), pb_voxel_index(floor(oy)), pb_voxel_index(floor(oz)), vs);
+        }
+    }
+}

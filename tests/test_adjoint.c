@@ -1,0 +1,145 @@
+/* pb_blur_adjoint is the transpose of pb_blur: <B x, y> = <x, B^T y> on fresh
+ * random x and y, for every method, filter and kind of motion, on the backend
+ * named on the command line.
+ *
+ * Tolerances. Both sides are sums of the same products computed in float (the
+ * device kernels) or double (the host), stored as float: the relative
+ * mismatch is a few float roundings, ~1e-6, so 1e-5 is asserted.
+ *
+ * HARDWARE: the forward's weights are the texture unit's. PoCL interpolates in
+ * float and NVIDIA rounds each fraction to 1/256 (8 fractional bits, see
+ * testlib.h); the adjoint applies exactly those weights (weight_steps in
+ * cl/pb_adjoint.cl), so the same 1e-5 holds where the unit and the adjoint
+ * round every fraction alike. What remains is a fraction the texture unit
+ * rounds to the other step (a tie at half a step, or its own fixed-point
+ * coordinate): each such weight moves by 2^-8, which moves that sample by at
+ * most 2^-8 of the input's range, times the sample's share of its voxel, and
+ * averages out over the volume. HW_TOL below allows for a few per thousand
+ * samples of that, and the test prints the mismatch it measured.
+ *
+ * A check of the check: the same dot product against the adjoint of a motion
+ * 0.05 voxel off must miss by far more than the tolerance. */
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+
+#include "testlib.h"
+
+#define EXACT_TOL 1e-5
+#define HW_TOL 1e-5
+
+static const char *method_names[] = {"AB", "RM", "CL", "REF"};
+
+typedef struct motion_case {
+    const char *name;
+    double times[5];
+    pb_pose poses[5];
+    size_t count;
+    double frame[2];
+} motion_case;
+
+static double dot(const float *a, const float *b, size_t n)
+{
+    double s = 0.0;
+    for (size_t i = 0; i < n; i++)
+        s += (double)a[i] * (double)b[i];
+    return s;
+}
+
+static float *random_volume(size_t n)
+{
+    float *v = malloc(n * sizeof *v);
+    for (size_t i = 0; i < n; i++)
+        v[i] = (float)pb_rand_uniform();
+    return v;
+}
+
+/* The kinds of motion: none (AB's walk degenerates to a point), a translation
+ * of several voxels on a slant, a large turn (cut into several segments by the
+ * default path bound), and a track of several poses with the frame inside it. */
+static void make_cases(motion_case *c)
+{
+    double tilt[3] = {pb_rand_range(-0.5, 0.5), 1.0, pb_rand_range(-0.5, 0.5)};
+    double axis2[3] = {1.0, pb_rand_range(-0.3, 0.3), 0.4};
+    pb_pose still = pb_test_pose(0, 0, 0, NULL, 0);
+    c[0] = (motion_case){"static", {0, 1}, {still, still}, 2, {0, 1}};
+    c[1] = (motion_case){"translation", {0, 1},
+                         {still, pb_test_pose(pb_rand_range(2, 5), pb_rand_range(-4, -1), pb_rand_range(1, 6), NULL, 0)},
+                         2, {0, 1}};
+    c[2] = (motion_case){"rotation", {0, 1},
+                         {still, pb_test_pose(pb_rand_range(-1, 1), 0.5, 0, tilt, pb_rand_range(30, 50))},
+                         2, {0, 1}};
+    c[3] = (motion_case){"track", {0, 0.3, 0.45, 0.8, 1.2}, {still}, 5, {0.1, 1.1}};
+    for (int k = 1; k < 5; k++)
+        c[3].poses[k] = pb_test_pose(pb_rand_range(-2, 2), pb_rand_range(-2, 2), pb_rand_range(-2, 2), axis2,
+                                     pb_rand_range(-8, 8));
+}
+
+static pb_motion motion_of(const motion_case *c)
+{
+    pb_motion m = {c->times, c->poses, c->count, c->frame[0], c->frame[1], 0, {0, 0, 0}};
+    return m;
+}
+
+int main(int argc, char **argv)
+{
+    pb_test_seed();
+    pb_context *ctx = pb_test_context(argc, argv);
+    pb_geometry g = {{17, 14, 11}, {1.2, 1.0, 1.5}};
+    size_t n = 17 * 14 * 11;
+    motion_case cases[4];
+    make_cases(cases);
+    float *x = random_volume(n), *y = random_volume(n);
+    float *bx = malloc(n * sizeof *bx), *bty = malloc(n * sizeof *bty);
+
+    /* Options: the paper's defaults, and explicit sub-segments or steps. */
+    struct {
+        pb_method method;
+        unsigned steps;
+    } runs[] = {{PB_METHOD_AB, 0}, {PB_METHOD_AB, 3}, {PB_METHOD_RM, 0}, {PB_METHOD_RM, 5}, {PB_METHOD_CL, 0},
+                {PB_METHOD_REF, 0}};
+    double worst[2] = {0.0, 0.0};
+    for (size_t r = 0; r < sizeof runs / sizeof runs[0]; r++)
+        for (int filter = 0; filter < 2; filter++) {
+            if (runs[r].method == PB_METHOD_REF && filter == PB_FILTER_HARDWARE)
+                continue; /* REF reads nearest voxels with either */
+            for (int c = 0; c < 4; c++) {
+                pb_motion m = motion_of(&cases[c]);
+                pb_blur_options opt = {runs[r].method, (pb_filter)filter, runs[r].steps, 24, 0, 7, 0.0};
+                if (!pb_check(pb_test_blur(ctx, &g, x, &m, &opt, bx) == PB_OK &&
+                                  pb_test_adjoint(ctx, &g, y, &m, &opt, bty) == PB_OK,
+                              "%s steps %u %s: blur or adjoint failed", method_names[runs[r].method], runs[r].steps,
+                              cases[c].name))
+                    continue;
+                double lhs = dot(bx, y, n), rhs = dot(x, bty, n);
+                double rel = fabs(lhs - rhs) / fabs(lhs);
+                double tol = filter == PB_FILTER_EXACT ? EXACT_TOL : HW_TOL;
+                worst[filter] = fmax(worst[filter], rel);
+                pb_check(rel <= tol && isfinite(rel), "%s steps %u %s %s: <Bx,y> = %.9g, <x,B^T y> = %.9g, relative "
+                         "mismatch %.3g > %.0e", method_names[runs[r].method], runs[r].steps,
+                         filter ? "EXACT" : "HARDWARE", cases[c].name, lhs, rhs, rel, tol);
+            }
+        }
+    printf("largest relative mismatch: HARDWARE %.3g, EXACT %.3g\n", worst[0], worst[1]);
+
+    /* The check of the check: the adjoint of a motion 0.05 voxel off. */
+    motion_case off = cases[1];
+    off.poses[1].translation[0] += 0.05 * g.voxel_size[0];
+    pb_motion m = motion_of(&cases[1]), m_off = motion_of(&off);
+    pb_blur_options opt = {PB_METHOD_AB, PB_FILTER_EXACT, 0, 0, 0, 0, 0.0};
+    if (pb_check(pb_test_blur(ctx, &g, x, &m, &opt, bx) == PB_OK &&
+                     pb_test_adjoint(ctx, &g, y, &m_off, &opt, bty) == PB_OK,
+                 "check of the check: blur or adjoint failed")) {
+        double lhs = dot(bx, y, n), rhs = dot(x, bty, n), rel = fabs(lhs - rhs) / fabs(lhs);
+        printf("a motion 0.05 voxel off: relative mismatch %.3g\n", rel);
+        pb_check(rel > 20.0 * EXACT_TOL, "the adjoint of a motion 0.05 voxel off matches within %.3g: the dot "
+                 "product cannot tell a wrong adjoint", rel);
+    }
+
+    free(x);
+    free(y);
+    free(bx);
+    free(bty);
+    pb_context_destroy(ctx);
+    return pb_test_finish();
+}
