@@ -120,11 +120,12 @@ def phantom_tables(run, p):
             cells.append(mark(num(r["error_pct"])) if r else "")
         out.append("| " + " | ".join(cells) + " |")
     out += ["", "Time in ms. Ours: kernel time from device events (median after a warm-up); AB e2e adds the upload "
-            "and download; PyTorch: its S poses of affine_grid + grid_sample, CUDA events. Floor: AB's fetches over "
+            "and download; AB adjoint: pb_blur_adjoint of the same motion (the transpose, for back projection), "
+            "zeroing of its output included; PyTorch: its S poses of affine_grid + grid_sample, CUDA events. Floor: AB's fetches over "
             "the texture unit's measured rate, or its bytes over the measured bandwidth, whichever is longer.", "",
-            "| # | S | CL | CL paper | RM | RM paper | AB | AB paper | AB EX | AB e2e | AB-E | AB-E / AB | PyTorch | "
-            "PyTorch / AB | AB floor | AB / floor |",
-            "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
+            "| # | S | CL | CL paper | RM | RM paper | AB | AB paper | AB EX | AB e2e | AB-E | AB-E / AB | AB adjoint | "
+            "adjoint / AB | PyTorch | PyTorch / AB | AB floor | AB / floor |",
+            "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for s in run.scenarios(p):
         pap = run.paper.get((p, s), {})
         ab = run.get(run.ours, p, s, "AB", "hardware", "kernel_ms")
@@ -136,6 +137,8 @@ def phantom_tables(run, p):
                   fmt(run.get(run.ours, p, s, "AB", "hardware", "e2e_ms"), 3)]
         abe = run.get(run.ours, p, s, "AB-E", "hardware", "kernel_ms")
         cells += [fmt(abe, 3), fmt(abe / ab if abe and ab else None, 2)]
+        adj = run.get(run.ours, p, s, "AB", "hardware", "adjoint_ms")
+        cells += [fmt(adj, 3), fmt(adj / ab if adj and ab else None, 2)]
         t = run.peers.get((p, s, "torch"))
         tt = num(t["time_ms"]) if t else None
         cells += [fmt(tt, 3), fmt(tt / ab if tt and ab else None, 1)]
@@ -199,6 +202,15 @@ def targets(run):
         if any((p, s, "AB-E", "hardware") in run.ours for s in (6, 8)):
             out.append("- AB with the default path error bound, scenarios 6 and 8, %s: error at most 0.5 %% and time "
                        "at most 1.5x one-segment AB: %s" % (p, "met" if not bad else "NOT met in " + ", ".join(bad)))
+    adj = [(num(r["adjoint_ms"]) / num(r["kernel_ms"]), k) for k, r in run.ours.items()
+           if num(r.get("adjoint_ms")) and num(r.get("kernel_ms"))]
+    if adj:
+        slow = [x for x in adj if x[0] > 2.0]
+        out.append("- The adjoint at most 2x the forward time, same method and motion (%d rows, every method, filter "
+                   "and phantom): %s (ratios %.2f to %.2f)" % (
+                       len(adj), "met" if not slow else "NOT met in %d: %s" % (len(slow), ", ".join(
+                           "%s %d %s %s (%.2fx)" % (k[0], k[1], k[2], k[3], x) for x, k in sorted(slow)[-8:])),
+                       min(x[0] for x in adj), max(x[0] for x in adj)))
     ratios = []
     for p in run.phantoms:
         for s in run.scenarios(p):
@@ -290,20 +302,21 @@ def long_csv(run, d):
     with open(path + ".tmp", "w", newline="") as f:
         w = csv.writer(f)
         w.writerow(["source", "phantom", "scenario", "method", "filter", "device", "error_pct", "time_ms", "e2e_ms",
-                    "S", "floor_ms"])
+                    "S", "floor_ms", "adjoint_ms"])
         for (p, s, m, fl), r in sorted(run.ours.items()):
             w.writerow(["petblur", p, s, m, fl, r["backend"] + " " + r["device"], r["error_pct"], r["kernel_ms"],
-                        r["e2e_ms"], r["ab_max_slices"], fmt(run.floor_ms(p, s), 5) if m == "AB" else ""])
+                        r["e2e_ms"], r["ab_max_slices"], fmt(run.floor_ms(p, s), 5) if m == "AB" else "",
+                        r.get("adjoint_ms", "")])
         for (p, s, m, fl), r in sorted(run.pocl.items()):
             w.writerow(["petblur", p, s, m, fl, r["backend"] + " " + r["device"], r["error_pct"], r["kernel_ms"],
-                        r["e2e_ms"], r["ab_max_slices"], ""])
+                        r["e2e_ms"], r["ab_max_slices"], "", r.get("adjoint_ms", "")])
         for (p, s, peer), r in sorted(run.peers.items()):
             w.writerow([peer, p, s, "classical", "trilinear", r["device"], r["error_pct"], r["time_ms"], r["e2e_ms"],
-                        r["S"], ""])
+                        r["S"], "", ""])
         for (p, s), r in sorted(run.paper.items()):
             for m in ("CL", "RM", "AB"):
                 w.writerow(["paper", p, s, m, "hardware", "GeForce GTX 960M", r["error_" + m.lower()],
-                            r["time_" + m.lower()], "", "", ""])
+                            r["time_" + m.lower()], "", "", "", ""])
     os.replace(path + ".tmp", path)
 
 

@@ -217,6 +217,23 @@ class Motion(Case):
         self.assertLess(errs[1], errs[0] / 5, errs)
         self.assertLess(errs[2], errs[1], errs)
 
+    def test_adjoint_is_the_transpose(self):
+        """--adjoint through files: <B x, y> = <x, B^T y> for a fresh y, on
+        the host (double) and on OpenCL (float atomics), NIfTI in and out."""
+        y = self.random_volume((12, 10, 8))
+        nib.save(nib.Nifti1Image(np.asarray(y.transpose(2, 1, 0), dtype=np.float32), np.diag([1, 1, 1, 1.0])),
+                 self.p("y.nii"))
+        motion = ("--translate", "2.5,-1,1.5", "--rotate", "25", "--axis", "0.2,1,0.3")
+        bx = self.blur("bx.raw", *motion)
+        for device in ("host", "opencl"):
+            with self.subTest(device=device):
+                run("blur", "-i", self.p("y.nii"), "-o", self.p(f"bty-{device}.nii.gz"), "--device", device, "-q",
+                    "--adjoint", *motion)
+                bty = nib.load(self.p(f"bty-{device}.nii.gz")).get_fdata().transpose(2, 1, 0)
+                lhs, rhs = float(np.sum(bx * y, dtype=np.float64)), float(np.sum(self.vol * bty, dtype=np.float64))
+                self.assertLess(abs(lhs - rhs) / abs(lhs), 1e-5, (lhs, rhs))
+                self.assertGreater(float(np.abs(bty - y).max()), 0.1, "the adjoint did nothing")
+
     def test_default_device_runs(self):
         a = self.blur("auto.raw", "--translate", "1,2,-1", "--rotate", "5", device="auto")
         h = self.blur("host.raw", "--translate", "1,2,-1", "--rotate", "5", "--filter", "exact")

@@ -32,7 +32,8 @@ static int failed(pb_context *ctx, pb_status st, const char *what)
 }
 
 int pbc_bench_time(pb_context *ctx, pb_volume *in, pb_volume *outv, const float *host_in, const pb_motion *motion,
-                   const pb_blur_options *options, int runs, int e2e_runs, float *out, pbc_timing *t)
+                   const pb_blur_options *options, int runs, int e2e_runs, float *out, pb_volume *adj,
+                   pbc_timing *t)
 {
     int n = runs > e2e_runs ? runs : e2e_runs;
     double *ms = malloc((size_t)(n > 0 ? n : 1) * sizeof *ms);
@@ -41,7 +42,7 @@ int pbc_bench_time(pb_context *ctx, pb_volume *in, pb_volume *outv, const float 
     pb_status st = pb_blur(ctx, in, motion, options, outv); /* warm-up, and the result */
     if (st == PB_OK)
         st = pb_volume_download(outv, out);
-    t->kernel_ms = t->kernel_min_ms = t->e2e_ms = NAN;
+    t->kernel_ms = t->kernel_min_ms = t->e2e_ms = t->adjoint_ms = NAN;
     if (st == PB_OK && runs == 0)
         pb_context_last_kernel_ms(ctx, &t->kernel_ms); /* the warm-up's time is all there is */
     for (int r = 0; r < runs && st == PB_OK; r++) {
@@ -65,8 +66,20 @@ int pbc_bench_time(pb_context *ctx, pb_volume *in, pb_volume *outv, const float 
     }
     if (st == PB_OK && e2e_runs > 0)
         t->e2e_ms = median(ms, e2e_runs);
+    if (st != PB_OK || !adj) {
+        free(ms);
+        return st == PB_OK ? 0 : failed(ctx, st, "blur");
+    }
+    /* The adjoint of the blur just made, as back projection would run it. */
+    st = pb_blur_adjoint(ctx, outv, motion, options, adj);
+    for (int r = 0; r < runs && st == PB_OK; r++) {
+        st = pb_blur_adjoint(ctx, outv, motion, options, adj);
+        pb_context_last_kernel_ms(ctx, &ms[r]);
+    }
+    if (st == PB_OK && runs > 0)
+        t->adjoint_ms = median(ms, runs);
     free(ms);
-    return st == PB_OK ? 0 : failed(ctx, st, "blur");
+    return st == PB_OK ? 0 : failed(ctx, st, "adjoint");
 }
 
 /* Object texel coordinates of texel-coordinate point u under pose p:

@@ -114,23 +114,22 @@ static int blur_failed(pb_context *ctx, pb_status st, const char *label)
 }
 
 int pbc_blur_image(pb_context *ctx, const pbc_image *in, const pb_motion *motion, const pb_blur_options *options,
-                   const char *label, float *out, double *ms)
+                   int adjoint, const char *label, float *out, double *ms)
 {
     pb_geometry g = {{in->dims[0], in->dims[1], in->dims[2]}, {in->voxel_size[0], in->voxel_size[1], in->voxel_size[2]}};
-    pb_volume *obj = NULL, *tomo = NULL;
+    pb_volume *src = NULL, *dst = NULL;
     pb_status st;
     pb_context_set_progress(ctx, pbc_show_progress ? show_progress : NULL, (void *)label);
-    if ((st = pb_volume_create(ctx, &g, &obj)) != PB_OK || (st = pb_volume_create(ctx, &g, &tomo)) != PB_OK ||
-        (st = pb_volume_upload(obj, in->data)) != PB_OK || (st = pb_blur(ctx, obj, motion, options, tomo)) != PB_OK ||
-        (st = pb_volume_download(tomo, out)) != PB_OK) {
-        if (pbc_show_progress)
-            show_progress(1.0, NULL);
-        pb_volume_destroy(obj);
-        pb_volume_destroy(tomo);
-        return blur_failed(ctx, st, label);
-    }
-    pb_context_last_kernel_ms(ctx, ms);
-    pb_volume_destroy(obj);
-    pb_volume_destroy(tomo);
-    return 0;
+    if ((st = pb_volume_create(ctx, &g, &src)) == PB_OK && (st = pb_volume_create(ctx, &g, &dst)) == PB_OK &&
+        (st = pb_volume_upload(src, in->data)) == PB_OK)
+        st = adjoint ? pb_blur_adjoint(ctx, src, motion, options, dst) : pb_blur(ctx, src, motion, options, dst);
+    if (st == PB_OK)
+        st = pb_volume_download(dst, out);
+    if (st == PB_OK)
+        pb_context_last_kernel_ms(ctx, ms);
+    else if (pbc_show_progress)
+        show_progress(1.0, NULL);
+    pb_volume_destroy(src);
+    pb_volume_destroy(dst);
+    return st == PB_OK ? 0 : blur_failed(ctx, st, label);
 }

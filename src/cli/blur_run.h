@@ -32,9 +32,10 @@ typedef struct pbc_motion {
 int pbc_motion_from_args(const pbc_command *cmd, const pbc_args *args, pbc_motion *m);
 void pbc_motion_free(pbc_motion *m);
 
-/* Blurs in into out (the same geometry) on ctx. label names the run in
+/* Blurs in into out (the same geometry) on ctx, or with adjoint applies the
+ * transpose (in tomograph space, out object space). label names the run in
  * progress lines and messages; *ms gets the kernel time. */
 int pbc_blur_image(pb_context *ctx, const pbc_image *in, const pb_motion *motion, const pb_blur_options *options,
-                   const char *label, float *out, double *ms);
+                   int adjoint, const char *label, float *out, double *ms);
 
 #endif

@@ -252,7 +252,7 @@ static int references(pb_context *ctx, const bench_config *c, const char *name, 
         }
         pb_blur_options opt = {PB_METHOD_REF, PB_FILTER_EXACT, 0, (unsigned)c->points, 0, (uint32_t)seed, 0.0};
         pbc_timing t;
-        if ((rc = pbc_bench_time(ctx, in, out, ph->data, motion, &opt, 0, 0, ref[seed - 1], &t)))
+        if ((rc = pbc_bench_time(ctx, in, out, ph->data, motion, &opt, 0, 0, ref[seed - 1], NULL, &t)))
             return rc;
         if (seed == 1)
             *ms = t.kernel_ms;
@@ -283,7 +283,8 @@ static void row_prefix(FILE *f, const char *name, const pbc_image *ph, int s, co
 
 /* One phantom under one motion: the references, then every method and filter. */
 static int bench_case(pb_context *ctx, const bench_config *c, bench_files *f, const char *device, const char *name,
-                      const pbc_image *ph, pb_volume *in, pb_volume *out, int s, float *ref[2], float *res)
+                      const pbc_image *ph, pb_volume *in, pb_volume *out, pb_volume *adj, int s, float *ref[2],
+                      float *res)
 {
     const pb_scenario *sc = &pb_paper_scenarios[s - 1];
     double times[2], ref_ms;
@@ -322,12 +323,12 @@ static int bench_case(pb_context *ctx, const bench_config *c, bench_files *f, co
             int e2e = c->runs < 5 ? (int)c->runs : 5;
             for (size_t i = 0; i < n; i++)
                 res[i] = NAN; /* a blur that wrote nothing cannot pass for one that did */
-            if ((rc = pbc_bench_time(ctx, in, out, ph->data, &motion, &opt, (int)c->runs, e2e, res, &t)))
+            if ((rc = pbc_bench_time(ctx, in, out, ph->data, &motion, &opt, (int)c->runs, e2e, res, adj, &t)))
                 return rc;
             double err = pb_error_percent(ref[0], res, n);
             progress_clear();
-            printf("%-11s %d %-22s %-4s %-8s %9.4f %11.3f %10.3f\n", name, s, motion_text, methods[m].name,
-                   filter_names[filt], err, t.kernel_ms, t.e2e_ms);
+            printf("%-11s %d %-22s %-4s %-8s %9.4f %11.3f %10.3f %11.3f\n", name, s, motion_text, methods[m].name,
+                   filter_names[filt], err, t.kernel_ms, t.e2e_ms, t.adjoint_ms);
             fflush(stdout);
             row_prefix(f->results, name, ph, s, sc);
             /* The bound in force: -1 for the paper's one segment, empty for CL. */
@@ -335,9 +336,9 @@ static int bench_case(pb_context *ctx, const bench_config *c, bench_files *f, co
             if (methods[m].method != PB_METHOD_CL)
                 snprintf(bound, sizeof bound, "%g",
                          opt.max_path_error == 0.0 ? PB_DEFAULT_MAX_PATH_ERROR : fmax(opt.max_path_error, -1.0));
-            fprintf(f->results, ",%s,%s,%s,%.6g,%.6g,%.6g,%.6g,%.6g,%lu,%.0f,%u,%lu,%s,%zu\n", device,
+            fprintf(f->results, ",%s,%s,%s,%.6g,%.6g,%.6g,%.6g,%.6g,%lu,%.0f,%u,%lu,%s,%zu,%.6g\n", device,
                     methods[m].name, filter_names[filt], err, noise, t.kernel_ms, t.kernel_min_ms, t.e2e_ms, c->runs,
-                    work.fetches, work.max_slices, c->reference ? 0UL : c->points, bound, segments);
+                    work.fetches, work.max_slices, c->reference ? 0UL : c->points, bound, segments, t.adjoint_ms);
         }
     /* Paths in cases.csv are relative to its folder: ours in ./volumes, those of
      * --reference (its phantom too: the same one) made absolute. */
@@ -355,7 +356,7 @@ static int bench_phantom(pb_context *ctx, const bench_config *c, bench_files *f,
 {
     const char *name = pbc_phantom_name(kind);
     pbc_image ph = {0};
-    pb_volume *in = NULL, *out = NULL;
+    pb_volume *in = NULL, *out = NULL, *adj = NULL;
     float *ref[2] = {NULL, NULL}, *res = NULL;
     char path[4096];
     int rc = make_phantom(c, kind, &ph);
@@ -366,6 +367,8 @@ static int bench_phantom(pb_context *ctx, const bench_config *c, bench_files *f,
     pb_status st = pb_volume_create(ctx, &g, &in);
     if (st == PB_OK)
         st = pb_volume_create(ctx, &g, &out);
+    if (st == PB_OK)
+        st = pb_volume_create(ctx, &g, &adj);
     if (st == PB_OK)
         st = pb_volume_upload(in, ph.data);
     if (st != PB_OK) {
@@ -391,10 +394,11 @@ static int bench_phantom(pb_context *ctx, const bench_config *c, bench_files *f,
         goto done;
     for (int s = 1; s <= 8 && !rc; s++)
         if (c->scenario[s - 1])
-            rc = bench_case(ctx, c, f, device, name, &ph, in, out, s, ref, res);
+            rc = bench_case(ctx, c, f, device, name, &ph, in, out, adj, s, ref, res);
 done:
     pb_volume_destroy(in);
     pb_volume_destroy(out);
+    pb_volume_destroy(adj);
     free(ref[0]);
     free(ref[1]);
     free(res);
@@ -425,7 +429,7 @@ static int open_outputs(const bench_config *c, bench_files *f)
     }
     static const char prefix[] = "phantom,nx,ny,nz,vx,vy,vz,scenario,tx,ty,tz,rot_deg";
     fprintf(f->results, "%s,backend,device,method,filter,error_pct,ref_noise_pct,kernel_ms,kernel_min_ms,e2e_ms,runs,"
-                        "ab_fetches,ab_max_slices,ref_points,max_path_error,segments\n", prefix);
+                        "ab_fetches,ab_max_slices,ref_points,max_path_error,segments,adjoint_ms\n", prefix);
     fprintf(f->cases, "%s,S,phantom_file,ref_file,ref2_file,ref_noise_pct\n", prefix);
     return 0;
 }
@@ -457,8 +461,8 @@ int pbc_cmd_bench(int argc, char **argv)
     printf("errors: eq. (5) against REF (%lu points per voxel, seed 1); times: kernel (device events, median of %lu "
            "after a warm-up) and end to end (upload + blur + download)\n\n",
            c.points, c.runs);
-    printf("%-11s %s %-22s %-3s %-8s %9s %11s %10s\n", "phantom", "#", "motion (voxels, z)", "", "filter", "error %",
-           "kernel ms", "e2e ms");
+    printf("%-11s %s %-22s %-3s %-8s %9s %11s %10s %11s\n", "phantom", "#", "motion (voxels, z)", "", "filter",
+           "error %", "kernel ms", "e2e ms", "adjoint ms");
     for (int p = 0; p < c.phantom_count && !rc; p++)
         rc = bench_phantom(ctx, &c, &f, device, c.phantoms[p]);
     progress_clear();

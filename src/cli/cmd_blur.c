@@ -27,6 +27,8 @@ static const pbc_option options[] = {
                                     "'paper': one segment per tracked interval)"},
     {"--points", NULL, "K", "REF: random points per voxel (default 200)"},
     {"--seed", NULL, "S", "REF: seed of the random points (default 1)"},
+    {"--adjoint", NULL, NULL, "apply the transpose instead (back projection's blur): IN is tomograph-space, OUT "
+                              "object-space"},
     PBC_OPTION_DEVICE,
     {"--png", NULL, "PICTURE.png", "picture of input, output and difference (central slices)"},
     {"--quiet", "-q", NULL, "print nothing but errors"},
@@ -41,7 +43,8 @@ static const pbc_command command = {
     "examples:\n"
     "  petblur blur -i brain.nii.gz -o blurred.nii.gz --translate 12,10,-11 --rotate 10 --png blur.png\n"
     "  petblur blur -i derenzo.hv -o moved.hv --motion track.csv --frame 30,60 --method ab --device opencl\n"
-    "  petblur blur -i zubal.raw --dims 128,128,64 --voxel-size 2.2,2.2,2.8 -o zubal-blurred.nii --rotate 15"};
+    "  petblur blur -i zubal.raw --dims 128,128,64 --voxel-size 2.2,2.2,2.8 -o zubal-blurred.nii --rotate 15\n"
+    "  petblur blur -i ratio.nii.gz -o backprojected.nii.gz --motion track.csv --frame 30,60 --adjoint"};
 
 static const char *const method_names[] = {"ab", "rm", "cl", "ref"};
 static const char *const filter_names[] = {"hardware", "exact"};
@@ -138,6 +141,7 @@ static int run(const pbc_args *args, const char *in_path, const char *out_path, 
     pb_context *ctx = NULL;
     double ms = 0.0;
     int quiet = pbc_arg(&command, args, "--quiet") != NULL;
+    int adjoint = pbc_arg(&command, args, "--adjoint") != NULL;
     int rc = blur_options(args, &opt);
     if (rc || (rc = pbc_motion_from_args(&command, args, &motion)))
         return rc;
@@ -146,7 +150,7 @@ static int run(const pbc_args *args, const char *in_path, const char *out_path, 
         !(rc = pbc_image_alloc(&out, in.dims, in.voxel_size)) &&
         !(rc = pbc_open_device(pbc_arg(&command, args, "--device"), &ctx))) {
         out.orientation = in.orientation;
-        rc = pbc_blur_image(ctx, &in, &motion.motion, &opt, method_names[opt.method], out.data, &ms);
+        rc = pbc_blur_image(ctx, &in, &motion.motion, &opt, adjoint, method_names[opt.method], out.data, &ms);
     }
     if (!rc)
         rc = pbc_image_write(out_path, &out);
@@ -155,8 +159,9 @@ static int run(const pbc_args *args, const char *in_path, const char *out_path, 
     if (!rc && !quiet) {
         char dev[600];
         pbc_describe_device(ctx, dev, sizeof dev);
-        printf("%s: %zu x %zu x %zu, %s %s on %s, kernel %.2f ms\n", out_path, in.dims[0], in.dims[1], in.dims[2],
-               method_names[opt.method], opt.method == PB_METHOD_REF ? "box" : filter_names[opt.filter], dev, ms);
+        printf("%s: %zu x %zu x %zu, %s %s%s on %s, kernel %.2f ms\n", out_path, in.dims[0], in.dims[1], in.dims[2],
+               method_names[opt.method], opt.method == PB_METHOD_REF ? "box" : filter_names[opt.filter],
+               adjoint ? " adjoint" : "", dev, ms);
     }
     pb_context_destroy(ctx);
     pbc_image_free(&in);

@@ -105,7 +105,7 @@ static int run_all(pb_context *ctx, unsigned long points, const pbc_image *phant
         double ms = 0.0;
         char path[4096];
         out.data = vols[r];
-        if ((rc = pbc_blur_image(ctx, phantom, motion, &opt, runs[r].name, vols[r], &ms)) ||
+        if ((rc = pbc_blur_image(ctx, phantom, motion, &opt, 0, runs[r].name, vols[r], &ms)) ||
             (rc = out_path(path, sizeof path, dir, runs[r].file, ".nii.gz")) || (rc = pbc_image_write(path, &out)))
             break;
         if (r == 0)
