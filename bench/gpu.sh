@@ -4,7 +4,8 @@
 # and on PoCL, the cuda suite, how far CUDA is from PoCL and from NVIDIA's
 # OpenCL on the same inputs, the demo, the benchmark of every method on a 256^3
 # volume for the paper's eight motions on CUDA (CUDA events) and on NVIDIA's
-# OpenCL (profiling events), and the paper's Tables 1-3 with the peers, AB's
+# OpenCL (profiling events), twenty dynamic frames in one call against one call
+# per frame (bench/pb_frames), and the paper's Tables 1-3 with the peers, AB's
 # floor and the plots (bench/paper.sh). What comes back through $OUT (the
 # device tool returns at most 8 files): tables.md, tests.txt, paper.md,
 # paper.tar.gz (its CSVs, plots and logs), demo-cuda.png and logs.tar.gz with
@@ -65,7 +66,7 @@ run_suites() { # name, vendor folder, suites...
     {
         echo "== $name"
         grep -E '^ *[0-9]+/[0-9]+ |^(Ok|Fail|Skipped):' "$LOG/test-$name.log"
-        grep -h 'largest relative difference\|hardware weights' build-gpu/meson-logs/testlog.txt | sed "s/^/$name: /"
+        grep -h 'largest relative difference\|hardware weights\|largest relative mismatch\|voxel off' build-gpu/meson-logs/testlog.txt | sed "s/^/$name: /"
     } | tee -a "$OUT/tests.txt"
 }
 OCL_ICD_VENDORS="$vend/nvidia:$vend/pocl" ./build-gpu/src/cli/petblur devices
@@ -99,6 +100,12 @@ echo "== benchmark: PoCL on the GPU machine's CPU, 128^3, scenario 2 =="
 OCL_ICD_VENDORS="$vend/pocl" ./build-gpu/bench/pb_bench --device opencl --size 128 --runs 5 --ref-runs 0 \
     --scenario 2 --label pocl-cpu --csv "$LOG/bench-pocl.csv" | tee "$LOG/bench-pocl.txt" || status=1
 
+echo "== dynamic frames: 20 frames of 256^3, a 30 Hz track, one call against one call per frame =="
+for d in cuda opencl; do
+    OCL_ICD_VENDORS="$vend/nvidia" ./build-gpu/bench/pb_frames --device $d --size 256 --frames 20 --runs 5 \
+        --label $d --csv "$LOG/frames-$d.csv" 2>&1 | tee "$LOG/frames-$d.txt" || status=1
+done
+
 echo "== the paper's Tables 1-3 with the peers, AB's floor and the plots (bench/paper.sh) =="
 paper=$(mktemp -d)/paper
 OCL_ICD_VENDORS="$vend/pocl" PYTHON=python3 bash bench/paper.sh build-gpu "$paper" --device cuda \
@@ -118,6 +125,12 @@ tar -C "$(dirname "$paper")" -czf "$OUT/paper.tar.gz" paper
         echo "petblur demo --device $d --size 128:"
         echo
         sed 's/^/    /' "$LOG/demo-$d.txt"
+        echo
+    done
+    for d in cuda opencl; do
+        echo "Twenty frames of 256^3 in one pb_blur_frames call against one pb_blur per frame ($d):"
+        echo
+        sed 's/^/    /' "$LOG/frames-$d.txt"
         echo
     done
     echo "The texture unit's fetch floor (only AB's fetches, 256^3; bench/fetch_rate.cu):"

@@ -28,6 +28,14 @@ typedef struct pb_backend_ops {
      * object; sets ctx->last_kernel_ms. */
     pb_status (*adjoint)(struct pb_context *ctx, const struct pb_volume *tomograph, const pb_plan *plan,
                          const pb_blur_options *options, struct pb_volume *object);
+    /* pb_blur_frames without progress: frame i blurs objects[i] into
+     * tomographs[i] with plans[i], exactly as blur would; the launches are
+     * queued back to back and waited for once, so the device never idles
+     * between frames. Sets ctx->last_kernel_ms to the frames' total. NULL:
+     * the caller calls blur per frame. */
+    pb_status (*blur_batch)(struct pb_context *ctx, size_t frames, const struct pb_volume *const *objects,
+                            const pb_plan *plans, const pb_blur_options *options,
+                            struct pb_volume *const *tomographs);
 } pb_backend_ops;
 
 struct pb_context {

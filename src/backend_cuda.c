@@ -287,34 +287,110 @@ static pb_status refresh_array(pb_context *ctx, const pb_volume *vol)
     return PB_OK;
 }
 
-/* The plan's key poses (or REF steps) in the kernels' float layout, copied into
- * the context's plan buffer, which grows as needed. */
-static pb_status upload_plan(pb_context *ctx, const pb_plan *plan, const pb_blur_options *opt)
+/* The context's plan buffer holds at least bytes; it grows as needed. */
+static pb_status reserve_plan(pb_context *ctx, size_t bytes)
 {
     cu_impl *cu = ctx->impl;
-    size_t bytes;
-    void *data = pb_kernel_plan_pack(plan, opt->method, &bytes);
-    if (!data)
-        return pb_error(ctx, PB_ERR_OUT_OF_MEMORY, "out of host memory for the %s",
-                        opt->method == PB_METHOD_REF ? "reference's steps" : "key poses");
-    cudaError_t e = cudaSuccess;
-    if (bytes > cu->plan_bytes) {
-        if (cu->plan)
-            cudaFree(cu->plan);
+    if (bytes <= cu->plan_bytes)
+        return PB_OK;
+    if (cu->plan)
+        cudaFree(cu->plan);
+    cu->plan = NULL;
+    cu->plan_bytes = 0;
+    cudaError_t e = cudaMalloc(&cu->plan, bytes);
+    if (e != cudaSuccess) {
         cu->plan = NULL;
-        cu->plan_bytes = 0;
-        if ((e = cudaMalloc(&cu->plan, bytes)) != cudaSuccess) {
-            cu->plan = NULL;
-            free(data);
-            return cu_fail(ctx, PB_ERR_DEVICE, "cudaMalloc (plan)", e);
-        }
-        cu->plan_bytes = bytes;
+        return cu_fail(ctx, PB_ERR_DEVICE, "cudaMalloc (plan)", e);
     }
-    /* From pageable memory the call returns once the data is staged, so the
-     * host copy may go right away. */
-    e = cudaMemcpyAsync(cu->plan, data, bytes, cudaMemcpyHostToDevice, cu->stream);
-    free(data);
-    return e == cudaSuccess ? PB_OK : cu_fail(ctx, PB_ERR_DEVICE, "cudaMemcpyAsync (plan)", e);
+    cu->plan_bytes = bytes;
+    return PB_OK;
+}
+
+/* The plans' key poses (or REF steps) in the kernels' float layout, one after
+ * the other in the context's plan buffer; offsets[i] (may be NULL for one
+ * plan) receives where plan i starts. One copy for all: a copy from pageable
+ * memory may wait for the stream, which must not happen between launches. */
+static pb_status upload_plans(pb_context *ctx, size_t count, const pb_plan *plans, const pb_blur_options *opt,
+                              size_t *offsets)
+{
+    cu_impl *cu = ctx->impl;
+    size_t total = 0, bytes = 0;
+    void **parts = calloc(count, sizeof *parts);
+    size_t *sizes = calloc(count, sizeof *sizes);
+    pb_status st = parts && sizes ? PB_OK : PB_ERR_OUT_OF_MEMORY;
+    for (size_t i = 0; i < count && st == PB_OK; i++) {
+        if (!(parts[i] = pb_kernel_plan_pack(&plans[i], opt->method, &bytes)))
+            st = PB_ERR_OUT_OF_MEMORY;
+        sizes[i] = bytes;
+        total += (bytes + 255) / 256 * 256; /* each plan aligned for the kernels' reads */
+    }
+    char *all = st == PB_OK ? calloc(1, total) : NULL;
+    if (st == PB_OK && !all)
+        st = PB_ERR_OUT_OF_MEMORY;
+    if (st != PB_OK)
+        pb_error(ctx, st, "out of host memory for the %s",
+                 opt->method == PB_METHOD_REF ? "reference's steps" : "key poses");
+    size_t at = 0;
+    for (size_t i = 0; i < count && st == PB_OK; i++) {
+        memcpy(all + at, parts[i], sizes[i]);
+        if (offsets)
+            offsets[i] = at;
+        at += (sizes[i] + 255) / 256 * 256;
+    }
+    for (size_t i = 0; parts && i < count; i++)
+        free(parts[i]);
+    free(parts);
+    free(sizes);
+    if (st == PB_OK)
+        st = reserve_plan(ctx, total);
+    if (st == PB_OK) {
+        /* From pageable memory the call returns once the data is staged, so the
+         * host copy may go right away. */
+        cudaError_t e = cudaMemcpyAsync(cu->plan, all, total, cudaMemcpyHostToDevice, cu->stream);
+        if (e != cudaSuccess)
+            st = cu_fail(ctx, PB_ERR_DEVICE, "cudaMemcpyAsync (plan)", e);
+    }
+    free(all);
+    return st;
+}
+
+static pb_status upload_plan(pb_context *ctx, const pb_plan *plan, const pb_blur_options *opt)
+{
+    return upload_plans(ctx, 1, plan, opt, NULL);
+}
+
+/* Queues one frame's kernel: the plan at offset in the plan buffer. */
+static cudaError_t launch_blur(pb_context *ctx, const pb_volume *object, const pb_plan *plan, size_t offset,
+                               const pb_blur_options *opt, pb_volume *tomograph)
+{
+    cu_impl *cu = ctx->impl;
+    pb_kparams prm;
+    pb_kparams_from_plan(plan, opt, &prm);
+    const cu_volume *in = object->impl;
+    cu_volume *out = tomograph->impl;
+    out->array_stale = 1;
+    /* Which texture object: see cuda/pb_shim_cuda.h. */
+    int point = opt->method == PB_METHOD_REF || opt->filter == PB_FILTER_EXACT;
+    return pb_cuda_launch(pb_kernel_index((int)opt->method, opt->filter == PB_FILTER_EXACT),
+                          point ? in->point : in->linear, (const char *)cu->plan + offset, &prm, out->buffer,
+                          cu->stream);
+}
+
+/* Waits for the work between the context's start and stop events and sets
+ * the kernel time from them. A kernel that faulted reports here. */
+static pb_status finish_timed(pb_context *ctx)
+{
+    cu_impl *cu = ctx->impl;
+    cudaError_t e = cudaEventRecord(cu->stop, cu->stream);
+    if (e != cudaSuccess)
+        return cu_fail(ctx, PB_ERR_LAUNCH, "cudaEventRecord", e);
+    if ((e = cudaEventSynchronize(cu->stop)) != cudaSuccess)
+        return cu_fail(ctx, PB_ERR_LAUNCH, "cudaEventSynchronize (the kernel failed)", e);
+    float ms = 0.0f;
+    if ((e = cudaEventElapsedTime(&ms, cu->start, cu->stop)) != cudaSuccess)
+        return cu_fail(ctx, PB_ERR_LAUNCH, "cudaEventElapsedTime", e);
+    ctx->last_kernel_ms = (double)ms;
+    return PB_OK;
 }
 
 static pb_status cuda_blur(pb_context *ctx, const pb_volume *object, const pb_plan *plan,
@@ -328,30 +404,37 @@ static pb_status cuda_blur(pb_context *ctx, const pb_volume *object, const pb_pl
         st = upload_plan(ctx, plan, opt);
     if (st != PB_OK)
         return st;
-    pb_kparams prm;
-    pb_kparams_from_plan(plan, opt, &prm);
-    const cu_volume *in = object->impl;
-    cu_volume *out = tomograph->impl;
-    /* Which texture object: see cuda/pb_shim_cuda.h. */
-    int point = opt->method == PB_METHOD_REF || opt->filter == PB_FILTER_EXACT;
-
     cudaError_t e = cudaEventRecord(cu->start, cu->stream);
     if (e != cudaSuccess)
         return cu_fail(ctx, PB_ERR_LAUNCH, "cudaEventRecord", e);
-    e = pb_cuda_launch(pb_kernel_index((int)opt->method, opt->filter == PB_FILTER_EXACT), point ? in->point : in->linear, cu->plan, &prm, out->buffer, cu->stream);
-    if (e != cudaSuccess)
+    if ((e = launch_blur(ctx, object, plan, 0, opt, tomograph)) != cudaSuccess)
         return cu_fail(ctx, PB_ERR_LAUNCH, "the kernel launch", e);
-    if ((e = cudaEventRecord(cu->stop, cu->stream)) != cudaSuccess)
-        return cu_fail(ctx, PB_ERR_LAUNCH, "cudaEventRecord", e);
-    /* A kernel that faulted reports here. */
-    if ((e = cudaEventSynchronize(cu->stop)) != cudaSuccess)
-        return cu_fail(ctx, PB_ERR_LAUNCH, "cudaEventSynchronize (the kernel failed)", e);
-    float ms = 0.0f;
-    if ((e = cudaEventElapsedTime(&ms, cu->start, cu->stop)) != cudaSuccess)
-        return cu_fail(ctx, PB_ERR_LAUNCH, "cudaEventElapsedTime", e);
-    ctx->last_kernel_ms = (double)ms;
-    out->array_stale = 1;
-    return PB_OK;
+    return finish_timed(ctx);
+}
+
+/* The frames back to back on the stream: every input's array refreshed and
+ * every plan copied first, then the launches, then one wait. The kernel time
+ * spans the first launch to the end of the last. */
+static pb_status cuda_blur_batch(pb_context *ctx, size_t frames, const pb_volume *const *objects,
+                                 const pb_plan *plans, const pb_blur_options *opt, pb_volume *const *tomographs)
+{
+    cu_impl *cu = ctx->impl;
+    size_t *offsets = calloc(frames, sizeof *offsets);
+    if (!offsets)
+        return pb_error(ctx, PB_ERR_OUT_OF_MEMORY, "out of host memory for %zu frames", frames);
+    pb_status st = use_device(ctx);
+    for (size_t i = 0; i < frames && st == PB_OK; i++)
+        st = refresh_array(ctx, objects[i]);
+    if (st == PB_OK)
+        st = upload_plans(ctx, frames, plans, opt, offsets);
+    cudaError_t e = cudaSuccess;
+    if (st == PB_OK && (e = cudaEventRecord(cu->start, cu->stream)) != cudaSuccess)
+        st = cu_fail(ctx, PB_ERR_LAUNCH, "cudaEventRecord", e);
+    for (size_t i = 0; i < frames && st == PB_OK; i++)
+        if ((e = launch_blur(ctx, objects[i], &plans[i], offsets[i], opt, tomographs[i])) != cudaSuccess)
+            st = cu_fail(ctx, PB_ERR_LAUNCH, "the kernel launch", e);
+    free(offsets);
+    return st == PB_OK ? finish_timed(ctx) : st;
 }
 
 static pb_status cuda_adjoint(pb_context *ctx, const pb_volume *tomograph, const pb_plan *plan,
@@ -381,19 +464,11 @@ static pb_status cuda_adjoint(pb_context *ctx, const pb_volume *tomograph, const
                                cu->stream);
     if (e != cudaSuccess)
         return cu_fail(ctx, PB_ERR_LAUNCH, "the adjoint kernel launch", e);
-    if ((e = cudaEventRecord(cu->stop, cu->stream)) != cudaSuccess)
-        return cu_fail(ctx, PB_ERR_LAUNCH, "cudaEventRecord", e);
-    if ((e = cudaEventSynchronize(cu->stop)) != cudaSuccess)
-        return cu_fail(ctx, PB_ERR_LAUNCH, "cudaEventSynchronize (the adjoint kernel failed)", e);
-    float ms = 0.0f;
-    if ((e = cudaEventElapsedTime(&ms, cu->start, cu->stop)) != cudaSuccess)
-        return cu_fail(ctx, PB_ERR_LAUNCH, "cudaEventElapsedTime", e);
-    ctx->last_kernel_ms = (double)ms;
-    return PB_OK;
+    return finish_timed(ctx);
 }
 
 const pb_backend_ops pb_backend_cuda_ops = {
     PB_BACKEND_CUDA,      cuda_device_count,  cuda_device_info,    cuda_context_init,
     cuda_context_release, cuda_volume_init,   cuda_volume_release, cuda_volume_upload,
-    cuda_volume_download, cuda_blur,          cuda_adjoint,
+    cuda_volume_download, cuda_blur,          cuda_adjoint,        cuda_blur_batch,
 };

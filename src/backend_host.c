@@ -334,5 +334,5 @@ static pb_status host_adjoint(pb_context *ctx, const pb_volume *tomograph, const
 const pb_backend_ops pb_backend_host_ops = {
     PB_BACKEND_HOST,   host_device_count,   host_device_info,     host_context_init,
     host_context_release, host_volume_init, host_volume_release, host_volume_upload,
-    host_volume_download, host_blur,      host_adjoint,
+    host_volume_download, host_blur,      host_adjoint,         NULL,
 };

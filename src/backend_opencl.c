@@ -425,6 +425,70 @@ static pb_status ocl_blur(pb_context *ctx, const pb_volume *object, const pb_pla
     return PB_OK;
 }
 
+/* The frames queued back to back, then one wait: each launch keeps its own
+ * plan buffer and event until the end. Every frame's kernel runs over the
+ * whole grid (no slabs: there is no progress report in a batch). */
+static pb_status ocl_blur_batch(pb_context *ctx, size_t frames, const pb_volume *const *objects,
+                                const pb_plan *plans, const pb_blur_options *opt, pb_volume *const *tomographs)
+{
+    cl_impl *cl = ctx->impl;
+    cl_mem *poses = calloc(frames, sizeof *poses);
+    cl_event *events = calloc(frames, sizeof *events);
+    if (!poses || !events) {
+        free(poses);
+        free(events);
+        return pb_error(ctx, PB_ERR_OUT_OF_MEMORY, "out of host memory for %zu frames", frames);
+    }
+    cl_kernel k = cl->kernels[pb_kernel_index((int)opt->method, opt->filter == PB_FILTER_EXACT)];
+    size_t local[3] = {32, 4, 2}, global[3], queued = 0;
+    pb_status st = PB_OK;
+    cl_int e = CL_SUCCESS;
+    for (size_t i = 0; i < frames && st == PB_OK; i++)
+        st = refresh_image(ctx, objects[i]);
+    for (size_t i = 0; i < frames && st == PB_OK; i++) {
+        if ((st = upload_plan(ctx, &plans[i], opt, &poses[i])) != PB_OK)
+            break;
+        pb_kparams prm;
+        pb_kparams_from_plan(&plans[i], opt, &prm);
+        const cl_volume *in = objects[i]->impl;
+        cl_volume *out = tomographs[i]->impl;
+        /* A kernel's arguments are taken when it is queued, so one kernel
+         * object serves every frame. */
+        if ((e = set_args(k, in->image, poses[i], &prm, out->buffer)) != CL_SUCCESS) {
+            st = cl_fail(ctx, PB_ERR_LAUNCH, "clSetKernelArg", e);
+            break;
+        }
+        for (int d = 0; d < 3; d++)
+            global[d] = cl->is_gpu ? (plans[i].geometry.dims[d] + local[d] - 1) / local[d] * local[d]
+                                   : plans[i].geometry.dims[d];
+        e = clEnqueueNDRangeKernel(cl->queue, k, 3, NULL, global, cl->is_gpu ? local : NULL, 0, NULL, &events[i]);
+        if (e != CL_SUCCESS) {
+            st = cl_fail(ctx, PB_ERR_LAUNCH, "clEnqueueNDRangeKernel", e);
+            break;
+        }
+        queued++;
+        out->image_stale = 1;
+    }
+    /* Wait for whatever was queued, even after a failure: the buffers it
+     * reads are released below. */
+    if (queued && (e = clWaitForEvents((cl_uint)queued, events)) != CL_SUCCESS && st == PB_OK)
+        st = cl_fail(ctx, PB_ERR_LAUNCH, "the kernel", e);
+    ctx->last_kernel_ms = 0.0;
+    for (size_t i = 0; i < queued; i++) {
+        cl_ulong t0 = 0, t1 = 0;
+        clGetEventProfilingInfo(events[i], CL_PROFILING_COMMAND_START, sizeof t0, &t0, NULL);
+        clGetEventProfilingInfo(events[i], CL_PROFILING_COMMAND_END, sizeof t1, &t1, NULL);
+        ctx->last_kernel_ms += (double)(t1 - t0) * 1e-6;
+        clReleaseEvent(events[i]);
+    }
+    for (size_t i = 0; i < frames; i++)
+        if (poses[i])
+            clReleaseMemObject(poses[i]);
+    free(poses);
+    free(events);
+    return st;
+}
+
 /* Zeros a buffer (the scatter adds into it); its time counts with the kernel's. */
 static cl_int zero_buffer(pb_context *ctx, cl_mem buffer, size_t bytes)
 {
@@ -483,5 +547,5 @@ static pb_status ocl_adjoint(pb_context *ctx, const pb_volume *tomograph, const 
 const pb_backend_ops pb_backend_opencl_ops = {
     PB_BACKEND_OPENCL,  ocl_device_count,  ocl_device_info,    ocl_context_init,
     ocl_context_release, ocl_volume_init, ocl_volume_release, ocl_volume_upload,
-    ocl_volume_download, ocl_blur,         ocl_adjoint,
+    ocl_volume_download, ocl_blur,         ocl_adjoint,          ocl_blur_batch,
 };

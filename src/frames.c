@@ -2,7 +2,9 @@
  * checked and planned before any work, so a bad frame costs nothing and
  * writes nothing; then the frames run in order on the device, each exactly as
  * pb_blur would run it. An object volume shared by several frames stays on
- * the device: its image or texture is refreshed once, not per frame. */
+ * the device: its image or texture is refreshed once, not per frame. Device
+ * backends queue the frames back to back and wait once (blur_batch), unless a
+ * progress report asks for a wait per frame. */
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -81,13 +83,19 @@ pb_status pb_blur_frames(pb_context *ctx, const pb_volume *const *objects, const
         }
     }
     frames_progress prog = {ctx->progress, ctx->progress_user, 0, frames};
-    if (st == PB_OK && ctx->progress)
-        ctx->progress = frame_progress, ctx->progress_user = &prog;
     double total = 0.0;
-    for (size_t i = 0; i < frames && st == PB_OK; i++) {
-        prog.done = i;
-        st = ctx->ops->blur(ctx, objects[i], &plans[i], &opt, tomographs[i]);
-        total += ctx->last_kernel_ms;
+    if (st == PB_OK && !ctx->progress && ctx->ops->blur_batch) {
+        /* Queued back to back: progress would need a wait per frame. */
+        st = ctx->ops->blur_batch(ctx, frames, objects, plans, &opt, tomographs);
+        total = ctx->last_kernel_ms;
+    } else if (st == PB_OK) {
+        if (ctx->progress)
+            ctx->progress = frame_progress, ctx->progress_user = &prog;
+        for (size_t i = 0; i < frames && st == PB_OK; i++) {
+            prog.done = i;
+            st = ctx->ops->blur(ctx, objects[i], &plans[i], &opt, tomographs[i]);
+            total += ctx->last_kernel_ms;
+        }
     }
     if (prog.fn) {
         ctx->progress = prog.fn;
