@@ -167,6 +167,13 @@ static int parse_config(const pbc_args *args, bench_config *c)
     if (c->reference && c->keep)
         return pbc_fail(PBC_EXIT_USAGE, "--keep-volumes with --reference would copy the references; the volumes "
                         "are in %s/volumes already", c->reference);
+    /* A bad --brain file fails now, not after the other phantoms' minutes. */
+    if (c->brain) {
+        pbc_image probe;
+        if ((rc = pbc_image_read(c->brain, &c->hints, &probe)))
+            return rc;
+        pbc_image_free(&probe);
+    }
     return 0;
 }
 
