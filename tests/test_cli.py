@@ -234,6 +234,44 @@ class Motion(Case):
                 self.assertLess(abs(lhs - rhs) / abs(lhs), 1e-5, (lhs, rhs))
                 self.assertGreater(float(np.abs(bty - y).max()), 0.1, "the adjoint did nothing")
 
+    def test_dynamic_frames(self):
+        """--frames: a 4-D NIfTI in and out; each frame equals that frame
+        blurred alone with --frame, forward and --adjoint, on OpenCL; a 3-D
+        input serves every frame; even frames give pixdim[4]."""
+        rows = []
+        for k in range(0, 91):  # 3 s at 30 Hz: a drift and a nod
+            t = k / 30.0
+            a = np.radians(6.0 * np.sin(1.7 * t)) / 2
+            rows.append((t, 1.2 * t, -0.8 * t, 0.3 * np.sin(t), np.cos(a), 0, 0, np.sin(a)))
+        track = self.write_track(rows)
+        dyn = np.stack([self.random_volume((12, 10, 8)) for _ in range(3)])  # t, z, y, x
+        affine = np.diag([1.0, 1.0, 1.0, 1.0])
+        nib.save(nib.Nifti1Image(dyn.transpose(3, 2, 1, 0), affine), self.p("dyn.nii.gz"))
+        bounds = (0.2, 1.0, 1.9, 2.9)
+        for extra in ((), ("--adjoint",)):
+            with self.subTest(extra=extra):
+                run("blur", "-i", self.p("dyn.nii.gz"), "-o", self.p("out.nii.gz"), "--motion", track, "--frames",
+                    ",".join(map(str, bounds)), "--device", "opencl", "-q", *extra)
+                out = nib.load(self.p("out.nii.gz"))
+                self.assertEqual(out.shape, (12, 10, 8, 3))
+                got = out.get_fdata().transpose(3, 2, 1, 0)
+                for f in range(3):
+                    write_raw(self.p("one.raw"), dyn[f])
+                    run("blur", "-i", self.p("one.raw"), "--dims", "12,10,8", "-o", self.p("one-out.raw"), "--motion",
+                        track, "--frame", f"{bounds[f]},{bounds[f + 1]}", "--device", "opencl", "-q", *extra)
+                    want = read_raw(self.p("one-out.raw"), (12, 10, 8))
+                    tol = 1e-5 if extra else 0.0  # the adjoint's float atomics add in any order
+                    np.testing.assert_allclose(got[f], want, rtol=tol, atol=tol * float(np.abs(want).max()))
+                    self.assertGreater(float(np.abs(got[f] - dyn[f]).max()), 0.1, "the motion did nothing")
+        # A 3-D activity through even frames: 4-D out, pixdim[4] the frames' length.
+        write_raw(self.p("static.raw"), dyn[0])
+        run("blur", "-i", self.p("static.raw"), "--dims", "12,10,8", "-o", self.p("even.nii"), "--motion", track,
+            "--frames", "0,1,2", "--device", "opencl", "-q")
+        even = nib.load(self.p("even.nii"))
+        self.assertEqual(even.shape, (12, 10, 8, 2))
+        self.assertAlmostEqual(float(even.header["pixdim"][4]), 1.0, places=6)
+        self.assertEqual(even.header.get_xyzt_units(), ("mm", "sec"))
+
     def test_default_device_runs(self):
         a = self.blur("auto.raw", "--translate", "1,2,-1", "--rotate", "5", device="auto")
         h = self.blur("host.raw", "--translate", "1,2,-1", "--rotate", "5", "--filter", "exact")
@@ -308,6 +346,21 @@ class BadInput(Case):
                    self.p("nowhere/out.nii"), "--translate", "1,0,0")
         spill(self.p("in.xyz"), b"\0" * 2048)
         self.fails(2, [".xyz"], "blur", "-i", self.p("in.xyz"), "-o", self.p("out.nii"), "--translate", "1,0,0")
+
+    def test_frames(self):
+        with open(self.p("track.csv"), "w") as f:
+            f.write("t,tx,ty,tz,qw,qx,qy,qz\n0,0,0,0,1,0,0,0\n1,1,0,0,1,0,0,0\n2,2,1,0,1,0,0,0\n")
+        nib.save(nib.Nifti1Image(np.ones((8, 8, 8, 3), np.float32), np.eye(4)), self.p("dyn.nii"))
+        track = ("--motion", self.p("track.csv"))
+        dyn = ("blur", "-i", self.p("dyn.nii"), "-o", self.p("out.nii"), "--device", "host")
+        self.fails(2, ["3 time frames", "--frames"], *dyn, *track)
+        self.fails(2, ["3 frames", "--frames gives 2"], *dyn, *track, "--frames", "0,1,2")
+        self.fails(2, ["--frames", "increasing"], *self.blur(*track, "--frames", "0,1.5,1"))
+        self.fails(2, ["--frames", "at least two"], *self.blur(*track, "--frames", "1"))
+        self.fails(2, ["--frame and --frames"], *self.blur(*track, "--frames", "0,1", "--frame", "0,1"))
+        self.fails(2, ["NIfTI", "out.hv"], *self.blur(*track, "--frames", "0,1")[:5], "-o", self.p("out.hv"),
+                   "--device", "host", *track, "--frames", "0,1", out="out.hv")
+        self.fails(2, ["frame 1 of 2", "track"], *self.blur(*track, "--frames", "0,1,2.5"))
 
     def test_truncated_files(self):
         img = nib.Nifti1Image(np.ones((8, 8, 8), np.float32), np.eye(4))

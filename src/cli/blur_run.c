@@ -1,6 +1,7 @@
 /* Devices, motions and one blur, in the command line's terms. */
 #include <math.h>
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 
 #include "blur_run.h"
@@ -131,5 +132,57 @@ int pbc_blur_image(pb_context *ctx, const pbc_image *in, const pb_motion *motion
         show_progress(1.0, NULL);
     pb_volume_destroy(src);
     pb_volume_destroy(dst);
+    return st == PB_OK ? 0 : blur_failed(ctx, st, label);
+}
+
+int pbc_blur_frames_image(pb_context *ctx, const pbc_image *in, const pb_motion *track, const double *bounds,
+                          size_t frames, const pb_blur_options *options, int adjoint, const char *label, float *out,
+                          double *ms)
+{
+    pb_geometry g = {{in->dims[0], in->dims[1], in->dims[2]}, {in->voxel_size[0], in->voxel_size[1], in->voxel_size[2]}};
+    size_t n = pbc_image_frame_voxels(in), sources = pbc_image_frame_count(in);
+    pb_volume **src = calloc(sources, sizeof *src), **dst = calloc(frames, sizeof *dst);
+    const pb_volume **objects = malloc(frames * sizeof *objects);
+    if (!src || !dst || !objects) {
+        free(src);
+        free(dst);
+        free(objects);
+        return pbc_fail(PBC_EXIT_RUNTIME, "%s: out of host memory for %zu frames", label, frames);
+    }
+    pb_status st = PB_OK;
+    pb_context_set_progress(ctx, pbc_show_progress ? show_progress : NULL, (void *)label);
+    /* Each input frame goes up once; a 3-D input serves every frame. */
+    for (size_t i = 0; i < sources && st == PB_OK; i++)
+        if ((st = pb_volume_create(ctx, &g, &src[i])) == PB_OK)
+            st = pb_volume_upload(src[i], in->data + i * n);
+    for (size_t i = 0; i < frames && st == PB_OK; i++)
+        st = pb_volume_create(ctx, &g, &dst[i]);
+    *ms = 0.0;
+    for (size_t i = 0; i < frames; i++)
+        objects[i] = src[sources == 1 ? 0 : i];
+    if (st == PB_OK && !adjoint && (st = pb_blur_frames(ctx, objects, track, bounds, frames, options, dst)) == PB_OK)
+        pb_context_last_kernel_ms(ctx, ms);
+    /* The adjoint frame by frame: back projection of frame i through frame i's
+     * part of the track. */
+    for (size_t i = 0; adjoint && i < frames && st == PB_OK; i++) {
+        pb_motion m = *track;
+        double t = 0.0;
+        m.frame_start = bounds[i];
+        m.frame_end = bounds[i + 1];
+        if ((st = pb_blur_adjoint(ctx, objects[i], &m, options, dst[i])) == PB_OK)
+            pb_context_last_kernel_ms(ctx, &t);
+        *ms += t;
+    }
+    for (size_t i = 0; i < frames && st == PB_OK; i++)
+        st = pb_volume_download(dst[i], out + i * n);
+    if (st != PB_OK && pbc_show_progress)
+        show_progress(1.0, NULL);
+    for (size_t i = 0; i < sources; i++)
+        pb_volume_destroy(src[i]);
+    for (size_t i = 0; i < frames; i++)
+        pb_volume_destroy(dst[i]);
+    free(src);
+    free(dst);
+    free(objects);
     return st == PB_OK ? 0 : blur_failed(ctx, st, label);
 }

@@ -243,7 +243,7 @@ static int references(pb_context *ctx, const bench_config *c, const char *name, 
         progress(name, s, seed == 1 ? "REF" : "REF, seed 2");
         if (c->reference) {
             pbc_image r = {0};
-            pbc_read_hints h = {ph->dims, ph->voxel_size};
+            pbc_read_hints h = {ph->dims, ph->voxel_size, 0};
             if ((rc = volume_path(path, sizeof path, c->reference, name, s, seed)))
                 return rc;
             if (access(path, R_OK) != 0)

@@ -4,6 +4,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "atomic_file.h"
 #include "blur_run.h"
 #include "cli.h"
 #include "commands.h"
@@ -20,6 +21,8 @@ static const pbc_option options[] = {
     {"--center", NULL, "CX,CY,CZ", "rotation centre, mm from the grid's corner (default the grid's centre)"},
     {"--motion", NULL, "TRACK.csv", "pose track: header t,tx,ty,tz,qw,qx,qy,qz (s, mm, unit quaternion)"},
     {"--frame", NULL, "T0,T1", "the frame inside the track, seconds (default the whole track)"},
+    {"--frames", NULL, "T0,T1,...", "dynamic PET: the frames' boundaries in the track, seconds; IN is a 4-D NIfTI "
+                                    "with one volume per frame (or 3-D, for all), OUT a 4-D NIfTI"},
     {"--method", NULL, "ab|rm|cl|ref", "AB (default), ray marching, classical, or the multi-point reference"},
     {"--filter", NULL, "hardware|exact", "one filtered fetch per sample (default), or float weights; REF: unused"},
     {"--steps", NULL, "N", "RM, CL: samples per segment (default: as many slices as AB visits); AB: sub-segments"},
@@ -44,7 +47,8 @@ static const pbc_command command = {
     "  petblur blur -i brain.nii.gz -o blurred.nii.gz --translate 12,10,-11 --rotate 10 --png blur.png\n"
     "  petblur blur -i derenzo.hv -o moved.hv --motion track.csv --frame 30,60 --method ab --device opencl\n"
     "  petblur blur -i zubal.raw --dims 128,128,64 --voxel-size 2.2,2.2,2.8 -o zubal-blurred.nii --rotate 15\n"
-    "  petblur blur -i ratio.nii.gz -o backprojected.nii.gz --motion track.csv --frame 30,60 --adjoint"};
+    "  petblur blur -i ratio.nii.gz -o backprojected.nii.gz --motion track.csv --frame 30,60 --adjoint\n"
+    "  petblur blur -i dynamic.nii.gz -o dynamic-blurred.nii.gz --motion track.csv --frames 0,60,120,300,600"};
 
 static const char *const method_names[] = {"ab", "rm", "cl", "ref"};
 static const char *const filter_names[] = {"hardware", "exact"};
@@ -108,13 +112,55 @@ static int check_paths(const pbc_args *args, const char **in, const char **out, 
     return rc;
 }
 
-static int read_input(const pbc_args *args, const char *in, pbc_image *img)
+static int read_input(const pbc_args *args, const char *in, int frames, pbc_image *img)
 {
     size_t dims[3];
     double vs[3];
     pbc_read_hints hints;
     int rc = pbc_hints_from_args(&command, args, dims, vs, &hints);
+    hints.allow_frames = frames;
     return rc ? rc : pbc_image_read(in, &hints, img);
+}
+
+/* --frames: the boundaries, checked against --frame and against the input's
+ * frames once it is read. */
+static int frame_bounds(const pbc_args *args, double **bounds, size_t *count)
+{
+    const char *v = pbc_arg(&command, args, "--frames");
+    *bounds = NULL;
+    *count = 0;
+    if (!v)
+        return 0;
+    if (pbc_arg(&command, args, "--frame"))
+        return pbc_fail(PBC_EXIT_USAGE, "--frame and --frames: give one; --frames T0,T1,... blurs every frame, "
+                        "--frame T0,T1 one");
+    char ext[16];
+    const char *out = pbc_arg(&command, args, "--output");
+    pbc_file_extension(out, ext, sizeof ext);
+    if (strcmp(ext, ".nii") && strcmp(ext, ".nii.gz"))
+        return pbc_fail(PBC_EXIT_USAGE, "-o %s: --frames makes a 4-D image, which only NIfTI holds; name the output "
+                        ".nii or .nii.gz", out);
+    return pbc_parse_bounds("--frames", v, bounds, count);
+}
+
+static int check_frames(const char *in_path, const pbc_image *in, size_t frames)
+{
+    size_t have = pbc_image_frame_count(in);
+    if (have != 1 && have != frames)
+        return pbc_fail(PBC_EXIT_USAGE, "%s has %zu frames and --frames gives %zu (one boundary more than frames); "
+                        "give %zu boundaries, or a 3-D volume to blur through every frame", in_path, have, frames,
+                        have + 1);
+    return 0;
+}
+
+/* NIfTI's pixdim[4]: the frames' common length, or 0 when they differ. */
+static double common_length(const double *bounds, size_t frames)
+{
+    double len = bounds[1] - bounds[0];
+    for (size_t i = 1; i < frames; i++)
+        if (fabs(bounds[i + 1] - bounds[i] - len) > 1e-9 * fabs(len))
+            return 0.0;
+    return len;
 }
 
 static int write_picture(const char *png, const pbc_image *in, const float *out)
@@ -139,34 +185,48 @@ static int run(const pbc_args *args, const char *in_path, const char *out_path, 
     pbc_motion motion;
     pbc_image in = {0}, out = {0};
     pb_context *ctx = NULL;
-    double ms = 0.0;
+    double ms = 0.0, *bounds = NULL;
+    size_t nb = 0;
     int quiet = pbc_arg(&command, args, "--quiet") != NULL;
     int adjoint = pbc_arg(&command, args, "--adjoint") != NULL;
     int rc = blur_options(args, &opt);
-    if (rc || (rc = pbc_motion_from_args(&command, args, &motion)))
+    if (rc || (rc = frame_bounds(args, &bounds, &nb)) || (rc = pbc_motion_from_args(&command, args, &motion))) {
+        free(bounds);
         return rc;
-    if (!(rc = read_input(args, in_path, &in)) && !(rc = pbc_image_check_not_input(out_path, in_path, &in)) &&
+    }
+    size_t frames = bounds ? nb - 1 : 1;
+    const char *label = method_names[opt.method];
+    if (!(rc = read_input(args, in_path, bounds != NULL, &in)) && !(rc = bounds ? check_frames(in_path, &in, frames) : 0) &&
+        !(rc = pbc_image_check_not_input(out_path, in_path, &in)) &&
         !(png && (rc = pbc_image_check_not_input(png, in_path, &in))) &&
-        !(rc = pbc_image_alloc(&out, in.dims, in.voxel_size)) &&
+        !(rc = pbc_image_alloc_frames(&out, in.dims, in.voxel_size, bounds ? frames : 1)) &&
         !(rc = pbc_open_device(pbc_arg(&command, args, "--device"), &ctx))) {
         out.orientation = in.orientation;
-        rc = pbc_blur_image(ctx, &in, &motion.motion, &opt, adjoint, method_names[opt.method], out.data, &ms);
+        if (bounds) {
+            out.frame_seconds = common_length(bounds, frames);
+            rc = pbc_blur_frames_image(ctx, &in, &motion.motion, bounds, frames, &opt, adjoint, label, out.data, &ms);
+        } else {
+            rc = pbc_blur_image(ctx, &in, &motion.motion, &opt, adjoint, label, out.data, &ms);
+        }
     }
     if (!rc)
         rc = pbc_image_write(out_path, &out);
     if (!rc && png)
         rc = write_picture(png, &in, out.data);
     if (!rc && !quiet) {
-        char dev[600];
+        char dev[600], shape[64] = "";
         pbc_describe_device(ctx, dev, sizeof dev);
-        printf("%s: %zu x %zu x %zu, %s %s%s on %s, kernel %.2f ms\n", out_path, in.dims[0], in.dims[1], in.dims[2],
-               method_names[opt.method], opt.method == PB_METHOD_REF ? "box" : filter_names[opt.filter],
+        if (bounds)
+            snprintf(shape, sizeof shape, " x %zu frames", frames);
+        printf("%s: %zu x %zu x %zu%s, %s %s%s on %s, kernel %.2f ms\n", out_path, in.dims[0], in.dims[1], in.dims[2],
+               shape, method_names[opt.method], opt.method == PB_METHOD_REF ? "box" : filter_names[opt.filter],
                adjoint ? " adjoint" : "", dev, ms);
     }
     pb_context_destroy(ctx);
     pbc_image_free(&in);
     pbc_image_free(&out);
     pbc_motion_free(&motion);
+    free(bounds);
     return rc;
 }
 

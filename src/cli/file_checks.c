@@ -37,6 +37,7 @@ int pbc_hints_from_args(const pbc_command *cmd, const pbc_args *args, size_t dim
         return rc;
     hints->dims = d ? dims : NULL;
     hints->voxel_size = v ? voxel_size : NULL;
+    hints->allow_frames = 0;
     return 0;
 }
 

@@ -68,9 +68,19 @@ int pbc_image_check_grid(const char *path, const size_t dims[3])
     return 0;
 }
 
-size_t pbc_image_voxels(const pbc_image *img)
+size_t pbc_image_frame_voxels(const pbc_image *img)
 {
     return img->dims[0] * img->dims[1] * img->dims[2];
+}
+
+size_t pbc_image_frame_count(const pbc_image *img)
+{
+    return img->frames > 1 ? img->frames : 1;
+}
+
+size_t pbc_image_voxels(const pbc_image *img)
+{
+    return pbc_image_frame_voxels(img) * pbc_image_frame_count(img);
 }
 
 static int allocate(const char *path, pbc_image *img)
@@ -78,12 +88,13 @@ static int allocate(const char *path, pbc_image *img)
     img->data = calloc(pbc_image_voxels(img), sizeof *img->data);
     if (img->data)
         return 0;
-    return pbc_fail(PBC_EXIT_RUNTIME, "%s%snot enough memory for a %zux%zux%zu volume (%.1f GiB); free some memory "
-                    "or use a smaller volume", path ? path : "", path ? ": " : "", img->dims[0], img->dims[1],
-                    img->dims[2], (double)pbc_image_voxels(img) * sizeof(float) / (1u << 30));
+    return pbc_fail(PBC_EXIT_RUNTIME, "%s%snot enough memory for %zu frame%s of %zux%zux%zu (%.1f GiB); free some "
+                    "memory or use a smaller volume", path ? path : "", path ? ": " : "", pbc_image_frame_count(img),
+                    pbc_image_frame_count(img) == 1 ? "" : "s", img->dims[0], img->dims[1], img->dims[2],
+                    (double)pbc_image_voxels(img) * sizeof(float) / (1u << 30));
 }
 
-int pbc_image_alloc(pbc_image *img, const size_t dims[3], const double voxel_size[3])
+int pbc_image_alloc_frames(pbc_image *img, const size_t dims[3], const double voxel_size[3], size_t frames)
 {
     memset(img, 0, sizeof *img);
     int rc = pbc_image_check_grid(NULL, dims);
@@ -91,7 +102,13 @@ int pbc_image_alloc(pbc_image *img, const size_t dims[3], const double voxel_siz
         return rc;
     memcpy(img->dims, dims, sizeof img->dims);
     memcpy(img->voxel_size, voxel_size, sizeof img->voxel_size);
+    img->frames = frames;
     return allocate(NULL, img);
+}
+
+int pbc_image_alloc(pbc_image *img, const size_t dims[3], const double voxel_size[3])
+{
+    return pbc_image_alloc_frames(img, dims, voxel_size, 1);
 }
 
 void pbc_image_free(pbc_image *img)
@@ -167,10 +184,14 @@ static int check_finite(const char *path, const pbc_image *img)
     }
     if (!bad)
         return 0;
-    size_t nx = img->dims[0], ny = img->dims[1];
-    return pbc_fail(PBC_EXIT_USAGE, "%s: %zu voxel%s not finite (NaN or infinite), the first at x,y,z = %zu,%zu,%zu; "
+    size_t nx = img->dims[0], ny = img->dims[1], fv = pbc_image_frame_voxels(img), frame = first / fv;
+    char where[48] = "";
+    if (img->frames > 1)
+        snprintf(where, sizeof where, " of frame %zu", frame);
+    first %= fv;
+    return pbc_fail(PBC_EXIT_USAGE, "%s: %zu voxel%s not finite (NaN or infinite), the first at x,y,z = %zu,%zu,%zu%s; "
                     "the blur would spread them; replace them (e.g. by 0) first", path, bad,
-                    bad == 1 ? " is" : "s are", first % nx, first / nx % ny, first / nx / ny);
+                    bad == 1 ? " is" : "s are", first % nx, first / nx % ny, first / nx / ny, where);
 }
 
 static int check_input_file(const char *path)
@@ -223,6 +244,9 @@ int pbc_image_write(const char *path, const pbc_image *img)
     if (!format)
         return unknown_extension(path);
     int rc = pbc_image_check_grid(path, img->dims);
+    if (!rc && img->frames > 1 && format->write != pbc_nifti_write)
+        rc = pbc_fail(PBC_EXIT_USAGE, "%s: %zu frames make a 4-D image, which only NIfTI holds; name the output "
+                      ".nii or .nii.gz", path, img->frames);
     return rc ? rc : format->write(path, img);
 }
 

@@ -20,7 +20,10 @@ typedef struct pbc_orientation {
 typedef struct pbc_image {
     size_t dims[3];        /* nx, ny, nz */
     double voxel_size[3];  /* mm */
-    float *data;           /* nx*ny*nz floats, x fastest, scaling already applied */
+    float *data;           /* nx*ny*nz floats per frame, x fastest, frame after frame, scaling already applied */
+    size_t frames;         /* volumes along the 4th (time) dimension; 0 or 1: one 3-D volume. Only NIfTI
+                            * carries more than one */
+    double frame_seconds;  /* NIfTI's pixdim[4] when every frame lasts as long; 0 otherwise */
     pbc_orientation orientation;
     char source[4096];     /* the file the voxels were read from: an Interfile header's data file, else the
                             * file itself; "" for an image made here */
@@ -33,6 +36,7 @@ typedef struct pbc_image {
 typedef struct pbc_read_hints {
     const size_t *dims;
     const double *voxel_size;
+    int allow_frames; /* a 4-D NIfTI is read whole (dynamic frames); otherwise it is refused */
 } pbc_read_hints;
 
 /* 1 when path's extension is one that pbc_image_read/pbc_image_write handle. */
@@ -54,6 +58,12 @@ int pbc_image_write(const char *path, const pbc_image *img);
  * or after printing the message PBC_EXIT_USAGE for a grid with no voxels or
  * more than 2^31 - 1, PBC_EXIT_RUNTIME when memory runs out. */
 int pbc_image_alloc(pbc_image *img, const size_t dims[3], const double voxel_size[3]);
+/* The same with `frames` volumes (a 4-D image when frames > 1). */
+int pbc_image_alloc_frames(pbc_image *img, const size_t dims[3], const double voxel_size[3], size_t frames);
+
+/* Voxels of one frame, and frames (at least 1). */
+size_t pbc_image_frame_voxels(const pbc_image *img);
+size_t pbc_image_frame_count(const pbc_image *img);
 
 void pbc_image_free(pbc_image *img);
 

@@ -73,20 +73,20 @@ static int read_raw_facts(const char *path, int *single_file, double pixdim[3])
     return 0;
 }
 
-static int check_layout(const char *path, const nifti_image *nim, int single_file)
+static int check_layout(const char *path, const nifti_image *nim, int single_file, int allow_frames)
 {
     if (!single_file)
         return pbc_fail(PBC_EXIT_USAGE, "%s: its header is that of a .hdr/.img pair (two-file NIfTI or Analyze); "
                         "convert it to a single-file .nii first", path);
     for (int d = 4; d <= nim->ndim && d < 8; d++) {
-        if (nim->dim[d] <= 1)
+        if (nim->dim[d] <= 1 || (d == 4 && allow_frames))
             continue;
         if (d == 4)
-            return pbc_fail(PBC_EXIT_USAGE, "%s: has %lld time frames (a 4-D image) and petblur blurs one 3-D "
-                            "volume; extract one frame first, e.g. fslroi %s frame.nii.gz 0 1", path,
-                            (long long)nim->dim[d], path);
+            return pbc_fail(PBC_EXIT_USAGE, "%s: has %lld time frames (a 4-D image); blur them all with --frames "
+                            "T0,T1,... (one boundary more than frames) and --motion TRACK.csv, or extract one frame "
+                            "first, e.g. fslroi %s frame.nii.gz 0 1", path, (long long)nim->dim[d], path);
         return pbc_fail(PBC_EXIT_USAGE, "%s: is a %lld-D image with %lld entries along dimension %d and petblur "
-                        "blurs one 3-D volume; extract one volume first", path, (long long)nim->ndim,
+                        "blurs 3-D volumes and 4-D frame series; extract those first", path, (long long)nim->ndim,
                         (long long)nim->dim[d], d);
     }
     return 0;
@@ -142,6 +142,7 @@ static void take_geometry(const nifti_image *nim, const double pixdim[3], pbc_im
         img->dims[i] = i < nim->ndim ? (size_t)nim->dim[i + 1] : 1;
         img->voxel_size[i] = isfinite(pixdim[i]) ? fabs(pixdim[i]) * mm : 0;
     }
+    img->frames = nim->ndim >= 4 && nim->dim[4] > 1 ? (size_t)nim->dim[4] : 1;
     pbc_orientation *o = &img->orientation;
     o->qform_code = nim->qform_code;
     o->sform_code = nim->sform_code;
@@ -181,7 +182,7 @@ int pbc_nifti_read(const char *path, const pbc_read_hints *hints, pbc_image *img
     double pixdim[3];
     int rc = read_raw_facts(path, &single_file, pixdim);
     if (!rc)
-        rc = check_layout(path, nim, single_file);
+        rc = check_layout(path, nim, single_file, hints && hints->allow_frames);
     if (!rc)
         rc = sample_format(path, nim, &format);
     if (!rc) {
@@ -230,7 +231,9 @@ static void set_range(nifti_image *nim, const pbc_image *img)
 
 static int make_header(const char *path, const pbc_image *img, nifti_1_header *hdr)
 {
-    const int64_t dims[8] = {3, (int64_t)img->dims[0], (int64_t)img->dims[1], (int64_t)img->dims[2], 1, 1, 1, 1};
+    int64_t frames = (int64_t)pbc_image_frame_count(img);
+    const int64_t dims[8] = {frames > 1 ? 4 : 3, (int64_t)img->dims[0], (int64_t)img->dims[1], (int64_t)img->dims[2],
+                             frames, 1, 1, 1};
     nifti_image *nim = nifti_make_new_nim(dims, NIFTI_TYPE_FLOAT32, 0);
     if (!nim)
         return pbc_fail(PBC_EXIT_RUNTIME, "%s: not enough memory to make the NIfTI header", path);
@@ -239,6 +242,11 @@ static int make_header(const char *path, const pbc_image *img, nifti_1_header *h
     nim->dy = nim->pixdim[2] = img->voxel_size[1];
     nim->dz = nim->pixdim[3] = img->voxel_size[2];
     nim->xyz_units = NIFTI_UNITS_MM;
+    if (frames > 1) {
+        /* The time axis: frames in seconds, their length when they share one. */
+        nim->time_units = NIFTI_UNITS_SEC;
+        nim->dt = nim->pixdim[4] = img->frame_seconds > 0 ? img->frame_seconds : 0;
+    }
     nim->scl_slope = 1;
     nim->scl_inter = 0;
     nim->iname_offset = NIFTI1_DATA_OFFSET;
@@ -287,9 +295,10 @@ static int write_file(const char *name, int compress, const nifti_1_header *hdr,
 int pbc_nifti_write(const char *path, const pbc_image *img)
 {
     const size_t *d = img->dims;
-    if (d[0] > NIFTI1_MAX_DIM || d[1] > NIFTI1_MAX_DIM || d[2] > NIFTI1_MAX_DIM)
-        return pbc_fail(PBC_EXIT_USAGE, "%s: NIfTI-1 holds at most %d voxels along an axis and the grid is "
-                        "%zux%zux%zu; write .hv or .raw instead", path, NIFTI1_MAX_DIM, d[0], d[1], d[2]);
+    if (d[0] > NIFTI1_MAX_DIM || d[1] > NIFTI1_MAX_DIM || d[2] > NIFTI1_MAX_DIM || img->frames > NIFTI1_MAX_DIM)
+        return pbc_fail(PBC_EXIT_USAGE, "%s: NIfTI-1 holds at most %d entries along an axis and the grid is "
+                        "%zux%zux%zu (%zu frames); write .hv or .raw instead", path, NIFTI1_MAX_DIM, d[0], d[1], d[2],
+                        pbc_image_frame_count(img));
     quiet_library();
     nifti_1_header hdr;
     int rc = make_header(path, img, &hdr);

@@ -146,6 +146,26 @@ int pbc_parse_interval(const char *option, const char *text, double v[2])
     return 0;
 }
 
+int pbc_parse_bounds(const char *option, const char *text, double **v, size_t *count)
+{
+    size_t n = 1;
+    for (const char *c = text; *c; c++)
+        n += *c == ',';
+    *v = malloc(n * sizeof **v);
+    if (!*v)
+        return pbc_fail(PBC_EXIT_RUNTIME, "%s: out of memory for %zu times", option, n);
+    *count = n;
+    int ok = n >= 2 && numbers(text, (int)n, *v) == 0;
+    for (size_t i = 0; ok && i + 1 < n; i++)
+        ok = (*v)[i + 1] > (*v)[i];
+    if (ok)
+        return 0;
+    free(*v);
+    *v = NULL;
+    return pbc_fail(PBC_EXIT_USAGE, "%s %s: give the frames' boundaries in seconds, at least two, increasing, "
+                    "separated by commas, e.g. 0,30,60,120 for three frames", option, text);
+}
+
 int pbc_parse_number(const char *option, const char *text, double *v)
 {
     if (numbers(text, 1, v) != 0)
