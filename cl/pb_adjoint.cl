@@ -16,12 +16,13 @@
  * forward the GPU actually ran. */
 
 /* An interpolation weight as the forward used it: f itself, or f rounded to
- * the texture unit's nearest step. Rounding the fraction of x - 0.5 gives the
- * same pair of weights as rounding x - 0.5 itself to fixed point: a fraction
- * that rounds up to 1 puts all the weight on the upper voxel either way. */
+ * the texture unit's nearest step, ties up (measured: bench/texture_rounding.cu).
+ * Rounding the fraction of x - 0.5 gives the same pair of weights as rounding
+ * x - 0.5 itself to fixed point: a fraction that rounds up to 1 puts all the
+ * weight on the upper voxel either way. */
 PB_FN float pb_texture_weight(float f, pb_kparams prm)
 {
-    return prm.weight_steps > 0.0f ? rint(f * prm.weight_steps) / prm.weight_steps : f;
+    return prm.weight_steps > 0.0f ? floor(f * prm.weight_steps + 0.5f) / prm.weight_steps : f;
 }
 
 /* A voxel index from a floored texel coordinate, clamped so that paths far
