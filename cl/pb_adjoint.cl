@@ -11,9 +11,10 @@
  * S. The scatter's price is its atomics, measured in bench/ (adjoint rows).
  *
  * Weights are the forward's: computed in float as the EXACT filter computes
- * them, and for the HARDWARE filter on NVIDIA rounded as its texture unit
- * rounds them (prm.weight_steps), so that the scatter is the transpose of the
- * forward the GPU actually ran. */
+ * them, and for the HARDWARE filter on NVIDIA rounded per axis as its texture
+ * unit rounds them (prm.weight_steps). That is as close as a scatter gets to
+ * the forward the GPU ran: the unit's 3-D blend itself is not the exact
+ * product of its rounded weights (tests/test_adjoint.c). */
 
 /* An interpolation weight as the forward used it: f itself, or f rounded to
  * the texture unit's nearest step, ties up (measured: bench/texture_rounding.cu).

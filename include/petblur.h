@@ -267,9 +267,12 @@ PB_API pb_status pb_blur(pb_context *ctx, const pb_volume *object, const pb_moti
  * volume and overwrites the object-space one. Each tomograph voxel walks the
  * very path the forward walks and scatters its value with the forward's
  * weights (float atomic adds on devices, so the last bits of a sum may differ
- * between runs). The weights are the forward's own: for HARDWARE on NVIDIA
- * (CUDA, and NVIDIA's OpenCL) rounded to the texture unit's 8 fractional bits,
- * as it rounded them; elsewhere float. */
+ * between runs). The weights are the forward's own, in float. For HARDWARE,
+ * PoCL's image sampler uses float weights too, so the transpose is exact; on
+ * NVIDIA (CUDA, and NVIDIA's OpenCL) each axis's weight is rounded to 1/256
+ * (ties up) as the texture unit rounds it, but the unit's 3-D blend is not
+ * reproducible bit for bit: there <B x, y> and <x, B^T y> agree to about 1e-4
+ * (relative) instead of 1e-6. Use EXACT where the pair must match exactly. */
 PB_API pb_status pb_blur_adjoint(pb_context *ctx, const pb_volume *tomograph, const pb_motion *motion,
                                  const pb_blur_options *options, pb_volume *object);
 

@@ -7,26 +7,31 @@
  * mismatch is a few float roundings, ~1e-6, so 1e-5 is asserted.
  *
  * HARDWARE: the forward's weights are the texture unit's. PoCL interpolates in
- * float and NVIDIA rounds each fraction to 1/256 (8 fractional bits, see
- * testlib.h); the adjoint applies exactly those weights (weight_steps in
- * cl/pb_adjoint.cl), so the same 1e-5 holds where the unit and the adjoint
- * round every fraction alike. What remains is a fraction the texture unit
- * rounds to the other step (a tie at half a step, or its own fixed-point
- * coordinate): each such weight moves by 2^-8, which moves that sample by at
- * most 2^-8 of the input's range, times the sample's share of its voxel, and
- * averages out over the volume. HW_TOL below allows for a few per thousand
- * samples of that, and the test prints the mismatch it measured.
+ * float, so there the adjoint (float weights) is the exact transpose and 1e-5
+ * holds. NVIDIA's unit rounds each axis's fraction to 1/256, ties up
+ * (bench/texture_rounding.cu: exact on 4 M one-axis fetches), and the adjoint
+ * rounds alike; but its 3-D blend is not the exact product of those weights:
+ * a single trilinear fetch of values in [0, 1) was measured up to 0.0070 from
+ * the float-weight value (mean 8e-4, unbiased), so no scatter reproduces it
+ * bit for bit. The tolerance there is derived from that: each tomograph
+ * voxel's blur is an average of fetches (weights summing to 1), so it differs
+ * from the float-weight blur by d_W with |d_W| <= e max|x|, e = 1/128 (above
+ * the 0.0070 measured); with fresh random x these differences have zero mean
+ * and sum_W y_W d_W has a standard deviation of at most
+ * e max|x| sqrt(sum_W y_W^2). Six of those is the bound (hw_tolerance).
  *
  * A check of the check: the same dot product against the adjoint of a motion
  * 0.05 voxel off must miss by far more than the tolerance. */
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
+#include <string.h>
 
 #include "testlib.h"
 
 #define EXACT_TOL 1e-5
-#define HW_TOL 1e-5
+#define FLOAT_HW_TOL 1e-5  /* PoCL and the host: float weights */
+#define NVIDIA_FETCH_ERROR (1.0 / 128.0) /* a 3-D fetch's largest error, values in [0, 1) */
 
 static const char *method_names[] = {"AB", "RM", "CL", "REF"};
 
@@ -75,6 +80,16 @@ static void make_cases(motion_case *c)
                                      pb_rand_range(-8, 8));
 }
 
+/* The relative HARDWARE tolerance on NVIDIA for this y (x in [0, 1)),
+ * derived above. */
+static double hw_tolerance(const float *y, size_t n, double lhs)
+{
+    double yy = 0.0;
+    for (size_t i = 0; i < n; i++)
+        yy += (double)y[i] * (double)y[i];
+    return 6.0 * NVIDIA_FETCH_ERROR * sqrt(yy) / fabs(lhs);
+}
+
 static pb_motion motion_of(const motion_case *c)
 {
     pb_motion m = {c->times, c->poses, c->count, c->frame[0], c->frame[1], 0, {0, 0, 0}};
@@ -85,6 +100,9 @@ int main(int argc, char **argv)
 {
     pb_test_seed();
     pb_context *ctx = pb_test_context(argc, argv);
+    pb_device_info info;
+    pb_context_device_info(ctx, &info);
+    int nvidia = pb_context_backend(ctx) == PB_BACKEND_CUDA || strstr(info.platform, "NVIDIA") != NULL;
     pb_geometry g = {{17, 14, 11}, {1.2, 1.0, 1.5}};
     size_t n = 17 * 14 * 11;
     motion_case cases[4];
@@ -113,14 +131,17 @@ int main(int argc, char **argv)
                     continue;
                 double lhs = dot(bx, y, n), rhs = dot(x, bty, n);
                 double rel = fabs(lhs - rhs) / fabs(lhs);
-                double tol = filter == PB_FILTER_EXACT ? EXACT_TOL : HW_TOL;
+                double tol = filter == PB_FILTER_EXACT ? EXACT_TOL
+                             : nvidia                    ? hw_tolerance(y, n, lhs)
+                                                         : FLOAT_HW_TOL;
                 worst[filter] = fmax(worst[filter], rel);
                 pb_check(rel <= tol && isfinite(rel), "%s steps %u %s %s: <Bx,y> = %.9g, <x,B^T y> = %.9g, relative "
-                         "mismatch %.3g > %.0e", method_names[runs[r].method], runs[r].steps,
+                         "mismatch %.3g > %.3g", method_names[runs[r].method], runs[r].steps,
                          filter ? "EXACT" : "HARDWARE", cases[c].name, lhs, rhs, rel, tol);
             }
         }
-    printf("largest relative mismatch: HARDWARE %.3g, EXACT %.3g\n", worst[0], worst[1]);
+    printf("largest relative mismatch: HARDWARE %.3g (tolerance %s), EXACT %.3g\n", worst[0],
+           nvidia ? "6 sigma of NVIDIA's fetch error, about 2.6e-3" : "1e-5", worst[1]);
 
     /* The check of the check: the adjoint of a motion 0.05 voxel off. */
     motion_case off = cases[1];
