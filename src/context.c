@@ -395,46 +395,40 @@ pb_status pb_blur_prepare(pb_context *ctx, const pb_volume *object, const pb_blu
     return st;
 }
 
-pb_status pb_blur(pb_context *ctx, const pb_volume *object, const pb_motion *motion,
-                  const pb_blur_options *options, pb_volume *tomograph)
+/* pb_blur (in: the object, out: the tomograph) and pb_blur_adjoint (the
+ * other way round): the same checks and plan, then one direction of the
+ * operator. */
+static pb_status apply(pb_context *ctx, const pb_volume *in, const pb_motion *motion, const pb_blur_options *options,
+                       pb_volume *out, int adjoint)
 {
     pb_blur_options opt;
-    pb_status st = pb_blur_prepare(ctx, object, options, tomograph, &opt);
+    pb_status st = adjoint ? pb_blur_prepare(ctx, out, options, in, &opt) : pb_blur_prepare(ctx, in, options, out, &opt);
     if (st == PB_OK && !motion)
         st = pb_error(ctx, PB_ERR_INVALID_ARGUMENT, "ctx, object, motion and tomograph must not be NULL");
     if (st != PB_OK)
         return st;
     pb_plan plan;
-    st = pb_plan_create(ctx, &object->geometry, motion, &opt, &plan);
+    st = pb_plan_create(ctx, &in->geometry, motion, &opt, &plan);
     if (st != PB_OK)
         return st;
     ctx->last_kernel_ms = 0.0;
-    st = ctx->ops->blur(ctx, object, &plan, &opt, tomograph);
+    st = adjoint ? ctx->ops->adjoint(ctx, in, &plan, &opt, out) : ctx->ops->blur(ctx, in, &plan, &opt, out);
     pb_plan_destroy(&plan);
     if (st == PB_OK && ctx->progress)
         ctx->progress(1.0, ctx->progress_user);
     return st;
 }
 
+pb_status pb_blur(pb_context *ctx, const pb_volume *object, const pb_motion *motion,
+                  const pb_blur_options *options, pb_volume *tomograph)
+{
+    return apply(ctx, object, motion, options, tomograph, 0);
+}
+
 pb_status pb_blur_adjoint(pb_context *ctx, const pb_volume *tomograph, const pb_motion *motion,
                           const pb_blur_options *options, pb_volume *object)
 {
-    pb_blur_options opt;
-    pb_status st = pb_blur_prepare(ctx, object, options, tomograph, &opt);
-    if (st == PB_OK && !motion)
-        st = pb_error(ctx, PB_ERR_INVALID_ARGUMENT, "ctx, object, motion and tomograph must not be NULL");
-    if (st != PB_OK)
-        return st;
-    pb_plan plan;
-    st = pb_plan_create(ctx, &object->geometry, motion, &opt, &plan);
-    if (st != PB_OK)
-        return st;
-    ctx->last_kernel_ms = 0.0;
-    st = ctx->ops->adjoint(ctx, tomograph, &plan, &opt, object);
-    pb_plan_destroy(&plan);
-    if (st == PB_OK && ctx->progress)
-        ctx->progress(1.0, ctx->progress_user);
-    return st;
+    return apply(ctx, tomograph, motion, options, object, 1);
 }
 
 double pb_error_percent(const float *reference, const float *x, size_t n)
