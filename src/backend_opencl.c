@@ -344,40 +344,54 @@ static pb_status upload_plan(pb_context *ctx, const pb_plan *plan, const pb_blur
     return e == CL_SUCCESS ? PB_OK : cl_fail(ctx, PB_ERR_DEVICE, "clCreateBuffer", e);
 }
 
-/* One launch, waited for; adds its event time to the context's kernel time. */
-static cl_int launch(pb_context *ctx, cl_kernel k, const size_t *offset, const size_t *global, const size_t *local)
+/* Adds a finished command's profiled time to the context's kernel time and
+ * releases its event. */
+static void add_event_time(pb_context *ctx, cl_event ev)
 {
-    cl_impl *cl = ctx->impl;
-    cl_event ev;
-    cl_int e = clEnqueueNDRangeKernel(cl->queue, k, 3, offset, global, local, 0, NULL, &ev);
+    cl_ulong t0 = 0, t1 = 0;
+    clGetEventProfilingInfo(ev, CL_PROFILING_COMMAND_START, sizeof t0, &t0, NULL);
+    clGetEventProfilingInfo(ev, CL_PROFILING_COMMAND_END, sizeof t1, &t1, NULL);
+    ctx->last_kernel_ms += (double)(t1 - t0) * 1e-6;
+    clReleaseEvent(ev);
+}
+
+/* Waits for a queued command (e: what queueing it returned; ev is read only
+ * when that succeeded) and counts its time. */
+static cl_int wait_timed(pb_context *ctx, cl_int e, cl_event ev)
+{
     if (e != CL_SUCCESS)
         return e;
     e = clWaitForEvents(1, &ev);
-    cl_ulong t0 = 0, t1 = 0;
-    if (e == CL_SUCCESS) {
-        clGetEventProfilingInfo(ev, CL_PROFILING_COMMAND_START, sizeof t0, &t0, NULL);
-        clGetEventProfilingInfo(ev, CL_PROFILING_COMMAND_END, sizeof t1, &t1, NULL);
-        ctx->last_kernel_ms += (double)(t1 - t0) * 1e-6;
-    }
-    clReleaseEvent(ev);
+    if (e == CL_SUCCESS)
+        add_event_time(ctx, ev);
+    else
+        clReleaseEvent(ev);
     return e;
 }
 
-/* Launches kernel k, its arguments set, over the plan's grid. GPUs:
- * x-contiguous groups of 256 for coalesced writes; CPUs: the runtime splits the
- * exact grid. With a progress report, slabs of z-slices through the global
- * offset (the kernels see absolute ids and check bounds). */
+/* Queues kernel k, its arguments set, over dims voxels from offset (NULL: the
+ * origin). GPUs: x-contiguous groups of 256 for coalesced writes; CPUs: the
+ * runtime splits the exact grid. The kernels see absolute ids and check bounds. */
+static cl_int enqueue_grid(cl_impl *cl, cl_kernel k, const size_t *offset, const size_t *dims, cl_event *ev)
+{
+    size_t local[3] = {32, 4, 2}, global[3];
+    for (int d = 0; d < 3; d++)
+        global[d] = cl->is_gpu ? (dims[d] + local[d] - 1) / local[d] * local[d] : dims[d];
+    return clEnqueueNDRangeKernel(cl->queue, k, 3, offset, global, cl->is_gpu ? local : NULL, 0, NULL, ev);
+}
+
+/* Launches kernel k over the plan's grid, waited for, its time counted. With a
+ * progress report, slabs of z-slices through the global offset. */
 static cl_int launch_grid(pb_context *ctx, cl_kernel k, const pb_plan *plan)
 {
-    cl_impl *cl = ctx->impl;
-    size_t local[3] = {32, 4, 2}, global[3], offset[3] = {0, 0, 0};
+    size_t offset[3] = {0, 0, 0};
     size_t nz = plan->geometry.dims[2], slab = ctx->progress ? pb_progress_slab(nz) : nz;
     cl_int e = CL_SUCCESS;
     for (; offset[2] < nz && e == CL_SUCCESS; offset[2] += slab) {
         size_t dims[3] = {plan->geometry.dims[0], plan->geometry.dims[1], nz - offset[2] < slab ? nz - offset[2] : slab};
-        for (int d = 0; d < 3; d++)
-            global[d] = cl->is_gpu ? (dims[d] + local[d] - 1) / local[d] * local[d] : dims[d];
-        e = launch(ctx, k, offset, global, cl->is_gpu ? local : NULL);
+        cl_event ev = NULL;
+        e = enqueue_grid(ctx->impl, k, offset, dims, &ev);
+        e = wait_timed(ctx, e, ev);
         if (e == CL_SUCCESS && ctx->progress && offset[2] + slab < nz)
             ctx->progress((double)(offset[2] + slab) / (double)nz, ctx->progress_user);
     }
@@ -440,7 +454,7 @@ static pb_status ocl_blur_batch(pb_context *ctx, size_t frames, const pb_volume 
         return pb_error(ctx, PB_ERR_OUT_OF_MEMORY, "out of host memory for %zu frames", frames);
     }
     cl_kernel k = cl->kernels[pb_kernel_index((int)opt->method, opt->filter == PB_FILTER_EXACT)];
-    size_t local[3] = {32, 4, 2}, global[3], queued = 0;
+    size_t queued = 0;
     pb_status st = PB_OK;
     cl_int e = CL_SUCCESS;
     for (size_t i = 0; i < frames && st == PB_OK; i++)
@@ -458,11 +472,7 @@ static pb_status ocl_blur_batch(pb_context *ctx, size_t frames, const pb_volume 
             st = cl_fail(ctx, PB_ERR_LAUNCH, "clSetKernelArg", e);
             break;
         }
-        for (int d = 0; d < 3; d++)
-            global[d] = cl->is_gpu ? (plans[i].geometry.dims[d] + local[d] - 1) / local[d] * local[d]
-                                   : plans[i].geometry.dims[d];
-        e = clEnqueueNDRangeKernel(cl->queue, k, 3, NULL, global, cl->is_gpu ? local : NULL, 0, NULL, &events[i]);
-        if (e != CL_SUCCESS) {
+        if ((e = enqueue_grid(cl, k, NULL, plans[i].geometry.dims, &events[i])) != CL_SUCCESS) {
             st = cl_fail(ctx, PB_ERR_LAUNCH, "clEnqueueNDRangeKernel", e);
             break;
         }
@@ -474,13 +484,8 @@ static pb_status ocl_blur_batch(pb_context *ctx, size_t frames, const pb_volume 
     if (queued && (e = clWaitForEvents((cl_uint)queued, events)) != CL_SUCCESS && st == PB_OK)
         st = cl_fail(ctx, PB_ERR_LAUNCH, "the kernel", e);
     ctx->last_kernel_ms = 0.0;
-    for (size_t i = 0; i < queued; i++) {
-        cl_ulong t0 = 0, t1 = 0;
-        clGetEventProfilingInfo(events[i], CL_PROFILING_COMMAND_START, sizeof t0, &t0, NULL);
-        clGetEventProfilingInfo(events[i], CL_PROFILING_COMMAND_END, sizeof t1, &t1, NULL);
-        ctx->last_kernel_ms += (double)(t1 - t0) * 1e-6;
-        clReleaseEvent(events[i]);
-    }
+    for (size_t i = 0; i < queued; i++)
+        add_event_time(ctx, events[i]);
     for (size_t i = 0; i < frames; i++)
         if (poses[i])
             clReleaseMemObject(poses[i]);
@@ -494,19 +499,9 @@ static cl_int zero_buffer(pb_context *ctx, cl_mem buffer, size_t bytes)
 {
     cl_impl *cl = ctx->impl;
     const float zero = 0.0f;
-    cl_event ev;
+    cl_event ev = NULL;
     cl_int e = clEnqueueFillBuffer(cl->queue, buffer, &zero, sizeof zero, 0, bytes, 0, NULL, &ev);
-    if (e != CL_SUCCESS)
-        return e;
-    e = clWaitForEvents(1, &ev);
-    cl_ulong t0 = 0, t1 = 0;
-    if (e == CL_SUCCESS) {
-        clGetEventProfilingInfo(ev, CL_PROFILING_COMMAND_START, sizeof t0, &t0, NULL);
-        clGetEventProfilingInfo(ev, CL_PROFILING_COMMAND_END, sizeof t1, &t1, NULL);
-        ctx->last_kernel_ms += (double)(t1 - t0) * 1e-6;
-    }
-    clReleaseEvent(ev);
-    return e;
+    return wait_timed(ctx, e, ev);
 }
 
 static pb_status ocl_adjoint(pb_context *ctx, const pb_volume *tomograph, const pb_plan *plan,
