@@ -198,21 +198,16 @@ PB_KERNEL void pb_adjoint_ref(PB_GLOBAL_RO float *in, PB_GLOBAL_RO pb_kstep *ste
         return;
     int voxel = ix + prm.dims[0] * (iy + prm.dims[1] * iz);
     unsigned int key = pb_ref_key(prm.seed, (unsigned int)voxel);
-    const float scale = 1.0f / 16777216.0f;
     for (int s = 0; s < prm.ref_steps; s++) {
         PB_GLOBAL_RO float *m = steps[s].map;
         float base[3];
         pb_map_point(m, (float)ix, (float)iy, (float)iz, base);
         float vs = v * steps[s].weight / (float)prm.ref_points;
         for (int k = 0; k < prm.ref_points; k++) {
-            unsigned int c = (unsigned int)(s * prm.ref_points + k);
-            float px = ((float)pb_ref_bits(key, c, 0u) + 0.5f) * scale;
-            float py = ((float)pb_ref_bits(key, c, 1u) + 0.5f) * scale;
-            float pz = ((float)pb_ref_bits(key, c, 2u) + 0.5f) * scale;
-            float ox = base[0] + m[0] * px + m[1] * py + m[2] * pz;
-            float oy = base[1] + m[4] * px + m[5] * py + m[6] * pz;
-            float oz = base[2] + m[8] * px + m[9] * py + m[10] * pz;
-            pb_scatter(out, prm, pb_voxel_index(floor(ox)), pb_voxel_index(floor(oy)), pb_voxel_index(floor(oz)), vs);
+            float o[3];
+            pb_ref_point(m, base, key, (unsigned int)(s * prm.ref_points + k), o);
+            pb_scatter(out, prm, pb_voxel_index(floor(o[0])), pb_voxel_index(floor(o[1])), pb_voxel_index(floor(o[2])),
+                       vs);
         }
     }
 }

@@ -351,6 +351,20 @@ PB_KERNEL void pb_blur_cl_exact(pb_image img, PB_GLOBAL_RO pb_kpose *poses, pb_k
         PB_OUT(ix, iy, iz) = pb_classical(img, poses, prm, ix, iy, iz, 1);
 }
 
+/* REF's random point c inside a tomograph voxel, in object texel coordinates:
+ * the step's map m applied to the voxel's corner (base, once per step, so the
+ * small in-voxel offsets keep their precision) plus the mapped offset. */
+PB_FN void pb_ref_point(PB_GLOBAL_RO float *m, const float *base, unsigned int key, unsigned int c, float *o)
+{
+    const float scale = 1.0f / 16777216.0f;
+    float px = ((float)pb_ref_bits(key, c, 0u) + 0.5f) * scale;
+    float py = ((float)pb_ref_bits(key, c, 1u) + 0.5f) * scale;
+    float pz = ((float)pb_ref_bits(key, c, 2u) + 0.5f) * scale;
+    o[0] = base[0] + m[0] * px + m[1] * py + m[2] * pz;
+    o[1] = base[1] + m[4] * px + m[5] * py + m[6] * pz;
+    o[2] = base[2] + m[8] * px + m[9] * py + m[10] * pz;
+}
+
 /* The reference: dense time steps, and at each, ref_points random points inside
  * W, each reading the object voxel that holds it (box model). */
 PB_KERNEL void pb_blur_ref(pb_image img, PB_GLOBAL_RO pb_kstep *steps, pb_kparams prm, PB_GLOBAL float *out)
@@ -360,7 +374,6 @@ PB_KERNEL void pb_blur_ref(pb_image img, PB_GLOBAL_RO pb_kstep *steps, pb_kparam
         return;
     int voxel = ix + prm.dims[0] * (iy + prm.dims[1] * iz);
     unsigned int key = pb_ref_key(prm.seed, (unsigned int)voxel);
-    const float scale = 1.0f / 16777216.0f;
     float total = 0.0f;
     for (int s = 0; s < prm.ref_steps; s++) {
         PB_GLOBAL_RO float *m = steps[s].map;
@@ -370,14 +383,9 @@ PB_KERNEL void pb_blur_ref(pb_image img, PB_GLOBAL_RO pb_kstep *steps, pb_kparam
         pb_map_point(m, (float)ix, (float)iy, (float)iz, base);
         float acc = 0.0f;
         for (int k = 0; k < prm.ref_points; k++) {
-            unsigned int c = (unsigned int)(s * prm.ref_points + k);
-            float px = ((float)pb_ref_bits(key, c, 0u) + 0.5f) * scale;
-            float py = ((float)pb_ref_bits(key, c, 1u) + 0.5f) * scale;
-            float pz = ((float)pb_ref_bits(key, c, 2u) + 0.5f) * scale;
-            float ox = base[0] + m[0] * px + m[1] * py + m[2] * pz;
-            float oy = base[1] + m[4] * px + m[5] * py + m[6] * pz;
-            float oz = base[2] + m[8] * px + m[9] * py + m[10] * pz;
-            acc += PB_FETCH_NEAREST(img, ox, oy, oz);
+            float o[3];
+            pb_ref_point(m, base, key, (unsigned int)(s * prm.ref_points + k), o);
+            acc += PB_FETCH_NEAREST(img, o[0], o[1], o[2]);
         }
         total += steps[s].weight * acc / (float)prm.ref_points;
     }
