@@ -131,24 +131,7 @@ int main()
     for (int k = 0; k < 16; k++)
         for (int i = 0; i < nx; i++)
             ramp[k * nx + i] = (float)i;
-    cudaArray_t arr;
-    cudaChannelFormatDesc fmt = cudaCreateChannelDesc<float>();
-    CHECK(cudaMalloc3DArray(&arr, &fmt, make_cudaExtent(nx, 4, 4)));
-    cudaMemcpy3DParms cp = {};
-    cp.srcPtr = make_cudaPitchedPtr(ramp.data(), nx * sizeof(float), nx, 4);
-    cp.dstArray = arr;
-    cp.extent = make_cudaExtent(nx, 4, 4);
-    cp.kind = cudaMemcpyHostToDevice;
-    CHECK(cudaMemcpy3D(&cp));
-    cudaResourceDesc res = {};
-    res.resType = cudaResourceTypeArray;
-    res.res.array.array = arr;
-    cudaTextureDesc td = {};
-    td.addressMode[0] = td.addressMode[1] = td.addressMode[2] = cudaAddressModeBorder;
-    td.filterMode = cudaFilterModeLinear;
-    td.readMode = cudaReadModeElementType;
-    cudaTextureObject_t tex;
-    CHECK(cudaCreateTextureObject(&tex, &res, &td, nullptr));
+    cudaTextureObject_t tex = make_tex(ramp.data(), nx, 4, 4);
 
     // Random float coordinates over the ramp's inside, every exponent from 1 to 62.
     unsigned long long s = 88172645463325252ULL;
