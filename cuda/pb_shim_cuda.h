@@ -24,6 +24,13 @@
 #define PB_GID_X ((int)(blockIdx.x * blockDim.x + threadIdx.x))
 #define PB_GID_Y ((int)(blockIdx.y * blockDim.y + threadIdx.y))
 #define PB_GID_Z ((int)(blockIdx.z * blockDim.z + threadIdx.z))
+#define PB_LID_X ((int)threadIdx.x)
+#define PB_LID_Y ((int)threadIdx.y)
+#define PB_LID_Z ((int)threadIdx.z)
+#define PB_LOCAL
+#define PB_LOCAL_ARRAY(type, name, n) __shared__ type name[n]
+#define PB_BARRIER() __syncthreads()
+#define PB_TILE_KERNEL extern "C" __global__ __launch_bounds__(PB_ADJ_THREADS)
 typedef cudaTextureObject_t pb_image;
 
 /* A CUDA texture object carries its filter mode, where OpenCL passes a sampler
@@ -36,6 +43,7 @@ typedef cudaTextureObject_t pb_image;
 
 /* The adjoint's scatter; with its result unused nvcc emits RED.ADD.F32. */
 #define PB_ATOMIC_ADD(p, v) atomicAdd((p), (v))
+#define PB_LOCAL_ATOMIC_ADD(p, v) atomicAdd((p), (v))
 
 /* Float maths: for float arguments C++ overloads pick the float versions
  * (floorf, fabsf, fmaxf, sinf, sqrtf), as OpenCL C does. (The only double code

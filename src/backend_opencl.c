@@ -369,28 +369,47 @@ static cl_int wait_timed(pb_context *ctx, cl_int e, cl_event ev)
     return e;
 }
 
-/* Queues kernel k, its arguments set, over dims voxels from offset (NULL: the
- * origin). GPUs: x-contiguous groups of 256 for coalesced writes; CPUs: the
- * runtime splits the exact grid. The kernels see absolute ids and check bounds. */
-static cl_int enqueue_grid(cl_impl *cl, cl_kernel k, const size_t *offset, const size_t *dims, cl_event *ev)
+/* A launch's work group: GPUs get x-contiguous groups of 256 for coalesced
+ * writes, CPUs let the runtime split the exact grid, and the adjoint kernels
+ * (pb_adjoint_index) need their tile everywhere: its work items share a
+ * window in local memory. */
+static void group_of(const cl_impl *cl, int kernel, size_t *local)
 {
-    size_t local[3] = {32, 4, 2}, global[3];
+    const size_t gpu[3] = {32, 4, 2}, tile[3] = {PB_ADJ_TILE_X, PB_ADJ_TILE_Y, PB_ADJ_TILE_Z};
+    int tiled = kernel >= pb_adjoint_index(0);
     for (int d = 0; d < 3; d++)
-        global[d] = cl->is_gpu ? (dims[d] + local[d] - 1) / local[d] * local[d] : dims[d];
-    return clEnqueueNDRangeKernel(cl->queue, k, 3, offset, global, cl->is_gpu ? local : NULL, 0, NULL, ev);
+        local[d] = tiled ? tile[d] : (cl->is_gpu ? gpu[d] : 0);
 }
 
-/* Launches kernel k over the plan's grid, waited for, its time counted. With a
- * progress report, slabs of z-slices through the global offset. */
-static cl_int launch_grid(pb_context *ctx, cl_kernel k, const pb_plan *plan)
+/* Queues kernel `kernel`, its arguments set, over dims voxels from offset
+ * (NULL: the origin), in groups from group_of. The kernels see absolute ids
+ * and check bounds. */
+static cl_int enqueue_grid(cl_impl *cl, int kernel, const size_t *offset, const size_t *dims, cl_event *ev)
 {
-    size_t offset[3] = {0, 0, 0};
+    size_t local[3], global[3];
+    group_of(cl, kernel, local);
+    for (int d = 0; d < 3; d++)
+        global[d] = local[0] ? (dims[d] + local[d] - 1) / local[d] * local[d] : dims[d];
+    return clEnqueueNDRangeKernel(cl->queue, cl->kernels[kernel], 3, offset, global, local[0] ? local : NULL, 0, NULL,
+                                  ev);
+}
+
+/* Launches kernel `kernel` over the plan's grid, waited for, its time counted.
+ * With a progress report, slabs of z-slices through the global offset, each a
+ * whole number of work groups deep: a group that reached past its slab would
+ * do the next slab's voxels twice, which the adjoint's adds would count twice. */
+static cl_int launch_grid(pb_context *ctx, int kernel, const pb_plan *plan)
+{
+    size_t offset[3] = {0, 0, 0}, local[3];
+    group_of(ctx->impl, kernel, local);
     size_t nz = plan->geometry.dims[2], slab = ctx->progress ? pb_progress_slab(nz) : nz;
+    if (local[2] > 1)
+        slab = (slab + local[2] - 1) / local[2] * local[2];
     cl_int e = CL_SUCCESS;
     for (; offset[2] < nz && e == CL_SUCCESS; offset[2] += slab) {
         size_t dims[3] = {plan->geometry.dims[0], plan->geometry.dims[1], nz - offset[2] < slab ? nz - offset[2] : slab};
         cl_event ev = NULL;
-        e = enqueue_grid(ctx->impl, k, offset, dims, &ev);
+        e = enqueue_grid(ctx->impl, kernel, offset, dims, &ev);
         e = wait_timed(ctx, e, ev);
         if (e == CL_SUCCESS && ctx->progress && offset[2] + slab < nz)
             ctx->progress((double)(offset[2] + slab) / (double)nz, ctx->progress_user);
@@ -423,7 +442,8 @@ static pb_status ocl_blur(pb_context *ctx, const pb_volume *object, const pb_pla
     pb_kparams prm;
     pb_kparams_from_plan(plan, opt, &prm);
 
-    cl_kernel k = cl->kernels[pb_kernel_index((int)opt->method, opt->filter == PB_FILTER_EXACT)];
+    int kernel = pb_kernel_index((int)opt->method, opt->filter == PB_FILTER_EXACT);
+    cl_kernel k = cl->kernels[kernel];
     cl_volume *in = object->impl, *out = tomograph->impl;
     cl_int e = set_args(k, in->image, poses, &prm, out->buffer);
     if (e != CL_SUCCESS) {
@@ -431,7 +451,7 @@ static pb_status ocl_blur(pb_context *ctx, const pb_volume *object, const pb_pla
         return cl_fail(ctx, PB_ERR_LAUNCH, "clSetKernelArg", e);
     }
     ctx->last_kernel_ms = 0.0;
-    e = launch_grid(ctx, k, plan);
+    e = launch_grid(ctx, kernel, plan);
     clReleaseMemObject(poses);
     if (e != CL_SUCCESS)
         return cl_fail(ctx, PB_ERR_LAUNCH, "clEnqueueNDRangeKernel or the kernel", e);
@@ -453,7 +473,8 @@ static pb_status ocl_blur_batch(pb_context *ctx, size_t frames, const pb_volume 
         free(events);
         return pb_error(ctx, PB_ERR_OUT_OF_MEMORY, "out of host memory for %zu frames", frames);
     }
-    cl_kernel k = cl->kernels[pb_kernel_index((int)opt->method, opt->filter == PB_FILTER_EXACT)];
+    int kernel = pb_kernel_index((int)opt->method, opt->filter == PB_FILTER_EXACT);
+    cl_kernel k = cl->kernels[kernel];
     size_t queued = 0;
     pb_status st = PB_OK;
     cl_int e = CL_SUCCESS;
@@ -472,7 +493,7 @@ static pb_status ocl_blur_batch(pb_context *ctx, size_t frames, const pb_volume 
             st = cl_fail(ctx, PB_ERR_LAUNCH, "clSetKernelArg", e);
             break;
         }
-        if ((e = enqueue_grid(cl, k, NULL, plans[i].geometry.dims, &events[i])) != CL_SUCCESS) {
+        if ((e = enqueue_grid(cl, kernel, NULL, plans[i].geometry.dims, &events[i])) != CL_SUCCESS) {
             st = cl_fail(ctx, PB_ERR_LAUNCH, "clEnqueueNDRangeKernel", e);
             break;
         }
@@ -518,7 +539,8 @@ static pb_status ocl_adjoint(pb_context *ctx, const pb_volume *tomograph, const 
      * PoCL's weights are float. */
     if (opt->filter == PB_FILTER_HARDWARE && cl->nvidia)
         prm.weight_steps = PB_NVIDIA_WEIGHT_STEPS;
-    cl_kernel k = cl->kernels[pb_adjoint_index((int)opt->method)];
+    int kernel = pb_adjoint_index((int)opt->method);
+    cl_kernel k = cl->kernels[kernel];
     cl_volume *in = tomograph->impl, *out = object->impl;
     ctx->last_kernel_ms = 0.0;
     cl_int e = set_args(k, in->buffer, poses, &prm, out->buffer);
@@ -531,7 +553,7 @@ static pb_status ocl_adjoint(pb_context *ctx, const pb_volume *tomograph, const 
         clReleaseMemObject(poses);
         return cl_fail(ctx, PB_ERR_DEVICE, "clEnqueueFillBuffer", e);
     }
-    e = launch_grid(ctx, k, plan);
+    e = launch_grid(ctx, kernel, plan);
     clReleaseMemObject(poses);
     out->image_stale = 1;
     if (e != CL_SUCCESS)

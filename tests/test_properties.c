@@ -288,7 +288,9 @@ static void test_hardware_weights(pb_context *ctx)
 /* A progress report must not change the result: the host and OpenCL backends
  * then run the volume in slabs of z-slices (through the global offset), which
  * every voxel must see exactly as in one launch. nz = 70 is not a multiple of
- * the slab (3) nor of a GPU work-group's depth. */
+ * the slab (3) nor of a GPU work-group's depth (2) or an adjoint tile's (4):
+ * a group reaching past its slab would scatter the next slab's voxels twice.
+ * The adjoint's atomic adds come in any order, hence its small tolerance. */
 static void test_progress(pb_context *ctx, pb_backend backend)
 {
     pb_geometry g = {{9, 11, 70}, {1.0, 1.2, 1.1}};
@@ -298,25 +300,31 @@ static void test_progress(pb_context *ctx, pb_backend backend)
     pb_pose a = pb_test_pose(0, 0, 0, axis, 0.0), b = pb_test_pose(2.5, -1.5, 6.0, axis, 7.0);
     pb_test_motion tm;
     pb_test_motion_init(&tm, &a, &b);
-    for (int method = 0; method < 4; method++) {
+    for (int run = 0; run < 8; run++) {
+        int method = run % 4, adjoint = run / 4;
+        const char *what = adjoint ? "adjoint" : "blur";
         pb_blur_options opt = {(pb_method)method, PB_FILTER_HARDWARE, 0, 8, 0, 5, 0.0};
         pb_test_progress_log log = {0, 0, 0.0};
+        pb_status (*apply)(pb_context *, const pb_geometry *, const float *, const pb_motion *,
+                           const pb_blur_options *, float *) = adjoint ? pb_test_adjoint : pb_test_blur;
         pb_context_set_progress(ctx, NULL, NULL);
-        pb_status s1 = pb_test_blur(ctx, &g, in, &tm.motion, &opt, plain);
+        pb_status s1 = apply(ctx, &g, in, &tm.motion, &opt, plain);
         pb_context_set_progress(ctx, pb_test_record_progress, &log);
-        pb_status s2 = pb_test_blur(ctx, &g, in, &tm.motion, &opt, sliced);
+        pb_status s2 = apply(ctx, &g, in, &tm.motion, &opt, sliced);
         pb_context_set_progress(ctx, NULL, NULL);
-        if (!pb_check(s1 == PB_OK && s2 == PB_OK, "progress %s: blur failed", names[method]))
+        if (!pb_check(s1 == PB_OK && s2 == PB_OK, "progress %s %s: failed", what, names[method]))
             continue;
-        double d = pb_max_abs_diff(plain, sliced, n);
-        pb_check(d == 0.0, "progress %s: slabbed result differs from one launch by %.3g", names[method], d);
-        pb_check(log.bad == 0 && log.last == 1.0, "progress %s: fractions not increasing to 1 (last %g)",
+        double d = pb_max_abs_diff(plain, sliced, n), tol = adjoint ? 1e-5 * pb_max_abs(plain, n) : 0.0;
+        pb_check(d <= tol, "progress %s %s: slabbed result differs from one launch by %.3g (tolerance %.3g)", what,
+                 names[method], d, tol);
+        pb_check(log.bad == 0 && log.last == 1.0, "progress %s %s: fractions not increasing to 1 (last %g)", what,
                  names[method], log.last);
-        /* CUDA runs the volume in one launch and reports only the end. */
-        int want = backend == PB_BACKEND_CUDA ? 1 : 24;
-        pb_check(backend == PB_BACKEND_CUDA ? log.calls == 1 : log.calls >= want,
-                 "progress %s: %d calls, expected %s%d", names[method], log.calls,
-                 backend == PB_BACKEND_CUDA ? "" : "at least ", want);
+        /* CUDA runs the volume in one launch and reports only the end; the
+         * others report after each slab of 3 slices, made 4 where work groups
+         * are 2 or 4 deep: at least 18 calls. */
+        int want = backend == PB_BACKEND_CUDA ? 1 : 18;
+        pb_check(backend == PB_BACKEND_CUDA ? log.calls == 1 : log.calls >= want, "progress %s %s: %d calls, "
+                 "expected %s%d", what, names[method], log.calls, backend == PB_BACKEND_CUDA ? "" : "at least ", want);
     }
     free(in);
     free(plain);
