@@ -63,10 +63,12 @@ typedef struct pb_window {
     int use;
 } pb_window;
 
-/* Where the adds go: the window in local memory, or the output. */
+/* Where the adds go: the window in local memory, in fixed point (value times
+ * scale, rounded), or the output. */
 typedef struct pb_sink {
-    PB_LOCAL float *win;
+    PB_LOCAL int *win;
     pb_window w;
+    float scale;
     PB_GLOBAL float *out;
 } pb_sink;
 
@@ -74,8 +76,9 @@ PB_FN void pb_sink_add(pb_sink *s, pb_kparams prm, int i, int j, int k, float v)
 {
     int li = i - s->w.o[0], lj = j - s->w.o[1], lk = k - s->w.o[2];
     if (s->w.use && li >= 0 && lj >= 0 && lk >= 0 && li < s->w.n[0] && lj < s->w.n[1] && lk < s->w.n[2]) {
-        if (v != 0.0f)
-            PB_LOCAL_ATOMIC_ADD(&s->win[li + s->w.n[0] * (lj + s->w.n[1] * lk)], v);
+        int q = (int)rint(v * s->scale);
+        if (q != 0)
+            PB_LOCAL_ATOMIC_ADD_INT(&s->win[li + s->w.n[0] * (lj + s->w.n[1] * lk)], q);
     } else {
         pb_scatter(s->out, prm, i, j, k, v);
     }
@@ -131,46 +134,53 @@ PB_FN int pb_divmod(int e, int n, float inv, int *rem)
     return q;
 }
 
-/* The window from the 16 corner points of a chunk (the tile's 8 corners at
- * the chunk's two ends), widened by the filter's reach: a sample at x reads
- * voxels floor(x - 0.5) and one above, and AB's end slices sample up to one
- * voxel off the chord along the major axis. Clipped to the grid; too big for
- * local memory: not used. The corners are read from local memory, so every
- * work item gets the same window. */
-PB_FN pb_window pb_window_from(PB_LOCAL const float *corner, pb_kparams prm)
+/* The window of parameters [t0, t1] from the 16 corner points in local memory
+ * (the tile's 8 corners at two parameters), widened by the filter's reach: a
+ * sample at x reads voxels floor(x - 0.5) and one above, and AB's end slices
+ * sample up to one voxel off the chord along the major axis. chord: the
+ * corners are at the sub-segment's ends and the points in between on the
+ * chords, so the chunk's corners are interpolated (AB, RM); otherwise they are
+ * the chunk's own (CL; t0 = 0, t1 = 1). Clipped to the grid; too big for
+ * prm.window, or scale 0: not used. Every work item reads the same corners, so
+ * every one gets the same window. */
+PB_FN pb_window pb_window_from(PB_LOCAL const float *corner, float t0, float t1, float scale, pb_kparams prm)
 {
     pb_window w;
     float vol = 1.0f;
     for (int i = 0; i < 3; i++) {
-        float lo = corner[i], hi = corner[i];
-        for (int q = 1; q < 16; q++) {
-            lo = fmin(lo, corner[3 * q + i]);
-            hi = fmax(hi, corner[3 * q + i]);
+        float lo = 3.0e38f, hi = -3.0e38f;
+        for (int q = 0; q < 8; q++) {
+            float a = corner[3 * q + i], b = corner[3 * (q + 8) + i];
+            float p0 = a + (b - a) * t0, p1 = a + (b - a) * t1;
+            lo = fmin(lo, fmin(p0, p1));
+            hi = fmax(hi, fmax(p0, p1));
         }
         int o = max(pb_voxel_index(floor(lo)) - 2, 0), e = min(pb_voxel_index(floor(hi)) + 2, prm.dims[i] - 1);
         w.o[i] = o;
         w.n[i] = e - o + 1;
         vol *= (float)max(w.n[i], 0);
     }
-    w.use = vol > 0.0f && vol <= (float)prm.window;
+    w.use = scale > 0.0f && vol > 0.0f && vol <= (float)prm.window;
     return w;
 }
 
 /* Adds the window into the output, one global atomic per touched voxel, and
  * leaves it zero for the next chunk. */
-PB_FN void pb_window_flush(PB_LOCAL float *win, pb_window w, PB_GLOBAL float *out, pb_kparams prm, int lid)
+PB_FN void pb_window_flush(PB_LOCAL int *win, pb_window w, float unscale, PB_GLOBAL float *out, pb_kparams prm,
+                           int lid)
 {
     if (!w.use)
         return;
     int vol = w.n[0] * w.n[1] * w.n[2];
     float inv0 = 1.0f / (float)w.n[0], inv1 = 1.0f / (float)w.n[1];
     for (int e = lid; e < vol; e += PB_ADJ_THREADS) {
-        float v = win[e];
-        if (v != 0.0f) {
-            win[e] = 0.0f;
+        int q = win[e];
+        if (q != 0) {
+            win[e] = 0;
             int i, j, row = pb_divmod(e, w.n[0], inv0, &i);
             int k = pb_divmod(row, w.n[1], inv1, &j);
-            PB_ATOMIC_ADD(&out[(w.o[0] + i) + prm.dims[0] * ((w.o[1] + j) + prm.dims[1] * (w.o[2] + k))], v);
+            PB_ATOMIC_ADD(&out[(w.o[0] + i) + prm.dims[0] * ((w.o[1] + j) + prm.dims[1] * (w.o[2] + k))],
+                          (float)q * unscale);
         }
     }
 }
@@ -275,13 +285,25 @@ PB_FN float pb_adjoint_input(PB_GLOBAL_RO float *in, pb_kparams prm, int ix, int
 }
 
 /* The adjoint of AB, RM or CL for one work group (a tile of tomograph voxels).
- * Every work item runs every barrier, inside the grid or not. Per sub-segment:
- * the chunk count (from work item 0, through local memory, so that all agree),
- * then per chunk: window, this voxel's samples in it, flush. AB's walk is the
+ * Every work item runs every barrier, inside the grid or not.
+ *
+ * The window holds fixed point, because local memory adds integers natively
+ * but floats only by a compare-and-swap loop (measured on the H200: a float
+ * window was slower than no window). Its scale is the tile's own: in one chunk
+ * an entry gathers at most the sum of the tile's |y| (each work item's
+ * weights in a segment sum to at most 1), at most THREADS max|y|, so
+ * 2^30 / (THREADS max|y|) can never overflow, and each add is rounded to
+ * 2^-22 max|y| of the tile: about as fine as a float add of the tile's
+ * largest value, and relative to each tile, not to the whole volume.
+ *
+ * Per sub-segment: the chunk count (from work item 16, through local memory,
+ * so that all agree) and the tile's corners (work items 0-15); then per
+ * chunk: the window, this voxel's samples in it, the flush. AB's walk is the
  * forward's (pb_ab_walk_init), its slices cut into chunks at the slice
- * coordinates the chunk's ends map to; RM and CL samples by index. */
+ * coordinates the chunk's ends map to; RM and CL samples go by index. */
 PB_FN void pb_adjoint_tiled(PB_GLOBAL_RO float *in, PB_GLOBAL_RO pb_kpose *poses, pb_kparams prm,
-                            PB_GLOBAL float *out, PB_LOCAL float *win, PB_LOCAL float *corner, int method)
+                            PB_GLOBAL float *out, PB_LOCAL int *win, PB_LOCAL float *corner, PB_LOCAL int *shared,
+                            int method)
 {
     int lx = PB_LID_X, ly = PB_LID_Y, lz = PB_LID_Z;
     int lid = lx + PB_ADJ_TILE_X * (ly + PB_ADJ_TILE_Y * lz);
@@ -295,11 +317,18 @@ PB_FN void pb_adjoint_tiled(PB_GLOBAL_RO float *in, PB_GLOBAL_RO pb_kpose *poses
     float v = pb_adjoint_input(in, prm, ix, iy, iz);
     float u[3] = {(float)ix + 0.5f, (float)iy + 0.5f, (float)iz + 0.5f};
     for (int e = lid; e < PB_ADJ_WINDOW; e += PB_ADJ_THREADS)
-        win[e] = 0.0f;
+        win[e] = 0;
+    if (lid == 0)
+        shared[1] = 0;
+    PB_BARRIER();
+    /* The tile's largest |y|: non-negative floats order as their bits do. */
+    PB_LOCAL_ATOMIC_MAX_INT(&shared[1], PB_FLOAT_AS_INT(fabs(v)));
     pb_sink s;
     s.win = win;
     s.out = out;
-    int subs = pb_adjoint_subs(prm, method);
+    s.scale = 0.0f;
+    float unscale = 0.0f;
+    int chord = method != 2, subs = pb_adjoint_subs(prm, method);
     for (int j = 0; j < prm.segments; j++) {
         float a[3], b[3];
         pb_map_point(poses[j].map, u[0], u[1], u[2], a);
@@ -329,15 +358,29 @@ PB_FN void pb_adjoint_tiled(PB_GLOBAL_RO float *in, PB_GLOBAL_RO pb_kpose *poses
                     inc = (w.m == 0 ? pb[0] - pa[0] : (w.m == 1 ? pb[1] - pa[1] : pb[2] - pa[2])) >= 0.0f;
                 }
             }
-            if (lid == 0)
-                corner[48] = (float)pb_adjoint_chunks(poses, prm, method, j, r, ulo, uhi);
+            /* The barrier before the first sub-segment also completes the
+             * tile's max; the one after each chunk frees the corners. */
             PB_BARRIER();
-            int chunks = (int)corner[48];
-            if (lid < 16)
-                pb_adjoint_corner(poses, prm, method, j, r, 0, chunks, lid, ulo, uhi, corner);
+            if (lid == 16)
+                shared[0] = pb_adjoint_chunks(poses, prm, method, j, r, ulo, uhi);
+            if (chord && lid < 16) /* the sub-segment's ends */
+                pb_adjoint_corner(poses, prm, method, j, r, 0, 1, lid, ulo, uhi, corner);
             PB_BARRIER();
+            int chunks = shared[0];
+            if (!chord) { /* CL: the first chunk's own ends */
+                if (lid < 16)
+                    pb_adjoint_corner(poses, prm, method, j, r, 0, chunks, lid, ulo, uhi, corner);
+                PB_BARRIER();
+            }
+            if (j == 0 && r == 0) {
+                /* 2^30 / (THREADS max|y|), and back: powers of two apart. */
+                float vmax = PB_INT_AS_FLOAT(shared[1]);
+                s.scale = vmax > 1e-30f ? (1073741824.0f / (float)PB_ADJ_THREADS) / vmax : 0.0f;
+                unscale = vmax * ((float)PB_ADJ_THREADS / 1073741824.0f);
+            }
             for (int c = 0; c < chunks; c++) {
-                s.w = pb_window_from(corner, prm);
+                float t0 = chord ? (float)c / (float)chunks : 0.0f, t1 = chord ? (float)(c + 1) / (float)chunks : 1.0f;
+                s.w = pb_window_from(corner, t0, t1, s.scale, prm);
                 if (v != 0.0f && method == 0 && point) {
                     if (c == 0)
                         pb_trilinear_scatter(&s, prm, 0.5f * (pa[0] + pb[0]), 0.5f * (pa[1] + pb[1]),
@@ -371,9 +414,10 @@ PB_FN void pb_adjoint_tiled(PB_GLOBAL_RO float *in, PB_GLOBAL_RO pb_kpose *poses
                     }
                 }
                 PB_BARRIER();
-                pb_window_flush(win, s.w, out, prm, lid);
-                if (lid < 16 && c + 1 < chunks)
+                pb_window_flush(win, s.w, unscale, out, prm, lid);
+                if (!chord && lid < 16 && c + 1 < chunks)
                     pb_adjoint_corner(poses, prm, method, j, r, c + 1, chunks, lid, ulo, uhi, corner);
+                /* The next chunk's window moves: no add before the flush ends. */
                 PB_BARRIER();
             }
         }
@@ -386,25 +430,28 @@ PB_FN void pb_adjoint_tiled(PB_GLOBAL_RO float *in, PB_GLOBAL_RO pb_kpose *poses
 PB_TILE_KERNEL void pb_adjoint_ab(PB_GLOBAL_RO float *in, PB_GLOBAL_RO pb_kpose *poses, pb_kparams prm,
                                   PB_GLOBAL float *out)
 {
-    PB_LOCAL_ARRAY(float, win, PB_ADJ_WINDOW);
-    PB_LOCAL_ARRAY(float, corner, 49);
-    pb_adjoint_tiled(in, poses, prm, out, win, corner, 0);
+    PB_LOCAL_ARRAY(int, win, PB_ADJ_WINDOW);
+    PB_LOCAL_ARRAY(float, corner, 48);
+    PB_LOCAL_ARRAY(int, shared, 2);
+    pb_adjoint_tiled(in, poses, prm, out, win, corner, shared, 0);
 }
 
 PB_TILE_KERNEL void pb_adjoint_rm(PB_GLOBAL_RO float *in, PB_GLOBAL_RO pb_kpose *poses, pb_kparams prm,
                                   PB_GLOBAL float *out)
 {
-    PB_LOCAL_ARRAY(float, win, PB_ADJ_WINDOW);
-    PB_LOCAL_ARRAY(float, corner, 49);
-    pb_adjoint_tiled(in, poses, prm, out, win, corner, 1);
+    PB_LOCAL_ARRAY(int, win, PB_ADJ_WINDOW);
+    PB_LOCAL_ARRAY(float, corner, 48);
+    PB_LOCAL_ARRAY(int, shared, 2);
+    pb_adjoint_tiled(in, poses, prm, out, win, corner, shared, 1);
 }
 
 PB_TILE_KERNEL void pb_adjoint_cl(PB_GLOBAL_RO float *in, PB_GLOBAL_RO pb_kpose *poses, pb_kparams prm,
                                   PB_GLOBAL float *out)
 {
-    PB_LOCAL_ARRAY(float, win, PB_ADJ_WINDOW);
-    PB_LOCAL_ARRAY(float, corner, 49);
-    pb_adjoint_tiled(in, poses, prm, out, win, corner, 2);
+    PB_LOCAL_ARRAY(int, win, PB_ADJ_WINDOW);
+    PB_LOCAL_ARRAY(float, corner, 48);
+    PB_LOCAL_ARRAY(int, shared, 2);
+    pb_adjoint_tiled(in, poses, prm, out, win, corner, shared, 2);
 }
 
 /* Transpose of pb_blur_ref: each random point's share goes to the object voxel

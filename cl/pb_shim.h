@@ -60,16 +60,12 @@ static inline void pb_atomic_add(volatile __global float *p, float v)
 #endif
 #define PB_ATOMIC_ADD(p, v) pb_atomic_add((p), (v))
 
-/* The same in local memory (the adjoint's window): a compare-and-swap loop,
- * OpenCL 1.2's only way to add floats there. */
-static inline void pb_local_atomic_add(volatile __local float *p, float v)
-{
-    volatile __local unsigned int *u = (volatile __local unsigned int *)p;
-    unsigned int old = *u, seen;
-    while ((seen = atomic_cmpxchg(u, old, as_uint(as_float(old) + v))) != old)
-        old = seen;
-}
-#define PB_LOCAL_ATOMIC_ADD(p, v) pb_local_atomic_add((p), (v))
+/* Integer atomics in local memory (the adjoint's fixed-point window): native
+ * on GPUs, where a float add in local memory is a compare-and-swap loop. */
+#define PB_LOCAL_ATOMIC_ADD_INT(p, v) atomic_add((p), (v))
+#define PB_LOCAL_ATOMIC_MAX_INT(p, v) atomic_max((p), (v))
+#define PB_FLOAT_AS_INT(x) as_int(x)
+#define PB_INT_AS_FLOAT(i) as_float(i)
 
 #elif defined(PB_SHIM_CUDA)
 /* CUDA: cuda/pb_shim_cuda.h has defined the same names before including the
