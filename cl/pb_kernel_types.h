@@ -21,9 +21,6 @@ typedef struct pb_kparams {
     /* Adjoint: the steps the forward's texture unit rounds its weights to (256
      * on NVIDIA: 8 fractional bits), or 0 for float weights. */
     float weight_steps;
-    /* Adjoint: floats of its local-memory window to use, at most
-     * PB_ADJ_WINDOW; 0 sends every add straight to global memory. */
-    int window;
 } pb_kparams;
 
 /* The kernels: the forward ones, one per method and filter (REF reads nearest
@@ -43,16 +40,6 @@ PB_FN int pb_adjoint_index(int method)
 {
     return 7 + method;
 }
-
-/* The adjoint's work group: a tile of tomograph voxels that share a window of
- * local memory (cl/pb_adjoint.cl). The backends launch the adjoint kernels
- * with exactly this group, and slab offsets in whole tiles. */
-#define PB_ADJ_TILE_X 8
-#define PB_ADJ_TILE_Y 8
-#define PB_ADJ_TILE_Z 4
-#define PB_ADJ_THREADS (PB_ADJ_TILE_X * PB_ADJ_TILE_Y * PB_ADJ_TILE_Z)
-/* The window's capacity in floats (32 KiB: seven groups per H200 SM). */
-#define PB_ADJ_WINDOW 8192
 
 /* One key pose, as the kernels read it. */
 typedef struct pb_kpose {

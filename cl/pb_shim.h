@@ -1,6 +1,6 @@
 /* The shim, OpenCL side: the only place that knows the kernels are compiled as
  * OpenCL C. It maps qualifiers, thread ids (x, y and z), the volume type, the
- * two fetches, the adjoint's work groups and float atomic adds; kernel bodies use nothing else. The CUDA side, with the same
+ * two fetches and the adjoint's float atomic add; kernel bodies use nothing else. The CUDA side, with the same
  * names, is cuda/pb_shim_cuda.h.
  *
  * Coordinates, on every backend: unnormalized texel coordinates, texel i's
@@ -19,15 +19,6 @@
 #define PB_GID_X ((int)get_global_id(0))
 #define PB_GID_Y ((int)get_global_id(1))
 #define PB_GID_Z ((int)get_global_id(2))
-/* Work groups, for the adjoint's tiles: local ids, local memory, barriers. */
-#define PB_LID_X ((int)get_local_id(0))
-#define PB_LID_Y ((int)get_local_id(1))
-#define PB_LID_Z ((int)get_local_id(2))
-#define PB_LOCAL __local
-#define PB_LOCAL_ARRAY(type, name, n) __local type name[n]
-#define PB_BARRIER() barrier(CLK_LOCAL_MEM_FENCE)
-/* A kernel whose work group is one adjoint tile; the backend launches it so. */
-#define PB_TILE_KERNEL __kernel __attribute__((reqd_work_group_size(PB_ADJ_TILE_X, PB_ADJ_TILE_Y, PB_ADJ_TILE_Z)))
 /* A macro, not a typedef: PoCL 3.1 reads garbage through a typedef that carries
  * the access qualifier (seen: every fetch returned 123). */
 #define pb_image __read_only image3d_t
@@ -59,13 +50,6 @@ static inline void pb_atomic_add(volatile __global float *p, float v)
 }
 #endif
 #define PB_ATOMIC_ADD(p, v) pb_atomic_add((p), (v))
-
-/* Integer atomics in local memory (the adjoint's fixed-point window): native
- * on GPUs, where a float add in local memory is a compare-and-swap loop. */
-#define PB_LOCAL_ATOMIC_ADD_INT(p, v) atomic_add((p), (v))
-#define PB_LOCAL_ATOMIC_MAX_INT(p, v) atomic_max((p), (v))
-#define PB_FLOAT_AS_INT(x) as_int(x)
-#define PB_INT_AS_FLOAT(i) as_float(i)
 
 #elif defined(PB_SHIM_CUDA)
 /* CUDA: cuda/pb_shim_cuda.h has defined the same names before including the

@@ -7,17 +7,18 @@
 #include "../cl/pb_blur.cl"
 #include "pb_cuda_launch.h"
 
-/* Blocks of `block` covering the grid prm->dims, one thread per voxel. */
-static dim3 grid_of(const pb_kparams *prm, dim3 block)
+/* Blocks covering the grid prm->dims, one thread per voxel. */
+static dim3 grid_of(const pb_kparams *prm)
 {
-    return dim3((unsigned)(prm->dims[0] + block.x - 1) / block.x, (unsigned)(prm->dims[1] + block.y - 1) / block.y,
-                (unsigned)(prm->dims[2] + block.z - 1) / block.z);
+    return dim3((unsigned)(prm->dims[0] + PB_CUDA_BLOCK_X - 1) / PB_CUDA_BLOCK_X,
+                (unsigned)(prm->dims[1] + PB_CUDA_BLOCK_Y - 1) / PB_CUDA_BLOCK_Y,
+                (unsigned)(prm->dims[2] + PB_CUDA_BLOCK_Z - 1) / PB_CUDA_BLOCK_Z);
 }
 
 extern "C" cudaError_t pb_cuda_launch(int kernel, cudaTextureObject_t volume, const void *plan,
                                       const pb_kparams *prm, float *out, cudaStream_t stream)
 {
-    dim3 block(PB_CUDA_BLOCK_X, PB_CUDA_BLOCK_Y, PB_CUDA_BLOCK_Z), grid = grid_of(prm, block);
+    dim3 block(PB_CUDA_BLOCK_X, PB_CUDA_BLOCK_Y, PB_CUDA_BLOCK_Z), grid = grid_of(prm);
     const pb_kpose *poses = static_cast<const pb_kpose *>(plan);
     switch (kernel) { /* PB_KERNEL_NAMES order */
     case 0: pb_blur_ab<<<grid, block, 0, stream>>>(volume, poses, *prm, out); break;
@@ -35,8 +36,7 @@ extern "C" cudaError_t pb_cuda_launch(int kernel, cudaTextureObject_t volume, co
 extern "C" cudaError_t pb_cuda_launch_adjoint(int kernel, const float *in, const void *plan, const pb_kparams *prm,
                                               float *out, cudaStream_t stream)
 {
-    /* The adjoint kernels' block is their tile (cl/pb_adjoint.cl). */
-    dim3 block(PB_ADJ_TILE_X, PB_ADJ_TILE_Y, PB_ADJ_TILE_Z), grid = grid_of(prm, block);
+    dim3 block(PB_CUDA_BLOCK_X, PB_CUDA_BLOCK_Y, PB_CUDA_BLOCK_Z), grid = grid_of(prm);
     const pb_kpose *poses = static_cast<const pb_kpose *>(plan);
     switch (kernel) { /* PB_KERNEL_NAMES order */
     case 7: pb_adjoint_ab<<<grid, block, 0, stream>>>(in, poses, *prm, out); break;

@@ -24,14 +24,6 @@
 #define PB_GID_X ((int)(blockIdx.x * blockDim.x + threadIdx.x))
 #define PB_GID_Y ((int)(blockIdx.y * blockDim.y + threadIdx.y))
 #define PB_GID_Z ((int)(blockIdx.z * blockDim.z + threadIdx.z))
-#define PB_LID_X ((int)threadIdx.x)
-#define PB_LID_Y ((int)threadIdx.y)
-#define PB_LID_Z ((int)threadIdx.z)
-#define PB_LOCAL
-#define PB_LOCAL_ARRAY(type, name, n) __shared__ type name[n]
-#define PB_BARRIER() __syncthreads()
-/* Three tiles per SM at least: at most 85 registers. */
-#define PB_TILE_KERNEL extern "C" __global__ __launch_bounds__(PB_ADJ_THREADS, 3)
 typedef cudaTextureObject_t pb_image;
 
 /* A CUDA texture object carries its filter mode, where OpenCL passes a sampler
@@ -44,10 +36,6 @@ typedef cudaTextureObject_t pb_image;
 
 /* The adjoint's scatter; with its result unused nvcc emits RED.ADD.F32. */
 #define PB_ATOMIC_ADD(p, v) atomicAdd((p), (v))
-#define PB_LOCAL_ATOMIC_ADD_INT(p, v) atomicAdd((p), (v))
-#define PB_LOCAL_ATOMIC_MAX_INT(p, v) atomicMax((p), (v))
-#define PB_FLOAT_AS_INT(x) __float_as_int(x)
-#define PB_INT_AS_FLOAT(i) __int_as_float(i)
 
 /* Float maths: for float arguments C++ overloads pick the float versions
  * (floorf, fabsf, fmaxf, sinf, sqrtf), as OpenCL C does. (The only double code

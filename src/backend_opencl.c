@@ -370,15 +370,12 @@ static cl_int wait_timed(pb_context *ctx, cl_int e, cl_event ev)
 }
 
 /* A launch's work group: GPUs get x-contiguous groups of 256 for coalesced
- * writes, CPUs let the runtime split the exact grid, and the adjoint kernels
- * (pb_adjoint_index) need their tile everywhere: its work items share a
- * window in local memory. */
-static void group_of(const cl_impl *cl, int kernel, size_t *local)
+ * writes; CPUs let the runtime split the exact grid (local[0] = 0). */
+static void group_of(const cl_impl *cl, size_t *local)
 {
-    const size_t gpu[3] = {32, 4, 2}, tile[3] = {PB_ADJ_TILE_X, PB_ADJ_TILE_Y, PB_ADJ_TILE_Z};
-    int tiled = kernel >= pb_adjoint_index(0);
+    const size_t gpu[3] = {32, 4, 2};
     for (int d = 0; d < 3; d++)
-        local[d] = tiled ? tile[d] : (cl->is_gpu ? gpu[d] : 0);
+        local[d] = cl->is_gpu ? gpu[d] : 0;
 }
 
 /* Queues kernel `kernel`, its arguments set, over dims voxels from offset
@@ -387,7 +384,7 @@ static void group_of(const cl_impl *cl, int kernel, size_t *local)
 static cl_int enqueue_grid(cl_impl *cl, int kernel, const size_t *offset, const size_t *dims, cl_event *ev)
 {
     size_t local[3], global[3];
-    group_of(cl, kernel, local);
+    group_of(cl, local);
     for (int d = 0; d < 3; d++)
         global[d] = local[0] ? (dims[d] + local[d] - 1) / local[d] * local[d] : dims[d];
     return clEnqueueNDRangeKernel(cl->queue, cl->kernels[kernel], 3, offset, global, local[0] ? local : NULL, 0, NULL,
@@ -401,7 +398,7 @@ static cl_int enqueue_grid(cl_impl *cl, int kernel, const size_t *offset, const 
 static cl_int launch_grid(pb_context *ctx, int kernel, const pb_plan *plan)
 {
     size_t offset[3] = {0, 0, 0}, local[3];
-    group_of(ctx->impl, kernel, local);
+    group_of(ctx->impl, local);
     size_t nz = plan->geometry.dims[2], slab = ctx->progress ? pb_progress_slab(nz) : nz;
     if (local[2] > 1)
         slab = (slab + local[2] - 1) / local[2] * local[2];

@@ -18,17 +18,6 @@ void pb_kparams_from_plan(const pb_plan *plan, const pb_blur_options *opt, pb_kp
     prm->ref_points = (int)opt->ref_points;
     prm->ref_steps = (int)plan->ref_count;
     prm->seed = opt->seed;
-    prm->window = pb_adjoint_window();
-}
-
-int pb_adjoint_window(void)
-{
-    const char *env = getenv("PETBLUR_ADJOINT_WINDOW");
-    if (!env || !*env)
-        return PB_ADJ_WINDOW;
-    char *end;
-    long v = strtol(env, &end, 10);
-    return *end || v < 0 ? PB_ADJ_WINDOW : (int)(v < PB_ADJ_WINDOW ? v : PB_ADJ_WINDOW);
 }
 
 static void kpose_from_plan(const pb_plan *plan, size_t index, pb_kpose *out)

@@ -12,11 +12,6 @@
 #define PB_NVIDIA_WEIGHT_STEPS 256.0f
 
 void pb_kparams_from_plan(const pb_plan *plan, const pb_blur_options *opt, pb_kparams *prm);
-/* The adjoint's local-memory window in floats: PB_ADJ_WINDOW, or less when
- * the environment variable PETBLUR_ADJOINT_WINDOW says so (a number of
- * floats; 0: plain global atomics). For measuring the window and testing the
- * path it falls back to; the result is the same either way. */
-int pb_adjoint_window(void);
 /* What a launch of `method` reads besides its parameters, in the kernels'
  * layout: the plan's key poses (pb_kpose), or for REF its time steps
  * (pb_kstep), in one malloc'd block of *bytes for the backend to copy to the

@@ -20,12 +20,6 @@
  * and sum_W y_W d_W has a standard deviation of at most
  * e max|x| sqrt(sum_W y_W^2). Six of those is the bound (hw_tolerance).
  *
- * The device adjoints add through a window in local memory and send what
- * falls outside it straight to global memory (cl/pb_adjoint.cl). Every case
- * runs three times: with the full window, with none (PETBLUR_ADJOINT_WINDOW=0:
- * every add global), and with a window of 1500 floats, which the grid's edge
- * tiles fit and the inner tiles do not, so both paths meet in one launch.
- *
  * A check of the check: the same dot product against the adjoint of a motion
  * 0.05 voxel off must miss by far more than the tolerance. */
 #include <math.h>
@@ -122,39 +116,30 @@ int main(int argc, char **argv)
         unsigned steps;
     } runs[] = {{PB_METHOD_AB, 0}, {PB_METHOD_AB, 3}, {PB_METHOD_RM, 0}, {PB_METHOD_RM, 5}, {PB_METHOD_CL, 0},
                 {PB_METHOD_REF, 0}};
-    const char *windows[] = {NULL, "0", "1500"};
     double worst[2] = {0.0, 0.0};
-    for (size_t wi = 0; wi < sizeof windows / sizeof windows[0]; wi++) {
-        if (windows[wi])
-            setenv("PETBLUR_ADJOINT_WINDOW", windows[wi], 1);
-        else
-            unsetenv("PETBLUR_ADJOINT_WINDOW");
-        const char *wname = windows[wi] ? windows[wi] : "full";
-        for (size_t r = 0; r < sizeof runs / sizeof runs[0]; r++)
-            for (int filter = 0; filter < 2; filter++) {
-                if (runs[r].method == PB_METHOD_REF && filter == PB_FILTER_HARDWARE)
-                    continue; /* REF reads nearest voxels with either */
-                for (int c = 0; c < 4; c++) {
-                    pb_motion m = motion_of(&cases[c]);
-                    pb_blur_options opt = {runs[r].method, (pb_filter)filter, runs[r].steps, 24, 0, 7, 0.0};
-                    if (!pb_check(pb_test_blur(ctx, &g, x, &m, &opt, bx) == PB_OK &&
-                                      pb_test_adjoint(ctx, &g, y, &m, &opt, bty) == PB_OK,
-                                  "%s steps %u %s window %s: blur or adjoint failed", method_names[runs[r].method],
-                                  runs[r].steps, cases[c].name, wname))
-                        continue;
-                    double lhs = dot(bx, y, n), rhs = dot(x, bty, n);
-                    double rel = fabs(lhs - rhs) / fabs(lhs);
-                    double tol = filter == PB_FILTER_EXACT ? EXACT_TOL
-                                 : nvidia                    ? hw_tolerance(y, n, lhs)
-                                                             : FLOAT_HW_TOL;
-                    worst[filter] = fmax(worst[filter], rel);
-                    pb_check(rel <= tol && isfinite(rel), "%s steps %u %s %s window %s: <Bx,y> = %.9g, "
-                             "<x,B^T y> = %.9g, relative mismatch %.3g > %.3g", method_names[runs[r].method],
-                             runs[r].steps, filter ? "EXACT" : "HARDWARE", cases[c].name, wname, lhs, rhs, rel, tol);
-                }
+    for (size_t r = 0; r < sizeof runs / sizeof runs[0]; r++)
+        for (int filter = 0; filter < 2; filter++) {
+            if (runs[r].method == PB_METHOD_REF && filter == PB_FILTER_HARDWARE)
+                continue; /* REF reads nearest voxels with either */
+            for (int c = 0; c < 4; c++) {
+                pb_motion m = motion_of(&cases[c]);
+                pb_blur_options opt = {runs[r].method, (pb_filter)filter, runs[r].steps, 24, 0, 7, 0.0};
+                if (!pb_check(pb_test_blur(ctx, &g, x, &m, &opt, bx) == PB_OK &&
+                                  pb_test_adjoint(ctx, &g, y, &m, &opt, bty) == PB_OK,
+                              "%s steps %u %s: blur or adjoint failed", method_names[runs[r].method], runs[r].steps,
+                              cases[c].name))
+                    continue;
+                double lhs = dot(bx, y, n), rhs = dot(x, bty, n);
+                double rel = fabs(lhs - rhs) / fabs(lhs);
+                double tol = filter == PB_FILTER_EXACT ? EXACT_TOL
+                             : nvidia                    ? hw_tolerance(y, n, lhs)
+                                                         : FLOAT_HW_TOL;
+                worst[filter] = fmax(worst[filter], rel);
+                pb_check(rel <= tol && isfinite(rel), "%s steps %u %s %s: <Bx,y> = %.9g, <x,B^T y> = %.9g, relative "
+                         "mismatch %.3g > %.3g", method_names[runs[r].method], runs[r].steps,
+                         filter ? "EXACT" : "HARDWARE", cases[c].name, lhs, rhs, rel, tol);
             }
-    }
-    unsetenv("PETBLUR_ADJOINT_WINDOW");
+        }
     printf("largest relative mismatch: HARDWARE %.3g (tolerance %s), EXACT %.3g\n", worst[0],
            nvidia ? "6 sigma of NVIDIA's fetch error, about 2.6e-3" : "1e-5", worst[1]);
 
