@@ -250,7 +250,12 @@ typedef struct pb_blur_options {
  * centre from the rotation centre, |t|max the larger translation of its two
  * poses, |dt| the translation's change (all in mm), vmin the smallest voxel
  * size and E = max_path_error. A C2 curve leaves its chord over a piece of
- * parameter length h by at most h^2 max|p''| / 8. */
+ * parameter length h by at most h^2 max|p''| / 8. Then runs of consecutive
+ * segments (a 30 Hz log gives one per sample) are merged into one chord while
+ * every voxel, at every time, stays within E of its true path: the old
+ * polyline's largest distance from the chord (at the grid's corners, at the
+ * inner key poses) plus the pieces' own bound above. A steady motion logged at
+ * any rate is one segment. */
 PB_API pb_status pb_path_segments(const pb_geometry *geometry, const pb_motion *motion,
                                   const pb_blur_options *options, size_t *segments);
 

@@ -14,7 +14,19 @@
  * A C2 curve leaves its chord over a piece of length h by at most
  * h^2 max|o''| / 8, so n pieces (h = 1/n) keep every voxel within E when
  * n >= sqrt(D / (8 E)), D the bound above in voxels of the smallest size (a
- * distance of d mm is at most d / vmin voxels along any axis). */
+ * distance of d mm is at most d / vmin voxels along any axis).
+ *
+ * Then the other way: a motion log at 30 Hz or more gives far more key poses
+ * than a smooth motion needs (180 per 6 s frame, each one a walk per voxel).
+ * Runs of consecutive segments are merged into one chord while the chord still
+ * keeps every voxel within E of its true path at every time. For a merged run
+ * from pose i to pose k, the true path differs from the chord by at most
+ *     max over the inner poses m of |o_m - chord(t_m)|  (the old polyline
+ *         against the chord: both are linear in time between those poses)
+ *   + max over the run's pieces of h^2 D / 8             (the true path
+ *         against the old polyline, as above),
+ * and o_m - chord(t_m) is affine in the voxel's position, so its largest
+ * length over the grid is at one of the grid's 8 corner voxel centres. */
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -31,8 +43,8 @@ static double norm3(const double v[3])
     return sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
 }
 
-size_t pb_path_pieces(const pb_geometry *g, const double center[3], const pb_pose *a, const pb_pose *b,
-                      double max_error)
+/* The curvature bound D of one interval, in voxels (see above). */
+static double path_curvature(const pb_geometry *g, const double center[3], const pb_pose *a, const pb_pose *b)
 {
     const double *v = g->voxel_size;
     double vmin = fmin(v[0], fmin(v[1], v[2]));
@@ -47,52 +59,122 @@ size_t pb_path_pieces(const pb_geometry *g, const double center[3], const pb_pos
                     b->translation[2] - a->translation[2]};
     double theta = 2.0 * pb_quat_angle(a->rotation, b->rotation); /* the turn: twice SLERP's angle */
     double tmax = fmax(norm3(a->translation), norm3(b->translation));
-    double curvature = (theta * theta * (r + tmax) + 2.0 * theta * norm3(dt)) / vmin;
-    double n = ceil(sqrt(curvature / (8.0 * max_error)));
+    return (theta * theta * (r + tmax) + 2.0 * theta * norm3(dt)) / vmin;
+}
+
+size_t pb_path_pieces(const pb_geometry *g, const double center[3], const pb_pose *a, const pb_pose *b,
+                      double max_error)
+{
+    double n = ceil(sqrt(path_curvature(g, center, a, b) / (8.0 * max_error)));
     return n < 1.0 ? 1 : (n > (double)PB_MAX_SEGMENTS ? (size_t)PB_MAX_SEGMENTS + 1 : (size_t)n);
+}
+
+/* The longest run merged into one chord: bounds the merge's work at
+ * count x PB_MAX_RUN^2 corner checks. */
+enum { PB_MAX_RUN = 256 };
+
+/* Merges runs of the plan's segments into chords (see above); dev[j] bounds
+ * how far segment j's true path leaves its own chord, in voxels. Returns 0
+ * when out of memory (the plan is then unchanged). */
+static int merge_segments(pb_plan *plan, const double *dev, double max_error)
+{
+    size_t n = plan->count;
+    const double *v = plan->geometry.voxel_size;
+    double vmin = fmin(v[0], fmin(v[1], v[2]));
+    /* Every key pose's 8 corner voxel centres in object space (mm). */
+    double *corner = malloc(n * 24 * sizeof *corner);
+    if (!corner)
+        return 0;
+    for (size_t j = 0; j < n; j++)
+        for (int c = 0; c < 8; c++) {
+            double p[3];
+            for (int i = 0; i < 3; i++)
+                p[i] = ((c >> i & 1) ? ((double)plan->geometry.dims[i] - 0.5) : 0.5) * v[i];
+            pb_pose_apply_inverse(&plan->poses[j].pose, plan->center, p, &corner[24 * j + 3 * c]);
+        }
+    size_t kept = 1, i = 0;
+    while (i + 1 < n) {
+        size_t k = i + 1;
+        double curved = dev[i]; /* the run's pieces against their chords */
+        while (k + 1 < n && k + 1 - i <= PB_MAX_RUN) {
+            /* Would the chord i .. k + 1 keep every voxel within E? */
+            size_t e = k + 1;
+            double bend = fmax(curved, dev[k]), off = 0.0, span = plan->poses[e].time - plan->poses[i].time;
+            for (size_t m = i + 1; m < e && bend + off <= max_error; m++) {
+                double s = (plan->poses[m].time - plan->poses[i].time) / span;
+                for (int c = 0; c < 8; c++) {
+                    const double *a = &corner[24 * i + 3 * c], *b = &corner[24 * e + 3 * c],
+                                 *o = &corner[24 * m + 3 * c];
+                    double d[3] = {o[0] - (a[0] + s * (b[0] - a[0])), o[1] - (a[1] + s * (b[1] - a[1])),
+                                   o[2] - (a[2] + s * (b[2] - a[2]))};
+                    off = fmax(off, norm3(d) / vmin);
+                }
+            }
+            if (bend + off > max_error)
+                break;
+            curved = bend;
+            k = e;
+        }
+        plan->poses[kept++] = plan->poses[k];
+        i = k;
+    }
+    free(corner);
+    plan->count = kept;
+    return 1;
 }
 
 pb_status pb_plan_split(struct pb_context *ctx, pb_plan *plan, double max_error)
 {
     size_t total = 0, intervals = plan->count - 1;
     size_t *pieces = malloc(intervals * sizeof *pieces);
-    if (!pieces)
+    double *curvature = malloc(intervals * sizeof *curvature);
+    if (!pieces || !curvature) {
+        free(pieces);
+        free(curvature);
         return pb_error(ctx, PB_ERR_OUT_OF_MEMORY, "out of host memory planning the path");
+    }
     for (size_t j = 0; j < intervals; j++) {
-        pieces[j] = pb_path_pieces(&plan->geometry, plan->center, &plan->poses[j].pose, &plan->poses[j + 1].pose,
-                                   max_error);
+        const pb_pose *a = &plan->poses[j].pose, *b = &plan->poses[j + 1].pose;
+        curvature[j] = path_curvature(&plan->geometry, plan->center, a, b);
+        pieces[j] = pb_path_pieces(&plan->geometry, plan->center, a, b, max_error);
         total += pieces[j];
     }
     if (total > PB_MAX_SEGMENTS) {
         free(pieces);
+        free(curvature);
         return pb_error(ctx, PB_ERR_INVALID_ARGUMENT,
                         "max_path_error %g voxels would cut this motion into more than %d segments; raise it "
                         "(default %g)", max_error, (int)PB_MAX_SEGMENTS, PB_DEFAULT_MAX_PATH_ERROR);
     }
-    if (total == intervals) {
-        free(pieces);
-        return PB_OK;
-    }
     pb_plan_pose *poses = calloc(total + 1, sizeof *poses);
-    if (!poses) {
+    double *dev = malloc(total * sizeof *dev);
+    if (!poses || !dev) {
         free(pieces);
+        free(curvature);
+        free(poses);
+        free(dev);
         return pb_error(ctx, PB_ERR_OUT_OF_MEMORY, "out of host memory for %zu key poses", total + 1);
     }
     size_t k = 0;
     for (size_t j = 0; j < intervals; j++) {
         const pb_plan_pose *a = &plan->poses[j], *b = &plan->poses[j + 1];
+        double h = 1.0 / (double)pieces[j];
         for (size_t i = 0; i < pieces[j]; i++, k++) {
-            double s = (double)i / (double)pieces[j];
+            double s = (double)i * h;
             poses[k].time = a->time + s * (b->time - a->time);
             /* The same LERP and SLERP as the motion's own interpolation, so the
              * new key poses lie on the true path. */
             pb_pose_interpolate(&a->pose, &b->pose, s, &poses[k].pose);
+            dev[k] = h * h * curvature[j] / 8.0;
         }
     }
     poses[k] = plan->poses[intervals];
     free(plan->poses);
     free(pieces);
+    free(curvature);
     plan->poses = poses;
     plan->count = total + 1;
-    return PB_OK;
+    int merged = merge_segments(plan, dev, max_error);
+    free(dev);
+    return merged ? PB_OK : pb_error(ctx, PB_ERR_OUT_OF_MEMORY, "out of host memory merging the path's segments");
 }

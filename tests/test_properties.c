@@ -403,6 +403,84 @@ static void test_path_error(pb_context *ctx)
     free(out);
 }
 
+/* A 30 Hz motion log (181 poses over a 6 s frame) merged into chords within
+ * the path bound (src/path_split.c). A steady translation is one chord: one
+ * segment, and the blur equals the blur between the frame's two end poses. A
+ * slow turn keeps fewer segments than the log's 180, and its blur stays
+ * within what the bound allows of a blur cut 25 times finer: values of a
+ * smooth volume change by at most L per voxel moved (L: the volume's largest
+ * step along any axis, times sqrt 3), so two paths within E1 and E2 of the
+ * true path give blurs within (E1 + E2) L. */
+static void fill_track(pb_pose *poses, double *times, int turn)
+{
+    double axis[3] = {0.3, 0.2, 1.0}, v[3] = {pb_rand_range(-1, 1), pb_rand_range(-1, 1), pb_rand_range(-1, 1)};
+    double rate = turn ? pb_rand_range(1.5, 2.5) : 0.0; /* degrees per second */
+    for (int i = 0; i <= 180; i++) {
+        times[i] = i / 30.0;
+        poses[i] = pb_test_pose(v[0] * times[i], v[1] * times[i], v[2] * times[i], axis, rate * times[i]);
+    }
+}
+
+static void test_track_merge(pb_context *ctx)
+{
+    pb_geometry g = {{24, 20, 16}, {1.5, 1.5, 2.0}};
+    size_t n = 24 * 20 * 16;
+    float *in = malloc(n * sizeof *in), *merged = malloc(n * sizeof *merged), *fine = malloc(n * sizeof *fine);
+    double c[3] = {pb_rand_range(9, 14), pb_rand_range(8, 12), pb_rand_range(6, 9)}, step = 0.0;
+    for (size_t k = 0; k < n; k++) {
+        double x = (double)(k % 24) - c[0], y = (double)(k / 24 % 20) - c[1], z = (double)(k / 480) - c[2];
+        in[k] = (float)exp(-(x * x + y * y + z * z) / 18.0);
+    }
+    for (size_t k = 0; k < n; k++) {
+        if (k % 24 + 1 < 24)
+            step = fmax(step, fabs(in[k + 1] - in[k]));
+        if (k / 24 % 20 + 1 < 20)
+            step = fmax(step, fabs(in[k + 24] - in[k]));
+        if (k + 480 < n)
+            step = fmax(step, fabs(in[k + 480] - in[k]));
+    }
+    static pb_pose poses[181];
+    static double times[181];
+    for (int turn = 0; turn < 2; turn++) {
+        fill_track(poses, times, turn);
+        pb_motion m = {times, poses, 181, 0.0, 6.0, 0, {0, 0, 0}};
+        pb_blur_options opt = {PB_METHOD_AB, PB_FILTER_EXACT, 0, 0, 0, 0, 0.0};
+        pb_blur_options raw = opt, finer = opt;
+        raw.max_path_error = -1.0;
+        finer.max_path_error = 0.01;
+        size_t segs = 0, raw_segs = 0;
+        if (!pb_check(pb_path_segments(&g, &m, &opt, &segs) == PB_OK &&
+                          pb_path_segments(&g, &m, &raw, &raw_segs) == PB_OK,
+                      "track merge: pb_path_segments failed"))
+            continue;
+        printf("30 Hz track, %s: %zu segments (the log has %zu)\n", turn ? "slow turn" : "steady translation", segs,
+               raw_segs);
+        pb_check(raw_segs == 180, "track merge: without cuts the log gives %zu segments, expected 180", raw_segs);
+        if (!turn) {
+            pb_check(segs == 1, "track merge: a steady translation gives %zu segments, expected 1", segs);
+            pb_motion ends = {(double[]){0.0, 6.0}, (pb_pose[]){poses[0], poses[180]}, 2, 0.0, 6.0, 0, {0, 0, 0}};
+            if (pb_check(pb_test_blur(ctx, &g, in, &m, &opt, merged) == PB_OK &&
+                             pb_test_blur(ctx, &g, in, &ends, &opt, fine) == PB_OK,
+                         "track merge: blur failed")) {
+                double d = pb_max_abs_diff(merged, fine, n);
+                pb_check(d <= 1e-6, "track merge: the merged log differs from its two end poses by %.3g", d);
+            }
+        } else {
+            pb_check(segs >= 1 && segs < 180, "track merge: a slow turn keeps %zu segments of 180", segs);
+            if (pb_check(pb_test_blur(ctx, &g, in, &m, &opt, merged) == PB_OK &&
+                             pb_test_blur(ctx, &g, in, &m, &finer, fine) == PB_OK,
+                         "track merge: blur failed")) {
+                double d = pb_max_abs_diff(merged, fine, n), bound = (PB_DEFAULT_MAX_PATH_ERROR + 0.01) * step * sqrt(3.0);
+                printf("30 Hz slow turn: merged blur against a 25x finer bound: %.3g (bound %.3g)\n", d, bound);
+                pb_check(d <= bound, "track merge: merged blur differs by %.3g > %.3g", d, bound);
+            }
+        }
+    }
+    free(in);
+    free(merged);
+    free(fine);
+}
+
 int main(int argc, char **argv)
 {
     pb_test_seed();
@@ -413,6 +491,7 @@ int main(int argc, char **argv)
     test_analytic_translation(ctx);
     test_path_error(ctx);
     test_progress(ctx, pb_test_backend(argc, argv));
+    test_track_merge(ctx);
     pb_context_destroy(ctx);
     return pb_test_finish();
 }
