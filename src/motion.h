@@ -71,11 +71,10 @@ pb_status pb_plan_create(struct pb_context *ctx, const pb_geometry *geometry, co
                          const pb_blur_options *options, pb_plan *plan);
 void pb_plan_destroy(pb_plan *plan);
 
-/* Error-bounded polylines (path_split.c): the equal pieces the interval a-b
- * needs so that no voxel centre leaves its chord by more than max_error voxels,
- * and the plan with every interval so cut (maps and weights still to fill). */
-size_t pb_path_pieces(const pb_geometry *g, const double center[3], const pb_pose *a, const pb_pose *b,
-                      double max_error);
+/* Error-bounded polylines (path_split.c): the plan with every interval cut
+ * into the equal pieces that keep each voxel centre within max_error voxels of
+ * its chord, then runs of pieces merged into chords within the same bound
+ * (maps and weights still to fill). */
 pb_status pb_plan_split(struct pb_context *ctx, pb_plan *plan, double max_error);
 
 #endif

@@ -62,10 +62,10 @@ static double path_curvature(const pb_geometry *g, const double center[3], const
     return (theta * theta * (r + tmax) + 2.0 * theta * norm3(dt)) / vmin;
 }
 
-size_t pb_path_pieces(const pb_geometry *g, const double center[3], const pb_pose *a, const pb_pose *b,
-                      double max_error)
+/* The equal pieces an interval of curvature bound D needs: n = ceil(sqrt(D / (8 E))). */
+static size_t path_pieces(double curvature, double max_error)
 {
-    double n = ceil(sqrt(path_curvature(g, center, a, b) / (8.0 * max_error)));
+    double n = ceil(sqrt(curvature / (8.0 * max_error)));
     return n < 1.0 ? 1 : (n > (double)PB_MAX_SEGMENTS ? (size_t)PB_MAX_SEGMENTS + 1 : (size_t)n);
 }
 
@@ -136,7 +136,7 @@ pb_status pb_plan_split(struct pb_context *ctx, pb_plan *plan, double max_error)
     for (size_t j = 0; j < intervals; j++) {
         const pb_pose *a = &plan->poses[j].pose, *b = &plan->poses[j + 1].pose;
         curvature[j] = path_curvature(&plan->geometry, plan->center, a, b);
-        pieces[j] = pb_path_pieces(&plan->geometry, plan->center, a, b, max_error);
+        pieces[j] = path_pieces(curvature[j], max_error);
         total += pieces[j];
     }
     if (total > PB_MAX_SEGMENTS) {
