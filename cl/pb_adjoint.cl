@@ -74,9 +74,7 @@ PB_FN void pb_slice_scatter(PB_GLOBAL float *out, pb_kparams prm, int major, flo
     }
 }
 
-/* Transpose of pb_ab_segment. The forward divides by the float sum of the
- * shares at the end; the scatter needs that sum before its first slice, so the
- * partial shares are computed twice (they are a few flops each). */
+/* Transpose of pb_ab_segment: the same slices, shares and points. */
 PB_FN void pb_ab_segment_adjoint(PB_GLOBAL float *out, pb_kparams prm, const float *a, const float *b, float v)
 {
     pb_ab_walk w;
@@ -84,19 +82,23 @@ PB_FN void pb_ab_segment_adjoint(PB_GLOBAL float *out, pb_kparams prm, const flo
         pb_trilinear_scatter(out, prm, 0.5f * (a[0] + b[0]), 0.5f * (a[1] + b[1]), 0.5f * (a[2] + b[2]), v);
         return;
     }
-    float wsum = (float)(w.f1 - w.f0 + 1), mean;
-    for (int k = w.k0; k <= w.k1; k = pb_ab_next_partial(&w, k))
-        wsum += pb_tent_share(w.lo - (float)k, w.hi - (float)k, &mean);
+    int pk[4];
+    float ps[4], pm[4];
+    pb_ab_partials(&w, pk, ps, pm);
+    float wsum = (float)(w.f1 - w.f0 + 1);
+    for (int i = 0; i < 4; i++)
+        wsum += ps[i];
     float vw = v / wsum;
     for (int k = w.f0; k <= w.f1; k++) {
         float kf = (float)k;
         pb_slice_scatter(out, prm, w.m, kf * w.g[0] + w.c[0], kf * w.g[1] + w.c[1], kf * w.g[2] + w.c[2], vw);
     }
-    for (int k = w.k0; k <= w.k1; k = pb_ab_next_partial(&w, k)) {
-        float kf = (float)k;
-        float s = pb_tent_share(w.lo - kf, w.hi - kf, &mean);
-        pb_slice_scatter(out, prm, w.m, kf * w.g[0] + w.c[0] + mean * w.h[0], kf * w.g[1] + w.c[1] + mean * w.h[1],
-                         kf * w.g[2] + w.c[2] + mean * w.h[2], s * vw);
+    for (int i = 0; i < 4; i++) {
+        float kf = (float)pk[i];
+        if (ps[i] > 0.0f)
+            pb_slice_scatter(out, prm, w.m, kf * w.g[0] + w.c[0] + pm[i] * w.h[0],
+                             kf * w.g[1] + w.c[1] + pm[i] * w.h[1], kf * w.g[2] + w.c[2] + pm[i] * w.h[2],
+                             ps[i] * vw);
     }
 }
 
@@ -140,13 +142,7 @@ PB_FN void pb_classical_adjoint(PB_GLOBAL float *out, PB_GLOBAL_RO pb_kpose *pos
 {
     float u[3] = {(float)ix + 0.5f, (float)iy + 0.5f, (float)iz + 0.5f};
     for (int j = 0; j < prm.segments; j++) {
-        int n = prm.steps;
-        if (n == 0) {
-            float a[3], b[3];
-            pb_map_point(poses[j].map, u[0], u[1], u[2], a);
-            pb_map_point(poses[j + 1].map, u[0], u[1], u[2], b);
-            n = pb_ab_slices(a, b);
-        }
+        int n = pb_classical_steps(poses, j, prm, u);
         float vn = v * poses[j].weight / (float)n;
         for (int i = 0; i < n; i++) {
             float o[3];

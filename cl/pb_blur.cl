@@ -154,17 +154,30 @@ PB_FN int pb_ab_walk_init(const float *a, const float *b, pb_ab_walk *w)
     w->f0 = (int)ceil(w->lo + 1.0f);
     w->f1 = (int)floor(w->hi - 1.0f);
     if (w->f1 < w->f0) {
-        w->f0 = w->k1 + 1; /* none: the end-slice loop takes every slice */
+        w->f0 = w->k1 + 1; /* none: every slice is an end slice */
         w->f1 = w->k1;
     }
     return 0;
 }
 
-/* The next partly covered slice after k: the loop over k0 .. f0 - 1 and
- * f1 + 1 .. k1 steps over the fully covered ones. */
-PB_FN int pb_ab_next_partial(const pb_ab_walk *w, int k)
+/* The partly covered slices, at most four: with fully covered ones, one or
+ * two at each end (k0 .. f0 - 1 and f1 + 1 .. k1); without, k0 .. k1, at most
+ * four (a path shorter than three voxels). Slot i gets slice k[i] with its tent
+ * share s[i] and sample offset mean[i]; an unused slot gets share 0. Fixed
+ * slots, not a loop, because the forward issues their fetches before the
+ * full-slice loop: a short segment (many per path under the error bound) then
+ * waits for its fetches about once instead of once per end slice. */
+PB_FN void pb_ab_partials(const pb_ab_walk *w, int *k, float *s, float *mean)
 {
-    return k + 1 == w->f0 ? w->f1 + 1 : k + 1;
+    int none = w->f0 > w->k1;
+    int second = none ? w->k0 + 2 : w->f1 + 1;
+    for (int i = 0; i < 4; i++) {
+        k[i] = i < 2 ? w->k0 + i : second + i - 2;
+        int used = i < 2 ? k[i] < w->f0 && k[i] <= w->k1 : k[i] <= w->k1;
+        float kf = (float)k[i];
+        s[i] = pb_tent_share(w->lo - kf, w->hi - kf, &mean[i]);
+        s[i] = used ? s[i] : 0.0f;
+    }
 }
 
 PB_FN float pb_ab_segment(pb_image img, int exact, const float *a, const float *b)
@@ -175,6 +188,17 @@ PB_FN float pb_ab_segment(pb_image img, int exact, const float *a, const float *
          * trilinear weights, and a trilinear sample costs one fetch. */
         return pb_trilinear(img, exact, 0.5f * (a[0] + b[0]), 0.5f * (a[1] + b[1]), 0.5f * (a[2] + b[2]));
     }
+    /* The end slices' fetches go out first (see pb_ab_partials). */
+    int pk[4];
+    float ps[4], pm[4], pv[4];
+    pb_ab_partials(&w, pk, ps, pm);
+    for (int i = 0; i < 4; i++) {
+        float kf = (float)pk[i];
+        pv[i] = ps[i] > 0.0f ? pb_slice_sample(img, exact, w.m, kf * w.g[0] + w.c[0] + pm[i] * w.h[0],
+                                               kf * w.g[1] + w.c[1] + pm[i] * w.h[1],
+                                               kf * w.g[2] + w.c[2] + pm[i] * w.h[2])
+                             : 0.0f;
+    }
     /* The fully covered slices get a loop of their own, free of branches, so
      * the compiler can keep several fetches in flight. */
     float sum = 0.0f;
@@ -183,12 +207,9 @@ PB_FN float pb_ab_segment(pb_image img, int exact, const float *a, const float *
         sum += pb_slice_sample(img, exact, w.m, kf * w.g[0] + w.c[0], kf * w.g[1] + w.c[1], kf * w.g[2] + w.c[2]);
     }
     float wsum = (float)(w.f1 - w.f0 + 1);
-    for (int k = w.k0; k <= w.k1; k = pb_ab_next_partial(&w, k)) {
-        float kf = (float)k, mean;
-        float s = pb_tent_share(w.lo - kf, w.hi - kf, &mean);
-        sum += s * pb_slice_sample(img, exact, w.m, kf * w.g[0] + w.c[0] + mean * w.h[0],
-                                   kf * w.g[1] + w.c[1] + mean * w.h[1], kf * w.g[2] + w.c[2] + mean * w.h[2]);
-        wsum += s;
+    for (int i = 0; i < 4; i++) {
+        sum += ps[i] * pv[i];
+        wsum += ps[i];
     }
     /* The shares add up to the path length; dividing by their float sum makes
      * the weights sum to 1 exactly as the walk computed them. */
@@ -278,6 +299,18 @@ PB_FN float pb_polyline(pb_image img, PB_GLOBAL_RO pb_kpose *poses, pb_kparams p
     return total;
 }
 
+/* Classical motion blur's steps on segment j: prm.steps, or as many as AB has
+ * slices between the segment's end points. */
+PB_FN int pb_classical_steps(PB_GLOBAL_RO pb_kpose *poses, int j, pb_kparams prm, const float *u)
+{
+    if (prm.steps > 0)
+        return prm.steps;
+    float a[3], b[3];
+    pb_map_point(poses[j].map, u[0], u[1], u[2], a);
+    pb_map_point(poses[j + 1].map, u[0], u[1], u[2], b);
+    return pb_ab_slices(a, b);
+}
+
 /* Classical motion blur: the pose interpolated at every step. */
 PB_FN float pb_classical(pb_image img, PB_GLOBAL_RO pb_kpose *poses, pb_kparams prm, int ix, int iy, int iz,
                          int exact)
@@ -285,13 +318,7 @@ PB_FN float pb_classical(pb_image img, PB_GLOBAL_RO pb_kpose *poses, pb_kparams 
     float u[3] = {(float)ix + 0.5f, (float)iy + 0.5f, (float)iz + 0.5f};
     float total = 0.0f;
     for (int j = 0; j < prm.segments; j++) {
-        int n = prm.steps;
-        if (n == 0) {
-            float a[3], b[3];
-            pb_map_point(poses[j].map, u[0], u[1], u[2], a);
-            pb_map_point(poses[j + 1].map, u[0], u[1], u[2], b);
-            n = pb_ab_slices(a, b);
-        }
+        int n = pb_classical_steps(poses, j, prm, u);
         float seg = 0.0f;
         for (int i = 0; i < n; i++) {
             float o[3];
