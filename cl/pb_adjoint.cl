@@ -74,7 +74,9 @@ PB_FN void pb_slice_scatter(PB_GLOBAL float *out, pb_kparams prm, int major, flo
     }
 }
 
-/* Transpose of pb_ab_segment: the same slices, shares and points. */
+/* Transpose of pb_ab_segment. The forward divides by the float sum of the
+ * shares at the end; the scatter needs that sum before its first slice, so the
+ * partial shares are computed twice (they are a few flops each). */
 PB_FN void pb_ab_segment_adjoint(PB_GLOBAL float *out, pb_kparams prm, const float *a, const float *b, float v)
 {
     pb_ab_walk w;
@@ -82,23 +84,19 @@ PB_FN void pb_ab_segment_adjoint(PB_GLOBAL float *out, pb_kparams prm, const flo
         pb_trilinear_scatter(out, prm, 0.5f * (a[0] + b[0]), 0.5f * (a[1] + b[1]), 0.5f * (a[2] + b[2]), v);
         return;
     }
-    int pk[4];
-    float ps[4], pm[4];
-    pb_ab_partials(&w, pk, ps, pm);
-    float wsum = (float)(w.f1 - w.f0 + 1);
-    for (int i = 0; i < 4; i++)
-        wsum += ps[i];
-    float vw = v / wsum;
+    float wsum = (float)(w.f1 - w.f0 + 1), mean;
+    for (int k = w.k0; k <= w.k1; k = pb_ab_next_partial(&w, k))
+        wsum += pb_tent_share(w.lo - (float)k, w.hi - (float)k, &mean);
+    float vw = PB_DIV(v, wsum);
     for (int k = w.f0; k <= w.f1; k++) {
         float kf = (float)k;
         pb_slice_scatter(out, prm, w.m, kf * w.g[0] + w.c[0], kf * w.g[1] + w.c[1], kf * w.g[2] + w.c[2], vw);
     }
-    for (int i = 0; i < 4; i++) {
-        float kf = (float)pk[i];
-        if (ps[i] > 0.0f)
-            pb_slice_scatter(out, prm, w.m, kf * w.g[0] + w.c[0] + pm[i] * w.h[0],
-                             kf * w.g[1] + w.c[1] + pm[i] * w.h[1], kf * w.g[2] + w.c[2] + pm[i] * w.h[2],
-                             ps[i] * vw);
+    for (int k = w.k0; k <= w.k1; k = pb_ab_next_partial(&w, k)) {
+        float kf = (float)k;
+        float s = pb_tent_share(w.lo - kf, w.hi - kf, &mean);
+        pb_slice_scatter(out, prm, w.m, kf * w.g[0] + w.c[0] + mean * w.h[0], kf * w.g[1] + w.c[1] + mean * w.h[1],
+                         kf * w.g[2] + w.c[2] + mean * w.h[2], s * vw);
     }
 }
 
@@ -119,10 +117,7 @@ PB_FN void pb_polyline_adjoint(PB_GLOBAL float *out, PB_GLOBAL_RO pb_kpose *pose
             float inv = 1.0f / (float)prm.steps;
             for (int r = 0; r < prm.steps; r++) {
                 float pa[3], pb[3];
-                for (int i = 0; i < 3; i++) {
-                    pa[i] = a[i] + (b[i] - a[i]) * ((float)r * inv);
-                    pb[i] = a[i] + (b[i] - a[i]) * ((float)(r + 1) * inv);
-                }
+                pb_ab_piece(a, b, r, prm.steps, inv, pa, pb);
                 pb_ab_segment_adjoint(out, prm, pa, pb, vj * inv);
             }
         } else {

@@ -108,7 +108,7 @@ PB_FN float pb_tent_share(float r0, float r1, float *mean)
         w += l * t;
         mo += l * (c * t - l * l * (1.0f / 12.0f));
     }
-    *mean = w > 0.0f ? mo / w : 0.0f;
+    *mean = w > 0.0f ? PB_DIV(mo, w) : 0.0f;
     return w;
 }
 
@@ -140,7 +140,7 @@ PB_FN int pb_ab_walk_init(const float *a, const float *b, pb_ab_walk *w)
     w->hi = fmax(am, bm);
     if (w->hi - w->lo < 1e-4f)
         return 1;
-    float inv = 1.0f / (bm - am);
+    float inv = PB_DIV(1.0f, bm - am);
     /* G: the path's step per slice; C: its point on plane k = 0. */
     for (int i = 0; i < 3; i++) {
         float g = (b[i] - a[i]) * inv;
@@ -154,30 +154,17 @@ PB_FN int pb_ab_walk_init(const float *a, const float *b, pb_ab_walk *w)
     w->f0 = (int)ceil(w->lo + 1.0f);
     w->f1 = (int)floor(w->hi - 1.0f);
     if (w->f1 < w->f0) {
-        w->f0 = w->k1 + 1; /* none: every slice is an end slice */
+        w->f0 = w->k1 + 1; /* none: the end-slice loop takes every slice */
         w->f1 = w->k1;
     }
     return 0;
 }
 
-/* The partly covered slices, at most four: with fully covered ones, one or
- * two at each end (k0 .. f0 - 1 and f1 + 1 .. k1); without, k0 .. k1, at most
- * four (a path shorter than three voxels). Slot i gets slice k[i] with its tent
- * share s[i] and sample offset mean[i]; an unused slot gets share 0. Fixed
- * slots, not a loop, because the forward issues their fetches before the
- * full-slice loop: a short segment (many per path under the error bound) then
- * waits for its fetches about once instead of once per end slice. */
-PB_FN void pb_ab_partials(const pb_ab_walk *w, int *k, float *s, float *mean)
+/* The next partly covered slice after k: the loop over k0 .. f0 - 1 and
+ * f1 + 1 .. k1 steps over the fully covered ones. */
+PB_FN int pb_ab_next_partial(const pb_ab_walk *w, int k)
 {
-    int none = w->f0 > w->k1;
-    int second = none ? w->k0 + 2 : w->f1 + 1;
-    for (int i = 0; i < 4; i++) {
-        k[i] = i < 2 ? w->k0 + i : second + i - 2;
-        int used = i < 2 ? k[i] < w->f0 && k[i] <= w->k1 : k[i] <= w->k1;
-        float kf = (float)k[i];
-        s[i] = pb_tent_share(w->lo - kf, w->hi - kf, &mean[i]);
-        s[i] = used ? s[i] : 0.0f;
-    }
+    return k + 1 == w->f0 ? w->f1 + 1 : k + 1;
 }
 
 PB_FN float pb_ab_segment(pb_image img, int exact, const float *a, const float *b)
@@ -188,17 +175,6 @@ PB_FN float pb_ab_segment(pb_image img, int exact, const float *a, const float *
          * trilinear weights, and a trilinear sample costs one fetch. */
         return pb_trilinear(img, exact, 0.5f * (a[0] + b[0]), 0.5f * (a[1] + b[1]), 0.5f * (a[2] + b[2]));
     }
-    /* The end slices' fetches go out first (see pb_ab_partials). */
-    int pk[4];
-    float ps[4], pm[4], pv[4];
-    pb_ab_partials(&w, pk, ps, pm);
-    for (int i = 0; i < 4; i++) {
-        float kf = (float)pk[i];
-        pv[i] = ps[i] > 0.0f ? pb_slice_sample(img, exact, w.m, kf * w.g[0] + w.c[0] + pm[i] * w.h[0],
-                                               kf * w.g[1] + w.c[1] + pm[i] * w.h[1],
-                                               kf * w.g[2] + w.c[2] + pm[i] * w.h[2])
-                             : 0.0f;
-    }
     /* The fully covered slices get a loop of their own, free of branches, so
      * the compiler can keep several fetches in flight. */
     float sum = 0.0f;
@@ -207,13 +183,16 @@ PB_FN float pb_ab_segment(pb_image img, int exact, const float *a, const float *
         sum += pb_slice_sample(img, exact, w.m, kf * w.g[0] + w.c[0], kf * w.g[1] + w.c[1], kf * w.g[2] + w.c[2]);
     }
     float wsum = (float)(w.f1 - w.f0 + 1);
-    for (int i = 0; i < 4; i++) {
-        sum += ps[i] * pv[i];
-        wsum += ps[i];
+    for (int k = w.k0; k <= w.k1; k = pb_ab_next_partial(&w, k)) {
+        float kf = (float)k, mean;
+        float s = pb_tent_share(w.lo - kf, w.hi - kf, &mean);
+        sum += s * pb_slice_sample(img, exact, w.m, kf * w.g[0] + w.c[0] + mean * w.h[0],
+                                   kf * w.g[1] + w.c[1] + mean * w.h[1], kf * w.g[2] + w.c[2] + mean * w.h[2]);
+        wsum += s;
     }
     /* The shares add up to the path length; dividing by their float sum makes
      * the weights sum to 1 exactly as the walk computed them. */
-    return sum / wsum;
+    return PB_DIV(sum, wsum);
 }
 
 /* p' = R(q)^T p for a unit quaternion q = (w, v): p - 2w (v x p) + 2 v x (v x p). */
@@ -254,16 +233,23 @@ PB_FN void pb_classical_point(PB_GLOBAL_RO pb_kpose *p0, PB_GLOBAL_RO pb_kpose *
         o[i] = (r[i] + prm.center[i]) / prm.voxel[i];
 }
 
+/* Piece r of a-b cut into `steps` equal pieces; the first starts at a and the
+ * last ends at b exactly (with one piece, the usual case, that is all). */
+PB_FN void pb_ab_piece(const float *a, const float *b, int r, int steps, float inv, float *pa, float *pb)
+{
+    for (int i = 0; i < 3; i++) {
+        pa[i] = r == 0 ? a[i] : a[i] + (b[i] - a[i]) * ((float)r * inv);
+        pb[i] = r + 1 == steps ? b[i] : a[i] + (b[i] - a[i]) * ((float)(r + 1) * inv);
+    }
+}
+
 /* AB over one segment, split into prm.steps equal sub-segments. */
 PB_FN float pb_ab_sampled(pb_image img, pb_kparams prm, int exact, const float *a, const float *b)
 {
     float sum = 0.0f, inv = 1.0f / (float)prm.steps;
     for (int r = 0; r < prm.steps; r++) {
         float pa[3], pb[3];
-        for (int i = 0; i < 3; i++) {
-            pa[i] = a[i] + (b[i] - a[i]) * ((float)r * inv);
-            pb[i] = a[i] + (b[i] - a[i]) * ((float)(r + 1) * inv);
-        }
+        pb_ab_piece(a, b, r, prm.steps, inv, pa, pb);
         sum += pb_ab_segment(img, exact, pa, pb);
     }
     return sum * inv;

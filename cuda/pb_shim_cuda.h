@@ -36,6 +36,8 @@ typedef cudaTextureObject_t pb_image;
 
 /* The adjoint's scatter; with its result unused nvcc emits RED.ADD.F32. */
 #define PB_ATOMIC_ADD(p, v) atomicAdd((p), (v))
+/* A division off the precise path (2 ulp); why: cl/pb_shim.h. */
+#define PB_DIV(a, b) __fdividef((a), (b))
 
 /* Float maths: for float arguments C++ overloads pick the float versions
  * (floorf, fabsf, fmaxf, sinf, sqrtf), as OpenCL C does. (The only double code
