@@ -294,6 +294,19 @@ PB_API pb_status pb_blur_frames(pb_context *ctx, const pb_volume *const *objects
                                 const double *bounds, size_t frames, const pb_blur_options *options,
                                 pb_volume *const *tomographs);
 
+/* The transpose of pb_blur_frames, for back projection in dynamic or
+ * motion-compensated reconstruction: frame i's tomograph-space volume
+ * tomographs[i] goes back through frame i's part of the track into
+ * objects[i]. Frames that name one object volume get the sum of their back
+ * projections in it (the transpose of one activity blurred into every frame:
+ * a motion-compensated image from all frames); otherwise objects[i] equals
+ * pb_blur_adjoint of frame i. The same checks as pb_blur_frames, except that
+ * objects may repeat: an object must not be any frame's tomograph.
+ * pb_context_last_kernel_ms then gives the frames' total. */
+PB_API pb_status pb_blur_frames_adjoint(pb_context *ctx, const pb_volume *const *tomographs, const pb_motion *track,
+                                        const double *bounds, size_t frames, const pb_blur_options *options,
+                                        pb_volume *const *objects);
+
 /* The paper's eq. (5): 100 * sum (x - ref)^2 / sum ref^2 over n voxels, in
  * double. Returns NaN when ref is all zeros. */
 PB_API double pb_error_percent(const float *reference, const float *x, size_t n);

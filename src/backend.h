@@ -25,9 +25,11 @@ typedef struct pb_backend_ops {
     pb_status (*blur)(struct pb_context *ctx, const struct pb_volume *object, const pb_plan *plan,
                       const pb_blur_options *options, struct pb_volume *tomograph);
     /* The transpose of blur with the same plan: reads tomograph, overwrites
-     * object; sets ctx->last_kernel_ms. */
+     * object, or with accumulate adds into it (frames that share an object:
+     * the transpose of one volume blurred into many is the sum of their
+     * back projections); sets ctx->last_kernel_ms. */
     pb_status (*adjoint)(struct pb_context *ctx, const struct pb_volume *tomograph, const pb_plan *plan,
-                         const pb_blur_options *options, struct pb_volume *object);
+                         const pb_blur_options *options, struct pb_volume *object, int accumulate);
     /* pb_blur_frames without progress: frame i blurs objects[i] into
      * tomographs[i] with plans[i], exactly as blur would; the launches are
      * queued back to back and waited for once, so the device never idles

@@ -438,7 +438,7 @@ static pb_status cuda_blur_batch(pb_context *ctx, size_t frames, const pb_volume
 }
 
 static pb_status cuda_adjoint(pb_context *ctx, const pb_volume *tomograph, const pb_plan *plan,
-                              const pb_blur_options *opt, pb_volume *object)
+                              const pb_blur_options *opt, pb_volume *object, int accumulate)
 {
     cu_impl *cu = ctx->impl;
     pb_status st = use_device(ctx);
@@ -458,7 +458,7 @@ static pb_status cuda_adjoint(pb_context *ctx, const pb_volume *tomograph, const
     cudaError_t e = cudaEventRecord(cu->start, cu->stream);
     if (e != cudaSuccess)
         return cu_fail(ctx, PB_ERR_LAUNCH, "cudaEventRecord", e);
-    if ((e = cudaMemsetAsync(out->buffer, 0, object->count * sizeof(float), cu->stream)) != cudaSuccess)
+    if (!accumulate && (e = cudaMemsetAsync(out->buffer, 0, object->count * sizeof(float), cu->stream)) != cudaSuccess)
         return cu_fail(ctx, PB_ERR_DEVICE, "cudaMemsetAsync", e);
     e = pb_cuda_launch_adjoint(pb_adjoint_index((int)opt->method), in->buffer, cu->plan, &prm, out->buffer,
                                cu->stream);

@@ -300,9 +300,10 @@ static pb_status host_blur(pb_context *ctx, const pb_volume *object, const pb_pl
     return PB_OK;
 }
 
-/* The transpose, summed in double and rounded once. */
+/* The transpose, summed in double and rounded once (onto the object's own
+ * values with accumulate). */
 static pb_status host_adjoint(pb_context *ctx, const pb_volume *tomograph, const pb_plan *plan,
-                              const pb_blur_options *opt, pb_volume *object)
+                              const pb_blur_options *opt, pb_volume *object, int accumulate)
 {
     struct timespec t0;
     clock_gettime(CLOCK_MONOTONIC, &t0);
@@ -313,6 +314,9 @@ static pb_status host_adjoint(pb_context *ctx, const pb_volume *tomograph, const
                         object->count * 8.0 / 1048576.0);
     host_io io = {NULL, acc, {(long)d[0], (long)d[1], (long)d[2]}};
     const float *in = tomograph->impl;
+    float *out = object->impl;
+    for (size_t i = 0; accumulate && i < object->count; i++)
+        acc[i] = out[i];
     for (long iz = 0; iz < io.n[2]; iz++) {
         for (long iy = 0; iy < io.n[1]; iy++)
             for (long ix = 0; ix < io.n[0]; ix++) {
@@ -323,7 +327,6 @@ static pb_status host_adjoint(pb_context *ctx, const pb_volume *tomograph, const
         if (ctx->progress && iz + 1 < io.n[2])
             ctx->progress((double)(iz + 1) / (double)io.n[2], ctx->progress_user);
     }
-    float *out = object->impl;
     for (size_t i = 0; i < object->count; i++)
         out[i] = (float)acc[i];
     free(acc);

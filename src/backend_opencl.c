@@ -523,7 +523,7 @@ static cl_int zero_buffer(pb_context *ctx, cl_mem buffer, size_t bytes)
 }
 
 static pb_status ocl_adjoint(pb_context *ctx, const pb_volume *tomograph, const pb_plan *plan,
-                             const pb_blur_options *opt, pb_volume *object)
+                             const pb_blur_options *opt, pb_volume *object, int accumulate)
 {
     cl_impl *cl = ctx->impl;
     cl_mem poses;
@@ -545,7 +545,8 @@ static pb_status ocl_adjoint(pb_context *ctx, const pb_volume *tomograph, const 
         clReleaseMemObject(poses);
         return cl_fail(ctx, PB_ERR_LAUNCH, "clSetKernelArg", e);
     }
-    e = zero_buffer(ctx, out->buffer, object->count * sizeof(float));
+    if (!accumulate)
+        e = zero_buffer(ctx, out->buffer, object->count * sizeof(float));
     if (e != CL_SUCCESS) {
         clReleaseMemObject(poses);
         return cl_fail(ctx, PB_ERR_DEVICE, "clEnqueueFillBuffer", e);

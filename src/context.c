@@ -412,7 +412,7 @@ static pb_status apply(pb_context *ctx, const pb_volume *in, const pb_motion *mo
     if (st != PB_OK)
         return st;
     ctx->last_kernel_ms = 0.0;
-    st = adjoint ? ctx->ops->adjoint(ctx, in, &plan, &opt, out) : ctx->ops->blur(ctx, in, &plan, &opt, out);
+    st = adjoint ? ctx->ops->adjoint(ctx, in, &plan, &opt, out, 0) : ctx->ops->blur(ctx, in, &plan, &opt, out);
     pb_plan_destroy(&plan);
     if (st == PB_OK && ctx->progress)
         ctx->progress(1.0, ctx->progress_user);

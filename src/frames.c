@@ -4,7 +4,10 @@
  * pb_blur would run it. An object volume shared by several frames stays on
  * the device: its image or texture is refreshed once, not per frame. Device
  * backends queue the frames back to back and wait once (blur_batch), unless a
- * progress report asks for a wait per frame. */
+ * progress report asks for a wait per frame. The adjoint runs the same frames
+ * the other way round, with a wait per frame (each is milliseconds of
+ * atomics); frames that share an object volume sum into it, which makes it the
+ * transpose of pb_blur_frames with the same arguments. */
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -26,10 +29,14 @@ static void frame_progress(double fraction, void *user)
         p->fn(f, p->user);
 }
 
-static pb_status check_frames(pb_context *ctx, const pb_volume *const *objects, const pb_motion *track,
-                              const double *bounds, size_t frames, pb_volume *const *tomographs)
+/* The frames' arguments: ins[i] is read and outs[i] written (the forward
+ * reads objects and writes tomographs, the adjoint the other way round).
+ * shared_out: several frames may name one output (the adjoint sums into it). */
+static pb_status check_frames(pb_context *ctx, const pb_volume *const *ins, const pb_motion *track,
+                              const double *bounds, size_t frames, pb_volume *const *outs, int adjoint)
 {
-    if (!objects || !track || !bounds || !tomographs)
+    const char *in_name = adjoint ? "tomograph" : "object", *out_name = adjoint ? "object" : "tomograph";
+    if (!ins || !track || !bounds || !outs)
         return pb_error(ctx, PB_ERR_INVALID_ARGUMENT, "objects, track, bounds and tomographs must not be NULL");
     if (frames == 0)
         return pb_error(ctx, PB_ERR_INVALID_ARGUMENT, "no frames: give at least one frame (two bounds)");
@@ -41,27 +48,28 @@ static pb_status check_frames(pb_context *ctx, const pb_volume *const *objects, 
         if (!(bounds[i + 1] > bounds[i]))
             return pb_error(ctx, PB_ERR_BAD_FRAME, "frame %zu ends at %.9g s, not after its start %.9g s; frame "
                             "bounds must increase", i, bounds[i + 1], bounds[i]);
-    /* A frame's output must not be another frame's input, nor another
-     * frame's output: either would be overwritten before it is used. */
+    /* A frame's output must not be another frame's input, which it would
+     * overwrite before it is read; nor, forward, another frame's output. */
     for (size_t i = 0; i < frames; i++)
         for (size_t j = 0; j < frames; j++) {
-            if (tomographs[i] && tomographs[i] == objects[j])
-                return pb_error(ctx, PB_ERR_INVALID_ARGUMENT, "frame %zu's tomograph is frame %zu's object; give "
-                                "every frame an output volume of its own", i, j);
-            if (i < j && tomographs[i] && tomographs[i] == tomographs[j])
+            if (outs[i] && outs[i] == ins[j])
+                return pb_error(ctx, PB_ERR_INVALID_ARGUMENT, "frame %zu's %s (its output) is frame %zu's %s (an "
+                                "input); give every frame an output volume of its own", i, out_name, j, in_name);
+            if (!adjoint && i < j && outs[i] && outs[i] == outs[j])
                 return pb_error(ctx, PB_ERR_INVALID_ARGUMENT, "frames %zu and %zu share one tomograph volume; "
                                 "give every frame an output volume of its own", i, j);
         }
     return PB_OK;
 }
 
-pb_status pb_blur_frames(pb_context *ctx, const pb_volume *const *objects, const pb_motion *track,
-                         const double *bounds, size_t frames, const pb_blur_options *options,
-                         pb_volume *const *tomographs)
+/* Both directions: every frame checked and planned, then run in order. */
+static pb_status run_frames(pb_context *ctx, const pb_volume *const *ins, const pb_motion *track,
+                            const double *bounds, size_t frames, const pb_blur_options *options,
+                            pb_volume *const *outs, int adjoint)
 {
     if (!ctx)
         return pb_error(NULL, PB_ERR_INVALID_ARGUMENT, "ctx must not be NULL");
-    pb_status st = check_frames(ctx, objects, track, bounds, frames, tomographs);
+    pb_status st = check_frames(ctx, ins, track, bounds, frames, outs, adjoint);
     if (st != PB_OK)
         return st;
     pb_blur_options opt;
@@ -73,27 +81,38 @@ pb_status pb_blur_frames(pb_context *ctx, const pb_volume *const *objects, const
         pb_motion m = *track;
         m.frame_start = bounds[planned];
         m.frame_end = bounds[planned + 1];
-        st = pb_blur_prepare(ctx, objects[planned], options, tomographs[planned], &opt);
+        const pb_volume *in = ins[planned];
+        st = adjoint ? pb_blur_prepare(ctx, outs[planned], options, in, &opt)
+                     : pb_blur_prepare(ctx, in, options, outs[planned], &opt);
         if (st == PB_OK)
-            st = pb_plan_create(ctx, &objects[planned]->geometry, &m, &opt, &plans[planned]);
+            st = pb_plan_create(ctx, &in->geometry, &m, &opt, &plans[planned]);
         if (st != PB_OK) {
             char where[96];
-            snprintf(where, sizeof where, " (frame %zu of %zu; no frame was blurred)", planned, frames);
+            snprintf(where, sizeof where, " (frame %zu of %zu; no frame was %s)", planned, frames,
+                     adjoint ? "back projected" : "blurred");
             pb_error_append(ctx, where);
         }
     }
     frames_progress prog = {ctx->progress, ctx->progress_user, 0, frames};
     double total = 0.0;
-    if (st == PB_OK && !ctx->progress && ctx->ops->blur_batch) {
+    if (st == PB_OK && !adjoint && !ctx->progress && ctx->ops->blur_batch) {
         /* Queued back to back: progress would need a wait per frame. */
-        st = ctx->ops->blur_batch(ctx, frames, objects, plans, &opt, tomographs);
+        st = ctx->ops->blur_batch(ctx, frames, ins, plans, &opt, outs);
         total = ctx->last_kernel_ms;
     } else if (st == PB_OK) {
         if (ctx->progress)
             ctx->progress = frame_progress, ctx->progress_user = &prog;
         for (size_t i = 0; i < frames && st == PB_OK; i++) {
             prog.done = i;
-            st = ctx->ops->blur(ctx, objects[i], &plans[i], &opt, tomographs[i]);
+            if (adjoint) {
+                /* The first frame into an object overwrites it, later ones add. */
+                int seen = 0;
+                for (size_t j = 0; j < i; j++)
+                    seen |= outs[j] == outs[i];
+                st = ctx->ops->adjoint(ctx, ins[i], &plans[i], &opt, outs[i], seen);
+            } else {
+                st = ctx->ops->blur(ctx, ins[i], &plans[i], &opt, outs[i]);
+            }
             total += ctx->last_kernel_ms;
         }
     }
@@ -108,4 +127,18 @@ pb_status pb_blur_frames(pb_context *ctx, const pb_volume *const *objects, const
     if (st == PB_OK && ctx->progress)
         ctx->progress(1.0, ctx->progress_user);
     return st;
+}
+
+pb_status pb_blur_frames(pb_context *ctx, const pb_volume *const *objects, const pb_motion *track,
+                         const double *bounds, size_t frames, const pb_blur_options *options,
+                         pb_volume *const *tomographs)
+{
+    return run_frames(ctx, objects, track, bounds, frames, options, tomographs, 0);
+}
+
+pb_status pb_blur_frames_adjoint(pb_context *ctx, const pb_volume *const *tomographs, const pb_motion *track,
+                                 const double *bounds, size_t frames, const pb_blur_options *options,
+                                 pb_volume *const *objects)
+{
+    return run_frames(ctx, tomographs, track, bounds, frames, options, objects, 1);
 }

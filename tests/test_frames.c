@@ -1,7 +1,10 @@
 /* pb_blur_frames: many frames of one 30 Hz pose track in one call must equal
  * the same frames blurred one at a time, bit for bit, for every method and
  * filter; a bad frame anywhere must stop the call before any frame is written.
- * Fresh random volumes and motions each run; outputs poisoned first. */
+ * pb_blur_frames_adjoint: each frame equals pb_blur_adjoint of that frame (to
+ * the float atomics' rounding), frames sharing an object sum into it, and with
+ * EXACT the pair passes the dot-product test. Fresh random volumes and motions
+ * each run; outputs poisoned first. */
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -25,6 +28,14 @@ static void make_track(double *times, pb_pose *poses)
         deg += pb_rand_range(-0.4, 0.6);
         poses[k] = pb_test_pose(t[0], t[1], t[2], axis, deg);
     }
+}
+
+static double dot(const float *a, const float *b, size_t n)
+{
+    double s = 0.0;
+    for (size_t i = 0; i < n; i++)
+        s += (double)a[i] * (double)b[i];
+    return s;
 }
 
 static float *random_data(size_t n)
@@ -101,6 +112,106 @@ int main(int argc, char **argv)
                          f, pb_max_abs(got, n));
             }
         }
+
+    /* The adjoint, against pb_blur_adjoint frame by frame. */
+    pb_volume *back[FRAMES], *sum[2];
+    float *y[FRAMES], *x[2] = {data[0], data[1]};
+    for (int f = 0; f < FRAMES; f++) {
+        pb_volume_create(ctx, &g, &back[f]);
+        y[f] = random_data(n);
+        pb_volume_upload(tomo[f], y[f]);
+    }
+    for (int i = 0; i < 2; i++)
+        pb_volume_create(ctx, &g, &sum[i]);
+    const pb_volume *ys[FRAMES] = {tomo[0], tomo[1], tomo[2], tomo[3]};
+    pb_volume *shared_out[FRAMES] = {sum[0], sum[1], sum[0], sum[0]};
+    float *acc = malloc(n * sizeof *acc), *fwd = malloc(n * sizeof *fwd);
+    for (int method = 0; method < 4; method++)
+        for (int filter = 0; filter < 2; filter++) {
+            if (method == PB_METHOD_REF && filter == PB_FILTER_HARDWARE)
+                continue;
+            const char *what = filter ? "EXACT" : "HARDWARE";
+            pb_blur_options opt = {(pb_method)method, (pb_filter)filter, 0, 16, 0, 9, 0.0};
+            /* Float atomics round each add at the running sum's size, in an
+             * order no run repeats. AB, RM and CL add a few hundred times per
+             * voxel; REF adds every random point on its own, thousands of
+             * times (and frames into a shared object add onto its sum): up to
+             * 4096 x 2^-24 = 2.4e-4 of the largest value. */
+            double tol = method == PB_METHOD_REF ? 3e-4 : 1e-5;
+            for (int f = 0; f < FRAMES; f++)
+                poison(back[f], n);
+            for (int i = 0; i < 2; i++)
+                poison(sum[i], n);
+            pb_status st = pb_blur_frames_adjoint(ctx, ys, &track, bounds, FRAMES, &opt, back);
+            if (!pb_check(st == PB_OK, "%s %s: pb_blur_frames_adjoint: %s", names[method], what, pb_last_error(ctx)))
+                continue;
+            double total = -1.0;
+            pb_context_last_kernel_ms(ctx, &total);
+            pb_check(total > 0.0, "%s adjoint: the frames' kernel time %g ms", names[method], total);
+            /* Frame by frame, and the sums the shared objects must hold. */
+            double sums[2][2] = {{0, 0}, {0, 0}}; /* [object][0: summed here, 1: frames' dot] */
+            float *want_sum[2] = {calloc(n, sizeof(float)), calloc(n, sizeof(float))};
+            for (int f = 0; f < FRAMES; f++) {
+                pb_motion m = track;
+                m.frame_start = bounds[f];
+                m.frame_end = bounds[f + 1];
+                poison(single, n);
+                pb_check(pb_blur_adjoint(ctx, tomo[f], &m, &opt, single) == PB_OK, "pb_blur_adjoint frame %d: %s", f,
+                         pb_last_error(ctx));
+                pb_volume_download(single, want);
+                pb_volume_download(back[f], got);
+                double scale = pb_max_abs(want, n);
+                pb_check(scale > 0.0 && pb_max_abs_diff(got, want, n) <= tol * scale,
+                         "%s %s adjoint frame %d: pb_blur_frames_adjoint differs from pb_blur_adjoint by %.3g "
+                         "(largest value %.3g)", names[method], what, f, pb_max_abs_diff(got, want, n), scale);
+                int o = objects[f] == obj[0] ? 0 : 1;
+                for (size_t i = 0; i < n; i++)
+                    want_sum[o][i] += want[i];
+                /* <B_f x, y_f>, the forward side of the dot test. */
+                pb_check(pb_blur(ctx, objects[f], &m, &opt, single) == PB_OK, "pb_blur frame %d", f);
+                pb_volume_download(single, fwd);
+                sums[o][1] += dot(fwd, y[f], n);
+            }
+            st = pb_blur_frames_adjoint(ctx, ys, &track, bounds, FRAMES, &opt, shared_out);
+            pb_check(st == PB_OK, "%s %s: pb_blur_frames_adjoint into shared objects: %s", names[method], what,
+                     pb_last_error(ctx));
+            double lhs = 0.0, rhs = 0.0;
+            for (int o = 0; o < 2; o++) {
+                pb_volume_download(sum[o], acc);
+                double scale = pb_max_abs(want_sum[o], n);
+                pb_check(pb_max_abs_diff(acc, want_sum[o], n) <= tol * scale,
+                         "%s %s: object %d holds the sum of its frames' back projections (off by %.3g of %.3g)",
+                         names[method], what, o, pb_max_abs_diff(acc, want_sum[o], n), scale);
+                lhs += sums[o][1];
+                rhs += dot(x[o], acc, n);
+                free(want_sum[o]);
+            }
+            /* Only EXACT: NVIDIA's HARDWARE blend is not its rounded weights'
+             * product (test_adjoint has that pair's own tolerance). */
+            if (filter == PB_FILTER_EXACT)
+                pb_check(fabs(lhs - rhs) <= 1e-5 * fabs(lhs), "%s EXACT frames: <B x, y> = %.9g, <x, B^T y> = %.9g",
+                         names[method], lhs, rhs);
+        }
+    /* An output that is a frame's input is refused before anything is written. */
+    pb_blur_options ab_ex = {PB_METHOD_AB, PB_FILTER_EXACT, 0, 0, 0, 0, 0.0};
+    pb_volume *into_input[FRAMES] = {back[0], tomo[2], back[2], back[3]};
+    for (int f = 0; f < FRAMES; f++)
+        poison(back[f], n);
+    pb_status bad_st = pb_blur_frames_adjoint(ctx, ys, &track, bounds, FRAMES, &ab_ex, into_input);
+    pb_check(bad_st == PB_ERR_INVALID_ARGUMENT && strstr(pb_last_error(ctx), "frame 1's object") != NULL,
+             "adjoint into an input: status %d (%s)", (int)bad_st, pb_last_error(ctx));
+    pb_volume_download(tomo[2], got);
+    pb_check(memcmp(got, y[2], n * sizeof *got) == 0, "adjoint into an input: the input is unchanged");
+    for (int f = 0; f < FRAMES; f++) {
+        pb_volume_download(back[f], got);
+        pb_check(got[0] == -1e30f && got[n - 1] == -1e30f, "adjoint into an input: frame %d was written", f);
+        pb_volume_destroy(back[f]);
+        free(y[f]);
+    }
+    for (int i = 0; i < 2; i++)
+        pb_volume_destroy(sum[i]);
+    free(acc);
+    free(fwd);
 
     /* Progress runs over the whole call: rising, below 1 until the end, 1 last. */
     pb_test_progress_log log = {0, 0, 0.0};

@@ -142,11 +142,11 @@ int pbc_blur_frames_image(pb_context *ctx, const pbc_image *in, const pb_motion 
     pb_geometry g = {{in->dims[0], in->dims[1], in->dims[2]}, {in->voxel_size[0], in->voxel_size[1], in->voxel_size[2]}};
     size_t n = pbc_image_frame_voxels(in), sources = pbc_image_frame_count(in);
     pb_volume **src = calloc(sources, sizeof *src), **dst = calloc(frames, sizeof *dst);
-    const pb_volume **objects = malloc(frames * sizeof *objects);
-    if (!src || !dst || !objects) {
+    const pb_volume **inputs = malloc(frames * sizeof *inputs);
+    if (!src || !dst || !inputs) {
         free(src);
         free(dst);
-        free(objects);
+        free(inputs);
         return pbc_fail(PBC_EXIT_RUNTIME, "%s: out of host memory for %zu frames", label, frames);
     }
     pb_status st = PB_OK;
@@ -159,19 +159,14 @@ int pbc_blur_frames_image(pb_context *ctx, const pbc_image *in, const pb_motion 
         st = pb_volume_create(ctx, &g, &dst[i]);
     *ms = 0.0;
     for (size_t i = 0; i < frames; i++)
-        objects[i] = src[sources == 1 ? 0 : i];
-    if (st == PB_OK && !adjoint && (st = pb_blur_frames(ctx, objects, track, bounds, frames, options, dst)) == PB_OK)
-        pb_context_last_kernel_ms(ctx, ms);
-    /* The adjoint frame by frame: back projection of frame i through frame i's
-     * part of the track. */
-    for (size_t i = 0; adjoint && i < frames && st == PB_OK; i++) {
-        pb_motion m = *track;
-        double t = 0.0;
-        m.frame_start = bounds[i];
-        m.frame_end = bounds[i + 1];
-        if ((st = pb_blur_adjoint(ctx, objects[i], &m, options, dst[i])) == PB_OK)
-            pb_context_last_kernel_ms(ctx, &t);
-        *ms += t;
+        inputs[i] = src[sources == 1 ? 0 : i];
+    if (st == PB_OK) {
+        /* The adjoint: frame i's tomograph back through frame i's part of the
+         * track, into an object volume of its own. */
+        st = adjoint ? pb_blur_frames_adjoint(ctx, inputs, track, bounds, frames, options, dst)
+                     : pb_blur_frames(ctx, inputs, track, bounds, frames, options, dst);
+        if (st == PB_OK)
+            pb_context_last_kernel_ms(ctx, ms);
     }
     for (size_t i = 0; i < frames && st == PB_OK; i++)
         st = pb_volume_download(dst[i], out + i * n);
@@ -183,6 +178,6 @@ int pbc_blur_frames_image(pb_context *ctx, const pbc_image *in, const pb_motion 
         pb_volume_destroy(dst[i]);
     free(src);
     free(dst);
-    free(objects);
+    free(inputs);
     return st == PB_OK ? 0 : blur_failed(ctx, st, label);
 }
