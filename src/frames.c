@@ -31,7 +31,7 @@ static void frame_progress(double fraction, void *user)
 
 /* The frames' arguments: ins[i] is read and outs[i] written (the forward
  * reads objects and writes tomographs, the adjoint the other way round).
- * shared_out: several frames may name one output (the adjoint sums into it). */
+ * The adjoint's frames may name one output, which they sum into. */
 static pb_status check_frames(pb_context *ctx, const pb_volume *const *ins, const pb_motion *track,
                               const double *bounds, size_t frames, pb_volume *const *outs, int adjoint)
 {
