@@ -43,22 +43,6 @@ typedef struct motion_case {
     double frame[2];
 } motion_case;
 
-static double dot(const float *a, const float *b, size_t n)
-{
-    double s = 0.0;
-    for (size_t i = 0; i < n; i++)
-        s += (double)a[i] * (double)b[i];
-    return s;
-}
-
-static float *random_volume(size_t n)
-{
-    float *v = malloc(n * sizeof *v);
-    for (size_t i = 0; i < n; i++)
-        v[i] = (float)pb_rand_uniform();
-    return v;
-}
-
 /* The kinds of motion: none (AB's walk degenerates to a point), a translation
  * of several voxels on a slant, a large turn (cut into several segments by the
  * default path bound), and a track of several poses with the frame inside it. */
@@ -107,7 +91,7 @@ int main(int argc, char **argv)
     size_t n = 17 * 14 * 11;
     motion_case cases[4];
     make_cases(cases);
-    float *x = random_volume(n), *y = random_volume(n);
+    float *x = pb_random_volume(n), *y = pb_random_volume(n);
     float *bx = malloc(n * sizeof *bx), *bty = malloc(n * sizeof *bty);
 
     /* Options: the paper's defaults, and explicit sub-segments or steps. */
@@ -129,7 +113,7 @@ int main(int argc, char **argv)
                               "%s steps %u %s: blur or adjoint failed", method_names[runs[r].method], runs[r].steps,
                               cases[c].name))
                     continue;
-                double lhs = dot(bx, y, n), rhs = dot(x, bty, n);
+                double lhs = pb_dot(bx, y, n), rhs = pb_dot(x, bty, n);
                 double rel = fabs(lhs - rhs) / fabs(lhs);
                 double tol = filter == PB_FILTER_EXACT ? EXACT_TOL
                              : nvidia                    ? hw_tolerance(y, n, lhs)
@@ -151,7 +135,7 @@ int main(int argc, char **argv)
     if (pb_check(pb_test_blur(ctx, &g, x, &m, &opt, bx) == PB_OK &&
                      pb_test_adjoint(ctx, &g, y, &m_off, &opt, bty) == PB_OK,
                  "check of the check: blur or adjoint failed")) {
-        double lhs = dot(bx, y, n), rhs = dot(x, bty, n), rel = fabs(lhs - rhs) / fabs(lhs);
+        double lhs = pb_dot(bx, y, n), rhs = pb_dot(x, bty, n), rel = fabs(lhs - rhs) / fabs(lhs);
         printf("a motion 0.05 voxel off: relative mismatch %.3g\n", rel);
         pb_check(rel > 20.0 * EXACT_TOL, "the adjoint of a motion 0.05 voxel off matches within %.3g: the dot "
                  "product cannot tell a wrong adjoint", rel);

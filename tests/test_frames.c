@@ -30,22 +30,6 @@ static void make_track(double *times, pb_pose *poses)
     }
 }
 
-static double dot(const float *a, const float *b, size_t n)
-{
-    double s = 0.0;
-    for (size_t i = 0; i < n; i++)
-        s += (double)a[i] * (double)b[i];
-    return s;
-}
-
-static float *random_data(size_t n)
-{
-    float *v = malloc(n * sizeof *v);
-    for (size_t i = 0; i < n; i++)
-        v[i] = (float)pb_rand_uniform();
-    return v;
-}
-
 static void poison(pb_volume *v, size_t n)
 {
     float *p = malloc(n * sizeof *p);
@@ -70,7 +54,7 @@ int main(int argc, char **argv)
 
     /* Two activity volumes; the first serves frames 0, 2 and 3 (a static
      * object shared by frames must not be re-read wrongly). */
-    float *data[2] = {random_data(n), random_data(n)};
+    float *data[2] = {pb_random_volume(n), pb_random_volume(n)};
     pb_volume *obj[2], *tomo[FRAMES], *single;
     for (int i = 0; i < 2; i++) {
         pb_volume_create(ctx, &g, &obj[i]);
@@ -118,7 +102,7 @@ int main(int argc, char **argv)
     float *y[FRAMES], *x[2] = {data[0], data[1]};
     for (int f = 0; f < FRAMES; f++) {
         pb_volume_create(ctx, &g, &back[f]);
-        y[f] = random_data(n);
+        y[f] = pb_random_volume(n);
         pb_volume_upload(tomo[f], y[f]);
     }
     for (int i = 0; i < 2; i++)
@@ -170,7 +154,7 @@ int main(int argc, char **argv)
                 /* <B_f x, y_f>, the forward side of the dot test. */
                 pb_check(pb_blur(ctx, objects[f], &m, &opt, single) == PB_OK, "pb_blur frame %d", f);
                 pb_volume_download(single, fwd);
-                sums[o][1] += dot(fwd, y[f], n);
+                sums[o][1] += pb_dot(fwd, y[f], n);
             }
             st = pb_blur_frames_adjoint(ctx, ys, &track, bounds, FRAMES, &opt, shared_out);
             pb_check(st == PB_OK, "%s %s: pb_blur_frames_adjoint into shared objects: %s", names[method], what,
@@ -183,7 +167,7 @@ int main(int argc, char **argv)
                          "%s %s: object %d holds the sum of its frames' back projections (off by %.3g of %.3g)",
                          names[method], what, o, pb_max_abs_diff(acc, want_sum[o], n), scale);
                 lhs += sums[o][1];
-                rhs += dot(x[o], acc, n);
+                rhs += pb_dot(x[o], acc, n);
                 free(want_sum[o]);
             }
             /* Only EXACT: NVIDIA's HARDWARE blend is not its rounded weights'

@@ -195,3 +195,19 @@ double pb_sum(const float *a, size_t n)
         s += (double)a[i];
     return s;
 }
+
+double pb_dot(const float *a, const float *b, size_t n)
+{
+    double s = 0.0;
+    for (size_t i = 0; i < n; i++)
+        s += (double)a[i] * (double)b[i];
+    return s;
+}
+
+float *pb_random_volume(size_t n)
+{
+    float *v = malloc(n * sizeof *v);
+    for (size_t i = 0; v && i < n; i++)
+        v[i] = (float)pb_rand_uniform();
+    return v;
+}

@@ -98,5 +98,9 @@ void pb_test_record_progress(double fraction, void *log);
 double pb_max_abs_diff(const float *a, const float *b, size_t n);
 double pb_max_abs(const float *a, size_t n);
 double pb_sum(const float *a, size_t n);
+/* <a, b>, summed in double. */
+double pb_dot(const float *a, const float *b, size_t n);
+/* A fresh volume of n uniform values in [0, 1) (malloc'd). */
+float *pb_random_volume(size_t n);
 
 #endif
