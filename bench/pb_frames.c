@@ -14,28 +14,9 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <time.h>
 
 #include "petblur.h"
-
-static int cmp_double(const void *a, const void *b)
-{
-    double x = *(const double *)a, y = *(const double *)b;
-    return (x > y) - (x < y);
-}
-
-static double median(double *v, int n)
-{
-    qsort(v, (size_t)n, sizeof *v, cmp_double);
-    return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
-}
-
-static double now_ms(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (double)ts.tv_sec * 1e3 + (double)ts.tv_nsec * 1e-6;
-}
+#include "bench_stats.h"
 
 /* A reproducible uniform in [-1, 1) (xorshift), so runs compare. */
 static double jitter(unsigned long long *s)
@@ -163,13 +144,13 @@ int main(int argc, char **argv)
         m.frame_end = bounds[f + 1];
         st = pb_blur(ctx, obj[f], &m, &opt, single);
         for (int r = 0; r < runs && st == PB_OK; r++) {
-            double t0 = now_ms();
+            double t0 = pbc_now_ms();
             st = pb_blur(ctx, obj[f], &m, &opt, single);
-            w_ms[r] = now_ms() - t0;
+            w_ms[r] = pbc_now_ms() - t0;
             pb_context_last_kernel_ms(ctx, &k_ms[r]);
         }
-        alone_kernel += median(k_ms, runs);
-        alone_wall += median(w_ms, runs);
+        alone_kernel += pbc_median(k_ms, runs);
+        alone_wall += pbc_median(w_ms, runs);
     }
     if (st != PB_OK)
         return fail(ctx, st, "pb_blur");
@@ -177,14 +158,14 @@ int main(int argc, char **argv)
     /* All frames in one call. */
     st = pb_blur_frames(ctx, (const pb_volume *const *)obj, &track, bounds, (size_t)frames, &opt, out);
     for (int r = 0; r < runs && st == PB_OK; r++) {
-        double t0 = now_ms();
+        double t0 = pbc_now_ms();
         st = pb_blur_frames(ctx, (const pb_volume *const *)obj, &track, bounds, (size_t)frames, &opt, out);
-        w_ms[r] = now_ms() - t0;
+        w_ms[r] = pbc_now_ms() - t0;
         pb_context_last_kernel_ms(ctx, &k_ms[r]);
     }
     if (st != PB_OK)
         return fail(ctx, st, "pb_blur_frames");
-    double batch_kernel = median(k_ms, runs), batch_wall = median(w_ms, runs);
+    double batch_kernel = pbc_median(k_ms, runs), batch_wall = pbc_median(w_ms, runs);
 
     /* The same numbers either way: the last frame (its single blur is the
      * last one made) and the first (made again). */

@@ -1,30 +1,11 @@
 /* Timing and AB's work count for petblur bench. */
 #include <math.h>
 #include <stdlib.h>
-#include <time.h>
 
 #include "bench_measure.h"
+#include "bench_stats.h"
 #include "blur_run.h"
 #include "cli.h"
-
-static int cmp_double(const void *a, const void *b)
-{
-    double x = *(const double *)a, y = *(const double *)b;
-    return (x > y) - (x < y);
-}
-
-static double median(double *v, int n)
-{
-    qsort(v, (size_t)n, sizeof *v, cmp_double);
-    return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
-}
-
-static double now_ms(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (double)ts.tv_sec * 1e3 + (double)ts.tv_nsec * 1e-6;
-}
 
 static int failed(pb_context *ctx, pb_status st, const char *what)
 {
@@ -50,22 +31,22 @@ int pbc_bench_time(pb_context *ctx, pb_volume *in, pb_volume *outv, const float 
         pb_context_last_kernel_ms(ctx, &ms[r]);
     }
     if (st == PB_OK && runs > 0) {
-        t->kernel_ms = median(ms, runs);
+        t->kernel_ms = pbc_median(ms, runs);
         t->kernel_min_ms = ms[0];
     }
     /* End to end as an application sees it: the volume goes up, is blurred and
      * comes back (the download waits for the kernel). */
     for (int r = 0; r < e2e_runs && st == PB_OK; r++) {
-        double t0 = now_ms();
+        double t0 = pbc_now_ms();
         st = pb_volume_upload(in, host_in);
         if (st == PB_OK)
             st = pb_blur(ctx, in, motion, options, outv);
         if (st == PB_OK)
             st = pb_volume_download(outv, out);
-        ms[r] = now_ms() - t0;
+        ms[r] = pbc_now_ms() - t0;
     }
     if (st == PB_OK && e2e_runs > 0)
-        t->e2e_ms = median(ms, e2e_runs);
+        t->e2e_ms = pbc_median(ms, e2e_runs);
     if (st != PB_OK || !adj) {
         free(ms);
         return st == PB_OK ? 0 : failed(ctx, st, "blur");
@@ -77,7 +58,7 @@ int pbc_bench_time(pb_context *ctx, pb_volume *in, pb_volume *outv, const float 
         pb_context_last_kernel_ms(ctx, &ms[r]);
     }
     if (st == PB_OK && runs > 0)
-        t->adjoint_ms = median(ms, runs);
+        t->adjoint_ms = pbc_median(ms, runs);
     free(ms);
     return st == PB_OK ? 0 : failed(ctx, st, "adjoint");
 }
