@@ -7,14 +7,7 @@
 set -uo pipefail
 cd "$(dirname "$0")/.."
 OUT=${OUT:-$PWD/gpu-out}
-dev=$PWD/.device
-export CFLAGS="-I$dev/include -I$dev/include/nifti" LDFLAGS="-L$dev/lib" LIBRARY_PATH="$dev/lib"
-sed -i "s|@DEVICE@|$dev|" "$dev"/lib/pkgconfig/*.pc
-export PKG_CONFIG_PATH="$dev/lib/pkgconfig"
-export LD_LIBRARY_PATH="$dev/lib${LD_LIBRARY_PATH:+:$LD_LIBRARY_PATH}"
-export PATH="$PATH:/usr/local/cuda/bin"
-meson=(meson)
-command -v meson >/dev/null || meson=(python3 -m mesonbuild.mesonmain)
+. bench/device-env.sh
 "${meson[@]}" setup build-quick --buildtype=release -Dcuda=enabled -Dopencl=disabled >/dev/null 2>&1 &&
     ninja -C build-quick >/dev/null 2>&1 || { echo "gpu-quick: the build failed" >&2; exit 1; }
 ./build-quick/src/cli/petblur bench --device cuda --phantoms "${1:-brain,homogeneity}" --scenarios "${2:-1,2,6,7,8}" \
