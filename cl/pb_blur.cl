@@ -64,6 +64,41 @@ PB_FN float pb_slice_sample(pb_image img, int exact, int major, float x, float y
     return (1.0f - f2) * ((1.0f - f1) * v[0] + f1 * v[1]) + f2 * ((1.0f - f1) * v[2] + f1 * v[3]);
 }
 
+/* Where a walk's samples are read. The general kernels walk voxel W's own path
+ * and read where the walk lands (on = 0). Under a motion of translations only
+ * every voxel's path is voxel 0's moved by whole voxels, so the shift-invariant
+ * kernels (pb_shift.cl) walk voxel 0 and read at base + sign p: base W and sign
+ * +1 for the forward; for the adjoint's gather base V + 1 and sign -1, voxel
+ * 0's walk mirrored through V's centre (why that is the transpose: pb_shift.cl). */
+typedef struct pb_place {
+    int on;
+    float base[3];
+    float sign;
+} pb_place;
+
+PB_FN void pb_place_point(const pb_place *pl, float *x, float *y, float *z)
+{
+    if (pl->on) {
+        *x = pl->base[0] + pl->sign * *x;
+        *y = pl->base[1] + pl->sign * *y;
+        *z = pl->base[2] + pl->sign * *z;
+    }
+}
+
+PB_FN float pb_placed_trilinear(pb_image img, int exact, const pb_place *pl, float x, float y, float z)
+{
+    pb_place_point(pl, &x, &y, &z);
+    return pb_trilinear(img, exact, x, y, z);
+}
+
+/* Mirroring keeps a slice centre a slice centre: base and k + 0.5 are whole
+ * and half, so (base + 1) - (k + 0.5) is exact and half again. */
+PB_FN float pb_placed_slice(pb_image img, int exact, const pb_place *pl, int major, float x, float y, float z)
+{
+    pb_place_point(pl, &x, &y, &z);
+    return pb_slice_sample(img, exact, major, x, y, z);
+}
+
 /* The axis along which the segment a-b changes most (ties: the lower axis). */
 PB_FN int pb_major_axis(float dx, float dy, float dz)
 {
@@ -167,26 +202,27 @@ PB_FN int pb_ab_next_partial(const pb_ab_walk *w, int k)
     return k + 1 == w->f0 ? w->f1 + 1 : k + 1;
 }
 
-PB_FN float pb_ab_segment(pb_image img, int exact, const float *a, const float *b)
+PB_FN float pb_ab_segment(pb_image img, int exact, const pb_place *pl, const float *a, const float *b)
 {
     pb_ab_walk w;
     if (pb_ab_walk_init(a, b, &w)) {
         /* A point: tent weights of two slices times bilinear weights are the
          * trilinear weights, and a trilinear sample costs one fetch. */
-        return pb_trilinear(img, exact, 0.5f * (a[0] + b[0]), 0.5f * (a[1] + b[1]), 0.5f * (a[2] + b[2]));
+        return pb_placed_trilinear(img, exact, pl, 0.5f * (a[0] + b[0]), 0.5f * (a[1] + b[1]),
+                                   0.5f * (a[2] + b[2]));
     }
     /* The fully covered slices get a loop of their own, free of branches, so
      * the compiler can keep several fetches in flight. */
     float sum = 0.0f;
     for (int k = w.f0; k <= w.f1; k++) {
         float kf = (float)k;
-        sum += pb_slice_sample(img, exact, w.m, kf * w.g[0] + w.c[0], kf * w.g[1] + w.c[1], kf * w.g[2] + w.c[2]);
+        sum += pb_placed_slice(img, exact, pl, w.m, kf * w.g[0] + w.c[0], kf * w.g[1] + w.c[1], kf * w.g[2] + w.c[2]);
     }
     float wsum = (float)(w.f1 - w.f0 + 1);
     for (int k = w.k0; k <= w.k1; k = pb_ab_next_partial(&w, k)) {
         float kf = (float)k, mean;
         float s = pb_tent_share(w.lo - kf, w.hi - kf, &mean);
-        sum += s * pb_slice_sample(img, exact, w.m, kf * w.g[0] + w.c[0] + mean * w.h[0],
+        sum += s * pb_placed_slice(img, exact, pl, w.m, kf * w.g[0] + w.c[0] + mean * w.h[0],
                                    kf * w.g[1] + w.c[1] + mean * w.h[1], kf * w.g[2] + w.c[2] + mean * w.h[2]);
         wsum += s;
     }
@@ -244,43 +280,46 @@ PB_FN void pb_ab_piece(const float *a, const float *b, int r, int steps, float i
 }
 
 /* AB over one segment, split into prm.steps equal sub-segments. */
-PB_FN float pb_ab_sampled(pb_image img, pb_kparams prm, int exact, const float *a, const float *b)
+PB_FN float pb_ab_sampled(pb_image img, pb_kparams prm, int exact, const pb_place *pl, const float *a,
+                          const float *b)
 {
     float sum = 0.0f, inv = 1.0f / (float)prm.steps;
     for (int r = 0; r < prm.steps; r++) {
         float pa[3], pb[3];
         pb_ab_piece(a, b, r, prm.steps, inv, pa, pb);
-        sum += pb_ab_segment(img, exact, pa, pb);
+        sum += pb_ab_segment(img, exact, pl, pa, pb);
     }
     return sum * inv;
 }
 
 /* RM over one segment: n equidistant trilinear samples (n: AB's slices). */
-PB_FN float pb_rm_sampled(pb_image img, pb_kparams prm, int exact, const float *a, const float *b)
+PB_FN float pb_rm_sampled(pb_image img, pb_kparams prm, int exact, const pb_place *pl, const float *a,
+                          const float *b)
 {
     int n = prm.steps > 0 ? prm.steps : pb_ab_slices(a, b);
     float sum = 0.0f;
     for (int i = 0; i < n; i++) {
         float s = ((float)i + 0.5f) / (float)n;
-        sum += pb_trilinear(img, exact, a[0] + s * (b[0] - a[0]), a[1] + s * (b[1] - a[1]),
-                            a[2] + s * (b[2] - a[2]));
+        sum += pb_placed_trilinear(img, exact, pl, a[0] + s * (b[0] - a[0]), a[1] + s * (b[1] - a[1]),
+                                   a[2] + s * (b[2] - a[2]));
     }
     return sum / (float)n;
 }
 
-/* The polyline methods: W's object-space path through the key poses, one
- * straight segment per pair, each weighed by its share of the frame. */
-PB_FN float pb_polyline(pb_image img, PB_GLOBAL_RO pb_kpose *poses, pb_kparams prm, int ix, int iy, int iz, int ab,
-                        int exact)
+/* The polyline methods: the object-space path of the voxel centred at u (texel
+ * coordinates) through the key poses, one straight segment per pair, each
+ * weighed by its share of the frame. */
+PB_FN float pb_polyline(pb_image img, PB_GLOBAL_RO pb_kpose *poses, pb_kparams prm, const float *u,
+                        const pb_place *pl, int ab, int exact)
 {
-    float ux = (float)ix + 0.5f, uy = (float)iy + 0.5f, uz = (float)iz + 0.5f;
     float total = 0.0f, a[3], b[3];
-    pb_map_point(poses[0].map, ux, uy, uz, b);
+    pb_map_point(poses[0].map, u[0], u[1], u[2], b);
     for (int j = 0; j < prm.segments; j++) {
         for (int i = 0; i < 3; i++)
             a[i] = b[i];
-        pb_map_point(poses[j + 1].map, ux, uy, uz, b);
-        total += poses[j].weight * (ab ? pb_ab_sampled(img, prm, exact, a, b) : pb_rm_sampled(img, prm, exact, a, b));
+        pb_map_point(poses[j + 1].map, u[0], u[1], u[2], b);
+        total += poses[j].weight *
+                 (ab ? pb_ab_sampled(img, prm, exact, pl, a, b) : pb_rm_sampled(img, prm, exact, pl, a, b));
     }
     return total;
 }
@@ -298,10 +337,9 @@ PB_FN int pb_classical_steps(PB_GLOBAL_RO pb_kpose *poses, int j, pb_kparams prm
 }
 
 /* Classical motion blur: the pose interpolated at every step. */
-PB_FN float pb_classical(pb_image img, PB_GLOBAL_RO pb_kpose *poses, pb_kparams prm, int ix, int iy, int iz,
-                         int exact)
+PB_FN float pb_classical(pb_image img, PB_GLOBAL_RO pb_kpose *poses, pb_kparams prm, const float *u,
+                         const pb_place *pl, int exact)
 {
-    float u[3] = {(float)ix + 0.5f, (float)iy + 0.5f, (float)iz + 0.5f};
     float total = 0.0f;
     for (int j = 0; j < prm.segments; j++) {
         int n = pb_classical_steps(poses, j, prm, u);
@@ -309,7 +347,7 @@ PB_FN float pb_classical(pb_image img, PB_GLOBAL_RO pb_kpose *poses, pb_kparams 
         for (int i = 0; i < n; i++) {
             float o[3];
             pb_classical_point(&poses[j], &poses[j + 1], ((float)i + 0.5f) / (float)n, prm, u, o);
-            seg += pb_trilinear(img, exact, o[0], o[1], o[2]);
+            seg += pb_placed_trilinear(img, exact, pl, o[0], o[1], o[2]);
         }
         total += poses[j].weight * seg / (float)n;
     }
@@ -321,47 +359,63 @@ PB_FN float pb_classical(pb_image img, PB_GLOBAL_RO pb_kpose *poses, pb_kparams 
  * threads in flight to hide texture latency). Names as in pb_kernel_names. */
 #define PB_IN_GRID(ix, iy, iz) ((ix) < prm.dims[0] && (iy) < prm.dims[1] && (iz) < prm.dims[2])
 #define PB_OUT(ix, iy, iz) out[(ix) + prm.dims[0] * ((iy) + prm.dims[1] * (iz))]
+/* W's own centre, and reads where its walk lands. */
+#define PB_OWN_VOXEL                                                                                             \
+    float u[3] = {(float)ix + 0.5f, (float)iy + 0.5f, (float)iz + 0.5f};                                       \
+    pb_place pl = {0, {0.0f, 0.0f, 0.0f}, 1.0f}
 
 PB_KERNEL void pb_blur_ab(pb_image img, PB_GLOBAL_RO pb_kpose *poses, pb_kparams prm, PB_GLOBAL float *out)
 {
     int ix = PB_GID_X, iy = PB_GID_Y, iz = PB_GID_Z;
-    if (PB_IN_GRID(ix, iy, iz))
-        PB_OUT(ix, iy, iz) = pb_polyline(img, poses, prm, ix, iy, iz, 1, 0);
+    if (!PB_IN_GRID(ix, iy, iz))
+        return;
+    PB_OWN_VOXEL;
+    PB_OUT(ix, iy, iz) = pb_polyline(img, poses, prm, u, &pl, 1, 0);
 }
 
 PB_KERNEL void pb_blur_ab_exact(pb_image img, PB_GLOBAL_RO pb_kpose *poses, pb_kparams prm, PB_GLOBAL float *out)
 {
     int ix = PB_GID_X, iy = PB_GID_Y, iz = PB_GID_Z;
-    if (PB_IN_GRID(ix, iy, iz))
-        PB_OUT(ix, iy, iz) = pb_polyline(img, poses, prm, ix, iy, iz, 1, 1);
+    if (!PB_IN_GRID(ix, iy, iz))
+        return;
+    PB_OWN_VOXEL;
+    PB_OUT(ix, iy, iz) = pb_polyline(img, poses, prm, u, &pl, 1, 1);
 }
 
 PB_KERNEL void pb_blur_rm(pb_image img, PB_GLOBAL_RO pb_kpose *poses, pb_kparams prm, PB_GLOBAL float *out)
 {
     int ix = PB_GID_X, iy = PB_GID_Y, iz = PB_GID_Z;
-    if (PB_IN_GRID(ix, iy, iz))
-        PB_OUT(ix, iy, iz) = pb_polyline(img, poses, prm, ix, iy, iz, 0, 0);
+    if (!PB_IN_GRID(ix, iy, iz))
+        return;
+    PB_OWN_VOXEL;
+    PB_OUT(ix, iy, iz) = pb_polyline(img, poses, prm, u, &pl, 0, 0);
 }
 
 PB_KERNEL void pb_blur_rm_exact(pb_image img, PB_GLOBAL_RO pb_kpose *poses, pb_kparams prm, PB_GLOBAL float *out)
 {
     int ix = PB_GID_X, iy = PB_GID_Y, iz = PB_GID_Z;
-    if (PB_IN_GRID(ix, iy, iz))
-        PB_OUT(ix, iy, iz) = pb_polyline(img, poses, prm, ix, iy, iz, 0, 1);
+    if (!PB_IN_GRID(ix, iy, iz))
+        return;
+    PB_OWN_VOXEL;
+    PB_OUT(ix, iy, iz) = pb_polyline(img, poses, prm, u, &pl, 0, 1);
 }
 
 PB_KERNEL void pb_blur_cl(pb_image img, PB_GLOBAL_RO pb_kpose *poses, pb_kparams prm, PB_GLOBAL float *out)
 {
     int ix = PB_GID_X, iy = PB_GID_Y, iz = PB_GID_Z;
-    if (PB_IN_GRID(ix, iy, iz))
-        PB_OUT(ix, iy, iz) = pb_classical(img, poses, prm, ix, iy, iz, 0);
+    if (!PB_IN_GRID(ix, iy, iz))
+        return;
+    PB_OWN_VOXEL;
+    PB_OUT(ix, iy, iz) = pb_classical(img, poses, prm, u, &pl, 0);
 }
 
 PB_KERNEL void pb_blur_cl_exact(pb_image img, PB_GLOBAL_RO pb_kpose *poses, pb_kparams prm, PB_GLOBAL float *out)
 {
     int ix = PB_GID_X, iy = PB_GID_Y, iz = PB_GID_Z;
-    if (PB_IN_GRID(ix, iy, iz))
-        PB_OUT(ix, iy, iz) = pb_classical(img, poses, prm, ix, iy, iz, 1);
+    if (!PB_IN_GRID(ix, iy, iz))
+        return;
+    PB_OWN_VOXEL;
+    PB_OUT(ix, iy, iz) = pb_classical(img, poses, prm, u, &pl, 1);
 }
 
 /* REF's random point c inside a tomograph voxel, in object texel coordinates:
@@ -406,3 +460,4 @@ PB_KERNEL void pb_blur_ref(pb_image img, PB_GLOBAL_RO pb_kstep *steps, pb_kparam
 }
 
 #include "pb_adjoint.cl"
+#include "pb_shift.cl"

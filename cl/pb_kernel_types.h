@@ -21,15 +21,24 @@ typedef struct pb_kparams {
     /* Adjoint: the steps the forward's texture unit rounds its weights to (256
      * on NVIDIA: 8 fractional bits), or 0 for float weights. */
     float weight_steps;
+    /* The shift-invariant kernels (cl/pb_shift.cl): 0 the forward, 1 the
+     * adjoint (the walk mirrored); with mirror, accumulate adds into out. */
+    int mirror;
+    int accumulate;
 } pb_kparams;
 
 /* The kernels: the forward ones, one per method and filter (REF reads nearest
- * voxels only), then the adjoints, one per method (they read no texture).
- * pb_kernel_index and pb_adjoint_index give a launch's entry. */
-#define PB_KERNEL_COUNT 11
+ * voxels only), then the adjoints' scatters, one per method (they read no
+ * texture), then the shift-invariant ones for motions of translations only,
+ * one per method but REF and filter, each both the forward and the adjoint's
+ * gather. pb_kernel_index, pb_adjoint_index and pb_shift_index give a launch's
+ * entry. */
+#define PB_KERNEL_COUNT 17
 #define PB_KERNEL_NAMES                                                                                         \
-    {"pb_blur_ab", "pb_blur_ab_exact", "pb_blur_rm", "pb_blur_rm_exact", "pb_blur_cl", "pb_blur_cl_exact",     \
-     "pb_blur_ref", "pb_adjoint_ab", "pb_adjoint_rm", "pb_adjoint_cl", "pb_adjoint_ref"}
+    {"pb_blur_ab",        "pb_blur_ab_exact",  "pb_blur_rm",    "pb_blur_rm_exact", "pb_blur_cl",             \
+     "pb_blur_cl_exact",  "pb_blur_ref",       "pb_adjoint_ab", "pb_adjoint_rm",    "pb_adjoint_cl",          \
+     "pb_adjoint_ref",    "pb_shift_ab",       "pb_shift_ab_exact", "pb_shift_rm",  "pb_shift_rm_exact",      \
+     "pb_shift_cl",       "pb_shift_cl_exact"}
 
 PB_FN int pb_kernel_index(int method, int exact)
 {
@@ -39,6 +48,12 @@ PB_FN int pb_kernel_index(int method, int exact)
 PB_FN int pb_adjoint_index(int method)
 {
     return 7 + method;
+}
+
+/* AB, RM and CL only: REF's points are random per voxel, not shift invariant. */
+PB_FN int pb_shift_index(int method, int exact)
+{
+    return 11 + 2 * method + (exact ? 1 : 0);
 }
 
 /* One key pose, as the kernels read it. */

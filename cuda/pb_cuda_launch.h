@@ -18,7 +18,7 @@ extern "C" {
 #define PB_CUDA_BLOCK_Y 4
 #define PB_CUDA_BLOCK_Z 2
 
-/* Launches kernel `kernel` (pb_kernel_index) over the grid prm->dims on
+/* Launches kernel `kernel` (pb_kernel_index or pb_shift_index) over the grid prm->dims on
  * `stream`. `plan` holds prm->segments + 1 pb_kpose, or
  * prm->ref_steps pb_kstep for REF, in device memory. Returns the launch's error
  * (cudaSuccess when it was queued). */

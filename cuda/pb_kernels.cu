@@ -28,6 +28,12 @@ extern "C" cudaError_t pb_cuda_launch(int kernel, cudaTextureObject_t volume, co
     case 4: pb_blur_cl<<<grid, block, 0, stream>>>(volume, poses, *prm, out); break;
     case 5: pb_blur_cl_exact<<<grid, block, 0, stream>>>(volume, poses, *prm, out); break;
     case 6: pb_blur_ref<<<grid, block, 0, stream>>>(volume, static_cast<const pb_kstep *>(plan), *prm, out); break;
+    case 11: pb_shift_ab<<<grid, block, 0, stream>>>(volume, poses, *prm, out); break;
+    case 12: pb_shift_ab_exact<<<grid, block, 0, stream>>>(volume, poses, *prm, out); break;
+    case 13: pb_shift_rm<<<grid, block, 0, stream>>>(volume, poses, *prm, out); break;
+    case 14: pb_shift_rm_exact<<<grid, block, 0, stream>>>(volume, poses, *prm, out); break;
+    case 15: pb_shift_cl<<<grid, block, 0, stream>>>(volume, poses, *prm, out); break;
+    case 16: pb_shift_cl_exact<<<grid, block, 0, stream>>>(volume, poses, *prm, out); break;
     default: return cudaErrorInvalidValue;
     }
     return cudaGetLastError();
@@ -54,7 +60,9 @@ extern "C" cudaError_t pb_cuda_check_kernels(void)
         (const void *)pb_blur_ab, (const void *)pb_blur_ab_exact, (const void *)pb_blur_rm,
         (const void *)pb_blur_rm_exact, (const void *)pb_blur_cl, (const void *)pb_blur_cl_exact,
         (const void *)pb_blur_ref, (const void *)pb_adjoint_ab, (const void *)pb_adjoint_rm,
-        (const void *)pb_adjoint_cl, (const void *)pb_adjoint_ref};
+        (const void *)pb_adjoint_cl, (const void *)pb_adjoint_ref, (const void *)pb_shift_ab,
+        (const void *)pb_shift_ab_exact, (const void *)pb_shift_rm, (const void *)pb_shift_rm_exact,
+        (const void *)pb_shift_cl, (const void *)pb_shift_cl_exact};
     for (const void *k : kernels) {
         cudaFuncAttributes attr;
         cudaError_t e = cudaFuncGetAttributes(&attr, k);

@@ -359,6 +359,12 @@ static pb_status upload_plan(pb_context *ctx, const pb_plan *plan, const pb_blur
     return upload_plans(ctx, 1, plan, opt, NULL);
 }
 
+/* Which texture object a launch reads through: see cuda/pb_shim_cuda.h. */
+static cudaTextureObject_t texture_of(const cu_volume *v, const pb_blur_options *opt)
+{
+    return opt->method == PB_METHOD_REF || opt->filter == PB_FILTER_EXACT ? v->point : v->linear;
+}
+
 /* Queues one frame's kernel: the plan at offset in the plan buffer. */
 static cudaError_t launch_blur(pb_context *ctx, const pb_volume *object, const pb_plan *plan, size_t offset,
                                const pb_blur_options *opt, pb_volume *tomograph)
@@ -369,11 +375,8 @@ static cudaError_t launch_blur(pb_context *ctx, const pb_volume *object, const p
     const cu_volume *in = object->impl;
     cu_volume *out = tomograph->impl;
     out->array_stale = 1;
-    /* Which texture object: see cuda/pb_shim_cuda.h. */
-    int point = opt->method == PB_METHOD_REF || opt->filter == PB_FILTER_EXACT;
-    return pb_cuda_launch(pb_kernel_index((int)opt->method, opt->filter == PB_FILTER_EXACT),
-                          point ? in->point : in->linear, (const char *)cu->plan + offset, &prm, out->buffer,
-                          cu->stream);
+    return pb_cuda_launch(pb_forward_kernel(plan, opt), texture_of(in, opt), (const char *)cu->plan + offset, &prm,
+                          out->buffer, cu->stream);
 }
 
 /* Waits for the work between the context's start and stop events and sets
@@ -437,11 +440,41 @@ static pb_status cuda_blur_batch(pb_context *ctx, size_t frames, const pb_volume
     return st == PB_OK ? finish_timed(ctx) : st;
 }
 
+/* The adjoint of a motion of translations only: the shift-invariant kernel
+ * mirrored, a gather that reads the tomograph through its array (the copy
+ * counts with the kernel time) and writes or adds every object voxel once. */
+static pb_status cuda_adjoint_gather(pb_context *ctx, const pb_volume *tomograph, const pb_plan *plan,
+                                     const pb_blur_options *opt, pb_volume *object, int accumulate)
+{
+    cu_impl *cu = ctx->impl;
+    pb_status st = upload_plan(ctx, plan, opt);
+    if (st != PB_OK)
+        return st;
+    cudaError_t e = cudaEventRecord(cu->start, cu->stream);
+    if (e != cudaSuccess)
+        return cu_fail(ctx, PB_ERR_LAUNCH, "cudaEventRecord", e);
+    if ((st = refresh_array(ctx, tomograph)) != PB_OK)
+        return st;
+    pb_kparams prm;
+    pb_kparams_from_plan(plan, opt, &prm);
+    prm.mirror = 1;
+    prm.accumulate = accumulate;
+    const cu_volume *in = tomograph->impl;
+    cu_volume *out = object->impl;
+    out->array_stale = 1;
+    e = pb_cuda_launch(pb_forward_kernel(plan, opt), texture_of(in, opt), cu->plan, &prm, out->buffer, cu->stream);
+    if (e != cudaSuccess)
+        return cu_fail(ctx, PB_ERR_LAUNCH, "the kernel launch", e);
+    return finish_timed(ctx);
+}
+
 static pb_status cuda_adjoint(pb_context *ctx, const pb_volume *tomograph, const pb_plan *plan,
                               const pb_blur_options *opt, pb_volume *object, int accumulate)
 {
     cu_impl *cu = ctx->impl;
     pb_status st = use_device(ctx);
+    if (st == PB_OK && pb_plan_shift_invariant(plan, opt))
+        return cuda_adjoint_gather(ctx, tomograph, plan, opt, object, accumulate);
     if (st == PB_OK)
         st = upload_plan(ctx, plan, opt);
     if (st != PB_OK)

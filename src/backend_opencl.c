@@ -297,8 +297,12 @@ static pb_status ocl_volume_download(const pb_volume *vol, float *host)
     return PB_OK;
 }
 
-/* Brings the volume's image up to date with its buffer. */
-static pb_status refresh_image(pb_context *ctx, const pb_volume *vol)
+static cl_int wait_timed(pb_context *ctx, cl_int e, cl_event ev);
+
+/* Brings the volume's image up to date with its buffer; with timed, the copy
+ * is waited for and counts with the kernel time (the adjoint's gather, whose
+ * input is fresh from a projector each time). */
+static pb_status refresh_image(pb_context *ctx, const pb_volume *vol, int timed)
 {
     cl_impl *cl = ctx->impl;
     cl_volume *v = vol->impl;
@@ -321,7 +325,11 @@ static pb_status refresh_image(pb_context *ctx, const pb_volume *vol)
     }
     if (v->image_stale) {
         size_t origin[3] = {0, 0, 0};
-        e = clEnqueueCopyBufferToImage(cl->queue, v->buffer, v->image, 0, origin, region, 0, NULL, NULL);
+        cl_event ev = NULL;
+        e = clEnqueueCopyBufferToImage(cl->queue, v->buffer, v->image, 0, origin, region, 0, NULL,
+                                       timed ? &ev : NULL);
+        if (timed)
+            e = wait_timed(ctx, e, ev);
         if (e != CL_SUCCESS)
             return cl_fail(ctx, PB_ERR_DEVICE, "clEnqueueCopyBufferToImage", e);
         v->image_stale = 0;
@@ -429,7 +437,7 @@ static pb_status ocl_blur(pb_context *ctx, const pb_volume *object, const pb_pla
                           const pb_blur_options *opt, pb_volume *tomograph)
 {
     cl_impl *cl = ctx->impl;
-    pb_status st = refresh_image(ctx, object);
+    pb_status st = refresh_image(ctx, object, 0);
     if (st != PB_OK)
         return st;
     cl_mem poses;
@@ -439,7 +447,7 @@ static pb_status ocl_blur(pb_context *ctx, const pb_volume *object, const pb_pla
     pb_kparams prm;
     pb_kparams_from_plan(plan, opt, &prm);
 
-    int kernel = pb_kernel_index((int)opt->method, opt->filter == PB_FILTER_EXACT);
+    int kernel = pb_forward_kernel(plan, opt);
     cl_kernel k = cl->kernels[kernel];
     cl_volume *in = object->impl, *out = tomograph->impl;
     cl_int e = set_args(k, in->image, poses, &prm, out->buffer);
@@ -470,22 +478,22 @@ static pb_status ocl_blur_batch(pb_context *ctx, size_t frames, const pb_volume 
         free(events);
         return pb_error(ctx, PB_ERR_OUT_OF_MEMORY, "out of host memory for %zu frames", frames);
     }
-    int kernel = pb_kernel_index((int)opt->method, opt->filter == PB_FILTER_EXACT);
-    cl_kernel k = cl->kernels[kernel];
     size_t queued = 0;
     pb_status st = PB_OK;
     cl_int e = CL_SUCCESS;
     for (size_t i = 0; i < frames && st == PB_OK; i++)
-        st = refresh_image(ctx, objects[i]);
+        st = refresh_image(ctx, objects[i], 0);
     for (size_t i = 0; i < frames && st == PB_OK; i++) {
         if ((st = upload_plan(ctx, &plans[i], opt, &poses[i])) != PB_OK)
             break;
         pb_kparams prm;
         pb_kparams_from_plan(&plans[i], opt, &prm);
+        int kernel = pb_forward_kernel(&plans[i], opt);
+        cl_kernel k = cl->kernels[kernel];
         const cl_volume *in = objects[i]->impl;
         cl_volume *out = tomographs[i]->impl;
         /* A kernel's arguments are taken when it is queued, so one kernel
-         * object serves every frame. */
+         * object serves every frame that uses it. */
         if ((e = set_args(k, in->image, poses[i], &prm, out->buffer)) != CL_SUCCESS) {
             st = cl_fail(ctx, PB_ERR_LAUNCH, "clSetKernelArg", e);
             break;
@@ -522,9 +530,45 @@ static cl_int zero_buffer(pb_context *ctx, cl_mem buffer, size_t bytes)
     return wait_timed(ctx, e, ev);
 }
 
+/* The adjoint of a motion of translations only: the shift-invariant kernel
+ * mirrored, a gather that reads the tomograph through an image (its copy
+ * counts with the kernel time) and writes or adds every object voxel once. */
+static pb_status ocl_adjoint_gather(pb_context *ctx, const pb_volume *tomograph, const pb_plan *plan,
+                                    const pb_blur_options *opt, pb_volume *object, int accumulate)
+{
+    cl_impl *cl = ctx->impl;
+    ctx->last_kernel_ms = 0.0;
+    pb_status st = refresh_image(ctx, tomograph, 1);
+    if (st != PB_OK)
+        return st;
+    cl_mem poses;
+    if ((st = upload_plan(ctx, plan, opt, &poses)) != PB_OK)
+        return st;
+    pb_kparams prm;
+    pb_kparams_from_plan(plan, opt, &prm);
+    prm.mirror = 1;
+    prm.accumulate = accumulate;
+    int kernel = pb_forward_kernel(plan, opt);
+    const cl_volume *in = tomograph->impl;
+    cl_volume *out = object->impl;
+    cl_int e = set_args(cl->kernels[kernel], in->image, poses, &prm, out->buffer);
+    if (e != CL_SUCCESS) {
+        clReleaseMemObject(poses);
+        return cl_fail(ctx, PB_ERR_LAUNCH, "clSetKernelArg", e);
+    }
+    e = launch_grid(ctx, kernel, plan);
+    clReleaseMemObject(poses);
+    out->image_stale = 1;
+    if (e != CL_SUCCESS)
+        return cl_fail(ctx, PB_ERR_LAUNCH, "clEnqueueNDRangeKernel or the kernel", e);
+    return PB_OK;
+}
+
 static pb_status ocl_adjoint(pb_context *ctx, const pb_volume *tomograph, const pb_plan *plan,
                              const pb_blur_options *opt, pb_volume *object, int accumulate)
 {
+    if (pb_plan_shift_invariant(plan, opt))
+        return ocl_adjoint_gather(ctx, tomograph, plan, opt, object, accumulate);
     cl_impl *cl = ctx->impl;
     cl_mem poses;
     pb_status st = upload_plan(ctx, plan, opt, &poses);

@@ -20,6 +20,29 @@ void pb_kparams_from_plan(const pb_plan *plan, const pb_blur_options *opt, pb_kp
     prm->seed = opt->seed;
 }
 
+int pb_plan_shift_invariant(const pb_plan *plan, const pb_blur_options *opt)
+{
+    if (opt->method == PB_METHOD_REF)
+        return 0;
+    /* The rotations themselves, not the maps: a map is built by differences
+     * (pb_pose_texel_map) and its identity may be off by an ulp in double. A
+     * unit quaternion with no vector part is the identity even where SLERP's
+     * normalisation left w an ulp off 1. */
+    for (size_t i = 0; i < plan->count; i++) {
+        const double *q = plan->poses[i].pose.rotation;
+        if (q[1] != 0.0 || q[2] != 0.0 || q[3] != 0.0)
+            return 0;
+    }
+    return 1;
+}
+
+int pb_forward_kernel(const pb_plan *plan, const pb_blur_options *opt)
+{
+    int exact = opt->filter == PB_FILTER_EXACT;
+    return pb_plan_shift_invariant(plan, opt) ? pb_shift_index((int)opt->method, exact)
+                                              : pb_kernel_index((int)opt->method, exact);
+}
+
 static void kpose_from_plan(const pb_plan *plan, size_t index, pb_kpose *out)
 {
     const pb_plan_pose *p = &plan->poses[index];

@@ -12,6 +12,15 @@
 #define PB_NVIDIA_WEIGHT_STEPS 256.0f
 
 void pb_kparams_from_plan(const pb_plan *plan, const pb_blur_options *opt, pb_kparams *prm);
+
+/* Whether a launch may use the shift-invariant kernels (cl/pb_shift.cl): AB,
+ * RM or CL under key poses that all have the identity rotation, exactly (a
+ * motion of translations only; any rotation, however small, takes the general
+ * kernels). */
+int pb_plan_shift_invariant(const pb_plan *plan, const pb_blur_options *opt);
+/* The forward kernel of a launch (PB_KERNEL_NAMES): the shift-invariant one
+ * where pb_plan_shift_invariant, the general one otherwise. */
+int pb_forward_kernel(const pb_plan *plan, const pb_blur_options *opt);
 /* What a launch of `method` reads besides its parameters, in the kernels'
  * layout: the plan's key poses (pb_kpose), or for REF its time steps
  * (pb_kstep), in one malloc'd block of *bytes for the backend to copy to the

@@ -16,8 +16,13 @@ enum { FRAMES = 4, TRACK = 61 }; /* 2 s at 30 Hz */
 
 static const char *names[] = {"AB", "RM", "CL", "REF"};
 
-/* A head that drifts and nods: a random walk of small steps, 30 times a
- * second, turning up to a few degrees about a tilted axis. */
+/* A head that nods and drifts: a random walk of small steps, 30 times a
+ * second, that in the first second also turns up to a few degrees about a
+ * tilted axis, and is back at its first angle from then on. The first two
+ * frames turn, which takes the general kernels (and the adjoint's scatter);
+ * the last two are translations only, which take the shift-invariant ones (and
+ * the gather). Frames 0, 2 and 3 share an object, so the adjoint adds the
+ * gather onto the scatter's sum and onto its own. */
 static void make_track(double *times, pb_pose *poses)
 {
     double t[3] = {0, 0, 0}, deg = 0.0, axis[3] = {0.3, 1.0, 0.2};
@@ -25,7 +30,7 @@ static void make_track(double *times, pb_pose *poses)
         times[k] = k / 30.0;
         for (int i = 0; i < 3; i++)
             t[i] += pb_rand_range(-0.25, 0.35);
-        deg += pb_rand_range(-0.4, 0.6);
+        deg = k < 30 ? deg + pb_rand_range(-0.4, 0.6) : 0.0;
         poses[k] = pb_test_pose(t[0], t[1], t[2], axis, deg);
     }
 }
