@@ -263,6 +263,25 @@ class Motion(Case):
                     tol = 1e-5 if extra else 0.0  # the adjoint's float atomics add in any order
                     np.testing.assert_allclose(got[f], want, rtol=tol, atol=tol * float(np.abs(want).max()))
                     self.assertGreater(float(np.abs(got[f] - dyn[f]).max()), 0.1, "the motion did nothing")
+        # --sum-frames: the frames' back projections added into one 3-D volume,
+        # the transpose of one activity blurred through every frame:
+        # <x, sum_f B_f^T y_f> = sum_f <B_f x, y_f>, here through files.
+        x = self.random_volume((12, 10, 8))
+        write_raw(self.p("x.raw"), x)
+        spec = ("--motion", track, "--frames", ",".join(map(str, bounds)), "--device", "opencl", "-q")
+        run("blur", "-i", self.p("x.raw"), "--dims", "12,10,8", "-o", self.p("bx.nii"), *spec)
+        run("blur", "-i", self.p("dyn.nii.gz"), "-o", self.p("summed.nii"), *spec, "--adjoint", "--sum-frames")
+        summed = nib.load(self.p("summed.nii"))
+        self.assertEqual(summed.shape, (12, 10, 8))
+        bty = summed.get_fdata().transpose(2, 1, 0)
+        bx = nib.load(self.p("bx.nii")).get_fdata().transpose(3, 2, 1, 0)
+        lhs = float(np.sum(bx * dyn, dtype=np.float64))
+        rhs = float(np.sum(x * bty, dtype=np.float64))
+        self.assertLess(abs(lhs - rhs) / abs(lhs), 1e-5, (lhs, rhs))
+        # ... and equals the sum of the frames' own back projections (out.nii.gz,
+        # last written by the --adjoint subtest above).
+        frames = nib.load(self.p("out.nii.gz")).get_fdata().transpose(3, 2, 1, 0)
+        np.testing.assert_allclose(bty, frames.sum(axis=0), rtol=1e-5, atol=1e-5 * float(np.abs(bty).max()))
         # A 3-D activity through even frames: 4-D out, pixdim[4] the frames' length.
         write_raw(self.p("static.raw"), dyn[0])
         run("blur", "-i", self.p("static.raw"), "--dims", "12,10,8", "-o", self.p("even.nii"), "--motion", track,
@@ -361,6 +380,8 @@ class BadInput(Case):
         self.fails(2, ["NIfTI", "out.hv"], *self.blur(*track, "--frames", "0,1")[:5], "-o", self.p("out.hv"),
                    "--device", "host", *track, "--frames", "0,1", out="out.hv")
         self.fails(2, ["frame 1 of 2", "track"], *self.blur(*track, "--frames", "0,1,2.5"))
+        self.fails(2, ["--sum-frames", "--adjoint"], *self.blur(*track, "--frames", "0,1", "--sum-frames"))
+        self.fails(2, ["--sum-frames", "--frames"], *self.blur(*track, "--frame", "0,1", "--adjoint", "--sum-frames"))
 
     def test_truncated_files(self):
         img = nib.Nifti1Image(np.ones((8, 8, 8), np.float32), np.eye(4))

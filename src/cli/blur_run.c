@@ -136,17 +136,20 @@ int pbc_blur_image(pb_context *ctx, const pbc_image *in, const pb_motion *motion
 }
 
 int pbc_blur_frames_image(pb_context *ctx, const pbc_image *in, const pb_motion *track, const double *bounds,
-                          size_t frames, const pb_blur_options *options, int adjoint, const char *label, float *out,
-                          double *ms)
+                          size_t frames, const pb_blur_options *options, int adjoint, int sum, const char *label,
+                          float *out, double *ms)
 {
     pb_geometry g = {{in->dims[0], in->dims[1], in->dims[2]}, {in->voxel_size[0], in->voxel_size[1], in->voxel_size[2]}};
     size_t n = pbc_image_frame_voxels(in), sources = pbc_image_frame_count(in);
-    pb_volume **src = calloc(sources, sizeof *src), **dst = calloc(frames, sizeof *dst);
+    size_t outputs = adjoint && sum ? 1 : frames;
+    pb_volume **src = calloc(sources, sizeof *src), **dst = calloc(outputs, sizeof *dst);
     const pb_volume **inputs = malloc(frames * sizeof *inputs);
-    if (!src || !dst || !inputs) {
+    pb_volume **targets = malloc(frames * sizeof *targets);
+    if (!src || !dst || !inputs || !targets) {
         free(src);
         free(dst);
         free(inputs);
+        free(targets);
         return pbc_fail(PBC_EXIT_RUNTIME, "%s: out of host memory for %zu frames", label, frames);
     }
     pb_status st = PB_OK;
@@ -155,29 +158,33 @@ int pbc_blur_frames_image(pb_context *ctx, const pbc_image *in, const pb_motion 
     for (size_t i = 0; i < sources && st == PB_OK; i++)
         if ((st = pb_volume_create(ctx, &g, &src[i])) == PB_OK)
             st = pb_volume_upload(src[i], in->data + i * n);
-    for (size_t i = 0; i < frames && st == PB_OK; i++)
+    for (size_t i = 0; i < outputs && st == PB_OK; i++)
         st = pb_volume_create(ctx, &g, &dst[i]);
     *ms = 0.0;
-    for (size_t i = 0; i < frames; i++)
+    for (size_t i = 0; i < frames; i++) {
         inputs[i] = src[sources == 1 ? 0 : i];
+        targets[i] = dst[outputs == 1 ? 0 : i];
+    }
     if (st == PB_OK) {
         /* The adjoint: frame i's tomograph back through frame i's part of the
-         * track, into an object volume of its own. */
-        st = adjoint ? pb_blur_frames_adjoint(ctx, inputs, track, bounds, frames, options, dst)
-                     : pb_blur_frames(ctx, inputs, track, bounds, frames, options, dst);
+         * track, into an object volume of its own, or with sum into the one
+         * that every frame names (the library adds frames that share one). */
+        st = adjoint ? pb_blur_frames_adjoint(ctx, inputs, track, bounds, frames, options, targets)
+                     : pb_blur_frames(ctx, inputs, track, bounds, frames, options, targets);
         if (st == PB_OK)
             pb_context_last_kernel_ms(ctx, ms);
     }
-    for (size_t i = 0; i < frames && st == PB_OK; i++)
+    for (size_t i = 0; i < outputs && st == PB_OK; i++)
         st = pb_volume_download(dst[i], out + i * n);
     if (st != PB_OK && pbc_show_progress)
         show_progress(1.0, NULL);
     for (size_t i = 0; i < sources; i++)
         pb_volume_destroy(src[i]);
-    for (size_t i = 0; i < frames; i++)
+    for (size_t i = 0; i < outputs; i++)
         pb_volume_destroy(dst[i]);
     free(src);
     free(dst);
     free(inputs);
+    free(targets);
     return st == PB_OK ? 0 : blur_failed(ctx, st, label);
 }

@@ -41,9 +41,11 @@ int pbc_blur_image(pb_context *ctx, const pbc_image *in, const pb_motion *motion
 /* Dynamic frames: frame i (bounds[i] to bounds[i + 1] of the track) of in
  * (a 4-D image with `frames` frames, or a 3-D one that serves them all)
  * blurred in one pb_blur_frames call, or with adjoint its transpose frame by
- * frame, into out (frames volumes, frame after frame). *ms: the kernels' total. */
+ * frame, into out (frames volumes, frame after frame). With adjoint and sum,
+ * every frame's back projection is added into one volume, out: the transpose
+ * of one object blurred through every frame. *ms: the kernels' total. */
 int pbc_blur_frames_image(pb_context *ctx, const pbc_image *in, const pb_motion *track, const double *bounds,
-                          size_t frames, const pb_blur_options *options, int adjoint, const char *label, float *out,
-                          double *ms);
+                          size_t frames, const pb_blur_options *options, int adjoint, int sum, const char *label,
+                          float *out, double *ms);
 
 #endif

@@ -32,6 +32,8 @@ static const pbc_option options[] = {
     {"--seed", NULL, "S", "REF: seed of the random points (default 1)"},
     {"--adjoint", NULL, NULL, "apply the transpose instead (back projection's blur): IN is tomograph-space, OUT "
                               "object-space"},
+    {"--sum-frames", NULL, NULL, "with --adjoint --frames: add every frame's back projection into one 3-D OUT (the "
+                                 "transpose of a 3-D IN blurred through every frame), in any format"},
     PBC_OPTION_DEVICE,
     {"--png", NULL, "PICTURE.png", "picture of input, output and difference (central slices)"},
     {"--quiet", "-q", NULL, "print nothing but errors"},
@@ -48,7 +50,8 @@ static const pbc_command command = {
     "  petblur blur -i derenzo.hv -o moved.hv --motion track.csv --frame 30,60 --method ab --device opencl\n"
     "  petblur blur -i zubal.raw --dims 128,128,64 --voxel-size 2.2,2.2,2.8 -o zubal-blurred.nii --rotate 15\n"
     "  petblur blur -i ratio.nii.gz -o backprojected.nii.gz --motion track.csv --frame 30,60 --adjoint\n"
-    "  petblur blur -i dynamic.nii.gz -o dynamic-blurred.nii.gz --motion track.csv --frames 0,60,120,300,600"};
+    "  petblur blur -i dynamic.nii.gz -o dynamic-blurred.nii.gz --motion track.csv --frames 0,60,120,300,600\n"
+    "  petblur blur -i ratios.nii.gz -o summed.nii.gz --motion track.csv --frames 0,60,120 --adjoint --sum-frames"};
 
 static const char *const method_names[] = {"ab", "rm", "cl", "ref"};
 static const char *const filter_names[] = {"hardware", "exact"};
@@ -122,13 +125,17 @@ static int read_input(const pbc_args *args, const char *in, int frames, pbc_imag
     return rc ? rc : pbc_image_read(in, &hints, img);
 }
 
-/* --frames: the boundaries, checked against --frame and against the input's
- * frames once it is read. */
+/* --frames: the boundaries, checked against --frame, --sum-frames and the
+ * output's format here, and against the input's frames once it is read. */
 static int frame_bounds(const pbc_args *args, double **bounds, size_t *count)
 {
     const char *v = pbc_arg(&command, args, "--frames");
+    int sum = pbc_arg(&command, args, "--sum-frames") != NULL;
     *bounds = NULL;
     *count = 0;
+    if (sum && (!v || !pbc_arg(&command, args, "--adjoint")))
+        return pbc_fail(PBC_EXIT_USAGE, "--sum-frames adds the frames' back projections into one volume: give it "
+                        "with --adjoint and --frames T0,T1,...");
     if (!v)
         return 0;
     if (pbc_arg(&command, args, "--frame"))
@@ -137,7 +144,7 @@ static int frame_bounds(const pbc_args *args, double **bounds, size_t *count)
     char ext[16];
     const char *out = pbc_arg(&command, args, "--output");
     pbc_file_extension(out, ext, sizeof ext);
-    if (strcmp(ext, ".nii") && strcmp(ext, ".nii.gz"))
+    if (!sum && strcmp(ext, ".nii") && strcmp(ext, ".nii.gz"))
         return pbc_fail(PBC_EXIT_USAGE, "-o %s: --frames makes a 4-D image, which only NIfTI holds; name the output "
                         ".nii or .nii.gz", out);
     return pbc_parse_bounds("--frames", v, bounds, count);
@@ -189,6 +196,7 @@ static int run(const pbc_args *args, const char *in_path, const char *out_path, 
     size_t nb = 0;
     int quiet = pbc_arg(&command, args, "--quiet") != NULL;
     int adjoint = pbc_arg(&command, args, "--adjoint") != NULL;
+    int sum = pbc_arg(&command, args, "--sum-frames") != NULL; /* checked with --frames */
     int rc = blur_options(args, &opt);
     if (rc || (rc = frame_bounds(args, &bounds, &nb)) || (rc = pbc_motion_from_args(&command, args, &motion))) {
         free(bounds);
@@ -199,12 +207,13 @@ static int run(const pbc_args *args, const char *in_path, const char *out_path, 
     if (!(rc = read_input(args, in_path, bounds != NULL, &in)) && !(rc = bounds ? check_frames(in_path, &in, frames) : 0) &&
         !(rc = pbc_image_check_not_input(out_path, in_path, &in)) &&
         !(png && (rc = pbc_image_check_not_input(png, in_path, &in))) &&
-        !(rc = pbc_image_alloc_frames(&out, in.dims, in.voxel_size, bounds ? frames : 1)) &&
+        !(rc = pbc_image_alloc_frames(&out, in.dims, in.voxel_size, bounds && !sum ? frames : 1)) &&
         !(rc = pbc_open_device(pbc_arg(&command, args, "--device"), &ctx))) {
         out.orientation = in.orientation;
         if (bounds) {
-            out.frame_seconds = common_length(bounds, frames);
-            rc = pbc_blur_frames_image(ctx, &in, &motion.motion, bounds, frames, &opt, adjoint, label, out.data, &ms);
+            out.frame_seconds = sum ? 0.0 : common_length(bounds, frames);
+            rc = pbc_blur_frames_image(ctx, &in, &motion.motion, bounds, frames, &opt, adjoint, sum, label, out.data,
+                                       &ms);
         } else {
             rc = pbc_blur_image(ctx, &in, &motion.motion, &opt, adjoint, label, out.data, &ms);
         }
@@ -217,7 +226,7 @@ static int run(const pbc_args *args, const char *in_path, const char *out_path, 
         char dev[600], shape[64] = "";
         pbc_describe_device(ctx, dev, sizeof dev);
         if (bounds)
-            snprintf(shape, sizeof shape, " x %zu frames", frames);
+            snprintf(shape, sizeof shape, sum ? ", the sum of %zu frames" : " x %zu frames", frames);
         printf("%s: %zu x %zu x %zu%s, %s %s%s on %s, kernel %.2f ms\n", out_path, in.dims[0], in.dims[1], in.dims[2],
                shape, method_names[opt.method], opt.method == PB_METHOD_REF ? "box" : filter_names[opt.filter],
                adjoint ? " adjoint" : "", dev, ms);
