@@ -440,61 +440,46 @@ static pb_status cuda_blur_batch(pb_context *ctx, size_t frames, const pb_volume
     return st == PB_OK ? finish_timed(ctx) : st;
 }
 
-/* The adjoint of a motion of translations only: the shift-invariant kernel
- * mirrored, a gather that reads the tomograph through its array (the copy
- * counts with the kernel time) and writes or adds every object voxel once. */
-static pb_status cuda_adjoint_gather(pb_context *ctx, const pb_volume *tomograph, const pb_plan *plan,
-                                     const pb_blur_options *opt, pb_volume *object, int accumulate)
-{
-    cu_impl *cu = ctx->impl;
-    pb_status st = upload_plan(ctx, plan, opt);
-    if (st != PB_OK)
-        return st;
-    cudaError_t e = cudaEventRecord(cu->start, cu->stream);
-    if (e != cudaSuccess)
-        return cu_fail(ctx, PB_ERR_LAUNCH, "cudaEventRecord", e);
-    if ((st = refresh_array(ctx, tomograph)) != PB_OK)
-        return st;
-    pb_kparams prm;
-    pb_kparams_from_plan(plan, opt, &prm);
-    prm.mirror = 1;
-    prm.accumulate = accumulate;
-    const cu_volume *in = tomograph->impl;
-    cu_volume *out = object->impl;
-    out->array_stale = 1;
-    e = pb_cuda_launch(pb_forward_kernel(plan, opt), texture_of(in, opt), cu->plan, &prm, out->buffer, cu->stream);
-    if (e != cudaSuccess)
-        return cu_fail(ctx, PB_ERR_LAUNCH, "the kernel launch", e);
-    return finish_timed(ctx);
-}
-
+/* Under a motion of translations only the adjoint is the shift-invariant
+ * kernel mirrored (cl/pb_shift.cl): a gather that reads the tomograph through
+ * its array and writes (or adds into) every object voxel once. Otherwise the
+ * scatter adds into zeros. The array's copy, or the zeroing, counts with the
+ * kernel's time. */
 static pb_status cuda_adjoint(pb_context *ctx, const pb_volume *tomograph, const pb_plan *plan,
                               const pb_blur_options *opt, pb_volume *object, int accumulate)
 {
     cu_impl *cu = ctx->impl;
+    int gather = pb_plan_shift_invariant(plan, opt);
     pb_status st = use_device(ctx);
-    if (st == PB_OK && pb_plan_shift_invariant(plan, opt))
-        return cuda_adjoint_gather(ctx, tomograph, plan, opt, object, accumulate);
     if (st == PB_OK)
         st = upload_plan(ctx, plan, opt);
     if (st != PB_OK)
         return st;
     pb_kparams prm;
     pb_kparams_from_plan(plan, opt, &prm);
-    /* The transpose of what the texture unit computed (cl/pb_adjoint.cl). */
-    if (opt->filter == PB_FILTER_HARDWARE)
+    prm.mirror = gather;
+    prm.accumulate = accumulate;
+    /* The scatter's transpose of what the texture unit computed (cl/pb_adjoint.cl). */
+    if (!gather && opt->filter == PB_FILTER_HARDWARE)
         prm.weight_steps = PB_NVIDIA_WEIGHT_STEPS;
     const cu_volume *in = tomograph->impl;
     cu_volume *out = object->impl;
     out->array_stale = 1;
-    /* The zeroing the scatter adds into counts with the kernel's time. */
     cudaError_t e = cudaEventRecord(cu->start, cu->stream);
     if (e != cudaSuccess)
         return cu_fail(ctx, PB_ERR_LAUNCH, "cudaEventRecord", e);
-    if (!accumulate && (e = cudaMemsetAsync(out->buffer, 0, object->count * sizeof(float), cu->stream)) != cudaSuccess)
-        return cu_fail(ctx, PB_ERR_DEVICE, "cudaMemsetAsync", e);
-    e = pb_cuda_launch_adjoint(pb_adjoint_index((int)opt->method), in->buffer, cu->plan, &prm, out->buffer,
-                               cu->stream);
+    if (gather) {
+        if ((st = refresh_array(ctx, tomograph)) != PB_OK)
+            return st;
+        e = pb_cuda_launch(pb_forward_kernel(plan, opt), texture_of(in, opt), cu->plan, &prm, out->buffer,
+                           cu->stream);
+    } else {
+        if (!accumulate &&
+            (e = cudaMemsetAsync(out->buffer, 0, object->count * sizeof(float), cu->stream)) != cudaSuccess)
+            return cu_fail(ctx, PB_ERR_DEVICE, "cudaMemsetAsync", e);
+        e = pb_cuda_launch_adjoint(pb_adjoint_index((int)opt->method), in->buffer, cu->plan, &prm, out->buffer,
+                                   cu->stream);
+    }
     if (e != cudaSuccess)
         return cu_fail(ctx, PB_ERR_LAUNCH, "the adjoint kernel launch", e);
     return finish_timed(ctx);

@@ -530,66 +530,36 @@ static cl_int zero_buffer(pb_context *ctx, cl_mem buffer, size_t bytes)
     return wait_timed(ctx, e, ev);
 }
 
-/* The adjoint of a motion of translations only: the shift-invariant kernel
- * mirrored, a gather that reads the tomograph through an image (its copy
- * counts with the kernel time) and writes or adds every object voxel once. */
-static pb_status ocl_adjoint_gather(pb_context *ctx, const pb_volume *tomograph, const pb_plan *plan,
-                                    const pb_blur_options *opt, pb_volume *object, int accumulate)
-{
-    cl_impl *cl = ctx->impl;
-    ctx->last_kernel_ms = 0.0;
-    pb_status st = refresh_image(ctx, tomograph, 1);
-    if (st != PB_OK)
-        return st;
-    cl_mem poses;
-    if ((st = upload_plan(ctx, plan, opt, &poses)) != PB_OK)
-        return st;
-    pb_kparams prm;
-    pb_kparams_from_plan(plan, opt, &prm);
-    prm.mirror = 1;
-    prm.accumulate = accumulate;
-    int kernel = pb_forward_kernel(plan, opt);
-    const cl_volume *in = tomograph->impl;
-    cl_volume *out = object->impl;
-    cl_int e = set_args(cl->kernels[kernel], in->image, poses, &prm, out->buffer);
-    if (e != CL_SUCCESS) {
-        clReleaseMemObject(poses);
-        return cl_fail(ctx, PB_ERR_LAUNCH, "clSetKernelArg", e);
-    }
-    e = launch_grid(ctx, kernel, plan);
-    clReleaseMemObject(poses);
-    out->image_stale = 1;
-    if (e != CL_SUCCESS)
-        return cl_fail(ctx, PB_ERR_LAUNCH, "clEnqueueNDRangeKernel or the kernel", e);
-    return PB_OK;
-}
-
+/* Under a motion of translations only the adjoint is the shift-invariant
+ * kernel mirrored (cl/pb_shift.cl): a gather that reads the tomograph through
+ * an image, whose copy counts with the kernel time, and writes (or adds into)
+ * every object voxel once. Otherwise the scatter adds into zeros. */
 static pb_status ocl_adjoint(pb_context *ctx, const pb_volume *tomograph, const pb_plan *plan,
                              const pb_blur_options *opt, pb_volume *object, int accumulate)
 {
-    if (pb_plan_shift_invariant(plan, opt))
-        return ocl_adjoint_gather(ctx, tomograph, plan, opt, object, accumulate);
     cl_impl *cl = ctx->impl;
+    int gather = pb_plan_shift_invariant(plan, opt);
+    ctx->last_kernel_ms = 0.0;
+    pb_status st = gather ? refresh_image(ctx, tomograph, 1) : PB_OK;
     cl_mem poses;
-    pb_status st = upload_plan(ctx, plan, opt, &poses);
-    if (st != PB_OK)
+    if (st != PB_OK || (st = upload_plan(ctx, plan, opt, &poses)) != PB_OK)
         return st;
     pb_kparams prm;
     pb_kparams_from_plan(plan, opt, &prm);
-    /* The transpose of what the image sampler computed (cl/pb_adjoint.cl);
-     * PoCL's weights are float. */
-    if (opt->filter == PB_FILTER_HARDWARE && cl->nvidia)
+    prm.mirror = gather;
+    prm.accumulate = accumulate;
+    /* The scatter's transpose of what the image sampler computed
+     * (cl/pb_adjoint.cl); PoCL's weights are float. */
+    if (!gather && opt->filter == PB_FILTER_HARDWARE && cl->nvidia)
         prm.weight_steps = PB_NVIDIA_WEIGHT_STEPS;
-    int kernel = pb_adjoint_index((int)opt->method);
-    cl_kernel k = cl->kernels[kernel];
+    int kernel = gather ? pb_forward_kernel(plan, opt) : pb_adjoint_index((int)opt->method);
     cl_volume *in = tomograph->impl, *out = object->impl;
-    ctx->last_kernel_ms = 0.0;
-    cl_int e = set_args(k, in->buffer, poses, &prm, out->buffer);
+    cl_int e = set_args(cl->kernels[kernel], gather ? in->image : in->buffer, poses, &prm, out->buffer);
     if (e != CL_SUCCESS) {
         clReleaseMemObject(poses);
         return cl_fail(ctx, PB_ERR_LAUNCH, "clSetKernelArg", e);
     }
-    if (!accumulate)
+    if (!gather && !accumulate)
         e = zero_buffer(ctx, out->buffer, object->count * sizeof(float));
     if (e != CL_SUCCESS) {
         clReleaseMemObject(poses);
