@@ -164,10 +164,10 @@ typedef struct pb_ab_walk {
     int f0, f1;            /* the fully covered ones (f0 = k1 + 1, f1 = k1: none) */
 } pb_ab_walk;
 
-/* Sets up the walk; returns 1 when a-b is a point, which has no walk. */
-PB_FN int pb_ab_walk_init(const float *a, const float *b, pb_ab_walk *w)
+/* Sets up the walk along axis m; returns 1 when a-b is a point there, which
+ * has no walk. */
+PB_FN int pb_ab_walk_init_axis(const float *a, const float *b, int m, pb_ab_walk *w)
 {
-    int m = pb_major_axis(b[0] - a[0], b[1] - a[1], b[2] - a[2]);
     float am = (m == 0 ? a[0] : (m == 1 ? a[1] : a[2])) - 0.5f;
     float bm = (m == 0 ? b[0] : (m == 1 ? b[1] : b[2])) - 0.5f;
     w->m = m;
@@ -193,6 +193,12 @@ PB_FN int pb_ab_walk_init(const float *a, const float *b, pb_ab_walk *w)
         w->f1 = w->k1;
     }
     return 0;
+}
+
+/* The walk along the segment's own major axis. */
+PB_FN int pb_ab_walk_init(const float *a, const float *b, pb_ab_walk *w)
+{
+    return pb_ab_walk_init_axis(a, b, pb_major_axis(b[0] - a[0], b[1] - a[1], b[2] - a[2]), w);
 }
 
 /* The next partly covered slice after k: the loop over k0 .. f0 - 1 and

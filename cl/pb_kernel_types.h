@@ -25,20 +25,24 @@ typedef struct pb_kparams {
      * adjoint (the walk mirrored); with mirror, accumulate adds into out. */
     int mirror;
     int accumulate;
+    /* pb_shift_ab_layers: the axis the layers run along, every segment's
+     * major axis; pb_permute: the axis to make the slowest. */
+    int layer_axis;
 } pb_kparams;
 
 /* The kernels: the forward ones, one per method and filter (REF reads nearest
  * voxels only), then the adjoints' scatters, one per method (they read no
  * texture), then the shift-invariant ones for motions of translations only,
  * one per method but REF and filter, each both the forward and the adjoint's
- * gather. pb_kernel_index, pb_adjoint_index and pb_shift_index give a launch's
- * entry. */
-#define PB_KERNEL_COUNT 17
+ * gather, and AB HARDWARE's forward through 2-D layers; last the copy that
+ * lays a volume out in layers. pb_kernel_index, pb_adjoint_index and
+ * pb_shift_index give a launch's entry. */
+#define PB_KERNEL_COUNT 19
 #define PB_KERNEL_NAMES                                                                                         \
     {"pb_blur_ab",        "pb_blur_ab_exact",  "pb_blur_rm",    "pb_blur_rm_exact", "pb_blur_cl",             \
      "pb_blur_cl_exact",  "pb_blur_ref",       "pb_adjoint_ab", "pb_adjoint_rm",    "pb_adjoint_cl",          \
      "pb_adjoint_ref",    "pb_shift_ab",       "pb_shift_ab_exact", "pb_shift_rm",  "pb_shift_rm_exact",      \
-     "pb_shift_cl",       "pb_shift_cl_exact"}
+     "pb_shift_cl",       "pb_shift_cl_exact", "pb_shift_ab_layers", "pb_permute"}
 
 PB_FN int pb_kernel_index(int method, int exact)
 {
@@ -54,6 +58,16 @@ PB_FN int pb_adjoint_index(int method)
 PB_FN int pb_shift_index(int method, int exact)
 {
     return 11 + 2 * method + (exact ? 1 : 0);
+}
+
+#define PB_KERNEL_SHIFT_AB_LAYERS 17
+#define PB_KERNEL_PERMUTE 18
+
+/* The two axes across the layers of axis m, in the order (m + 1, m + 2): a
+ * layer's x and y. */
+PB_FN int pb_layer_across(int m, int i)
+{
+    return (m + 1 + i) % 3;
 }
 
 /* One key pose, as the kernels read it. */

@@ -88,3 +88,101 @@ PB_KERNEL void pb_shift_cl_exact(pb_image img, PB_GLOBAL_RO pb_kpose *poses, pb_
     PB_SHIFT_VOXEL;
     PB_SHIFT_STORE(pb_classical(img, poses, prm, u, &pl, 1));
 }
+
+/* AB HARDWARE under translations, through the object laid out as a 2-D image
+ * array with one layer per slice along prm.layer_axis, every segment's major
+ * axis (the host checks that they share one and picks it). A slice sample is
+ * then one bilinear fetch in its layer, which the texture unit makes at twice
+ * its trilinear rate (bench/fetch_rate.cu); the weights are the same two
+ * rounded fractions, the slice's own weight exactly 1. The adjoint's gather
+ * keeps the 3-D image: it reads the tomograph, which would need laying out
+ * anew for every call. */
+
+/* Layer `layer` at (pa, pb), or 0 outside the volume along the axis: an array
+ * clamps its layer index where a 3-D image reads its zero border. */
+PB_FN float pb_layer_fetch(pb_layers img, pb_kparams prm, float pa, float pb, int layer)
+{
+    int n = prm.dims[prm.layer_axis];
+    return layer >= 0 && layer < n ? PB_FETCH_LAYER(img, pa, pb, layer) : 0.0f;
+}
+
+/* pb_slice_sample through the layers; the major coordinate is a slice centre. */
+PB_FN float pb_layer_slice(pb_layers img, pb_kparams prm, const pb_place *pl, float x, float y, float z)
+{
+    pb_place_point(pl, &x, &y, &z);
+    int m = prm.layer_axis;
+    float pm = m == 0 ? x : (m == 1 ? y : z);
+    float pa = m == 0 ? y : (m == 1 ? z : x);
+    float pb = m == 0 ? z : (m == 1 ? x : y);
+    return pb_layer_fetch(img, prm, pa, pb, (int)floor(pm));
+}
+
+/* pb_trilinear through the layers: two bilinear fetches, mixed in float. */
+PB_FN float pb_layer_trilinear(pb_layers img, pb_kparams prm, const pb_place *pl, float x, float y, float z)
+{
+    pb_place_point(pl, &x, &y, &z);
+    int m = prm.layer_axis;
+    float pm = (m == 0 ? x : (m == 1 ? y : z)) - 0.5f;
+    float pa = m == 0 ? y : (m == 1 ? z : x);
+    float pb = m == 0 ? z : (m == 1 ? x : y);
+    float l0 = floor(pm), f = pm - l0;
+    int layer = (int)l0;
+    return (1.0f - f) * pb_layer_fetch(img, prm, pa, pb, layer) + f * pb_layer_fetch(img, prm, pa, pb, layer + 1);
+}
+
+/* pb_ab_segment's walk along the layers' axis, each sample through them. */
+PB_FN float pb_ab_segment_layers(pb_layers img, pb_kparams prm, const pb_place *pl, const float *a, const float *b)
+{
+    pb_ab_walk w;
+    if (pb_ab_walk_init_axis(a, b, prm.layer_axis, &w))
+        return pb_layer_trilinear(img, prm, pl, 0.5f * (a[0] + b[0]), 0.5f * (a[1] + b[1]), 0.5f * (a[2] + b[2]));
+    float sum = 0.0f;
+    for (int k = w.f0; k <= w.f1; k++) {
+        float kf = (float)k;
+        sum += pb_layer_slice(img, prm, pl, kf * w.g[0] + w.c[0], kf * w.g[1] + w.c[1], kf * w.g[2] + w.c[2]);
+    }
+    float wsum = (float)(w.f1 - w.f0 + 1);
+    for (int k = w.k0; k <= w.k1; k = pb_ab_next_partial(&w, k)) {
+        float kf = (float)k, mean;
+        float s = pb_tent_share(w.lo - kf, w.hi - kf, &mean);
+        sum += s * pb_layer_slice(img, prm, pl, kf * w.g[0] + w.c[0] + mean * w.h[0],
+                                  kf * w.g[1] + w.c[1] + mean * w.h[1], kf * w.g[2] + w.c[2] + mean * w.h[2]);
+        wsum += s;
+    }
+    return PB_DIV(sum, wsum);
+}
+
+PB_KERNEL void pb_shift_ab_layers(pb_layers img, PB_GLOBAL_RO pb_kpose *poses, pb_kparams prm, PB_GLOBAL float *out)
+{
+    PB_SHIFT_VOXEL;
+    float total = 0.0f, a[3], b[3];
+    pb_map_point(poses[0].map, u[0], u[1], u[2], b);
+    for (int j = 0; j < prm.segments; j++) {
+        for (int i = 0; i < 3; i++)
+            a[i] = b[i];
+        pb_map_point(poses[j + 1].map, u[0], u[1], u[2], b);
+        float seg = 0.0f, inv = 1.0f / (float)prm.steps;
+        for (int r = 0; r < prm.steps; r++) {
+            float pa[3], pb[3];
+            pb_ab_piece(a, b, r, prm.steps, inv, pa, pb);
+            seg += pb_ab_segment_layers(img, prm, &pl, pa, pb);
+        }
+        total += poses[j].weight * seg * inv;
+    }
+    PB_SHIFT_STORE(total);
+}
+
+/* A volume laid out in layers along m = prm.layer_axis, for the copy into a
+ * layered image: voxel v goes to layer v[m] at (v[m + 1], v[m + 2]). Reads
+ * are coalesced and writes strided: it runs once per object and axis, outside
+ * the blur's time. (The second argument only matches the launch's others.) */
+PB_KERNEL void pb_permute(PB_GLOBAL_RO float *in, PB_GLOBAL_RO pb_kpose *unused, pb_kparams prm, PB_GLOBAL float *out)
+{
+    int ix = PB_GID_X, iy = PB_GID_Y, iz = PB_GID_Z;
+    (void)unused;
+    if (!PB_IN_GRID(ix, iy, iz))
+        return;
+    int m = prm.layer_axis, v[3] = {ix, iy, iz};
+    int a = pb_layer_across(m, 0), b = pb_layer_across(m, 1);
+    out[v[a] + prm.dims[a] * (v[b] + prm.dims[b] * v[m])] = in[ix + prm.dims[0] * (iy + prm.dims[1] * iz)];
+}

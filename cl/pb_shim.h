@@ -1,6 +1,6 @@
 /* The shim, OpenCL side: the only place that knows the kernels are compiled as
- * OpenCL C. It maps qualifiers, thread ids (x, y and z), the volume type, the
- * two fetches, the adjoint's float atomic add and a fast division; kernel
+ * OpenCL C. It maps qualifiers, thread ids (x, y and z), the volume types, the
+ * three fetches, the adjoint's float atomic add and a fast division; kernel
  * bodies use nothing else. The CUDA side, with the same names, is
  * cuda/pb_shim_cuda.h.
  *
@@ -23,6 +23,10 @@
 /* A macro, not a typedef: PoCL 3.1 reads garbage through a typedef that carries
  * the access qualifier (seen: every fetch returned 123). */
 #define pb_image __read_only image3d_t
+/* The same volume as a 2-D image array, one layer per slice along an axis:
+ * AB's slice samples are bilinear, which the texture unit fetches at twice its
+ * trilinear rate (bench/fetch_rate.cu). */
+#define pb_layers __read_only image2d_array_t
 
 __constant sampler_t pb_sampler_linear = CLK_NORMALIZED_COORDS_FALSE | CLK_ADDRESS_CLAMP | CLK_FILTER_LINEAR;
 __constant sampler_t pb_sampler_nearest = CLK_NORMALIZED_COORDS_FALSE | CLK_ADDRESS_CLAMP | CLK_FILTER_NEAREST;
@@ -30,6 +34,10 @@ __constant sampler_t pb_sampler_nearest = CLK_NORMALIZED_COORDS_FALSE | CLK_ADDR
 /* Border colour of a single-channel image is (0, 0, 0, 1): .x is zero outside. */
 #define PB_FETCH_LINEAR(img, px, py, pz) read_imagef((img), pb_sampler_linear, (float4)((px), (py), (pz), 0.0f)).x
 #define PB_FETCH_NEAREST(img, px, py, pz) read_imagef((img), pb_sampler_nearest, (float4)((px), (py), (pz), 0.0f)).x
+/* Bilinear inside layer `layer` (an int in range: an array clamps the layer,
+ * it has no border there). */
+#define PB_FETCH_LAYER(img, pa, pb, layer)                                                                       \
+    read_imagef((img), pb_sampler_linear, (float4)((pa), (pb), (float)(layer), 0.0f)).x
 
 /* Float atomic add, for the adjoint's scatter. OpenCL 1.2 has none. On
  * NVIDIA's platform (the backend defines PB_OPENCL_NVIDIA) PTX's

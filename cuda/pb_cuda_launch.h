@@ -26,7 +26,8 @@ cudaError_t pb_cuda_launch(int kernel, cudaTextureObject_t volume, const void *p
                            float *out, cudaStream_t stream);
 
 /* Launches adjoint kernel `kernel` (pb_adjoint_index): reads the tomograph
- * buffer `in`, adds into `out`, which must hold zeros (or what to add to). */
+ * buffer `in`, adds into `out`, which must hold zeros (or what to add to).
+ * Also PB_KERNEL_PERMUTE, which reads a buffer and writes one (plan unused). */
 cudaError_t pb_cuda_launch_adjoint(int kernel, const float *in, const void *plan, const pb_kparams *prm, float *out,
                                    cudaStream_t stream);
 

@@ -34,6 +34,7 @@ extern "C" cudaError_t pb_cuda_launch(int kernel, cudaTextureObject_t volume, co
     case 14: pb_shift_rm_exact<<<grid, block, 0, stream>>>(volume, poses, *prm, out); break;
     case 15: pb_shift_cl<<<grid, block, 0, stream>>>(volume, poses, *prm, out); break;
     case 16: pb_shift_cl_exact<<<grid, block, 0, stream>>>(volume, poses, *prm, out); break;
+    case PB_KERNEL_SHIFT_AB_LAYERS: pb_shift_ab_layers<<<grid, block, 0, stream>>>(volume, poses, *prm, out); break;
     default: return cudaErrorInvalidValue;
     }
     return cudaGetLastError();
@@ -49,6 +50,7 @@ extern "C" cudaError_t pb_cuda_launch_adjoint(int kernel, const float *in, const
     case 8: pb_adjoint_rm<<<grid, block, 0, stream>>>(in, poses, *prm, out); break;
     case 9: pb_adjoint_cl<<<grid, block, 0, stream>>>(in, poses, *prm, out); break;
     case 10: pb_adjoint_ref<<<grid, block, 0, stream>>>(in, static_cast<const pb_kstep *>(plan), *prm, out); break;
+    case PB_KERNEL_PERMUTE: pb_permute<<<grid, block, 0, stream>>>(in, poses, *prm, out); break;
     default: return cudaErrorInvalidValue;
     }
     return cudaGetLastError();
@@ -62,7 +64,8 @@ extern "C" cudaError_t pb_cuda_check_kernels(void)
         (const void *)pb_blur_ref, (const void *)pb_adjoint_ab, (const void *)pb_adjoint_rm,
         (const void *)pb_adjoint_cl, (const void *)pb_adjoint_ref, (const void *)pb_shift_ab,
         (const void *)pb_shift_ab_exact, (const void *)pb_shift_rm, (const void *)pb_shift_rm_exact,
-        (const void *)pb_shift_cl, (const void *)pb_shift_cl_exact};
+        (const void *)pb_shift_cl, (const void *)pb_shift_cl_exact, (const void *)pb_shift_ab_layers,
+        (const void *)pb_permute};
     for (const void *k : kernels) {
         cudaFuncAttributes attr;
         cudaError_t e = cudaFuncGetAttributes(&attr, k);

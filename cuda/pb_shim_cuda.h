@@ -25,6 +25,7 @@
 #define PB_GID_Y ((int)(blockIdx.y * blockDim.y + threadIdx.y))
 #define PB_GID_Z ((int)(blockIdx.z * blockDim.z + threadIdx.z))
 typedef cudaTextureObject_t pb_image;
+typedef cudaTextureObject_t pb_layers; /* a layered 2-D texture, linear filter */
 
 /* A CUDA texture object carries its filter mode, where OpenCL passes a sampler
  * per read. The backend binds two texture objects to the volume's cudaArray,
@@ -33,6 +34,7 @@ typedef cudaTextureObject_t pb_image;
  * for EXACT and REF (every fetch goes through PB_FETCH_NEAREST). */
 #define PB_FETCH_LINEAR(img, px, py, pz) tex3D<float>((img), (px), (py), (pz))
 #define PB_FETCH_NEAREST(img, px, py, pz) tex3D<float>((img), (px), (py), (pz))
+#define PB_FETCH_LAYER(img, pa, pb, layer) tex2DLayered<float>((img), (pa), (pb), (layer))
 
 /* The adjoint's scatter; with its result unused nvcc emits RED.ADD.F32. */
 #define PB_ATOMIC_ADD(p, v) atomicAdd((p), (v))

@@ -19,6 +19,7 @@ typedef struct cu_impl {
     cudaEvent_t start, stop;
     void *plan;          /* key poses or REF steps of the current launch */
     size_t plan_bytes;
+    size_t layer_limits[3]; /* layered 2-D textures: width, height, layers */
 } cu_impl;
 
 typedef struct cu_volume {
@@ -27,7 +28,18 @@ typedef struct cu_volume {
     cudaTextureObject_t linear;  /* HARDWARE fetches */
     cudaTextureObject_t point;   /* EXACT and REF reads */
     int array_stale;
+    cudaArray_t layers[3];             /* layered along each axis, for pb_shift_ab_layers, made on first use */
+    cudaTextureObject_t layers_tex[3]; /* their linear filters */
+    int layers_stale[3];
 } cu_volume;
+
+/* The buffer changed: the array and layers made from it are out of date. */
+static void mark_written(cu_volume *v)
+{
+    v->array_stale = 1;
+    for (int m = 0; m < 3; m++)
+        v->layers_stale[m] = 1;
+}
 
 /* Maps a failed CUDA call to a status; allocation failures are memory errors.
  * Clears the runtime's last error, so that one failure is reported once. */
@@ -133,6 +145,14 @@ static pb_status cuda_context_init(pb_context *ctx, int index, const char *build
         return st;
     if ((e = cudaStreamCreateWithFlags(&cu->stream, cudaStreamNonBlocking)) != cudaSuccess)
         return cu_fail(ctx, PB_ERR_DEVICE, "cudaStreamCreateWithFlags", e);
+    int lim[3] = {0, 0, 0};
+    if (cudaDeviceGetAttribute(&lim[0], cudaDevAttrMaxTexture2DLayeredWidth, index) != cudaSuccess ||
+        cudaDeviceGetAttribute(&lim[1], cudaDevAttrMaxTexture2DLayeredHeight, index) != cudaSuccess ||
+        cudaDeviceGetAttribute(&lim[2], cudaDevAttrMaxTexture2DLayeredLayers, index) != cudaSuccess)
+        lim[0] = lim[1] = lim[2] = 0; /* unknown: no layers */
+    (void)cudaGetLastError();
+    for (int d = 0; d < 3; d++)
+        cu->layer_limits[d] = (size_t)lim[d];
     if ((e = cudaEventCreate(&cu->start)) != cudaSuccess || (e = cudaEventCreate(&cu->stop)) != cudaSuccess)
         return cu_fail(ctx, PB_ERR_DEVICE, "cudaEventCreate", e);
     /* A GPU the fat binary has no code for fails here, not at the first blur. */
@@ -173,7 +193,7 @@ static pb_status cuda_volume_init(pb_volume *vol)
         free(v);
         return cu_fail(vol->ctx, PB_ERR_DEVICE, "cudaMalloc", e);
     }
-    v->array_stale = 1;
+    mark_written(v);
     vol->impl = v;
     return PB_OK;
 }
@@ -188,6 +208,14 @@ static void release_array(cu_volume *v)
         cudaFreeArray(v->array);
     v->linear = v->point = 0;
     v->array = NULL;
+    for (int m = 0; m < 3; m++) {
+        if (v->layers_tex[m])
+            cudaDestroyTextureObject(v->layers_tex[m]);
+        if (v->layers[m])
+            cudaFreeArray(v->layers[m]);
+        v->layers_tex[m] = 0;
+        v->layers[m] = NULL;
+    }
 }
 
 static void cuda_volume_release(pb_volume *vol)
@@ -212,7 +240,7 @@ static pb_status cuda_volume_upload(pb_volume *vol, const float *host)
         e = cudaStreamSynchronize(cu->stream);
     if (e != cudaSuccess)
         return cu_fail(vol->ctx, PB_ERR_DEVICE, "cudaMemcpyAsync (upload)", e);
-    v->array_stale = 1;
+    mark_written(v);
     return PB_OK;
 }
 
@@ -285,6 +313,68 @@ static pb_status refresh_array(pb_context *ctx, const pb_volume *vol)
         v->array_stale = 0;
     }
     return PB_OK;
+}
+
+/* Lays vol out in a layered texture along axis m (pb_permute into a scratch
+ * buffer, then a copy; along z the buffer already is in that order), once per
+ * axis and change of the buffer. Untimed, as the array's copy: an object is
+ * laid out once and blurred many times. */
+static pb_status refresh_layers(pb_context *ctx, const pb_volume *vol, int m)
+{
+    cu_impl *cu = ctx->impl;
+    cu_volume *v = vol->impl;
+    const size_t *n = vol->geometry.dims;
+    size_t w = n[pb_layer_across(m, 0)], h = n[pb_layer_across(m, 1)];
+    struct cudaExtent extent = {w, h, n[m]};
+    cudaError_t e;
+    if (!v->layers[m]) {
+        struct cudaChannelFormatDesc fmt = cudaCreateChannelDesc(32, 0, 0, 0, cudaChannelFormatKindFloat);
+        if ((e = cudaMalloc3DArray(&v->layers[m], &fmt, extent, cudaArrayLayered)) != cudaSuccess) {
+            v->layers[m] = NULL;
+            return cu_fail(ctx, PB_ERR_DEVICE, "cudaMalloc3DArray (layers)", e);
+        }
+        if ((e = make_texture(v->layers[m], cudaFilterModeLinear, &v->layers_tex[m])) != cudaSuccess)
+            return cu_fail(ctx, PB_ERR_DEVICE, "cudaCreateTextureObject (layers)", e);
+        v->layers_stale[m] = 1;
+    }
+    if (!v->layers_stale[m])
+        return PB_OK;
+    float *source = v->buffer;
+    if (m != 2) {
+        if ((e = cudaMallocAsync((void **)&source, vol->count * sizeof(float), cu->stream)) != cudaSuccess)
+            return cu_fail(ctx, PB_ERR_DEVICE, "cudaMallocAsync (layers)", e);
+        pb_kparams prm;
+        pb_kparams_permute(n, m, &prm);
+        e = pb_cuda_launch_adjoint(PB_KERNEL_PERMUTE, v->buffer, NULL, &prm, source, cu->stream);
+    } else {
+        e = cudaSuccess;
+    }
+    if (e == cudaSuccess) {
+        struct cudaMemcpy3DParms cp;
+        memset(&cp, 0, sizeof cp);
+        cp.srcPtr.ptr = source;
+        cp.srcPtr.pitch = w * sizeof(float);
+        cp.srcPtr.xsize = w;
+        cp.srcPtr.ysize = h;
+        cp.dstArray = v->layers[m];
+        cp.extent = extent;
+        cp.kind = cudaMemcpyDeviceToDevice;
+        e = cudaMemcpy3DAsync(&cp, cu->stream);
+    }
+    if (source != v->buffer)
+        cudaFreeAsync(source, cu->stream);
+    if (e != cudaSuccess)
+        return cu_fail(ctx, PB_ERR_DEVICE, "laying the volume out in layers", e);
+    v->layers_stale[m] = 0;
+    return PB_OK;
+}
+
+/* Brings up to date what forward kernel `kernel` reads of vol: its array, or
+ * its layers along the plan's axis. */
+static pb_status refresh_input(pb_context *ctx, const pb_volume *vol, int kernel, const pb_plan *plan)
+{
+    return kernel == PB_KERNEL_SHIFT_AB_LAYERS ? refresh_layers(ctx, vol, pb_plan_layer_axis(plan))
+                                               : refresh_array(ctx, vol);
 }
 
 /* The context's plan buffer holds at least bytes; it grows as needed. */
@@ -374,9 +464,11 @@ static cudaError_t launch_blur(pb_context *ctx, const pb_volume *object, const p
     pb_kparams_from_plan(plan, opt, &prm);
     const cu_volume *in = object->impl;
     cu_volume *out = tomograph->impl;
-    out->array_stale = 1;
-    return pb_cuda_launch(pb_forward_kernel(plan, opt), texture_of(in, opt), (const char *)cu->plan + offset, &prm,
-                          out->buffer, cu->stream);
+    mark_written(out);
+    int kernel = pb_forward_kernel(plan, opt, cu->layer_limits);
+    cudaTextureObject_t tex =
+        kernel == PB_KERNEL_SHIFT_AB_LAYERS ? in->layers_tex[pb_plan_layer_axis(plan)] : texture_of(in, opt);
+    return pb_cuda_launch(kernel, tex, (const char *)cu->plan + offset, &prm, out->buffer, cu->stream);
 }
 
 /* Waits for the work between the context's start and stop events and sets
@@ -402,7 +494,7 @@ static pb_status cuda_blur(pb_context *ctx, const pb_volume *object, const pb_pl
     cu_impl *cu = ctx->impl;
     pb_status st = use_device(ctx);
     if (st == PB_OK)
-        st = refresh_array(ctx, object);
+        st = refresh_input(ctx, object, pb_forward_kernel(plan, opt, cu->layer_limits), plan);
     if (st == PB_OK)
         st = upload_plan(ctx, plan, opt);
     if (st != PB_OK)
@@ -427,7 +519,7 @@ static pb_status cuda_blur_batch(pb_context *ctx, size_t frames, const pb_volume
         return pb_error(ctx, PB_ERR_OUT_OF_MEMORY, "out of host memory for %zu frames", frames);
     pb_status st = use_device(ctx);
     for (size_t i = 0; i < frames && st == PB_OK; i++)
-        st = refresh_array(ctx, objects[i]);
+        st = refresh_input(ctx, objects[i], pb_forward_kernel(&plans[i], opt, cu->layer_limits), &plans[i]);
     if (st == PB_OK)
         st = upload_plans(ctx, frames, plans, opt, offsets);
     cudaError_t e = cudaSuccess;
@@ -464,14 +556,14 @@ static pb_status cuda_adjoint(pb_context *ctx, const pb_volume *tomograph, const
         prm.weight_steps = PB_NVIDIA_WEIGHT_STEPS;
     const cu_volume *in = tomograph->impl;
     cu_volume *out = object->impl;
-    out->array_stale = 1;
+    mark_written(out);
     cudaError_t e = cudaEventRecord(cu->start, cu->stream);
     if (e != cudaSuccess)
         return cu_fail(ctx, PB_ERR_LAUNCH, "cudaEventRecord", e);
     if (gather) {
         if ((st = refresh_array(ctx, tomograph)) != PB_OK)
             return st;
-        e = pb_cuda_launch(pb_forward_kernel(plan, opt), texture_of(in, opt), cu->plan, &prm, out->buffer,
+        e = pb_cuda_launch(pb_forward_kernel(plan, opt, NULL), texture_of(in, opt), cu->plan, &prm, out->buffer,
                            cu->stream);
     } else {
         if (!accumulate &&

@@ -21,13 +21,24 @@ typedef struct cl_impl {
     cl_kernel kernels[PB_KERNEL_COUNT]; /* indexed by pb_kernel_index */
     int is_gpu;
     int nvidia; /* NVIDIA's platform: its texture unit rounds weights to 8 bits */
+    size_t layer_limits[3]; /* 2-D image arrays: width, height, layers */
 } cl_impl;
 
 typedef struct cl_volume {
     cl_mem buffer; /* what the kernels write and the host reads */
     cl_mem image;  /* what the kernels sample; made on first use as an input */
     int image_stale;
+    cl_mem layers[3]; /* 2-D image arrays along each axis, for pb_shift_ab_layers, made on first use */
+    int layers_stale[3];
 } cl_volume;
+
+/* The buffer changed: the image and layers made from it are out of date. */
+static void mark_written(cl_volume *v)
+{
+    v->image_stale = 1;
+    for (int m = 0; m < 3; m++)
+        v->layers_stale[m] = 1;
+}
 
 static const char *const kernel_names[PB_KERNEL_COUNT] = PB_KERNEL_NAMES;
 
@@ -216,6 +227,10 @@ static pb_status ocl_context_init(pb_context *ctx, int index, const char *build_
     fill_info(cl->device, plats[index], &ctx->device);
     cl->is_gpu = ctx->device.is_gpu;
     cl->nvidia = strstr(ctx->device.platform, "NVIDIA") != NULL;
+    if (clGetDeviceInfo(cl->device, CL_DEVICE_IMAGE2D_MAX_WIDTH, sizeof(size_t), &cl->layer_limits[0], NULL) ||
+        clGetDeviceInfo(cl->device, CL_DEVICE_IMAGE2D_MAX_HEIGHT, sizeof(size_t), &cl->layer_limits[1], NULL) ||
+        clGetDeviceInfo(cl->device, CL_DEVICE_IMAGE_MAX_ARRAY_SIZE, sizeof(size_t), &cl->layer_limits[2], NULL))
+        memset(cl->layer_limits, 0, sizeof cl->layer_limits); /* unknown: no layers */
 
     cl_int e;
     cl_context_properties props[] = {CL_CONTEXT_PLATFORM, (cl_context_properties)plats[index], 0};
@@ -262,7 +277,7 @@ static pb_status ocl_volume_init(pb_volume *vol)
         free(v);
         return cl_fail(vol->ctx, PB_ERR_DEVICE, "clCreateBuffer", e);
     }
-    v->image_stale = 1;
+    mark_written(v);
     vol->impl = v;
     return PB_OK;
 }
@@ -272,6 +287,9 @@ static void ocl_volume_release(pb_volume *vol)
     cl_volume *v = vol->impl;
     if (v->image)
         clReleaseMemObject(v->image);
+    for (int m = 0; m < 3; m++)
+        if (v->layers[m])
+            clReleaseMemObject(v->layers[m]);
     clReleaseMemObject(v->buffer);
     free(v);
 }
@@ -283,7 +301,7 @@ static pb_status ocl_volume_upload(pb_volume *vol, const float *host)
     cl_int e = clEnqueueWriteBuffer(cl->queue, v->buffer, CL_TRUE, 0, vol->count * sizeof(float), host, 0, NULL, NULL);
     if (e != CL_SUCCESS)
         return cl_fail(vol->ctx, PB_ERR_DEVICE, "clEnqueueWriteBuffer", e);
-    v->image_stale = 1;
+    mark_written(v);
     return PB_OK;
 }
 
@@ -433,11 +451,76 @@ static cl_int set_args(cl_kernel k, cl_mem in, cl_mem poses, const pb_kparams *p
     return e;
 }
 
+/* Lays vol out in a 2-D image array along axis m (pb_permute into a scratch
+ * buffer, then a copy; along z the buffer already is in that order), once per
+ * axis and change of the buffer; frames that share an object along different
+ * axes each keep theirs. Untimed, as the image's copy: an object is laid out
+ * once and blurred many times. */
+static pb_status refresh_layers(pb_context *ctx, const pb_volume *vol, int m)
+{
+    cl_impl *cl = ctx->impl;
+    cl_volume *v = vol->impl;
+    const size_t *n = vol->geometry.dims;
+    size_t region[3] = {n[pb_layer_across(m, 0)], n[pb_layer_across(m, 1)], n[m]};
+    cl_int e = CL_SUCCESS;
+    if (!v->layers[m]) {
+        cl_image_format fmt = {CL_R, CL_FLOAT};
+        cl_image_desc desc;
+        memset(&desc, 0, sizeof desc);
+        desc.image_type = CL_MEM_OBJECT_IMAGE2D_ARRAY;
+        desc.image_width = region[0];
+        desc.image_height = region[1];
+        desc.image_array_size = region[2];
+        v->layers[m] = clCreateImage(cl->context, CL_MEM_READ_ONLY, &fmt, &desc, NULL, &e);
+        if (e != CL_SUCCESS) {
+            v->layers[m] = NULL;
+            return cl_fail(ctx, PB_ERR_DEVICE, "clCreateImage (layers)", e);
+        }
+        v->layers_stale[m] = 1;
+    }
+    if (!v->layers_stale[m])
+        return PB_OK;
+    cl_mem source = v->buffer;
+    if (m != 2) {
+        source = clCreateBuffer(cl->context, CL_MEM_READ_WRITE, vol->count * sizeof(float), NULL, &e);
+        if (e != CL_SUCCESS)
+            return cl_fail(ctx, PB_ERR_DEVICE, "clCreateBuffer (layers)", e);
+        pb_kparams prm;
+        pb_kparams_permute(n, m, &prm);
+        e = set_args(cl->kernels[PB_KERNEL_PERMUTE], v->buffer, v->buffer, &prm, source);
+        if (e == CL_SUCCESS)
+            e = enqueue_grid(cl, PB_KERNEL_PERMUTE, NULL, n, NULL);
+    }
+    size_t origin[3] = {0, 0, 0};
+    if (e == CL_SUCCESS)
+        e = clEnqueueCopyBufferToImage(cl->queue, source, v->layers[m], 0, origin, region, 0, NULL, NULL);
+    if (source != v->buffer)
+        clReleaseMemObject(source); /* freed once the queued copy is done */
+    if (e != CL_SUCCESS)
+        return cl_fail(ctx, PB_ERR_DEVICE, "laying the volume out in layers", e);
+    v->layers_stale[m] = 0;
+    return PB_OK;
+}
+
+/* Brings up to date what forward kernel `kernel` reads of vol (the image, or
+ * the layers along the plan's axis) and returns it in *mem. */
+static pb_status refresh_input(pb_context *ctx, const pb_volume *vol, int kernel, const pb_plan *plan, cl_mem *mem)
+{
+    const cl_volume *v = vol->impl;
+    int m = pb_plan_layer_axis(plan);
+    int layered = kernel == PB_KERNEL_SHIFT_AB_LAYERS;
+    pb_status st = layered ? refresh_layers(ctx, vol, m) : refresh_image(ctx, vol, 0);
+    *mem = layered ? v->layers[m] : v->image;
+    return st;
+}
+
 static pb_status ocl_blur(pb_context *ctx, const pb_volume *object, const pb_plan *plan,
                           const pb_blur_options *opt, pb_volume *tomograph)
 {
     cl_impl *cl = ctx->impl;
-    pb_status st = refresh_image(ctx, object, 0);
+    int kernel = pb_forward_kernel(plan, opt, cl->layer_limits);
+    cl_mem source;
+    pb_status st = refresh_input(ctx, object, kernel, plan, &source);
     if (st != PB_OK)
         return st;
     cl_mem poses;
@@ -447,10 +530,9 @@ static pb_status ocl_blur(pb_context *ctx, const pb_volume *object, const pb_pla
     pb_kparams prm;
     pb_kparams_from_plan(plan, opt, &prm);
 
-    int kernel = pb_forward_kernel(plan, opt);
     cl_kernel k = cl->kernels[kernel];
-    cl_volume *in = object->impl, *out = tomograph->impl;
-    cl_int e = set_args(k, in->image, poses, &prm, out->buffer);
+    cl_volume *out = tomograph->impl;
+    cl_int e = set_args(k, source, poses, &prm, out->buffer);
     if (e != CL_SUCCESS) {
         clReleaseMemObject(poses);
         return cl_fail(ctx, PB_ERR_LAUNCH, "clSetKernelArg", e);
@@ -460,7 +542,7 @@ static pb_status ocl_blur(pb_context *ctx, const pb_volume *object, const pb_pla
     clReleaseMemObject(poses);
     if (e != CL_SUCCESS)
         return cl_fail(ctx, PB_ERR_LAUNCH, "clEnqueueNDRangeKernel or the kernel", e);
-    out->image_stale = 1;
+    mark_written(out);
     return PB_OK;
 }
 
@@ -481,20 +563,19 @@ static pb_status ocl_blur_batch(pb_context *ctx, size_t frames, const pb_volume 
     size_t queued = 0;
     pb_status st = PB_OK;
     cl_int e = CL_SUCCESS;
-    for (size_t i = 0; i < frames && st == PB_OK; i++)
-        st = refresh_image(ctx, objects[i], 0);
     for (size_t i = 0; i < frames && st == PB_OK; i++) {
-        if ((st = upload_plan(ctx, &plans[i], opt, &poses[i])) != PB_OK)
+        int kernel = pb_forward_kernel(&plans[i], opt, cl->layer_limits);
+        cl_mem source;
+        if ((st = refresh_input(ctx, objects[i], kernel, &plans[i], &source)) != PB_OK ||
+            (st = upload_plan(ctx, &plans[i], opt, &poses[i])) != PB_OK)
             break;
         pb_kparams prm;
         pb_kparams_from_plan(&plans[i], opt, &prm);
-        int kernel = pb_forward_kernel(&plans[i], opt);
         cl_kernel k = cl->kernels[kernel];
-        const cl_volume *in = objects[i]->impl;
         cl_volume *out = tomographs[i]->impl;
         /* A kernel's arguments are taken when it is queued, so one kernel
          * object serves every frame that uses it. */
-        if ((e = set_args(k, in->image, poses[i], &prm, out->buffer)) != CL_SUCCESS) {
+        if ((e = set_args(k, source, poses[i], &prm, out->buffer)) != CL_SUCCESS) {
             st = cl_fail(ctx, PB_ERR_LAUNCH, "clSetKernelArg", e);
             break;
         }
@@ -503,7 +584,7 @@ static pb_status ocl_blur_batch(pb_context *ctx, size_t frames, const pb_volume 
             break;
         }
         queued++;
-        out->image_stale = 1;
+        mark_written(out);
     }
     /* Wait for whatever was queued, even after a failure: the buffers it
      * reads are released below. */
@@ -552,7 +633,7 @@ static pb_status ocl_adjoint(pb_context *ctx, const pb_volume *tomograph, const 
      * (cl/pb_adjoint.cl); PoCL's weights are float. */
     if (!gather && opt->filter == PB_FILTER_HARDWARE && cl->nvidia)
         prm.weight_steps = PB_NVIDIA_WEIGHT_STEPS;
-    int kernel = gather ? pb_forward_kernel(plan, opt) : pb_adjoint_index((int)opt->method);
+    int kernel = gather ? pb_forward_kernel(plan, opt, NULL) : pb_adjoint_index((int)opt->method);
     cl_volume *in = tomograph->impl, *out = object->impl;
     cl_int e = set_args(cl->kernels[kernel], gather ? in->image : in->buffer, poses, &prm, out->buffer);
     if (e != CL_SUCCESS) {
@@ -567,7 +648,7 @@ static pb_status ocl_adjoint(pb_context *ctx, const pb_volume *tomograph, const 
     }
     e = launch_grid(ctx, kernel, plan);
     clReleaseMemObject(poses);
-    out->image_stale = 1;
+    mark_written(out);
     if (e != CL_SUCCESS)
         return cl_fail(ctx, PB_ERR_LAUNCH, "clEnqueueNDRangeKernel or the kernel", e);
     return PB_OK;

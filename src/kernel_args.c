@@ -1,5 +1,6 @@
 #include "kernel_args.h"
 
+#include <math.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -18,6 +19,8 @@ void pb_kparams_from_plan(const pb_plan *plan, const pb_blur_options *opt, pb_kp
     prm->ref_points = (int)opt->ref_points;
     prm->ref_steps = (int)plan->ref_count;
     prm->seed = opt->seed;
+    if (pb_plan_shift_invariant(plan, opt))
+        prm->layer_axis = pb_plan_layer_axis(plan);
 }
 
 int pb_plan_shift_invariant(const pb_plan *plan, const pb_blur_options *opt)
@@ -36,11 +39,45 @@ int pb_plan_shift_invariant(const pb_plan *plan, const pb_blur_options *opt)
     return 1;
 }
 
-int pb_forward_kernel(const pb_plan *plan, const pb_blur_options *opt)
+int pb_plan_layer_axis(const pb_plan *plan)
+{
+    int axis = -1;
+    for (size_t j = 0; j + 1 < plan->count; j++) {
+        /* Under translations a segment moves every voxel by the difference of
+         * its maps' offsets. */
+        double d[3];
+        for (int r = 0; r < 3; r++)
+            d[r] = fabs(plan->poses[j + 1].map[4 * r + 3] - plan->poses[j].map[4 * r + 3]);
+        if (d[0] == 0.0 && d[1] == 0.0 && d[2] == 0.0)
+            continue;
+        int m = d[1] > d[0] ? 1 : 0;
+        m = d[2] > d[m] ? 2 : m;
+        if (axis >= 0 && m != axis)
+            return -1;
+        axis = m;
+    }
+    return axis < 0 ? 0 : axis;
+}
+
+int pb_forward_kernel(const pb_plan *plan, const pb_blur_options *opt, const size_t *layer_limits)
 {
     int exact = opt->filter == PB_FILTER_EXACT;
-    return pb_plan_shift_invariant(plan, opt) ? pb_shift_index((int)opt->method, exact)
-                                              : pb_kernel_index((int)opt->method, exact);
+    if (!pb_plan_shift_invariant(plan, opt))
+        return pb_kernel_index((int)opt->method, exact);
+    int m = opt->method == PB_METHOD_AB && !exact && layer_limits ? pb_plan_layer_axis(plan) : -1;
+    const size_t *n = plan->geometry.dims;
+    if (m >= 0 && n[pb_layer_across(m, 0)] <= layer_limits[0] && n[pb_layer_across(m, 1)] <= layer_limits[1] &&
+        n[m] <= layer_limits[2])
+        return PB_KERNEL_SHIFT_AB_LAYERS;
+    return pb_shift_index((int)opt->method, exact);
+}
+
+void pb_kparams_permute(const size_t *dims, int m, pb_kparams *prm)
+{
+    memset(prm, 0, sizeof *prm);
+    for (int d = 0; d < 3; d++)
+        prm->dims[d] = (int)dims[d];
+    prm->layer_axis = m;
 }
 
 static void kpose_from_plan(const pb_plan *plan, size_t index, pb_kpose *out)

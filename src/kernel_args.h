@@ -18,9 +18,20 @@ void pb_kparams_from_plan(const pb_plan *plan, const pb_blur_options *opt, pb_kp
  * motion of translations only; any rotation, however small, takes the general
  * kernels). */
 int pb_plan_shift_invariant(const pb_plan *plan, const pb_blur_options *opt);
-/* The forward kernel of a launch (PB_KERNEL_NAMES): the shift-invariant one
- * where pb_plan_shift_invariant, the general one otherwise. */
-int pb_forward_kernel(const pb_plan *plan, const pb_blur_options *opt);
+/* The axis along which every segment of a motion of translations only moves
+ * most (ties: the lower axis, as the kernels break them; segments of no
+ * length take any), or -1 when two segments differ. */
+int pb_plan_layer_axis(const pb_plan *plan);
+
+/* The forward kernel of a launch (PB_KERNEL_NAMES): for AB HARDWARE under
+ * translations along one axis, where the object fits the device's 2-D image
+ * arrays laid out along it (layer_limits: largest width, height and layer
+ * count; NULL: none), the layered kernel; otherwise the shift-invariant one
+ * where pb_plan_shift_invariant, the general one elsewhere. */
+int pb_forward_kernel(const pb_plan *plan, const pb_blur_options *opt, const size_t *layer_limits);
+
+/* pb_permute's parameters: a volume of dims laid out in layers along axis m. */
+void pb_kparams_permute(const size_t *dims, int m, pb_kparams *prm);
 /* What a launch of `method` reads besides its parameters, in the kernels'
  * layout: the plan's key poses (pb_kpose), or for REF its time steps
  * (pb_kstep), in one malloc'd block of *bytes for the backend to copy to the
