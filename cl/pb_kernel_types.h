@@ -63,11 +63,11 @@ PB_FN int pb_shift_index(int method, int exact)
 #define PB_KERNEL_SHIFT_AB_LAYERS 17
 #define PB_KERNEL_PERMUTE 18
 
-/* The two axes across the layers of axis m, in the order (m + 1, m + 2): a
- * layer's x and y. */
+/* The two axes across the layers of axis m, in their own order: a layer's x
+ * and y. Along y or z a layer's rows run along x, as a warp's work items do. */
 PB_FN int pb_layer_across(int m, int i)
 {
-    return (m + 1 + i) % 3;
+    return i == 0 ? (m == 0 ? 1 : 0) : (m == 2 ? 1 : 2);
 }
 
 /* One key pose, as the kernels read it. */

@@ -91,43 +91,53 @@ PB_KERNEL void pb_shift_cl_exact(pb_image img, PB_GLOBAL_RO pb_kpose *poses, pb_
 
 /* AB HARDWARE under translations, through the object laid out as a 2-D image
  * array with one layer per slice along prm.layer_axis, every segment's major
- * axis (the host checks that they share one and picks it). A slice sample is
- * then one bilinear fetch in its layer, which the texture unit makes at twice
- * its trilinear rate (bench/fetch_rate.cu); the weights are the same two
- * rounded fractions, the slice's own weight exactly 1. The adjoint's gather
- * keeps the 3-D image: it reads the tomograph, which would need laying out
- * anew for every call. */
+ * axis (the host checks that they share one, y or z, and picks it). A slice
+ * sample is then one bilinear fetch in its layer, which the texture unit makes
+ * at twice its trilinear rate (bench/fetch_rate.cu); the weights are the same
+ * two rounded fractions, the slice's own weight exactly 1. Not along x: a
+ * warp's work items lie along x, and would each read another layer. The
+ * adjoint's gather keeps the 3-D image: it reads the tomograph, which would
+ * need laying out anew for every call. */
 
-/* Layer `layer` at (pa, pb), or 0 outside the volume along the axis: an array
- * clamps its layer index where a 3-D image reads its zero border. */
-PB_FN float pb_layer_fetch(pb_layers img, pb_kparams prm, float pa, float pb, int layer)
+/* Layer `layer` at (pa, pb), or 0 outside the volume along the axis (layers:
+ * how many): an array clamps its layer index where a 3-D image reads its zero
+ * border. */
+PB_FN float pb_layer_fetch(pb_layers img, int layers, float pa, float pb, int layer)
 {
-    int n = prm.dims[prm.layer_axis];
-    return layer >= 0 && layer < n ? PB_FETCH_LAYER(img, pa, pb, layer) : 0.0f;
+    return layer >= 0 && layer < layers ? PB_FETCH_LAYER(img, pa, pb, layer) : 0.0f;
+}
+
+/* A point's coordinates along the layers' axis m and across it (the order of
+ * pb_layer_across), and the layer count. Selected, not indexed: an indexed
+ * kernel argument would be copied to local memory by nvcc. */
+PB_FN int pb_layer_coords(pb_kparams prm, float x, float y, float z, float *pm, float *pa, float *pb)
+{
+    int m = prm.layer_axis;
+    *pm = m == 0 ? x : (m == 1 ? y : z);
+    *pa = m == 0 ? y : x;
+    *pb = m == 2 ? y : z;
+    return m == 0 ? prm.dims[0] : (m == 1 ? prm.dims[1] : prm.dims[2]);
 }
 
 /* pb_slice_sample through the layers; the major coordinate is a slice centre. */
 PB_FN float pb_layer_slice(pb_layers img, pb_kparams prm, const pb_place *pl, float x, float y, float z)
 {
     pb_place_point(pl, &x, &y, &z);
-    int m = prm.layer_axis;
-    float pm = m == 0 ? x : (m == 1 ? y : z);
-    float pa = m == 0 ? y : (m == 1 ? z : x);
-    float pb = m == 0 ? z : (m == 1 ? x : y);
-    return pb_layer_fetch(img, prm, pa, pb, (int)floor(pm));
+    float pm, pa, pb;
+    int layers = pb_layer_coords(prm, x, y, z, &pm, &pa, &pb);
+    return pb_layer_fetch(img, layers, pa, pb, (int)floor(pm));
 }
 
 /* pb_trilinear through the layers: two bilinear fetches, mixed in float. */
 PB_FN float pb_layer_trilinear(pb_layers img, pb_kparams prm, const pb_place *pl, float x, float y, float z)
 {
     pb_place_point(pl, &x, &y, &z);
-    int m = prm.layer_axis;
-    float pm = (m == 0 ? x : (m == 1 ? y : z)) - 0.5f;
-    float pa = m == 0 ? y : (m == 1 ? z : x);
-    float pb = m == 0 ? z : (m == 1 ? x : y);
-    float l0 = floor(pm), f = pm - l0;
+    float pm, pa, pb;
+    int layers = pb_layer_coords(prm, x, y, z, &pm, &pa, &pb);
+    float l0 = floor(pm - 0.5f), f = pm - 0.5f - l0;
     int layer = (int)l0;
-    return (1.0f - f) * pb_layer_fetch(img, prm, pa, pb, layer) + f * pb_layer_fetch(img, prm, pa, pb, layer + 1);
+    return (1.0f - f) * pb_layer_fetch(img, layers, pa, pb, layer) +
+           f * pb_layer_fetch(img, layers, pa, pb, layer + 1);
 }
 
 /* pb_ab_segment's walk along the layers' axis, each sample through them. */

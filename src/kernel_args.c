@@ -64,9 +64,10 @@ int pb_forward_kernel(const pb_plan *plan, const pb_blur_options *opt, const siz
     int exact = opt->filter == PB_FILTER_EXACT;
     if (!pb_plan_shift_invariant(plan, opt))
         return pb_kernel_index((int)opt->method, exact);
+    /* Not along x: cl/pb_shift.cl says why. */
     int m = opt->method == PB_METHOD_AB && !exact && layer_limits ? pb_plan_layer_axis(plan) : -1;
     const size_t *n = plan->geometry.dims;
-    if (m >= 0 && n[pb_layer_across(m, 0)] <= layer_limits[0] && n[pb_layer_across(m, 1)] <= layer_limits[1] &&
+    if (m >= 1 && n[pb_layer_across(m, 0)] <= layer_limits[0] && n[pb_layer_across(m, 1)] <= layer_limits[1] &&
         n[m] <= layer_limits[2])
         return PB_KERNEL_SHIFT_AB_LAYERS;
     return pb_shift_index((int)opt->method, exact);
