@@ -1,6 +1,6 @@
 /* The shift-invariant kernels: AB, RM and CL under a motion of translations
- * only (every key pose's map has the identity as its linear part), where the
- * blur is a convolution. Each is both directions: the forward (prm.mirror 0)
+ * only (every key pose's rotation the identity, so every map's linear part
+ * is), where the blur is a convolution. Each is both directions: the forward (prm.mirror 0)
  * and the adjoint as a gather (prm.mirror 1), with no atomics.
  *
  * Why they exist. Under such a motion every voxel's path is voxel 0's moved by
@@ -183,9 +183,11 @@ PB_KERNEL void pb_shift_ab_layers(pb_layers img, PB_GLOBAL_RO pb_kpose *poses, p
 }
 
 /* A volume laid out in layers along m = prm.layer_axis, for the copy into a
- * layered image: voxel v goes to layer v[m] at (v[m + 1], v[m + 2]). Reads
- * are coalesced and writes strided: it runs once per object and axis, outside
- * the blur's time. (The second argument only matches the launch's others.) */
+ * layered image: voxel v goes to layer v[m] at (v[a], v[b]), a and b from
+ * pb_layer_across. Along y the rows still run along x, so reads and writes
+ * are both coalesced; along z the buffer is already laid out so and is copied
+ * as it is. It runs once per object and axis, outside the blur's time. (The
+ * second argument only matches the launch's others.) */
 PB_KERNEL void pb_permute(PB_GLOBAL_RO float *in, PB_GLOBAL_RO pb_kpose *unused, pb_kparams prm, PB_GLOBAL float *out)
 {
     int ix = PB_GID_X, iy = PB_GID_Y, iz = PB_GID_Z;

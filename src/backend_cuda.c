@@ -333,16 +333,20 @@ static pb_status refresh_layers(pb_context *ctx, const pb_volume *vol, int m)
             v->layers[m] = NULL;
             return cu_fail(ctx, PB_ERR_DEVICE, "cudaMalloc3DArray (layers)", e);
         }
-        if ((e = make_texture(v->layers[m], cudaFilterModeLinear, &v->layers_tex[m])) != cudaSuccess)
+        if ((e = make_texture(v->layers[m], cudaFilterModeLinear, &v->layers_tex[m])) != cudaSuccess) {
+            cudaFreeArray(v->layers[m]);
+            v->layers[m] = NULL;
+            v->layers_tex[m] = 0;
             return cu_fail(ctx, PB_ERR_DEVICE, "cudaCreateTextureObject (layers)", e);
+        }
         v->layers_stale[m] = 1;
     }
     if (!v->layers_stale[m])
         return PB_OK;
     float *source = v->buffer;
     if (m != 2) {
-        if ((e = cudaMallocAsync((void **)&source, vol->count * sizeof(float), cu->stream)) != cudaSuccess)
-            return cu_fail(ctx, PB_ERR_DEVICE, "cudaMallocAsync (layers)", e);
+        if ((e = cudaMalloc((void **)&source, vol->count * sizeof(float))) != cudaSuccess)
+            return cu_fail(ctx, PB_ERR_DEVICE, "cudaMalloc (layers)", e);
         pb_kparams prm;
         pb_kparams_permute(n, m, &prm);
         e = pb_cuda_launch_adjoint(PB_KERNEL_PERMUTE, v->buffer, NULL, &prm, source, cu->stream);
@@ -362,7 +366,7 @@ static pb_status refresh_layers(pb_context *ctx, const pb_volume *vol, int m)
         e = cudaMemcpy3DAsync(&cp, cu->stream);
     }
     if (source != v->buffer)
-        cudaFreeAsync(source, cu->stream);
+        cudaFree(source); /* waits for the copy: this runs once per object and axis */
     if (e != cudaSuccess)
         return cu_fail(ctx, PB_ERR_DEVICE, "laying the volume out in layers", e);
     v->layers_stale[m] = 0;
