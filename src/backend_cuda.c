@@ -470,8 +470,8 @@ static cudaError_t launch_blur(pb_context *ctx, const pb_volume *object, const p
     cu_volume *out = tomograph->impl;
     mark_written(out);
     int kernel = pb_forward_kernel(plan, opt, cu->layer_limits);
-    cudaTextureObject_t tex =
-        kernel == PB_KERNEL_SHIFT_AB_LAYERS ? in->layers_tex[pb_plan_layer_axis(plan)] : texture_of(in, opt);
+    int layered = kernel == PB_KERNEL_SHIFT_AB_LAYERS;
+    cudaTextureObject_t tex = layered ? in->layers_tex[prm.layer_axis] : texture_of(in, opt);
     return pb_cuda_launch(kernel, tex, (const char *)cu->plan + offset, &prm, out->buffer, cu->stream);
 }
 

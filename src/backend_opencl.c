@@ -317,6 +317,24 @@ static pb_status ocl_volume_download(const pb_volume *vol, float *host)
 
 static cl_int wait_timed(pb_context *ctx, cl_int e, cl_event ev);
 
+/* A single-channel float image the kernels read: 3-D of region, or a 2-D
+ * array of region[2] layers of region[0] x region[1]. */
+static cl_mem new_float_image(const cl_impl *cl, cl_mem_object_type type, const size_t *region, cl_int *e)
+{
+    cl_image_format fmt = {CL_R, CL_FLOAT};
+    cl_image_desc desc;
+    memset(&desc, 0, sizeof desc);
+    desc.image_type = type;
+    desc.image_width = region[0];
+    desc.image_height = region[1];
+    if (type == CL_MEM_OBJECT_IMAGE3D)
+        desc.image_depth = region[2];
+    else
+        desc.image_array_size = region[2];
+    return clCreateImage(cl->context, CL_MEM_READ_ONLY, &fmt, &desc, NULL, e);
+}
+
+
 /* Brings the volume's image up to date with its buffer; with timed, the copy
  * is waited for and counts with the kernel time (the adjoint's gather, whose
  * input is fresh from a projector each time). */
@@ -327,14 +345,7 @@ static pb_status refresh_image(pb_context *ctx, const pb_volume *vol, int timed)
     size_t region[3] = {vol->geometry.dims[0], vol->geometry.dims[1], vol->geometry.dims[2]};
     cl_int e;
     if (!v->image) {
-        cl_image_format fmt = {CL_R, CL_FLOAT};
-        cl_image_desc desc;
-        memset(&desc, 0, sizeof desc);
-        desc.image_type = CL_MEM_OBJECT_IMAGE3D;
-        desc.image_width = region[0];
-        desc.image_height = region[1];
-        desc.image_depth = region[2];
-        v->image = clCreateImage(cl->context, CL_MEM_READ_ONLY, &fmt, &desc, NULL, &e);
+        v->image = new_float_image(cl, CL_MEM_OBJECT_IMAGE3D, region, &e);
         if (e != CL_SUCCESS) {
             v->image = NULL;
             return cl_fail(ctx, PB_ERR_DEVICE, "clCreateImage", e);
@@ -464,14 +475,7 @@ static pb_status refresh_layers(pb_context *ctx, const pb_volume *vol, int m)
     size_t region[3] = {n[pb_layer_across(m, 0)], n[pb_layer_across(m, 1)], n[m]};
     cl_int e = CL_SUCCESS;
     if (!v->layers[m]) {
-        cl_image_format fmt = {CL_R, CL_FLOAT};
-        cl_image_desc desc;
-        memset(&desc, 0, sizeof desc);
-        desc.image_type = CL_MEM_OBJECT_IMAGE2D_ARRAY;
-        desc.image_width = region[0];
-        desc.image_height = region[1];
-        desc.image_array_size = region[2];
-        v->layers[m] = clCreateImage(cl->context, CL_MEM_READ_ONLY, &fmt, &desc, NULL, &e);
+        v->layers[m] = new_float_image(cl, CL_MEM_OBJECT_IMAGE2D_ARRAY, region, &e);
         if (e != CL_SUCCESS) {
             v->layers[m] = NULL;
             return cl_fail(ctx, PB_ERR_DEVICE, "clCreateImage (layers)", e);
