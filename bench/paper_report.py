@@ -64,6 +64,10 @@ class Run:
         self.fetch_rate = max(fetch) if fetch else None  # G fetches/s, the best the texture unit did
         self.layered_rate = max(layered) if layered else None
         self.bandwidth = max(copy) if copy else None      # GB/s, read + write of a copy
+        # G global atomic adds/s of a 2x2 slice scatter whose warps' points are
+        # turned by 60 degrees, as the rotated adjoint's
+        atomic = [num(r["rate"]) for r in rates if r["kind"] == "atomic_add_60"]
+        self.atomic_rate = max(atomic) if atomic else None
         self.phantoms = [p for p in NAMES if any(k[0] == p for k in self.ours)]
 
     def get(self, table, p, s, m, f, col):
@@ -231,6 +235,13 @@ def targets(run):
                        len(adj), "met" if not slow else "NOT met in %d: %s" % (len(slow), ", ".join(
                            "%s %d %s %s (%.2fx)" % (k[0], k[1], k[2], k[3], x) for x, k in sorted(slow)[-8:])),
                        min(x[0] for x in adj), max(x[0] for x in adj)))
+        if slow and run.atomic_rate and run.fetch_rate:
+            out.append("  - Why the rotated rows miss: the exact transpose of a rotated walk scatters each fetch's 4 (AB) "
+                       "or 8 (RM, CL) weights with global atomic adds, which the L2 takes at %.0f G/s against the "
+                       "texture unit's %.0f G trilinear fetches/s. A scatter's floor is thus %.1fx (AB) and %.1fx "
+                       "(RM) a forward that runs at its fetch floor." % (
+                           run.atomic_rate, run.fetch_rate, 4 * run.fetch_rate / run.atomic_rate,
+                           8 * run.fetch_rate / run.atomic_rate))
     ratios = []
     for p in run.phantoms:
         for s in run.scenarios(p):
@@ -259,8 +270,9 @@ def targets(run):
     else:
         out.append("- SciPy against PoCL: not measured in this run")
     if run.fetch_rate:
-        out.append("- Measured: trilinear texture fetches %.0f G/s, copy bandwidth %.0f GB/s (bench/fetch_rate.cu)" % (
-            run.fetch_rate, run.bandwidth or float("nan")))
+        out.append("- Measured: trilinear texture fetches %.0f G/s, copy bandwidth %.0f GB/s, atomic adds of a rotated "
+                   "scatter %.0f G/s (bench/fetch_rate.cu)" % (
+                       run.fetch_rate, run.bandwidth or float("nan"), run.atomic_rate or float("nan")))
     return "\n".join(out) + "\n"
 
 

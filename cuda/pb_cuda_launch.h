@@ -12,24 +12,18 @@
 extern "C" {
 #endif
 
-/* Threads per block: x-contiguous rows of 32 for coalesced writes, as the
- * OpenCL backend's work groups. */
-#define PB_CUDA_BLOCK_X 32
-#define PB_CUDA_BLOCK_Y 4
-#define PB_CUDA_BLOCK_Z 2
-
 /* Launches kernel `kernel` (pb_kernel_index or pb_shift_index) over the grid prm->dims on
- * `stream`. `plan` holds prm->segments + 1 pb_kpose, or
+ * `stream`, in blocks of `block` threads (x, y, z: pb_kernel_group). `plan` holds prm->segments + 1 pb_kpose, or
  * prm->ref_steps pb_kstep for REF, in device memory. Returns the launch's error
  * (cudaSuccess when it was queued). */
-cudaError_t pb_cuda_launch(int kernel, cudaTextureObject_t volume, const void *plan, const pb_kparams *prm,
-                           float *out, cudaStream_t stream);
+cudaError_t pb_cuda_launch(int kernel, const unsigned *block, cudaTextureObject_t volume, const void *plan,
+                           const pb_kparams *prm, float *out, cudaStream_t stream);
 
 /* Launches adjoint kernel `kernel` (pb_adjoint_index): reads the tomograph
  * buffer `in`, adds into `out`, which must hold zeros (or what to add to).
  * Also PB_KERNEL_PERMUTE, which reads a buffer and writes one (plan unused). */
-cudaError_t pb_cuda_launch_adjoint(int kernel, const float *in, const void *plan, const pb_kparams *prm, float *out,
-                                   cudaStream_t stream);
+cudaError_t pb_cuda_launch_adjoint(int kernel, const unsigned *block, const float *in, const void *plan,
+                                   const pb_kparams *prm, float *out, cudaStream_t stream);
 
 /* cudaSuccess when the current device can run every kernel (the fat binary
  * holds code for it); otherwise the error a launch would give. */

@@ -7,18 +7,17 @@
 #include "../cl/pb_blur.cl"
 #include "pb_cuda_launch.h"
 
-/* Blocks covering the grid prm->dims, one thread per voxel. */
-static dim3 grid_of(const pb_kparams *prm)
+/* Blocks of `b` covering the grid prm->dims, one thread per voxel. */
+static dim3 grid_of(const pb_kparams *prm, dim3 b)
 {
-    return dim3((unsigned)(prm->dims[0] + PB_CUDA_BLOCK_X - 1) / PB_CUDA_BLOCK_X,
-                (unsigned)(prm->dims[1] + PB_CUDA_BLOCK_Y - 1) / PB_CUDA_BLOCK_Y,
-                (unsigned)(prm->dims[2] + PB_CUDA_BLOCK_Z - 1) / PB_CUDA_BLOCK_Z);
+    return dim3(((unsigned)prm->dims[0] + b.x - 1) / b.x, ((unsigned)prm->dims[1] + b.y - 1) / b.y,
+                ((unsigned)prm->dims[2] + b.z - 1) / b.z);
 }
 
-extern "C" cudaError_t pb_cuda_launch(int kernel, cudaTextureObject_t volume, const void *plan,
+extern "C" cudaError_t pb_cuda_launch(int kernel, const unsigned *b, cudaTextureObject_t volume, const void *plan,
                                       const pb_kparams *prm, float *out, cudaStream_t stream)
 {
-    dim3 block(PB_CUDA_BLOCK_X, PB_CUDA_BLOCK_Y, PB_CUDA_BLOCK_Z), grid = grid_of(prm);
+    dim3 block(b[0], b[1], b[2]), grid = grid_of(prm, block);
     const pb_kpose *poses = static_cast<const pb_kpose *>(plan);
     switch (kernel) { /* PB_KERNEL_NAMES order */
     case 0: pb_blur_ab<<<grid, block, 0, stream>>>(volume, poses, *prm, out); break;
@@ -40,10 +39,10 @@ extern "C" cudaError_t pb_cuda_launch(int kernel, cudaTextureObject_t volume, co
     return cudaGetLastError();
 }
 
-extern "C" cudaError_t pb_cuda_launch_adjoint(int kernel, const float *in, const void *plan, const pb_kparams *prm,
-                                              float *out, cudaStream_t stream)
+extern "C" cudaError_t pb_cuda_launch_adjoint(int kernel, const unsigned *b, const float *in, const void *plan,
+                                              const pb_kparams *prm, float *out, cudaStream_t stream)
 {
-    dim3 block(PB_CUDA_BLOCK_X, PB_CUDA_BLOCK_Y, PB_CUDA_BLOCK_Z), grid = grid_of(prm);
+    dim3 block(b[0], b[1], b[2]), grid = grid_of(prm, block);
     const pb_kpose *poses = static_cast<const pb_kpose *>(plan);
     switch (kernel) { /* PB_KERNEL_NAMES order */
     case 7: pb_adjoint_ab<<<grid, block, 0, stream>>>(in, poses, *prm, out); break;

@@ -349,7 +349,9 @@ static pb_status refresh_layers(pb_context *ctx, const pb_volume *vol, int m)
             return cu_fail(ctx, PB_ERR_DEVICE, "cudaMalloc (layers)", e);
         pb_kparams prm;
         pb_kparams_permute(n, m, &prm);
-        e = pb_cuda_launch_adjoint(PB_KERNEL_PERMUTE, v->buffer, NULL, &prm, source, cu->stream);
+        unsigned block[3];
+        pb_kernel_group(PB_KERNEL_PERMUTE, block);
+        e = pb_cuda_launch_adjoint(PB_KERNEL_PERMUTE, block, v->buffer, NULL, &prm, source, cu->stream);
     } else {
         e = cudaSuccess;
     }
@@ -472,7 +474,9 @@ static cudaError_t launch_blur(pb_context *ctx, const pb_volume *object, const p
     int kernel = pb_forward_kernel(plan, opt, cu->layer_limits);
     int layered = kernel == PB_KERNEL_SHIFT_AB_LAYERS;
     cudaTextureObject_t tex = layered ? in->layers_tex[prm.layer_axis] : texture_of(in, opt);
-    return pb_cuda_launch(kernel, tex, (const char *)cu->plan + offset, &prm, out->buffer, cu->stream);
+    unsigned block[3];
+    pb_kernel_group(kernel, block);
+    return pb_cuda_launch(kernel, block, tex, (const char *)cu->plan + offset, &prm, out->buffer, cu->stream);
 }
 
 /* Waits for the work between the context's start and stop events and sets
@@ -564,17 +568,18 @@ static pb_status cuda_adjoint(pb_context *ctx, const pb_volume *tomograph, const
     cudaError_t e = cudaEventRecord(cu->start, cu->stream);
     if (e != cudaSuccess)
         return cu_fail(ctx, PB_ERR_LAUNCH, "cudaEventRecord", e);
+    int kernel = gather ? pb_forward_kernel(plan, opt, NULL) : pb_adjoint_index((int)opt->method);
+    unsigned block[3];
+    pb_kernel_group(kernel, block);
     if (gather) {
         if ((st = refresh_array(ctx, tomograph)) != PB_OK)
             return st;
-        e = pb_cuda_launch(pb_forward_kernel(plan, opt, NULL), texture_of(in, opt), cu->plan, &prm, out->buffer,
-                           cu->stream);
+        e = pb_cuda_launch(kernel, block, texture_of(in, opt), cu->plan, &prm, out->buffer, cu->stream);
     } else {
         if (!accumulate &&
             (e = cudaMemsetAsync(out->buffer, 0, object->count * sizeof(float), cu->stream)) != cudaSuccess)
             return cu_fail(ctx, PB_ERR_DEVICE, "cudaMemsetAsync", e);
-        e = pb_cuda_launch_adjoint(pb_adjoint_index((int)opt->method), in->buffer, cu->plan, &prm, out->buffer,
-                                   cu->stream);
+        e = pb_cuda_launch_adjoint(kernel, block, in->buffer, cu->plan, &prm, out->buffer, cu->stream);
     }
     if (e != cudaSuccess)
         return cu_fail(ctx, PB_ERR_LAUNCH, "the adjoint kernel launch", e);

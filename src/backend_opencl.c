@@ -406,11 +406,12 @@ static cl_int wait_timed(pb_context *ctx, cl_int e, cl_event ev)
     return e;
 }
 
-/* A launch's work group: GPUs get x-contiguous groups of 256 for coalesced
- * writes; CPUs let the runtime split the exact grid (local[0] = 0). */
-static void group_of(const cl_impl *cl, size_t *local)
+/* A launch's work group: GPUs get pb_kernel_group's, as CUDA's blocks; CPUs
+ * let the runtime split the exact grid (local[0] = 0). */
+static void group_of(const cl_impl *cl, int kernel, size_t *local)
 {
-    const size_t gpu[3] = {32, 4, 2};
+    unsigned gpu[3];
+    pb_kernel_group(kernel, gpu);
     for (int d = 0; d < 3; d++)
         local[d] = cl->is_gpu ? gpu[d] : 0;
 }
@@ -421,7 +422,7 @@ static void group_of(const cl_impl *cl, size_t *local)
 static cl_int enqueue_grid(cl_impl *cl, int kernel, const size_t *offset, const size_t *dims, cl_event *ev)
 {
     size_t local[3], global[3];
-    group_of(cl, local);
+    group_of(cl, kernel, local);
     for (int d = 0; d < 3; d++)
         global[d] = local[0] ? (dims[d] + local[d] - 1) / local[d] * local[d] : dims[d];
     return clEnqueueNDRangeKernel(cl->queue, cl->kernels[kernel], 3, offset, global, local[0] ? local : NULL, 0, NULL,
@@ -435,7 +436,7 @@ static cl_int enqueue_grid(cl_impl *cl, int kernel, const size_t *offset, const 
 static cl_int launch_grid(pb_context *ctx, int kernel, const pb_plan *plan)
 {
     size_t offset[3] = {0, 0, 0}, local[3];
-    group_of(ctx->impl, local);
+    group_of(ctx->impl, kernel, local);
     size_t nz = plan->geometry.dims[2], slab = ctx->progress ? pb_progress_slab(nz) : nz;
     if (local[2] > 1)
         slab = (slab + local[2] - 1) / local[2] * local[2];

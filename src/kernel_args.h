@@ -30,6 +30,10 @@ int pb_plan_layer_axis(const pb_plan *plan);
  * where pb_plan_shift_invariant, the general one elsewhere. */
 int pb_forward_kernel(const pb_plan *plan, const pb_blur_options *opt, const size_t *layer_limits);
 
+/* The work-group (CUDA: thread block) shape of kernel `kernel` on a GPU, x
+ * first, 256 work items. */
+void pb_kernel_group(int kernel, unsigned group[3]);
+
 /* pb_permute's parameters: a volume of dims laid out in layers along axis m. */
 void pb_kparams_permute(const size_t *dims, int m, pb_kparams *prm);
 /* What a launch of `method` reads besides its parameters, in the kernels'
