@@ -9,7 +9,6 @@
 // floor.
 //   nvcc -O3 -arch=sm_90 -o fetch_rate bench/fetch_rate.cu && ./fetch_rate [rates.csv]
 #include <algorithm>
-#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <vector>
@@ -45,25 +44,6 @@ __global__ void fetch_layered(cudaTextureObject_t t, int steps, float gx, float 
     for (int k = 0; k < steps; k++)
         s += tex2DLayered<float>(t, x + 0.5f + gx * k, y + 0.5f + gy * k, min(z + k, N - 1));
     out[x + N * (y + N * z)] = s;
-}
-
-// The adjoint's scatter: each step adds into the four voxels of a slice around
-// a point, as pb_slice_scatter does, the points of a warp's threads turned by
-// `angle` about z (the paths of a rotated motion fan out across the object).
-__global__ void scatter(int steps, float gx, float gy, float c, float s, float *out)
-{
-    int x = blockIdx.x * blockDim.x + threadIdx.x, y = blockIdx.y * blockDim.y + threadIdx.y,
-        z = blockIdx.z * blockDim.z + threadIdx.z;
-    float h = 0.5f * N, rx = c * (x - h) - s * (y - h) + h, ry = s * (x - h) + c * (y - h) + h;
-    for (int k = 0; k < steps; k++) {
-        int i = ((int)floorf(rx + gx * k) & (N - 1)), j = ((int)floorf(ry + gy * k) & (N - 1));
-        int l = (z + k) & (N - 1), i1 = (i + 1) & (N - 1), j1 = (j + 1) & (N - 1);
-        float *slice = out + (size_t)N * N * l;
-        atomicAdd(&slice[i + N * j], 0.25f);
-        atomicAdd(&slice[i1 + N * j], 0.25f);
-        atomicAdd(&slice[i + N * j1], 0.25f);
-        atomicAdd(&slice[i1 + N * j1], 0.25f);
-    }
 }
 
 static cudaTextureObject_t texture(cudaArray_t a, cudaTextureFilterMode f)
@@ -155,18 +135,6 @@ int main(int argc, char **argv)
             if (csv)
                 std::fprintf(csv, "%s,%d,%.5f,%.2f\n", k.key, steps, ms, (double)n * steps / (ms * 1e6));
         }
-    }
-    // Global float atomic adds, in the library's blocks for rotated motions
-    // (pb_kernel_group). Not zeroed between runs: adds of 0.25 stay exact.
-    std::printf("%-34s %6s %10s %14s\n", "scatter (4 atomic adds per step)", "steps", "ms", "G adds/s");
-    for (int deg : {0, 60}) {
-        const int steps = 31;
-        float c = std::cos(deg * 3.14159265f / 180.0f), s = std::sin(deg * 3.14159265f / 180.0f);
-        double ms = median_ms([&] { scatter<<<dim3(N / 16, N / 2, N / 8), dim3(16, 2, 8)>>>(steps, gx, gy, c, s, copy); });
-        double rate = 4.0 * n * steps / (ms * 1e6);
-        std::printf("turned by %2d degrees %20d %10.4f %14.1f\n", deg, steps, ms, rate);
-        if (csv)
-            std::fprintf(csv, "atomic_add_%d,%d,%.5f,%.2f\n", deg, steps, ms, rate);
     }
     double ms = median_ms([&] { CHECK(cudaMemcpyAsync(copy, out, n * sizeof(float), cudaMemcpyDeviceToDevice)); });
     std::printf("device-to-device copy of 64 MiB: %.4f ms, %.0f GB/s (read + write)\n", ms,

@@ -64,10 +64,6 @@ class Run:
         self.fetch_rate = max(fetch) if fetch else None  # G fetches/s, the best the texture unit did
         self.layered_rate = max(layered) if layered else None
         self.bandwidth = max(copy) if copy else None      # GB/s, read + write of a copy
-        # G global atomic adds/s of a 2x2 slice scatter whose warps' points are
-        # turned by 60 degrees, as the rotated adjoint's
-        atomic = [num(r["rate"]) for r in rates if r["kind"] == "atomic_add_60"]
-        self.atomic_rate = max(atomic) if atomic else None
         self.phantoms = [p for p in NAMES if any(k[0] == p for k in self.ours)]
 
     def get(self, table, p, s, m, f, col):
@@ -81,8 +77,8 @@ class Run:
         """AB's physical floor: its fetches over the texture unit's rate for
         the kind it makes, or its bytes (the volume read once, the result
         written once) over the copy bandwidth, whichever is longer. Under a
-        translation whose major axis is y or z the library reads 2-D layers,
-        bilinear (cl/pb_shift.cl); otherwise 3-D trilinear fetches."""
+        translation the library reads 2-D layers, bilinear (cl/pb_shift.cl);
+        otherwise 3-D trilinear fetches."""
         r = self.ours.get((p, s, "AB", "hardware"))
         rate = self.layered_rate if r and layered_walk(r) else self.fetch_rate
         if not r or not rate or not self.bandwidth:
@@ -93,15 +89,8 @@ class Run:
 
 def layered_walk(r):
     """Whether the library walks AB HARDWARE through 2-D layers for this row's
-    motion: a translation (one segment from the identity; the bench gives it in
-    voxels) that moves most along y or z, ties going to the lower axis as in
-    the kernels."""
-    if num(r["rot_deg"]) != 0.0:
-        return False
-    d = [abs(num(r[t])) for t in ("tx", "ty", "tz")]
-    m = 1 if d[1] > d[0] else 0
-    m = 2 if d[2] > d[m] else m
-    return m >= 1
+    motion: a translation (one segment from the identity), along any axis."""
+    return num(r["rot_deg"]) == 0.0
 
 
 def phantom_tables(run, p):
@@ -145,7 +134,7 @@ def phantom_tables(run, p):
             "and download; AB adjoint: pb_blur_adjoint of the same motion (the transpose, for back projection), "
             "zeroing of its output included, or under translations the copy of its input into a texture; PyTorch: "
             "its S poses of affine_grid + grid_sample, CUDA events. Floor: AB's fetches over the texture unit's "
-            "measured rate for the kind it makes (2-D layered bilinear under a translation along y or z, 3-D "
+            "measured rate for the kind it makes (2-D layered bilinear under a translation, 3-D "
             "trilinear otherwise), or its bytes over the measured bandwidth, whichever is longer.", "",
             "| # | S | CL | CL paper | RM | RM paper | AB | AB paper | AB EX | AB e2e | AB-E | AB-E / AB | AB adjoint | "
             "adjoint / AB | PyTorch | PyTorch / AB | AB floor | AB / floor |",
@@ -235,13 +224,6 @@ def targets(run):
                        len(adj), "met" if not slow else "NOT met in %d: %s" % (len(slow), ", ".join(
                            "%s %d %s %s (%.2fx)" % (k[0], k[1], k[2], k[3], x) for x, k in sorted(slow)[-8:])),
                        min(x[0] for x in adj), max(x[0] for x in adj)))
-        if slow and run.atomic_rate and run.fetch_rate:
-            out.append("  - Why the rotated rows miss: the exact transpose of a rotated walk scatters each fetch's 4 (AB) "
-                       "or 8 (RM, CL) weights with global atomic adds, which the L2 takes at %.0f G/s against the "
-                       "texture unit's %.0f G trilinear fetches/s. A scatter's floor is thus %.1fx (AB) and %.1fx "
-                       "(RM) a forward that runs at its fetch floor." % (
-                           run.atomic_rate, run.fetch_rate, 4 * run.fetch_rate / run.atomic_rate,
-                           8 * run.fetch_rate / run.atomic_rate))
     ratios = []
     for p in run.phantoms:
         for s in run.scenarios(p):
@@ -270,9 +252,8 @@ def targets(run):
     else:
         out.append("- SciPy against PoCL: not measured in this run")
     if run.fetch_rate:
-        out.append("- Measured: trilinear texture fetches %.0f G/s, copy bandwidth %.0f GB/s, atomic adds of a rotated "
-                   "scatter %.0f G/s (bench/fetch_rate.cu)" % (
-                       run.fetch_rate, run.bandwidth or float("nan"), run.atomic_rate or float("nan")))
+        out.append("- Measured: trilinear texture fetches %.0f G/s, copy bandwidth %.0f GB/s (bench/fetch_rate.cu)" % (
+            run.fetch_rate, run.bandwidth or float("nan")))
     return "\n".join(out) + "\n"
 
 

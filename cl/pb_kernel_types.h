@@ -34,15 +34,17 @@ typedef struct pb_kparams {
  * voxels only), then the adjoints' scatters, one per method (they read no
  * texture), then the shift-invariant ones for motions of translations only,
  * one per method but REF and filter, each both the forward and the adjoint's
- * gather, and AB HARDWARE's forward through 2-D layers; last the copy that
- * lays a volume out in layers. pb_kernel_index, pb_adjoint_index and
+ * gather, and AB HARDWARE's forward through 2-D layers along y or z; the
+ * copy that lays a volume out in layers; AB HARDWARE's forward through layers
+ * along x. pb_kernel_index, pb_adjoint_index and
  * pb_shift_index give a launch's entry. */
-#define PB_KERNEL_COUNT 19
+#define PB_KERNEL_COUNT 20
 #define PB_KERNEL_NAMES                                                                                         \
     {"pb_blur_ab",        "pb_blur_ab_exact",  "pb_blur_rm",    "pb_blur_rm_exact", "pb_blur_cl",             \
      "pb_blur_cl_exact",  "pb_blur_ref",       "pb_adjoint_ab", "pb_adjoint_rm",    "pb_adjoint_cl",          \
      "pb_adjoint_ref",    "pb_shift_ab",       "pb_shift_ab_exact", "pb_shift_rm",  "pb_shift_rm_exact",      \
-     "pb_shift_cl",       "pb_shift_cl_exact", "pb_shift_ab_layers", "pb_permute"}
+     "pb_shift_cl",       "pb_shift_cl_exact", "pb_shift_ab_layers", "pb_permute",    \
+     "pb_shift_ab_layers_x"}
 
 PB_FN int pb_kernel_index(int method, int exact)
 {
@@ -62,9 +64,14 @@ PB_FN int pb_shift_index(int method, int exact)
 
 #define PB_KERNEL_SHIFT_AB_LAYERS 17
 #define PB_KERNEL_PERMUTE 18
+#define PB_KERNEL_SHIFT_AB_LAYERS_X 19
+/* Voxels along x per work item of pb_shift_ab_layers_x: 8 floats fill a
+ * 32-byte sector. */
+#define PB_X_RUN 8
 
 /* The two axes across the layers of axis m, in their own order: a layer's x
- * and y. Along y or z a layer's rows run along x, as a warp's work items do. */
+ * and y. Along y or z a layer's rows run along x, as a warp's work items do;
+ * along x they run along y, as pb_shift_ab_layers_x's warps do. */
 PB_FN int pb_layer_across(int m, int i)
 {
     return i == 0 ? (m == 0 ? 1 : 0) : (m == 2 ? 1 : 2);

@@ -12,17 +12,23 @@
 extern "C" {
 #endif
 
-/* Launches kernel `kernel` (pb_kernel_index or pb_shift_index) over the grid prm->dims on
- * `stream`, in blocks of `block` threads (x, y, z: pb_kernel_group). `plan` holds prm->segments + 1 pb_kpose, or
+/* A launch's blocks: threads per block and blocks per grid, x, y, z (the
+ * backend's, from pb_kernel_group and pb_kernel_extent). */
+typedef struct pb_cuda_shape {
+    unsigned block[3], grid[3];
+} pb_cuda_shape;
+
+/* Launches kernel `kernel` (pb_kernel_index or pb_shift_index) in `shape` on
+ * `stream`. `plan` holds prm->segments + 1 pb_kpose, or
  * prm->ref_steps pb_kstep for REF, in device memory. Returns the launch's error
  * (cudaSuccess when it was queued). */
-cudaError_t pb_cuda_launch(int kernel, const unsigned *block, cudaTextureObject_t volume, const void *plan,
+cudaError_t pb_cuda_launch(int kernel, const pb_cuda_shape *shape, cudaTextureObject_t volume, const void *plan,
                            const pb_kparams *prm, float *out, cudaStream_t stream);
 
 /* Launches adjoint kernel `kernel` (pb_adjoint_index): reads the tomograph
  * buffer `in`, adds into `out`, which must hold zeros (or what to add to).
  * Also PB_KERNEL_PERMUTE, which reads a buffer and writes one (plan unused). */
-cudaError_t pb_cuda_launch_adjoint(int kernel, const unsigned *block, const float *in, const void *plan,
+cudaError_t pb_cuda_launch_adjoint(int kernel, const pb_cuda_shape *shape, const float *in, const void *plan,
                                    const pb_kparams *prm, float *out, cudaStream_t stream);
 
 /* cudaSuccess when the current device can run every kernel (the fat binary

@@ -7,17 +7,10 @@
 #include "../cl/pb_blur.cl"
 #include "pb_cuda_launch.h"
 
-/* Blocks of `b` covering the grid prm->dims, one thread per voxel. */
-static dim3 grid_of(const pb_kparams *prm, dim3 b)
+extern "C" cudaError_t pb_cuda_launch(int kernel, const pb_cuda_shape *shape, cudaTextureObject_t volume,
+                                      const void *plan, const pb_kparams *prm, float *out, cudaStream_t stream)
 {
-    return dim3(((unsigned)prm->dims[0] + b.x - 1) / b.x, ((unsigned)prm->dims[1] + b.y - 1) / b.y,
-                ((unsigned)prm->dims[2] + b.z - 1) / b.z);
-}
-
-extern "C" cudaError_t pb_cuda_launch(int kernel, const unsigned *b, cudaTextureObject_t volume, const void *plan,
-                                      const pb_kparams *prm, float *out, cudaStream_t stream)
-{
-    dim3 block(b[0], b[1], b[2]), grid = grid_of(prm, block);
+    dim3 block(shape->block[0], shape->block[1], shape->block[2]), grid(shape->grid[0], shape->grid[1], shape->grid[2]);
     const pb_kpose *poses = static_cast<const pb_kpose *>(plan);
     switch (kernel) { /* PB_KERNEL_NAMES order */
     case 0: pb_blur_ab<<<grid, block, 0, stream>>>(volume, poses, *prm, out); break;
@@ -34,15 +27,18 @@ extern "C" cudaError_t pb_cuda_launch(int kernel, const unsigned *b, cudaTexture
     case 15: pb_shift_cl<<<grid, block, 0, stream>>>(volume, poses, *prm, out); break;
     case 16: pb_shift_cl_exact<<<grid, block, 0, stream>>>(volume, poses, *prm, out); break;
     case PB_KERNEL_SHIFT_AB_LAYERS: pb_shift_ab_layers<<<grid, block, 0, stream>>>(volume, poses, *prm, out); break;
+    case PB_KERNEL_SHIFT_AB_LAYERS_X:
+        pb_shift_ab_layers_x<<<grid, block, 0, stream>>>(volume, poses, *prm, out);
+        break;
     default: return cudaErrorInvalidValue;
     }
     return cudaGetLastError();
 }
 
-extern "C" cudaError_t pb_cuda_launch_adjoint(int kernel, const unsigned *b, const float *in, const void *plan,
-                                              const pb_kparams *prm, float *out, cudaStream_t stream)
+extern "C" cudaError_t pb_cuda_launch_adjoint(int kernel, const pb_cuda_shape *shape, const float *in,
+                                              const void *plan, const pb_kparams *prm, float *out, cudaStream_t stream)
 {
-    dim3 block(b[0], b[1], b[2]), grid = grid_of(prm, block);
+    dim3 block(shape->block[0], shape->block[1], shape->block[2]), grid(shape->grid[0], shape->grid[1], shape->grid[2]);
     const pb_kpose *poses = static_cast<const pb_kpose *>(plan);
     switch (kernel) { /* PB_KERNEL_NAMES order */
     case 7: pb_adjoint_ab<<<grid, block, 0, stream>>>(in, poses, *prm, out); break;
@@ -64,7 +60,7 @@ extern "C" cudaError_t pb_cuda_check_kernels(void)
         (const void *)pb_adjoint_cl, (const void *)pb_adjoint_ref, (const void *)pb_shift_ab,
         (const void *)pb_shift_ab_exact, (const void *)pb_shift_rm, (const void *)pb_shift_rm_exact,
         (const void *)pb_shift_cl, (const void *)pb_shift_cl_exact, (const void *)pb_shift_ab_layers,
-        (const void *)pb_permute};
+        (const void *)pb_permute, (const void *)pb_shift_ab_layers_x};
     for (const void *k : kernels) {
         cudaFuncAttributes attr;
         cudaError_t e = cudaFuncGetAttributes(&attr, k);

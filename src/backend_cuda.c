@@ -315,6 +315,18 @@ static pb_status refresh_array(pb_context *ctx, const pb_volume *vol)
     return PB_OK;
 }
 
+/* kernel's blocks over a grid of dims (pb_kernel_group, pb_kernel_extent). */
+static pb_cuda_shape shape_of(int kernel, const size_t *dims)
+{
+    pb_cuda_shape s;
+    size_t extent[3];
+    pb_kernel_group(kernel, s.block);
+    pb_kernel_extent(kernel, dims, extent);
+    for (int d = 0; d < 3; d++)
+        s.grid[d] = (unsigned)((extent[d] + s.block[d] - 1) / s.block[d]);
+    return s;
+}
+
 /* Lays vol out in a layered texture along axis m (pb_permute into a scratch
  * buffer, then a copy; along z the buffer already is in that order), once per
  * axis and change of the buffer. Untimed, as the array's copy: an object is
@@ -349,9 +361,8 @@ static pb_status refresh_layers(pb_context *ctx, const pb_volume *vol, int m)
             return cu_fail(ctx, PB_ERR_DEVICE, "cudaMalloc (layers)", e);
         pb_kparams prm;
         pb_kparams_permute(n, m, &prm);
-        unsigned block[3];
-        pb_kernel_group(PB_KERNEL_PERMUTE, block);
-        e = pb_cuda_launch_adjoint(PB_KERNEL_PERMUTE, block, v->buffer, NULL, &prm, source, cu->stream);
+        pb_cuda_shape shape = shape_of(PB_KERNEL_PERMUTE, n);
+        e = pb_cuda_launch_adjoint(PB_KERNEL_PERMUTE, &shape, v->buffer, NULL, &prm, source, cu->stream);
     } else {
         e = cudaSuccess;
     }
@@ -379,7 +390,7 @@ static pb_status refresh_layers(pb_context *ctx, const pb_volume *vol, int m)
  * its layers along the plan's axis. */
 static pb_status refresh_input(pb_context *ctx, const pb_volume *vol, int kernel, const pb_plan *plan)
 {
-    return kernel == PB_KERNEL_SHIFT_AB_LAYERS ? refresh_layers(ctx, vol, pb_plan_layer_axis(plan))
+    return pb_kernel_layered(kernel) ? refresh_layers(ctx, vol, pb_plan_layer_axis(plan))
                                                : refresh_array(ctx, vol);
 }
 
@@ -472,11 +483,9 @@ static cudaError_t launch_blur(pb_context *ctx, const pb_volume *object, const p
     cu_volume *out = tomograph->impl;
     mark_written(out);
     int kernel = pb_forward_kernel(plan, opt, cu->layer_limits);
-    int layered = kernel == PB_KERNEL_SHIFT_AB_LAYERS;
-    cudaTextureObject_t tex = layered ? in->layers_tex[prm.layer_axis] : texture_of(in, opt);
-    unsigned block[3];
-    pb_kernel_group(kernel, block);
-    return pb_cuda_launch(kernel, block, tex, (const char *)cu->plan + offset, &prm, out->buffer, cu->stream);
+    cudaTextureObject_t tex = pb_kernel_layered(kernel) ? in->layers_tex[prm.layer_axis] : texture_of(in, opt);
+    pb_cuda_shape shape = shape_of(kernel, plan->geometry.dims);
+    return pb_cuda_launch(kernel, &shape, tex, (const char *)cu->plan + offset, &prm, out->buffer, cu->stream);
 }
 
 /* Waits for the work between the context's start and stop events and sets
@@ -569,17 +578,16 @@ static pb_status cuda_adjoint(pb_context *ctx, const pb_volume *tomograph, const
     if (e != cudaSuccess)
         return cu_fail(ctx, PB_ERR_LAUNCH, "cudaEventRecord", e);
     int kernel = gather ? pb_forward_kernel(plan, opt, NULL) : pb_adjoint_index((int)opt->method);
-    unsigned block[3];
-    pb_kernel_group(kernel, block);
+    pb_cuda_shape shape = shape_of(kernel, plan->geometry.dims);
     if (gather) {
         if ((st = refresh_array(ctx, tomograph)) != PB_OK)
             return st;
-        e = pb_cuda_launch(kernel, block, texture_of(in, opt), cu->plan, &prm, out->buffer, cu->stream);
+        e = pb_cuda_launch(kernel, &shape, texture_of(in, opt), cu->plan, &prm, out->buffer, cu->stream);
     } else {
         if (!accumulate &&
             (e = cudaMemsetAsync(out->buffer, 0, object->count * sizeof(float), cu->stream)) != cudaSuccess)
             return cu_fail(ctx, PB_ERR_DEVICE, "cudaMemsetAsync", e);
-        e = pb_cuda_launch_adjoint(kernel, block, in->buffer, cu->plan, &prm, out->buffer, cu->stream);
+        e = pb_cuda_launch_adjoint(kernel, &shape, in->buffer, cu->plan, &prm, out->buffer, cu->stream);
     }
     if (e != cudaSuccess)
         return cu_fail(ctx, PB_ERR_LAUNCH, "the adjoint kernel launch", e);

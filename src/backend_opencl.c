@@ -421,10 +421,11 @@ static void group_of(const cl_impl *cl, int kernel, size_t *local)
  * and check bounds. */
 static cl_int enqueue_grid(cl_impl *cl, int kernel, const size_t *offset, const size_t *dims, cl_event *ev)
 {
-    size_t local[3], global[3];
+    size_t local[3], global[3], extent[3];
     group_of(cl, kernel, local);
+    pb_kernel_extent(kernel, dims, extent);
     for (int d = 0; d < 3; d++)
-        global[d] = local[0] ? (dims[d] + local[d] - 1) / local[d] * local[d] : dims[d];
+        global[d] = local[0] ? (extent[d] + local[d] - 1) / local[d] * local[d] : extent[d];
     return clEnqueueNDRangeKernel(cl->queue, cl->kernels[kernel], 3, offset, global, local[0] ? local : NULL, 0, NULL,
                                   ev);
 }
@@ -513,7 +514,7 @@ static pb_status refresh_input(pb_context *ctx, const pb_volume *vol, int kernel
 {
     const cl_volume *v = vol->impl;
     int m = pb_plan_layer_axis(plan);
-    int layered = kernel == PB_KERNEL_SHIFT_AB_LAYERS;
+    int layered = pb_kernel_layered(kernel);
     pb_status st = layered ? refresh_layers(ctx, vol, m) : refresh_image(ctx, vol, 0);
     *mem = layered ? v->layers[m] : v->image;
     return st;

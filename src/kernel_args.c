@@ -64,12 +64,11 @@ int pb_forward_kernel(const pb_plan *plan, const pb_blur_options *opt, const siz
     int exact = opt->filter == PB_FILTER_EXACT;
     if (!pb_plan_shift_invariant(plan, opt))
         return pb_kernel_index((int)opt->method, exact);
-    /* Not along x: cl/pb_shift.cl says why. */
     int m = opt->method == PB_METHOD_AB && !exact && layer_limits ? pb_plan_layer_axis(plan) : -1;
     const size_t *n = plan->geometry.dims;
-    if (m >= 1 && n[pb_layer_across(m, 0)] <= layer_limits[0] && n[pb_layer_across(m, 1)] <= layer_limits[1] &&
+    if (m >= 0 && n[pb_layer_across(m, 0)] <= layer_limits[0] && n[pb_layer_across(m, 1)] <= layer_limits[1] &&
         n[m] <= layer_limits[2])
-        return PB_KERNEL_SHIFT_AB_LAYERS;
+        return m == 0 ? PB_KERNEL_SHIFT_AB_LAYERS_X : PB_KERNEL_SHIFT_AB_LAYERS;
     return pb_shift_index((int)opt->method, exact);
 }
 
@@ -127,6 +126,19 @@ void *pb_kernel_plan_pack(const pb_plan *plan, pb_method method, size_t *bytes)
  * homogeneity 256^3 (bench/results/2026-11-21_H200_a82b85b_groups), 32x4x2 ->
  * 16x2x8: AB's adjoint at 60 degrees 17.9 -> 15.4 ms, AB-E's 21.8 -> 17.6, CL's
  * forward 12.7 -> 12.1; no row slower by more than 1.5 %. */
+int pb_kernel_layered(int kernel)
+{
+    return kernel == PB_KERNEL_SHIFT_AB_LAYERS || kernel == PB_KERNEL_SHIFT_AB_LAYERS_X;
+}
+
+void pb_kernel_extent(int kernel, const size_t *dims, size_t *extent)
+{
+    int runs = kernel == PB_KERNEL_SHIFT_AB_LAYERS_X;
+    extent[0] = runs ? dims[1] : dims[0];
+    extent[1] = runs ? (dims[0] + PB_X_RUN - 1) / PB_X_RUN : dims[1];
+    extent[2] = dims[2];
+}
+
 void pb_kernel_group(int kernel, unsigned group[3])
 {
     int general = kernel <= pb_adjoint_index(PB_METHOD_REF);

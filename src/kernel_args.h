@@ -24,11 +24,20 @@ int pb_plan_shift_invariant(const pb_plan *plan, const pb_blur_options *opt);
 int pb_plan_layer_axis(const pb_plan *plan);
 
 /* The forward kernel of a launch (PB_KERNEL_NAMES): for AB HARDWARE under
- * translations along one axis, y or z, where the object fits the device's 2-D image
+ * translations along one axis, where the object fits the device's 2-D image
  * arrays laid out along it (layer_limits: largest width, height and layer
  * count; NULL: none), the layered kernel; otherwise the shift-invariant one
  * where pb_plan_shift_invariant, the general one elsewhere. */
 int pb_forward_kernel(const pb_plan *plan, const pb_blur_options *opt, const size_t *layer_limits);
+
+/* Whether kernel `kernel` reads the object as 2-D layers (along
+ * prm.layer_axis) instead of as a 3-D image. */
+int pb_kernel_layered(int kernel);
+
+/* The work items of a launch of `kernel` over a grid of dims, per launch axis:
+ * one per voxel, x first; pb_shift_ab_layers_x has them along y first, then
+ * one per run of PB_X_RUN voxels along x. */
+void pb_kernel_extent(int kernel, const size_t *dims, size_t *extent);
 
 /* The work-group (CUDA: thread block) shape of kernel `kernel` on a GPU, x
  * first, 256 work items. */
