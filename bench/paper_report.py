@@ -77,8 +77,8 @@ class Run:
         """AB's physical floor: its fetches over the texture unit's rate for
         the kind it makes, or its bytes (the volume read once, the result
         written once) over the copy bandwidth, whichever is longer. Under a
-        translation the library reads 2-D layers, bilinear (cl/pb_shift.cl);
-        otherwise 3-D trilinear fetches."""
+        translation the library reads 2-D layers, bilinear (cl/pb_shift.cl),
+        but for short walks along x; otherwise 3-D trilinear fetches."""
         r = self.ours.get((p, s, "AB", "hardware"))
         rate = self.layered_rate if r and layered_walk(r) else self.fetch_rate
         if not r or not rate or not self.bandwidth:
@@ -89,8 +89,15 @@ class Run:
 
 def layered_walk(r):
     """Whether the library walks AB HARDWARE through 2-D layers for this row's
-    motion: a translation (one segment from the identity), along any axis."""
-    return num(r["rot_deg"]) == 0.0
+    motion: a translation (one segment from the identity; the bench gives it in
+    voxels) that moves most along y or z, or along x by at least 8 voxels
+    (src/kernel_args.c), ties going to the lower axis as in the kernels."""
+    if num(r["rot_deg"]) != 0.0:
+        return False
+    d = [abs(num(r[t])) for t in ("tx", "ty", "tz")]
+    m = 1 if d[1] > d[0] else 0
+    m = 2 if d[2] > d[m] else m
+    return m >= 1 or d[0] >= 8.0
 
 
 def phantom_tables(run, p):

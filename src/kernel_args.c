@@ -59,6 +59,23 @@ int pb_plan_layer_axis(const pb_plan *plan)
     return axis < 0 ? 0 : axis;
 }
 
+/* The most slices one AB walk of a motion of translations crosses along
+ * axis m: its longest segment's move along m over AB's sub-segments. */
+static double longest_walk(const pb_plan *plan, const pb_blur_options *opt, int m)
+{
+    double most = 0.0;
+    for (size_t j = 0; j + 1 < plan->count; j++)
+        most = fmax(most, fabs(plan->poses[j + 1].map[4 * m + 3] - plan->poses[j].map[4 * m + 3]));
+    return most / (opt->steps ? (double)opt->steps : 1.0);
+}
+
+/* Layers along x pay only on long walks: their work items walk PB_X_RUN voxels
+ * one after the other, and a short walk leaves too little work in flight to
+ * hide that. H200, 256^3 (bench/results/2026-11-21_H200_f6e68f8): 3 slices
+ * 0.233 ms through the 3-D image against 0.284 through layers, 13 slices
+ * 0.514 against 0.470. The cut lies between. */
+#define PB_X_LAYERS_MIN_SLICES 8.0
+
 int pb_forward_kernel(const pb_plan *plan, const pb_blur_options *opt, const size_t *layer_limits)
 {
     int exact = opt->filter == PB_FILTER_EXACT;
@@ -66,6 +83,8 @@ int pb_forward_kernel(const pb_plan *plan, const pb_blur_options *opt, const siz
         return pb_kernel_index((int)opt->method, exact);
     int m = opt->method == PB_METHOD_AB && !exact && layer_limits ? pb_plan_layer_axis(plan) : -1;
     const size_t *n = plan->geometry.dims;
+    if (m == 0 && longest_walk(plan, opt, 0) < PB_X_LAYERS_MIN_SLICES)
+        m = -1;
     if (m >= 0 && n[pb_layer_across(m, 0)] <= layer_limits[0] && n[pb_layer_across(m, 1)] <= layer_limits[1] &&
         n[m] <= layer_limits[2])
         return m == 0 ? PB_KERNEL_SHIFT_AB_LAYERS_X : PB_KERNEL_SHIFT_AB_LAYERS;

@@ -24,7 +24,7 @@ int pb_plan_shift_invariant(const pb_plan *plan, const pb_blur_options *opt);
 int pb_plan_layer_axis(const pb_plan *plan);
 
 /* The forward kernel of a launch (PB_KERNEL_NAMES): for AB HARDWARE under
- * translations along one axis, where the object fits the device's 2-D image
+ * translations along one axis (along x: of at least 8 slices), where the object fits the device's 2-D image
  * arrays laid out along it (layer_limits: largest width, height and layer
  * count; NULL: none), the layered kernel; otherwise the shift-invariant one
  * where pb_plan_shift_invariant, the general one elsewhere. */

@@ -21,17 +21,21 @@ static void random_volume(const pb_geometry *g, float *v)
 }
 
 /* Up to 4 tracked poses; the frame lies inside the track. With translations
- * only, the device runs its shift-invariant kernels. */
-static void random_motion(const pb_geometry *g, int translations, pb_test_motion *tm, double *times, pb_pose *poses,
-                          int *count)
+ * only, the device runs its shift-invariant kernels. With along_x, at least
+ * 3 poses of translations only that swing 16 to 24 voxels along x and little
+ * else: a whole middle segment is long enough for AB HARDWARE's layers along
+ * x (src/kernel_args.c). */
+static void random_motion(const pb_geometry *g, int translations, int along_x, pb_test_motion *tm, double *times,
+                          pb_pose *poses, int *count)
 {
-    int n = 2 + (int)(pb_rand_uniform() * 3);
+    int n = (along_x ? 3 : 2) + (int)(pb_rand_uniform() * (along_x ? 2 : 3));
     double t = pb_rand_range(-1.0, 0.0);
     for (int i = 0; i < n; i++) {
         double axis[3] = {pb_rand_range(-1, 1), pb_rand_range(-1, 1), pb_rand_range(-1, 1)};
         double deg = translations || pb_rand_uniform() < 0.3 ? 0.0 : pb_rand_range(-25, 25);
-        poses[i] = pb_test_pose(pb_rand_range(-4, 4) * g->voxel_size[0], pb_rand_range(-4, 4) * g->voxel_size[1],
-                                pb_rand_range(-4, 4) * g->voxel_size[2], axis, deg);
+        double x = along_x ? (i % 2 ? 1.0 : -1.0) * pb_rand_range(8, 12) : pb_rand_range(-4, 4), r = along_x ? 1.5 : 4;
+        poses[i] = pb_test_pose(x * g->voxel_size[0], pb_rand_range(-r, r) * g->voxel_size[1],
+                                pb_rand_range(-r, r) * g->voxel_size[2], axis, deg);
         times[i] = t;
         t += pb_rand_range(0.2, 1.0);
     }
@@ -129,6 +133,8 @@ int main(int argc, char **argv)
             g.dims[d] = 6 + (size_t)(pb_rand_uniform() * 14);
             g.voxel_size[d] = pb_rand_range(0.8, 2.5);
         }
+        if (trial == 3) /* more than one run of voxels along x (PB_X_RUN) */
+            g.dims[0] = 12 + (size_t)(pb_rand_uniform() * 8);
         size_t n = g.dims[0] * g.dims[1] * g.dims[2];
         float *in = malloc(n * sizeof *in), *a = malloc(n * sizeof *a), *b = malloc(n * sizeof *b);
         unsigned char *edge = malloc(n);
@@ -137,11 +143,12 @@ int main(int argc, char **argv)
         double times[4];
         pb_pose poses[4];
         int count;
-        /* Every third trial translations only. Their voxels all walk alike,
-         * so an edge there would be every voxel's: such a draw is redrawn. */
+        /* Every third trial translations only, the second such mostly along
+         * x. Their voxels all walk alike, so an edge there would be every
+         * voxel's: such a draw is redrawn. */
         int translations = trial % 3 == 0;
         do
-            random_motion(&g, translations, &tm, times, poses, &count);
+            random_motion(&g, translations, trial == 3, &tm, times, poses, &count);
         while (translations && on_edge(&g, &tm.motion, edge));
         for (int method = 0; method < 4; method++) {
             for (int filter = 0; filter < 2; filter++) {
