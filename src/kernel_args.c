@@ -71,7 +71,7 @@ static double longest_walk(const pb_plan *plan, const pb_blur_options *opt, int 
 
 /* Layers along x pay only on long walks: their work items walk PB_X_RUN voxels
  * one after the other, and a short walk leaves too little work in flight to
- * hide that. H200, 256^3 (bench/results/2026-11-21_H200_f6e68f8): 3 slices
+ * hide that. H200, 256^3 (bench/results/2026-11-21_H200_29b8577/x-run.csv): 3 slices
  * 0.233 ms through the 3-D image against 0.284 through layers, 13 slices
  * 0.514 against 0.470. The cut lies between. */
 #define PB_X_LAYERS_MIN_SLICES 8.0
@@ -142,9 +142,10 @@ void *pb_kernel_plan_pack(const pb_plan *plan, pb_method method, size_t *bytes)
  * Under rotation a warp's 32 paths fan out across the object, and tiles of
  * 16 x 2 keep them closer: the rotated scatters' atomic adds fall on fewer
  * L2 lines and the classical method's fetches on fewer texture lines. H200,
- * homogeneity 256^3 (bench/results/2026-11-21_H200_a82b85b_groups), 32x4x2 ->
+ * homogeneity 256^3 (bench/results/2026-11-21_H200_29b8577/groups-13a3282), 32x4x2 ->
  * 16x2x8: AB's adjoint at 60 degrees 17.9 -> 15.4 ms, AB-E's 21.8 -> 17.6, CL's
- * forward 12.7 -> 12.1; no row slower by more than 1.5 %. */
+ * forward 12.7 -> 12.1; no row of that experiment slower by more than 1.5 %
+ * (in the full run, scenario 7's RM adjoint was 13 % slower). */
 int pb_kernel_layered(int kernel)
 {
     return kernel == PB_KERNEL_SHIFT_AB_LAYERS || kernel == PB_KERNEL_SHIFT_AB_LAYERS_X;
