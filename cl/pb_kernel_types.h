@@ -36,14 +36,14 @@ typedef struct pb_kparams {
  * one per method but REF and filter, each both the forward and the adjoint's
  * gather, and AB HARDWARE's forward through 2-D layers along y or z; the
  * copy that lays a volume out in layers; AB HARDWARE's forward through layers
- * along x. pb_kernel_index, pb_adjoint_index and
- * pb_shift_index give a launch's entry. */
+ * along x. pb_kernel_index, pb_adjoint_index and pb_shift_index give a
+ * launch's entry. */
 #define PB_KERNEL_COUNT 20
 #define PB_KERNEL_NAMES                                                                                         \
     {"pb_blur_ab",        "pb_blur_ab_exact",  "pb_blur_rm",    "pb_blur_rm_exact", "pb_blur_cl",             \
      "pb_blur_cl_exact",  "pb_blur_ref",       "pb_adjoint_ab", "pb_adjoint_rm",    "pb_adjoint_cl",          \
      "pb_adjoint_ref",    "pb_shift_ab",       "pb_shift_ab_exact", "pb_shift_rm",  "pb_shift_rm_exact",      \
-     "pb_shift_cl",       "pb_shift_cl_exact", "pb_shift_ab_layers", "pb_permute",    \
+     "pb_shift_cl",       "pb_shift_cl_exact", "pb_shift_ab_layers", "pb_permute",                              \
      "pb_shift_ab_layers_x"}
 
 PB_FN int pb_kernel_index(int method, int exact)

@@ -71,9 +71,9 @@ static double longest_walk(const pb_plan *plan, const pb_blur_options *opt, int 
 
 /* Layers along x pay only on long walks: their work items walk PB_X_RUN voxels
  * one after the other, and a short walk leaves too little work in flight to
- * hide that. H200, 256^3 (bench/results/2026-11-21_H200_29b8577/x-run.csv): 3 slices
- * 0.233 ms through the 3-D image against 0.284 through layers, 13 slices
- * 0.514 against 0.470. The cut lies between. */
+ * hide that. H200, 256^3 (bench/results/2026-11-21_H200_29b8577/x-run.csv):
+ * 3 slices 0.233 ms through the 3-D image against 0.284 through layers, 13
+ * slices 0.514 against 0.470. The cut lies between. */
 #define PB_X_LAYERS_MIN_SLICES 8.0
 
 int pb_forward_kernel(const pb_plan *plan, const pb_blur_options *opt, const size_t *layer_limits)
@@ -137,15 +137,6 @@ void *pb_kernel_plan_pack(const pb_plan *plan, pb_method method, size_t *bytes)
     return p;
 }
 
-/* A warp of 32 x-neighbours suits the walks under translations: their reads
- * and writes coalesce, and the layered kernel's work items share their layers.
- * Under rotation a warp's 32 paths fan out across the object, and tiles of
- * 16 x 2 keep them closer: the rotated scatters' atomic adds fall on fewer
- * L2 lines and the classical method's fetches on fewer texture lines. H200,
- * homogeneity 256^3 (bench/results/2026-11-21_H200_29b8577/groups-13a3282), 32x4x2 ->
- * 16x2x8: AB's adjoint at 60 degrees 17.9 -> 15.4 ms, AB-E's 21.8 -> 17.6, CL's
- * forward 12.7 -> 12.1; no row of that experiment slower by more than 1.5 %
- * (in the full run, scenario 7's RM adjoint was 13 % slower). */
 int pb_kernel_layered(int kernel)
 {
     return kernel == PB_KERNEL_SHIFT_AB_LAYERS || kernel == PB_KERNEL_SHIFT_AB_LAYERS_X;
@@ -159,6 +150,16 @@ void pb_kernel_extent(int kernel, const size_t *dims, size_t *extent)
     extent[2] = dims[2];
 }
 
+/* A warp of 32 x-neighbours suits the walks under translations: their reads
+ * and writes coalesce, and the layered kernel's work items share their layers
+ * (the one along x turns its warps along y: pb_kernel_extent). Under rotation
+ * a warp's 32 paths fan out across the object, and tiles of 16 x 2 keep them
+ * closer: the rotated scatters' atomic adds fall on fewer L2 lines and the
+ * classical method's fetches on fewer texture lines. H200, homogeneity 256^3
+ * (bench/results/2026-11-21_H200_29b8577/groups-13a3282), 32x4x2 -> 16x2x8:
+ * AB's adjoint at 60 degrees 17.9 -> 15.4 ms, AB-E's 21.8 -> 17.6, CL's
+ * forward 12.7 -> 12.1; no row of that experiment slower by more than 1.5 %
+ * (in the full run, scenario 7's RM adjoint was 13 % slower). */
 void pb_kernel_group(int kernel, unsigned group[3])
 {
     int general = kernel <= pb_adjoint_index(PB_METHOD_REF);

@@ -108,12 +108,13 @@ static size_t mark_edges(const pb_geometry *g, const pb_motion *m, const pb_blur
     return count;
 }
 
-/* Whether any voxel is on an edge for AB or for RM and CL. */
-static int on_edge(const pb_geometry *g, const pb_motion *m, unsigned char *edge)
+/* How many voxels are on an edge for AB, or for RM and CL, whichever more. */
+static size_t edges(const pb_geometry *g, const pb_motion *m, unsigned char *edge)
 {
     pb_blur_options ab = {PB_METHOD_AB, PB_FILTER_EXACT, 0, 0, 0, 0, 0.0};
     pb_blur_options rm = {PB_METHOD_RM, PB_FILTER_EXACT, 0, 0, 0, 0, 0.0};
-    return mark_edges(g, m, &ab, edge) > 0 || mark_edges(g, m, &rm, edge) > 0;
+    size_t a = mark_edges(g, m, &ab, edge), r = mark_edges(g, m, &rm, edge);
+    return a > r ? a : r;
 }
 
 int main(int argc, char **argv)
@@ -145,11 +146,14 @@ int main(int argc, char **argv)
         int count;
         /* Every third trial translations only, the second such mostly along
          * x. Their voxels all walk alike, so an edge there would be every
-         * voxel's: such a draw is redrawn. */
-        int translations = trial % 3 == 0;
+         * voxel's: such a draw is redrawn. So is a turn so slight that more
+         * than 1 % of the voxels lie within the margin of a tie (its
+         * displacements vary little across the grid); the check below fails
+         * if 50 draws find none, as when edges are marked wrongly. */
+        int translations = trial % 3 == 0, draws = 0;
         do
             random_motion(&g, translations, trial == 3, &tm, times, poses, &count);
-        while (translations && on_edge(&g, &tm.motion, edge));
+        while (++draws < 50 && edges(&g, &tm.motion, edge) > (translations ? 0 : n / 100));
         for (int method = 0; method < 4; method++) {
             for (int filter = 0; filter < 2; filter++) {
                 pb_blur_options opt = {(pb_method)method, (pb_filter)filter, 0, 0, 0, 0, 0.0};
@@ -169,15 +173,15 @@ int main(int argc, char **argv)
                     /* Off the edges both backends sum the same samples; on them
                      * the device's value must still be a blur, an average of
                      * inputs (all in [0, 1)), and the edges must be few. */
-                    size_t edges = mark_edges(&g, &tm.motion, &opt, edge), outside = 0;
+                    size_t marked = mark_edges(&g, &tm.motion, &opt, edge), outside = 0;
                     for (size_t i = 0; i < n; i++)
                         if (edge[i]) {
                             outside += !(b[i] >= 0.0f && b[i] <= 1.0f);
                             b[i] = a[i];
                         }
-                    pb_check(edges <= n / 100 && outside == 0,
+                    pb_check(marked <= n / 100 && outside == 0,
                              "trial %d %s: %zu of %zu voxels on an edge, %zu of them outside [0, 1]", trial,
-                             names[method], edges, n, outside);
+                             names[method], marked, n, outside);
                 }
                 double rel = pb_max_abs_diff(a, b, n) / pb_max_abs(a, n);
                 if (isnan(rel) || rel > worst[method][filter])
