@@ -39,15 +39,20 @@ int pb_plan_shift_invariant(const pb_plan *plan, const pb_blur_options *opt)
     return 1;
 }
 
+/* How far segment j of a motion of translations moves every voxel along axis
+ * r: the difference of its maps' offsets. */
+static double segment_move(const pb_plan *plan, size_t j, int r)
+{
+    return fabs(plan->poses[j + 1].map[4 * r + 3] - plan->poses[j].map[4 * r + 3]);
+}
+
 int pb_plan_layer_axis(const pb_plan *plan)
 {
     int axis = -1;
     for (size_t j = 0; j + 1 < plan->count; j++) {
-        /* Under translations a segment moves every voxel by the difference of
-         * its maps' offsets. */
         double d[3];
         for (int r = 0; r < 3; r++)
-            d[r] = fabs(plan->poses[j + 1].map[4 * r + 3] - plan->poses[j].map[4 * r + 3]);
+            d[r] = segment_move(plan, j, r);
         if (d[0] == 0.0 && d[1] == 0.0 && d[2] == 0.0)
             continue;
         int m = d[1] > d[0] ? 1 : 0;
@@ -65,7 +70,7 @@ static double longest_walk(const pb_plan *plan, const pb_blur_options *opt, int 
 {
     double most = 0.0;
     for (size_t j = 0; j + 1 < plan->count; j++)
-        most = fmax(most, fabs(plan->poses[j + 1].map[4 * m + 3] - plan->poses[j].map[4 * m + 3]));
+        most = fmax(most, segment_move(plan, j, m));
     return most / (opt->steps ? (double)opt->steps : 1.0);
 }
 

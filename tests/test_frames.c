@@ -35,6 +35,15 @@ static void make_track(double *times, pb_pose *poses)
     }
 }
 
+/* Frame f of the track, as one pb_blur call would be given it. */
+static pb_motion frame_of(const pb_motion *track, const double *bounds, int f)
+{
+    pb_motion m = *track;
+    m.frame_start = bounds[f];
+    m.frame_end = bounds[f + 1];
+    return m;
+}
+
 static void poison(pb_volume *v, size_t n)
 {
     float *p = malloc(n * sizeof *p);
@@ -86,9 +95,7 @@ int main(int argc, char **argv)
             pb_context_last_kernel_ms(ctx, &total);
             pb_check(total > 0.0, "%s: the frames' kernel time %g ms", names[method], total);
             for (int f = 0; f < FRAMES; f++) {
-                pb_motion m = track;
-                m.frame_start = bounds[f];
-                m.frame_end = bounds[f + 1];
+                pb_motion m = frame_of(&track, bounds, f);
                 poison(single, n);
                 pb_check(pb_blur(ctx, objects[f], &m, &opt, single) == PB_OK, "pb_blur frame %d: %s", f,
                          pb_last_error(ctx));
@@ -141,9 +148,7 @@ int main(int argc, char **argv)
             double sums[2][2] = {{0, 0}, {0, 0}}; /* [object][0: summed here, 1: frames' dot] */
             float *want_sum[2] = {calloc(n, sizeof(float)), calloc(n, sizeof(float))};
             for (int f = 0; f < FRAMES; f++) {
-                pb_motion m = track;
-                m.frame_start = bounds[f];
-                m.frame_end = bounds[f + 1];
+                pb_motion m = frame_of(&track, bounds, f);
                 poison(single, n);
                 pb_check(pb_blur_adjoint(ctx, tomo[f], &m, &opt, single) == PB_OK, "pb_blur_adjoint frame %d: %s", f,
                          pb_last_error(ctx));
