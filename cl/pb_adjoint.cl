@@ -122,10 +122,11 @@ PB_FN void pb_polyline_adjoint(PB_GLOBAL float *out, PB_GLOBAL_RO pb_kpose *pose
             }
         } else {
             int n = prm.steps > 0 ? prm.steps : pb_ab_slices(a, b);
+            float inv_n = 1.0f / (float)n;
             for (int i = 0; i < n; i++) {
-                float s = ((float)i + 0.5f) / (float)n;
+                float s = pb_step_fraction(i, inv_n);
                 pb_trilinear_scatter(out, prm, a[0] + s * (b[0] - a[0]), a[1] + s * (b[1] - a[1]),
-                                     a[2] + s * (b[2] - a[2]), vj / (float)n);
+                                     a[2] + s * (b[2] - a[2]), vj * inv_n);
             }
         }
     }
@@ -138,10 +139,10 @@ PB_FN void pb_classical_adjoint(PB_GLOBAL float *out, PB_GLOBAL_RO pb_kpose *pos
     float u[3] = {(float)ix + 0.5f, (float)iy + 0.5f, (float)iz + 0.5f};
     for (int j = 0; j < prm.segments; j++) {
         int n = pb_classical_steps(poses, j, prm, u);
-        float vn = v * poses[j].weight / (float)n;
+        float inv_n = 1.0f / (float)n, vn = v * poses[j].weight * inv_n;
         for (int i = 0; i < n; i++) {
             float o[3];
-            pb_classical_point(&poses[j], &poses[j + 1], ((float)i + 0.5f) / (float)n, prm, u, o);
+            pb_classical_point(&poses[j], &poses[j + 1], pb_step_fraction(i, inv_n), prm, u, o);
             pb_trilinear_scatter(out, prm, o[0], o[1], o[2], vn);
         }
     }

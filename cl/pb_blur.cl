@@ -255,16 +255,19 @@ PB_FN void pb_classical_point(PB_GLOBAL_RO pb_kpose *p0, PB_GLOBAL_RO pb_kpose *
 {
     float wa = 1.0f - s, wb = s;
     if (p0->angle > 1e-4f) {
-        float inv = 1.0f / sin(p0->angle);
-        wa = sin((1.0f - s) * p0->angle) * inv;
-        wb = sin(s * p0->angle) * inv;
+        /* sin((1 - s) A) / sin A = cos sA - cos A sin sA / sin A: one sincos a
+         * step. An absolute error e in wa or wb turns the pose by about e A,
+         * so the cancellation near s = 1 costs nothing that matters. */
+        float c, sn = PB_SINCOS(s * p0->angle, &c);
+        wb = sn * p0->inv_sin_angle;
+        wa = c - p0->cos_angle * wb;
     }
     float q[4], n = 0.0f;
     for (int i = 0; i < 4; i++) {
         q[i] = wa * p0->rotation[i] + wb * p1->rotation[i];
         n += q[i] * q[i];
     }
-    n = 1.0f / sqrt(n);
+    n = PB_RSQRT(n);
     for (int i = 0; i < 4; i++)
         q[i] *= n;
     float d[3], r[3];
@@ -272,7 +275,15 @@ PB_FN void pb_classical_point(PB_GLOBAL_RO pb_kpose *p0, PB_GLOBAL_RO pb_kpose *
         d[i] = u[i] * prm.voxel[i] - prm.center[i] - ((1.0f - s) * p0->translation[i] + s * p1->translation[i]);
     pb_rotate_inverse(q, d, r);
     for (int i = 0; i < 3; i++)
-        o[i] = (r[i] + prm.center[i]) / prm.voxel[i];
+        o[i] = (r[i] + prm.center[i]) * prm.inv_voxel[i];
+}
+
+/* The middle of step i of a segment cut into n, as a fraction of it: a
+ * multiply by 1 / n, which the caller divides once a segment, not once a
+ * step. The forward and the adjoint both step through here. */
+PB_FN float pb_step_fraction(int i, float inv_n)
+{
+    return ((float)i + 0.5f) * inv_n;
 }
 
 /* Piece r of a-b cut into `steps` equal pieces; the first starts at a and the
@@ -303,13 +314,13 @@ PB_FN float pb_rm_sampled(pb_image img, pb_kparams prm, int exact, const pb_plac
                           const float *b)
 {
     int n = prm.steps > 0 ? prm.steps : pb_ab_slices(a, b);
-    float sum = 0.0f;
+    float sum = 0.0f, inv_n = 1.0f / (float)n;
     for (int i = 0; i < n; i++) {
-        float s = ((float)i + 0.5f) / (float)n;
+        float s = pb_step_fraction(i, inv_n);
         sum += pb_placed_trilinear(img, exact, pl, a[0] + s * (b[0] - a[0]), a[1] + s * (b[1] - a[1]),
                                    a[2] + s * (b[2] - a[2]));
     }
-    return sum / (float)n;
+    return sum * inv_n;
 }
 
 /* The polyline methods: the object-space path of the voxel centred at u (texel
@@ -349,13 +360,13 @@ PB_FN float pb_classical(pb_image img, PB_GLOBAL_RO pb_kpose *poses, pb_kparams 
     float total = 0.0f;
     for (int j = 0; j < prm.segments; j++) {
         int n = pb_classical_steps(poses, j, prm, u);
-        float seg = 0.0f;
+        float seg = 0.0f, inv_n = 1.0f / (float)n;
         for (int i = 0; i < n; i++) {
             float o[3];
-            pb_classical_point(&poses[j], &poses[j + 1], ((float)i + 0.5f) / (float)n, prm, u, o);
+            pb_classical_point(&poses[j], &poses[j + 1], pb_step_fraction(i, inv_n), prm, u, o);
             seg += pb_placed_trilinear(img, exact, pl, o[0], o[1], o[2]);
         }
-        total += poses[j].weight * seg / (float)n;
+        total += poses[j].weight * seg * inv_n;
     }
     return total;
 }

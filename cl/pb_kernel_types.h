@@ -17,6 +17,7 @@ typedef struct pb_kparams {
     int ref_steps;   /* REF: time steps over the frame */
     unsigned int seed;
     float voxel[3];  /* mm */
+    float inv_voxel[3]; /* 1 / voxel: CL's steps multiply, a division a step costs more than the rest of its map */
     float center[3]; /* mm from the grid's corner */
     /* Adjoint: the steps the forward's texture unit rounds its weights to (256
      * on NVIDIA: 8 fractional bits), or 0 for float weights. */
@@ -85,6 +86,8 @@ typedef struct pb_kpose {
     float weight;       /* fraction of the frame spent on the segment to the next pose */
     float angle;        /* SLERP angle to the next pose's rotation, from the host in double:
                          * acos of a float dot product near 1 would lose most of it */
+    float cos_angle;    /* its cosine and 1 / its sine (0 when no SLERP is needed), from the */
+    float inv_sin_angle; /* host in double, so that CL's step needs one sincos and no division */
 } pb_kpose;
 
 /* One REF time step. */

@@ -64,6 +64,10 @@ static inline void pb_atomic_add(volatile __global float *p, float v)
  * precise divisions were measured to cost AB-E 5 % on the H200 (bench/). The
  * forward and the adjoint divide through the same helpers, so they agree. */
 #define PB_DIV(a, b) native_divide((a), (b))
+/* CL's step: the sine of x, its cosine into *c (one range reduction for both),
+ * and a reciprocal square root. */
+#define PB_SINCOS(x, c) sincos((x), (c))
+#define PB_RSQRT(x) rsqrt(x)
 
 #elif defined(PB_SHIM_CUDA)
 /* CUDA: cuda/pb_shim_cuda.h has defined the same names before including the

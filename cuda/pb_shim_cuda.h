@@ -40,6 +40,18 @@ typedef cudaTextureObject_t pb_layers; /* a layered 2-D texture, linear filter *
 #define PB_ATOMIC_ADD(p, v) atomicAdd((p), (v))
 /* A division off the precise path (2 ulp); why: cl/pb_shim.h. */
 #define PB_DIV(a, b) __fdividef((a), (b))
+/* As cl/pb_shim.h's: sincosf and rsqrtf, which OpenCL C spells sincos and
+ * rsqrt. Left to 1.0f / sqrtf, nvcc emits a correctly rounded square root and
+ * division (NVIDIA's OpenCL compiler does not), which made CUDA's CL steps
+ * the slower. */
+PB_FN float pb_sincos(float x, float *c)
+{
+    float s;
+    sincosf(x, &s, c);
+    return s;
+}
+#define PB_SINCOS(x, c) pb_sincos((x), (c))
+#define PB_RSQRT(x) rsqrtf(x)
 
 /* Float maths: for float arguments C++ overloads pick the float versions
  * (floorf, fabsf, fmaxf, sinf, sqrtf), as OpenCL C does. (The only double code

@@ -10,6 +10,7 @@ void pb_kparams_from_plan(const pb_plan *plan, const pb_blur_options *opt, pb_kp
     for (int d = 0; d < 3; d++) {
         prm->dims[d] = (int)plan->geometry.dims[d];
         prm->voxel[d] = (float)plan->geometry.voxel_size[d];
+        prm->inv_voxel[d] = (float)(1.0 / plan->geometry.voxel_size[d]);
         prm->center[d] = (float)plan->center[d];
     }
     prm->segments = (int)plan->count - 1;
@@ -115,8 +116,12 @@ static void kpose_from_plan(const pb_plan *plan, size_t index, pb_kpose *out)
     for (int k = 0; k < 3; k++)
         out->translation[k] = (float)p->pose.translation[k];
     out->weight = (float)p->weight;
-    if (index + 1 < plan->count)
-        out->angle = (float)pb_quat_angle(p->pose.rotation, plan->poses[index + 1].pose.rotation);
+    if (index + 1 < plan->count) {
+        double angle = pb_quat_angle(p->pose.rotation, plan->poses[index + 1].pose.rotation);
+        out->angle = (float)angle;
+        out->cos_angle = (float)cos(angle);
+        out->inv_sin_angle = angle > 0.0 ? (float)(1.0 / sin(angle)) : 0.0f;
+    }
 }
 
 static void kstep_from_plan(const pb_plan *plan, size_t index, pb_kstep *out)
