@@ -19,6 +19,8 @@ typedef struct cu_impl {
     cudaEvent_t start, stop;
     void *plan;          /* key poses or REF steps of the current launch */
     size_t plan_bytes;
+    void *scratch;       /* a volume laid out for its layers (pb_permute), kept: the adjoint's */
+    size_t scratch_bytes; /* gather lays out every tomograph it reads, and a cudaMalloc there would count */
     size_t layer_limits[3]; /* layered 2-D textures: width, height, layers */
 } cu_impl;
 
@@ -169,6 +171,8 @@ static void cuda_context_release(pb_context *ctx)
     cudaSetDevice(cu->device);
     if (cu->plan)
         cudaFree(cu->plan);
+    if (cu->scratch)
+        cudaFree(cu->scratch);
     if (cu->start)
         cudaEventDestroy(cu->start);
     if (cu->stop)
@@ -327,10 +331,30 @@ static pb_cuda_shape shape_of(int kernel, const size_t *dims)
     return s;
 }
 
-/* Lays vol out in a layered texture along axis m (pb_permute into a scratch
- * buffer, then a copy; along z the buffer already is in that order), once per
- * axis and change of the buffer. Untimed, as the array's copy: an object is
- * laid out once and blurred many times. */
+/* A device buffer of the context that holds at least bytes (*have of them
+ * now); it grows as needed and lives as long as the context. */
+static pb_status reserve(pb_context *ctx, void **buf, size_t *have, size_t bytes, const char *call)
+{
+    if (bytes <= *have)
+        return PB_OK;
+    if (*buf)
+        cudaFree(*buf);
+    *buf = NULL;
+    *have = 0;
+    cudaError_t e = cudaMalloc(buf, bytes);
+    if (e != cudaSuccess) {
+        *buf = NULL;
+        return cu_fail(ctx, PB_ERR_DEVICE, call, e);
+    }
+    *have = bytes;
+    return PB_OK;
+}
+
+/* Lays vol out in a layered texture along axis m (pb_permute into the
+ * context's scratch buffer, then a copy; along z the buffer already is in
+ * that order), once per axis and change of the buffer. The forward's object
+ * is laid out once and blurred many times; the adjoint's gather lays out every
+ * tomograph, and the calls it makes here are on the stream its events time. */
 static pb_status refresh_layers(pb_context *ctx, const pb_volume *vol, int m)
 {
     cu_impl *cu = ctx->impl;
@@ -357,8 +381,11 @@ static pb_status refresh_layers(pb_context *ctx, const pb_volume *vol, int m)
         return PB_OK;
     float *source = v->buffer;
     if (m != 2) {
-        if ((e = cudaMalloc((void **)&source, vol->count * sizeof(float))) != cudaSuccess)
-            return cu_fail(ctx, PB_ERR_DEVICE, "cudaMalloc (layers)", e);
+        pb_status st = reserve(ctx, &cu->scratch, &cu->scratch_bytes, vol->count * sizeof(float),
+                               "cudaMalloc (layers)");
+        if (st != PB_OK)
+            return st;
+        source = cu->scratch;
         pb_kparams prm;
         pb_kparams_permute(n, m, &prm);
         pb_cuda_shape shape = shape_of(PB_KERNEL_PERMUTE, n);
@@ -378,8 +405,6 @@ static pb_status refresh_layers(pb_context *ctx, const pb_volume *vol, int m)
         cp.kind = cudaMemcpyDeviceToDevice;
         e = cudaMemcpy3DAsync(&cp, cu->stream);
     }
-    if (source != v->buffer)
-        cudaFree(source); /* waits for the copy: this runs once per object and axis */
     if (e != cudaSuccess)
         return cu_fail(ctx, PB_ERR_DEVICE, "laying the volume out in layers", e);
     v->layers_stale[m] = 0;
@@ -398,19 +423,7 @@ static pb_status refresh_input(pb_context *ctx, const pb_volume *vol, int kernel
 static pb_status reserve_plan(pb_context *ctx, size_t bytes)
 {
     cu_impl *cu = ctx->impl;
-    if (bytes <= cu->plan_bytes)
-        return PB_OK;
-    if (cu->plan)
-        cudaFree(cu->plan);
-    cu->plan = NULL;
-    cu->plan_bytes = 0;
-    cudaError_t e = cudaMalloc(&cu->plan, bytes);
-    if (e != cudaSuccess) {
-        cu->plan = NULL;
-        return cu_fail(ctx, PB_ERR_DEVICE, "cudaMalloc (plan)", e);
-    }
-    cu->plan_bytes = bytes;
-    return PB_OK;
+    return reserve(ctx, &cu->plan, &cu->plan_bytes, bytes, "cudaMalloc (plan)");
 }
 
 /* The plans' key poses (or REF steps) in the kernels' float layout, one after
@@ -551,9 +564,10 @@ static pb_status cuda_blur_batch(pb_context *ctx, size_t frames, const pb_volume
 
 /* Under a motion of translations only the adjoint is the shift-invariant
  * kernel mirrored (cl/pb_shift.cl): a gather that reads the tomograph through
- * its array and writes (or adds into) every object voxel once. Otherwise the
- * scatter adds into zeros. The array's copy, or the zeroing, counts with the
- * kernel's time. */
+ * its array, or its layers where the forward reads layers, and writes (or
+ * adds into) every object voxel once. Otherwise the scatter adds into zeros.
+ * The array's copy or the layers' (pb_permute and a copy), or the zeroing,
+ * counts with the kernel's time. */
 static pb_status cuda_adjoint(pb_context *ctx, const pb_volume *tomograph, const pb_plan *plan,
                               const pb_blur_options *opt, pb_volume *object, int accumulate)
 {
@@ -577,12 +591,13 @@ static pb_status cuda_adjoint(pb_context *ctx, const pb_volume *tomograph, const
     cudaError_t e = cudaEventRecord(cu->start, cu->stream);
     if (e != cudaSuccess)
         return cu_fail(ctx, PB_ERR_LAUNCH, "cudaEventRecord", e);
-    int kernel = gather ? pb_forward_kernel(plan, opt, NULL) : pb_adjoint_index((int)opt->method);
+    int kernel = gather ? pb_forward_kernel(plan, opt, cu->layer_limits) : pb_adjoint_index((int)opt->method);
     pb_cuda_shape shape = shape_of(kernel, plan->geometry.dims);
     if (gather) {
-        if ((st = refresh_array(ctx, tomograph)) != PB_OK)
+        if ((st = refresh_input(ctx, tomograph, kernel, plan)) != PB_OK)
             return st;
-        e = pb_cuda_launch(kernel, &shape, texture_of(in, opt), cu->plan, &prm, out->buffer, cu->stream);
+        cudaTextureObject_t tex = pb_kernel_layered(kernel) ? in->layers_tex[prm.layer_axis] : texture_of(in, opt);
+        e = pb_cuda_launch(kernel, &shape, tex, cu->plan, &prm, out->buffer, cu->stream);
     } else {
         if (!accumulate &&
             (e = cudaMemsetAsync(out->buffer, 0, object->count * sizeof(float), cu->stream)) != cudaSuccess)

@@ -22,6 +22,8 @@ typedef struct cl_impl {
     int is_gpu;
     int nvidia; /* NVIDIA's platform: its texture unit rounds weights to 8 bits */
     size_t layer_limits[3]; /* 2-D image arrays: width, height, layers */
+    cl_mem scratch;         /* a volume laid out for its layers (pb_permute), kept: the adjoint's */
+    size_t scratch_bytes;   /* gather lays out every tomograph it reads */
 } cl_impl;
 
 typedef struct cl_volume {
@@ -257,6 +259,8 @@ static void ocl_context_release(pb_context *ctx)
             clReleaseKernel(cl->kernels[k]);
     if (cl->program)
         clReleaseProgram(cl->program);
+    if (cl->scratch)
+        clReleaseMemObject(cl->scratch);
     if (cl->queue)
         clReleaseCommandQueue(cl->queue);
     if (cl->context)
@@ -464,12 +468,32 @@ static cl_int set_args(cl_kernel k, cl_mem in, cl_mem poses, const pb_kparams *p
     return e;
 }
 
-/* Lays vol out in a 2-D image array along axis m (pb_permute into a scratch
- * buffer, then a copy; along z the buffer already is in that order), once per
- * axis and change of the buffer; frames that share an object along different
- * axes each keep theirs. Untimed, as the image's copy: an object is laid out
- * once and blurred many times. */
-static pb_status refresh_layers(pb_context *ctx, const pb_volume *vol, int m)
+/* The context's scratch buffer, grown to at least bytes; it lives as long as
+ * the context. */
+static cl_int reserve_scratch(cl_impl *cl, size_t bytes)
+{
+    if (bytes <= cl->scratch_bytes)
+        return CL_SUCCESS;
+    if (cl->scratch)
+        clReleaseMemObject(cl->scratch);
+    cl->scratch_bytes = 0;
+    cl_int e;
+    cl->scratch = clCreateBuffer(cl->context, CL_MEM_READ_WRITE, bytes, NULL, &e);
+    if (e != CL_SUCCESS)
+        cl->scratch = NULL;
+    else
+        cl->scratch_bytes = bytes;
+    return e;
+}
+
+/* Lays vol out in a 2-D image array along axis m (pb_permute into the
+ * context's scratch buffer, then a copy; along z the buffer already is in
+ * that order), once per axis and change of the buffer; frames that share an
+ * object along different axes each keep theirs. With timed, as in
+ * refresh_image, the work is waited for and counts with the kernel time: the
+ * forward's object is laid out once and blurred many times, the adjoint's
+ * gather lays out every tomograph it reads. */
+static pb_status refresh_layers(pb_context *ctx, const pb_volume *vol, int m, int timed)
 {
     cl_impl *cl = ctx->impl;
     cl_volume *v = vol->impl;
@@ -487,21 +511,25 @@ static pb_status refresh_layers(pb_context *ctx, const pb_volume *vol, int m)
     if (!v->layers_stale[m])
         return PB_OK;
     cl_mem source = v->buffer;
+    cl_event ev = NULL;
     if (m != 2) {
-        source = clCreateBuffer(cl->context, CL_MEM_READ_WRITE, vol->count * sizeof(float), NULL, &e);
-        if (e != CL_SUCCESS)
+        if ((e = reserve_scratch(cl, vol->count * sizeof(float))) != CL_SUCCESS)
             return cl_fail(ctx, PB_ERR_DEVICE, "clCreateBuffer (layers)", e);
+        source = cl->scratch;
         pb_kparams prm;
         pb_kparams_permute(n, m, &prm);
         e = set_args(cl->kernels[PB_KERNEL_PERMUTE], v->buffer, v->buffer, &prm, source);
         if (e == CL_SUCCESS)
-            e = enqueue_grid(cl, PB_KERNEL_PERMUTE, NULL, n, NULL);
+            e = enqueue_grid(cl, PB_KERNEL_PERMUTE, NULL, n, timed ? &ev : NULL);
+        if (timed)
+            e = wait_timed(ctx, e, ev);
     }
     size_t origin[3] = {0, 0, 0};
     if (e == CL_SUCCESS)
-        e = clEnqueueCopyBufferToImage(cl->queue, source, v->layers[m], 0, origin, region, 0, NULL, NULL);
-    if (source != v->buffer)
-        clReleaseMemObject(source); /* freed once the queued copy is done */
+        e = clEnqueueCopyBufferToImage(cl->queue, source, v->layers[m], 0, origin, region, 0, NULL,
+                                       timed ? &ev : NULL);
+    if (timed)
+        e = wait_timed(ctx, e, ev);
     if (e != CL_SUCCESS)
         return cl_fail(ctx, PB_ERR_DEVICE, "laying the volume out in layers", e);
     v->layers_stale[m] = 0;
@@ -510,12 +538,13 @@ static pb_status refresh_layers(pb_context *ctx, const pb_volume *vol, int m)
 
 /* Brings up to date what forward kernel `kernel` reads of vol (the image, or
  * the layers along the plan's axis) and returns it in *mem. */
-static pb_status refresh_input(pb_context *ctx, const pb_volume *vol, int kernel, const pb_plan *plan, cl_mem *mem)
+static pb_status refresh_input(pb_context *ctx, const pb_volume *vol, int kernel, const pb_plan *plan, int timed,
+                               cl_mem *mem)
 {
     const cl_volume *v = vol->impl;
     int m = pb_plan_layer_axis(plan);
     int layered = pb_kernel_layered(kernel);
-    pb_status st = layered ? refresh_layers(ctx, vol, m) : refresh_image(ctx, vol, 0);
+    pb_status st = layered ? refresh_layers(ctx, vol, m, timed) : refresh_image(ctx, vol, timed);
     *mem = layered ? v->layers[m] : v->image;
     return st;
 }
@@ -526,7 +555,7 @@ static pb_status ocl_blur(pb_context *ctx, const pb_volume *object, const pb_pla
     cl_impl *cl = ctx->impl;
     int kernel = pb_forward_kernel(plan, opt, cl->layer_limits);
     cl_mem source;
-    pb_status st = refresh_input(ctx, object, kernel, plan, &source);
+    pb_status st = refresh_input(ctx, object, kernel, plan, 0, &source);
     if (st != PB_OK)
         return st;
     cl_mem poses;
@@ -572,7 +601,7 @@ static pb_status ocl_blur_batch(pb_context *ctx, size_t frames, const pb_volume 
     for (size_t i = 0; i < frames && st == PB_OK; i++) {
         int kernel = pb_forward_kernel(&plans[i], opt, cl->layer_limits);
         cl_mem source;
-        if ((st = refresh_input(ctx, objects[i], kernel, &plans[i], &source)) != PB_OK ||
+        if ((st = refresh_input(ctx, objects[i], kernel, &plans[i], 0, &source)) != PB_OK ||
             (st = upload_plan(ctx, &plans[i], opt, &poses[i])) != PB_OK)
             break;
         pb_kparams prm;
@@ -619,15 +648,19 @@ static cl_int zero_buffer(pb_context *ctx, cl_mem buffer, size_t bytes)
 
 /* Under a motion of translations only the adjoint is the shift-invariant
  * kernel mirrored (cl/pb_shift.cl): a gather that reads the tomograph through
- * an image, whose copy counts with the kernel time, and writes (or adds into)
- * every object voxel once. Otherwise the scatter adds into zeros. */
+ * an image, or through layers where the forward reads layers, whose making
+ * counts with the kernel time, and writes (or adds into) every object voxel
+ * once. Otherwise the scatter adds into zeros. */
 static pb_status ocl_adjoint(pb_context *ctx, const pb_volume *tomograph, const pb_plan *plan,
                              const pb_blur_options *opt, pb_volume *object, int accumulate)
 {
     cl_impl *cl = ctx->impl;
     int gather = pb_plan_shift_invariant(plan, opt);
+    int kernel = gather ? pb_forward_kernel(plan, opt, cl->layer_limits) : pb_adjoint_index((int)opt->method);
+    cl_volume *in = tomograph->impl, *out = object->impl;
+    cl_mem source = in->buffer;
     ctx->last_kernel_ms = 0.0;
-    pb_status st = gather ? refresh_image(ctx, tomograph, 1) : PB_OK;
+    pb_status st = gather ? refresh_input(ctx, tomograph, kernel, plan, 1, &source) : PB_OK;
     cl_mem poses;
     if (st != PB_OK || (st = upload_plan(ctx, plan, opt, &poses)) != PB_OK)
         return st;
@@ -639,9 +672,7 @@ static pb_status ocl_adjoint(pb_context *ctx, const pb_volume *tomograph, const 
      * (cl/pb_adjoint.cl); PoCL's weights are float. */
     if (!gather && opt->filter == PB_FILTER_HARDWARE && cl->nvidia)
         prm.weight_steps = PB_NVIDIA_WEIGHT_STEPS;
-    int kernel = gather ? pb_forward_kernel(plan, opt, NULL) : pb_adjoint_index((int)opt->method);
-    cl_volume *in = tomograph->impl, *out = object->impl;
-    cl_int e = set_args(cl->kernels[kernel], gather ? in->image : in->buffer, poses, &prm, out->buffer);
+    cl_int e = set_args(cl->kernels[kernel], source, poses, &prm, out->buffer);
     if (e != CL_SUCCESS) {
         clReleaseMemObject(poses);
         return cl_fail(ctx, PB_ERR_LAUNCH, "clSetKernelArg", e);
