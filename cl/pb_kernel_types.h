@@ -86,8 +86,8 @@ typedef struct pb_kpose {
     float weight;       /* fraction of the frame spent on the segment to the next pose */
     float angle;        /* SLERP angle to the next pose's rotation, from the host in double:
                          * acos of a float dot product near 1 would lose most of it */
-    float cos_angle;    /* its cosine and 1 / its sine (0 when no SLERP is needed), from the */
-    float inv_sin_angle; /* host in double, so that CL's step needs one sincos and no division */
+    float cos_angle;    /* its cosine and 1 / its sine (0 for angle 0), from the host in double, */
+    float inv_sin_angle; /* so that CL's step needs one sincos and no division */
 } pb_kpose;
 
 /* One REF time step. */
