@@ -8,7 +8,12 @@
  * find every W whose path passes near V (V's own path, mapped forward) and
  * then rebuild each such W's walk to learn its weight on V, that is about S
  * candidate walks of S slices each, S^2 work per voxel against the scatter's
- * S. The scatter's price is its atomics, measured in bench/ (adjoint rows).
+ * S. Even with a fixed step count (RM and CL with steps > 0, where sample i of
+ * every W lies on one affine map of W) a gather would map and weigh every
+ * tomograph voxel in the box around each of V's n preimages, 8 under no turn
+ * and up to 64 under an oblique one, where the scatter makes 8 adds a sample.
+ * The scatter's price is its atomics, measured in bench/ (adjoint rows): under
+ * rotations they, not the texture unit, bound the adjoint (README).
  *
  * Weights are the forward's: computed in float as the EXACT filter computes
  * them, and for the HARDWARE filter on NVIDIA rounded per axis as its texture
