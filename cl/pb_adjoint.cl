@@ -11,7 +11,7 @@
  * S. Even with a fixed step count (RM and CL with steps > 0, where sample i of
  * every W lies on one affine map of W) a gather would map and weigh every
  * tomograph voxel in the box around each of V's n preimages, 8 under no turn
- * and up to 64 under an oblique one, where the scatter makes 8 adds a sample.
+ * and dozens under an oblique one, where the scatter makes 8 adds a sample.
  * The scatter's price is its atomics, measured in bench/ (adjoint rows): under
  * rotations they, not the texture unit, bound the adjoint (README).
  *
