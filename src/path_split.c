@@ -109,6 +109,7 @@ static int merge_segments(pb_plan *plan, const double *dev, double max_error)
     size_t n = plan->count;
     const double *v = plan->geometry.voxel_size;
     double vmin = fmin(v[0], fmin(v[1], v[2]));
+    /* Every key pose's 8 corner voxel centres in object space (mm). */
     double *corner = malloc(n * 24 * sizeof *corner);
     if (!corner)
         return 0;
