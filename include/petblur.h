@@ -47,6 +47,8 @@ typedef enum pb_status {
     PB_ERR_TRACK_ORDER = -7,       /* track times are not strictly increasing, or fewer than 2 poses */
     PB_ERR_TRACK_GAP = -8,         /* the track does not cover the whole frame */
     PB_ERR_SIZE_MISMATCH = -9,     /* two volumes differ in size, or belong to different contexts */
+    PB_ERR_AFFINE_SHEAR = -10,     /* a voxel-to-world affine whose axes are not perpendicular (a shear) */
+    PB_ERR_NOT_RIGID = -11,        /* a pose matrix that is not a rotation plus a translation */
 
     /* -200 .. -299: backends and devices */
     PB_ERR_BACKEND_UNAVAILABLE = -200, /* the backend was not compiled into this build */
@@ -182,6 +184,33 @@ PB_API pb_status pb_motion_pose_at(const pb_motion *motion, double t, pb_pose *p
 
 /* Rotation of angle_deg (right-hand rule) about axis (need not be unit). */
 PB_API pb_status pb_quaternion_from_axis_angle(const double axis[3], double angle_deg, double q[4]);
+
+/* A pose as a row-major 4x4 rigid matrix about the origin, p' = R p + t, and
+ * back. pb_pose_from_matrix refuses a matrix whose upper 3x3 is not a rotation
+ * to 1e-4 (a reflection, a scaling, a shear: PB_ERR_NOT_RIGID) or whose last
+ * row is not 0 0 0 1; the quaternion it returns has w >= 0. */
+PB_API pb_status pb_pose_from_matrix(const double matrix[16], pb_pose *pose);
+PB_API pb_status pb_pose_to_matrix(const pb_pose *pose, double matrix[16]);
+
+/* ---- world coordinates ------------------------------------------------- */
+
+/* Motions are usually known in the scanner's world frame (mm; NIfTI's RAS+
+ * for a NIfTI image), while pb_blur takes them in the grid frame (mm from the
+ * grid's corner along the array axes). A grid lies in the world by a
+ * voxel-to-world affine: row-major 4x4, voxel index (i, j, k) at the voxel's
+ * centre to world mm, as NIfTI's sform and qform and nibabel's img.affine.
+ *
+ * pb_motion_world_to_grid converts a motion whose poses and centre are in
+ * world mm (w' = R (w - c) + c + t; has_center 0: about the grid's centre)
+ * into the grid frame of that grid: with D the affine's direction matrix
+ * (its columns divided by their lengths, which must equal the geometry's voxel
+ * sizes to 1e-4), R_grid = D^T R D, t_grid = D^T t and c_grid = D^T (c - o),
+ * o being the grid corner's world position. Reflections (LAS, LPS files) are
+ * fine; a shear is refused (PB_ERR_AFFINE_SHEAR). It writes motion->count
+ * poses into grid_poses and makes *grid a motion of those poses, the same times
+ * and frame, and the centre in grid mm. */
+PB_API pb_status pb_motion_world_to_grid(const pb_geometry *geometry, const double affine[16],
+                                         const pb_motion *world, pb_pose *grid_poses, pb_motion *grid);
 
 /* ---- blurring ---------------------------------------------------------- */
 

@@ -47,6 +47,8 @@ const char *pb_status_string(pb_status status)
     case PB_ERR_TRACK_ORDER: return "track times not strictly increasing";
     case PB_ERR_TRACK_GAP: return "track does not cover the frame";
     case PB_ERR_SIZE_MISMATCH: return "volumes differ in size or context";
+    case PB_ERR_AFFINE_SHEAR: return "voxel-to-world affine with a shear";
+    case PB_ERR_NOT_RIGID: return "pose matrix not rigid";
     case PB_ERR_BACKEND_UNAVAILABLE: return "backend not compiled in";
     case PB_ERR_NO_DEVICE: return "no device";
     case PB_ERR_NO_IMAGE_SUPPORT: return "no 3-D float image support";

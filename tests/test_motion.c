@@ -156,6 +156,73 @@ static void test_plan(void)
     pb_plan_destroy(&plan);
 }
 
+/* grid mm -> world mm through a NIfTI-style affine (index at voxel centres). */
+static void grid_to_world(const double a[16], const double vox[3], const double p[3], double w[3])
+{
+    double idx[3] = {p[0] / vox[0] - 0.5, p[1] / vox[1] - 0.5, p[2] / vox[2] - 0.5};
+    for (int r = 0; r < 3; r++)
+        w[r] = a[4 * r] * idx[0] + a[4 * r + 1] * idx[1] + a[4 * r + 2] * idx[2] + a[4 * r + 3];
+}
+
+/* pb_motion_world_to_grid: a world pose applied to a grid point's world
+ * position must land where the grid pose takes the point, for rotated,
+ * reflected and anisotropic affines; pose matrices round-trip; shears and
+ * non-rigid pose matrices are refused with their own status. */
+static void test_world(void)
+{
+    for (int trial = 0; trial < 100; trial++) {
+        pb_pose dir = random_pose();
+        double r[9], a[16] = {0}, vox[3] = {pb_rand_range(0.5, 4), pb_rand_range(0.5, 4), pb_rand_range(0.5, 4)};
+        pb_quat_to_matrix(dir.rotation, r);
+        int flip = trial % 3; /* 0: proper; 1, 2: one axis reflected (LAS-like) */
+        for (int i = 0; i < 3; i++) {
+            for (int j = 0; j < 3; j++)
+                a[4 * i + j] = r[3 * i + j] * vox[j] * (flip && j == flip ? -1.0 : 1.0);
+            a[4 * i + 3] = pb_rand_range(-200, 200);
+        }
+        a[15] = 1.0;
+        pb_geometry g = {{40, 30, 20}, {vox[0], vox[1], vox[2]}};
+        pb_pose wp[3] = {random_pose(), random_pose(), random_pose()}, gp[3];
+        double times[3] = {0, 1, 2};
+        pb_motion world = {times, wp, 3, 0.0, 2.0, trial % 2, {pb_rand_range(-100, 100), pb_rand_range(-100, 100),
+                                                                pb_rand_range(-100, 100)}},
+                  grid;
+        if (!world.has_center) /* the grid's centre, in world mm */
+            grid_to_world(a, vox, (double[3]){20 * vox[0], 15 * vox[1], 10 * vox[2]}, world.center);
+        if (!pb_check(pb_motion_world_to_grid(&g, a, &world, gp, &grid) == PB_OK, "world to grid: %s",
+                      pb_last_error(NULL)))
+            continue;
+        double gc[3] = {20 * vox[0], 15 * vox[1], 10 * vox[2]};
+        const double *c = grid.has_center ? grid.center : gc;
+        for (int k = 0; k < 3; k++) {
+            double p[3] = {pb_rand_range(0, 40 * vox[0]), pb_rand_range(0, 30 * vox[1]), pb_rand_range(0, 20 * vox[2])};
+            double moved[3], w[3], wmoved[3], expect[3];
+            pb_pose_apply(&gp[k], c, p, moved);
+            grid_to_world(a, vox, moved, expect);
+            grid_to_world(a, vox, p, w);
+            pb_pose_apply(&wp[k], world.center, w, wmoved);
+            pb_check(dist3(wmoved, expect) < 1e-9, "trial %d pose %d: world pose = grid pose through the affine "
+                     "(off %.3g mm)", trial, k, dist3(wmoved, expect));
+        }
+        double m[16];
+        pb_pose back;
+        pb_check(pb_pose_to_matrix(&wp[0], m) == PB_OK && pb_pose_from_matrix(m, &back) == PB_OK &&
+                     dist3(back.translation, wp[0].translation) < 1e-12 && quat_angle(back.rotation, wp[0].rotation) < 1e-9,
+                 "pose -> matrix -> pose");
+    }
+    pb_geometry g = {{4, 4, 4}, {1, 1, 1}};
+    double shear[16] = {1, 0.1, 0, 0, 0, 0.99498743710662, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1}, times[2] = {0, 1};
+    pb_pose p[2] = {{{0, 0, 0}, {1, 0, 0, 0}}, {{1, 0, 0}, {1, 0, 0, 0}}}, out[2];
+    pb_motion m = {times, p, 2, 0, 1, 0, {0, 0, 0}}, grid;
+    pb_check(pb_motion_world_to_grid(&g, shear, &m, out, &grid) == PB_ERR_AFFINE_SHEAR, "a shear is refused");
+    double scaled[16] = {2, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};
+    pb_check(pb_motion_world_to_grid(&g, scaled, &m, out, &grid) == PB_ERR_BAD_VOXEL_SIZE,
+             "an affine whose voxels are not the geometry's is refused");
+    double mirror[16] = {-1, 0, 0, 5, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1};
+    pb_pose pose;
+    pb_check(pb_pose_from_matrix(mirror, &pose) == PB_ERR_NOT_RIGID, "a reflection is no pose");
+}
+
 int main(void)
 {
     pb_test_seed();
@@ -163,5 +230,6 @@ int main(void)
     test_slerp();
     test_poses();
     test_plan();
+    test_world();
     return pb_test_finish();
 }
