@@ -62,11 +62,12 @@ double pbc_voxel_edge(size_t i, size_t n, double voxel_size)
 static const double cube_activity[8] = {1.0, 0.5, 2.0, 0.25, 1.5, 0.75, 3.0, 0.1};
 
 /* The parts of voxel i of an axis inside the low (cover[0]) and the high
- * (cover[1]) cube. Each cube is inset by a twelfth of the half field of view
- * from the centre planes and from the edges, so no two cubes touch. */
+ * (cover[1]) cube. Each cube is inset by a twelfth of the default half field of
+ * view (128 mm) from the centre planes and from its outer faces, so no two
+ * cubes touch; the cubes are the same in mm on every grid. */
 static void cube_cover(size_t i, size_t n, double voxel_size, double cover[2])
 {
-    double half = 0.5 * (double)n * voxel_size, inset = half / 12.0;
+    double half = 128.0, inset = half / 12.0;
     double lo = pbc_voxel_edge(i, n, voxel_size), hi = lo + voxel_size;
     cover[0] = pbc_overlap(lo, hi, -half + inset, -inset);
     cover[1] = pbc_overlap(lo, hi, inset, half - inset);

@@ -20,9 +20,11 @@ void pbc_phantom_default_geometry(pbc_phantom_kind kind, size_t dims[3], double 
 
 /* Fills out (dims[0]*dims[1]*dims[2] floats, x fastest) with the phantom's
  * activity (relative units, FDG-like ratios) on the given grid. The object is
- * defined in mm and centred on the grid, so that a finer grid samples the same
- * object; it is scaled to fit the grid's field of view. Returns 0, or an exit
- * status after printing the message. */
+ * analytic in mm, of a fixed size (the default grid's field of view) and
+ * centred on the grid: a finer grid samples the same object, a smaller one
+ * crops it. Array axes run as the object's x (across, +x the lesions' side), y
+ * (back to front) and z (up). Returns 0, or an exit status after printing the
+ * message. */
 int pbc_phantom_make(pbc_phantom_kind kind, const size_t dims[3], const double voxel_size[3], float *out);
 
 #endif

@@ -11,7 +11,8 @@
  * at the default 281.6 x 281.6 x 179.2 mm field of view: the head is 156 x
  * 192 mm in-plane, framed as in the Zubal grid, and reaches from 5 mm below
  * the top of the field of view down through the cerebellum into the neck.
- * Other fields of view scale it by the smallest ratio to these.
+ * It is the same ~18 cm head in mm on every grid: a smaller field of view
+ * crops it.
  *
  * Activities are FDG-like, relative to white matter: grey matter 4, the 4 : 1
  * of the tissue itself (images show 2.5-3 : 1 only after the scanner's blur,
@@ -70,7 +71,6 @@ static const ellipsoid head[] = {
     {{22, -56, -40}, {3, 3, 3}, 0, 7.0, 0},
 };
 enum { HEAD_SHAPES = sizeof head / sizeof head[0], HEAD_SUBSAMPLES = 4 };
-static const double head_fov[3] = {281.6, 281.6, 179.2};
 
 /* An ellipsoid placed on the grid. q(p), the point's distance from the centre
  * in semi-axes, changes by at most |dp| * reach, reach being 1 / the shortest
@@ -82,21 +82,18 @@ typedef struct placed {
 
 enum { OUTSIDE, CROSSING, INSIDE }; /* ordered so that min() intersects two */
 
-static void place_head(placed *s, const size_t n[3], const double d[3])
+static void place_head(placed *s)
 {
-    double scale = INFINITY;
-    for (int a = 0; a < 3; a++)
-        scale = fmin(scale, (double)n[a] * d[a] / head_fov[a]);
     for (int e = 0; e < HEAD_SHAPES; e++) {
         const ellipsoid *h = &head[e];
         double shortest = fmin(h->semi_axis[0], fmin(h->semi_axis[1], h->semi_axis[2]));
         for (int a = 0; a < 3; a++) {
-            s[e].centre[a] = scale * h->centre[a];
-            s[e].inverse_axis[a] = 1.0 / (scale * h->semi_axis[a]);
+            s[e].centre[a] = h->centre[a];
+            s[e].inverse_axis[a] = 1.0 / (h->semi_axis[a]);
         }
         s[e].cos_a = cos(h->angle * PB_PI / 180.0);
         s[e].sin_a = sin(h->angle * PB_PI / 180.0);
-        s[e].reach = 1.0 / (scale * shortest);
+        s[e].reach = 1.0 / (shortest);
         s[e].activity = h->activity;
         s[e].clip = h->in_cerebrum ? CEREBRUM : -1;
     }
@@ -157,7 +154,7 @@ static double head_voxel(const placed *s, const double lo[3], const double d[3],
 void pbc_phantom_brain(const size_t n[3], const double d[3], float *out)
 {
     placed s[HEAD_SHAPES];
-    place_head(s, n, d);
+    place_head(s);
     double half_diagonal = 0.5 * sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
     for (size_t k = 0; k < n[2]; k++)
         for (size_t j = 0; j < n[1]; j++)

@@ -9,14 +9,12 @@
 /* The common layout: rods of 11.1 ... 3.2 mm at their true sizes, centres two
  * diameters apart on a triangular lattice, in a cylinder of 217.6 mm diameter
  * (about the standard phantoms' body), which fills 85 % of the default 256 mm
- * field of view. Every in-plane length scales with min(field of view in x, y)
- * / 256 mm, so another grid holds the same picture; along z the phantom spans
- * 85 % of the field of view. */
-#define DZ_REF_FOV 256.0     /* mm, in-plane field of view at which lengths are true */
+ * field of view; 217.6 mm long (85 % of it). The phantom is the same object in
+ * mm on every grid: a finer grid samples it finer, a smaller one crops it. */
 #define DZ_RADIUS 108.8      /* mm, of the cylinder: body, plates */
 #define DZ_WALL_GAP 2.0      /* mm, least distance from a rod to the cylinder wall */
-#define DZ_PLATE 10.0        /* mm, thickness of each end plate, at most a tenth of the length */
-#define DZ_FILL_Z 0.85       /* of the z field of view */
+#define DZ_PLATE 10.0        /* mm, thickness of each end plate */
+#define DZ_LENGTH 217.6      /* mm, along z */
 #define DZ_SUBSAMPLES 8      /* per in-plane axis; once per (x, y) column, so it can be fine */
 #define DZ_SECTORS 6
 /* The sectors' edges lie 15 degrees off the axes, so that the central coronal and
@@ -52,22 +50,20 @@ static int sector_rows(const rod_sector *s, double limit)
     return rows;
 }
 
-static void derenzo_plan(derenzo_layout *plan, const size_t n[3], const double d[3])
+static void derenzo_plan(derenzo_layout *plan)
 {
-    double scale = fmin((double)n[0] * d[0], (double)n[1] * d[1]) / DZ_REF_FOV;
-    double length = DZ_FILL_Z * (double)n[2] * d[2];
-    plan->radius = DZ_RADIUS * scale;
-    plan->half_length = 0.5 * length;
-    plan->plate = fmin(DZ_PLATE * scale, 0.1 * length);
+    plan->radius = DZ_RADIUS;
+    plan->half_length = 0.5 * DZ_LENGTH;
+    plan->plate = DZ_PLATE;
     for (int m = 0; m < DZ_SECTORS; m++) {
         rod_sector *s = &plan->sector[m];
-        s->radius = 0.5 * rod_diameter[m] * scale;
+        s->radius = 0.5 * rod_diameter[m];
         s->pitch = 4.0 * s->radius;
         /* A diameter between a rod and the sector's edges sets the sectors
          * apart by twice the gap between rods within one; an edge makes 30 degrees
          * with the bisector, so the apex rod, 3 radii from both, sits 6 out. */
         s->apex = 6.0 * s->radius;
-        s->rows = sector_rows(s, plan->radius - DZ_WALL_GAP * scale);
+        s->rows = sector_rows(s, plan->radius - DZ_WALL_GAP);
         s->cos_a = cos(DZ_FIRST_EDGE + PB_PI / 3.0 * m);
         s->sin_a = sin(DZ_FIRST_EDGE + PB_PI / 3.0 * m);
     }
@@ -129,7 +125,7 @@ static void derenzo_column(const derenzo_layout *plan, const size_t n[3], double
 void pbc_phantom_derenzo(const size_t n[3], const double d[3], float *out)
 {
     derenzo_layout plan;
-    derenzo_plan(&plan, n, d);
+    derenzo_plan(&plan);
     double half_diagonal = 0.5 * hypot(d[0], d[1]);
     for (size_t j = 0; j < n[1]; j++)
         for (size_t i = 0; i < n[0]; i++) {
