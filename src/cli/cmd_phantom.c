@@ -20,14 +20,39 @@ static const pbc_option options[] = {
 
 static const pbc_command command = {
     "phantom", "--kind homogeneity|derenzo|brain -o OUT [options]",
-    "Makes one of the paper's three phantoms (section 4), analytically in mm and centred on the grid, each\n"
-    "voxel the mean activity over its volume. brain stands in for the Zubal head phantom (128x128x64), whose\n"
-    "terms forbid redistribution; a Zubal file of your own goes straight into petblur blur -i.",
+    "Makes one of the paper's three phantoms (section 4), analytic in mm: the same object on every grid (the\n"
+    "brain an ~18 cm head, Derenzo's cylinder 217.6 mm), each voxel the mean activity over its volume. It is\n"
+    "centred on the scanner's origin as a head-first supine patient (NIfTI sform and qform, Interfile's STIR\n"
+    "keys). brain stands in for the Zubal head phantom (128x128x64), whose terms forbid redistribution; a Zubal\n"
+    "file of your own goes straight into petblur blur -i.",
     options, (int)(sizeof options / sizeof options[0]), 0, 0,
     "examples:\n"
     "  petblur phantom --kind derenzo -o derenzo.nii.gz --png derenzo.png\n"
     "  petblur phantom --kind brain -o brain.hv\n"
     "  petblur phantom --kind homogeneity --dims 128,128,96 --voxel-size 2,2,2 -o cubes.raw"};
+
+/* Placed as a head-first supine patient in STIR's gantry frame, centred on the
+ * scanner's origin: the array runs right to left, front to back and top to
+ * bottom (affine diag(-dx, -dy, -dz) into RAS+), which NIfTI viewers show
+ * upright and STIR reads back from the Interfile keys. The phantom is made
+ * with its axes along RAS+, so its voxels are reversed along all three axes,
+ * which is the reverse of the whole array. */
+static void place(pbc_image *img)
+{
+    size_t n = pbc_image_frame_voxels(img);
+    for (size_t i = 0, j = n - 1; i < j; i++, j--) {
+        float t = img->data[i];
+        img->data[i] = img->data[j];
+        img->data[j] = t;
+    }
+    double a[16] = {0};
+    for (int r = 0; r < 3; r++) {
+        a[5 * r] = -img->voxel_size[r];
+        a[4 * r + 3] = 0.5 * (double)(img->dims[r] - 1) * img->voxel_size[r];
+    }
+    a[15] = 1.0;
+    pbc_orientation_set_affine(&img->orientation, a);
+}
 
 static int geometry(const pbc_args *args, pbc_phantom_kind kind, size_t dims[3], double vs[3])
 {
@@ -59,8 +84,10 @@ int pbc_cmd_phantom(int argc, char **argv)
     pbc_image img = {0};
     if ((rc = geometry(&args, kind, dims, vs)) || (rc = pbc_image_alloc(&img, dims, vs)))
         return rc;
-    if (!(rc = pbc_phantom_make(kind, dims, vs, img.data)))
+    if (!(rc = pbc_phantom_make(kind, dims, vs, img.data))) {
+        place(&img);
         rc = pbc_image_write(out, &img);
+    }
     if (!rc && png) {
         pbc_picture_row row = {pbc_phantom_name(kind), img.data, 0};
         pbc_picture pic = {{dims[0], dims[1], dims[2]}, {vs[0], vs[1], vs[2]}, &row, 1};

@@ -61,6 +61,14 @@ int pbc_interfile_read(const char *path, const pbc_read_hints *hints, pbc_image 
 int pbc_interfile_write(const char *path, const pbc_image *img);
 /* The data file that writing the header path (OUT.hv) also writes (OUT.v). */
 int pbc_interfile_data_name(const char *path, char *out, size_t size);
+/* STIR's placement of an Interfile image (image_placement.c): the RAS+
+ * voxel-to-world affine of its patient position and first pixel offsets
+ * (NaN where absent), or an exit status after the message; and back, 1 with the
+ * keys when the affine is one that Interfile can hold, 0 when it is not. */
+int pbc_stir_affine(const char *path, const char *orientation, const char *rotation, const double fpo[3],
+                    const size_t dims[3], const double vs[3], double a[16]);
+int pbc_stir_placement(const double a[16], const double vs[3], const char **orientation, const char **rotation,
+                       double fpo[3]);
 int pbc_raw_read(const char *path, const pbc_read_hints *hints, pbc_image *img);
 int pbc_raw_write(const char *path, const pbc_image *img);
 /* The voxels as bare float32 in a fresh temporary for path, left open for the

@@ -24,6 +24,8 @@ typedef struct interfile_header {
     char byte_order[TEXT_SIZE];
     long long bytes_per_pixel, matrix[3], data_offset, dimensions, frames;
     double scale[3], rescale_slope, rescale_offset, image_scale;
+    double first_pixel_offset[3]; /* mm, the first voxel's centre in STIR's gantry frame */
+    char patient_orientation[TEXT_SIZE], patient_rotation[TEXT_SIZE];
 } interfile_header;
 
 typedef enum key_kind { KEY_TEXT, KEY_COUNT, KEY_NUMBER } key_kind;
@@ -51,6 +53,11 @@ static const struct { const char *key; key_kind kind; size_t offset; } keys[] = 
     {"data rescale offset", KEY_NUMBER, offsetof(interfile_header, rescale_offset)},
     {"image scaling factor[1]", KEY_NUMBER, offsetof(interfile_header, image_scale)},
     {"image scaling factor", KEY_NUMBER, offsetof(interfile_header, image_scale)},
+    {"first pixel offset (mm)[1]", KEY_NUMBER, offsetof(interfile_header, first_pixel_offset[0])},
+    {"first pixel offset (mm)[2]", KEY_NUMBER, offsetof(interfile_header, first_pixel_offset[1])},
+    {"first pixel offset (mm)[3]", KEY_NUMBER, offsetof(interfile_header, first_pixel_offset[2])},
+    {"patient orientation", KEY_TEXT, offsetof(interfile_header, patient_orientation)},
+    {"patient rotation", KEY_TEXT, offsetof(interfile_header, patient_rotation)},
 };
 
 static void init_header(interfile_header *h)
@@ -60,6 +67,8 @@ static void init_header(interfile_header *h)
     h->matrix[0] = h->matrix[1] = h->matrix[2] = -1;
     h->scale[0] = h->scale[1] = h->scale[2] = (double)NAN;
     h->rescale_slope = h->rescale_offset = h->image_scale = (double)NAN;
+    for (int i = 0; i < 3; i++)
+        h->first_pixel_offset[i] = (double)NAN;
 }
 
 /* Interfile keys are case-insensitive, may start with '!' and have free
@@ -336,6 +345,10 @@ int pbc_interfile_read(const char *path, const pbc_read_hints *hints, pbc_image 
         rc = data_file_path(path, h.data_file, data_path, sizeof data_path);
     if (!rc)
         rc = pbc_image_prepare(path, hints, img);
+    double affine[16];
+    if (!rc && !(rc = pbc_stir_affine(path, h.patient_orientation, h.patient_rotation, h.first_pixel_offset,
+                                      img->dims, img->voxel_size, affine)))
+        pbc_orientation_set_affine(&img->orientation, affine);
     if (!rc && snprintf(img->source, sizeof img->source, "%s", data_path) >= (int)sizeof img->source)
         rc = pbc_fail(PBC_EXIT_USAGE, "%s: the path of its data file is too long; move the files to a shorter path",
                       path);
@@ -364,6 +377,16 @@ static void write_header(FILE *f, const char *data_name, const pbc_image *img)
         fprintf(f, "matrix axis label [%d] := %c\n!matrix size [%d] := %zu\nscaling factor (mm/pixel) [%d] := %s\n",
                 i + 1, "xyz"[i], i + 1, img->dims[i], i + 1, size);
     }
+    const char *orientation, *rotation;
+    double affine[16], fpo[3];
+    if (pbc_image_affine(img, affine) && pbc_stir_placement(affine, img->voxel_size, &orientation, &rotation, fpo)) {
+        fprintf(f, "patient orientation := %s\npatient rotation := %s\n", orientation, rotation);
+        for (int i = 0; i < 3; i++) {
+            char v[32];
+            format_number(fpo[i], v, sizeof v);
+            fprintf(f, "first pixel offset (mm) [%d] := %s\n", i + 1, v);
+        }
+    }
     fputs("number of time frames := 1\nimage scaling factor[1] := 1\ndata offset in bytes[1] := 0\n"
           "quantification units := 1\n!END OF INTERFILE :=\n", f);
 }
@@ -384,6 +407,12 @@ int pbc_interfile_write(const char *path, const pbc_image *img)
     int rc = pbc_interfile_data_name(path, data_path, sizeof data_path);
     if (rc)
         return rc;
+    const char *orientation, *rotation;
+    double affine[16], fpo[3];
+    if (pbc_image_affine(img, affine) && !pbc_stir_placement(affine, img->voxel_size, &orientation, &rotation, fpo))
+        fprintf(stderr, "petblur: warning: %s: Interfile places an image only along STIR's gantry axes, head or feet "
+                "first, supine or prone; this image's affine is oblique or mirrored otherwise, so the header "
+                "carries no placement (write NIfTI to keep it)\n", path);
     const char *slash = strrchr(data_path, '/');
     pbc_temp data_temp, header_temp;
     FILE *data, *header;

@@ -39,6 +39,13 @@ typedef struct pbc_read_hints {
     int allow_frames; /* a 4-D NIfTI is read whole (dynamic frames); otherwise it is refused */
 } pbc_read_hints;
 
+/* The image's voxel-to-world affine (row-major 4x4, voxel index to RAS+ mm):
+ * the sform when its code is > 0, else the qform when its code is > 0.
+ * Returns 1 when there is one, 0 for an image with no placement. */
+int pbc_image_affine(const pbc_image *img, double affine[16]);
+/* Places an image by an affine (both codes 1, scanner-based). */
+void pbc_orientation_set_affine(pbc_orientation *o, const double affine[16]);
+
 /* 1 when path's extension is one that pbc_image_read/pbc_image_write handle. */
 int pbc_image_format_known(const char *path);
 
