@@ -299,11 +299,14 @@ class Motion(Case):
 
 class Phantoms(Case):
     def test_each_kind(self):
-        for kind, dims in (("homogeneity", (32, 32, 32)), ("derenzo", (64, 64, 16)), ("brain", None)):
+        # The phantoms are fixed objects in mm (the default grids' 256 mm and 281.6 mm fields of view); these
+        # coarser grids keep the field of view.
+        for kind, dims, vs in (("homogeneity", (32, 32, 32), (8, 8, 8)), ("derenzo", (64, 64, 16), (4, 4, 16)),
+                               ("brain", None, None)):
             with self.subTest(kind=kind):
                 args = ["phantom", "--kind", kind, "-o", self.p(f"{kind}.nii.gz"), "--png", self.p(f"{kind}.png")]
                 if dims:
-                    args += ["--dims", ",".join(map(str, dims))]
+                    args += ["--dims", ",".join(map(str, dims)), "--voxel-size", ",".join(map(str, vs))]
                 run(*args)
                 img = nib.load(self.p(f"{kind}.nii.gz"))
                 self.assertEqual(img.shape, dims or (128, 128, 64))
@@ -313,10 +316,24 @@ class Phantoms(Case):
                 w, h = png_size(self.p(f"{kind}.png"))
                 self.assertGreater(w, 200)
                 self.assertGreater(h, 100)
+                # Placed as a head-first supine patient, centred on the scanner's origin.
+                n = np.array(img.shape)
+                d = np.array(vs if vs else (2.2, 2.2, 2.8))
+                expect = np.diag(np.append(-d, 1.0))
+                expect[:3, 3] = (n - 1) / 2 * d
+                for affine, code in (img.get_sform(coded=True), img.get_qform(coded=True)):
+                    self.assertEqual(int(code), 1)
+                    np.testing.assert_allclose(affine, expect, atol=1e-4)
+                np.testing.assert_allclose(nib.affines.apply_affine(img.affine, (n - 1) / 2), 0, atol=1e-4)
         cubes = nib.load(self.p("homogeneity.nii.gz")).get_fdata()
         # Eight cubes of distinct activity: the centre of each octant.
         centres = {round(cubes[x, y, z], 4) for x in (8, 24) for y in (8, 24) for z in (8, 24)}
         self.assertEqual(len(centres), 8)
+        # The brain's hottest lesion (8 x white matter, 8 mm across) sits where it is defined in mm, in RAS+:
+        # at (44, 52, 30) mm from the scanner's origin, on the default grid.
+        brain = nib.load(self.p("brain.nii.gz"))
+        hot = np.argwhere(brain.get_fdata() > 7.0)
+        np.testing.assert_allclose(nib.affines.apply_affine(brain.affine, hot).mean(axis=0), (44, 52, 30), atol=1.5)
 
     def test_render_and_blur_picture(self):
         run("phantom", "--kind", "homogeneity", "--dims", "24,24,24", "-o", self.p("c.hv"), "-q")

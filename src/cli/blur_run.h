@@ -7,7 +7,7 @@
 #include "image_io.h"
 #include "options.h"
 #include "petblur.h"
-#include "track_csv.h"
+#include "motion_args.h"
 
 /* The exit status for a library status: bad inputs (-1 .. -99) are the
  * user's to fix (2); devices, builds, launches and memory are runtime (3). */
@@ -19,18 +19,6 @@ int pbc_open_device(const char *spec, pb_context **ctx);
 
 /* "opencl:0  pthread-... [Portable Computing Language]" */
 void pbc_describe_device(pb_context *ctx, char *text, size_t size);
-
-/* A motion from --translate/--rotate/--axis/--center (two poses, the frame
- * [0, 1]) or from --motion TRACK.csv [--frame T0,T1] [--center]. */
-typedef struct pbc_motion {
-    pb_motion motion;
-    double times[2];
-    pb_pose poses[2];
-    pbc_track track;
-} pbc_motion;
-
-int pbc_motion_from_args(const pbc_command *cmd, const pbc_args *args, pbc_motion *m);
-void pbc_motion_free(pbc_motion *m);
 
 /* Blurs in into out (the same geometry) on ctx, or with adjoint applies the
  * transpose (in tomograph space, out object space). label names the run in

@@ -15,14 +15,11 @@ static const pbc_option options[] = {
     {"--output", "-o", "OUT", "blurred volume, same format rules; float32 with the input's geometry"},
     {"--dims", NULL, "NX,NY,NZ", "grid of a .raw input (checked against the header of other formats)"},
     {"--voxel-size", NULL, "DX,DY,DZ", "voxel size in mm of a .raw input (default 1,1,1)"},
-    {"--translate", NULL, "TX,TY,TZ", "translation at the frame's end, mm"},
-    {"--rotate", NULL, "DEG", "rotation at the frame's end, degrees, right-hand rule about --axis"},
-    {"--axis", NULL, "AX,AY,AZ", "rotation axis (default 0,0,1: z, the scanner axis)"},
-    {"--center", NULL, "CX,CY,CZ", "rotation centre, mm from the grid's corner (default the grid's centre)"},
-    {"--motion", NULL, "TRACK.csv", "pose track: header t,tx,ty,tz,qw,qx,qy,qz (s, mm, unit quaternion)"},
-    {"--frame", NULL, "T0,T1", "the frame inside the track, seconds (default the whole track)"},
+    PBC_MOTION_OPTIONS,
     {"--frames", NULL, "T0,T1,...", "dynamic PET: the frames' boundaries in the track, seconds; IN is a 4-D NIfTI "
                                     "with one volume per frame (or 3-D, for all), OUT a 4-D NIfTI"},
+    {"--frames-from", NULL, "SIDECAR.json", "the frames from a BIDS-PET sidecar (FrameTimesStart, FrameDuration, "
+                                            "s) instead of --frames"},
     {"--method", NULL, "ab|rm|cl|ref", "AB (default), ray marching, classical, or the multi-point reference"},
     {"--filter", NULL, "hardware|exact", "one filtered fetch per sample (default), or float weights; REF: unused"},
     {"--steps", NULL, "N", "RM, CL: samples per segment (default: as many slices as AB visits); AB: sub-segments"},
@@ -40,14 +37,18 @@ static const pbc_option options[] = {
 };
 
 static const pbc_command command = {
-    "blur", "-i IN -o OUT [--translate TX,TY,TZ] [--rotate DEG] [--motion TRACK.csv] [options]",
+    "blur", "-i IN -o OUT [--translate TX,TY,TZ] [--rotate DEG] [--motion TRACK] [options]",
     "Blurs a volume along the motion inside one frame (the tomograph-space activity that the frame's\n"
     "projections see). The pose maps object to tomograph space: p' = R (p - c) + c + t. With --translate and\n"
-    "--rotate the frame starts at the identity and ends at that pose.",
+    "--rotate the frame starts at the identity and ends at that pose. Motions are in the scanner's world\n"
+    "coordinates (RAS+ mm, as NIfTI's sform and STIR's Interfile placement give them) wherever the input has\n"
+    "a placement, else (.raw, --coords grid) in mm along the array's axes from the grid's corner.",
     options, (int)(sizeof options / sizeof options[0]), 0, 0,
     "examples:\n"
     "  petblur blur -i brain.nii.gz -o blurred.nii.gz --translate 12,10,-11 --rotate 10 --png blur.png\n"
     "  petblur blur -i derenzo.hv -o moved.hv --motion track.csv --frame 30,60 --method ab --device opencl\n"
+    "  petblur blur -i head.nii.gz -o f3.nii.gz --motion head.mt --calibration cal.txt --reference-time 65900 \\\n"
+    "      --frame 65930,65960\n"
     "  petblur blur -i zubal.raw --dims 128,128,64 --voxel-size 2.2,2.2,2.8 -o zubal-blurred.nii --rotate 15\n"
     "  petblur blur -i ratio.nii.gz -o backprojected.nii.gz --motion track.csv --frame 30,60 --adjoint\n"
     "  petblur blur -i dynamic.nii.gz -o dynamic-blurred.nii.gz --motion track.csv --frames 0,60,120,300,600\n"
@@ -129,7 +130,10 @@ static int read_input(const pbc_args *args, const char *in, int frames, pbc_imag
  * output's format here, and against the input's frames once it is read. */
 static int frame_bounds(const pbc_args *args, double **bounds, size_t *count)
 {
-    const char *v = pbc_arg(&command, args, "--frames");
+    const char *v = pbc_arg(&command, args, "--frames"), *json = pbc_arg(&command, args, "--frames-from");
+    if (v && json)
+        return pbc_fail(PBC_EXIT_USAGE, "--frames and --frames-from: give one");
+    v = v ? v : json;
     int sum = pbc_arg(&command, args, "--sum-frames") != NULL;
     *bounds = NULL;
     *count = 0;
@@ -147,7 +151,7 @@ static int frame_bounds(const pbc_args *args, double **bounds, size_t *count)
     if (!sum && strcmp(ext, ".nii") && strcmp(ext, ".nii.gz"))
         return pbc_fail(PBC_EXIT_USAGE, "-o %s: --frames makes a 4-D image, which only NIfTI holds; name the output "
                         ".nii or .nii.gz", out);
-    return pbc_parse_bounds("--frames", v, bounds, count);
+    return json ? pbc_bids_frames(json, bounds, count) : pbc_parse_bounds("--frames", v, bounds, count);
 }
 
 static int check_frames(const char *in_path, const pbc_image *in, size_t frames)
@@ -158,6 +162,16 @@ static int check_frames(const char *in_path, const pbc_image *in, size_t frames)
                         "give %zu boundaries, or a 3-D volume to blur through every frame", in_path, have, frames,
                         have + 1);
     return 0;
+}
+
+static int check_motion_frames(const pbc_motion *m, const pbc_image *in, const double *bounds, size_t frames)
+{
+    int rc = 0;
+    if (!bounds)
+        return pbc_motion_check_frame(m, in, m->motion.frame_start, m->motion.frame_end);
+    for (size_t i = 0; i < frames && !rc; i++)
+        rc = pbc_motion_check_frame(m, in, bounds[i], bounds[i + 1]);
+    return rc;
 }
 
 /* NIfTI's pixdim[4]: the frames' common length, or 0 when they differ. */
@@ -205,6 +219,7 @@ static int run(const pbc_args *args, const char *in_path, const char *out_path, 
     size_t frames = bounds ? nb - 1 : 1;
     const char *label = method_names[opt.method];
     if (!(rc = read_input(args, in_path, bounds != NULL, &in)) && !(rc = bounds ? check_frames(in_path, &in, frames) : 0) &&
+        !(rc = pbc_motion_place(&motion, &in, in_path)) && !(rc = check_motion_frames(&motion, &in, bounds, frames)) &&
         !(rc = pbc_image_check_not_input(out_path, in_path, &in)) &&
         !(png && (rc = pbc_image_check_not_input(png, in_path, &in))) &&
         !(rc = pbc_image_alloc_frames(&out, in.dims, in.voxel_size, bounds && !sum ? frames : 1)) &&

@@ -26,4 +26,9 @@ int pbc_make_dir(const char *option, const char *dir);
 int pbc_hints_from_args(const pbc_command *cmd, const pbc_args *args, size_t dims[3], double voxel_size[3],
                         pbc_read_hints *hints);
 
+/* --frames-from: the frames' boundaries (count = frames + 1, malloc'ed) from a
+ * BIDS-PET sidecar's FrameTimesStart and FrameDuration, which must follow each
+ * other without gaps. Returns 0 or an exit status after the message. */
+int pbc_bids_frames(const char *path, double **bounds, size_t *count);
+
 #endif

@@ -12,7 +12,7 @@ typedef struct pbc_option {
     const char *help;
 } pbc_option;
 
-enum { PBC_MAX_OPTIONS = 32, PBC_MAX_POSITIONAL = 4 };
+enum { PBC_MAX_OPTIONS = 48, PBC_MAX_POSITIONAL = 4 };
 
 /* The --device row, the same in every command that opens a device. */
 #define PBC_OPTION_DEVICE {"--device", NULL, "DEV", "auto (default), host, opencl[:N] or cuda[:N]"}

@@ -1,17 +1,20 @@
-/* Pose tracks from CSV motion logs. Every check names the file and line, so a
- * bad row in a log of thousands is found at once. */
+/* Pose tracks as CSV: petblur's own (t, translation, quaternion) and rigid
+ * matrices row by row (yrt-pet's). Columns are found by name, so their order
+ * and extra columns do not matter; a matrix file may come without a header. */
 #include <ctype.h>
-#include <errno.h>
 #include <math.h>
-#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
 #include "cli.h"
-#include "track_csv.h"
+#include "track.h"
 
-enum { FIELDS = 8 };
-static const char *const field_names[FIELDS] = {"t", "tx", "ty", "tz", "qw", "qx", "qy", "qz"};
+enum { MAX_FIELDS = 64, CSV_COLUMNS = 8, MATRIX_COLUMNS = 13 };
+
+/* Column names, in the order the readers take their values. */
+static const char *const csv_names[CSV_COLUMNS] = {"t", "tx", "ty", "tz", "qw", "qx", "qy", "qz"};
+static const char *const matrix_names[MATRIX_COLUMNS] = {"t", "r00", "r01", "r02", "tx", "r10", "r11", "r12",
+                                                         "ty", "r20", "r21", "r22", "tz"};
 
 static char *trim(char *s)
 {
@@ -23,147 +26,164 @@ static char *trim(char *s)
     return s;
 }
 
-/* Splits line at commas into at most max fields; returns how many. */
-static int split(char *line, char **fields, int max)
+/* Splits at commas, or with `blanks` at any run of commas, spaces and tabs (as
+ * yrt-pet reads its files); returns the number of fields, or MAX_FIELDS + 1
+ * when there are more. */
+static int split(char *line, char **fields, int blanks)
 {
+    const char *sep = blanks ? ", \t" : ",";
     int n = 0;
-    for (char *s = line;; n++) {
-        char *comma = strchr(s, ',');
-        if (n < max)
+    char *s = trim(line);
+    while (n <= MAX_FIELDS) {
+        size_t len = strcspn(s, sep);
+        char *next = s[len] ? s + len + 1 : NULL;
+        s[len] = '\0';
+        if (n < MAX_FIELDS)
             fields[n] = trim(s);
-        if (!comma)
-            return n + 1;
-        *comma = '\0';
-        s = comma + 1;
+        n++;
+        if (!next)
+            return n;
+        if (blanks)
+            next += strspn(next, sep);
+        s = next;
     }
+    return n;
 }
 
-static int check_header(const char *path, char *line)
+static void lower(char *s)
 {
-    char *f[FIELDS + 1];
-    int n = split(line, f, FIELDS + 1);
-    int ok = n == FIELDS;
-    for (int i = 0; ok && i < FIELDS; i++)
-        ok = !strcmp(f[i], field_names[i]);
-    if (!ok)
-        return pbc_fail(PBC_EXIT_USAGE, "%s:1: the first line must be the header t,tx,ty,tz,qw,qx,qy,qz (seconds, "
-                        "mm, unit quaternion w first); add or correct it", path);
-    return 0;
+    for (; *s; s++)
+        *s = (char)tolower((unsigned char)*s);
 }
 
-static int parse_row(const char *path, size_t lineno, char *line, double v[FIELDS])
+/* Where each wanted column sits in the header; the quaternion's parts may be
+ * named (qw, qx, qy, qz) or numbered (q0..q3 or q1..q4, in the order of
+ * --quaternion-order). */
+static int map_header(const char *path, char **f, int n, const char *const *names, int count, int xyzw, int quat,
+                      int *column)
 {
-    char *f[FIELDS + 1];
-    int n = split(line, f, FIELDS + 1);
-    if (n != FIELDS)
-        return pbc_fail(PBC_EXIT_USAGE, "%s:%zu: %d fields where the header has 8 (t,tx,ty,tz,qw,qx,qy,qz); fix "
-                        "that row", path, lineno, n);
-    for (int i = 0; i < FIELDS; i++) {
-        char *end;
-        if (!*f[i])
-            return pbc_fail(PBC_EXIT_USAGE, "%s:%zu: field %s is empty; every row needs all 8 numbers", path,
-                            lineno, field_names[i]);
-        errno = 0;
-        v[i] = strtod(f[i], &end);
-        if (*end || errno == ERANGE)
-            return pbc_fail(PBC_EXIT_USAGE, "%s:%zu: field %s is '%s', not a number; fix that row", path, lineno,
-                            field_names[i], f[i]);
-        if (!isfinite(v[i]))
-            return pbc_fail(PBC_EXIT_USAGE, "%s:%zu: field %s is '%s'; times, translations and quaternions must "
-                            "be finite numbers (drop or repair that row)", path, lineno, field_names[i], f[i]);
+    static const char *const numbered[2][4] = {{"q0", "q1", "q2", "q3"}, {"q1", "q2", "q3", "q4"}};
+    char found[512] = "";
+    size_t used = 0;
+    for (int c = 0; c < count; c++)
+        column[c] = -1;
+    int named_q = 0;
+    for (int i = 0; i < n && i < MAX_FIELDS; i++) {
+        lower(f[i]);
+        used += (size_t)snprintf(found + used, used < sizeof found ? sizeof found - used : 0, "%s%s", i ? "," : "",
+                                 f[i]);
+        for (int c = 0; c < count; c++)
+            if (!strcmp(f[i], names[c]) || (c == 0 && (!strcmp(f[i], "time") || !strcmp(f[i], "timestamp")))) {
+                column[c] = i;
+                named_q |= quat && c >= 4;
+            }
     }
-    return 0;
-}
-
-static int check_pose(const char *path, size_t lineno, const double v[FIELDS], const pbc_track *tr)
-{
-    double norm = sqrt(v[4] * v[4] + v[5] * v[5] + v[6] * v[6] + v[7] * v[7]);
-    if (norm == 0.0)
-        return pbc_fail(PBC_EXIT_USAGE, "%s:%zu: the quaternion is zero, which is no rotation at all; the identity "
-                        "is 1,0,0,0", path, lineno);
-    /* The library normalises small rounding; anything more is a broken log. */
-    if (fabs(norm - 1.0) > 1e-3)
-        return pbc_fail(PBC_EXIT_USAGE, "%s:%zu: the quaternion's norm is %.6g, not 1; write unit quaternions "
-                        "(w,x,y,z divided by their norm)", path, lineno, norm);
-    if (tr->count > 0 && !(v[0] > tr->times[tr->count - 1]))
-        return pbc_fail(PBC_EXIT_USAGE, "%s:%zu: time %.9g s does not come after the previous row's %.9g s; a "
-                        "track's times must increase strictly (sort the log, drop repeated rows)", path, lineno,
-                        v[0], tr->times[tr->count - 1]);
-    return 0;
-}
-
-static int append(pbc_track *tr, size_t *cap, const double v[FIELDS])
-{
-    if (tr->count == *cap) {
-        size_t n = *cap ? 2 * *cap : 64;
-        double *t = realloc(tr->times, n * sizeof *t);
-        if (t)
-            tr->times = t;
-        pb_pose *p = t ? realloc(tr->poses, n * sizeof *p) : NULL;
-        if (!p)
-            return pbc_fail(PBC_EXIT_RUNTIME, "out of memory reading the pose track");
-        tr->poses = p;
-        *cap = n;
+    for (int set = 0; quat && !named_q && set < 2; set++) {
+        int at[4] = {-1, -1, -1, -1};
+        for (int i = 0; i < n && i < MAX_FIELDS; i++)
+            for (int k = 0; k < 4; k++)
+                if (!strcmp(f[i], numbered[set][k]))
+                    at[k] = i;
+        if (at[0] >= 0 && at[1] >= 0 && at[2] >= 0 && at[3] >= 0)
+            for (int k = 0; k < 4; k++) /* x,y,z,w order: the last numbered part is w */
+                column[4 + k] = at[xyzw ? (k + 3) % 4 : k];
     }
-    tr->times[tr->count] = v[0];
-    pb_pose *p = &tr->poses[tr->count++];
-    memcpy(p->translation, v + 1, 3 * sizeof(double));
-    memcpy(p->rotation, v + 4, 4 * sizeof(double));
-    return 0;
-}
-
-static int read_rows(const char *path, FILE *f, pbc_track *tr)
-{
-    char line[4096];
-    size_t lineno = 0, cap = 0;
-    int rc = 0;
-    while (!rc && fgets(line, sizeof line, f)) {
-        lineno++;
-        if (!strchr(line, '\n') && !feof(f))
-            return pbc_fail(PBC_EXIT_USAGE, "%s:%zu: line longer than %zu characters; is this a pose track?", path,
-                            lineno, sizeof line - 1);
-        char *s = trim(line);
-        if (lineno == 1) {
-            /* Spreadsheets often start a CSV with a UTF-8 byte-order mark. */
-            if (!strncmp(s, "\xEF\xBB\xBF", 3))
-                s += 3;
-            rc = check_header(path, s);
-            continue;
+    if (quat && named_q && xyzw)
+        return pbc_fail(PBC_EXIT_USAGE, "%s:1: the header names the quaternion's parts (qw,qx,qy,qz), so their order "
+                        "is known; --quaternion-order is for headers that number them (q0,q1,q2,q3)", path);
+    for (int c = 0; c < count; c++)
+        if (column[c] < 0) {
+            char expected[256] = "";
+            for (int k = 0, u = 0; k < count; k++)
+                u += snprintf(expected + u, sizeof expected - (size_t)u, "%s%s", k ? "," : "", names[k]);
+            return pbc_fail(PBC_EXIT_USAGE, "%s:1: the header has no column '%s'; found '%s', expected the columns "
+                            "%s%s (any order, extra columns ignored)", path, names[c], found, expected,
+                            quat ? " (or the quaternion as q0,q1,q2,q3 with --quaternion-order)" : "");
         }
-        if (!*s || *s == '#') /* blank lines and comments, as loggers write them */
-            continue;
-        double v[FIELDS];
-        if (!(rc = parse_row(path, lineno, s, v)) && !(rc = check_pose(path, lineno, v, tr)))
-            rc = append(tr, &cap, v);
+    return 0;
+}
+
+static int row_values(const char *path, size_t lineno, char **f, int n, const int need[2], const int *column,
+                      const char *const *names, int count, double *v)
+{
+    if (n < need[0] || n > need[1])
+        return pbc_fail(PBC_EXIT_USAGE, "%s:%zu: %d field%s where %s %d; fix that row", path, lineno, n,
+                        n == 1 ? "" : "s", need[0] == need[1] ? "the header has" : "a matrix row has 13 or", need[1]);
+    for (int c = 0; c < count; c++) {
+        const char *text = f[column[c]];
+        int bad = pbc_track_number(text, &v[c]);
+        if (!*text)
+            return pbc_fail(PBC_EXIT_USAGE, "%s:%zu: field %s is empty; every row needs all %d numbers", path, lineno,
+                            names[c], count);
+        if (bad == 1)
+            return pbc_fail(PBC_EXIT_USAGE, "%s:%zu: field %s is '%s', not a number (plain decimal, e.g. -1.5e-3); "
+                            "fix that row", path, lineno, names[c], text);
+        if (bad == 2 || !isfinite(v[c]))
+            return pbc_fail(PBC_EXIT_USAGE, "%s:%zu: field %s is '%s', beyond any time, translation or rotation a "
+                            "track can hold; fix that row", path, lineno, names[c], text);
     }
-    if (!rc && ferror(f))
-        rc = pbc_fail(PBC_EXIT_USAGE, "%s: read error (%s)", path, strerror(errno));
-    if (!rc && lineno == 0)
-        rc = pbc_fail(PBC_EXIT_USAGE, "%s: the file is empty; a track needs the header t,tx,ty,tz,qw,qx,qy,qz and "
-                      "at least two rows", path);
-    else if (!rc && tr->count < 2)
-        rc = pbc_fail(PBC_EXIT_USAGE, "%s: %zu pose%s; a track needs at least two (the frame's start and end)", path,
-                      tr->count, tr->count == 1 ? "" : "s");
-    return rc;
+    return 0;
 }
 
-int pbc_track_read(const char *path, pbc_track *track)
+static int csv_pose(const char *path, size_t lineno, const double *v, double time_scale, pbc_track *tr)
 {
-    memset(track, 0, sizeof *track);
-    FILE *f = fopen(path, "r");
-    if (!f)
-        return pbc_fail(PBC_EXIT_USAGE, "%s: cannot open the pose track (%s); check the path", path,
-                        strerror(errno));
-    int rc = read_rows(path, f, track);
-    fclose(f);
-    if (rc)
-        pbc_track_free(track);
-    return rc;
+    pb_pose p;
+    memcpy(p.translation, v + 1, 3 * sizeof(double));
+    int rc = pbc_track_unit_quaternion(path, lineno, v + 4, 1, p.rotation);
+    return rc ? rc : pbc_track_append(path, lineno, v[0] * time_scale, &p, 0, tr);
 }
 
-void pbc_track_free(pbc_track *track)
+static int matrix_pose(const char *path, size_t lineno, const double *v, double time_scale, pbc_track *tr)
 {
-    free(track->times);
-    free(track->poses);
-    memset(track, 0, sizeof *track);
+    double m[16] = {v[1], v[2], v[3], v[4], v[5], v[6], v[7], v[8], v[9], v[10], v[11], v[12], 0, 0, 0, 1};
+    pb_pose p;
+    if (pb_pose_from_matrix(m, &p) != PB_OK)
+        return pbc_fail(PBC_EXIT_USAGE, "%s:%zu: %s; fix that row", path, lineno, pb_last_error(NULL));
+    return pbc_track_append(path, lineno, v[0] * time_scale, &p, 0, tr);
+}
+
+int pbc_track_read_csv(const char *path, FILE *f, const pbc_track_read_options *o, pbc_track *tr)
+{
+    int matrix = tr->format == PBC_TRACK_MATRIX_CSV;
+    const char *const *names = matrix ? matrix_names : csv_names;
+    int count = matrix ? MATRIX_COLUMNS : CSV_COLUMNS, column[MATRIX_COLUMNS], need[2] = {count, count};
+    char line[4096], *fields[MAX_FIELDS];
+    int rc = 0, header = 0;
+    for (size_t lineno = 1; !rc; lineno++) {
+        int got = pbc_track_line(path, f, lineno, line, sizeof line);
+        if (got != 1) {
+            rc = got;
+            break;
+        }
+        char *s = lineno == 1 && !strncmp(line, "\xEF\xBB\xBF", 3) ? line + 3 : line; /* spreadsheets' BOM */
+        if (!*trim(s) || *trim(s) == '#') /* blank lines and comments, as loggers write them */
+            continue;
+        int n = split(s, fields, matrix);
+        if (!header) {
+            header = 1;
+            double first;
+            if (matrix && pbc_track_number(fields[0], &first) == 0) {
+                /* yrt-pet writes no header: t, the 12 entries, and an error */
+                for (int c = 0; c < count; c++)
+                    column[c] = c;
+                need[1] = count + 1;
+            } else {
+                if ((rc = map_header(path, fields, n, names, count, o->xyzw, !matrix, column)))
+                    break;
+                need[0] = need[1] = n;
+                continue;
+            }
+        }
+        double v[MATRIX_COLUMNS];
+        if (n > MAX_FIELDS)
+            rc = pbc_fail(PBC_EXIT_USAGE, "%s:%zu: more than %d fields; is this a pose track?", path, lineno,
+                          MAX_FIELDS);
+        else if (!(rc = row_values(path, lineno, fields, n, need, column, names, count, v)))
+            rc = matrix ? matrix_pose(path, lineno, v, o->time_scale, tr)
+                        : csv_pose(path, lineno, v, o->time_scale, tr);
+    }
+    if (!rc && !header)
+        rc = pbc_fail(PBC_EXIT_USAGE, "%s: no rows; a track needs the header %s and at least two rows", path,
+                      matrix ? "t,r00,r01,r02,tx,...,tz" : "t,tx,ty,tz,qw,qx,qy,qz");
+    return rc;
 }

@@ -1,0 +1,437 @@
+/* Motions from the command line: read, put into the grid frame, checked. */
+#include <errno.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "cli.h"
+#include "motion_args.h"
+
+/* A turn of more than this between two samples is taken the short way round by
+ * SLERP, and no head turns that fast: a quaternion order slip looks like it. */
+#define MAX_STEP_DEG 90.0
+/* --rotate is followed in pieces of at most this, so SLERP takes the arc asked for. */
+#define MAX_ARC_DEG 90.0
+/* Interpolating across a longer run of missing samples would invent the motion. */
+#define MAX_GAP_S 1.0
+/* A frame or a track longer than this, in seconds, has its times in ms. */
+#define MS_SUSPECT_S (6.0 * 3600.0)
+
+/* ---- 4x4 rigid matrices, row-major --------------------------------------- */
+
+static void mat_mul(const double a[16], const double b[16], double out[16])
+{
+    double r[16];
+    for (int i = 0; i < 4; i++)
+        for (int j = 0; j < 4; j++)
+            r[4 * i + j] = a[4 * i] * b[j] + a[4 * i + 1] * b[4 + j] + a[4 * i + 2] * b[8 + j] + a[4 * i + 3] * b[12 + j];
+    memcpy(out, r, sizeof r);
+}
+
+static void mat_rigid_inverse(const double m[16], double out[16])
+{
+    double r[16] = {0};
+    for (int i = 0; i < 3; i++) {
+        for (int j = 0; j < 3; j++)
+            r[4 * i + j] = m[4 * j + i];
+        r[4 * i + 3] = -(m[i] * m[3] + m[4 + i] * m[7] + m[8 + i] * m[11]);
+    }
+    r[15] = 1.0;
+    memcpy(out, r, sizeof r);
+}
+
+/* A pose about centre c (p' = R (p - c) + c + t) as a matrix about the origin. */
+static void pose_to_matrix(const pb_pose *p, const double c[3], double m[16])
+{
+    pb_pose_to_matrix(p, m);
+    for (int i = 0; i < 3; i++)
+        m[4 * i + 3] += c[i] - (m[4 * i] * c[0] + m[4 * i + 1] * c[1] + m[4 * i + 2] * c[2]);
+}
+
+static int matrix_to_pose(const double m[16], const double c[3], pb_pose *p)
+{
+    if (pb_pose_from_matrix(m, p) != PB_OK)
+        return pbc_fail(PBC_EXIT_USAGE, "a composed pose is not rigid: %s", pb_last_error(NULL));
+    for (int i = 0; i < 3; i++)
+        p->translation[i] -= c[i] - (m[4 * i] * c[0] + m[4 * i + 1] * c[1] + m[4 * i + 2] * c[2]);
+    return 0;
+}
+
+/* ---- parsing --------------------------------------------------------------- */
+
+static int read_calibration(const char *path, double m[16])
+{
+    FILE *f = fopen(path, "r");
+    if (!f)
+        return pbc_fail(PBC_EXIT_USAGE, "--calibration %s: cannot open it (%s); check the path", path, strerror(errno));
+    char word[128];
+    int n = 0, c, rc = 0;
+    while (!rc && (c = fscanf(f, " %127[^ \t\r\n,;]%*[,;]", word)) == 1) {
+        if (word[0] == '#') { /* a comment to the end of the line */
+            fscanf(f, "%*[^\n]");
+            continue;
+        }
+        if (n == 16 || pbc_track_number(word, &m[n]) != 0 || !isfinite(m[n]))
+            rc = pbc_fail(PBC_EXIT_USAGE, "--calibration %s: '%s' %s; give the 4x4 tracker-to-scanner matrix as 16 "
+                          "numbers, row by row (mm)", path, word, n == 16 ? "is a 17th value" : "is not a number");
+        n++;
+    }
+    fclose(f);
+    if (!rc && n == 12) { /* a 3x4 matrix: the last row is implied */
+        m[12] = m[13] = m[14] = 0.0;
+        m[15] = 1.0;
+    } else if (!rc && n != 16) {
+        rc = pbc_fail(PBC_EXIT_USAGE, "--calibration %s: %d numbers; give the 4x4 tracker-to-scanner matrix as 16 "
+                      "numbers (or its top 3x4 as 12), row by row", path, n);
+    }
+    pb_pose check;
+    if (!rc && pb_pose_from_matrix(m, &check) != PB_OK)
+        rc = pbc_fail(PBC_EXIT_USAGE, "--calibration %s: %s", path, pb_last_error(NULL));
+    return rc;
+}
+
+static int track_options(const pbc_command *cmd, const pbc_args *args, pbc_track_read_options *o)
+{
+    static const char *const units[] = {"s", "ms"}, *const orders[] = {"wxyz", "xyzw"};
+    const char *v;
+    int idx, rc = 0;
+    o->format = PBC_TRACK_AUTO;
+    o->time_scale = 1.0;
+    o->xyzw = 0;
+    if ((v = pbc_arg(cmd, args, "--motion-format")) && (rc = pbc_track_format_parse(v, &o->format)))
+        return rc;
+    if ((v = pbc_arg(cmd, args, "--time-unit"))) {
+        if ((rc = pbc_parse_choice("--time-unit", v, units, 2, &idx)))
+            return rc;
+        o->time_scale = idx ? 1e-3 : 1.0;
+    }
+    if ((v = pbc_arg(cmd, args, "--quaternion-order"))) {
+        if ((rc = pbc_parse_choice("--quaternion-order", v, orders, 2, &idx)))
+            return rc;
+        o->xyzw = idx;
+    }
+    return 0;
+}
+
+static int motion_from_track(const pbc_command *cmd, const pbc_args *args, pbc_motion *m)
+{
+    pbc_track_read_options o;
+    const char *frame = pbc_arg(cmd, args, "--frame");
+    int rc = track_options(cmd, args, &o);
+    if (rc || (rc = pbc_track_read(m->source, &o, &m->track)))
+        return rc;
+    const pbc_track *t = &m->track;
+    m->about_origin = t->format != PBC_TRACK_CSV;
+    double f[2] = {t->times[0], t->times[t->count - 1]};
+    if (frame && (rc = pbc_parse_interval("--frame", frame, f)))
+        return rc;
+    if (f[0] < t->times[0] || f[1] > t->times[t->count - 1])
+        return pbc_fail(PBC_EXIT_USAGE, "--frame %.9g,%.9g: the track %s covers %.9g to %.9g s only; choose a "
+                        "frame inside it", f[0], f[1], m->source, t->times[0], t->times[t->count - 1]);
+    m->frame_given = frame != NULL;
+    m->motion = (pb_motion){t->times, t->poses, t->count, f[0], f[1], 0, {0, 0, 0}};
+    return 0;
+}
+
+/* The frame runs from the identity to the pose asked for, along the arc asked
+ * for: a turn beyond 90 degrees is cut into tracked pieces, since SLERP
+ * between two poses takes the shorter way (270 degrees would be -90). */
+static int motion_from_pose(const pbc_command *cmd, const pbc_args *args, pbc_motion *m)
+{
+    const char *tr = pbc_arg(cmd, args, "--translate"), *rot = pbc_arg(cmd, args, "--rotate"),
+               *axis = pbc_arg(cmd, args, "--axis");
+    double t[3] = {0, 0, 0}, a[3] = {0, 0, 1}, deg = 0.0;
+    int rc = 0;
+    if ((tr && (rc = pbc_parse_vec3("--translate", tr, 0, t))) || (rot && (rc = pbc_parse_number("--rotate", rot, &deg))) ||
+        (axis && (rc = pbc_parse_vec3("--axis", axis, 0, a))))
+        return rc;
+    if (axis && !rot)
+        return pbc_fail(PBC_EXIT_USAGE, "--axis without --rotate turns nothing; add --rotate DEG");
+    if (a[0] == 0.0 && a[1] == 0.0 && a[2] == 0.0)
+        return pbc_fail(PBC_EXIT_USAGE, "--axis %s: the rotation axis must not be zero; e.g. 0,0,1 (z, the scanner "
+                        "axis)", axis);
+    if (fabs(deg) > 3600.0)
+        return pbc_fail(PBC_EXIT_USAGE, "--rotate %s: more than ten turns within one frame; give the angle in "
+                        "degrees", rot);
+    size_t pieces = (size_t)fmax(1.0, ceil(fabs(deg) / MAX_ARC_DEG - 1e-12));
+    for (size_t i = 0; i <= pieces; i++) {
+        double s = (double)i / (double)pieces;
+        pb_pose p = {{s * t[0], s * t[1], s * t[2]}, {1, 0, 0, 0}};
+        pb_quaternion_from_axis_angle(a, s * deg, p.rotation);
+        if ((rc = pbc_track_append("--translate/--rotate", 0, s, &p, 0, &m->track)))
+            return rc;
+    }
+    m->track.format = PBC_TRACK_CSV;
+    m->motion = (pb_motion){m->track.times, m->track.poses, m->track.count, 0.0, 1.0, 0, {0, 0, 0}};
+    return 0;
+}
+
+static int convention_args(const pbc_command *cmd, const pbc_args *args, pbc_motion *m)
+{
+    const char *cal = pbc_arg(cmd, args, "--calibration"), *ref = pbc_arg(cmd, args, "--reference-time"),
+               *coords = pbc_arg(cmd, args, "--coords"), *center = pbc_arg(cmd, args, "--center");
+    static const char *const coord_names[] = {"world", "grid"};
+    int rc = 0;
+    m->coords = -1;
+    m->inverse = pbc_arg(cmd, args, "--motion-inverse") != NULL;
+    if (coords && (rc = pbc_parse_choice("--coords", coords, coord_names, 2, &m->coords)))
+        return rc;
+    if (center && (rc = pbc_parse_vec3("--center", center, 0, m->center)))
+        return rc;
+    m->has_center = center != NULL;
+    if (cal && !(rc = read_calibration(cal, m->calibration)))
+        m->has_calibration = 1;
+    if (!rc && ref && !(rc = pbc_parse_number("--reference-time", ref, &m->reference_time)))
+        m->has_reference = 1;
+    return rc;
+}
+
+int pbc_motion_from_args(const pbc_command *cmd, const pbc_args *args, pbc_motion *m)
+{
+    memset(m, 0, sizeof *m);
+    m->source = pbc_arg(cmd, args, "--motion");
+    int has_track = m->source != NULL;
+    int has_pose = pbc_arg(cmd, args, "--translate") || pbc_arg(cmd, args, "--rotate");
+    if (has_track && has_pose)
+        return pbc_fail(PBC_EXIT_USAGE, "give either --motion TRACK or --translate/--rotate, not both");
+    if (!has_track && !has_pose)
+        return pbc_fail(PBC_EXIT_USAGE, "no motion given; use --translate TX,TY,TZ and/or --rotate DEG, or "
+                        "--motion TRACK");
+    static const char *const track_only[] = {"--frame", "--motion-format", "--time-unit", "--quaternion-order",
+                                             "--calibration", "--reference-time", "--motion-inverse"};
+    for (size_t i = 0; !has_track && i < sizeof track_only / sizeof track_only[0]; i++)
+        if (pbc_arg(cmd, args, track_only[i]))
+            return pbc_fail(PBC_EXIT_USAGE, "%s applies to a --motion track; give --motion too", track_only[i]);
+    int rc = convention_args(cmd, args, m);
+    if (!rc)
+        rc = has_track ? motion_from_track(cmd, args, m) : motion_from_pose(cmd, args, m);
+    if (!has_track)
+        m->source = "--translate/--rotate";
+    if (!rc && m->about_origin && m->has_center)
+        rc = pbc_fail(PBC_EXIT_USAGE, "--center: a %s track's poses are rigid maps about the world's origin, so "
+                      "they carry their own centre; drop --center", pbc_track_format_name(m->track.format));
+    if (!rc && m->has_reference && (m->reference_time < m->track.times[0] ||
+                                    m->reference_time > m->track.times[m->track.count - 1]))
+        rc = pbc_fail(PBC_EXIT_USAGE, "--reference-time %.9g: the track %s covers %.9g to %.9g s; give a time inside "
+                      "it", m->reference_time, m->source, m->track.times[0], m->track.times[m->track.count - 1]);
+    if (rc)
+        pbc_motion_free(m);
+    return rc;
+}
+
+/* ---- placing --------------------------------------------------------------- */
+
+/* The grid frame as a world of its own: voxel centres at (i + 0.5) d. */
+static void grid_affine(const pbc_image *img, double a[16])
+{
+    memset(a, 0, 16 * sizeof *a);
+    for (int i = 0; i < 3; i++) {
+        a[5 * i] = img->voxel_size[i];
+        a[4 * i + 3] = 0.5 * img->voxel_size[i];
+    }
+    a[15] = 1.0;
+}
+
+/* M(t) = C P(t) P(ref)^-1 C^-1, with P inverted first for --motion-inverse. */
+static int apply_conventions(pbc_motion *m, const double c[3])
+{
+    pbc_track *t = &m->track;
+    double ref[16], cal_inv[16], mt[16];
+    int reference = m->has_reference || t->format == PBC_TRACK_POLARIS;
+    if (!m->inverse && !reference && !m->has_calibration)
+        return 0;
+    if (m->inverse)
+        for (size_t i = 0; i < t->count; i++) {
+            pose_to_matrix(&t->poses[i], c, mt);
+            mat_rigid_inverse(mt, mt);
+            int rc = matrix_to_pose(mt, c, &t->poses[i]);
+            if (rc)
+                return rc;
+        }
+    memset(ref, 0, sizeof ref);
+    ref[0] = ref[5] = ref[10] = ref[15] = 1.0;
+    if (reference) {
+        double tr = m->has_reference ? m->reference_time : t->times[0];
+        pb_motion whole = {t->times, t->poses, t->count, t->times[0], t->times[t->count - 1], 0, {0, 0, 0}};
+        pb_pose p;
+        if (pb_motion_pose_at(&whole, tr, &p) != PB_OK)
+            return pbc_fail(PBC_EXIT_USAGE, "%s: %s", m->source, pb_last_error(NULL));
+        pose_to_matrix(&p, c, ref);
+        mat_rigid_inverse(ref, ref);
+        if (!m->has_reference)
+            fprintf(stderr, "petblur: warning: %s: no --reference-time; the motion is taken relative to the first "
+                    "sample (%.9g s, line %zu)\n", m->source, tr, t->lines[0]);
+    }
+    if (!m->has_calibration) {
+        memset(m->calibration, 0, sizeof m->calibration);
+        m->calibration[0] = m->calibration[5] = m->calibration[10] = m->calibration[15] = 1.0;
+    }
+    mat_rigid_inverse(m->calibration, cal_inv);
+    for (size_t i = 0; i < t->count; i++) {
+        pose_to_matrix(&t->poses[i], c, mt);
+        mat_mul(mt, ref, mt);
+        mat_mul(m->calibration, mt, mt);
+        mat_mul(mt, cal_inv, mt);
+        int rc = matrix_to_pose(mt, c, &t->poses[i]);
+        if (rc)
+            return rc;
+    }
+    return 0;
+}
+
+/* Warns about samples that turn too far from the one before, and about times
+ * that look like milliseconds. */
+static void check_track(const pbc_motion *m)
+{
+    const pbc_track *t = &m->track;
+    if (t->count < 2)
+        return;
+    for (size_t i = 1; i < t->count; i++) {
+        const double *a = m->grid[i - 1].rotation, *b = m->grid[i].rotation;
+        double dot = fabs(a[0] * b[0] + a[1] * b[1] + a[2] * b[2] + a[3] * b[3]);
+        double deg = 2.0 * acos(fmin(1.0, dot)) * 180.0 / 3.14159265358979323846;
+        if (deg > MAX_STEP_DEG) {
+            fprintf(stderr, "petblur: warning: %s:%zu: the pose turns %.0f degrees from the one before (line %zu) "
+                    "within %.3g s; a quaternion read in the wrong order (x,y,z,w as w,x,y,z) looks like this: check "
+                    "--quaternion-order\n", m->source, t->lines[i], deg, t->lines[i - 1],
+                    t->times[i] - t->times[i - 1]);
+            break;
+        }
+    }
+    double span = t->times[t->count - 1] - t->times[0];
+    if (span > MS_SUSPECT_S && span / (double)(t->count - 1) >= 1.0)
+        fprintf(stderr, "petblur: warning: %s: the track spans %.6g s (%.3g h) in samples %.3g s apart: are its "
+                "times in milliseconds? then give --time-unit ms\n", m->source, span, span / 3600.0,
+                span / (double)(t->count - 1));
+}
+
+int pbc_motion_place(pbc_motion *m, const pbc_image *img, const char *in_path)
+{
+    double affine[16];
+    int placed = pbc_image_affine(img, affine);
+    if (m->coords == 0 && !placed)
+        return pbc_fail(PBC_EXIT_USAGE, "--coords world: %s carries no placement in the world (a .raw file, or a "
+                        "NIfTI with sform and qform codes 0); give --coords grid, or an image with its affine",
+                        in_path);
+    if (m->coords == 1 || !placed)
+        grid_affine(img, affine);
+    pb_geometry g = {{img->dims[0], img->dims[1], img->dims[2]},
+                     {img->voxel_size[0], img->voxel_size[1], img->voxel_size[2]}};
+    /* The world centre the track's poses turn about: the origin for tracker
+     * matrices, else --center or the grid's centre. */
+    double c[3] = {0, 0, 0};
+    if (!m->about_origin) {
+        for (int r = 0; r < 3; r++) {
+            c[r] = affine[4 * r + 3];
+            for (int k = 0; k < 3; k++)
+                c[r] += affine[4 * r + k] * 0.5 * (double)(img->dims[k] - 1);
+        }
+        if (m->has_center)
+            memcpy(c, m->center, sizeof c);
+    }
+    int rc = apply_conventions(m, c);
+    if (rc)
+        return rc;
+    pb_motion world = m->motion;
+    world.has_center = m->about_origin || m->has_center;
+    memcpy(world.center, c, sizeof c);
+    m->grid = malloc(m->track.count * sizeof *m->grid);
+    if (!m->grid)
+        return pbc_fail(PBC_EXIT_RUNTIME, "out of memory for the motion's %zu poses", m->track.count);
+    pb_status st = pb_motion_world_to_grid(&g, affine, &world, m->grid, &m->motion);
+    if (st != PB_OK)
+        return pbc_fail(st == PB_ERR_AFFINE_SHEAR || st == PB_ERR_BAD_VOXEL_SIZE ? PBC_EXIT_USAGE : PBC_EXIT_USAGE,
+                        "%s: %s; --coords grid takes the motion along the array's axes instead", in_path,
+                        pb_last_error(NULL));
+    if (!world.has_center) /* the grid's centre, exactly */
+        m->motion.has_center = 0;
+    check_track(m);
+    return 0;
+}
+
+/* ---- frames ---------------------------------------------------------------- */
+
+/* Whether the pose leaves any of the grid's box inside the grid: the box's
+ * image under a rigid map lies inside the box around its eight corners. */
+static int grid_seen(const pb_motion *mo, const pbc_image *img, const pb_pose *p)
+{
+    double ext[3], c[3], lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
+    for (int i = 0; i < 3; i++) {
+        ext[i] = (double)img->dims[i] * img->voxel_size[i];
+        c[i] = mo->has_center ? mo->center[i] : 0.5 * ext[i];
+    }
+    double r[9], q[4];
+    double n = sqrt(p->rotation[0] * p->rotation[0] + p->rotation[1] * p->rotation[1] +
+                    p->rotation[2] * p->rotation[2] + p->rotation[3] * p->rotation[3]);
+    for (int i = 0; i < 4; i++)
+        q[i] = p->rotation[i] / n;
+    pb_pose unit = {{0, 0, 0}, {q[0], q[1], q[2], q[3]}};
+    double mat[16];
+    pb_pose_to_matrix(&unit, mat);
+    for (int i = 0; i < 3; i++)
+        for (int j = 0; j < 3; j++)
+            r[3 * i + j] = mat[4 * i + j];
+    for (int k = 0; k < 8; k++) {
+        double v[3] = {(k & 1) ? ext[0] : 0, (k & 2) ? ext[1] : 0, (k & 4) ? ext[2] : 0};
+        for (int i = 0; i < 3; i++) {
+            double w = c[i] + p->translation[i];
+            for (int j = 0; j < 3; j++)
+                w += r[3 * i + j] * (v[j] - c[j]);
+            lo[i] = fmin(lo[i], w);
+            hi[i] = fmax(hi[i], w);
+        }
+    }
+    for (int i = 0; i < 3; i++)
+        if (hi[i] <= 0.0 || lo[i] >= ext[i])
+            return 0;
+    return 1;
+}
+
+int pbc_motion_check_frame(const pbc_motion *m, const pbc_image *img, double t0, double t1)
+{
+    const pbc_track *t = &m->track;
+    double len = t1 - t0, span = t->times[t->count - 1] - t->times[0];
+    int tracked = strcmp(m->source, "--translate/--rotate") != 0;
+    if (tracked && len > MS_SUSPECT_S)
+        fprintf(stderr, "petblur: warning: the frame %.9g to %.9g s lasts %.3g h: are the times in milliseconds? "
+                "frames and tracks are in seconds (--time-unit ms reads a track in ms)\n", t0, t1, len / 3600.0);
+    else if (tracked && len < 1e-3 * span)
+        fprintf(stderr, "petblur: warning: the frame %.9g to %.9g s spans %.2g %% of the track %s (%.9g to %.9g s); "
+                "are the frame and the track in the same time unit?\n", t0, t1, 100.0 * len / span, m->source,
+                t->times[0], t->times[t->count - 1]);
+    for (size_t i = 1; i < t->count; i++)
+        if (t->missing[i] && t->times[i] > t0 && t->times[i - 1] < t1 && t->times[i] - t->times[i - 1] > MAX_GAP_S)
+            return pbc_fail(PBC_EXIT_USAGE, "%s:%zu-%zu: %zu missing samples leave a gap of %.3g s (%.9g to %.9g s) "
+                            "inside the frame %.9g to %.9g s, longer than the %.3g s petblur interpolates across; "
+                            "choose frames outside the gap", m->source, t->lines[i - 1], t->lines[i], t->missing[i],
+                            t->times[i] - t->times[i - 1], t->times[i - 1], t->times[i], t0, t1, MAX_GAP_S);
+    /* The frame's ends and every tracked pose inside it. */
+    size_t seen = 0, poses = 0;
+    pb_motion frame = m->motion;
+    frame.frame_start = t0;
+    frame.frame_end = t1;
+    for (size_t i = 0; i <= t->count + 1; i++) {
+        double ti = i == 0 ? t0 : i == t->count + 1 ? t1 : t->times[i - 1];
+        pb_pose p;
+        if ((i > 0 && i <= t->count && (ti <= t0 || ti >= t1)) || pb_motion_pose_at(&frame, ti, &p) != PB_OK)
+            continue;
+        poses++;
+        seen += (size_t)grid_seen(&m->motion, img, &p);
+    }
+    if (poses > 0 && seen == 0)
+        return pbc_fail(PBC_EXIT_USAGE, "%s: the motion takes the whole grid out of the field of view for the whole "
+                        "frame %.9g to %.9g s, so the blur would be zero; are the translations in mm, in the image's "
+                        "coordinates (see --coords), and the times in seconds?", m->source, t0, t1);
+    if (seen < poses)
+        fprintf(stderr, "petblur: warning: %s: at %zu of the frame's %zu poses the grid lies wholly outside the "
+                "field of view\n", m->source, poses - seen, poses);
+    return 0;
+}
+
+void pbc_motion_free(pbc_motion *m)
+{
+    pbc_track_free(&m->track);
+    free(m->grid);
+    m->grid = NULL;
+}
