@@ -97,14 +97,14 @@ static int track_options(const pbc_command *cmd, const pbc_args *args, pbc_track
     const char *v;
     int idx, rc = 0;
     o->format = PBC_TRACK_AUTO;
-    o->time_scale = 1.0;
+    o->time_divisor = 1.0;
     o->xyzw = 0;
     if ((v = pbc_arg(cmd, args, "--motion-format")) && (rc = pbc_track_format_parse(v, &o->format)))
         return rc;
     if ((v = pbc_arg(cmd, args, "--time-unit"))) {
         if ((rc = pbc_parse_choice("--time-unit", v, units, 2, &idx)))
             return rc;
-        o->time_scale = idx ? 1e-3 : 1.0;
+        o->time_divisor = idx ? 1000.0 : 1.0;
     }
     if ((v = pbc_arg(cmd, args, "--quaternion-order"))) {
         if ((rc = pbc_parse_choice("--quaternion-order", v, orders, 2, &idx)))

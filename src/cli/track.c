@@ -138,13 +138,12 @@ static int detect(const char *path, FILE *f, pbc_track_format *format)
         *format = PBC_TRACK_MATRIX_CSV;
         return 0;
     }
-    if (strstr(lower, "qw") || strstr(lower, "tx")) {
-        *format = PBC_TRACK_CSV;
+    if (!isdigit((unsigned char)lower[0]) && lower[0] != '-' && lower[0] != '+' && lower[0] != '.') {
+        *format = PBC_TRACK_CSV; /* a header; the csv reader says what it lacks */
         return 0;
     }
-    return pbc_fail(PBC_EXIT_USAGE, "%s:1: cannot tell the track's format from '%.60s'; give --motion-format csv "
-                    "(header t,tx,ty,tz,qw,qx,qy,qz), matrix-csv (t,r00,r01,r02,tx,...,tz) or polaris (NDI .mt or "
-                    "Toolviewer CSV)", path, s);
+    return pbc_fail(PBC_EXIT_USAGE, "%s:1: '%.60s' is no header, nor the 13 or 14 numbers of a matrix row; give "
+                    "a header (t,tx,ty,tz,qw,qx,qy,qz or t,r00,r01,r02,tx,...,tz) or --motion-format", path, s);
 }
 
 int pbc_track_read(const char *path, const pbc_track_read_options *options, pbc_track *track)
@@ -157,7 +156,7 @@ int pbc_track_read(const char *path, const pbc_track_read_options *options, pbc_
     pbc_track_format format = options->format;
     int rc = format == PBC_TRACK_AUTO ? detect(path, f, &format) : 0;
     track->format = format;
-    if (!rc && format == PBC_TRACK_POLARIS && (options->xyzw || options->time_scale != 1.0))
+    if (!rc && format == PBC_TRACK_POLARIS && (options->xyzw || options->time_divisor != 1.0))
         rc = pbc_fail(PBC_EXIT_USAGE, "%s: a Polaris log gives seconds and q0 first; --time-unit and "
                       "--quaternion-order are for csv and matrix-csv tracks", path);
     if (!rc && format == PBC_TRACK_MATRIX_CSV && options->xyzw)

@@ -27,7 +27,7 @@ typedef enum pbc_track_format {
 /* Conventions a file does not carry, as the command line gives them. */
 typedef struct pbc_track_read_options {
     pbc_track_format format;
-    double time_scale; /* seconds per time unit of the file: 1 or 1e-3 */
+    double time_divisor; /* time units of the file per second: 1 (s) or 1000 (ms) */
     int xyzw;          /* csv quaternions in x,y,z,w order */
 } pbc_track_read_options;
 

@@ -125,21 +125,21 @@ static int row_values(const char *path, size_t lineno, char **f, int n, const in
     return 0;
 }
 
-static int csv_pose(const char *path, size_t lineno, const double *v, double time_scale, pbc_track *tr)
+static int csv_pose(const char *path, size_t lineno, const double *v, double time_divisor, pbc_track *tr)
 {
     pb_pose p;
     memcpy(p.translation, v + 1, 3 * sizeof(double));
     int rc = pbc_track_unit_quaternion(path, lineno, v + 4, 1, p.rotation);
-    return rc ? rc : pbc_track_append(path, lineno, v[0] * time_scale, &p, 0, tr);
+    return rc ? rc : pbc_track_append(path, lineno, v[0] / time_divisor, &p, 0, tr);
 }
 
-static int matrix_pose(const char *path, size_t lineno, const double *v, double time_scale, pbc_track *tr)
+static int matrix_pose(const char *path, size_t lineno, const double *v, double time_divisor, pbc_track *tr)
 {
     double m[16] = {v[1], v[2], v[3], v[4], v[5], v[6], v[7], v[8], v[9], v[10], v[11], v[12], 0, 0, 0, 1};
     pb_pose p;
     if (pb_pose_from_matrix(m, &p) != PB_OK)
         return pbc_fail(PBC_EXIT_USAGE, "%s:%zu: %s; fix that row", path, lineno, pb_last_error(NULL));
-    return pbc_track_append(path, lineno, v[0] * time_scale, &p, 0, tr);
+    return pbc_track_append(path, lineno, v[0] / time_divisor, &p, 0, tr);
 }
 
 int pbc_track_read_csv(const char *path, FILE *f, const pbc_track_read_options *o, pbc_track *tr)
@@ -179,8 +179,8 @@ int pbc_track_read_csv(const char *path, FILE *f, const pbc_track_read_options *
             rc = pbc_fail(PBC_EXIT_USAGE, "%s:%zu: more than %d fields; is this a pose track?", path, lineno,
                           MAX_FIELDS);
         else if (!(rc = row_values(path, lineno, fields, n, need, column, names, count, v)))
-            rc = matrix ? matrix_pose(path, lineno, v, o->time_scale, tr)
-                        : csv_pose(path, lineno, v, o->time_scale, tr);
+            rc = matrix ? matrix_pose(path, lineno, v, o->time_divisor, tr)
+                        : csv_pose(path, lineno, v, o->time_divisor, tr);
     }
     if (!rc && !header)
         rc = pbc_fail(PBC_EXIT_USAGE, "%s: no rows; a track needs the header %s and at least two rows", path,
