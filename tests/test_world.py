@@ -336,6 +336,39 @@ class Tracks(Case):
         self.assertIn("frame 0 ends at 0.5 s but frame 1 starts at 0.6 s", err)
 
 
+class MotionCommand(Case):
+    def test_summary_and_picture(self):
+        """petblur motion: per frame, the largest rotation and corner displacement from the frame's first pose,
+        computed here with SciPy over the same samples; a gap counted; the picture a valid PNG."""
+        t = np.arange(0, 20, 1 / 30)
+        rot = Rotation.from_euler("xz", np.stack([3 * np.sin(t / 2), np.where(t > 12, 10.0, 0.0)], 1), degrees=True)
+        trans = np.stack([0.1 * t, np.zeros_like(t), np.where(t > 12, 6.0, 0.0)], 1)
+        keep = (t < 5) | (t > 5.5)
+        with open(self.p("m.csv"), "w") as f:
+            f.write("t,tx,ty,tz,qw,qx,qy,qz\n")
+            for ti, q, tr in zip(t[keep], rot.as_quat()[keep], trans[keep]):
+                f.write(",".join(f"{v:.17g}" for v in (ti, *tr, q[3], q[0], q[1], q[2])) + "\n")
+        dims, vs = np.array([40, 30, 20]), np.array([2.0, 2.0, 3.0])
+        out, _ = run("motion", self.p("m.csv"), "--dims", "40,30,20", "--voxel-size", "2,2,3", "--frames",
+                     "0,10,19.9", "--png", self.p("m.png"))
+        rows = [ln.split() for ln in out.splitlines() if ln[:1] == " " or ln[:1].isdigit()]
+        self.assertEqual(len(rows), 2, out)
+        corners = np.array([[x, y, z] for x in (0, 1) for y in (0, 1) for z in (0, 1)]) * dims * vs
+        centre = dims * vs / 2
+        for (t0, t1), row in zip(((0, 10), (10, 19.9)), rows):
+            inside = keep & (t >= t0) & (t <= t1)
+            first = np.argmax(inside)
+            r0 = rot[first]
+            angles = np.degrees((r0.inv() * rot[inside]).magnitude())
+            moved = lambda r, tr: (corners - centre) @ r.as_matrix().T + centre + tr  # noqa: E731
+            disp = max(np.linalg.norm(moved(r, tr) - moved(r0, trans[first]), axis=1).max()
+                       for r, tr in zip(rot[inside], trans[inside]))
+            self.assertAlmostEqual(float(row[4]), angles.max(), delta=2e-3)
+            self.assertAlmostEqual(float(row[5]), disp, delta=2e-3)
+        self.assertIn("median step 0.0333", out)
+        test_cli.png_size(self.p("m.png"))
+
+
 class Sanity(Case):
     """Every warning and refusal, triggered, with its message."""
 

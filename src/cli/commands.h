@@ -13,6 +13,7 @@ int pbc_cmd_render(int argc, char **argv);
 int pbc_cmd_devices(int argc, char **argv);
 int pbc_cmd_demo(int argc, char **argv);
 int pbc_cmd_bench(int argc, char **argv);
+int pbc_cmd_motion(int argc, char **argv);
 
 /* Shared checks of file arguments. */
 /* Refuses an output path whose extension no writer knows (before any work). */

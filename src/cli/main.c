@@ -14,6 +14,7 @@ static const struct {
     const char *summary;
 } commands[] = {
     {"blur", pbc_cmd_blur, "blur a volume along the motion inside a frame (NIfTI, Interfile, raw)"},
+    {"motion", pbc_cmd_motion, "a pose track's summary per frame, and a picture of it, before a blur trusts it"},
     {"phantom", pbc_cmd_phantom, "make the paper's homogeneity, Derenzo or brain phantom"},
     {"compare", pbc_cmd_compare, "the paper's error % (eq. 5) of a volume against a reference"},
     {"render", pbc_cmd_render, "a picture (PNG) of a volume's central slices"},

@@ -321,15 +321,14 @@ int pbc_motion_place(pbc_motion *m, const pbc_image *img, const char *in_path)
     /* The world centre the track's poses turn about: the origin for tracker
      * matrices, else --center or the grid's centre. */
     double c[3] = {0, 0, 0};
-    if (!m->about_origin) {
-        for (int r = 0; r < 3; r++) {
-            c[r] = affine[4 * r + 3];
-            for (int k = 0; k < 3; k++)
-                c[r] += affine[4 * r + k] * 0.5 * (double)(img->dims[k] - 1);
-        }
-        if (m->has_center)
-            memcpy(c, m->center, sizeof c);
+    for (int r = 0; r < 3; r++) {
+        m->grid_center[r] = affine[4 * r + 3];
+        for (int k = 0; k < 3; k++)
+            m->grid_center[r] += affine[4 * r + k] * 0.5 * (double)(img->dims[k] - 1);
     }
+    if (!m->about_origin)
+        memcpy(c, m->has_center ? m->center : m->grid_center, sizeof c);
+    memcpy(m->world_center, c, sizeof c);
     int rc = apply_conventions(m, c);
     if (rc)
         return rc;

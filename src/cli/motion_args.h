@@ -43,6 +43,9 @@ typedef struct pbc_motion {
     int has_calibration, has_reference, inverse;
     double calibration[16], reference_time;
     int frame_given;
+    /* Once placed: the track's poses turn about world_center, and the grid's
+     * centre lies at grid_center (world mm; the grid frame's with --coords grid). */
+    double world_center[3], grid_center[3];
 } pbc_motion;
 
 /* Parses the motion options and reads the track; the motion is placed once

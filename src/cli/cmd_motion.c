@@ -1,0 +1,175 @@
+/* petblur motion: what a track holds, frame by frame, before a blur trusts it. */
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "cli.h"
+#include "commands.h"
+#include "motion_args.h"
+#include "motion_plot.h"
+
+static const pbc_option options[] = {
+    {"--input", "-i", "IN", "the image the track moves (its placement and grid; .raw needs --dims)"},
+    {"--dims", NULL, "NX,NY,NZ", "the grid, without -i (or of a .raw input)"},
+    {"--voxel-size", NULL, "DX,DY,DZ", "voxel size in mm (default 1,1,1)"},
+    {"--frames", NULL, "T0,T1,...", "frame boundaries, seconds (default: the --frame, else the whole track)"},
+    {"--frames-from", NULL, "SIDECAR.json", "the frames from a BIDS-PET sidecar (FrameTimesStart, FrameDuration)"},
+    PBC_MOTION_OPTIONS,
+    {"--png", NULL, "PICTURE.png", "translation and rotation against time, with the frames' boundaries"},
+};
+
+static const pbc_command command = {
+    "motion", "TRACK [-i IN] [--frames T0,T1,...] [--png motion.png] [options]",
+    "Summarises a pose track: duration, sampling rate, gaps, and per frame the largest rotation and the\n"
+    "largest displacement of the grid's corners from the frame's first pose, in the coordinates petblur blur\n"
+    "would use (the same options). Look at a track before trusting a blur to it.",
+    options, (int)(sizeof options / sizeof options[0]), 1, 1,
+    "examples:\n"
+    "  petblur motion head.mt -i head.nii.gz --calibration cal.txt --reference-time 65900 --png motion.png\n"
+    "  petblur motion track.csv --frames-from sub-01_pet.json --dims 128,128,64 --voxel-size 2.2,2.2,2.8"};
+
+/* The grid: the input's, or --dims/--voxel-size with no placement. */
+static int grid_image(const pbc_args *args, pbc_image *img)
+{
+    size_t dims[3] = {1, 1, 1};
+    double vs[3] = {1, 1, 1};
+    pbc_read_hints hints;
+    int rc = pbc_hints_from_args(&command, args, dims, vs, &hints);
+    const char *in = pbc_arg(&command, args, "--input");
+    if (rc)
+        return rc;
+    if (in)
+        return pbc_image_read(in, &hints, img);
+    if (!pbc_arg(&command, args, "--dims"))
+        fprintf(stdout, "no grid (-i or --dims): corner displacements are of a 1 mm voxel\n");
+    return pbc_image_alloc(img, dims, vs);
+}
+
+static double angle_deg(const double a[4], const double b[4])
+{
+    double dot = fabs(a[0] * b[0] + a[1] * b[1] + a[2] * b[2] + a[3] * b[3]);
+    double na = sqrt(a[0] * a[0] + a[1] * a[1] + a[2] * a[2] + a[3] * a[3]);
+    double nb = sqrt(b[0] * b[0] + b[1] * b[1] + b[2] * b[2] + b[3] * b[3]);
+    return 2.0 * acos(fmin(1.0, dot / (na * nb))) * 180.0 / 3.14159265358979323846;
+}
+
+static void apply(const pb_pose *p, const double c[3], const double v[3], double out[3])
+{
+    double m[16];
+    pb_pose_to_matrix(p, m);
+    for (int i = 0; i < 3; i++)
+        out[i] = c[i] + p->translation[i] + m[4 * i] * (v[0] - c[0]) + m[4 * i + 1] * (v[1] - c[1]) +
+                 m[4 * i + 2] * (v[2] - c[2]);
+}
+
+static void frame_summary(const pbc_motion *m, const pbc_image *img, size_t index, double t0, double t1)
+{
+    const pb_motion *mo = &m->motion;
+    double c[3], ext[3], rot = 0.0, disp = 0.0;
+    for (int i = 0; i < 3; i++) {
+        ext[i] = (double)img->dims[i] * img->voxel_size[i];
+        c[i] = mo->has_center ? mo->center[i] : 0.5 * ext[i];
+    }
+    pb_pose start, p;
+    pb_motion_pose_at(mo, t0, &start);
+    size_t samples = 0;
+    for (size_t i = 0; i <= mo->count; i++) {
+        double t = i == mo->count ? t1 : mo->times[i];
+        if (t < t0 || t > t1 || pb_motion_pose_at(mo, t, &p) != PB_OK)
+            continue;
+        samples += i < mo->count;
+        rot = fmax(rot, angle_deg(start.rotation, p.rotation));
+        for (int k = 0; k < 8; k++) {
+            double v[3] = {(k & 1) ? ext[0] : 0, (k & 2) ? ext[1] : 0, (k & 4) ? ext[2] : 0}, a[3], b[3];
+            apply(&start, c, v, a);
+            apply(&p, c, v, b);
+            disp = fmax(disp, sqrt((a[0] - b[0]) * (a[0] - b[0]) + (a[1] - b[1]) * (a[1] - b[1]) +
+                                   (a[2] - b[2]) * (a[2] - b[2])));
+        }
+    }
+    printf("%5zu %12.6g %12.6g %8zu %10.3f %12.3f\n", index, t0, t1, samples, rot, disp);
+}
+
+static void track_summary(const pbc_motion *m)
+{
+    const pbc_track *t = &m->track;
+    double span = t->times[t->count - 1] - t->times[0], gap = 0.0;
+    size_t missing = 0, gaps = 0;
+    double *steps = malloc((t->count - 1) * sizeof *steps);
+    for (size_t i = 1; i < t->count; i++) {
+        double d = t->times[i] - t->times[i - 1];
+        if (steps)
+            steps[i - 1] = d;
+        missing += t->missing[i];
+        gaps += t->missing[i] > 0;
+        gap = t->missing[i] ? fmax(gap, d) : gap;
+    }
+    double median = 0.0;
+    if (steps) {
+        /* a partial selection would do; tracks are short enough to sort */
+        for (size_t i = 1; i < t->count - 1; i++)
+            for (size_t j = i; j > 0 && steps[j - 1] > steps[j]; j--) {
+                double s = steps[j];
+                steps[j] = steps[j - 1];
+                steps[j - 1] = s;
+            }
+        median = steps[(t->count - 1) / 2];
+        free(steps);
+    }
+    printf("%s: %s, %zu poses from %.9g to %.9g s (%.6g s), median step %.6g s (%.4g Hz)\n", m->source,
+           pbc_track_format_name(t->format), t->count, t->times[0], t->times[t->count - 1], span, median,
+           median > 0 ? 1.0 / median : 0.0);
+    printf("missing samples: %zu in %zu gap%s, the longest %.6g s\n", missing, gaps, gaps == 1 ? "" : "s", gap);
+}
+
+int pbc_cmd_motion(int argc, char **argv)
+{
+    pbc_args args;
+    int rc = pbc_parse_args(&command, argc, argv, &args);
+    if (rc)
+        return rc < 0 ? 0 : rc;
+    /* The track is the positional argument; the motion options read it as --motion. */
+    for (int i = 0; i < command.option_count; i++)
+        if (!strcmp(command.options[i].name, "--motion")) {
+            if (args.value[i])
+                return pbc_fail(PBC_EXIT_USAGE, "petblur motion takes the track as its argument; drop --motion");
+            args.value[i] = args.positional[0];
+        }
+    const char *png = pbc_arg(&command, &args, "--png"), *fv = pbc_arg(&command, &args, "--frames"),
+               *json = pbc_arg(&command, &args, "--frames-from");
+    if (png && (rc = pbc_check_output("--png", png, 1)))
+        return rc;
+    if (fv && json)
+        return pbc_fail(PBC_EXIT_USAGE, "--frames and --frames-from: give one");
+    pbc_motion m;
+    pbc_image img = {0};
+    double *bounds = NULL;
+    size_t nb = 0;
+    if ((rc = pbc_motion_from_args(&command, &args, &m)))
+        return rc;
+    if (!(rc = fv ? pbc_parse_bounds("--frames", fv, &bounds, &nb) : json ? pbc_bids_frames(json, &bounds, &nb) : 0) &&
+        !(rc = grid_image(&args, &img)) && !(rc = pbc_motion_place(&m, &img, pbc_arg(&command, &args, "--input")
+                                                                              ? pbc_arg(&command, &args, "--input")
+                                                                              : "the grid"))) {
+        double whole[2] = {m.motion.frame_start, m.motion.frame_end};
+        const double *b = bounds ? bounds : whole;
+        size_t frames = bounds ? nb - 1 : 1;
+        for (size_t i = 0; i < frames && !rc; i++)
+            if (b[i] < m.track.times[0] || b[i + 1] > m.track.times[m.track.count - 1])
+                rc = pbc_fail(PBC_EXIT_USAGE, "frame %zu (%.9g to %.9g s) lies outside the track (%.9g to %.9g s)", i,
+                              b[i], b[i + 1], m.track.times[0], m.track.times[m.track.count - 1]);
+        if (!rc) {
+            track_summary(&m);
+            printf("frame        start          end  samples  max rot deg max disp mm\n");
+            for (size_t i = 0; i < frames; i++)
+                frame_summary(&m, &img, i, b[i], b[i + 1]);
+            if (png)
+                rc = pbc_motion_plot(png, &m, b, frames + 1);
+        }
+    }
+    pbc_image_free(&img);
+    pbc_motion_free(&m);
+    free(bounds);
+    return rc;
+}
