@@ -141,6 +141,17 @@ class World(Case):
                                 "--center", ",".join(f"{v:.17g}" for v in centre))
                 self.check(out, reference_blur(self.vol, a, times, rots, trans, centre, (0.4, 2.2)), "track")
 
+    def test_default_device(self):
+        """The placement is host-side maths shared by every backend: the default device (PoCL in CI) blurs a world
+        motion as the host does, within the HARDWARE filter's bound (test_cli's test_default_device_runs)."""
+        a = affines()["oblique"]
+        save_nifti(self.p("in.nii"), self.vol, a)
+        motion = ("--rotate", "14", "--axis", "1,1,0", "--translate", "3,-2,5", "-q")
+        run("blur", "-i", self.p("in.nii"), "-o", self.p("dev.nii"), *motion, "--device", "auto")
+        run("blur", "-i", self.p("in.nii"), "-o", self.p("host.nii"), *motion, "--device", "host")
+        np.testing.assert_allclose(nib.load(self.p("dev.nii")).get_fdata(), nib.load(self.p("host.nii")).get_fdata(),
+                                   atol=1e-2 * self.vol.max())
+
     def test_rotation_beyond_180_follows_the_arc(self):
         """--rotate 270 turns three quarters round, not -90; checked against the arc in the reference."""
         a = affines()["las"]

@@ -75,8 +75,13 @@ static void frame_summary(const pbc_motion *m, const pbc_image *img, size_t inde
     pb_motion_pose_at(mo, t0, &start);
     size_t samples = 0;
     for (size_t i = 0; i <= mo->count; i++) {
+        /* tracked poses as they are, the frame's end interpolated */
         double t = i == mo->count ? t1 : mo->times[i];
-        if (t < t0 || t > t1 || pb_motion_pose_at(mo, t, &p) != PB_OK)
+        if (t < t0 || t > t1)
+            continue;
+        if (i < mo->count)
+            p = mo->poses[i];
+        else if (pb_motion_pose_at(mo, t, &p) != PB_OK)
             continue;
         samples += i < mo->count;
         rot = fmax(rot, angle_deg(start.rotation, p.rotation));
@@ -89,6 +94,12 @@ static void frame_summary(const pbc_motion *m, const pbc_image *img, size_t inde
         }
     }
     printf("%5zu %12.6g %12.6g %8zu %10.3f %12.3f\n", index, t0, t1, samples, rot, disp);
+}
+
+static int compare_doubles(const void *a, const void *b)
+{
+    double x = *(const double *)a, y = *(const double *)b;
+    return (x > y) - (x < y);
 }
 
 static void track_summary(const pbc_motion *m)
@@ -107,13 +118,7 @@ static void track_summary(const pbc_motion *m)
     }
     double median = 0.0;
     if (steps) {
-        /* a partial selection would do; tracks are short enough to sort */
-        for (size_t i = 1; i < t->count - 1; i++)
-            for (size_t j = i; j > 0 && steps[j - 1] > steps[j]; j--) {
-                double s = steps[j];
-                steps[j] = steps[j - 1];
-                steps[j - 1] = s;
-            }
+        qsort(steps, t->count - 1, sizeof *steps, compare_doubles);
         median = steps[(t->count - 1) / 2];
         free(steps);
     }

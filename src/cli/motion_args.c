@@ -405,16 +405,19 @@ int pbc_motion_check_frame(const pbc_motion *m, const pbc_image *img, double t0,
                             "inside the frame %.9g to %.9g s, longer than the %.3g s petblur interpolates across; "
                             "choose frames outside the gap", m->source, t->lines[i - 1], t->lines[i], t->missing[i],
                             t->times[i] - t->times[i - 1], t->times[i - 1], t->times[i], t0, t1, MAX_GAP_S);
-    /* The frame's ends and every tracked pose inside it. */
+    /* The frame's ends and every tracked pose inside it (taken as they are:
+     * interpolating each would cost a pass over the track). */
     size_t seen = 0, poses = 0;
-    pb_motion frame = m->motion;
-    frame.frame_start = t0;
-    frame.frame_end = t1;
     for (size_t i = 0; i <= t->count + 1; i++) {
-        double ti = i == 0 ? t0 : i == t->count + 1 ? t1 : t->times[i - 1];
         pb_pose p;
-        if ((i > 0 && i <= t->count && (ti <= t0 || ti >= t1)) || pb_motion_pose_at(&frame, ti, &p) != PB_OK)
+        if (i == 0 || i == t->count + 1) {
+            if (pb_motion_pose_at(&m->motion, i ? t1 : t0, &p) != PB_OK)
+                continue;
+        } else if (t->times[i - 1] > t0 && t->times[i - 1] < t1) {
+            p = m->motion.poses[i - 1];
+        } else {
             continue;
+        }
         poses++;
         seen += (size_t)grid_seen(&m->motion, img, &p);
     }
