@@ -1,0 +1,20 @@
+#!/usr/bin/env bash
+# On the GPU machine: motions in world coordinates and from trackers' logs
+# (tests/test_world.py, tests/test_cli.py) with CUDA as the default device,
+# plus the host suites. nibabel comes from the wheel in .whl/ (carry it with
+# .device; bench/gpu-prepare.sh makes .device, `pip download nibabel -d .whl`
+# the wheel).   bash bench/gpu-world.sh   (the log under $OUT)
+set -uo pipefail
+cd "$(dirname "$0")/.."
+OUT=${OUT:-$PWD/gpu-out}
+mkdir -p "$OUT"
+. bench/device-env.sh
+python3 -m pip install --no-deps --no-index -q .whl/nibabel-*.whl 2>&1 | tail -1
+{
+    nvidia-smi --query-gpu=name,driver_version --format=csv,noheader
+    echo "commit $(git rev-parse --short HEAD 2>/dev/null || echo unknown)"
+    "${meson[@]}" setup build-world --buildtype=release -Dcuda=enabled -Dopencl=disabled >/dev/null &&
+        ninja -C build-world >/dev/null || { echo "gpu-world: the build failed"; exit 1; }
+    ./build-world/src/cli/petblur devices
+    "${meson[@]}" test -C build-world --suite host --suite cli --no-suite bench --print-errorlogs
+} 2>&1 | tee "$OUT/world.log"
