@@ -129,7 +129,6 @@ static int motion_from_track(const pbc_command *cmd, const pbc_args *args, pbc_m
     if (f[0] < t->times[0] || f[1] > t->times[t->count - 1])
         return pbc_fail(PBC_EXIT_USAGE, "--frame %.9g,%.9g: the track %s covers %.9g to %.9g s only; choose a "
                         "frame inside it", f[0], f[1], m->source, t->times[0], t->times[t->count - 1]);
-    m->frame_given = frame != NULL;
     m->motion = (pb_motion){t->times, t->poses, t->count, f[0], f[1], 0, {0, 0, 0}};
     return 0;
 }
@@ -340,9 +339,8 @@ int pbc_motion_place(pbc_motion *m, const pbc_image *img, const char *in_path)
         return pbc_fail(PBC_EXIT_RUNTIME, "out of memory for the motion's %zu poses", m->track.count);
     pb_status st = pb_motion_world_to_grid(&g, affine, &world, m->grid, &m->motion);
     if (st != PB_OK)
-        return pbc_fail(st == PB_ERR_AFFINE_SHEAR || st == PB_ERR_BAD_VOXEL_SIZE ? PBC_EXIT_USAGE : PBC_EXIT_USAGE,
-                        "%s: %s; --coords grid takes the motion along the array's axes instead", in_path,
-                        pb_last_error(NULL));
+        return pbc_fail(PBC_EXIT_USAGE, "%s: %s; --coords grid takes the motion along the array's axes instead",
+                        in_path, pb_last_error(NULL));
     if (!world.has_center) /* the grid's centre, exactly */
         m->motion.has_center = 0;
     check_track(m);

@@ -15,8 +15,8 @@
     {"--rotate", NULL, "DEG", "rotation at the frame's end, degrees, right-hand rule about --axis; beyond 180 the "  \
                               "arc asked for is followed"},                                                           \
     {"--axis", NULL, "AX,AY,AZ", "rotation axis (default 0,0,1: world z, the scanner axis)"},                        \
-    {"--center", NULL, "CX,CY,CZ", "rotation centre of --rotate and csv tracks, world mm (default the grid's "        \
-                                   "centre)"},                                                                        \
+    {"--center", NULL, "CX,CY,CZ", "rotation centre of --rotate and csv tracks, world mm (grid mm with --coords " \
+                                   "grid; default the grid's centre)"},                                                                        \
     {"--coords", NULL, "world|grid", "world (default where the input has a placement: NIfTI sform/qform, "           \
                                      "Interfile): RAS+ mm; grid (.raw): mm from the grid's corner along its axes"},   \
     {"--motion", NULL, "TRACK", "pose track: csv (t,tx,ty,tz,qw,qx,qy,qz), matrix-csv or a Polaris log"},           \
@@ -42,7 +42,6 @@ typedef struct pbc_motion {
     int coords;        /* -1: told by the input; 0: world; 1: grid */
     int has_calibration, has_reference, inverse;
     double calibration[16], reference_time;
-    int frame_given;
     /* Once placed: the track's poses turn about world_center, and the grid's
      * centre lies at grid_center (world mm; the grid frame's with --coords grid). */
     double world_center[3], grid_center[3];

@@ -128,10 +128,11 @@ static int detect(const char *path, FILE *f, pbc_track_format *format)
         return 0;
     }
     char lower[4096];
-    size_t i = 0, fields = 1;
+    size_t i = 0, fields = 0;
     for (; s[i] && i + 1 < sizeof lower; i++) {
         lower[i] = (char)tolower((unsigned char)s[i]);
-        fields += s[i] == ',';
+        /* yrt-pet separates by any run of commas and blanks */
+        fields += !strchr(", \t", s[i]) && (i == 0 || strchr(", \t", s[i - 1]));
     }
     lower[i] = '\0';
     if (strstr(lower, "r00") || (isdigit((unsigned char)lower[0]) && (fields == 13 || fields == 14))) {
