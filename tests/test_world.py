@@ -175,7 +175,7 @@ class World(Case):
         for (orient, rot), s in lps_sign.items():
             with self.subTest(position=(orient, rot)):
                 self.vol.T.astype("<f4").tofile(self.p("in.v"))
-                keys = "".join(f"first pixel offset (mm) [{i + 1}] := {fpo[i]!r}\n" for i in range(3))
+                keys = "".join(f"first pixel offset (mm) [{i + 1}] := {float(fpo[i])!r}\n" for i in range(3))
                 with open(self.p("in.hv"), "w") as f:
                     f.write("!INTERFILE :=\n!name of data file := in.v\n!number format := float\n"
                             "!number of bytes per pixel := 4\nimagedata byte order := LITTLEENDIAN\n"
