@@ -12,7 +12,6 @@ mkdir -p "$OUT"
 python3 -m pip install --no-deps --no-index -q .whl/nibabel-*.whl 2>&1 | tail -1
 {
     nvidia-smi --query-gpu=name,driver_version --format=csv,noheader
-    echo "commit $(git rev-parse --short HEAD 2>/dev/null || echo unknown)"
     "${meson[@]}" setup build-world --buildtype=release -Dcuda=enabled -Dopencl=enabled >/dev/null &&
         ninja -C build-world >/dev/null || { echo "gpu-world: the build failed"; exit 1; }
     ./build-world/src/cli/petblur devices
