@@ -55,6 +55,17 @@ size_t pbc_image_voxels(const pbc_image *img);
 
 /* The per-format halves of pbc_image_read and pbc_image_write, with the same
  * contracts; path's extension is already known to be theirs. */
+/* What a NIfTI header says, checked before nifti_clib parses it
+ * (image_nifti_header.c): a single-file NIfTI-1 or NIfTI-2, dim[0] in 1..7,
+ * every used dimension >= 1, a supported data type, a sane vox_offset and no
+ * more data promised than the file holds. */
+typedef struct pbc_nifti_facts {
+    int version, swap;
+    long long vox_offset;
+    double pixdim[3]; /* as written: nifti_clib turns 0 into 1 */
+} pbc_nifti_facts;
+int pbc_nifti_check_header(const char *path, pbc_nifti_facts *facts);
+
 int pbc_nifti_read(const char *path, const pbc_read_hints *hints, pbc_image *img);
 int pbc_nifti_write(const char *path, const pbc_image *img);
 int pbc_interfile_read(const char *path, const pbc_read_hints *hints, pbc_image *img);

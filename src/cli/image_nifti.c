@@ -37,47 +37,8 @@ static size_t read_znz(void *source, void *buf, size_t bytes)
     return n > bytes ? 0 : n;
 }
 
-/* nifti_clib takes any file named .nii for a single-file NIfTI and turns a
- * pixdim of 0 into 1 mm, so what the header really says about both is read
- * here, from a header the library has already found good. */
-static int read_raw_facts(const char *path, int *single_file, double pixdim[3])
+static int check_layout(const char *path, const nifti_image *nim, int allow_frames)
 {
-    unsigned char b[348];
-    znzFile fp = znzopen(path, "rb", nifti_is_gzfile(path));
-    size_t n = znz_isnull(fp) ? 0 : read_znz(fp, b, sizeof b);
-    if (!znz_isnull(fp))
-        znzclose(fp);
-    if (n != sizeof b)
-        return pbc_fail(PBC_EXIT_USAGE, "%s: its header cannot be read (%s); check the file", path, strerror(errno));
-    int32_t size;
-    memcpy(&size, b, sizeof size);
-    int swap = size != 348 && size != 540;
-    if (swap)
-        nifti_swap_4bytes(1, &size);
-    int v2 = size == 540;
-    if (v2)
-        *single_file = !memcmp(b + offsetof(nifti_2_header, magic), "n+2", 4);
-    else
-        *single_file = !memcmp(b + offsetof(nifti_1_header, magic), "n+1", 4);
-    for (int i = 0; i < 3; i++) {
-        float f;
-        double d;
-        memcpy(&f, b + offsetof(nifti_1_header, pixdim) + sizeof f * (i + 1), sizeof f);
-        memcpy(&d, b + offsetof(nifti_2_header, pixdim) + sizeof d * (i + 1), sizeof d);
-        if (swap) {
-            nifti_swap_4bytes(1, &f);
-            nifti_swap_8bytes(1, &d);
-        }
-        pixdim[i] = v2 ? d : (double)f;
-    }
-    return 0;
-}
-
-static int check_layout(const char *path, const nifti_image *nim, int single_file, int allow_frames)
-{
-    if (!single_file)
-        return pbc_fail(PBC_EXIT_USAGE, "%s: its header is that of a .hdr/.img pair (two-file NIfTI or Analyze); "
-                        "convert it to a single-file .nii first", path);
     for (int d = 4; d <= nim->ndim && d < 8; d++) {
         if (nim->dim[d] <= 1 || (d == 4 && allow_frames))
             continue;
@@ -173,16 +134,17 @@ static int read_data(const char *path, const nifti_image *nim, const pbc_sample_
 int pbc_nifti_read(const char *path, const pbc_read_hints *hints, pbc_image *img)
 {
     quiet_library();
+    pbc_nifti_facts facts;
+    int rc = pbc_nifti_check_header(path, &facts);
+    if (rc)
+        return rc;
     nifti_image *nim = nifti_image_read(path, 0);
     if (!nim)
         return pbc_fail(PBC_EXIT_USAGE, "%s: not a readable NIfTI file (its header is missing or damaged); check "
                         "that it is a NIfTI-1 image", path);
     pbc_sample_format format;
-    int single_file = 0;
-    double pixdim[3];
-    int rc = read_raw_facts(path, &single_file, pixdim);
-    if (!rc)
-        rc = check_layout(path, nim, single_file, hints && hints->allow_frames);
+    double *pixdim = facts.pixdim;
+    rc = check_layout(path, nim, hints && hints->allow_frames);
     if (!rc)
         rc = sample_format(path, nim, &format);
     if (!rc) {
