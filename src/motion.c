@@ -211,9 +211,17 @@ pb_status pb_motion_validate(struct pb_context *ctx, const pb_motion *m)
     if (!(m->frame_end > m->frame_start))
         return pb_error(ctx, PB_ERR_BAD_FRAME, "the frame ends at %g s, not after its start at %g s; give end > start",
                         m->frame_end, m->frame_start);
+    /* Finite times may still be too far apart to subtract: the weights would be NaN. */
+    if (!isfinite(m->frame_end - m->frame_start))
+        return pb_error(ctx, PB_ERR_NOT_FINITE, "the frame [%g, %g] s is too long to measure in double precision; "
+                        "give times in seconds of a scan", m->frame_start, m->frame_end);
     for (size_t i = 0; i < m->count; i++) {
         if (!isfinite(m->times[i]))
             return pb_error(ctx, PB_ERR_NOT_FINITE, "track time %zu is NaN or infinite; give finite seconds", i);
+        if (i > 0 && !isfinite(m->times[i] - m->times[i - 1]))
+            return pb_error(ctx, PB_ERR_NOT_FINITE, "track times %zu and %zu (%g s, %g s) are too far apart to "
+                            "subtract in double precision; give times in seconds of a scan", i - 1, i,
+                            m->times[i - 1], m->times[i]);
         if (i > 0 && !(m->times[i] > m->times[i - 1]))
             return pb_error(ctx, PB_ERR_TRACK_ORDER,
                             "track time %zu (%g s) is not after time %zu (%g s); sort the track and drop repeated "

@@ -1,5 +1,6 @@
 /* Checks of output paths, made before any work so that a typo costs nothing. */
 #include <errno.h>
+#include <limits.h>
 #include <stdio.h>
 #include <string.h>
 #include <sys/stat.h>
@@ -8,7 +9,7 @@
 #include "atomic_file.h"
 #include "cli.h"
 #include "commands.h"
-#include "image_io.h"
+#include "image_formats.h"
 
 int pbc_check_output(const char *option, const char *path, int picture)
 {
@@ -24,6 +25,19 @@ int pbc_check_output(const char *option, const char *path, int picture)
     if (access(dir, W_OK | X_OK) != 0)
         return pbc_fail(PBC_EXIT_USAGE, "%s %s: cannot write into the folder %s (%s); create it or choose another",
                         option, path, dir, strerror(errno));
+    /* The temporary beside it adds ".", ".petblur-PID-N" and the extension. */
+    const char *base = slash ? slash + 1 : path;
+    if (strlen(base) + strlen(ext) + 32 > NAME_MAX)
+        return pbc_fail(PBC_EXIT_USAGE, "%s %s: the file name is too long to write beside a temporary of it (at most "
+                        "%d characters); choose a shorter one", option, path, (int)(NAME_MAX - strlen(ext) - 32));
+    struct stat st;
+    char data[4096];
+    if (stat(path, &st) == 0 && S_ISDIR(st.st_mode))
+        return pbc_fail(PBC_EXIT_USAGE, "%s %s: is a folder; name a file", option, path);
+    if (!strcmp(ext, ".hv") && !pbc_interfile_data_name(path, data, sizeof data) && stat(data, &st) == 0 &&
+        S_ISDIR(st.st_mode))
+        return pbc_fail(PBC_EXIT_USAGE, "%s %s: its data file %s is a folder; name another output", option, path,
+                        data);
     return 0;
 }
 

@@ -7,6 +7,7 @@
 #include <stdlib.h>
 #include <string.h>
 #include <sys/stat.h>
+#include <unistd.h>
 
 #include "atomic_file.h"
 #include "cli.h"
@@ -425,14 +426,33 @@ int pbc_interfile_write(const char *path, const pbc_image *img)
         return rc;
     }
     write_header(header, slash ? slash + 1 : data_path, img);
+    /* An existing pair stays whole until the new one is: the old data file is
+     * kept under a second name (a hard link) until the new header is in
+     * place, and put back if that fails. */
+    pbc_temp backup;
+    int kept = 0;
+    if (access(data_path, F_OK) == 0 && !(rc = pbc_temp_reserve(&backup, data_path))) {
+        kept = remove(backup.temp) == 0 && link(data_path, backup.temp) == 0;
+        if (!kept)
+            rc = pbc_fail(PBC_EXIT_RUNTIME, "%s: cannot keep the existing %s while the new pair is written (%s); "
+                          "nothing was written", path, data_path, strerror(errno));
+    }
+    if (rc) {
+        pbc_temp_abort(&header_temp, header);
+        pbc_temp_abort(&data_temp, data);
+        return rc;
+    }
     rc = pbc_temp_commit(&data_temp, data);
     if (rc) {
         pbc_temp_abort(&header_temp, header);
-        return rc;
+    } else if ((rc = pbc_temp_commit(&header_temp, header)) != 0) {
+        /* Data without its header would be an orphan nobody can read. */
+        if (kept && rename(backup.temp, data_path) == 0)
+            kept = 0;
+        else
+            remove(data_path);
     }
-    /* Data without its header would be an orphan nobody can read. */
-    rc = pbc_temp_commit(&header_temp, header);
-    if (rc)
-        remove(data_path);
+    if (kept)
+        remove(backup.temp);
     return rc;
 }

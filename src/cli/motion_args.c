@@ -338,9 +338,11 @@ int pbc_motion_place(pbc_motion *m, const pbc_image *img, const char *in_path)
     if (!m->grid)
         return pbc_fail(PBC_EXIT_RUNTIME, "out of memory for the motion's %zu poses", m->track.count);
     pb_status st = pb_motion_world_to_grid(&g, affine, &world, m->grid, &m->motion);
-    if (st != PB_OK)
+    if (st == PB_ERR_AFFINE_SHEAR || st == PB_ERR_BAD_VOXEL_SIZE)
         return pbc_fail(PBC_EXIT_USAGE, "%s: %s; --coords grid takes the motion along the array's axes instead",
                         in_path, pb_last_error(NULL));
+    if (st != PB_OK)
+        return pbc_fail(PBC_EXIT_USAGE, "%s: %s", m->source, pb_last_error(NULL));
     if (!world.has_center) /* the grid's centre, exactly */
         m->motion.has_center = 0;
     check_track(m);
