@@ -117,6 +117,8 @@ PB_FN void pb_polyline_adjoint(PB_GLOBAL float *out, PB_GLOBAL_RO pb_kpose *pose
         for (int i = 0; i < 3; i++)
             a[i] = b[i];
         pb_map_point(poses[j + 1].map, ux, uy, uz, b);
+        if (poses[j].weight == 0.0f) /* clipped */
+            continue;
         float vj = v * poses[j].weight;
         if (ab) {
             float inv = 1.0f / (float)prm.steps;
@@ -143,6 +145,8 @@ PB_FN void pb_classical_adjoint(PB_GLOBAL float *out, PB_GLOBAL_RO pb_kpose *pos
 {
     float u[3] = {(float)ix + 0.5f, (float)iy + 0.5f, (float)iz + 0.5f};
     for (int j = 0; j < prm.segments; j++) {
+        if (poses[j].weight == 0.0f) /* clipped */
+            continue;
         int n = pb_classical_steps(poses, j, prm, u);
         float inv_n = 1.0f / (float)n, vn = v * poses[j].weight * inv_n;
         for (int i = 0; i < n; i++) {

@@ -335,6 +335,8 @@ PB_FN float pb_polyline(pb_image img, PB_GLOBAL_RO pb_kpose *poses, pb_kparams p
         for (int i = 0; i < 3; i++)
             a[i] = b[i];
         pb_map_point(poses[j + 1].map, u[0], u[1], u[2], b);
+        if (poses[j].weight == 0.0f) /* clipped: reads nothing of the object (src/plan_clip.c) */
+            continue;
         total += poses[j].weight *
                  (ab ? pb_ab_sampled(img, prm, exact, pl, a, b) : pb_rm_sampled(img, prm, exact, pl, a, b));
     }
@@ -359,6 +361,8 @@ PB_FN float pb_classical(pb_image img, PB_GLOBAL_RO pb_kpose *poses, pb_kparams 
 {
     float total = 0.0f;
     for (int j = 0; j < prm.segments; j++) {
+        if (poses[j].weight == 0.0f) /* clipped */
+            continue;
         int n = pb_classical_steps(poses, j, prm, u);
         float seg = 0.0f, inv_n = 1.0f / (float)n;
         for (int i = 0; i < n; i++) {

@@ -172,6 +172,8 @@ PB_FN float pb_shift_layered(pb_layers img, PB_GLOBAL_RO pb_kpose *poses, pb_kpa
         for (int i = 0; i < 3; i++)
             a[i] = b[i];
         pb_map_point(poses[j + 1].map, u[0], u[1], u[2], b);
+        if (poses[j].weight == 0.0f) /* clipped */
+            continue;
         float seg = 0.0f, inv = 1.0f / (float)prm.steps;
         for (int r = 0; r < prm.steps; r++) {
             float pa[3], pb[3];

@@ -179,6 +179,8 @@ static double blur_voxel(const host_io *io, const pb_plan *plan, const pb_blur_o
 
     for (size_t j = 0; j + 1 < plan->count; j++) {
         const pb_plan_pose *p0 = &plan->poses[j], *p1 = &plan->poses[j + 1];
+        if (p0->skip) /* clipped: reads nothing of the object (plan_clip.c) */
+            continue;
         double a[3], b[3];
         apply_map(p0->map, u, a);
         apply_map(p1->map, u, b);

@@ -52,6 +52,8 @@ int pb_plan_layer_axis(const pb_plan *plan)
     int axis = -1;
     for (size_t j = 0; j + 1 < plan->count; j++) {
         double d[3];
+        if (plan->poses[j].skip)
+            continue;
         for (int r = 0; r < 3; r++)
             d[r] = segment_move(plan, j, r);
         if (d[0] == 0.0 && d[1] == 0.0 && d[2] == 0.0)
@@ -71,7 +73,8 @@ static double longest_walk(const pb_plan *plan, const pb_blur_options *opt, int 
 {
     double most = 0.0;
     for (size_t j = 0; j + 1 < plan->count; j++)
-        most = fmax(most, segment_move(plan, j, m));
+        if (!plan->poses[j].skip)
+            most = fmax(most, segment_move(plan, j, m));
     return most / (opt->steps ? (double)opt->steps : 1.0);
 }
 

@@ -175,12 +175,21 @@ static int all_finite(const double *v, size_t n)
     return 1;
 }
 
+/* mm; a light year is 1e19. Beyond this, squares and norms of translations
+ * (the planner's) leave double's range, and no scanner is that large. */
+#define PB_MAX_TRANSLATION 1e12
+
 static pb_status validate_pose(struct pb_context *ctx, const pb_pose *p, size_t i)
 {
     if (!all_finite(p->translation, 3))
         return pb_error(ctx, PB_ERR_NOT_FINITE,
                         "pose %zu has a NaN or infinite translation (%g, %g, %g); give finite mm values", i,
                         p->translation[0], p->translation[1], p->translation[2]);
+    for (int k = 0; k < 3; k++)
+        if (fabs(p->translation[k]) > PB_MAX_TRANSLATION)
+            return pb_error(ctx, PB_ERR_INVALID_ARGUMENT,
+                            "pose %zu translates by %g mm, beyond 1e12 mm (a million km); translations are mm", i,
+                            p->translation[k]);
     if (!all_finite(p->rotation, 4))
         return pb_error(ctx, PB_ERR_NOT_FINITE,
                         "pose %zu has a NaN or infinite quaternion; give a finite unit quaternion (w, x, y, z)", i);
@@ -238,6 +247,11 @@ pb_status pb_motion_validate(struct pb_context *ctx, const pb_motion *m)
                         m->times[0], m->times[m->count - 1], m->frame_start, m->frame_end);
     if (m->has_center && !all_finite(m->center, 3))
         return pb_error(ctx, PB_ERR_NOT_FINITE, "the rotation centre is NaN or infinite; give mm from the grid's corner");
+    for (int k = 0; m->has_center && k < 3; k++)
+        if (fabs(m->center[k]) > PB_MAX_TRANSLATION)
+            return pb_error(ctx, PB_ERR_INVALID_ARGUMENT,
+                            "the rotation centre lies %g mm from the grid, beyond 1e12 mm; give mm from the grid's corner",
+                            m->center[k]);
     return PB_OK;
 }
 
@@ -321,15 +335,15 @@ static pb_status plan_ref_steps(struct pb_context *ctx, const pb_blur_options *o
     if (!per)
         return pb_error(ctx, PB_ERR_OUT_OF_MEMORY, "out of host memory planning the reference");
     for (size_t j = 0; j < nseg; j++) {
-        unsigned n = opt->ref_time_steps;
-        if (n == 0) {
+        unsigned n = plan->poses[j].skip ? 0 : opt->ref_time_steps;
+        if (n == 0 && !plan->poses[j].skip) {
             double d = largest_corner_motion(plan, &plan->poses[j].pose, &plan->poses[j + 1].pose);
             n = (unsigned)fmax(16.0, 2.0 * ceil(d));
         }
         per[j] = n;
         total += n;
     }
-    plan->ref_steps = calloc(total, sizeof *plan->ref_steps);
+    plan->ref_steps = calloc(total ? total : 1, sizeof *plan->ref_steps);
     if (!plan->ref_steps) {
         free(per);
         return pb_error(ctx, PB_ERR_OUT_OF_MEMORY, "out of host memory for %zu reference time steps", total);
@@ -393,11 +407,15 @@ pb_status pb_plan_create(struct pb_context *ctx, const pb_geometry *g, const pb_
             return st;
         }
     }
+    if ((st = pb_plan_clip(ctx, plan)) != PB_OK) {
+        pb_plan_destroy(plan);
+        return st;
+    }
     double span = m->frame_end - m->frame_start;
     for (size_t j = 0; j < plan->count; j++) {
         pb_plan_pose *p = &plan->poses[j];
         pb_pose_texel_map(&p->pose, plan->center, g->voxel_size, p->map);
-        p->weight = j + 1 < plan->count ? (plan->poses[j + 1].time - p->time) / span : 0.0;
+        p->weight = j + 1 < plan->count && !p->skip ? (plan->poses[j + 1].time - p->time) / span : 0.0;
     }
     if (opt->method == PB_METHOD_REF) {
         st = plan_ref_steps(ctx, opt, plan);

@@ -39,7 +39,8 @@ typedef struct pb_plan_pose {
     double time;
     pb_pose pose;      /* unit quaternion on the same hemisphere as the previous key pose */
     double map[12];    /* pb_pose_texel_map of the pose */
-    double weight;     /* fraction of the frame spent on the segment to the next key pose */
+    double weight;     /* fraction of the frame spent on the segment to the next key pose; 0 when skipped */
+    int skip;          /* the segment to the next key pose reads nothing of the object: not walked */
 } pb_plan_pose;
 
 /* One REF time step: where it is, and its share of the frame. */
@@ -76,5 +77,10 @@ void pb_plan_destroy(pb_plan *plan);
  * its chord, then runs of pieces merged into chords within the same bound
  * (maps and weights still to fill). */
 pb_status pb_plan_split(struct pb_context *ctx, pb_plan *plan, double max_error);
+
+/* Walks clipped to the grid (plan_clip.c): each segment cut to the part of it
+ * during which a sample can land in the object grid, the rest marked skip,
+ * so that a blur's cost is bounded by the grid whatever the motion. */
+pb_status pb_plan_clip(struct pb_context *ctx, pb_plan *plan);
 
 #endif

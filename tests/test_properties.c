@@ -490,12 +490,72 @@ static void test_track_merge(pb_context *ctx)
     free(fine);
 }
 
+/* Walks clipped to the grid (src/plan_clip.c): a translation of D along x
+ * over the frame averages the object over shifts 0..D, and every shift past
+ * the grid reads zeros, so blur(D) = (D0 / D) blur(D0) for any D0 beyond the
+ * grid. A D of a million mm must give that, and its adjoint must still be
+ * the transpose. AB, exact along one axis, must also give the analytic blur:
+ * the integral of the row's linear interpolant (zero outside) up to the
+ * voxel, (dx / D) (sum of the values before it + half its own), which a
+ * clip that cuts too early misses. */
+static void test_clipped_walks(pb_context *ctx)
+{
+    pb_geometry g = {{20, 10, 8}, {1.5, 1.0, 2.0}};
+    size_t n = 20 * 10 * 8;
+    float *in = random_volume(&g, 0), *far = malloc(n * sizeof *far), *near = malloc(n * sizeof *near);
+    float *y = random_volume(&g, 0), *bty = malloc(n * sizeof *bty);
+    double d0 = 3.0 * 20 * 1.5, d = 1e6 * pb_rand_range(1.0, 2.0), axis[3] = {1, 0, 0};
+    pb_pose start = pb_test_pose(0, 0, 0, axis, 0.0), end_far = pb_test_pose(d, 0, 0, axis, 0.0),
+            end_near = pb_test_pose(d0, 0, 0, axis, 0.0);
+    pb_test_motion tf, tn;
+    pb_test_motion_init(&tf, &start, &end_far);
+    pb_test_motion_init(&tn, &start, &end_near);
+    for (int method = 0; method < 3; method++) {
+        pb_blur_options opt = {(pb_method)method, PB_FILTER_EXACT, 0, 0, 0, 0, 0.0};
+        if (pb_test_blur(ctx, &g, in, &tf.motion, &opt, far) != PB_OK ||
+            pb_test_blur(ctx, &g, in, &tn.motion, &opt, near) != PB_OK) {
+            pb_check(0, "%s: %s", names[method], pb_last_error(ctx));
+            continue;
+        }
+        double worst = 0.0, top = pb_max_abs(near, n);
+        for (size_t i = 0; i < n; i++)
+            worst = fmax(worst, fabs((double)far[i] * (d / d0) - (double)near[i]));
+        pb_check(worst <= 1e-4 * top, "%s: a %.3g mm translation is the %.3g mm one scaled by their ratio (off "
+                 "%.3g of the largest value)", names[method], d, d0, worst / top);
+        double analytic = 0.0, big = 0.0;
+        for (size_t row = 0; method == PB_METHOD_AB && row < n / 20; row++)
+            for (size_t i = 0; i < 20; i++) {
+                double sum = 0.0;
+                for (size_t before = 0; before < i; before++)
+                    sum += (double)in[row * 20 + before];
+                double expect = 1.5 / d * (sum + 0.5 * (double)in[row * 20 + i]);
+                analytic = fmax(analytic, fabs((double)far[row * 20 + i] - expect));
+                big = fmax(big, expect);
+            }
+        pb_check(method != PB_METHOD_AB || analytic <= 1e-4 * big, "AB: the %.3g mm translation is the analytic "
+                 "blur (off %.3g of the largest value)", d, analytic / big);
+        if (pb_test_adjoint(ctx, &g, y, &tf.motion, &opt, bty) != PB_OK) {
+            pb_check(0, "%s adjoint: %s", names[method], pb_last_error(ctx));
+            continue;
+        }
+        double lhs = pb_dot(far, y, n), rhs = pb_dot(in, bty, n);
+        pb_check(fabs(lhs - rhs) <= 1e-5 * fmax(fabs(lhs), 1e-30), "%s: <B x, y> = <x, B^T y> through a clipped "
+                 "walk (%.9g, %.9g)", names[method], lhs, rhs);
+    }
+    free(in);
+    free(far);
+    free(near);
+    free(y);
+    free(bty);
+}
+
 int main(int argc, char **argv)
 {
     pb_test_seed();
     pb_context *ctx = pb_test_context(argc, argv);
     test_hardware_weights(ctx);
     test_zero_motion(ctx);
+    test_clipped_walks(ctx);
     test_conservation(ctx);
     test_analytic_translation(ctx);
     test_path_error(ctx);
