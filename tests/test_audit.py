@@ -1,0 +1,125 @@
+"""The reliability audit's inputs (tests/audit/, from ../shared/cases/audit/), replayed as tests: each ends within
+10 s with exit 0 (valid input) or 2 (bad input), a message that starts with "petblur:", no output left behind and
+the input untouched; and a blur's time is bounded by its grid, whatever the motion.
+
+usage: test_audit.py PATH/TO/petblur
+"""
+import glob
+import hashlib
+import os
+import subprocess
+import sys
+import time
+import unittest
+
+import test_cli
+from test_cli import Case
+
+AUDIT = os.path.join(os.path.dirname(os.path.abspath(__file__)), "audit")
+LIMIT_S = 10.0
+
+
+def digest(path):
+    with open(path, "rb") as f:
+        return hashlib.sha256(f.read()).hexdigest()
+
+
+class Audit(Case):
+    def setUp(self):
+        super().setUp()
+        test_cli.run("phantom", "--kind", "brain", "--dims", "16,16,8", "-o", self.p("in.nii"), "-q")
+        with open(self.p("track.csv"), "w") as f:
+            f.write("t,tx,ty,tz,qw,qx,qy,qz\n0,0,0,0,1,0,0,0\n0.5,1,2,-1,0.9998,0,0.02,0\n1,3,1,2,0.9986,0.05,0,0.02\n")
+
+    def replay(self, allowed, out, *args):
+        if os.path.isfile(self.p(out)):
+            os.remove(self.p(out))
+        inputs = [a for a in args if os.path.isfile(str(a))]
+        before = {a: digest(a) for a in inputs}
+        start = time.monotonic()
+        p = subprocess.run([test_cli.PETBLUR, *map(str, args)], capture_output=True, text=True, timeout=60,
+                           stdin=subprocess.DEVNULL)
+        took = time.monotonic() - start
+        what = f"petblur {' '.join(map(str, args))}"
+        self.assertLess(took, LIMIT_S, f"{what}: {took:.1f} s")
+        self.assertIn(p.returncode, allowed, f"{what}: exit {p.returncode}\n{p.stderr}")
+        if p.returncode != 0:
+            first = [ln for ln in p.stderr.splitlines() if not ln.startswith("petblur: warning")][:1]
+            self.assertTrue(first and first[0].startswith("petblur: "), f"{what}: {p.stderr!r}")
+            self.assertFalse(os.path.exists(self.p(out)), f"{what}: output left after failure")
+        self.assertEqual([f for f in os.listdir(self.d) if ".petblur-" in f], [], f"{what}: temporary left")
+        for a, h in before.items():
+            self.assertEqual(digest(a), h, f"{what}: input {a} changed")
+        return p
+
+    def test_images(self):
+        for f in sorted(glob.glob(os.path.join(AUDIT, "*.nii"))):
+            with self.subTest(image=os.path.basename(f)):
+                self.replay((0, 2) if "tiny_pixdim" in f else (2,), "o.nii", "blur", "-i", f, "-o", self.p("o.nii"),
+                            "--translate", "1,0,0", "--device", "host", "-q")
+
+    def test_fuzzed_headers(self):
+        for d in sorted(glob.glob(os.path.join(AUDIT, "cli", "nii-*"))):
+            f = os.path.join(d, "in.nii")
+            with self.subTest(case=os.path.basename(d)):
+                self.replay((0, 2), "o.nii.gz", "blur", "-i", f, "-o", self.p("o.nii.gz"), "--translate", "1,0,0",
+                            "--device", "host", "-q")
+                self.replay((0, 2), "o.nii", "blur", "-i", f, "-o", self.p("o.nii"), "--motion", self.p("track.csv"),
+                            "--frames", "0,0.5,1", "--device", "host", "-q")
+                self.replay((0, 2), "o.png", "render", f, "-o", self.p("o.png"))
+
+    def test_tracks(self):
+        cases = [("nan_output_track.csv", (2,), ()), ("hang_rm_hex_translation.csv", (0, 2), ("--method", "rm")),
+                 ("ub_translation_1e308.csv", (2,), ()), (os.path.join("cli", "csv-b5faf88af8", "t.csv"), (0, 2),
+                                                          ("--method", "rm"))]
+        for name, allowed, extra in cases:
+            with self.subTest(track=name):
+                self.replay(allowed, "o.nii", "blur", "-i", self.p("in.nii"), "-o", self.p("o.nii"), "--motion",
+                            os.path.join(AUDIT, name), "--device", "host", "-q", *extra)
+
+    def test_huge_translations_end(self):
+        for t in ("1e9,0,0", "1e200,0,0", "0,-3e11,2e11"):
+            for method in ("ab", "rm", "cl"):
+                with self.subTest(translate=t, method=method):
+                    self.replay((0, 2), "o.nii", "blur", "-i", self.p("in.nii"), "-o", self.p("o.nii"), "--translate",
+                                t, "--method", method, "--device", "host", "-q")
+
+    def test_outputs(self):
+        os.mkdir(self.p("adir.nii"))
+        self.replay((2,), "adir.nii/x", "blur", "-i", self.p("in.nii"), "-o", self.p("adir.nii"), "--translate",
+                    "1,0,0", "--device", "host", "-q")
+        self.assertTrue(os.path.isdir(self.p("adir.nii")))
+        # An existing .hv/.v pair survives a failed write: a folder stands where the header goes.
+        test_cli.run("phantom", "--kind", "brain", "--dims", "8,8,4", "-o", self.p("out.hv"), "-q")
+        kept = digest(self.p("out.v"))
+        os.rename(self.p("out.hv"), self.p("keep.hv"))
+        os.mkdir(self.p("out.hv"))
+        self.replay((2, 3), "none", "blur", "-i", self.p("in.nii"), "-o", self.p("out.hv"), "--translate", "1,0,0",
+                    "--device", "host", "-q")
+        self.assertEqual(digest(self.p("out.v")), kept, "the existing out.v was lost or changed")
+        long = "x" * 250 + ".nii"
+        p = self.replay((2,), long, "blur", "-i", self.p("in.nii"), "-o", self.p(long), "--translate", "1,0,0", "-q")
+        self.assertIn("too long", p.stderr)
+
+
+class Bounded(Case):
+    def test_time_is_bounded_by_the_grid(self):
+        """A translation of 1e9 mm costs about what one across the grid costs: the walk is clipped to the grid."""
+        test_cli.run("phantom", "--kind", "brain", "--dims", "48,48,24", "--voxel-size", "5.87,5.87,7.47", "-o",
+                     self.p("in.nii"), "-q")
+
+        def timed(t):
+            start = time.monotonic()
+            subprocess.run([test_cli.PETBLUR, "blur", "-i", self.p("in.nii"), "-o", self.p("o.nii"), "--translate", t,
+                            "--device", "host", "-q"], check=True, capture_output=True, timeout=120)
+            return time.monotonic() - start
+
+        across = timed("300,0,0")  # the field of view is 282 mm
+        for t in ("1e9,0,0", "0,1e11,-1e11"):
+            with self.subTest(translate=t):
+                self.assertLess(timed(t), 3 * across + 1.0, f"--translate {t} against {across:.2f} s across the grid")
+
+
+if __name__ == "__main__":
+    test_cli.PETBLUR = sys.argv.pop(1)
+    unittest.main(verbosity=2)
