@@ -116,6 +116,10 @@ typedef struct pb_context_options {
  * once. options may be NULL (auto). On failure *ctx is NULL and the message is
  * in pb_last_error(NULL) of the calling thread. */
 PB_API pb_status pb_context_create(const pb_context_options *options, pb_context **ctx);
+/* Releases the context once its last volume is destroyed: volumes may be
+ * destroyed before or after it, in any order (as garbage-collected bindings
+ * do). After pb_context_destroy the context must not be used again. A context
+ * and its volumes are used from one thread at a time. */
 PB_API void pb_context_destroy(pb_context *ctx);
 
 /* The backend and device the context runs on. */
@@ -337,7 +341,7 @@ PB_API pb_status pb_blur_frames_adjoint(pb_context *ctx, const pb_volume *const 
                                         pb_volume *const *objects);
 
 /* The paper's eq. (5): 100 * sum (x - ref)^2 / sum ref^2 over n voxels, in
- * double. Returns NaN when ref is all zeros. */
+ * double. Returns NaN when ref is all zeros or either pointer is NULL. */
 PB_API double pb_error_percent(const float *reference, const float *x, size_t n);
 
 #ifdef __cplusplus

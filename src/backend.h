@@ -48,6 +48,11 @@ struct pb_context {
     pb_progress_fn progress;
     void *progress_user;
     char last_error[PB_ERROR_TEXT_MAX];
+    /* Volumes keep their context alive: pb_context_destroy before them only
+     * marks it, and the last pb_volume_destroy releases it, so bindings whose
+     * garbage collector frees in any order stay safe. */
+    size_t volumes;
+    int destroyed;
 };
 
 struct pb_volume {

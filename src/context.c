@@ -168,12 +168,19 @@ pb_status pb_context_create(const pb_context_options *options, pb_context **out)
     return PB_OK;
 }
 
-void pb_context_destroy(pb_context *ctx)
+static void context_release(pb_context *ctx)
 {
-    if (!ctx)
-        return;
     ctx->ops->context_release(ctx);
     free(ctx);
+}
+
+void pb_context_destroy(pb_context *ctx)
+{
+    if (!ctx || ctx->destroyed)
+        return;
+    ctx->destroyed = 1;
+    if (ctx->volumes == 0)
+        context_release(ctx);
 }
 
 pb_backend pb_context_backend(const pb_context *ctx)
@@ -279,6 +286,7 @@ pb_status pb_volume_create(pb_context *ctx, const pb_geometry *g, pb_volume **ou
         free(vol);
         return st;
     }
+    ctx->volumes++;
     *out = vol;
     return PB_OK;
 }
@@ -287,8 +295,11 @@ void pb_volume_destroy(pb_volume *vol)
 {
     if (!vol)
         return;
-    vol->ctx->ops->volume_release(vol);
+    pb_context *ctx = vol->ctx;
+    ctx->ops->volume_release(vol);
     free(vol);
+    if (--ctx->volumes == 0 && ctx->destroyed)
+        context_release(ctx);
 }
 
 pb_status pb_volume_get_geometry(const pb_volume *vol, pb_geometry *g)
@@ -434,6 +445,8 @@ pb_status pb_blur_adjoint(pb_context *ctx, const pb_volume *tomograph, const pb_
 double pb_error_percent(const float *reference, const float *x, size_t n)
 {
     double num = 0.0, den = 0.0;
+    if (!reference || !x)
+        return (double)NAN;
     for (size_t i = 0; i < n; i++) {
         double d = (double)x[i] - (double)reference[i];
         num += d * d;

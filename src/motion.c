@@ -294,13 +294,17 @@ pb_status pb_quaternion_from_axis_angle(const double axis[3], double angle_deg, 
         return pb_error(NULL, PB_ERR_INVALID_ARGUMENT, "axis and q must not be NULL");
     if (!all_finite(axis, 3) || !isfinite(angle_deg))
         return pb_error(NULL, PB_ERR_NOT_FINITE, "the axis or angle is NaN or infinite");
-    double n = sqrt(axis[0] * axis[0] + axis[1] * axis[1] + axis[2] * axis[2]);
-    if (n == 0.0)
+    /* The axis over its largest component first, so that 1e200 squares stay finite. */
+    double big = fmax(fabs(axis[0]), fmax(fabs(axis[1]), fabs(axis[2]))), a[3];
+    if (big == 0.0)
         return pb_error(NULL, PB_ERR_INVALID_ARGUMENT, "the rotation axis is the zero vector; give a direction");
+    for (int i = 0; i < 3; i++)
+        a[i] = axis[i] / big;
+    double n = sqrt(a[0] * a[0] + a[1] * a[1] + a[2] * a[2]);
     double half = 0.5 * angle_deg * PB_PI / 180.0;
     q[0] = cos(half);
     for (int i = 0; i < 3; i++)
-        q[i + 1] = sin(half) * axis[i] / n;
+        q[i + 1] = sin(half) * a[i] / n;
     return PB_OK;
 }
 
@@ -406,6 +410,16 @@ pb_status pb_plan_create(struct pb_context *ctx, const pb_geometry *g, const pb_
             pb_plan_destroy(plan);
             return st;
         }
+    }
+    /* The error bound caps the segments it makes; a track walked as it is
+     * (max_path_error < 0, CL, REF) gets the same cap. */
+    if (plan->count - 1 > PB_MAX_SEGMENTS) {
+        size_t n = plan->count - 1;
+        pb_plan_destroy(plan);
+        return pb_error(ctx, PB_ERR_INVALID_ARGUMENT,
+                        "the frame holds %zu tracked intervals, more than the %d segments one blur walks; use AB or RM "
+                        "with a path error bound (which merges a log's samples), or shorter frames", n,
+                        PB_MAX_SEGMENTS);
     }
     if ((st = pb_plan_clip(ctx, plan)) != PB_OK) {
         pb_plan_destroy(plan);

@@ -72,6 +72,10 @@ pb_status pb_plan_create(struct pb_context *ctx, const pb_geometry *geometry, co
                          const pb_blur_options *options, pb_plan *plan);
 void pb_plan_destroy(pb_plan *plan);
 
+/* The most segments one blur may walk; far above what any sane bound needs (a
+ * full turn at 0.01 voxels on a 512^3 grid takes about 6000). */
+enum { PB_MAX_SEGMENTS = 100000 };
+
 /* Error-bounded polylines (path_split.c): the plan with every interval cut
  * into the equal pieces that keep each voxel centre within max_error voxels of
  * its chord, then runs of pieces merged into chords within the same bound

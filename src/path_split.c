@@ -34,9 +34,6 @@
 #include "error.h"
 #include "motion.h"
 
-/* The most segments one blur may get; far above what any sane bound needs
- * (a full turn at 0.01 voxels on a 512^3 grid takes about 6000). */
-enum { PB_MAX_SEGMENTS = 100000 };
 
 static double norm3(const double v[3])
 {

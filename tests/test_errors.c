@@ -241,6 +241,55 @@ static void test_contexts(pb_backend backend)
         pb_check(strlen(pb_status_string((pb_status)s)) > 0, "status %d has a string", s);
 }
 
+/* What a binding can do to the API: destroy a context before its volumes
+ * (they keep it alive: the volume still works and its destroy frees both, which
+ * a sanitizer run checks), pass NULL where a pointer belongs, give an axis of
+ * 1e200 (still a unit quaternion), and a track of 10^6 samples walked as it is. */
+static void test_binding_misuse(int argc, char **argv)
+{
+    pb_context *ctx = pb_test_context(argc, argv);
+    pb_geometry g = {{4, 4, 4}, {1, 1, 1}};
+    pb_volume *v = NULL;
+    float in[64], out[64];
+    for (int i = 0; i < 64; i++)
+        in[i] = (float)i;
+    pb_check(pb_volume_create(ctx, &g, &v) == PB_OK, "volume: %s", pb_last_error(ctx));
+    pb_context_destroy(ctx);
+    pb_check(v && pb_volume_upload(v, in) == PB_OK && pb_volume_download(v, out) == PB_OK && out[63] == 63.0f,
+             "a volume outlives pb_context_destroy of its context");
+    pb_volume_destroy(v);
+    pb_check(isnan(pb_error_percent(NULL, in, 64)) && isnan(pb_error_percent(in, NULL, 64)),
+             "pb_error_percent with NULL gives NaN");
+    double axis[3] = {1e200, -3e200, 2e200}, q[4];
+    pb_check(pb_quaternion_from_axis_angle(axis, 30.0, q) == PB_OK &&
+                 fabs(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3] - 1.0) < 1e-12,
+             "an axis of 1e200 gives a unit quaternion");
+}
+
+/* A 10^6-sample track with one segment per sample (max_path_error < 0) is
+ * refused with a message saying what to do, not walked for minutes. */
+static void test_segment_cap(pb_context *ctx)
+{
+    enum { SAMPLES = 1000000 };
+    double *t = malloc(SAMPLES * sizeof *t);
+    pb_pose *p = malloc(SAMPLES * sizeof *p);
+    for (size_t i = 0; i < SAMPLES; i++) {
+        t[i] = (double)i / 30.0;
+        p[i] = (pb_pose){{1e-3 * (double)(i % 7), 0, 0}, {1, 0, 0, 0}};
+    }
+    pb_motion m = {t, p, SAMPLES, 0.0, t[SAMPLES - 1], 0, {0, 0, 0}};
+    pb_geometry g = {{4, 4, 4}, {1, 1, 1}};
+    pb_volume *a = NULL, *b = NULL;
+    pb_blur_options opt = {PB_METHOD_AB, PB_FILTER_EXACT, 0, 0, 0, 0, -1.0};
+    if (pb_volume_create(ctx, &g, &a) == PB_OK && pb_volume_create(ctx, &g, &b) == PB_OK)
+        expect(pb_blur(ctx, a, &m, &opt, b), PB_ERR_INVALID_ARGUMENT, "10^6 segments", pb_last_error(ctx),
+               "path error bound");
+    pb_volume_destroy(a);
+    pb_volume_destroy(b);
+    free(t);
+    free(p);
+}
+
 int main(int argc, char **argv)
 {
     pb_test_seed();
@@ -249,6 +298,8 @@ int main(int argc, char **argv)
     test_motions(ctx);
     test_device_limits();
     test_contexts(pb_test_backend(argc, argv));
+    test_segment_cap(ctx);
+    test_binding_misuse(argc, argv);
     pb_context_destroy(ctx);
     return pb_test_finish();
 }

@@ -96,15 +96,19 @@ const char *pbc_arg(const pbc_command *cmd, const pbc_args *args, const char *na
     return k < 0 ? NULL : args->value[k];
 }
 
-/* Splits "a,b,c" into exactly n finite numbers. */
+/* Splits "a,b,c" into exactly n finite numbers, plain decimal: strtod alone
+ * would take hex floats (0x7fffffff), "inf" and "nan" too. An underflow to
+ * (almost) zero is that number. */
 static int numbers(const char *text, int n, double *v)
 {
     const char *s = text;
+    if (strspn(text, "0123456789+-.eE, ") != strlen(text))
+        return -1;
     for (int i = 0; i < n; i++) {
         char *end;
         errno = 0;
         v[i] = strtod(s, &end);
-        if (end == s || errno == ERANGE || !isfinite(v[i]))
+        if (end == s || (errno == ERANGE && fabs(v[i]) > 1.0) || !isfinite(v[i]))
             return -1;
         s = end;
         if (i + 1 < n && *s++ != ',')
