@@ -62,6 +62,40 @@ static pb_status check_frames(pb_context *ctx, const pb_volume *const *ins, cons
     return PB_OK;
 }
 
+/* The part of a validated track that a frame [t0, t1] needs: from the last
+ * sample at or before t0 to the first at or after t1, found by bisection, so
+ * that planning a frame costs its own samples and not the whole log's. */
+static pb_motion frame_track(const pb_motion *track, double t0, double t1)
+{
+    size_t a = 0, b = track->count - 1;
+    while (a < b) { /* the last sample at or before t0 */
+        size_t mid = a + (b - a + 1) / 2;
+        if (track->times[mid] <= t0)
+            a = mid;
+        else
+            b = mid - 1;
+    }
+    size_t lo = a;
+    b = track->count - 1;
+    while (a < b) { /* the first sample at or after t1 */
+        size_t mid = a + (b - a) / 2;
+        if (track->times[mid] >= t1)
+            b = mid;
+        else
+            a = mid + 1;
+    }
+    size_t hi = b;
+    if (hi <= lo)
+        hi = lo + 1;
+    pb_motion m = *track;
+    m.times += lo;
+    m.poses += lo;
+    m.count = hi - lo + 1;
+    m.frame_start = t0;
+    m.frame_end = t1;
+    return m;
+}
+
 /* Both directions: every frame checked and planned, then run in order. */
 static pb_status run_frames(pb_context *ctx, const pb_volume *const *ins, const pb_motion *track,
                             const double *bounds, size_t frames, const pb_blur_options *options,
@@ -72,15 +106,21 @@ static pb_status run_frames(pb_context *ctx, const pb_volume *const *ins, const 
     pb_status st = check_frames(ctx, ins, track, bounds, frames, outs, adjoint);
     if (st != PB_OK)
         return st;
+    /* The whole track once; each frame's planning then checks only its part
+     * and says which frame leaves the track. */
+    pb_motion whole = *track;
+    whole.frame_start = bounds[0];
+    whole.frame_end = bounds[frames];
+    if ((st = pb_motion_validate(ctx, &whole)) != PB_OK && st != PB_ERR_TRACK_GAP)
+        return st;
+    st = PB_OK;
     pb_blur_options opt;
     pb_plan *plans = calloc(frames, sizeof *plans);
     if (!plans)
         return pb_error(ctx, PB_ERR_OUT_OF_MEMORY, "out of host memory for %zu frame plans", frames);
     size_t planned = 0;
     for (; planned < frames && st == PB_OK; planned++) {
-        pb_motion m = *track;
-        m.frame_start = bounds[planned];
-        m.frame_end = bounds[planned + 1];
+        pb_motion m = frame_track(track, bounds[planned], bounds[planned + 1]);
         const pb_volume *in = ins[planned];
         st = adjoint ? pb_blur_prepare(ctx, outs[planned], options, in, &opt)
                      : pb_blur_prepare(ctx, in, options, outs[planned], &opt);

@@ -167,8 +167,10 @@ static int check_frames(const char *in_path, const pbc_image *in, size_t frames)
 static int check_motion_frames(const pbc_motion *m, const pbc_image *in, const double *bounds, size_t frames)
 {
     int rc = 0;
+    double one[2] = {m->motion.frame_start, m->motion.frame_end};
+    pbc_motion_check_frames(m, bounds ? bounds : one, bounds ? frames : 1);
     if (!bounds)
-        return pbc_motion_check_frame(m, in, m->motion.frame_start, m->motion.frame_end);
+        return pbc_motion_check_frame(m, in, one[0], one[1]);
     for (size_t i = 0; i < frames && !rc; i++)
         rc = pbc_motion_check_frame(m, in, bounds[i], bounds[i + 1]);
     return rc;

@@ -65,7 +65,8 @@ static void apply(const pb_pose *p, const double c[3], const double v[3], double
 
 static void frame_summary(const pbc_motion *m, const pbc_image *img, size_t index, double t0, double t1)
 {
-    const pb_motion *mo = &m->motion;
+    pb_motion part = pbc_motion_part(m, t0, t1);
+    const pb_motion *mo = &part;
     double c[3], ext[3], rot = 0.0, disp = 0.0;
     for (int i = 0; i < 3; i++) {
         ext[i] = (double)img->dims[i] * img->voxel_size[i];

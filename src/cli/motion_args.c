@@ -387,19 +387,70 @@ static int grid_seen(const pb_motion *mo, const pbc_image *img, const pb_pose *p
     return 1;
 }
 
+/* The samples [*lo, *hi) whose times lie in (t0, t1], by bisection: frames
+ * of a long log each cost their own samples. */
+static void frame_samples(const pbc_track *t, double t0, double t1, size_t *lo, size_t *hi)
+{
+    size_t a = 0, b = t->count;
+    while (a < b) {
+        size_t mid = a + (b - a) / 2;
+        if (t->times[mid] <= t0)
+            a = mid + 1;
+        else
+            b = mid;
+    }
+    *lo = a;
+    for (b = t->count; a < b;) {
+        size_t mid = a + (b - a) / 2;
+        if (t->times[mid] <= t1)
+            a = mid + 1;
+        else
+            b = mid;
+    }
+    *hi = a;
+}
+
+pb_motion pbc_motion_part(const pbc_motion *m, double t0, double t1)
+{
+    size_t lo, hi;
+    frame_samples(&m->track, t0, t1, &lo, &hi);
+    size_t first = lo > 0 ? lo - 1 : 0, last = hi < m->track.count ? hi : m->track.count - 1;
+    if (last <= first)
+        last = first + 1 < m->track.count ? first + 1 : first, first = last - 1;
+    pb_motion part = m->motion;
+    part.times += first;
+    part.poses += first;
+    part.count = last - first + 1;
+    part.frame_start = t0;
+    part.frame_end = t1;
+    return part;
+}
+
+void pbc_motion_check_frames(const pbc_motion *m, const double *bounds, size_t frames)
+{
+    const pbc_track *t = &m->track;
+    double span = t->times[t->count - 1] - t->times[0], all = bounds[frames] - bounds[0], longest = 0.0;
+    if (!strcmp(m->source, "--translate/--rotate"))
+        return;
+    for (size_t i = 0; i < frames; i++)
+        longest = fmax(longest, bounds[i + 1] - bounds[i]);
+    if (longest > MS_SUSPECT_S)
+        fprintf(stderr, "petblur: warning: a frame lasts %.3g h: are the times in milliseconds? frames and tracks are "
+                "in seconds (--time-unit ms reads a track in ms)\n", longest / 3600.0);
+    else if (all < 1e-3 * span)
+        fprintf(stderr, "petblur: warning: the frame%s %.9g to %.9g s span%s %.2g %% of the track %s (%.9g to %.9g "
+                "s); are the frames and the track in the same time unit?\n", frames > 1 ? "s" : "", bounds[0],
+                bounds[frames], frames > 1 ? "" : "s", 100.0 * all / span, m->source, t->times[0],
+                t->times[t->count - 1]);
+}
+
 int pbc_motion_check_frame(const pbc_motion *m, const pbc_image *img, double t0, double t1)
 {
     const pbc_track *t = &m->track;
-    double len = t1 - t0, span = t->times[t->count - 1] - t->times[0];
-    int tracked = strcmp(m->source, "--translate/--rotate") != 0;
-    if (tracked && len > MS_SUSPECT_S)
-        fprintf(stderr, "petblur: warning: the frame %.9g to %.9g s lasts %.3g h: are the times in milliseconds? "
-                "frames and tracks are in seconds (--time-unit ms reads a track in ms)\n", t0, t1, len / 3600.0);
-    else if (tracked && len < 1e-3 * span)
-        fprintf(stderr, "petblur: warning: the frame %.9g to %.9g s spans %.2g %% of the track %s (%.9g to %.9g s); "
-                "are the frame and the track in the same time unit?\n", t0, t1, 100.0 * len / span, m->source,
-                t->times[0], t->times[t->count - 1]);
-    for (size_t i = 1; i < t->count; i++)
+    size_t lo, hi;
+    frame_samples(t, t0, t1, &lo, &hi);
+    /* Gaps that overlap the frame end at a sample in (t0, t1] or at the first after t1. */
+    for (size_t i = lo > 0 ? lo : 1; i <= hi && i < t->count; i++)
         if (t->missing[i] && t->times[i] > t0 && t->times[i - 1] < t1 && t->times[i] - t->times[i - 1] > MAX_GAP_S)
             return pbc_fail(PBC_EXIT_USAGE, "%s:%zu-%zu: %zu missing samples leave a gap of %.3g s (%.9g to %.9g s) "
                             "inside the frame %.9g to %.9g s, longer than the %.3g s petblur interpolates across; "
@@ -408,10 +459,11 @@ int pbc_motion_check_frame(const pbc_motion *m, const pbc_image *img, double t0,
     /* The frame's ends and every tracked pose inside it (taken as they are:
      * interpolating each would cost a pass over the track). */
     size_t seen = 0, poses = 0;
-    for (size_t i = 0; i <= t->count + 1; i++) {
+    pb_motion part = pbc_motion_part(m, t0, t1);
+    for (size_t i = lo; i <= hi + 1; i++) {
         pb_pose p;
-        if (i == 0 || i == t->count + 1) {
-            if (pb_motion_pose_at(&m->motion, i ? t1 : t0, &p) != PB_OK)
+        if (i == lo || i == hi + 1) {
+            if (pb_motion_pose_at(&part, i == lo ? t0 : t1, &p) != PB_OK)
                 continue;
         } else if (t->times[i - 1] > t0 && t->times[i - 1] < t1) {
             p = m->motion.poses[i - 1];

@@ -57,11 +57,19 @@ int pbc_motion_from_args(const pbc_command *cmd, const pbc_args *args, pbc_motio
  * milliseconds. */
 int pbc_motion_place(pbc_motion *m, const pbc_image *img, const char *in_path);
 
-/* Checks a frame [t0, t1] of a placed motion: a length that looks like
- * milliseconds or spans almost none of the track (warnings), a gap of missing
- * samples inside it, a motion that takes the whole grid out of the field of
- * view (refusals). */
+/* Warns once when the frames (bounds[0..frames]) of a track look like
+ * milliseconds, or span almost none of the track together. */
+void pbc_motion_check_frames(const pbc_motion *m, const double *bounds, size_t frames);
+
+/* Checks a frame [t0, t1] of a placed motion: a gap of missing samples inside
+ * it, a motion that takes the whole grid out of the field of view (refusals),
+ * or out of it at some poses (a warning). */
 int pbc_motion_check_frame(const pbc_motion *m, const pbc_image *img, double t0, double t1);
+
+/* The placed motion's samples that frame [t0, t1] needs (the one before it to
+ * the one after), found by bisection, with the frame set: a frame of a long log
+ * costs its own samples. */
+pb_motion pbc_motion_part(const pbc_motion *m, double t0, double t1);
 
 void pbc_motion_free(pbc_motion *m);
 
