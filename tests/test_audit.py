@@ -102,6 +102,35 @@ class Audit(Case):
         self.assertIn("too long", p.stderr)
 
 
+class InterfileData(Case):
+    """An Interfile header may name any data file: only a regular file beside the header or below it is read, so
+    /etc/passwd is not read as voxels, a FIFO does not block and a folder is called one."""
+
+    def header(self, name, data):
+        with open(self.p(name), "w") as f:
+            f.write("!INTERFILE :=\n!name of data file := %s\n!number format := unsigned integer\n"
+                    "!number of bytes per pixel := 1\n" % data
+                    + "".join(f"!matrix size [{i}] := 4\nscaling factor (mm/pixel) [{i}] := 1\n" for i in (1, 2, 3))
+                    + "!END OF INTERFILE :=\n")
+        return self.p(name)
+
+    def test_data_files(self):
+        os.mkfifo(self.p("fifo.v"))
+        os.mkdir(self.p("dir.v"))
+        cases = [("passwd.hv", "/etc/passwd", "lies outside the header's folder"),
+                 ("up.hv", "../" + os.path.basename(self.d) + "x.v", "cannot open its data file"),
+                 ("fifo.hv", "fifo.v", "is a device, pipe or socket"), ("dir.hv", "dir.v", "is a folder")]
+        for name, data, words in cases:
+            with self.subTest(data=data):
+                start = time.monotonic()
+                p = subprocess.run([test_cli.PETBLUR, "blur", "-i", self.header(name, data), "-o", self.p("o.nii"),
+                                    "--translate", "1,0,0", "-q"], capture_output=True, text=True, timeout=30)
+                self.assertLess(time.monotonic() - start, LIMIT_S)
+                self.assertEqual(p.returncode, 2, p.stderr)
+                self.assertIn(words, p.stderr)
+                self.assertFalse(os.path.exists(self.p("o.nii")))
+
+
 class Bounded(Case):
     def test_time_is_bounded_by_the_grid(self):
         """A translation of 1e9 mm costs about what one across the grid costs: the walk is clipped to the grid."""

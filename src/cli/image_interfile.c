@@ -1,7 +1,11 @@
 /* Interfile 3.3 images as STIR reads and writes them: a text header (.hv)
  * naming a data file (.v) beside it. */
+/* realpath */
+#define _XOPEN_SOURCE 700
+
 #include <ctype.h>
 #include <errno.h>
+#include <limits.h>
 #include <math.h>
 #include <stddef.h>
 #include <stdlib.h>
@@ -304,16 +308,44 @@ static int data_file_path(const char *path, const char *name, char *out, size_t 
     return 0;
 }
 
+/* The data file must be a regular file in the header's folder or below it, as
+ * STIR writes it: a header is small and easily sent, and one that names
+ * /etc/passwd or a FIFO must neither read it as voxels nor block. */
+static int check_data_file(const char *path, const char *data_path)
+{
+    struct stat st;
+    char dir[4096], real_dir[PATH_MAX], real_data[PATH_MAX];
+    const char *slash = strrchr(path, '/');
+    snprintf(dir, sizeof dir, "%.*s", slash ? (int)(slash - path) + 1 : 1, slash ? path : ".");
+    if (stat(data_path, &st) != 0)
+        return pbc_fail(PBC_EXIT_USAGE, "%s: cannot open its data file %s (%s); check '!name of data file' in the "
+                        "header, or put the data file beside the header", path, data_path, strerror(errno));
+    if (!S_ISREG(st.st_mode))
+        return pbc_fail(PBC_EXIT_USAGE, "%s: its data file %s is %s, not a file of voxels; check '!name of data "
+                        "file'", path, data_path, S_ISDIR(st.st_mode) ? "a folder" : "a device, pipe or socket");
+    if (!realpath(dir, real_dir) || !realpath(data_path, real_data))
+        return pbc_fail(PBC_EXIT_USAGE, "%s: cannot resolve the path of its data file %s (%s)", path, data_path,
+                        strerror(errno));
+    size_t n = strlen(real_dir);
+    if (strncmp(real_data, real_dir, n) || (real_data[n] != '/' && strcmp(real_dir, "/")))
+        return pbc_fail(PBC_EXIT_USAGE, "%s: its data file %s lies outside the header's folder %s; petblur reads "
+                        "data files beside their header or below it, as STIR writes them (move or copy the pair "
+                        "together)", path, data_path, real_dir);
+    return 0;
+}
+
 static int read_data(const char *path, const char *data_path, long long offset, const pbc_sample_format *format,
                      pbc_image *img)
 {
+    int rc = check_data_file(path, data_path);
+    if (rc)
+        return rc;
     FILE *f = fopen(data_path, "rb");
     if (!f)
         return pbc_fail(PBC_EXIT_USAGE, "%s: cannot open its data file %s (%s); check '!name of data file' in the "
                         "header, or put the data file beside the header", path, data_path, strerror(errno));
     struct stat st;
     size_t n = pbc_image_voxels(img), size = pbc_sample_size(format->type);
-    int rc;
     if (fstat(fileno(f), &st) != 0)
         rc = pbc_fail(PBC_EXIT_USAGE, "%s: cannot read its data file %s (%s)", path, data_path, strerror(errno));
     else if (st.st_size < offset || st.st_size - offset < (long long)(n * size))
