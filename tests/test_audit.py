@@ -97,6 +97,23 @@ class Audit(Case):
         self.replay((2, 3), "none", "blur", "-i", self.p("in.nii"), "-o", self.p("out.hv"), "--translate", "1,0,0",
                     "--device", "host", "-q")
         self.assertEqual(digest(self.p("out.v")), kept, "the existing out.v was lost or changed")
+        # An existing output that is a link, or read-only, is refused; a replaced one keeps its mode.
+        os.symlink(self.p("in.nii"), self.p("link.nii"))
+        self.replay((2,), "none", "blur", "-i", self.p("in.nii"), "-o", self.p("link.nii"), "--translate", "1,0,0", "-q")
+        self.assertTrue(os.path.islink(self.p("link.nii")))
+        for mode, allowed in ((0o444, (2,)), (0o640, (0,))):
+            with open(self.p("old.nii"), "wb") as f:
+                f.write(b"old")
+            os.chmod(self.p("old.nii"), mode)
+            p = subprocess.run([test_cli.PETBLUR, "blur", "-i", self.p("in.nii"), "-o", self.p("old.nii"),
+                                "--translate", "1,0,0", "-q"], capture_output=True, text=True, timeout=60)
+            self.assertIn(p.returncode, allowed, p.stderr)
+            self.assertEqual(os.stat(self.p("old.nii")).st_mode & 0o777, mode)
+            if mode == 0o444:
+                self.assertIn("write-protected", p.stderr)
+                self.assertEqual(open(self.p("old.nii"), "rb").read(), b"old")
+            os.chmod(self.p("old.nii"), 0o644)
+            os.remove(self.p("old.nii"))
         long = "x" * 250 + ".nii"
         p = self.replay((2,), long, "blur", "-i", self.p("in.nii"), "-o", self.p(long), "--translate", "1,0,0", "-q")
         self.assertIn("too long", p.stderr)

@@ -96,6 +96,10 @@ int pbc_temp_commit(pbc_temp *t, FILE *f)
                             "choose another folder", t->path, strerror(e));
         }
     }
+    /* A replaced file keeps its permission bits. */
+    struct stat old;
+    if (stat(t->path, &old) == 0 && S_ISREG(old.st_mode))
+        chmod(t->temp, old.st_mode & 07777);
     if (rename(t->temp, t->path) != 0) {
         int e = errno;
         remove(t->temp);

@@ -11,6 +11,27 @@
 #include "commands.h"
 #include "image_formats.h"
 
+/* An output that exists is replaced by a new file that keeps its mode; a
+ * folder, a symbolic link, or a file its owner made read-only is not
+ * petblur's to replace. */
+static int replaceable(const char *option, const char *path)
+{
+    struct stat st;
+    if (lstat(path, &st) != 0)
+        return 0;
+    if (S_ISDIR(st.st_mode))
+        return pbc_fail(PBC_EXIT_USAGE, "%s %s: is a folder; name a file", option, path);
+    if (S_ISLNK(st.st_mode))
+        return pbc_fail(PBC_EXIT_USAGE, "%s %s: is a symbolic link, which petblur does not replace or write "
+                        "through; remove it or name another output", option, path);
+    /* The mode bits, not access(): root may write anything, and still should not
+     * replace a file made read-only. */
+    if (!(st.st_mode & (S_IWUSR | S_IWGRP | S_IWOTH)) || access(path, W_OK) != 0)
+        return pbc_fail(PBC_EXIT_USAGE, "%s %s: exists and is write-protected; remove it or name another output",
+                        option, path);
+    return 0;
+}
+
 int pbc_check_output(const char *option, const char *path, int picture)
 {
     char ext[32];
@@ -30,15 +51,11 @@ int pbc_check_output(const char *option, const char *path, int picture)
     if (strlen(base) + strlen(ext) + 32 > NAME_MAX)
         return pbc_fail(PBC_EXIT_USAGE, "%s %s: the file name is too long to write beside a temporary of it (at most "
                         "%d characters); choose a shorter one", option, path, (int)(NAME_MAX - strlen(ext) - 32));
-    struct stat st;
     char data[4096];
-    if (stat(path, &st) == 0 && S_ISDIR(st.st_mode))
-        return pbc_fail(PBC_EXIT_USAGE, "%s %s: is a folder; name a file", option, path);
-    if (!strcmp(ext, ".hv") && !pbc_interfile_data_name(path, data, sizeof data) && stat(data, &st) == 0 &&
-        S_ISDIR(st.st_mode))
-        return pbc_fail(PBC_EXIT_USAGE, "%s %s: its data file %s is a folder; name another output", option, path,
-                        data);
-    return 0;
+    int rc = replaceable(option, path);
+    if (!rc && !strcmp(ext, ".hv") && !pbc_interfile_data_name(path, data, sizeof data))
+        rc = replaceable(option, data);
+    return rc;
 }
 
 int pbc_hints_from_args(const pbc_command *cmd, const pbc_args *args, size_t dims[3], double voxel_size[3],
