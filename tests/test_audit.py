@@ -7,11 +7,13 @@ usage: test_audit.py PATH/TO/petblur
 import glob
 import hashlib
 import os
+import signal
 import subprocess
 import sys
 import time
 import unittest
 
+import numpy as np
 import test_cli
 from test_cli import Case
 
@@ -146,6 +148,32 @@ class InterfileData(Case):
                 self.assertEqual(p.returncode, 2, p.stderr)
                 self.assertIn(words, p.stderr)
                 self.assertFalse(os.path.exists(self.p("o.nii")))
+
+
+class Interrupted(Case):
+    def test_signal_during_a_write_leaves_nothing(self):
+        """SIGTERM or SIGINT while the output is being written removes the temporary: no hidden file is left and
+        no output appears. The output is a .nii.gz of random voxels, slow to compress, and the signal is sent once
+        its temporary exists."""
+        np.random.default_rng().random((96, 96, 96), dtype=np.float32).astype("<f4").tofile(self.p("in.raw"))
+        for sig in (signal.SIGTERM, signal.SIGINT):
+            with self.subTest(signal=sig.name):
+                p = subprocess.Popen([test_cli.PETBLUR, "blur", "-i", self.p("in.raw"), "--dims", "96,96,96", "-o",
+                                      self.p("o.nii.gz"), "--translate", "0,0,0", "--device", "host", "-q"],
+                                     stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+                deadline = time.monotonic() + 30
+                while p.poll() is None and time.monotonic() < deadline:
+                    if any(".petblur-" in f for f in os.listdir(self.d)):
+                        p.send_signal(sig)
+                        break
+                    time.sleep(0.001)
+                p.wait(timeout=30)
+                if p.returncode == 0:  # the write won the race; nothing to check this round
+                    os.remove(self.p("o.nii.gz"))
+                    continue
+                self.assertEqual(p.returncode, -sig, "the signal should end the program as it would have")
+                self.assertEqual([f for f in os.listdir(self.d) if ".petblur-" in f], [])
+                self.assertFalse(os.path.exists(self.p("o.nii.gz")))
 
 
 class Bounded(Case):

@@ -3,6 +3,7 @@
 #include <ctype.h>
 #include <errno.h>
 #include <fcntl.h>
+#include <signal.h>
 #include <stdio.h>
 #include <string.h>
 #include <strings.h>
@@ -11,6 +12,52 @@
 
 #include "atomic_file.h"
 #include "cli.h"
+
+/* Temporaries alive now, removed by a handler when SIGINT, SIGTERM or SIGHUP
+ * ends the program mid-write (unlink is async-signal-safe; the handler then
+ * lets the signal end the program as it would have). A write has at most two
+ * at once (an .hv pair), and a kept backup. */
+enum { LIVE_TEMPS = 4 };
+static char live_temp[LIVE_TEMPS][4096];
+static volatile sig_atomic_t live_used[LIVE_TEMPS];
+
+static void remove_live_temps(int sig)
+{
+    for (int i = 0; i < LIVE_TEMPS; i++)
+        if (live_used[i])
+            unlink(live_temp[i]);
+    signal(sig, SIG_DFL);
+    raise(sig);
+}
+
+static void track_temp(const char *temp)
+{
+    static int installed;
+    if (!installed) {
+        static const int sigs[] = {SIGINT, SIGTERM, SIGHUP};
+        for (size_t i = 0; i < sizeof sigs / sizeof sigs[0]; i++) {
+            struct sigaction sa;
+            memset(&sa, 0, sizeof sa);
+            sa.sa_handler = remove_live_temps;
+            sigemptyset(&sa.sa_mask);
+            sigaction(sigs[i], &sa, NULL);
+        }
+        installed = 1;
+    }
+    for (int i = 0; i < LIVE_TEMPS; i++)
+        if (!live_used[i]) {
+            snprintf(live_temp[i], sizeof live_temp[i], "%s", temp);
+            live_used[i] = 1;
+            return;
+        }
+}
+
+static void untrack_temp(const char *temp)
+{
+    for (int i = 0; i < LIVE_TEMPS; i++)
+        if (live_used[i] && !strcmp(live_temp[i], temp))
+            live_used[i] = 0;
+}
 
 void pbc_file_extension(const char *path, char *ext, size_t size)
 {
@@ -55,6 +102,7 @@ int pbc_temp_reserve(pbc_temp *t, const char *path)
         int fd = open(t->temp, O_WRONLY | O_CREAT | O_EXCL, 0666);
         if (fd >= 0) {
             close(fd);
+            track_temp(t->temp);
             return 0;
         }
         if (errno != EEXIST)
@@ -92,6 +140,7 @@ int pbc_temp_commit(pbc_temp *t, FILE *f)
         }
         if (bad) {
             remove(t->temp);
+            untrack_temp(t->temp);
             return pbc_fail(PBC_EXIT_RUNTIME, "%s: writing failed (%s); nothing was written; free some space or "
                             "choose another folder", t->path, strerror(e));
         }
@@ -100,7 +149,9 @@ int pbc_temp_commit(pbc_temp *t, FILE *f)
     struct stat old;
     if (stat(t->path, &old) == 0 && S_ISREG(old.st_mode))
         chmod(t->temp, old.st_mode & 07777);
-    if (rename(t->temp, t->path) != 0) {
+    int moved = rename(t->temp, t->path);
+    untrack_temp(t->temp);
+    if (moved != 0) {
         int e = errno;
         remove(t->temp);
         return pbc_fail(PBC_EXIT_RUNTIME, "%s: cannot move the finished file into place (%s); nothing was written",
@@ -114,6 +165,7 @@ void pbc_temp_abort(pbc_temp *t, FILE *f)
     if (f)
         fclose(f);
     remove(t->temp);
+    untrack_temp(t->temp);
 }
 
 int pbc_same_file(const char *a, const char *b)
