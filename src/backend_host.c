@@ -318,11 +318,11 @@ static pb_status host_adjoint(pb_context *ctx, const pb_volume *tomograph, const
     const float *in = tomograph->impl;
     float *out = object->impl;
     for (size_t i = 0; accumulate && i < object->count; i++)
-        acc[i] = out[i];
+        acc[i] = (double)out[i];
     for (long iz = 0; iz < io.n[2]; iz++) {
         for (long iy = 0; iy < io.n[1]; iy++)
             for (long ix = 0; ix < io.n[0]; ix++) {
-                double v = in[ix + io.n[0] * (iy + io.n[1] * iz)];
+                double v = (double)in[ix + io.n[0] * (iy + io.n[1] * iz)];
                 if (v != 0.0)
                     blur_voxel(&io, plan, opt, ix, iy, iz, v);
             }

@@ -24,7 +24,7 @@ static void test_volumes(pb_context *ctx)
     pb_check(v == NULL, "no volume on failure");
     pb_geometry neg = {{8, 8, 8}, {1, -2, 1}};
     expect(pb_volume_create(ctx, &neg, &v), PB_ERR_BAD_VOXEL_SIZE, "negative voxel", pb_last_error(ctx), "voxel size y");
-    pb_geometry nan_vox = {{8, 8, 8}, {NAN, 1, 1}};
+    pb_geometry nan_vox = {{8, 8, 8}, {(double)NAN, 1, 1}};
     expect(pb_volume_create(ctx, &nan_vox, &v), PB_ERR_BAD_VOXEL_SIZE, "NaN voxel", pb_last_error(ctx), NULL);
     pb_geometry huge = {{4096, 4096, 4096}, {1, 1, 1}};
     expect(pb_volume_create(ctx, &huge, &v), PB_ERR_VOLUME_TOO_LARGE, "2^36 voxels", pb_last_error(ctx), "2^31");
@@ -135,24 +135,24 @@ static void test_motions(pb_context *ctx)
     m.count = 1;
     expect(pb_blur(ctx, in, &m, NULL, out), PB_ERR_TRACK_ORDER, "one pose", pb_last_error(ctx), NULL);
 
-    double nan_times[3] = {0.0, NAN, 2.0};
+    double nan_times[3] = {0.0, (double)NAN, 2.0};
     m = good;
     m.times = nan_times;
     expect(pb_blur(ctx, in, &m, NULL, out), PB_ERR_NOT_FINITE, "NaN time", pb_last_error(ctx), "time 1");
     m = good;
-    m.frame_end = INFINITY;
+    m.frame_end = (double)INFINITY;
     expect(pb_blur(ctx, in, &m, NULL, out), PB_ERR_NOT_FINITE, "infinite frame", pb_last_error(ctx), NULL);
     pb_pose bad[3] = {poses[0], poses[1], poses[2]};
-    bad[1].translation[2] = NAN;
+    bad[1].translation[2] = (double)NAN;
     m = good;
     m.poses = bad;
     expect(pb_blur(ctx, in, &m, NULL, out), PB_ERR_NOT_FINITE, "NaN translation", pb_last_error(ctx), "pose 1");
     bad[1] = poses[1];
-    bad[2].rotation[3] = INFINITY;
+    bad[2].rotation[3] = (double)INFINITY;
     expect(pb_blur(ctx, in, &m, NULL, out), PB_ERR_NOT_FINITE, "infinite quaternion", pb_last_error(ctx), NULL);
     m = good;
     m.has_center = 1;
-    m.center[1] = NAN;
+    m.center[1] = (double)NAN;
     expect(pb_blur(ctx, in, &m, NULL, out), PB_ERR_NOT_FINITE, "NaN centre", pb_last_error(ctx), "centre");
 
     bad[2] = poses[2];

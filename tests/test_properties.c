@@ -220,7 +220,7 @@ static void test_analytic_translation(pb_context *ctx)
     moved = pb_test_pose(shift[0] * g.voxel_size[0], shift[1] * g.voxel_size[1], shift[2] * g.voxel_size[2], NULL, 0);
     pb_test_motion_init(&tm, &still, &moved);
     analytic_translation(in, g.dims, shift, exact);
-    double prev = INFINITY;
+    double prev = (double)INFINITY;
     for (unsigned parts = 1; parts <= 64; parts *= 4) {
         pb_blur_options opt = {PB_METHOD_AB, PB_FILTER_EXACT, parts, 0, 0, 0, 0.0};
         pb_test_blur(ctx, &g, in, &tm.motion, &opt, out);
@@ -234,7 +234,7 @@ static void test_analytic_translation(pb_context *ctx)
     }
     pb_check(prev < 1e-3, "AB with 64 sub-segments within 1e-3%% (%.3g%%)", prev);
 
-    prev = INFINITY;
+    prev = (double)INFINITY;
     for (unsigned k = 4; k <= 1024; k *= 16) {
         pb_blur_options opt = {PB_METHOD_REF, PB_FILTER_EXACT, 0, k, 64, 11, 0.0};
         pb_test_blur(ctx, &g, in, &tm.motion, &opt, out);
@@ -371,7 +371,7 @@ static void test_path_error(pb_context *ctx)
     pb_blur_options cl = {PB_METHOD_CL, PB_FILTER_EXACT, 2000, 0, 0, 0, 0.0};
     pb_test_blur(ctx, &g, in, &tm.motion, &cl, truth);
 
-    double prev = INFINITY;
+    double prev = (double)INFINITY;
     size_t prev_segments = 0;
     for (double e = 4.0; e >= 0.06; e /= 4.0) {
         pb_blur_options rm = {PB_METHOD_RM, PB_FILTER_EXACT, 64, 0, 0, 0, e};
@@ -442,11 +442,11 @@ static void test_track_merge(pb_context *ctx)
     }
     for (size_t k = 0; k < n; k++) {
         if (k % 24 + 1 < 24)
-            step = fmax(step, fabs(in[k + 1] - in[k]));
+            step = fmax(step, fabs((double)(in[k + 1] - in[k])));
         if (k / 24 % 20 + 1 < 20)
-            step = fmax(step, fabs(in[k + 24] - in[k]));
+            step = fmax(step, fabs((double)(in[k + 24] - in[k])));
         if (k + 480 < n)
-            step = fmax(step, fabs(in[k + 480] - in[k]));
+            step = fmax(step, fabs((double)(in[k + 480] - in[k])));
     }
     static pb_pose poses[181];
     static double times[181];

@@ -122,7 +122,7 @@ static pb_status apply(pb_context *ctx, const pb_geometry *g, const float *in, c
     if (st == PB_OK)
         st = pb_volume_upload(b, out); /* poison the device copy too */
     for (size_t i = 0; i < n && st == PB_OK; i++)
-        out[i] = NAN; /* and the host copy, so a download that did not happen shows */
+        out[i] = (double)NAN; /* and the host copy, so a download that did not happen shows */
     if (st == PB_OK)
         st = adjoint ? pb_blur_adjoint(ctx, a, m, opt, b) : pb_blur(ctx, a, m, opt, b);
     if (st == PB_OK)
@@ -174,7 +174,7 @@ double pb_max_abs_diff(const float *a, const float *b, size_t n)
     for (size_t i = 0; i < n; i++) {
         double d = fabs((double)a[i] - (double)b[i]);
         if (isnan(d))
-            return NAN; /* a poisoned voxel fails every bound */
+            return (double)NAN; /* a poisoned voxel fails every bound */
         worst = fmax(worst, d);
     }
     return worst;

@@ -99,12 +99,16 @@ int pbc_temp_reserve(pbc_temp *t, const char *path)
         if (snprintf(t->temp, sizeof t->temp, "%.*s.%s.petblur-%ld-%u%s", dirlen, path, base, (long)getpid(),
                      attempt, ext) >= (int)sizeof t->temp)
             return pbc_fail(PBC_EXIT_USAGE, "%s: the output path is too long; choose a shorter one", path);
+        /* Tracked before it exists, so that no signal falls between its
+         * creation and its tracking; the name holds our pid, so a failed
+         * O_EXCL finds only a stale file of ours. */
+        track_temp(t->temp);
         int fd = open(t->temp, O_WRONLY | O_CREAT | O_EXCL, 0666);
         if (fd >= 0) {
             close(fd);
-            track_temp(t->temp);
             return 0;
         }
+        untrack_temp(t->temp);
         if (errno != EEXIST)
             return pbc_fail(PBC_EXIT_RUNTIME, "%s: cannot create a file in that folder (%s); check that the folder "
                             "exists and is writable", path, strerror(errno));

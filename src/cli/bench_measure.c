@@ -23,7 +23,7 @@ int pbc_bench_time(pb_context *ctx, pb_volume *in, pb_volume *outv, const float 
     pb_status st = pb_blur(ctx, in, motion, options, outv); /* warm-up, and the result */
     if (st == PB_OK)
         st = pb_volume_download(outv, out);
-    t->kernel_ms = t->kernel_min_ms = t->e2e_ms = t->adjoint_ms = NAN;
+    t->kernel_ms = t->kernel_min_ms = t->e2e_ms = t->adjoint_ms = (double)NAN;
     if (st == PB_OK && runs == 0)
         pb_context_last_kernel_ms(ctx, &t->kernel_ms); /* the warm-up's time is all there is */
     for (int r = 0; r < runs && st == PB_OK; r++) {

@@ -236,7 +236,7 @@ static void progress_clear(void)
 static int references(pb_context *ctx, const bench_config *c, const char *name, int s, const pbc_image *ph,
                       pb_volume *in, pb_volume *out, const pb_motion *motion, float *ref[2], double *ms)
 {
-    *ms = NAN;
+    *ms = (double)NAN;
     for (int seed = 1; seed <= 2; seed++) {
         char path[4096];
         int rc;
@@ -329,7 +329,7 @@ static int bench_case(pb_context *ctx, const bench_config *c, bench_files *f, co
             progress(name, s, what);
             int e2e = c->runs < 5 ? (int)c->runs : 5;
             for (size_t i = 0; i < n; i++)
-                res[i] = NAN; /* a blur that wrote nothing cannot pass for one that did */
+                res[i] = (double)NAN; /* a blur that wrote nothing cannot pass for one that did */
             if ((rc = pbc_bench_time(ctx, in, out, ph->data, &motion, &opt, (int)c->runs, e2e, res, adj, &t)))
                 return rc;
             double err = pb_error_percent(ref[0], res, n);

@@ -355,7 +355,7 @@ int pbc_motion_place(pbc_motion *m, const pbc_image *img, const char *in_path)
  * image under a rigid map lies inside the box around its eight corners. */
 static int grid_seen(const pb_motion *mo, const pbc_image *img, const pb_pose *p)
 {
-    double ext[3], c[3], lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
+    double inf = (double)INFINITY, ext[3], c[3], lo[3] = {inf, inf, inf}, hi[3] = {-inf, -inf, -inf};
     for (int i = 0; i < 3; i++) {
         ext[i] = (double)img->dims[i] * img->voxel_size[i];
         c[i] = mo->has_center ? mo->center[i] : 0.5 * ext[i];

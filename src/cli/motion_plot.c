@@ -77,7 +77,7 @@ int pbc_motion_plot(const char *path, const pbc_motion *m, const double *bounds,
     if (!v)
         return pbc_fail(PBC_EXIT_RUNTIME, "out of memory for the picture of %zu poses", n);
     const double *c = m->grid_center, *mc = m->world_center;
-    panel pt = {TOP + 20, INFINITY, -INFINITY}, pr = {TOP + 20 + PANEL + GAP, 0.0, -INFINITY};
+    panel pt = {TOP + 20, (double)INFINITY, -(double)INFINITY}, pr = {TOP + 20 + PANEL + GAP, 0.0, -(double)INFINITY};
     for (size_t k = 0; k < n; k++) {
         const pb_pose *p = &m->track.poses[k]; /* in the world, about world_center */
         double mtx[16];
