@@ -13,6 +13,7 @@ import sys
 import time
 import unittest
 
+import nibabel as nib
 import numpy as np
 import test_cli
 from test_cli import Case
@@ -148,6 +149,34 @@ class InterfileData(Case):
                 self.assertEqual(p.returncode, 2, p.stderr)
                 self.assertIn(words, p.stderr)
                 self.assertFalse(os.path.exists(self.p("o.nii")))
+
+
+class FourD(Case):
+    def test_render_compare_and_pictures_of_frames(self):
+        """render and compare take petblur's own --frames output; compare's error is eq. (5) over every frame
+        (numpy); the --png of --frames and --sum-frames is written."""
+        test_cli.run("phantom", "--kind", "brain", "--dims", "16,16,8", "-o", self.p("in.nii"), "-q")
+        with open(self.p("t.csv"), "w") as f:
+            f.write("t,tx,ty,tz,qw,qx,qy,qz\n0,0,0,0,1,0,0,0\n3,6,2,-3,1,0,0,0\n")
+        common = ("-i", self.p("in.nii"), "--motion", self.p("t.csv"), "--frames", "0,1,2,3", "--device", "host", "-q")
+        test_cli.run("blur", "-o", self.p("a.nii"), *common, "--png", self.p("a.png"))
+        test_cli.run("blur", "-o", self.p("b.nii"), *common, "--method", "rm")
+        test_cli.run("blur", "-o", self.p("s.nii"), *common, "--adjoint", "--sum-frames", "--png", self.p("s.png"))
+        w1, h1 = test_cli.png_size(self.p("a.png"))
+        w2, h2 = test_cli.png_size(self.p("s.png"))
+        self.assertLess(h2, h1, "the sum's picture has no difference row")
+        test_cli.run("render", self.p("a.nii"), "-o", self.p("r.png"))
+        test_cli.run("render", self.p("in.nii"), "-o", self.p("one.png"))
+        self.assertGreater(test_cli.png_size(self.p("r.png"))[1], 2 * test_cli.png_size(self.p("one.png"))[1],
+                           "three frames, three rows")
+        out, _ = test_cli.run("compare", self.p("a.nii"), self.p("b.nii"))
+        a, b = nib.load(self.p("a.nii")).get_fdata(), nib.load(self.p("b.nii")).get_fdata()
+        self.assertEqual(a.shape, (16, 16, 8, 3))
+        expect = 100 * ((b - a) ** 2).sum() / (a ** 2).sum()
+        got = float(out.strip().splitlines()[-1].split("=")[1])
+        self.assertAlmostEqual(got, expect, delta=1e-4 * expect)
+        _, err = test_cli.run("compare", self.p("a.nii"), self.p("in.nii"), expect=2)
+        self.assertIn("has 3 frames and", err)
 
 
 class Interrupted(Case):

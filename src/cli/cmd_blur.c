@@ -186,7 +186,10 @@ static double common_length(const double *bounds, size_t frames)
     return len;
 }
 
-static int write_picture(const char *png, const pbc_image *in, const float *out)
+/* Input, output and their difference; with --frames the first frame's, so
+ * labelled; with --sum-frames the output is the frames' sum, which has no
+ * input of its own to subtract. */
+static int write_picture(const char *png, const pbc_image *in, const float *out, int frames, int sum)
 {
     size_t n = in->dims[0] * in->dims[1] * in->dims[2];
     float *diff = malloc(n * sizeof *diff);
@@ -194,9 +197,11 @@ static int write_picture(const char *png, const pbc_image *in, const float *out)
         return pbc_fail(PBC_EXIT_RUNTIME, "out of memory for the picture's difference volume");
     for (size_t i = 0; i < n; i++)
         diff[i] = out[i] - in->data[i];
-    pbc_picture_row rows[3] = {{"input", in->data, 0}, {"output", out, 0}, {"difference", diff, 1}};
+    pbc_picture_row rows[3] = {{frames ? "input, frame 0" : "input", in->data, 0},
+                               {sum ? "output, the sum" : frames ? "output, frame 0" : "output", out, 0},
+                               {frames ? "difference, frame 0" : "difference", diff, 1}};
     pbc_picture pic = {{in->dims[0], in->dims[1], in->dims[2]},
-                       {in->voxel_size[0], in->voxel_size[1], in->voxel_size[2]}, rows, 3};
+                       {in->voxel_size[0], in->voxel_size[1], in->voxel_size[2]}, rows, sum ? 2 : 3};
     int rc = pbc_picture_write(png, &pic);
     free(diff);
     return rc;
@@ -238,7 +243,7 @@ static int run(const pbc_args *args, const char *in_path, const char *out_path, 
     if (!rc)
         rc = pbc_image_write(out_path, &out);
     if (!rc && png)
-        rc = write_picture(png, &in, out.data);
+        rc = write_picture(png, &in, out.data, bounds != NULL, sum);
     if (!rc && !quiet) {
         char dev[600], shape[64] = "";
         pbc_describe_device(ctx, dev, sizeof dev);

@@ -27,9 +27,14 @@ static int read_both(const pbc_args *args, pbc_image *ref, pbc_image *test)
     double vs[3];
     pbc_read_hints hints;
     int rc = pbc_hints_from_args(&command, args, dims, vs, &hints);
+    hints.allow_frames = 1;
     if (rc || (rc = pbc_image_read(args->positional[0], &hints, ref)) ||
         (rc = pbc_image_read(args->positional[1], &hints, test)))
         return rc;
+    if (pbc_image_frame_count(ref) != pbc_image_frame_count(test))
+        return pbc_fail(PBC_EXIT_USAGE, "%s has %zu frames and %s %zu; compare images with as many frames",
+                        args->positional[0], pbc_image_frame_count(ref), args->positional[1],
+                        pbc_image_frame_count(test));
     for (int i = 0; i < 3; i++)
         if (ref->dims[i] != test->dims[i] || fabs(ref->voxel_size[i] - test->voxel_size[i]) > 1e-6 * ref->voxel_size[i])
             return pbc_fail(PBC_EXIT_USAGE, "%s is %zu x %zu x %zu voxels of %g x %g x %g mm but %s is %zu x %zu x %zu "
@@ -48,7 +53,7 @@ int pbc_cmd_compare(int argc, char **argv)
     if (rc)
         return rc < 0 ? 0 : rc;
     if (!(rc = read_both(&args, &ref, &test))) {
-        size_t n = ref.dims[0] * ref.dims[1] * ref.dims[2];
+        size_t n = pbc_image_frame_voxels(&ref) * pbc_image_frame_count(&ref); /* every frame */
         double err = pb_error_percent(ref.data, test.data, n), maxdiff = 0.0, maxref = 0.0;
         for (size_t i = 0; i < n; i++) {
             maxdiff = fmax(maxdiff, fabs((double)test.data[i] - (double)ref.data[i]));

@@ -1,4 +1,5 @@
 /* petblur render: a picture of a volume's central slices. */
+#include <stdio.h>
 #include <string.h>
 
 #include "cli.h"
@@ -16,7 +17,8 @@ static const pbc_option options[] = {
 
 static const pbc_command command = {
     "render", "IN -o PICTURE.png [options]",
-    "Draws the axial, coronal and sagittal central slices of a volume side by side, with a colour bar.",
+    "Draws the axial, coronal and sagittal central slices of a volume side by side, with a colour bar; of a\n"
+    "4-D NIfTI (petblur blur --frames writes one), up to four frames, first and last among them, a row each.",
     options, (int)(sizeof options / sizeof options[0]), 1, 1,
     "example:\n  petblur render blurred.nii.gz -o blurred.png"};
 
@@ -36,7 +38,10 @@ int pbc_cmd_render(int argc, char **argv)
     double vs[3];
     pbc_read_hints hints;
     pbc_image img = {0};
-    if ((rc = pbc_hints_from_args(&command, &args, dims, vs, &hints)) || (rc = pbc_image_read(in, &hints, &img)))
+    if ((rc = pbc_hints_from_args(&command, &args, dims, vs, &hints)))
+        return rc;
+    hints.allow_frames = 1;
+    if ((rc = pbc_image_read(in, &hints, &img)))
         return rc;
     if ((rc = pbc_image_check_not_input(out, in, &img))) {
         pbc_image_free(&img);
@@ -46,9 +51,17 @@ int pbc_cmd_render(int argc, char **argv)
         const char *slash = strrchr(in, '/');
         title = slash ? slash + 1 : in;
     }
-    pbc_picture_row row = {title, img.data, 0};
+    /* A 4-D image: up to four frames, the first and last among them, one row each. */
+    size_t frames = pbc_image_frame_count(&img), shown = frames < 4 ? frames : 4;
+    pbc_picture_row rows[4];
+    char labels[4][64];
+    for (size_t r = 0; r < shown; r++) {
+        size_t f = shown > 1 ? r * (frames - 1) / (shown - 1) : 0;
+        snprintf(labels[r], sizeof labels[r], "%s, frame %zu", title, f);
+        rows[r] = (pbc_picture_row){frames > 1 ? labels[r] : title, img.data + f * pbc_image_frame_voxels(&img), 0};
+    }
     pbc_picture pic = {{img.dims[0], img.dims[1], img.dims[2]},
-                       {img.voxel_size[0], img.voxel_size[1], img.voxel_size[2]}, &row, 1};
+                       {img.voxel_size[0], img.voxel_size[1], img.voxel_size[2]}, rows, (int)shown};
     rc = pbc_picture_write(out, &pic);
     pbc_image_free(&img);
     return rc;
