@@ -15,7 +15,7 @@ python3 -m pip install --no-deps --no-index -q .whl/nibabel-*.whl 2>&1 | tail -1
     "${meson[@]}" setup build-world --buildtype=release -Dcuda=enabled -Dopencl=enabled >/dev/null &&
         ninja -C build-world >/dev/null || { echo "gpu-world: the build failed"; exit 1; }
     ./build-world/src/cli/petblur devices
-    "${meson[@]}" test -C build-world --suite host --print-errorlogs
+    "${meson[@]}" test -C build-world --suite host --suite cuda --print-errorlogs
     # The Python with numpy and SciPy here is the one on the PATH, not Debian's
     # /usr/bin/python3 that meson's cli suite names.
     for t in world cli; do

@@ -1,0 +1,26 @@
+#!/usr/bin/env bash
+# On the GPU machine: the CUDA suites once under compute-sanitizer, memcheck on
+# every CUDA test and racecheck on the adjoint's scatter (its atomics), failing
+# on any report. Kept apart from bench/gpu.sh, whose run already fills the
+# device tool's ten minutes.   bash bench/gpu-sanitize.sh   (the log under $OUT)
+set -uo pipefail
+cd "$(dirname "$0")/.."
+OUT=${OUT:-$PWD/gpu-out}
+mkdir -p "$OUT"
+. bench/device-env.sh
+status=0
+{
+    "${meson[@]}" setup build-sanitize --buildtype=debugoptimized -Dcuda=enabled -Dopencl=disabled >/dev/null &&
+        ninja -C build-sanitize >/dev/null || { echo "gpu-sanitize: the build failed"; exit 1; }
+    for t in errors frames adjoint properties backend_vs_host no_device; do
+        echo "== memcheck test_$t cuda"
+        compute-sanitizer --tool memcheck --error-exitcode 99 --leak-check full ./build-sanitize/tests/test_$t cuda |
+            tail -3
+        [ "${PIPESTATUS[0]}" = 0 ] || { echo "memcheck test_$t: FAILED"; status=1; }
+    done
+    echo "== racecheck test_adjoint cuda"
+    compute-sanitizer --tool racecheck --error-exitcode 99 ./build-sanitize/tests/test_adjoint cuda | tail -3
+    [ "${PIPESTATUS[0]}" = 0 ] || { echo "racecheck test_adjoint: FAILED"; status=1; }
+    echo "gpu-sanitize: $([ $status = 0 ] && echo clean || echo REPORTS)"
+} 2>&1 | tee "$OUT/sanitize.log"
+exit $status
