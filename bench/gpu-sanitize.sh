@@ -8,8 +8,8 @@ cd "$(dirname "$0")/.."
 OUT=${OUT:-$PWD/gpu-out}
 mkdir -p "$OUT"
 . bench/device-env.sh
-status=0
 {
+    status=0
     "${meson[@]}" setup build-sanitize --buildtype=debugoptimized -Dcuda=enabled -Dopencl=disabled >/dev/null &&
         ninja -C build-sanitize >/dev/null || { echo "gpu-sanitize: the build failed"; exit 1; }
     for t in errors frames adjoint properties backend_vs_host no_device; do
@@ -22,5 +22,6 @@ status=0
     compute-sanitizer --tool racecheck --error-exitcode 99 ./build-sanitize/tests/test_adjoint cuda | tail -3
     [ "${PIPESTATUS[0]}" = 0 ] || { echo "racecheck test_adjoint: FAILED"; status=1; }
     echo "gpu-sanitize: $([ $status = 0 ] && echo clean || echo REPORTS)"
+    exit $status
 } 2>&1 | tee "$OUT/sanitize.log"
-exit $status
+exit "${PIPESTATUS[0]}"
