@@ -80,6 +80,15 @@ class Audit(Case):
                 self.replay(allowed, "o.nii", "blur", "-i", self.p("in.nii"), "-o", self.p("o.nii"), "--motion",
                             os.path.join(AUDIT, name), "--device", "host", "-q", *extra)
 
+    def test_long_header(self):
+        """A header longer than the message shows (the fuzzer's find: the text it collects overran its buffer,
+        which the sanitizer run of this suite catches)."""
+        with open(self.p("long.csv"), "w") as f:
+            f.write(",".join(f"column_{i:03d}_with_a_long_name" for i in range(40)) + "\n0,1\n")
+        p = self.replay((2,), "o.nii", "blur", "-i", self.p("in.nii"), "-o", self.p("o.nii"), "--motion",
+                        self.p("long.csv"), "--device", "host", "-q")
+        self.assertIn("the header has no column 't'; found 'column_000_with_a_long_name", p.stderr)
+
     def test_huge_translations_end(self):
         for t in ("1e9,0,0", "1e200,0,0", "0,-3e11,2e11"):
             for method in ("ab", "rm", "cl"):

@@ -70,8 +70,8 @@ static int map_header(const char *path, char **f, int n, const char *const *name
     int named_q = 0;
     for (int i = 0; i < n && i < MAX_FIELDS; i++) {
         lower(f[i]);
-        used += (size_t)snprintf(found + used, used < sizeof found ? sizeof found - used : 0, "%s%s", i ? "," : "",
-                                 f[i]);
+        if (used + 1 < sizeof found) /* what fits is enough to show */
+            used += (size_t)snprintf(found + used, sizeof found - used, "%s%s", i ? "," : "", f[i]);
         for (int c = 0; c < count; c++)
             if (!strcmp(f[i], names[c]) || (c == 0 && (!strcmp(f[i], "time") || !strcmp(f[i], "timestamp")))) {
                 column[c] = i;

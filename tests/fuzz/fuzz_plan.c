@@ -1,0 +1,69 @@
+/* libFuzzer harness: the library's motion checks and planner on a motion made
+ * of the bytes given (times, translations, quaternions, a centre, a frame and
+ * options, as raw doubles), then a blur on the host backend of a 4x3x2 grid:
+ * any motion must be refused with a status or blurred in bounded time, never
+ * crash or write NaN. */
+#include <math.h>
+#include <stdint.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "petblur.h"
+
+int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);
+
+static double take(const uint8_t **p, size_t *n)
+{
+    double v = 0.0;
+    if (*n >= sizeof v) {
+        memcpy(&v, *p, sizeof v);
+        *p += sizeof v;
+        *n -= sizeof v;
+    }
+    return v;
+}
+
+int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
+{
+    static pb_context *ctx;
+    static pb_volume *in, *out;
+    if (!ctx) {
+        pb_context_options o = {PB_BACKEND_HOST, 0, NULL};
+        pb_geometry g = {{4, 3, 2}, {1.5, 1.0, 2.0}};
+        float ones[24];
+        for (int i = 0; i < 24; i++)
+            ones[i] = 1.0f;
+        if (pb_context_create(&o, &ctx) != PB_OK || pb_volume_create(ctx, &g, &in) != PB_OK ||
+            pb_volume_create(ctx, &g, &out) != PB_OK || pb_volume_upload(in, ones) != PB_OK)
+            abort();
+    }
+    if (size < 2)
+        return 0;
+    size_t count = 2 + data[0] % 4;
+    pb_blur_options opt = {(pb_method)(data[1] & 3), (pb_filter)(data[1] >> 2 & 1), (data[1] >> 3 & 3), 4, 4, 1,
+                           0.0};
+    const uint8_t *p = data + 2;
+    size_t n = size - 2;
+    double times[5];
+    pb_pose poses[5];
+    for (size_t i = 0; i < count; i++) {
+        times[i] = take(&p, &n);
+        for (int k = 0; k < 3; k++)
+            poses[i].translation[k] = take(&p, &n);
+        for (int k = 0; k < 4; k++)
+            poses[i].rotation[k] = take(&p, &n);
+    }
+    pb_motion m = {times, poses, count, take(&p, &n), take(&p, &n), (int)(size & 1), {0, 0, 0}};
+    for (int k = 0; k < 3; k++)
+        m.center[k] = take(&p, &n);
+    opt.max_path_error = take(&p, &n);
+    if (pb_blur(ctx, in, &m, &opt, out) == PB_OK) {
+        float res[24];
+        if (pb_volume_download(out, res) != PB_OK)
+            abort();
+        for (int i = 0; i < 24; i++)
+            if (!isfinite(res[i]))
+                abort(); /* NaN with a status of success */
+    }
+    return 0;
+}
