@@ -85,8 +85,10 @@ static pb_motion frame_track(const pb_motion *track, double t0, double t1)
             a = mid + 1;
     }
     size_t hi = b;
-    if (hi <= lo)
+    if (hi <= lo) { /* a frame at or past the last sample: its planning says so, with the frame's number */
+        lo = lo + 1 < track->count ? lo : track->count - 2;
         hi = lo + 1;
+    }
     pb_motion m = *track;
     m.times += lo;
     m.poses += lo;

@@ -361,6 +361,13 @@ static pb_status plan_ref_steps(struct pb_context *ctx, const pb_blur_options *o
             plan->ref_steps[k].weight = plan->poses[j].weight / per[j];
         }
     }
+    /* Every segment clipped: one step of weight 0 keeps the buffers that the
+     * devices upload non-empty, and adds nothing. */
+    if (total == 0) {
+        pb_pose_texel_map(&plan->poses[0].pose, plan->center, plan->geometry.voxel_size, plan->ref_steps[0].map);
+        plan->ref_steps[0].weight = 0.0;
+        total = 1;
+    }
     plan->ref_count = total;
     free(per);
     return PB_OK;

@@ -84,8 +84,9 @@ static void segment_reach(const pb_pose *a, const pb_pose *b, double len, double
     }
     inside_interval(p, q, len, &l2, &h2);
     if (l2 <= h2) {
-        *lo = *lo <= *hi ? fmin(*lo, l2) : l2;
-        *hi = *lo <= *hi ? fmax(*hi, h2) : h2;
+        int first = *lo <= *hi;
+        *lo = first ? fmin(*lo, l2) : l2;
+        *hi = first ? fmax(*hi, h2) : h2;
     }
 }
 

@@ -281,9 +281,19 @@ static void test_segment_cap(pb_context *ctx)
     pb_geometry g = {{4, 4, 4}, {1, 1, 1}};
     pb_volume *a = NULL, *b = NULL;
     pb_blur_options opt = {PB_METHOD_AB, PB_FILTER_EXACT, 0, 0, 0, 0, -1.0};
-    if (pb_volume_create(ctx, &g, &a) == PB_OK && pb_volume_create(ctx, &g, &b) == PB_OK)
+    if (pb_volume_create(ctx, &g, &a) == PB_OK && pb_volume_create(ctx, &g, &b) == PB_OK) {
         expect(pb_blur(ctx, a, &m, &opt, b), PB_ERR_INVALID_ARGUMENT, "10^6 segments", pb_last_error(ctx),
                "path error bound");
+        /* A frame that starts at the track's last sample, and one past it: refused by number, with the part
+         * of the track each frame plans on kept inside the track (a sanitizer run checks the reads). */
+        const pb_volume *ins[1] = {a};
+        pb_volume *outs[1] = {b};
+        double at_end[2] = {t[SAMPLES - 1], t[SAMPLES - 1] + 1.0}, past[2] = {t[SAMPLES - 1] + 1.0, t[SAMPLES - 1] + 2.0};
+        expect(pb_blur_frames(ctx, ins, &m, at_end, 1, NULL, outs), PB_ERR_TRACK_GAP, "a frame from the last sample",
+               pb_last_error(ctx), "frame 0 of 1");
+        expect(pb_blur_frames(ctx, ins, &m, past, 1, NULL, outs), PB_ERR_TRACK_GAP, "a frame past the track",
+               pb_last_error(ctx), "frame 0 of 1");
+    }
     pb_volume_destroy(a);
     pb_volume_destroy(b);
     free(t);

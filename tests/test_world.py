@@ -424,6 +424,10 @@ class Sanity(Case):
         err = self.blur("--motion", away, expect=2)
         self.assertIn("takes the whole grid out of the field of view for the whole frame 0 to 1 s", err)
         self.assertFalse(os.path.exists(self.p("o.nii")))
+        # Both samples out of view, but the motion sweeps through the grid between them: not refused.
+        sweep = self.track(["0,-1000,0,0,1,0,0,0", "1,1000,0,0,1,0,0,0"], name="sweep.csv")
+        self.assertIn("at 2 of the frame's 2 poses", self.blur("--motion", sweep))
+        self.assertTrue(os.path.exists(self.p("o.nii")))
         with open(self.p("gap.mt"), "w") as f:
             f.write("23/11/2026 10:15:00 - 11 1 head\n0.0 1 A 1 0 0 0 0 0 0 0.2\n0.5 1 A 1 0 0 0 1 0 0 0.2\n"
                     + "".join(f"{0.5 + 0.05 * i:.2f} 2 A : ---- Missing ----\n" for i in range(1, 40))

@@ -17,7 +17,7 @@
  * ends the program mid-write (unlink is async-signal-safe; the handler then
  * lets the signal end the program as it would have). A write has at most two
  * at once (an .hv pair), and a kept backup. */
-enum { LIVE_TEMPS = 4 };
+enum { LIVE_TEMPS = 8 };
 static char live_temp[LIVE_TEMPS][4096];
 static volatile sig_atomic_t live_used[LIVE_TEMPS];
 
@@ -37,6 +37,9 @@ static void track_temp(const char *temp)
         static const int sigs[] = {SIGINT, SIGTERM, SIGHUP};
         for (size_t i = 0; i < sizeof sigs / sizeof sigs[0]; i++) {
             struct sigaction sa;
+            /* A signal the caller ignores (nohup, a background job) stays ignored. */
+            if (sigaction(sigs[i], NULL, &sa) == 0 && sa.sa_handler == SIG_IGN)
+                continue;
             memset(&sa, 0, sizeof sa);
             sa.sa_handler = remove_live_temps;
             sigemptyset(&sa.sa_mask);
@@ -127,6 +130,7 @@ int pbc_temp_open(pbc_temp *t, const char *path, FILE **f)
     if (!*f) {
         int e = errno;
         remove(t->temp);
+        untrack_temp(t->temp);
         return pbc_fail(PBC_EXIT_RUNTIME, "%s: cannot write (%s)", path, strerror(e));
     }
     return 0;
@@ -162,6 +166,11 @@ int pbc_temp_commit(pbc_temp *t, FILE *f)
                         t->path, strerror(e));
     }
     return 0;
+}
+
+void pbc_temp_keep(pbc_temp *t)
+{
+    untrack_temp(t->temp);
 }
 
 void pbc_temp_abort(pbc_temp *t, FILE *f)

@@ -22,6 +22,10 @@ int pbc_temp_open(pbc_temp *t, const char *path, FILE **f);
 /* Flushes and closes f (when not NULL), then renames the temporary into place.
  * On any failure removes the temporary and returns an exit status. */
 int pbc_temp_commit(pbc_temp *t, FILE *f);
+/* Takes the temporary off the list that a signal removes: for a name that will
+ * hold something to keep (an .hv pair's old data file while the new is
+ * written). */
+void pbc_temp_keep(pbc_temp *t);
 /* Closes f (when not NULL) and removes the temporary. */
 void pbc_temp_abort(pbc_temp *t, FILE *f);
 

@@ -46,23 +46,6 @@ static int grid_image(const pbc_args *args, pbc_image *img)
     return pbc_image_alloc(img, dims, vs);
 }
 
-static double angle_deg(const double a[4], const double b[4])
-{
-    double dot = fabs(a[0] * b[0] + a[1] * b[1] + a[2] * b[2] + a[3] * b[3]);
-    double na = sqrt(a[0] * a[0] + a[1] * a[1] + a[2] * a[2] + a[3] * a[3]);
-    double nb = sqrt(b[0] * b[0] + b[1] * b[1] + b[2] * b[2] + b[3] * b[3]);
-    return 2.0 * acos(fmin(1.0, dot / (na * nb))) * 180.0 / 3.14159265358979323846;
-}
-
-static void apply(const pb_pose *p, const double c[3], const double v[3], double out[3])
-{
-    double m[16];
-    pb_pose_to_matrix(p, m);
-    for (int i = 0; i < 3; i++)
-        out[i] = c[i] + p->translation[i] + m[4 * i] * (v[0] - c[0]) + m[4 * i + 1] * (v[1] - c[1]) +
-                 m[4 * i + 2] * (v[2] - c[2]);
-}
-
 static void frame_summary(const pbc_motion *m, const pbc_image *img, size_t index, double t0, double t1)
 {
     pb_motion part = pbc_motion_part(m, t0, t1);
@@ -85,11 +68,11 @@ static void frame_summary(const pbc_motion *m, const pbc_image *img, size_t inde
         else if (pb_motion_pose_at(mo, t, &p) != PB_OK)
             continue;
         samples += i < mo->count;
-        rot = fmax(rot, angle_deg(start.rotation, p.rotation));
+        rot = fmax(rot, pbc_turn_deg(start.rotation, p.rotation));
         for (int k = 0; k < 8; k++) {
             double v[3] = {(k & 1) ? ext[0] : 0, (k & 2) ? ext[1] : 0, (k & 4) ? ext[2] : 0}, a[3], b[3];
-            apply(&start, c, v, a);
-            apply(&p, c, v, b);
+            pbc_pose_move(&start, c, v, a);
+            pbc_pose_move(&p, c, v, b);
             disp = fmax(disp, sqrt((a[0] - b[0]) * (a[0] - b[0]) + (a[1] - b[1]) * (a[1] - b[1]) +
                                    (a[2] - b[2]) * (a[2] - b[2])));
         }
@@ -148,6 +131,9 @@ int pbc_cmd_motion(int argc, char **argv)
         return rc;
     if (fv && json)
         return pbc_fail(PBC_EXIT_USAGE, "--frames and --frames-from: give one");
+    if ((fv || json) && pbc_arg(&command, &args, "--frame"))
+        return pbc_fail(PBC_EXIT_USAGE, "--frame and --frames: give one; --frames T0,T1,... lists every frame, "
+                        "--frame T0,T1 one");
     pbc_motion m;
     pbc_image img = {0};
     double *bounds = NULL;

@@ -1,8 +1,5 @@
 /* Interfile 3.3 images as STIR reads and writes them: a text header (.hv)
  * naming a data file (.v) beside it. */
-/* realpath */
-#define _XOPEN_SOURCE 700
-
 #include <ctype.h>
 #include <errno.h>
 #include <limits.h>
@@ -308,29 +305,30 @@ static int data_file_path(const char *path, const char *name, char *out, size_t 
     return 0;
 }
 
-/* The data file must be a regular file in the header's folder or below it, as
- * STIR writes it: a header is small and easily sent, and one that names
- * /etc/passwd or a FIFO must neither read it as voxels nor block. */
+/* The data file must be named relative to the header, inside its folder (no
+ * absolute name, no ".."), as STIR writes it, and be a regular file (a link
+ * to one is fine: git-annex and DataLad keep data so): a small header that is
+ * easily sent must not read /etc/passwd as voxels or block on a FIFO. */
+static int check_data_name(const char *path, const char *name)
+{
+    int up = !strcmp(name, "..") || !strncmp(name, "../", 3) || strstr(name, "/../") ||
+             (strlen(name) >= 3 && !strcmp(name + strlen(name) - 3, "/.."));
+    if (name[0] == '/' || up)
+        return pbc_fail(PBC_EXIT_USAGE, "%s: its data file '%s' lies outside the header's folder; petblur reads data "
+                        "files named beside their header or below it, as STIR writes them (move the pair together "
+                        "and name the data file relative to the header)", path, name);
+    return 0;
+}
+
 static int check_data_file(const char *path, const char *data_path)
 {
     struct stat st;
-    char dir[4096], real_dir[PATH_MAX], real_data[PATH_MAX];
-    const char *slash = strrchr(path, '/');
-    snprintf(dir, sizeof dir, "%.*s", slash ? (int)(slash - path) + 1 : 1, slash ? path : ".");
     if (stat(data_path, &st) != 0)
         return pbc_fail(PBC_EXIT_USAGE, "%s: cannot open its data file %s (%s); check '!name of data file' in the "
                         "header, or put the data file beside the header", path, data_path, strerror(errno));
     if (!S_ISREG(st.st_mode))
         return pbc_fail(PBC_EXIT_USAGE, "%s: its data file %s is %s, not a file of voxels; check '!name of data "
                         "file'", path, data_path, S_ISDIR(st.st_mode) ? "a folder" : "a device, pipe or socket");
-    if (!realpath(dir, real_dir) || !realpath(data_path, real_data))
-        return pbc_fail(PBC_EXIT_USAGE, "%s: cannot resolve the path of its data file %s (%s)", path, data_path,
-                        strerror(errno));
-    size_t n = strlen(real_dir);
-    if (strncmp(real_data, real_dir, n) || (real_data[n] != '/' && strcmp(real_dir, "/")))
-        return pbc_fail(PBC_EXIT_USAGE, "%s: its data file %s lies outside the header's folder %s; petblur reads "
-                        "data files beside their header or below it, as STIR writes them (move or copy the pair "
-                        "together)", path, data_path, real_dir);
     return 0;
 }
 
@@ -374,6 +372,8 @@ int pbc_interfile_read(const char *path, const pbc_read_hints *hints, pbc_image 
     free(text);
     if (!rc)
         rc = take_header(path, &h, img, &format, &offset);
+    if (!rc)
+        rc = check_data_name(path, h.data_file);
     if (!rc)
         rc = data_file_path(path, h.data_file, data_path, sizeof data_path);
     if (!rc)
@@ -464,6 +464,7 @@ int pbc_interfile_write(const char *path, const pbc_image *img)
     pbc_temp backup;
     int kept = 0;
     if (access(data_path, F_OK) == 0 && !(rc = pbc_temp_reserve(&backup, data_path))) {
+        pbc_temp_keep(&backup); /* a signal mid-write must not take the old data's last copy */
         kept = remove(backup.temp) == 0 && link(data_path, backup.temp) == 0;
         if (!kept)
             rc = pbc_fail(PBC_EXIT_RUNTIME, "%s: cannot keep the existing %s while the new pair is written (%s); "

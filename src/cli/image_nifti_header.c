@@ -43,6 +43,23 @@ static int64_t gzip_size(const char *path)
     return size;
 }
 
+/* Whether a .nii.gz decompresses to at least need bytes, counted: the trailer
+ * gives only the last member's size, and multi-member files (bgzip's among
+ * them) are valid. Read only when the trailer says too few. */
+static int gzip_holds(const char *path, uint64_t need)
+{
+    znzFile fp = znzopen(path, "rb", 1);
+    if (znz_isnull(fp))
+        return 0;
+    static unsigned char buf[1 << 16];
+    uint64_t got = 0;
+    size_t n;
+    while (got < need && (n = znzread(buf, 1, sizeof buf, fp)) > 0 && n <= sizeof buf)
+        got += n;
+    znzclose(fp);
+    return got >= need;
+}
+
 static int bytes_per_voxel(int datatype)
 {
     switch (datatype) {
@@ -69,7 +86,8 @@ int pbc_nifti_check_header(const char *path, pbc_nifti_facts *facts)
         nifti_swap_4bytes(1, &size);
     if (n < sizeof(nifti_1_header) || (size != 348 && size != 540) || (size == 540 && n < sizeof(nifti_2_header)))
         return pbc_fail(PBC_EXIT_USAGE, "%s: not a NIfTI file (%s); check that it is a NIfTI-1 or NIfTI-2 image", path,
-                        n < sizeof(nifti_1_header) ? "shorter than a header" : "its first 4 bytes are not 348 or 540");
+                        size == 348 || size == 540 ? "shorter than its header"
+                        : n < 4 ? "shorter than a header" : "its first 4 bytes are not 348 or 540");
     int v2 = size == 540;
     const char *magic = (const char *)b + (v2 ? offsetof(nifti_2_header, magic) : offsetof(nifti_1_header, magic));
     if (!strcmp(magic, (v2 ? "ni2" : "ni1")))
@@ -132,7 +150,8 @@ int pbc_nifti_check_header(const char *path, pbc_nifti_facts *facts)
     uint64_t need = (uint64_t)offset + voxels * (uint64_t)bytes;
     struct stat st;
     int64_t have = nifti_is_gzfile(path) ? gzip_size(path) : (stat(path, &st) == 0 ? (int64_t)st.st_size : -1);
-    if (have >= 0 && (!nifti_is_gzfile(path) || need < (UINT64_C(1) << 32)) && need > (uint64_t)have)
+    if (have >= 0 && (!nifti_is_gzfile(path) || need < (UINT64_C(1) << 32)) && need > (uint64_t)have &&
+        !(nifti_is_gzfile(path) && gzip_holds(path, need)))
         return pbc_fail(PBC_EXIT_USAGE, "%s: its header promises %llu voxels of %d bytes from byte %lld, %llu bytes "
                         "in all, but the file holds %lld; the file is truncated or the header is wrong", path,
                         (unsigned long long)voxels, bytes, (long long)offset, (unsigned long long)need,

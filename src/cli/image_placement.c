@@ -70,13 +70,14 @@ int pbc_stir_affine(const char *path, const char *orientation, const char *rotat
         if (same_word(orientation, positions[i].orientation) && same_word(rotation, positions[i].rotation))
             pos = &positions[i];
     double first[3];
+    int given = !isnan(fpo[0]) + !isnan(fpo[1]) + !isnan(fpo[2]);
+    if (given != 0 && given != 3)
+        return pbc_fail(PBC_EXIT_USAGE, "%s: %d of the three 'first pixel offset (mm) [1-3]' keys; give all three or "
+                        "none (STIR's default placement)", path, given);
     for (int i = 0; i < 3; i++)
-        first[i] = !isnan(fpo[2]) ? fpo[i] : i < 2 ? -(double)(dims[i] / 2) * vs[i] : 0.0;
+        first[i] = given ? fpo[i] : i < 2 ? -(double)(dims[i] / 2) * vs[i] : 0.0;
     memset(a, 0, 16 * sizeof *a);
     for (int i = 0; i < 3; i++) {
-        if (!isfinite(first[i]))
-            return pbc_fail(PBC_EXIT_USAGE, "%s: 'first pixel offset (mm) [%d]' is missing while [3] is given; give "
-                            "all three", path, i + 1);
         a[5 * i] = pos->ras_sign[i] * vs[i];
         a[4 * i + 3] = pos->ras_sign[i] * first[i];
     }

@@ -58,6 +58,23 @@ static int matrix_to_pose(const double m[16], const double c[3], pb_pose *p)
     return 0;
 }
 
+double pbc_turn_deg(const double a[4], const double b[4])
+{
+    double dot = fabs(a[0] * b[0] + a[1] * b[1] + a[2] * b[2] + a[3] * b[3]);
+    double na = sqrt(a[0] * a[0] + a[1] * a[1] + a[2] * a[2] + a[3] * a[3]);
+    double nb = sqrt(b[0] * b[0] + b[1] * b[1] + b[2] * b[2] + b[3] * b[3]);
+    return 2.0 * acos(fmin(1.0, dot / (na * nb))) * 180.0 / 3.14159265358979323846;
+}
+
+void pbc_pose_move(const pb_pose *p, const double c[3], const double v[3], double out[3])
+{
+    double m[16];
+    pb_pose_to_matrix(p, m);
+    for (int i = 0; i < 3; i++)
+        out[i] = c[i] + p->translation[i] + m[4 * i] * (v[0] - c[0]) + m[4 * i + 1] * (v[1] - c[1]) +
+                 m[4 * i + 2] * (v[2] - c[2]);
+}
+
 /* ---- parsing --------------------------------------------------------------- */
 
 static int read_calibration(const char *path, double m[16])
@@ -287,10 +304,8 @@ static void check_track(const pbc_motion *m)
     if (t->count < 2)
         return;
     for (size_t i = 1; i < t->count; i++) {
-        const double *a = m->grid[i - 1].rotation, *b = m->grid[i].rotation;
-        double dot = fabs(a[0] * b[0] + a[1] * b[1] + a[2] * b[2] + a[3] * b[3]);
-        double deg = 2.0 * acos(fmin(1.0, dot)) * 180.0 / 3.14159265358979323846;
-        if (deg > MAX_STEP_DEG) {
+        double deg = pbc_turn_deg(m->grid[i - 1].rotation, m->grid[i].rotation);
+        if (deg > MAX_STEP_DEG + 1e-6) { /* --rotate's own pieces are 90 degrees to rounding */
             fprintf(stderr, "petblur: warning: %s:%zu: the pose turns %.0f degrees from the one before (line %zu) "
                     "within %.3g s; a quaternion read in the wrong order (x,y,z,w as w,x,y,z) looks like this: check "
                     "--quaternion-order\n", m->source, t->lines[i], deg, t->lines[i - 1],
@@ -360,31 +375,46 @@ static int grid_seen(const pb_motion *mo, const pbc_image *img, const pb_pose *p
         ext[i] = (double)img->dims[i] * img->voxel_size[i];
         c[i] = mo->has_center ? mo->center[i] : 0.5 * ext[i];
     }
-    double r[9], q[4];
-    double n = sqrt(p->rotation[0] * p->rotation[0] + p->rotation[1] * p->rotation[1] +
-                    p->rotation[2] * p->rotation[2] + p->rotation[3] * p->rotation[3]);
-    for (int i = 0; i < 4; i++)
-        q[i] = p->rotation[i] / n;
-    pb_pose unit = {{0, 0, 0}, {q[0], q[1], q[2], q[3]}};
-    double mat[16];
-    pb_pose_to_matrix(&unit, mat);
-    for (int i = 0; i < 3; i++)
-        for (int j = 0; j < 3; j++)
-            r[3 * i + j] = mat[4 * i + j];
     for (int k = 0; k < 8; k++) {
-        double v[3] = {(k & 1) ? ext[0] : 0, (k & 2) ? ext[1] : 0, (k & 4) ? ext[2] : 0};
+        double v[3] = {(k & 1) ? ext[0] : 0, (k & 2) ? ext[1] : 0, (k & 4) ? ext[2] : 0}, w[3];
+        pbc_pose_move(p, c, v, w);
         for (int i = 0; i < 3; i++) {
-            double w = c[i] + p->translation[i];
-            for (int j = 0; j < 3; j++)
-                w += r[3 * i + j] * (v[j] - c[j]);
-            lo[i] = fmin(lo[i], w);
-            hi[i] = fmax(hi[i], w);
+            lo[i] = fmin(lo[i], w[i]);
+            hi[i] = fmax(hi[i], w[i]);
         }
     }
     for (int i = 0; i < 3; i++)
         if (hi[i] <= 0.0 || lo[i] >= ext[i])
             return 0;
     return 1;
+}
+
+/* Whether some pose between a and b (LERP of translations) may leave part of
+ * the grid in view: the moved grid lies within rho of its moved centre
+ * c + t(s), so it can meet the grid's box only while that ball's box does,
+ * an interval of s per axis. Conservative: a refusal needs every segment out. */
+static int segment_may_see(const pb_motion *mo, const pbc_image *img, const pb_pose *a, const pb_pose *b)
+{
+    double lo = 0.0, hi = 1.0, rho2 = 0.0;
+    for (int i = 0; i < 3; i++) {
+        double ext = (double)img->dims[i] * img->voxel_size[i], c = mo->has_center ? mo->center[i] : 0.5 * ext;
+        rho2 += fmax(c * c, (ext - c) * (ext - c));
+    }
+    double rho = sqrt(rho2);
+    for (int i = 0; i < 3 && lo <= hi; i++) {
+        double ext = (double)img->dims[i] * img->voxel_size[i], c = mo->has_center ? mo->center[i] : 0.5 * ext;
+        /* needs -rho <= c + t(s) <= ext + rho, with t(s) = ta + s (tb - ta) */
+        double ta = a->translation[i], d = b->translation[i] - ta, low = -rho - c - ta, high = ext + rho - c - ta;
+        if (d == 0.0) {
+            if (low > 0.0 || high < 0.0)
+                return 0;
+        } else {
+            double s1 = low / d, s2 = high / d;
+            lo = fmax(lo, fmin(s1, s2));
+            hi = fmin(hi, fmax(s1, s2));
+        }
+    }
+    return lo <= hi;
 }
 
 /* The samples [*lo, *hi) whose times lie in (t0, t1], by bisection: frames
@@ -459,7 +489,9 @@ int pbc_motion_check_frame(const pbc_motion *m, const pbc_image *img, double t0,
     /* The frame's ends and every tracked pose inside it (taken as they are:
      * interpolating each would cost a pass over the track). */
     size_t seen = 0, poses = 0;
+    int may_see = 0;
     pb_motion part = pbc_motion_part(m, t0, t1);
+    pb_pose prev = {{0, 0, 0}, {1, 0, 0, 0}};
     for (size_t i = lo; i <= hi + 1; i++) {
         pb_pose p;
         if (i == lo || i == hi + 1) {
@@ -470,10 +502,12 @@ int pbc_motion_check_frame(const pbc_motion *m, const pbc_image *img, double t0,
         } else {
             continue;
         }
-        poses++;
+        if (poses++ > 0)
+            may_see |= segment_may_see(&m->motion, img, &prev, &p);
+        prev = p;
         seen += (size_t)grid_seen(&m->motion, img, &p);
     }
-    if (poses > 0 && seen == 0)
+    if (poses > 1 && !may_see)
         return pbc_fail(PBC_EXIT_USAGE, "%s: the motion takes the whole grid out of the field of view for the whole "
                         "frame %.9g to %.9g s, so the blur would be zero; are the translations in mm, in the image's "
                         "coordinates (see --coords), and the times in seconds?", m->source, t0, t1);

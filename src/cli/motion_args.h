@@ -71,6 +71,11 @@ int pbc_motion_check_frame(const pbc_motion *m, const pbc_image *img, double t0,
  * costs its own samples. */
 pb_motion pbc_motion_part(const pbc_motion *m, double t0, double t1);
 
+/* The angle in degrees of the turn between two poses' quaternions. */
+double pbc_turn_deg(const double a[4], const double b[4]);
+/* Where a pose about centre c takes point v: c + t + R (v - c). */
+void pbc_pose_move(const pb_pose *p, const double c[3], const double v[3], double out[3]);
+
 void pbc_motion_free(pbc_motion *m);
 
 #endif

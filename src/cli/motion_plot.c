@@ -80,19 +80,14 @@ int pbc_motion_plot(const char *path, const pbc_motion *m, const double *bounds,
     panel pt = {TOP + 20, (double)INFINITY, -(double)INFINITY}, pr = {TOP + 20 + PANEL + GAP, 0.0, -(double)INFINITY};
     for (size_t k = 0; k < n; k++) {
         const pb_pose *p = &m->track.poses[k]; /* in the world, about world_center */
-        double mtx[16];
-        pb_pose_to_matrix(p, mtx);
-        for (int i = 0; i < 3; i++) { /* where the grid's centre goes */
-            double moved = mc[i] + p->translation[i];
-            for (int j = 0; j < 3; j++)
-                moved += mtx[4 * i + j] * (c[j] - mc[j]);
-            v[4 * k + i] = moved - c[i];
+        double moved[3];
+        pbc_pose_move(p, mc, c, moved); /* where the grid's centre goes */
+        for (int i = 0; i < 3; i++) {
+            v[4 * k + i] = moved[i] - c[i];
             pt.lo = fmin(pt.lo, v[4 * k + i]);
             pt.hi = fmax(pt.hi, v[4 * k + i]);
         }
-        const double *a = mo->poses[0].rotation, *b = p->rotation;
-        double dot = fabs(a[0] * b[0] + a[1] * b[1] + a[2] * b[2] + a[3] * b[3]);
-        v[4 * k + 3] = 2.0 * acos(fmin(1.0, dot)) * 180.0 / 3.14159265358979323846;
+        v[4 * k + 3] = pbc_turn_deg(m->track.poses[0].rotation, p->rotation);
         pr.hi = fmax(pr.hi, v[4 * k + 3]);
     }
     /* Flat curves still get a visible range. */

@@ -93,7 +93,7 @@ static int read_toolviewer(const char *path, FILE *f, pbc_track *track)
             return pbc_fail(PBC_EXIT_USAGE, "%s:%zu: not a Toolviewer record 'Frame,Q0,Qx,Qy,Qz,x,y,z,Error,OOV' nor "
                             "'frame, MISSING'; fix or drop that line", path, lineno);
         first = first < 0 ? frame : first;
-        if ((rc = add_record(path, lineno, (double)(frame - first) / TOOLVIEWER_HZ, q, tr, &missing, track)))
+        if ((rc = add_record(path, lineno, ((double)frame - (double)first) / TOOLVIEWER_HZ, q, tr, &missing, track)))
             return rc;
     }
 }

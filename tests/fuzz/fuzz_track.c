@@ -1,7 +1,6 @@
 /* libFuzzer harness: the track readers (csv, matrix-csv, Polaris) on the bytes
- * given, the format told from the content or forced by the first byte, then
- * the command line's placement of the motion on a small grid and its frame
- * checks. */
+ * given, the format told from the content or forced by the first byte, with
+ * the time unit and quaternion order it also picks. */
 #include <stdint.h>
 #include <stdio.h>
 #include <string.h>
