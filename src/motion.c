@@ -167,7 +167,7 @@ void pb_pose_texel_map(const pb_pose *pose, const double center[3], const double
 
 /* ---- validation --------------------------------------------------------- */
 
-static int all_finite(const double *v, size_t n)
+int pb_all_finite(const double *v, size_t n)
 {
     for (size_t i = 0; i < n; i++)
         if (!isfinite(v[i]))
@@ -181,7 +181,7 @@ static int all_finite(const double *v, size_t n)
 
 static pb_status validate_pose(struct pb_context *ctx, const pb_pose *p, size_t i)
 {
-    if (!all_finite(p->translation, 3))
+    if (!pb_all_finite(p->translation, 3))
         return pb_error(ctx, PB_ERR_NOT_FINITE,
                         "pose %zu has a NaN or infinite translation (%g, %g, %g); give finite mm values", i,
                         p->translation[0], p->translation[1], p->translation[2]);
@@ -190,7 +190,7 @@ static pb_status validate_pose(struct pb_context *ctx, const pb_pose *p, size_t 
             return pb_error(ctx, PB_ERR_INVALID_ARGUMENT,
                             "pose %zu translates by %g mm, beyond 1e12 mm (a million km); translations are mm", i,
                             p->translation[k]);
-    if (!all_finite(p->rotation, 4))
+    if (!pb_all_finite(p->rotation, 4))
         return pb_error(ctx, PB_ERR_NOT_FINITE,
                         "pose %zu has a NaN or infinite quaternion; give a finite unit quaternion (w, x, y, z)", i);
     double n = sqrt(pb_quat_dot(p->rotation, p->rotation));
@@ -245,7 +245,7 @@ pb_status pb_motion_validate(struct pb_context *ctx, const pb_motion *m)
                         "the track covers [%g, %g] s but the frame is [%g, %g] s; add poses at or beyond the frame's "
                         "ends or pick a frame inside the track",
                         m->times[0], m->times[m->count - 1], m->frame_start, m->frame_end);
-    if (m->has_center && !all_finite(m->center, 3))
+    if (m->has_center && !pb_all_finite(m->center, 3))
         return pb_error(ctx, PB_ERR_NOT_FINITE, "the rotation centre is NaN or infinite; give mm from the grid's corner");
     for (int k = 0; m->has_center && k < 3; k++)
         if (fabs(m->center[k]) > PB_MAX_TRANSLATION)
@@ -292,7 +292,7 @@ pb_status pb_quaternion_from_axis_angle(const double axis[3], double angle_deg, 
 {
     if (!axis || !q)
         return pb_error(NULL, PB_ERR_INVALID_ARGUMENT, "axis and q must not be NULL");
-    if (!all_finite(axis, 3) || !isfinite(angle_deg))
+    if (!pb_all_finite(axis, 3) || !isfinite(angle_deg))
         return pb_error(NULL, PB_ERR_NOT_FINITE, "the axis or angle is NaN or infinite");
     /* The axis over its largest component first, so that 1e200 squares stay finite. */
     double big = fmax(fabs(axis[0]), fmax(fabs(axis[1]), fabs(axis[2]))), a[3];

@@ -6,6 +6,9 @@
 
 #include "petblur.h"
 
+/* 1 when none of v[0..n-1] is NaN or infinite. */
+int pb_all_finite(const double *v, size_t n);
+
 /* Quaternions are w, x, y, z. */
 void pb_quat_mul(const double a[4], const double b[4], double out[4]);
 void pb_quat_conj(const double q[4], double out[4]);

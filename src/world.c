@@ -9,14 +9,6 @@
 /* Matrices from files and trackers carry 6-9 significant digits. */
 #define PB_RIGID_TOLERANCE 1e-4
 
-static int all_finite(const double *v, size_t n)
-{
-    for (size_t i = 0; i < n; i++)
-        if (!isfinite(v[i]))
-            return 0;
-    return 1;
-}
-
 /* Largest |(A^T A - I)_ij| of a 3x3 (row-major) matrix: how far its columns
  * are from orthonormal. */
 static double orthonormal_error(const double a[9])
@@ -77,7 +69,7 @@ pb_status pb_pose_from_matrix(const double m[16], pb_pose *pose)
 {
     if (!m || !pose)
         return pb_error(NULL, PB_ERR_INVALID_ARGUMENT, "matrix and pose must not be NULL");
-    if (!all_finite(m, 16))
+    if (!pb_all_finite(m, 16))
         return pb_error(NULL, PB_ERR_NOT_FINITE, "the pose matrix holds NaN or infinity; give finite numbers");
     if (fabs(m[12]) > PB_RIGID_TOLERANCE || fabs(m[13]) > PB_RIGID_TOLERANCE || fabs(m[14]) > PB_RIGID_TOLERANCE ||
         fabs(m[15] - 1.0) > PB_RIGID_TOLERANCE)
@@ -101,7 +93,7 @@ pb_status pb_pose_to_matrix(const pb_pose *pose, double m[16])
     if (!pose || !m)
         return pb_error(NULL, PB_ERR_INVALID_ARGUMENT, "pose and matrix must not be NULL");
     double r[9], q[4], n = sqrt(pb_quat_dot(pose->rotation, pose->rotation));
-    if (!all_finite(pose->rotation, 4) || !all_finite(pose->translation, 3))
+    if (!pb_all_finite(pose->rotation, 4) || !pb_all_finite(pose->translation, 3))
         return pb_error(NULL, PB_ERR_NOT_FINITE, "the pose holds NaN or infinity; give finite numbers");
     if (fabs(n - 1.0) > 1e-3)
         return pb_error(NULL, PB_ERR_BAD_QUATERNION, "the pose's quaternion has norm %.6g; give a unit quaternion", n);
@@ -122,7 +114,7 @@ pb_status pb_pose_to_matrix(const pb_pose *pose, double m[16])
  * as the voxels. */
 static pb_status affine_frame(const pb_geometry *g, const double a[16], double d[9], double corner[3])
 {
-    if (!all_finite(a, 16))
+    if (!pb_all_finite(a, 16))
         return pb_error(NULL, PB_ERR_NOT_FINITE, "the voxel-to-world affine holds NaN or infinity");
     for (int c = 0; c < 3; c++) {
         double len = sqrt(a[c] * a[c] + a[4 + c] * a[4 + c] + a[8 + c] * a[8 + c]);

@@ -121,9 +121,7 @@ static int detect(const char *path, FILE *f, pbc_track_format *format)
     char *s = line;
     if (!strncmp(s, "\xEF\xBB\xBF", 3))
         s += 3;
-    int d, mo, y, h, mi, sec, n = 0;
-    if (!strncmp(s, "Collection Data", 15) ||
-        (sscanf(s, "%d/%d/%d %d:%d:%d -%n", &d, &mo, &y, &h, &mi, &sec, &n) == 6 && n > 0)) {
+    if (pbc_polaris_layout(s)) {
         *format = PBC_TRACK_POLARIS;
         return 0;
     }

@@ -70,5 +70,7 @@ int pbc_track_number(const char *text, double *v);
 
 int pbc_track_read_csv(const char *path, FILE *f, const pbc_track_read_options *options, pbc_track *track);
 int pbc_track_read_polaris(const char *path, FILE *f, pbc_track *track);
+/* A Polaris log's layout from its first line: 1 .mt, 2 Toolviewer CSV, 0 neither. */
+int pbc_polaris_layout(const char *first_line);
 
 #endif

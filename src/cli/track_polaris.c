@@ -98,16 +98,24 @@ static int read_toolviewer(const char *path, FILE *f, pbc_track *track)
     }
 }
 
+int pbc_polaris_layout(const char *first_line)
+{
+    int d, mo, y, h, mi, s, n = 0;
+    if (!strncmp(first_line, "Collection Data", 15))
+        return 2;
+    return sscanf(first_line, "%d/%d/%d %d:%d:%d -%n", &d, &mo, &y, &h, &mi, &s, &n) == 6 && n > 0;
+}
+
 int pbc_track_read_polaris(const char *path, FILE *f, pbc_track *track)
 {
     char line[4096];
     int rc = pbc_track_line(path, f, 1, line, sizeof line);
     if (rc != 1)
         return rc ? rc : pbc_fail(PBC_EXIT_USAGE, "%s: the file is empty", path);
-    int d, mo, y, h, mi, s, n = 0;
-    if (!strncmp(line, "Collection Data", 15))
+    int layout = pbc_polaris_layout(line);
+    if (layout == 2)
         return read_toolviewer(path, f, track);
-    if (sscanf(line, "%d/%d/%d %d:%d:%d -%n", &d, &mo, &y, &h, &mi, &s, &n) == 6 && n > 0)
+    if (layout == 1)
         return read_mt(path, f, track);
     return pbc_fail(PBC_EXIT_USAGE, "%s:1: not a Polaris log: an .mt file starts 'DD/MM/YYYY hh:mm:ss - v1 v2 tool', "
                     "a Toolviewer CSV 'Collection Data'; check --motion-format", path);
