@@ -266,6 +266,40 @@ static void test_binding_misuse(int argc, char **argv)
              "an axis of 1e200 gives a unit quaternion");
 }
 
+/* Every public function that takes a pointer refuses NULL with a status (the
+ * sanitizer run checks that nothing is read through one). */
+static void test_null_pointers(pb_context *ctx)
+{
+    pb_backend b;
+    int i;
+    size_t n;
+    pb_pose p;
+    double q[4], m[16] = {0};
+    pb_geometry g = {{2, 2, 2}, {1, 1, 1}};
+    pb_volume *v = NULL;
+    const pb_status got[] = {
+        pb_device_parse(NULL, &b, &i), pb_device_parse("host", NULL, NULL), pb_device_count(PB_BACKEND_HOST, NULL),
+        pb_device_get_info(PB_BACKEND_HOST, 0, NULL), pb_context_create(NULL, NULL),
+        pb_context_device_info(NULL, NULL), pb_context_set_progress(NULL, NULL, NULL),
+        pb_context_last_kernel_ms(ctx, NULL), pb_volume_create(NULL, NULL, NULL), pb_volume_create(ctx, &g, NULL),
+        pb_volume_get_geometry(NULL, &g), pb_volume_upload(NULL, NULL), pb_volume_download(NULL, NULL),
+        pb_motion_pose_at(NULL, 0, &p), pb_quaternion_from_axis_angle(NULL, 0, q), pb_pose_from_matrix(NULL, &p),
+        pb_pose_to_matrix(NULL, m), pb_motion_world_to_grid(NULL, NULL, NULL, NULL, NULL),
+        pb_path_segments(NULL, NULL, NULL, &n), pb_blur(NULL, NULL, NULL, NULL, NULL),
+        pb_blur(ctx, NULL, NULL, NULL, NULL), pb_blur_adjoint(ctx, NULL, NULL, NULL, NULL),
+        pb_blur_frames(ctx, NULL, NULL, NULL, 2, NULL, NULL), pb_blur_frames_adjoint(ctx, NULL, NULL, NULL, 2, NULL, NULL)};
+    for (size_t k = 0; k < sizeof got / sizeof got[0]; k++)
+        pb_check(got[k] == PB_ERR_INVALID_ARGUMENT, "NULL argument %zu: status %d, want invalid argument", k,
+                 (int)got[k]);
+    if (pb_check(pb_volume_create(ctx, &g, &v) == PB_OK, "volume: %s", pb_last_error(ctx))) {
+        pb_check(pb_volume_upload(v, NULL) == PB_ERR_INVALID_ARGUMENT && pb_volume_download(v, NULL) ==
+                 PB_ERR_INVALID_ARGUMENT, "NULL host data");
+        pb_volume_destroy(v);
+    }
+    pb_context_destroy(NULL);
+    pb_volume_destroy(NULL);
+}
+
 /* A 10^6-sample track with one segment per sample (max_path_error < 0) is
  * refused with a message saying what to do, not walked for minutes. */
 static void test_segment_cap(pb_context *ctx)
@@ -309,6 +343,7 @@ int main(int argc, char **argv)
     test_device_limits();
     test_contexts(pb_test_backend(argc, argv));
     test_segment_cap(ctx);
+    test_null_pointers(ctx);
     test_binding_misuse(argc, argv);
     pb_context_destroy(ctx);
     return pb_test_finish();
