@@ -396,8 +396,15 @@ static void format_number(double v, char *out, size_t size)
         snprintf(out, size, "%.17g", v);
 }
 
+/* STIR's placement keys of an image; `placed` is 0 when it has none to write. */
+typedef struct stir_keys {
+    int placed;
+    const char *orientation, *rotation;
+    double fpo[3];
+} stir_keys;
+
 /* The header in the form STIR writes for an image. */
-static void write_header(FILE *f, const char *data_name, const pbc_image *img)
+static void write_header(FILE *f, const char *data_name, const pbc_image *img, const stir_keys *placement)
 {
     fprintf(f, "!INTERFILE  :=\n!imaging modality := PT\n!version of keys := 3.3\n!GENERAL DATA :=\n"
             "!name of data file := %s\n!GENERAL IMAGE DATA :=\n!type of data := PET\n"
@@ -410,13 +417,11 @@ static void write_header(FILE *f, const char *data_name, const pbc_image *img)
         fprintf(f, "matrix axis label [%d] := %c\n!matrix size [%d] := %zu\nscaling factor (mm/pixel) [%d] := %s\n",
                 i + 1, "xyz"[i], i + 1, img->dims[i], i + 1, size);
     }
-    const char *orientation, *rotation;
-    double affine[16], fpo[3];
-    if (pbc_image_affine(img, affine) && pbc_stir_placement(affine, img->voxel_size, &orientation, &rotation, fpo)) {
-        fprintf(f, "patient orientation := %s\npatient rotation := %s\n", orientation, rotation);
+    if (placement->placed) {
+        fprintf(f, "patient orientation := %s\npatient rotation := %s\n", placement->orientation, placement->rotation);
         for (int i = 0; i < 3; i++) {
             char v[32];
-            format_number(fpo[i], v, sizeof v);
+            format_number(placement->fpo[i], v, sizeof v);
             fprintf(f, "first pixel offset (mm) [%d] := %s\n", i + 1, v);
         }
     }
@@ -440,9 +445,12 @@ int pbc_interfile_write(const char *path, const pbc_image *img)
     int rc = pbc_interfile_data_name(path, data_path, sizeof data_path);
     if (rc)
         return rc;
-    const char *orientation, *rotation;
-    double affine[16], fpo[3];
-    if (pbc_image_affine(img, affine) && !pbc_stir_placement(affine, img->voxel_size, &orientation, &rotation, fpo))
+    stir_keys placed = {0, NULL, NULL, {0, 0, 0}};
+    double affine[16];
+    int has_affine = pbc_image_affine(img, affine);
+    if (has_affine)
+        placed.placed = pbc_stir_placement(affine, img->voxel_size, &placed.orientation, &placed.rotation, placed.fpo);
+    if (has_affine && !placed.placed)
         fprintf(stderr, "petblur: warning: %s: Interfile places an image only along STIR's gantry axes, head or feet "
                 "first, supine or prone; this image's affine is oblique or mirrored otherwise, so the header "
                 "carries no placement (write NIfTI to keep it)\n", path);
@@ -457,7 +465,7 @@ int pbc_interfile_write(const char *path, const pbc_image *img)
         pbc_temp_abort(&data_temp, data);
         return rc;
     }
-    write_header(header, slash ? slash + 1 : data_path, img);
+    write_header(header, slash ? slash + 1 : data_path, img, &placed);
     /* An existing pair stays whole until the new one is: the old data file is
      * kept under a second name (a hard link) until the new header is in
      * place, and put back if that fails. */
