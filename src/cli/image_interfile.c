@@ -445,12 +445,12 @@ int pbc_interfile_write(const char *path, const pbc_image *img)
     int rc = pbc_interfile_data_name(path, data_path, sizeof data_path);
     if (rc)
         return rc;
-    stir_keys placed = {0, NULL, NULL, {0, 0, 0}};
+    stir_keys stir = {0, NULL, NULL, {0, 0, 0}};
     double affine[16];
     int has_affine = pbc_image_affine(img, affine);
     if (has_affine)
-        placed.placed = pbc_stir_placement(affine, img->voxel_size, &placed.orientation, &placed.rotation, placed.fpo);
-    if (has_affine && !placed.placed)
+        stir.placed = pbc_stir_placement(affine, img->voxel_size, &stir.orientation, &stir.rotation, stir.fpo);
+    if (has_affine && !stir.placed)
         fprintf(stderr, "petblur: warning: %s: Interfile places an image only along STIR's gantry axes, head or feet "
                 "first, supine or prone; this image's affine is oblique or mirrored otherwise, so the header "
                 "carries no placement (write NIfTI to keep it)\n", path);
@@ -465,7 +465,7 @@ int pbc_interfile_write(const char *path, const pbc_image *img)
         pbc_temp_abort(&data_temp, data);
         return rc;
     }
-    write_header(header, slash ? slash + 1 : data_path, img, &placed);
+    write_header(header, slash ? slash + 1 : data_path, img, &stir);
     /* An existing pair stays whole until the new one is: the old data file is
      * kept under a second name (a hard link) until the new header is in
      * place, and put back if that fails. */
