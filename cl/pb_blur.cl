@@ -335,7 +335,7 @@ PB_FN float pb_polyline(pb_image img, PB_GLOBAL_RO pb_kpose *poses, pb_kparams p
         for (int i = 0; i < 3; i++)
             a[i] = b[i];
         pb_map_point(poses[j + 1].map, u[0], u[1], u[2], b);
-        if (poses[j].weight == 0.0f) /* clipped: reads nothing of the object (src/plan_clip.c) */
+        if (poses[j].weight == 0.0f) /* clipped: reads nothing of the object (src/path_clip.c) */
             continue;
         total += poses[j].weight *
                  (ab ? pb_ab_sampled(img, prm, exact, pl, a, b) : pb_rm_sampled(img, prm, exact, pl, a, b));

@@ -22,13 +22,13 @@ typedef struct pb_backend_ops {
     pb_status (*volume_upload)(struct pb_volume *vol, const float *host);
     pb_status (*volume_download)(const struct pb_volume *vol, float *host);
     /* Blurs with a validated plan; sets ctx->last_kernel_ms. */
-    pb_status (*blur)(struct pb_context *ctx, const struct pb_volume *object, const pb_plan *plan,
+    pb_status (*blur)(struct pb_context *ctx, const struct pb_volume *object, const pb_path *plan,
                       const pb_blur_options *options, struct pb_volume *tomograph);
     /* The transpose of blur with the same plan: reads tomograph, overwrites
      * object, or with accumulate adds into it (frames that share an object:
      * the transpose of one volume blurred into many is the sum of their
      * back projections); sets ctx->last_kernel_ms. */
-    pb_status (*adjoint)(struct pb_context *ctx, const struct pb_volume *tomograph, const pb_plan *plan,
+    pb_status (*adjoint)(struct pb_context *ctx, const struct pb_volume *tomograph, const pb_path *plan,
                          const pb_blur_options *options, struct pb_volume *object, int accumulate);
     /* pb_blur_frames without progress: frame i blurs objects[i] into
      * tomographs[i] with plans[i], exactly as blur would; the launches are
@@ -36,7 +36,7 @@ typedef struct pb_backend_ops {
      * between frames. Sets ctx->last_kernel_ms to the frames' total. NULL:
      * the caller calls blur per frame. */
     pb_status (*blur_batch)(struct pb_context *ctx, size_t frames, const struct pb_volume *const *objects,
-                            const pb_plan *plans, const pb_blur_options *options,
+                            const pb_path *plans, const pb_blur_options *options,
                             struct pb_volume *const *tomographs);
 } pb_backend_ops;
 

@@ -413,9 +413,9 @@ static pb_status refresh_layers(pb_context *ctx, const pb_volume *vol, int m)
 
 /* Brings up to date what forward kernel `kernel` reads of vol: its array, or
  * its layers along the plan's axis. */
-static pb_status refresh_input(pb_context *ctx, const pb_volume *vol, int kernel, const pb_plan *plan)
+static pb_status refresh_input(pb_context *ctx, const pb_volume *vol, int kernel, const pb_path *plan)
 {
-    return pb_kernel_layered(kernel) ? refresh_layers(ctx, vol, pb_plan_layer_axis(plan))
+    return pb_kernel_layered(kernel) ? refresh_layers(ctx, vol, pb_path_layer_axis(plan))
                                                : refresh_array(ctx, vol);
 }
 
@@ -430,7 +430,7 @@ static pb_status reserve_plan(pb_context *ctx, size_t bytes)
  * the other in the context's plan buffer; offsets[i] (may be NULL for one
  * plan) receives where plan i starts. One copy for all: a copy from pageable
  * memory may wait for the stream, which must not happen between launches. */
-static pb_status upload_plans(pb_context *ctx, size_t count, const pb_plan *plans, const pb_blur_options *opt,
+static pb_status upload_plans(pb_context *ctx, size_t count, const pb_path *plans, const pb_blur_options *opt,
                               size_t *offsets)
 {
     cu_impl *cu = ctx->impl;
@@ -474,7 +474,7 @@ static pb_status upload_plans(pb_context *ctx, size_t count, const pb_plan *plan
     return st;
 }
 
-static pb_status upload_plan(pb_context *ctx, const pb_plan *plan, const pb_blur_options *opt)
+static pb_status upload_plan(pb_context *ctx, const pb_path *plan, const pb_blur_options *opt)
 {
     return upload_plans(ctx, 1, plan, opt, NULL);
 }
@@ -486,7 +486,7 @@ static cudaTextureObject_t texture_of(const cu_volume *v, const pb_blur_options 
 }
 
 /* Queues one frame's kernel: the plan at offset in the plan buffer. */
-static cudaError_t launch_blur(pb_context *ctx, const pb_volume *object, const pb_plan *plan, size_t offset,
+static cudaError_t launch_blur(pb_context *ctx, const pb_volume *object, const pb_path *plan, size_t offset,
                                const pb_blur_options *opt, pb_volume *tomograph)
 {
     cu_impl *cu = ctx->impl;
@@ -518,7 +518,7 @@ static pb_status finish_timed(pb_context *ctx)
     return PB_OK;
 }
 
-static pb_status cuda_blur(pb_context *ctx, const pb_volume *object, const pb_plan *plan,
+static pb_status cuda_blur(pb_context *ctx, const pb_volume *object, const pb_path *plan,
                            const pb_blur_options *opt, pb_volume *tomograph)
 {
     cu_impl *cu = ctx->impl;
@@ -541,7 +541,7 @@ static pb_status cuda_blur(pb_context *ctx, const pb_volume *object, const pb_pl
  * every plan copied first, then the launches, then one wait. The kernel time
  * spans the first launch to the end of the last. */
 static pb_status cuda_blur_batch(pb_context *ctx, size_t frames, const pb_volume *const *objects,
-                                 const pb_plan *plans, const pb_blur_options *opt, pb_volume *const *tomographs)
+                                 const pb_path *plans, const pb_blur_options *opt, pb_volume *const *tomographs)
 {
     cu_impl *cu = ctx->impl;
     size_t *offsets = calloc(frames, sizeof *offsets);
@@ -568,11 +568,11 @@ static pb_status cuda_blur_batch(pb_context *ctx, size_t frames, const pb_volume
  * adds into) every object voxel once. Otherwise the scatter adds into zeros.
  * The array's copy or the layers' (pb_permute and a copy), or the zeroing,
  * counts with the kernel's time. */
-static pb_status cuda_adjoint(pb_context *ctx, const pb_volume *tomograph, const pb_plan *plan,
+static pb_status cuda_adjoint(pb_context *ctx, const pb_volume *tomograph, const pb_path *plan,
                               const pb_blur_options *opt, pb_volume *object, int accumulate)
 {
     cu_impl *cu = ctx->impl;
-    int gather = pb_plan_shift_invariant(plan, opt);
+    int gather = pb_path_shift_invariant(plan, opt);
     pb_status st = use_device(ctx);
     if (st == PB_OK)
         st = upload_plan(ctx, plan, opt);

@@ -152,7 +152,7 @@ static double ab_segment(const host_io *io, const double a[3], const double b[3]
 
 /* Tomograph voxel (ix, iy, iz) under the plan: its blurred value (forward), or
  * with io->acc, scale spread over the object voxels it reads (adjoint). */
-static double blur_voxel(const host_io *io, const pb_plan *plan, const pb_blur_options *opt, long ix, long iy,
+static double blur_voxel(const host_io *io, const pb_path *plan, const pb_blur_options *opt, long ix, long iy,
                          long iz, double scale)
 {
     const double u[3] = {ix + 0.5, iy + 0.5, iz + 0.5};
@@ -178,8 +178,8 @@ static double blur_voxel(const host_io *io, const pb_plan *plan, const pb_blur_o
     }
 
     for (size_t j = 0; j + 1 < plan->count; j++) {
-        const pb_plan_pose *p0 = &plan->poses[j], *p1 = &plan->poses[j + 1];
-        if (p0->skip) /* clipped: reads nothing of the object (plan_clip.c) */
+        const pb_path_pose *p0 = &plan->poses[j], *p1 = &plan->poses[j + 1];
+        if (p0->skip) /* clipped: reads nothing of the object (path_clip.c) */
             continue;
         double a[3], b[3];
         apply_map(p0->map, u, a);
@@ -283,7 +283,7 @@ static double elapsed_ms(const struct timespec *t0)
     return (t1.tv_sec - t0->tv_sec) * 1e3 + (t1.tv_nsec - t0->tv_nsec) * 1e-6;
 }
 
-static pb_status host_blur(pb_context *ctx, const pb_volume *object, const pb_plan *plan,
+static pb_status host_blur(pb_context *ctx, const pb_volume *object, const pb_path *plan,
                            const pb_blur_options *opt, pb_volume *tomograph)
 {
     struct timespec t0;
@@ -304,7 +304,7 @@ static pb_status host_blur(pb_context *ctx, const pb_volume *object, const pb_pl
 
 /* The transpose, summed in double and rounded once (onto the object's own
  * values with accumulate). */
-static pb_status host_adjoint(pb_context *ctx, const pb_volume *tomograph, const pb_plan *plan,
+static pb_status host_adjoint(pb_context *ctx, const pb_volume *tomograph, const pb_path *plan,
                               const pb_blur_options *opt, pb_volume *object, int accumulate)
 {
     struct timespec t0;

@@ -371,7 +371,7 @@ static pb_status refresh_image(pb_context *ctx, const pb_volume *vol, int timed)
 }
 
 /* The plan's key poses (or REF steps) as the kernels read them, in float. */
-static pb_status upload_plan(pb_context *ctx, const pb_plan *plan, const pb_blur_options *opt, cl_mem *out)
+static pb_status upload_plan(pb_context *ctx, const pb_path *plan, const pb_blur_options *opt, cl_mem *out)
 {
     cl_impl *cl = ctx->impl;
     size_t bytes;
@@ -438,7 +438,7 @@ static cl_int enqueue_grid(cl_impl *cl, int kernel, const size_t *offset, const 
  * With a progress report, slabs of z-slices through the global offset, each a
  * whole number of work groups deep: a group that reached past its slab would
  * do the next slab's voxels twice, which the adjoint's adds would count twice. */
-static cl_int launch_grid(pb_context *ctx, int kernel, const pb_plan *plan)
+static cl_int launch_grid(pb_context *ctx, int kernel, const pb_path *plan)
 {
     size_t offset[3] = {0, 0, 0}, local[3];
     group_of(ctx->impl, kernel, local);
@@ -538,18 +538,18 @@ static pb_status refresh_layers(pb_context *ctx, const pb_volume *vol, int m, in
 
 /* Brings up to date what forward kernel `kernel` reads of vol (the image, or
  * the layers along the plan's axis) and returns it in *mem. */
-static pb_status refresh_input(pb_context *ctx, const pb_volume *vol, int kernel, const pb_plan *plan, int timed,
+static pb_status refresh_input(pb_context *ctx, const pb_volume *vol, int kernel, const pb_path *plan, int timed,
                                cl_mem *mem)
 {
     const cl_volume *v = vol->impl;
-    int m = pb_plan_layer_axis(plan);
+    int m = pb_path_layer_axis(plan);
     int layered = pb_kernel_layered(kernel);
     pb_status st = layered ? refresh_layers(ctx, vol, m, timed) : refresh_image(ctx, vol, timed);
     *mem = layered ? v->layers[m] : v->image;
     return st;
 }
 
-static pb_status ocl_blur(pb_context *ctx, const pb_volume *object, const pb_plan *plan,
+static pb_status ocl_blur(pb_context *ctx, const pb_volume *object, const pb_path *plan,
                           const pb_blur_options *opt, pb_volume *tomograph)
 {
     cl_impl *cl = ctx->impl;
@@ -585,7 +585,7 @@ static pb_status ocl_blur(pb_context *ctx, const pb_volume *object, const pb_pla
  * plan buffer and event until the end. Every frame's kernel runs over the
  * whole grid (no slabs: there is no progress report in a batch). */
 static pb_status ocl_blur_batch(pb_context *ctx, size_t frames, const pb_volume *const *objects,
-                                const pb_plan *plans, const pb_blur_options *opt, pb_volume *const *tomographs)
+                                const pb_path *plans, const pb_blur_options *opt, pb_volume *const *tomographs)
 {
     cl_impl *cl = ctx->impl;
     cl_mem *poses = calloc(frames, sizeof *poses);
@@ -651,11 +651,11 @@ static cl_int zero_buffer(pb_context *ctx, cl_mem buffer, size_t bytes)
  * an image, or through layers where the forward reads layers, whose making
  * counts with the kernel time, and writes (or adds into) every object voxel
  * once. Otherwise the scatter adds into zeros. */
-static pb_status ocl_adjoint(pb_context *ctx, const pb_volume *tomograph, const pb_plan *plan,
+static pb_status ocl_adjoint(pb_context *ctx, const pb_volume *tomograph, const pb_path *plan,
                              const pb_blur_options *opt, pb_volume *object, int accumulate)
 {
     cl_impl *cl = ctx->impl;
-    int gather = pb_plan_shift_invariant(plan, opt);
+    int gather = pb_path_shift_invariant(plan, opt);
     int kernel = gather ? pb_forward_kernel(plan, opt, cl->layer_limits) : pb_adjoint_index((int)opt->method);
     cl_volume *in = tomograph->impl, *out = object->impl;
     cl_mem source = in->buffer;

@@ -372,11 +372,11 @@ pb_status pb_path_segments(const pb_geometry *geometry, const pb_motion *motion,
     /* AB's plan: CL and REF follow the path itself, but the question is what
      * a polyline of these options would need. */
     opt.method = PB_METHOD_AB;
-    pb_plan plan;
-    if ((st = pb_plan_create(NULL, geometry, motion, &opt, &plan)) != PB_OK)
+    pb_path plan;
+    if ((st = pb_path_create(NULL, geometry, motion, &opt, &plan)) != PB_OK)
         return st;
     *segments = plan.count - 1;
-    pb_plan_destroy(&plan);
+    pb_path_destroy(&plan);
     return PB_OK;
 }
 
@@ -418,13 +418,13 @@ static pb_status apply(pb_context *ctx, const pb_volume *in, const pb_motion *mo
         st = pb_error(ctx, PB_ERR_INVALID_ARGUMENT, "ctx, object, motion and tomograph must not be NULL");
     if (st != PB_OK)
         return st;
-    pb_plan plan;
-    st = pb_plan_create(ctx, &in->geometry, motion, &opt, &plan);
+    pb_path plan;
+    st = pb_path_create(ctx, &in->geometry, motion, &opt, &plan);
     if (st != PB_OK)
         return st;
     ctx->last_kernel_ms = 0.0;
     st = adjoint ? ctx->ops->adjoint(ctx, in, &plan, &opt, out, 0) : ctx->ops->blur(ctx, in, &plan, &opt, out);
-    pb_plan_destroy(&plan);
+    pb_path_destroy(&plan);
     if (st == PB_OK && ctx->progress)
         ctx->progress(1.0, ctx->progress_user);
     return st;

@@ -117,7 +117,7 @@ static pb_status run_frames(pb_context *ctx, const pb_volume *const *ins, const 
         return st;
     st = PB_OK;
     pb_blur_options opt;
-    pb_plan *plans = calloc(frames, sizeof *plans);
+    pb_path *plans = calloc(frames, sizeof *plans);
     if (!plans)
         return pb_error(ctx, PB_ERR_OUT_OF_MEMORY, "out of host memory for %zu frame plans", frames);
     size_t planned = 0;
@@ -127,7 +127,7 @@ static pb_status run_frames(pb_context *ctx, const pb_volume *const *ins, const 
         st = adjoint ? pb_blur_prepare(ctx, outs[planned], options, in, &opt)
                      : pb_blur_prepare(ctx, in, options, outs[planned], &opt);
         if (st == PB_OK)
-            st = pb_plan_create(ctx, &in->geometry, &m, &opt, &plans[planned]);
+            st = pb_path_create(ctx, &in->geometry, &m, &opt, &plans[planned]);
         if (st != PB_OK) {
             char where[96];
             snprintf(where, sizeof where, " (frame %zu of %zu; no frame was %s)", planned, frames,
@@ -163,7 +163,7 @@ static pb_status run_frames(pb_context *ctx, const pb_volume *const *ins, const 
         ctx->progress_user = prog.user;
     }
     for (size_t i = 0; i < planned; i++) /* a failed frame's plan is empty: safe to destroy */
-        pb_plan_destroy(&plans[i]);
+        pb_path_destroy(&plans[i]);
     free(plans);
     ctx->last_kernel_ms = total;
     if (st == PB_OK && ctx->progress)

@@ -4,7 +4,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-void pb_kparams_from_plan(const pb_plan *plan, const pb_blur_options *opt, pb_kparams *prm)
+void pb_kparams_from_plan(const pb_path *plan, const pb_blur_options *opt, pb_kparams *prm)
 {
     memset(prm, 0, sizeof *prm);
     for (int d = 0; d < 3; d++) {
@@ -20,11 +20,11 @@ void pb_kparams_from_plan(const pb_plan *plan, const pb_blur_options *opt, pb_kp
     prm->ref_points = (int)opt->ref_points;
     prm->ref_steps = (int)plan->ref_count;
     prm->seed = opt->seed;
-    if (pb_plan_shift_invariant(plan, opt))
-        prm->layer_axis = pb_plan_layer_axis(plan);
+    if (pb_path_shift_invariant(plan, opt))
+        prm->layer_axis = pb_path_layer_axis(plan);
 }
 
-int pb_plan_shift_invariant(const pb_plan *plan, const pb_blur_options *opt)
+int pb_path_shift_invariant(const pb_path *plan, const pb_blur_options *opt)
 {
     if (opt->method == PB_METHOD_REF)
         return 0;
@@ -42,12 +42,12 @@ int pb_plan_shift_invariant(const pb_plan *plan, const pb_blur_options *opt)
 
 /* How far segment j of a motion of translations moves every voxel along axis
  * r: the difference of its maps' offsets. */
-static double segment_move(const pb_plan *plan, size_t j, int r)
+static double segment_move(const pb_path *plan, size_t j, int r)
 {
     return fabs(plan->poses[j + 1].map[4 * r + 3] - plan->poses[j].map[4 * r + 3]);
 }
 
-int pb_plan_layer_axis(const pb_plan *plan)
+int pb_path_layer_axis(const pb_path *plan)
 {
     int axis = -1;
     for (size_t j = 0; j + 1 < plan->count; j++) {
@@ -69,7 +69,7 @@ int pb_plan_layer_axis(const pb_plan *plan)
 
 /* The most slices one AB walk of a motion of translations crosses along
  * axis m: its longest segment's move along m over AB's sub-segments. */
-static double longest_walk(const pb_plan *plan, const pb_blur_options *opt, int m)
+static double longest_walk(const pb_path *plan, const pb_blur_options *opt, int m)
 {
     double most = 0.0;
     for (size_t j = 0; j + 1 < plan->count; j++)
@@ -85,12 +85,12 @@ static double longest_walk(const pb_plan *plan, const pb_blur_options *opt, int 
  * slices 0.514 against 0.470. The cut lies between. */
 #define PB_X_LAYERS_MIN_SLICES 8.0
 
-int pb_forward_kernel(const pb_plan *plan, const pb_blur_options *opt, const size_t *layer_limits)
+int pb_forward_kernel(const pb_path *plan, const pb_blur_options *opt, const size_t *layer_limits)
 {
     int exact = opt->filter == PB_FILTER_EXACT;
-    if (!pb_plan_shift_invariant(plan, opt))
+    if (!pb_path_shift_invariant(plan, opt))
         return pb_kernel_index((int)opt->method, exact);
-    int m = opt->method == PB_METHOD_AB && !exact && layer_limits ? pb_plan_layer_axis(plan) : -1;
+    int m = opt->method == PB_METHOD_AB && !exact && layer_limits ? pb_path_layer_axis(plan) : -1;
     const size_t *n = plan->geometry.dims;
     if (m == 0 && longest_walk(plan, opt, 0) < PB_X_LAYERS_MIN_SLICES)
         m = -1;
@@ -108,9 +108,9 @@ void pb_kparams_permute(const size_t *dims, int m, pb_kparams *prm)
     prm->layer_axis = m;
 }
 
-static void kpose_from_plan(const pb_plan *plan, size_t index, pb_kpose *out)
+static void kpose_from_plan(const pb_path *plan, size_t index, pb_kpose *out)
 {
-    const pb_plan_pose *p = &plan->poses[index];
+    const pb_path_pose *p = &plan->poses[index];
     memset(out, 0, sizeof *out);
     for (int k = 0; k < 12; k++)
         out->map[k] = (float)p->map[k];
@@ -127,14 +127,14 @@ static void kpose_from_plan(const pb_plan *plan, size_t index, pb_kpose *out)
     }
 }
 
-static void kstep_from_plan(const pb_plan *plan, size_t index, pb_kstep *out)
+static void kstep_from_plan(const pb_path *plan, size_t index, pb_kstep *out)
 {
     for (int k = 0; k < 12; k++)
         out->map[k] = (float)plan->ref_steps[index].map[k];
     out->weight = (float)plan->ref_steps[index].weight;
 }
 
-void *pb_kernel_plan_pack(const pb_plan *plan, pb_method method, size_t *bytes)
+void *pb_kernel_plan_pack(const pb_path *plan, pb_method method, size_t *bytes)
 {
     if (method == PB_METHOD_REF) {
         pb_kstep *s = calloc(plan->ref_count, sizeof *s);

@@ -313,7 +313,7 @@ pb_status pb_quaternion_from_axis_angle(const double axis[3], double angle_deg, 
 /* Largest distance any point of the grid moves between two poses, in voxels of
  * the smallest voxel size. The displacement is affine in the point, so its norm
  * is largest at a corner. */
-static double largest_corner_motion(const pb_plan *plan, const pb_pose *a, const pb_pose *b)
+static double largest_corner_motion(const pb_path *plan, const pb_pose *a, const pb_pose *b)
 {
     const double *v = plan->geometry.voxel_size;
     double vmin = fmin(v[0], fmin(v[1], v[2]));
@@ -331,7 +331,7 @@ static double largest_corner_motion(const pb_plan *plan, const pb_pose *a, const
     return worst;
 }
 
-static pb_status plan_ref_steps(struct pb_context *ctx, const pb_blur_options *opt, pb_plan *plan)
+static pb_status plan_ref_steps(struct pb_context *ctx, const pb_blur_options *opt, pb_path *plan)
 {
     size_t nseg = plan->count - 1;
     size_t total = 0;
@@ -373,8 +373,8 @@ static pb_status plan_ref_steps(struct pb_context *ctx, const pb_blur_options *o
     return PB_OK;
 }
 
-pb_status pb_plan_create(struct pb_context *ctx, const pb_geometry *g, const pb_motion *m,
-                         const pb_blur_options *opt, pb_plan *plan)
+pb_status pb_path_create(struct pb_context *ctx, const pb_geometry *g, const pb_motion *m,
+                         const pb_blur_options *opt, pb_path *plan)
 {
     memset(plan, 0, sizeof *plan);
     pb_status st = pb_motion_validate(ctx, m);
@@ -412,9 +412,9 @@ pb_status pb_plan_create(struct pb_context *ctx, const pb_geometry *g, const pb_
                 plan->poses[j].pose.rotation[i] = -plan->poses[j].pose.rotation[i];
     /* The polyline methods get their intervals cut to the path error bound. */
     if ((opt->method == PB_METHOD_AB || opt->method == PB_METHOD_RM) && opt->max_path_error >= 0.0) {
-        st = pb_plan_split(ctx, plan, opt->max_path_error > 0.0 ? opt->max_path_error : PB_DEFAULT_MAX_PATH_ERROR);
+        st = pb_path_split(ctx, plan, opt->max_path_error > 0.0 ? opt->max_path_error : PB_DEFAULT_MAX_PATH_ERROR);
         if (st != PB_OK) {
-            pb_plan_destroy(plan);
+            pb_path_destroy(plan);
             return st;
         }
     }
@@ -422,33 +422,33 @@ pb_status pb_plan_create(struct pb_context *ctx, const pb_geometry *g, const pb_
      * (max_path_error < 0, CL, REF) gets the same cap. */
     if (plan->count - 1 > PB_MAX_SEGMENTS) {
         size_t n = plan->count - 1;
-        pb_plan_destroy(plan);
+        pb_path_destroy(plan);
         return pb_error(ctx, PB_ERR_INVALID_ARGUMENT,
                         "the frame holds %zu tracked intervals, more than the %d segments one blur walks; use AB or RM "
                         "with a path error bound (which merges a log's samples), or shorter frames", n,
                         PB_MAX_SEGMENTS);
     }
-    if ((st = pb_plan_clip(ctx, plan)) != PB_OK) {
-        pb_plan_destroy(plan);
+    if ((st = pb_path_clip(ctx, plan)) != PB_OK) {
+        pb_path_destroy(plan);
         return st;
     }
     double span = m->frame_end - m->frame_start;
     for (size_t j = 0; j < plan->count; j++) {
-        pb_plan_pose *p = &plan->poses[j];
+        pb_path_pose *p = &plan->poses[j];
         pb_pose_texel_map(&p->pose, plan->center, g->voxel_size, p->map);
         p->weight = j + 1 < plan->count && !p->skip ? (plan->poses[j + 1].time - p->time) / span : 0.0;
     }
     if (opt->method == PB_METHOD_REF) {
         st = plan_ref_steps(ctx, opt, plan);
         if (st != PB_OK) {
-            pb_plan_destroy(plan);
+            pb_path_destroy(plan);
             return st;
         }
     }
     return PB_OK;
 }
 
-void pb_plan_destroy(pb_plan *plan)
+void pb_path_destroy(pb_path *plan)
 {
     free(plan->poses);
     free(plan->ref_steps);

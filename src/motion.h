@@ -38,28 +38,28 @@ void pb_pose_interpolate(const pb_pose *a, const pb_pose *b, double s, pb_pose *
 void pb_pose_texel_map(const pb_pose *pose, const double center[3], const double voxel[3], double m[12]);
 
 /* One key pose of a plan. */
-typedef struct pb_plan_pose {
+typedef struct pb_path_pose {
     double time;
     pb_pose pose;      /* unit quaternion on the same hemisphere as the previous key pose */
     double map[12];    /* pb_pose_texel_map of the pose */
     double weight;     /* fraction of the frame spent on the segment to the next key pose; 0 when skipped */
     int skip;          /* the segment to the next key pose reads nothing of the object: not walked */
-} pb_plan_pose;
+} pb_path_pose;
 
 /* One REF time step: where it is, and its share of the frame. */
-typedef struct pb_plan_step {
+typedef struct pb_path_step {
     double map[12];
     double weight;
-} pb_plan_step;
+} pb_path_step;
 
-typedef struct pb_plan {
+typedef struct pb_path {
     pb_geometry geometry;
     double center[3];        /* mm */
     size_t count;            /* key poses: frame start, tracked poses inside, frame end */
-    pb_plan_pose *poses;
+    pb_path_pose *poses;
     size_t ref_count;        /* REF time steps over the whole frame (0 unless REF) */
-    pb_plan_step *ref_steps;
-} pb_plan;
+    pb_path_step *ref_steps;
+} pb_path;
 
 struct pb_context;
 
@@ -71,9 +71,9 @@ pb_status pb_motion_validate(struct pb_context *ctx, const pb_motion *motion);
 void pb_motion_interpolate(const pb_motion *motion, double t, pb_pose *pose);
 
 /* Validates the motion and options and builds the plan. */
-pb_status pb_plan_create(struct pb_context *ctx, const pb_geometry *geometry, const pb_motion *motion,
-                         const pb_blur_options *options, pb_plan *plan);
-void pb_plan_destroy(pb_plan *plan);
+pb_status pb_path_create(struct pb_context *ctx, const pb_geometry *geometry, const pb_motion *motion,
+                         const pb_blur_options *options, pb_path *plan);
+void pb_path_destroy(pb_path *plan);
 
 /* The most segments one blur may walk; far above what any sane bound needs (a
  * full turn at 0.01 voxels on a 512^3 grid takes about 6000). */
@@ -83,11 +83,11 @@ enum { PB_MAX_SEGMENTS = 100000 };
  * into the equal pieces that keep each voxel centre within max_error voxels of
  * its chord, then runs of pieces merged into chords within the same bound
  * (maps and weights still to fill). */
-pb_status pb_plan_split(struct pb_context *ctx, pb_plan *plan, double max_error);
+pb_status pb_path_split(struct pb_context *ctx, pb_path *plan, double max_error);
 
-/* Walks clipped to the grid (plan_clip.c): each segment cut to the part of it
+/* Walks clipped to the grid (path_clip.c): each segment cut to the part of it
  * during which a sample can land in the object grid, the rest marked skip,
  * so that a blur's cost is bounded by the grid whatever the motion. */
-pb_status pb_plan_clip(struct pb_context *ctx, pb_plan *plan);
+pb_status pb_path_clip(struct pb_context *ctx, pb_path *plan);
 
 #endif

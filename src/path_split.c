@@ -71,7 +71,7 @@ enum { PB_MAX_RUN = 256 };
 
 /* Would one chord from key pose i to key pose e keep every voxel within E?
  * corner: every key pose's 8 corner voxel centres in object space (mm). */
-static int chord_holds(const pb_plan *plan, const double *corner, const double *dev, size_t i, size_t e,
+static int chord_holds(const pb_path *plan, const double *corner, const double *dev, size_t i, size_t e,
                        double vmin, double max_error)
 {
     double bend = 0.0, off = 0.0, span = plan->poses[e].time - plan->poses[i].time;
@@ -101,7 +101,7 @@ static int chord_holds(const pb_plan *plan, const double *corner, const double *
  * frame, now 0.08 ms (a 2-core build machine), against a 0.3 ms blur of
  * 256^3 on an H200. Every chord kept was tested, so the bound holds whatever
  * the search skips. */
-static int merge_segments(pb_plan *plan, const double *dev, double max_error)
+static int merge_segments(pb_path *plan, const double *dev, double max_error)
 {
     size_t n = plan->count;
     const double *v = plan->geometry.voxel_size;
@@ -143,7 +143,7 @@ static int merge_segments(pb_plan *plan, const double *dev, double max_error)
     return 1;
 }
 
-pb_status pb_plan_split(struct pb_context *ctx, pb_plan *plan, double max_error)
+pb_status pb_path_split(struct pb_context *ctx, pb_path *plan, double max_error)
 {
     size_t total = 0, intervals = plan->count - 1;
     size_t *pieces = malloc(intervals * sizeof *pieces);
@@ -166,7 +166,7 @@ pb_status pb_plan_split(struct pb_context *ctx, pb_plan *plan, double max_error)
                         "max_path_error %g voxels would cut this motion into more than %d segments; raise it "
                         "(default %g)", max_error, (int)PB_MAX_SEGMENTS, PB_DEFAULT_MAX_PATH_ERROR);
     }
-    pb_plan_pose *poses = calloc(total + 1, sizeof *poses);
+    pb_path_pose *poses = calloc(total + 1, sizeof *poses);
     double *dev = malloc(total * sizeof *dev);
     if (!poses || !dev) {
         free(pieces);
@@ -177,7 +177,7 @@ pb_status pb_plan_split(struct pb_context *ctx, pb_plan *plan, double max_error)
     }
     size_t k = 0;
     for (size_t j = 0; j < intervals; j++) {
-        const pb_plan_pose *a = &plan->poses[j], *b = &plan->poses[j + 1];
+        const pb_path_pose *a = &plan->poses[j], *b = &plan->poses[j + 1];
         double h = 1.0 / (double)pieces[j];
         for (size_t i = 0; i < pieces[j]; i++, k++) {
             double s = (double)i * h;

@@ -65,8 +65,8 @@ static void random_motion(const pb_geometry *g, int translations, int along_x, p
 #define EDGE_MARGIN 1e-4
 static size_t mark_edges(const pb_geometry *g, const pb_motion *m, const pb_blur_options *opt, unsigned char *edge)
 {
-    pb_plan plan;
-    if (!pb_check(pb_plan_create(NULL, g, m, opt, &plan) == PB_OK, "plan for the edges"))
+    pb_path plan;
+    if (!pb_check(pb_path_create(NULL, g, m, opt, &plan) == PB_OK, "plan for the edges"))
         return 0;
     size_t count = 0, idx = 0;
     for (size_t k = 0; k < g->dims[2]; k++)
@@ -104,7 +104,7 @@ static size_t mark_edges(const pb_geometry *g, const pb_motion *m, const pb_blur
                 }
                 count += edge[idx];
             }
-    pb_plan_destroy(&plan);
+    pb_path_destroy(&plan);
     return count;
 }
 

@@ -129,8 +129,8 @@ static void test_plan(void)
     pb_motion m = {times, poses, 5, 0.1, 2.0, 0, {0, 0, 0}};
     pb_geometry g = {{20, 30, 10}, {2.0, 1.5, 3.0}};
     pb_blur_options opt = {PB_METHOD_REF, PB_FILTER_EXACT, 0, 0, 0, 0, 0.0};
-    pb_plan plan;
-    if (!pb_check(pb_plan_create(NULL, &g, &m, &opt, &plan) == PB_OK, "plan: %s", pb_last_error(NULL)))
+    pb_path plan;
+    if (!pb_check(pb_path_create(NULL, &g, &m, &opt, &plan) == PB_OK, "plan: %s", pb_last_error(NULL)))
         return;
     pb_check(plan.count == 5, "key poses: frame start, 0.3, 0.9, 1.7, frame end (got %zu)", plan.count);
     double wsum = 0.0, rsum = 0.0;
@@ -153,7 +153,7 @@ static void test_plan(void)
     for (size_t j = 1; j < plan.count; j++)
         pb_check(pb_quat_dot(plan.poses[j].pose.rotation, plan.poses[j - 1].pose.rotation) >= 0.0,
                  "key pose %zu on the previous one's hemisphere", j);
-    pb_plan_destroy(&plan);
+    pb_path_destroy(&plan);
 }
 
 /* grid mm -> world mm through a NIfTI-style affine (index at voxel centres). */

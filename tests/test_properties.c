@@ -490,7 +490,7 @@ static void test_track_merge(pb_context *ctx)
     free(fine);
 }
 
-/* Walks clipped to the grid (src/plan_clip.c): a translation of D along x
+/* Walks clipped to the grid (src/path_clip.c): a translation of D along x
  * over the frame averages the object over shifts 0..D, and every shift past
  * the grid reads zeros, so blur(D) = (D0 / D) blur(D0) for any D0 beyond the
  * grid. A D of a million mm must give that, and its adjoint must still be

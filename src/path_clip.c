@@ -50,7 +50,7 @@ static void inside_interval(const double p_mm[3], const double q_mm[3], double l
     *hi = fmin(1.0, (-pq + root) / qq);
 }
 
-static double corner_reach(const pb_plan *plan, double margin)
+static double corner_reach(const pb_path *plan, double margin)
 {
     double r2 = 0.0;
     for (int k = 0; k < 8; k++) {
@@ -90,7 +90,7 @@ static void segment_reach(const pb_pose *a, const pb_pose *b, double len, double
     }
 }
 
-pb_status pb_plan_clip(struct pb_context *ctx, pb_plan *plan)
+pb_status pb_path_clip(struct pb_context *ctx, pb_path *plan)
 {
     const double *v = plan->geometry.voxel_size;
     /* Trilinear reads reach a voxel past a point, AB's slice samples one more. */
@@ -106,12 +106,12 @@ pb_status pb_plan_clip(struct pb_context *ctx, pb_plan *plan)
         return PB_OK;
     /* Each cut segment becomes at most a skipped lead-in, the part walked and a
      * skipped tail. */
-    pb_plan_pose *out = calloc(n + 2 * cut, sizeof *out);
+    pb_path_pose *out = calloc(n + 2 * cut, sizeof *out);
     if (!out)
         return pb_error(ctx, PB_ERR_OUT_OF_MEMORY, "out of host memory clipping %zu segments", n - 1);
     size_t k = 0;
     for (size_t j = 0; j + 1 < n; j++) {
-        const pb_plan_pose *a = &plan->poses[j], *b = &plan->poses[j + 1];
+        const pb_path_pose *a = &plan->poses[j], *b = &plan->poses[j + 1];
         double lo, hi;
         segment_reach(&a->pose, &b->pose, len, &lo, &hi);
         out[k] = *a;
