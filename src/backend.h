@@ -1,4 +1,4 @@
-/* The one backend boundary. Everything above this table (context.c, motion.c)
+/* The one backend boundary. Everything above this table (context.c, path_plan.c)
  * dispatches through it and never asks which backend it is talking to; only a
  * backend's own file includes its runtime's headers. */
 #ifndef PB_BACKEND_H

@@ -1,13 +1,16 @@
 /* Host maths shared by every backend: quaternions, poses, and the plan that turns
  * a frame's pose track into the key poses whose segments the methods walk.
- * Double precision throughout; no backend knows how a plan was made. */
+ * Double precision throughout; no backend knows how a plan was made. The one
+ * internal header of quaternion.c, motion_check.c, path_plan.c, path_split.c
+ * and path_clip.c, in sections by the file that implements them. */
 #ifndef PB_MOTION_H
 #define PB_MOTION_H
 
 #include "petblur.h"
 
-/* 1 when none of v[0..n-1] is NaN or infinite. */
-int pb_all_finite(const double *v, size_t n);
+struct pb_context;
+
+/* ---- quaternion.c: quaternion and pose maths ----------------------------- */
 
 /* Quaternions are w, x, y, z. */
 void pb_quat_mul(const double a[4], const double b[4], double out[4]);
@@ -37,6 +40,23 @@ void pb_pose_interpolate(const pb_pose *a, const pb_pose *b, double s, pb_pose *
  * row-major 3x4. */
 void pb_pose_texel_map(const pb_pose *pose, const double center[3], const double voxel[3], double m[12]);
 
+/* A copy of the pose with its quaternion scaled to unit norm. */
+void pb_pose_normalized(const pb_pose *in, pb_pose *out);
+
+/* ---- motion_check.c: validation, and poses of a validated track ---------- */
+
+/* 1 when none of v[0..n-1] is NaN or infinite. */
+int pb_all_finite(const double *v, size_t n);
+
+/* Checks a motion: every problem gets its own status and a message (on ctx, or
+ * the thread's when ctx is NULL) naming what to fix. */
+pb_status pb_motion_validate(struct pb_context *ctx, const pb_motion *motion);
+
+/* The pose of a validated motion at time t in [times[0], times[count-1]]. */
+void pb_motion_interpolate(const pb_motion *motion, double t, pb_pose *pose);
+
+/* ---- path_plan.c: the plan ----------------------------------------------- */
+
 /* One key pose of a plan. */
 typedef struct pb_path_pose {
     double time;
@@ -60,15 +80,6 @@ typedef struct pb_path {
     size_t ref_count;        /* REF time steps over the whole frame (0 unless REF) */
     pb_path_step *ref_steps;
 } pb_path;
-
-struct pb_context;
-
-/* Checks a motion: every problem gets its own status and a message (on ctx, or
- * the thread's when ctx is NULL) naming what to fix. */
-pb_status pb_motion_validate(struct pb_context *ctx, const pb_motion *motion);
-
-/* The pose of a validated motion at time t in [times[0], times[count-1]]. */
-void pb_motion_interpolate(const pb_motion *motion, double t, pb_pose *pose);
 
 /* Validates the motion and options and builds the plan. */
 pb_status pb_path_create(struct pb_context *ctx, const pb_geometry *geometry, const pb_motion *motion,
