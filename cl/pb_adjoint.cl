@@ -80,28 +80,37 @@ PB_FN void pb_slice_scatter(PB_GLOBAL float *out, pb_kparams prm, int major, flo
 }
 
 /* Transpose of pb_ab_segment. The forward divides by the float sum of the
- * shares at the end; the scatter needs that sum before its first slice, so the
- * partial shares are computed twice (they are a few flops each). */
+ * shares at the end; the scatter needs that sum before its first slice, so it
+ * walks the shares once first (a few flops a slice, against four atomics). */
 PB_FN void pb_ab_segment_adjoint(PB_GLOBAL float *out, pb_kparams prm, const float *a, const float *b, float v)
 {
     pb_ab_walk w;
     if (pb_ab_walk_init(a, b, &w)) {
-        pb_trilinear_scatter(out, prm, 0.5f * (a[0] + b[0]), 0.5f * (a[1] + b[1]), 0.5f * (a[2] + b[2]), v);
+        float o[3];
+        pb_midpoint(a, b, o);
+        pb_trilinear_scatter(out, prm, o[0], o[1], o[2], v);
         return;
     }
-    float wsum = (float)(w.f1 - w.f0 + 1), mean;
-    for (int k = w.k0; k <= w.k1; k = pb_ab_next_partial(&w, k))
-        wsum += pb_tent_share(w.lo - (float)k, w.hi - (float)k, &mean);
+    float wsum = 0.0f;
+    PB_AB_FOR_SLICES(w, (void)x; (void)y; (void)z; wsum += s);
     float vw = PB_DIV(v, wsum);
-    for (int k = w.f0; k <= w.f1; k++) {
-        float kf = (float)k;
-        pb_slice_scatter(out, prm, w.m, kf * w.g[0] + w.c[0], kf * w.g[1] + w.c[1], kf * w.g[2] + w.c[2], vw);
+    PB_AB_FOR_SLICES(w, pb_slice_scatter(out, prm, w.m, x, y, z, s * vw));
+}
+
+/* Transpose of pb_ab_sampled (ab) or pb_rm_sampled: v spread along a-b. */
+PB_FN void pb_segment_adjoint(PB_GLOBAL float *out, pb_kparams prm, const float *a, const float *b, int ab, float v)
+{
+    if (ab) {
+        float inv = 1.0f / (float)prm.steps;
+        PB_FOR_PIECES(prm.steps, inv, a, b, pb_ab_segment_adjoint(out, prm, pa, pb, v * inv));
+        return;
     }
-    for (int k = w.k0; k <= w.k1; k = pb_ab_next_partial(&w, k)) {
-        float kf = (float)k;
-        float s = pb_tent_share(w.lo - kf, w.hi - kf, &mean);
-        pb_slice_scatter(out, prm, w.m, kf * w.g[0] + w.c[0] + mean * w.h[0], kf * w.g[1] + w.c[1] + mean * w.h[1],
-                         kf * w.g[2] + w.c[2] + mean * w.h[2], s * vw);
+    int n = prm.steps > 0 ? prm.steps : pb_ab_slices(a, b);
+    float inv_n = 1.0f / (float)n;
+    for (int i = 0; i < n; i++) {
+        float s = pb_step_fraction(i, inv_n);
+        pb_trilinear_scatter(out, prm, a[0] + s * (b[0] - a[0]), a[1] + s * (b[1] - a[1]), a[2] + s * (b[2] - a[2]),
+                             v * inv_n);
     }
 }
 
@@ -110,33 +119,8 @@ PB_FN void pb_ab_segment_adjoint(PB_GLOBAL float *out, pb_kparams prm, const flo
 PB_FN void pb_polyline_adjoint(PB_GLOBAL float *out, PB_GLOBAL_RO pb_kpose *poses, pb_kparams prm, int ix, int iy,
                                int iz, int ab, float v)
 {
-    float ux = (float)ix + 0.5f, uy = (float)iy + 0.5f, uz = (float)iz + 0.5f;
-    float a[3], b[3];
-    pb_map_point(poses[0].map, ux, uy, uz, b);
-    for (int j = 0; j < prm.segments; j++) {
-        for (int i = 0; i < 3; i++)
-            a[i] = b[i];
-        pb_map_point(poses[j + 1].map, ux, uy, uz, b);
-        if (poses[j].weight == 0.0f) /* clipped */
-            continue;
-        float vj = v * poses[j].weight;
-        if (ab) {
-            float inv = 1.0f / (float)prm.steps;
-            for (int r = 0; r < prm.steps; r++) {
-                float pa[3], pb[3];
-                pb_ab_piece(a, b, r, prm.steps, inv, pa, pb);
-                pb_ab_segment_adjoint(out, prm, pa, pb, vj * inv);
-            }
-        } else {
-            int n = prm.steps > 0 ? prm.steps : pb_ab_slices(a, b);
-            float inv_n = 1.0f / (float)n;
-            for (int i = 0; i < n; i++) {
-                float s = pb_step_fraction(i, inv_n);
-                pb_trilinear_scatter(out, prm, a[0] + s * (b[0] - a[0]), a[1] + s * (b[1] - a[1]),
-                                     a[2] + s * (b[2] - a[2]), vj * inv_n);
-            }
-        }
-    }
+    const float u[3] = {(float)ix + 0.5f, (float)iy + 0.5f, (float)iz + 0.5f};
+    PB_FOR_SEGMENTS(poses, prm, u, pb_segment_adjoint(out, prm, a, b, ab, v * poses[j].weight));
 }
 
 /* Transpose of pb_classical. */
@@ -167,7 +151,7 @@ PB_FN float pb_adjoint_input(PB_GLOBAL_RO float *in, pb_kparams prm, int ix, int
  * change it. out must hold zeros before the launch. */
 PB_KERNEL void pb_adjoint_ab(PB_GLOBAL_RO float *in, PB_GLOBAL_RO pb_kpose *poses, pb_kparams prm, PB_GLOBAL float *out)
 {
-    int ix = PB_GID_X, iy = PB_GID_Y, iz = PB_GID_Z;
+    int ix = PB_GID_X, iy = PB_GID_Y, iz = PB_GID_Z + prm.z0;
     float v = pb_adjoint_input(in, prm, ix, iy, iz);
     if (v != 0.0f)
         pb_polyline_adjoint(out, poses, prm, ix, iy, iz, 1, v);
@@ -175,7 +159,7 @@ PB_KERNEL void pb_adjoint_ab(PB_GLOBAL_RO float *in, PB_GLOBAL_RO pb_kpose *pose
 
 PB_KERNEL void pb_adjoint_rm(PB_GLOBAL_RO float *in, PB_GLOBAL_RO pb_kpose *poses, pb_kparams prm, PB_GLOBAL float *out)
 {
-    int ix = PB_GID_X, iy = PB_GID_Y, iz = PB_GID_Z;
+    int ix = PB_GID_X, iy = PB_GID_Y, iz = PB_GID_Z + prm.z0;
     float v = pb_adjoint_input(in, prm, ix, iy, iz);
     if (v != 0.0f)
         pb_polyline_adjoint(out, poses, prm, ix, iy, iz, 0, v);
@@ -183,7 +167,7 @@ PB_KERNEL void pb_adjoint_rm(PB_GLOBAL_RO float *in, PB_GLOBAL_RO pb_kpose *pose
 
 PB_KERNEL void pb_adjoint_cl(PB_GLOBAL_RO float *in, PB_GLOBAL_RO pb_kpose *poses, pb_kparams prm, PB_GLOBAL float *out)
 {
-    int ix = PB_GID_X, iy = PB_GID_Y, iz = PB_GID_Z;
+    int ix = PB_GID_X, iy = PB_GID_Y, iz = PB_GID_Z + prm.z0;
     float v = pb_adjoint_input(in, prm, ix, iy, iz);
     if (v != 0.0f)
         pb_classical_adjoint(out, poses, prm, ix, iy, iz, v);
@@ -193,7 +177,7 @@ PB_KERNEL void pb_adjoint_cl(PB_GLOBAL_RO float *in, PB_GLOBAL_RO pb_kpose *pose
  * that holds it (the point's texel coordinates, floored, as a nearest read). */
 PB_KERNEL void pb_adjoint_ref(PB_GLOBAL_RO float *in, PB_GLOBAL_RO pb_kstep *steps, pb_kparams prm, PB_GLOBAL float *out)
 {
-    int ix = PB_GID_X, iy = PB_GID_Y, iz = PB_GID_Z;
+    int ix = PB_GID_X, iy = PB_GID_Y, iz = PB_GID_Z + prm.z0;
     float v = pb_adjoint_input(in, prm, ix, iy, iz);
     if (v == 0.0f)
         return;

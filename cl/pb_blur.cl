@@ -208,32 +208,89 @@ PB_FN int pb_ab_next_partial(const pb_ab_walk *w, int k)
     return k + 1 == w->f0 ? w->f1 + 1 : k + 1;
 }
 
+/* The AB walk, written once: visits every slice of walk w, the fully covered
+ * ones first (a loop of their own, free of branches, so the compiler keeps
+ * several fetches in flight), then the partly covered ones. BODY runs with the
+ * slice's sample point (x, y, z) and its share s in scope. Its three callers
+ * supply what happens there: the forward samples the 3-D image
+ * (pb_ab_segment) or the layers (cl/pb_shift.cl), the adjoint scatters
+ * (cl/pb_adjoint.cl); so all three visit the same slices at the same points
+ * with the same shares. */
+#define PB_AB_FOR_SLICES(w, BODY)                                                                                \
+    for (int pb_k = (w).f0; pb_k <= (w).f1; pb_k++) {                                                         \
+        const float pb_kf = (float)pb_k, s = 1.0f;                                                             \
+        const float x = pb_kf * (w).g[0] + (w).c[0], y = pb_kf * (w).g[1] + (w).c[1];                          \
+        const float z = pb_kf * (w).g[2] + (w).c[2];                                                           \
+        BODY;                                                                                                  \
+    }                                                                                                          \
+    for (int pb_k = (w).k0; pb_k <= (w).k1; pb_k = pb_ab_next_partial(&(w), pb_k)) {                          \
+        float pb_kf = (float)pb_k, pb_mean;                                                                    \
+        const float s = pb_tent_share((w).lo - pb_kf, (w).hi - pb_kf, &pb_mean);                              \
+        const float x = pb_kf * (w).g[0] + (w).c[0] + pb_mean * (w).h[0];                                      \
+        const float y = pb_kf * (w).g[1] + (w).c[1] + pb_mean * (w).h[1];                                      \
+        const float z = pb_kf * (w).g[2] + (w).c[2] + pb_mean * (w).h[2];                                      \
+        BODY;                                                                                                  \
+    }
+
+/* The segments of the polyline of the voxel centred at u (texel coordinates)
+ * through the key poses: BODY runs with the segment's ends a and b (object
+ * texel coordinates) and its index j in scope; segments clipped away
+ * (src/path_clip.c: weight 0) read nothing of the object and are skipped. */
+#define PB_FOR_SEGMENTS(poses, prm, u, BODY)                                                                     \
+    {                                                                                                          \
+        float a[3], b[3];                                                                                      \
+        pb_map_point((poses)[0].map, (u)[0], (u)[1], (u)[2], b);                                               \
+        for (int j = 0; j < (prm).segments; j++) {                                                             \
+            for (int pb_i = 0; pb_i < 3; pb_i++)                                                               \
+                a[pb_i] = b[pb_i];                                                                             \
+            pb_map_point((poses)[j + 1].map, (u)[0], (u)[1], (u)[2], b);                                       \
+            if ((poses)[j].weight == 0.0f)                                                                     \
+                continue;                                                                                      \
+            BODY;                                                                                              \
+        }                                                                                                      \
+    }
+
+/* Piece r of a-b cut into `steps` equal pieces; the first starts at a and the
+ * last ends at b exactly (with one piece, the usual case, that is all). */
+PB_FN void pb_ab_piece(const float *a, const float *b, int r, int steps, float inv, float *pa, float *pb)
+{
+    for (int i = 0; i < 3; i++) {
+        pa[i] = r == 0 ? a[i] : a[i] + (b[i] - a[i]) * ((float)r * inv);
+        pb[i] = r + 1 == steps ? b[i] : a[i] + (b[i] - a[i]) * ((float)(r + 1) * inv);
+    }
+}
+
+/* AB's sub-segments of a-b, `steps` of them, inv = 1 / steps: BODY runs once
+ * per piece pa-pb. */
+#define PB_FOR_PIECES(steps, inv, a, b, BODY)                                                                    \
+    for (int pb_r = 0; pb_r < (steps); pb_r++) {                                                               \
+        float pa[3], pb[3];                                                                                    \
+        pb_ab_piece((a), (b), pb_r, (steps), (inv), pa, pb);                                                   \
+        BODY;                                                                                                  \
+    }
+
+/* The midpoint of a-b, where a segment too short to walk (a point along its
+ * major axis) is sampled: the tent weights of its two slices times the
+ * bilinear weights are the trilinear weights, one fetch. */
+PB_FN void pb_midpoint(const float *a, const float *b, float *o)
+{
+    for (int i = 0; i < 3; i++)
+        o[i] = 0.5f * (a[i] + b[i]);
+}
+
+/* AB over a-b through the 3-D image. The shares add up to the path length;
+ * dividing by their float sum makes the weights sum to 1 exactly as the walk
+ * computed them. */
 PB_FN float pb_ab_segment(pb_image img, int exact, const pb_place *pl, const float *a, const float *b)
 {
     pb_ab_walk w;
     if (pb_ab_walk_init(a, b, &w)) {
-        /* A point: tent weights of two slices times bilinear weights are the
-         * trilinear weights, and a trilinear sample costs one fetch. */
-        return pb_placed_trilinear(img, exact, pl, 0.5f * (a[0] + b[0]), 0.5f * (a[1] + b[1]),
-                                   0.5f * (a[2] + b[2]));
+        float o[3];
+        pb_midpoint(a, b, o);
+        return pb_placed_trilinear(img, exact, pl, o[0], o[1], o[2]);
     }
-    /* The fully covered slices get a loop of their own, free of branches, so
-     * the compiler can keep several fetches in flight. */
-    float sum = 0.0f;
-    for (int k = w.f0; k <= w.f1; k++) {
-        float kf = (float)k;
-        sum += pb_placed_slice(img, exact, pl, w.m, kf * w.g[0] + w.c[0], kf * w.g[1] + w.c[1], kf * w.g[2] + w.c[2]);
-    }
-    float wsum = (float)(w.f1 - w.f0 + 1);
-    for (int k = w.k0; k <= w.k1; k = pb_ab_next_partial(&w, k)) {
-        float kf = (float)k, mean;
-        float s = pb_tent_share(w.lo - kf, w.hi - kf, &mean);
-        sum += s * pb_placed_slice(img, exact, pl, w.m, kf * w.g[0] + w.c[0] + mean * w.h[0],
-                                   kf * w.g[1] + w.c[1] + mean * w.h[1], kf * w.g[2] + w.c[2] + mean * w.h[2]);
-        wsum += s;
-    }
-    /* The shares add up to the path length; dividing by their float sum makes
-     * the weights sum to 1 exactly as the walk computed them. */
+    float sum = 0.0f, wsum = 0.0f;
+    PB_AB_FOR_SLICES(w, sum += s * pb_placed_slice(img, exact, pl, w.m, x, y, z); wsum += s);
     return PB_DIV(sum, wsum);
 }
 
@@ -286,26 +343,12 @@ PB_FN float pb_step_fraction(int i, float inv_n)
     return ((float)i + 0.5f) * inv_n;
 }
 
-/* Piece r of a-b cut into `steps` equal pieces; the first starts at a and the
- * last ends at b exactly (with one piece, the usual case, that is all). */
-PB_FN void pb_ab_piece(const float *a, const float *b, int r, int steps, float inv, float *pa, float *pb)
-{
-    for (int i = 0; i < 3; i++) {
-        pa[i] = r == 0 ? a[i] : a[i] + (b[i] - a[i]) * ((float)r * inv);
-        pb[i] = r + 1 == steps ? b[i] : a[i] + (b[i] - a[i]) * ((float)(r + 1) * inv);
-    }
-}
-
 /* AB over one segment, split into prm.steps equal sub-segments. */
 PB_FN float pb_ab_sampled(pb_image img, pb_kparams prm, int exact, const pb_place *pl, const float *a,
                           const float *b)
 {
     float sum = 0.0f, inv = 1.0f / (float)prm.steps;
-    for (int r = 0; r < prm.steps; r++) {
-        float pa[3], pb[3];
-        pb_ab_piece(a, b, r, prm.steps, inv, pa, pb);
-        sum += pb_ab_segment(img, exact, pl, pa, pb);
-    }
+    PB_FOR_PIECES(prm.steps, inv, a, b, sum += pb_ab_segment(img, exact, pl, pa, pb));
     return sum * inv;
 }
 
@@ -329,17 +372,10 @@ PB_FN float pb_rm_sampled(pb_image img, pb_kparams prm, int exact, const pb_plac
 PB_FN float pb_polyline(pb_image img, PB_GLOBAL_RO pb_kpose *poses, pb_kparams prm, const float *u,
                         const pb_place *pl, int ab, int exact)
 {
-    float total = 0.0f, a[3], b[3];
-    pb_map_point(poses[0].map, u[0], u[1], u[2], b);
-    for (int j = 0; j < prm.segments; j++) {
-        for (int i = 0; i < 3; i++)
-            a[i] = b[i];
-        pb_map_point(poses[j + 1].map, u[0], u[1], u[2], b);
-        if (poses[j].weight == 0.0f) /* clipped: reads nothing of the object (src/path_clip.c) */
-            continue;
-        total += poses[j].weight *
-                 (ab ? pb_ab_sampled(img, prm, exact, pl, a, b) : pb_rm_sampled(img, prm, exact, pl, a, b));
-    }
+    float total = 0.0f;
+    PB_FOR_SEGMENTS(poses, prm, u,
+                    total += poses[j].weight * (ab ? pb_ab_sampled(img, prm, exact, pl, a, b)
+                                                   : pb_rm_sampled(img, prm, exact, pl, a, b)));
     return total;
 }
 
@@ -377,7 +413,7 @@ PB_FN float pb_classical(pb_image img, PB_GLOBAL_RO pb_kpose *poses, pb_kparams 
 
 /* One kernel per method and filter: the filter is a compile-time constant in
  * each, so a HARDWARE kernel carries none of EXACT's code or registers (more
- * threads in flight to hide texture latency). Names as in pb_kernel_names. */
+ * threads in flight to hide texture latency). Each has its row in src/kernel_table.h. */
 #define PB_IN_GRID(ix, iy, iz) ((ix) < prm.dims[0] && (iy) < prm.dims[1] && (iz) < prm.dims[2])
 #define PB_OUT(ix, iy, iz) out[(ix) + prm.dims[0] * ((iy) + prm.dims[1] * (iz))]
 /* W's own centre, and reads where its walk lands. */
@@ -387,7 +423,7 @@ PB_FN float pb_classical(pb_image img, PB_GLOBAL_RO pb_kpose *poses, pb_kparams 
 
 PB_KERNEL void pb_blur_ab(pb_image img, PB_GLOBAL_RO pb_kpose *poses, pb_kparams prm, PB_GLOBAL float *out)
 {
-    int ix = PB_GID_X, iy = PB_GID_Y, iz = PB_GID_Z;
+    int ix = PB_GID_X, iy = PB_GID_Y, iz = PB_GID_Z + prm.z0;
     if (!PB_IN_GRID(ix, iy, iz))
         return;
     PB_OWN_VOXEL;
@@ -396,7 +432,7 @@ PB_KERNEL void pb_blur_ab(pb_image img, PB_GLOBAL_RO pb_kpose *poses, pb_kparams
 
 PB_KERNEL void pb_blur_ab_exact(pb_image img, PB_GLOBAL_RO pb_kpose *poses, pb_kparams prm, PB_GLOBAL float *out)
 {
-    int ix = PB_GID_X, iy = PB_GID_Y, iz = PB_GID_Z;
+    int ix = PB_GID_X, iy = PB_GID_Y, iz = PB_GID_Z + prm.z0;
     if (!PB_IN_GRID(ix, iy, iz))
         return;
     PB_OWN_VOXEL;
@@ -405,7 +441,7 @@ PB_KERNEL void pb_blur_ab_exact(pb_image img, PB_GLOBAL_RO pb_kpose *poses, pb_k
 
 PB_KERNEL void pb_blur_rm(pb_image img, PB_GLOBAL_RO pb_kpose *poses, pb_kparams prm, PB_GLOBAL float *out)
 {
-    int ix = PB_GID_X, iy = PB_GID_Y, iz = PB_GID_Z;
+    int ix = PB_GID_X, iy = PB_GID_Y, iz = PB_GID_Z + prm.z0;
     if (!PB_IN_GRID(ix, iy, iz))
         return;
     PB_OWN_VOXEL;
@@ -414,7 +450,7 @@ PB_KERNEL void pb_blur_rm(pb_image img, PB_GLOBAL_RO pb_kpose *poses, pb_kparams
 
 PB_KERNEL void pb_blur_rm_exact(pb_image img, PB_GLOBAL_RO pb_kpose *poses, pb_kparams prm, PB_GLOBAL float *out)
 {
-    int ix = PB_GID_X, iy = PB_GID_Y, iz = PB_GID_Z;
+    int ix = PB_GID_X, iy = PB_GID_Y, iz = PB_GID_Z + prm.z0;
     if (!PB_IN_GRID(ix, iy, iz))
         return;
     PB_OWN_VOXEL;
@@ -423,7 +459,7 @@ PB_KERNEL void pb_blur_rm_exact(pb_image img, PB_GLOBAL_RO pb_kpose *poses, pb_k
 
 PB_KERNEL void pb_blur_cl(pb_image img, PB_GLOBAL_RO pb_kpose *poses, pb_kparams prm, PB_GLOBAL float *out)
 {
-    int ix = PB_GID_X, iy = PB_GID_Y, iz = PB_GID_Z;
+    int ix = PB_GID_X, iy = PB_GID_Y, iz = PB_GID_Z + prm.z0;
     if (!PB_IN_GRID(ix, iy, iz))
         return;
     PB_OWN_VOXEL;
@@ -432,7 +468,7 @@ PB_KERNEL void pb_blur_cl(pb_image img, PB_GLOBAL_RO pb_kpose *poses, pb_kparams
 
 PB_KERNEL void pb_blur_cl_exact(pb_image img, PB_GLOBAL_RO pb_kpose *poses, pb_kparams prm, PB_GLOBAL float *out)
 {
-    int ix = PB_GID_X, iy = PB_GID_Y, iz = PB_GID_Z;
+    int ix = PB_GID_X, iy = PB_GID_Y, iz = PB_GID_Z + prm.z0;
     if (!PB_IN_GRID(ix, iy, iz))
         return;
     PB_OWN_VOXEL;
@@ -457,7 +493,7 @@ PB_FN void pb_ref_point(PB_GLOBAL_RO float *m, const float *base, unsigned int k
  * W, each reading the object voxel that holds it (box model). */
 PB_KERNEL void pb_blur_ref(pb_image img, PB_GLOBAL_RO pb_kstep *steps, pb_kparams prm, PB_GLOBAL float *out)
 {
-    int ix = PB_GID_X, iy = PB_GID_Y, iz = PB_GID_Z;
+    int ix = PB_GID_X, iy = PB_GID_Y, iz = PB_GID_Z + prm.z0;
     if (ix >= prm.dims[0] || iy >= prm.dims[1] || iz >= prm.dims[2])
         return;
     int voxel = ix + prm.dims[0] * (iy + prm.dims[1] * iz);

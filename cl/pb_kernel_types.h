@@ -29,43 +29,11 @@ typedef struct pb_kparams {
     /* pb_shift_ab_layers: the axis the layers run along, every segment's
      * major axis; pb_permute: the axis to make the slowest. */
     int layer_axis;
+    /* The first z-slice of the launch: a launch covers a slab of slices when
+     * the caller asks for progress (src/launch.c). */
+    int z0;
 } pb_kparams;
 
-/* The kernels: the forward ones, one per method and filter (REF reads nearest
- * voxels only), then the adjoints' scatters, one per method (they read no
- * texture), then the shift-invariant ones for motions of translations only,
- * one per method but REF and filter, each both the forward and the adjoint's
- * gather, and AB HARDWARE's forward through 2-D layers along y or z; the
- * copy that lays a volume out in layers; AB HARDWARE's forward through layers
- * along x. pb_kernel_index, pb_adjoint_index and pb_shift_index give a
- * launch's entry. */
-#define PB_KERNEL_COUNT 20
-#define PB_KERNEL_NAMES                                                                                         \
-    {"pb_blur_ab",        "pb_blur_ab_exact",  "pb_blur_rm",    "pb_blur_rm_exact", "pb_blur_cl",             \
-     "pb_blur_cl_exact",  "pb_blur_ref",       "pb_adjoint_ab", "pb_adjoint_rm",    "pb_adjoint_cl",          \
-     "pb_adjoint_ref",    "pb_shift_ab",       "pb_shift_ab_exact", "pb_shift_rm",  "pb_shift_rm_exact",      \
-     "pb_shift_cl",       "pb_shift_cl_exact", "pb_shift_ab_layers", "pb_permute",                              \
-     "pb_shift_ab_layers_x"}
-
-PB_FN int pb_kernel_index(int method, int exact)
-{
-    return method == 3 ? 6 : 2 * method + (exact ? 1 : 0); /* pb_method order: AB, RM, CL, REF */
-}
-
-PB_FN int pb_adjoint_index(int method)
-{
-    return 7 + method;
-}
-
-/* AB, RM and CL only: REF's points are random per voxel, not shift invariant. */
-PB_FN int pb_shift_index(int method, int exact)
-{
-    return 11 + 2 * method + (exact ? 1 : 0);
-}
-
-#define PB_KERNEL_SHIFT_AB_LAYERS 17
-#define PB_KERNEL_PERMUTE 18
-#define PB_KERNEL_SHIFT_AB_LAYERS_X 19
 /* Voxels along x per work item of pb_shift_ab_layers_x: 8 floats fill a
  * 32-byte sector. */
 #define PB_X_RUN 8

@@ -46,7 +46,7 @@ PB_FN void pb_shift_place(pb_kparams prm, int ix, int iy, int iz, pb_place *pl)
     } while (0)
 
 #define PB_SHIFT_VOXEL                                                                                           \
-    int ix = PB_GID_X, iy = PB_GID_Y, iz = PB_GID_Z;                                                             \
+    int ix = PB_GID_X, iy = PB_GID_Y, iz = PB_GID_Z + prm.z0;                                                             \
     if (!PB_IN_GRID(ix, iy, iz))                                                                                 \
         return;                                                                                                  \
     const float u[3] = {0.5f, 0.5f, 0.5f};                                                                       \
@@ -144,44 +144,30 @@ PB_FN float pb_layer_trilinear(pb_layers img, pb_kparams prm, const pb_place *pl
 PB_FN float pb_ab_segment_layers(pb_layers img, pb_kparams prm, const pb_place *pl, const float *a, const float *b)
 {
     pb_ab_walk w;
-    if (pb_ab_walk_init_axis(a, b, prm.layer_axis, &w))
-        return pb_layer_trilinear(img, prm, pl, 0.5f * (a[0] + b[0]), 0.5f * (a[1] + b[1]), 0.5f * (a[2] + b[2]));
-    float sum = 0.0f;
-    for (int k = w.f0; k <= w.f1; k++) {
-        float kf = (float)k;
-        sum += pb_layer_slice(img, prm, pl, kf * w.g[0] + w.c[0], kf * w.g[1] + w.c[1], kf * w.g[2] + w.c[2]);
+    if (pb_ab_walk_init_axis(a, b, prm.layer_axis, &w)) {
+        float o[3];
+        pb_midpoint(a, b, o);
+        return pb_layer_trilinear(img, prm, pl, o[0], o[1], o[2]);
     }
-    float wsum = (float)(w.f1 - w.f0 + 1);
-    for (int k = w.k0; k <= w.k1; k = pb_ab_next_partial(&w, k)) {
-        float kf = (float)k, mean;
-        float s = pb_tent_share(w.lo - kf, w.hi - kf, &mean);
-        sum += s * pb_layer_slice(img, prm, pl, kf * w.g[0] + w.c[0] + mean * w.h[0],
-                                  kf * w.g[1] + w.c[1] + mean * w.h[1], kf * w.g[2] + w.c[2] + mean * w.h[2]);
-        wsum += s;
-    }
+    float sum = 0.0f, wsum = 0.0f;
+    PB_AB_FOR_SLICES(w, sum += s * pb_layer_slice(img, prm, pl, x, y, z); wsum += s);
     return PB_DIV(sum, wsum);
+}
+
+/* AB over one segment through the layers, in prm.steps sub-segments. */
+PB_FN float pb_ab_sampled_layers(pb_layers img, pb_kparams prm, const pb_place *pl, const float *a, const float *b)
+{
+    float sum = 0.0f, inv = 1.0f / (float)prm.steps;
+    PB_FOR_PIECES(prm.steps, inv, a, b, sum += pb_ab_segment_layers(img, prm, pl, pa, pb));
+    return sum * inv;
 }
 
 /* Voxel 0's polyline through the layers, placed by pl. */
 PB_FN float pb_shift_layered(pb_layers img, PB_GLOBAL_RO pb_kpose *poses, pb_kparams prm, const pb_place *pl)
 {
     const float u[3] = {0.5f, 0.5f, 0.5f};
-    float total = 0.0f, a[3], b[3];
-    pb_map_point(poses[0].map, u[0], u[1], u[2], b);
-    for (int j = 0; j < prm.segments; j++) {
-        for (int i = 0; i < 3; i++)
-            a[i] = b[i];
-        pb_map_point(poses[j + 1].map, u[0], u[1], u[2], b);
-        if (poses[j].weight == 0.0f) /* clipped */
-            continue;
-        float seg = 0.0f, inv = 1.0f / (float)prm.steps;
-        for (int r = 0; r < prm.steps; r++) {
-            float pa[3], pb[3];
-            pb_ab_piece(a, b, r, prm.steps, inv, pa, pb);
-            seg += pb_ab_segment_layers(img, prm, pl, pa, pb);
-        }
-        total += poses[j].weight * seg * inv;
-    }
+    float total = 0.0f;
+    PB_FOR_SEGMENTS(poses, prm, u, total += poses[j].weight * pb_ab_sampled_layers(img, prm, pl, a, b));
     return total;
 }
 
@@ -194,14 +180,14 @@ PB_KERNEL void pb_shift_ab_layers(pb_layers img, PB_GLOBAL_RO pb_kpose *poses, p
 }
 
 /* Layers along x. A warp whose work items lay along x would read 32 layers
- * at once (measured 0.514 -> 0.845 ms, cc459fa), so here they lie along y, in
- * one layer at neighbouring texels. Each walks a run of PB_X_RUN voxels along
+ * at once, far apart in memory, so here they lie along y, in one layer at
+ * neighbouring texels. Each walks a run of PB_X_RUN voxels along
  * x, one after the other, so that what a warp writes fills whole 32-byte
  * sectors of 8 floats instead of one float in each of 32. The host launches
  * pb_kernel_extent's work items: y first, then runs along x, then z. */
 PB_KERNEL void pb_shift_ab_layers_x(pb_layers img, PB_GLOBAL_RO pb_kpose *poses, pb_kparams prm, PB_GLOBAL float *out)
 {
-    int iy = PB_GID_X, x0 = PB_GID_Y * PB_X_RUN, iz = PB_GID_Z;
+    int iy = PB_GID_X, x0 = PB_GID_Y * PB_X_RUN, iz = PB_GID_Z + prm.z0;
     if (iy >= prm.dims[1] || iz >= prm.dims[2])
         return;
     for (int ix = x0; ix < x0 + PB_X_RUN && ix < prm.dims[0]; ix++) {
@@ -219,7 +205,7 @@ PB_KERNEL void pb_shift_ab_layers_x(pb_layers img, PB_GLOBAL_RO pb_kpose *poses,
  * second argument only matches the launch's others.) */
 PB_KERNEL void pb_permute(PB_GLOBAL_RO float *in, PB_GLOBAL_RO pb_kpose *unused, pb_kparams prm, PB_GLOBAL float *out)
 {
-    int ix = PB_GID_X, iy = PB_GID_Y, iz = PB_GID_Z;
+    int ix = PB_GID_X, iy = PB_GID_Y, iz = PB_GID_Z + prm.z0;
     (void)unused;
     if (!PB_IN_GRID(ix, iy, iz))
         return;

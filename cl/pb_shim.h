@@ -1,17 +1,27 @@
-/* The shim, OpenCL side: the only place that knows the kernels are compiled as
- * OpenCL C. It maps qualifiers, thread ids (x, y and z), the volume types, the
- * three fetches, the adjoint's float atomic add and a fast division; kernel
- * bodies use nothing else. The CUDA side, with the same names, is
- * cuda/pb_shim_cuda.h.
+/* The shim: the one place that knows the kernels are compiled by two
+ * compilers, as OpenCL C (the library embeds cl/pb_blur.cl) and as CUDA
+ * (cuda/pb_kernels.cu includes the very same file). Each name below is spelled
+ * once per compiler, side by side; kernel bodies use nothing else, so both
+ * compilers see the same arithmetic.
  *
  * Coordinates, on every backend: unnormalized texel coordinates, texel i's
  * centre at i + 0.5, border addressing (zero outside the volume), x fastest.
- * The CUDA backend binds one texture object per filter to the same cudaArray;
- * OpenCL picks the sampler here. */
+ *
+ *   PB_KERNEL          an entry point with an unmangled name
+ *   PB_FN              a helper, inlined
+ *   PB_GLOBAL(_RO)     device memory (read-only)
+ *   PB_GID_X/Y/Z       the work item's (thread's) global id
+ *   pb_image           a 3-D float volume the texture unit filters
+ *   pb_layers          the same volume as 2-D layers along one axis
+ *   PB_FETCH_LINEAR    a trilinear fetch;  PB_FETCH_NEAREST  a nearest one
+ *   PB_FETCH_LAYER     a bilinear fetch inside one layer
+ *   PB_ATOMIC_ADD      the adjoint's float atomic add
+ *   PB_DIV             a division off the precise path
+ *   PB_SINCOS, PB_RSQRT  CL's step: one range reduction, one reciprocal root */
 #ifndef PB_SHIM_H
 #define PB_SHIM_H
 
-#if defined(__OPENCL_VERSION__)
+#if defined(__OPENCL_VERSION__) /* ---- OpenCL C ---------------------------- */
 
 #define PB_KERNEL __kernel
 #define PB_FN static inline
@@ -20,30 +30,25 @@
 #define PB_GID_X ((int)get_global_id(0))
 #define PB_GID_Y ((int)get_global_id(1))
 #define PB_GID_Z ((int)get_global_id(2))
-/* A macro, not a typedef: PoCL 3.1 reads garbage through a typedef that carries
- * the access qualifier (seen: every fetch returned 123). */
+/* Macros, not typedefs: PoCL 3.1 reads garbage through a typedef that carries
+ * the access qualifier (every fetch returned 123). */
 #define pb_image __read_only image3d_t
-/* The same volume as a 2-D image array, one layer per slice along an axis:
- * AB's slice samples are bilinear, which the texture unit fetches at twice its
- * trilinear rate (bench/fetch_rate.cu). */
 #define pb_layers __read_only image2d_array_t
 
 __constant sampler_t pb_sampler_linear = CLK_NORMALIZED_COORDS_FALSE | CLK_ADDRESS_CLAMP | CLK_FILTER_LINEAR;
 __constant sampler_t pb_sampler_nearest = CLK_NORMALIZED_COORDS_FALSE | CLK_ADDRESS_CLAMP | CLK_FILTER_NEAREST;
 
-/* Border colour of a single-channel image is (0, 0, 0, 1): .x is zero outside. */
+/* The border colour of a single-channel image is (0, 0, 0, 1): .x is zero
+ * outside. A layer index must be in range: an array clamps it. */
 #define PB_FETCH_LINEAR(img, px, py, pz) read_imagef((img), pb_sampler_linear, (float4)((px), (py), (pz), 0.0f)).x
 #define PB_FETCH_NEAREST(img, px, py, pz) read_imagef((img), pb_sampler_nearest, (float4)((px), (py), (pz), 0.0f)).x
-/* Bilinear inside layer `layer` (an int in range: an array clamps the layer,
- * it has no border there). */
 #define PB_FETCH_LAYER(img, pa, pb, layer)                                                                       \
     read_imagef((img), pb_sampler_linear, (float4)((pa), (pb), (float)(layer), 0.0f)).x
 
-/* Float atomic add, for the adjoint's scatter. OpenCL 1.2 has none. On
- * NVIDIA's platform (the backend defines PB_OPENCL_NVIDIA) PTX's
- * red.global.add.f32 is what CUDA's atomicAdd compiles to; elsewhere a
- * compare-and-swap loop on the float's bits, which on CPUs (PoCL) seldom
- * retries. */
+/* OpenCL 1.2 has no float atomic add. On NVIDIA's platform (the backend
+ * defines PB_OPENCL_NVIDIA) PTX's red.global.add.f32, what CUDA's atomicAdd
+ * compiles to; elsewhere a compare-and-swap loop on the float's bits, which on
+ * CPUs (PoCL) seldom retries. */
 #if defined(PB_OPENCL_NVIDIA)
 static inline void pb_atomic_add(volatile __global float *p, float v)
 {
@@ -59,21 +64,52 @@ static inline void pb_atomic_add(volatile __global float *p, float v)
 }
 #endif
 #define PB_ATOMIC_ADD(p, v) pb_atomic_add((p), (v))
-/* A division off the precise path (a few ulp), for the walk's per-segment
- * divisions: under the error bound a path has many short segments, and their
- * precise divisions were measured to cost AB-E 5 % on the H200 (bench/). The
- * forward and the adjoint divide through the same helpers, so they agree. */
+/* The walk's per-segment divisions: under the error bound a path has many
+ * short segments, and precise divisions cost AB-E measurably. The forward
+ * and the adjoint divide through the same helpers, so they agree. */
 #define PB_DIV(a, b) native_divide((a), (b))
-/* CL's step: the sine of x, its cosine into *c (one range reduction for both),
- * and a reciprocal square root. */
 #define PB_SINCOS(x, c) sincos((x), (c))
 #define PB_RSQRT(x) rsqrt(x)
 
-#elif defined(PB_SHIM_CUDA)
-/* CUDA: cuda/pb_shim_cuda.h has defined the same names before including the
- * kernels. */
+#elif defined(__CUDACC__) /* ---- CUDA ------------------------------------- */
+
+/* No __launch_bounds__: the kernels are bound by texture fetches, and capping
+ * AB's registers was no faster. */
+#define PB_KERNEL extern "C" __global__
+#define PB_FN static __device__ __forceinline__
+#define PB_GLOBAL
+#define PB_GLOBAL_RO const
+#define PB_GID_X ((int)(blockIdx.x * blockDim.x + threadIdx.x))
+#define PB_GID_Y ((int)(blockIdx.y * blockDim.y + threadIdx.y))
+#define PB_GID_Z ((int)(blockIdx.z * blockDim.z + threadIdx.z))
+/* A texture object carries its filter mode, where OpenCL passes a sampler per
+ * read: the backend binds a linear and a point texture object to the volume's
+ * array and passes the one the kernel's row of src/kernel_table.h names. */
+typedef cudaTextureObject_t pb_image;
+typedef cudaTextureObject_t pb_layers;
+
+#define PB_FETCH_LINEAR(img, px, py, pz) tex3D<float>((img), (px), (py), (pz))
+#define PB_FETCH_NEAREST(img, px, py, pz) tex3D<float>((img), (px), (py), (pz))
+#define PB_FETCH_LAYER(img, pa, pb, layer) tex2DLayered<float>((img), (pa), (pb), (layer))
+
+/* With its result unused nvcc emits RED.ADD.F32. */
+#define PB_ATOMIC_ADD(p, v) atomicAdd((p), (v))
+#define PB_DIV(a, b) __fdividef((a), (b))
+/* Left to 1.0f / sqrtf, nvcc emits a correctly rounded root and division
+ * (NVIDIA's OpenCL compiler does not), which made CUDA's CL steps slower. */
+PB_FN float pb_sincos(float x, float *c)
+{
+    float s;
+    sincosf(x, &s, c);
+    return s;
+}
+#define PB_SINCOS(x, c) pb_sincos((x), (c))
+#define PB_RSQRT(x) rsqrtf(x)
+/* Float maths: for float arguments C++ overloads pick the float versions
+ * (floorf, fabsf, fmaxf), as OpenCL C does. */
+
 #else
-#error "pb_shim.h is for OpenCL C; CUDA includes cuda/pb_shim_cuda.h first"
+#error "cl/pb_shim.h is for the OpenCL C compiler or nvcc"
 #endif
 
 #endif

@@ -132,10 +132,9 @@ PB_API const char *pb_last_error(const pb_context *ctx);
 
 /* Progress of long work (REF on large volumes on a CPU takes minutes): fn is
  * called from the thread in pb_blur with the fraction done, between pieces of
- * the work, and with 1 at the end. The host and OpenCL backends then run the
- * volume in slabs of z-slices (a little slower: one launch and wait per slab);
- * CUDA, which blurs even REF on 256^3 in seconds, calls fn only at the end.
- * fn == NULL (the default) turns it off. */
+ * the work, and with 1 at the end. Every backend then runs the volume in
+ * slabs of z-slices (a little slower: one launch and wait per slab). fn ==
+ * NULL (the default) turns it off. */
 typedef void (*pb_progress_fn)(double fraction, void *user);
 PB_API pb_status pb_context_set_progress(pb_context *ctx, pb_progress_fn fn, void *user);
 
@@ -339,6 +338,76 @@ PB_API pb_status pb_blur_frames(pb_context *ctx, const pb_volume *const *objects
 PB_API pb_status pb_blur_frames_adjoint(pb_context *ctx, const pb_volume *const *tomographs, const pb_motion *track,
                                         const double *bounds, size_t frames, const pb_blur_options *options,
                                         pb_volume *const *objects);
+
+/* ---- plans ------------------------------------------------------------- */
+
+/* A blur operator made once and applied many times, as an MLEM loop applies
+ * B and B^T hundreds of times (VkFFT's life cycle: create, apply, destroy).
+ * Creating it validates the motion and options, plans the key poses of every
+ * frame and uploads them to the device; applying it does only the device
+ * work. A plan keeps its context alive, as volumes do; a plan is used from
+ * one thread at a time. pb_blur, pb_blur_adjoint, pb_blur_frames and
+ * pb_blur_frames_adjoint are one-shot plans and give the same results bit for
+ * bit. */
+typedef struct pb_plan pb_plan;
+
+/* A plan of one frame (frame 0): motion over [frame_start, frame_end] on
+ * grids of geometry. options may be NULL (defaults). */
+PB_API pb_status pb_plan_create(pb_context *ctx, const pb_geometry *geometry, const pb_motion *motion,
+                                const pb_blur_options *options, pb_plan **plan);
+/* A plan of `frames` frames of one track, frame i spanning [bounds[i],
+ * bounds[i+1]] (as pb_blur_frames; the track's frame_start and frame_end are
+ * not used). Errors name the frame. */
+PB_API pb_status pb_plan_create_frames(pb_context *ctx, const pb_geometry *geometry, const pb_motion *track,
+                                       const double *bounds, size_t frames, const pb_blur_options *options,
+                                       pb_plan **plan);
+PB_API void pb_plan_destroy(pb_plan *plan);
+PB_API size_t pb_plan_frame_count(const pb_plan *plan);
+PB_API pb_status pb_plan_get_geometry(const pb_plan *plan, pb_geometry *geometry);
+
+/* Frame `frame` forward, tomograph = B object, and its transpose, object =
+ * B^T tomograph (overwritten, or with accumulate != 0 added into, as frames
+ * that share one object sum their back projections). Volumes of the plan's
+ * context and geometry. */
+PB_API pb_status pb_plan_forward(pb_plan *plan, size_t frame, const pb_volume *object, pb_volume *tomograph);
+PB_API pb_status pb_plan_adjoint(pb_plan *plan, size_t frame, const pb_volume *tomograph, pb_volume *object,
+                                 int accumulate);
+
+/* The same on the caller's memory, nx*ny*nz floats each, x fastest: a CUDA
+ * device pointer (cudaMalloc, CuPy, PyTorch) on the CUDA backend, a cl_mem
+ * (the handle itself, cast to void *) of the context's cl_context
+ * (pb_context_native) on OpenCL, host memory on the host backend. The input is
+ * copied into the plan's texture on the device; nothing touches host memory.
+ *   Ordering. The call queues its work on the context's queue
+ *   (pb_context_native: the cl_command_queue, or the cudaStream_t) after
+ *   everything queued there before, and returns with it finished: the output
+ *   is ready, and pb_context_last_kernel_ms holds its device time (the copy
+ *   included; pb_context_last_input_ms the copy alone). On CUDA that stream
+ *   is a blocking stream: it also waits for work queued earlier on the legacy
+ *   default stream (CuPy's and PyTorch's default). Input written on any other
+ *   stream or queue must be finished (synchronised) by the caller first.
+ * On OpenCL and CUDA the memory is checked to belong to the context's device
+ * (OpenCL: and to hold the volume); input and output must not overlap. Values
+ * are not checked for NaN here, as pb_volume_upload does. */
+PB_API pb_status pb_plan_forward_device(pb_plan *plan, size_t frame, const void *object, void *tomograph);
+PB_API pb_status pb_plan_adjoint_device(pb_plan *plan, size_t frame, const void *tomograph, void *object,
+                                        int accumulate);
+
+/* The runtime objects behind a context, for device memory in and out: on
+ * OpenCL the cl_context, cl_command_queue and cl_device_id; on CUDA the
+ * cudaStream_t in queue and the device ordinal (the runtime's primary
+ * context); on the host backend all NULL. */
+typedef struct pb_native {
+    void *context;
+    void *queue;
+    void *device;
+    int device_index;
+} pb_native;
+PB_API pb_status pb_context_native(const pb_context *ctx, pb_native *native);
+
+/* Of the last call's device time, the part spent making its input current
+ * (the copy of device memory into the texture), in milliseconds. */
+PB_API pb_status pb_context_last_input_ms(const pb_context *ctx, double *ms);
 
 /* The paper's eq. (5): 100 * sum (x - ref)^2 / sum ref^2 over n voxels, in
  * double. Returns NaN when ref is all zeros or either pointer is NULL. */

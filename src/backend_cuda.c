@@ -1,8 +1,8 @@
 /* The CUDA backend: the kernels of cl/pb_blur.cl compiled by nvcc
  * (cuda/pb_kernels.cu), run through the CUDA runtime. The only library file that
  * includes a CUDA header; plain C, so it reaches the kernels through
- * cuda/pb_cuda_launch.h. Every runtime call is checked and its error text
- * reaches the caller. */
+ * cuda/pb_cuda_launch.h. It translates src/backend.h's primitives into runtime
+ * calls; every call is checked and its error text reaches the caller. */
 #include <cuda_runtime_api.h>
 
 #include <stdio.h>
@@ -11,37 +11,24 @@
 
 #include "../cuda/pb_cuda_launch.h"
 #include "backend.h"
-#include "kernel_args.h"
 
 typedef struct cu_impl {
     int device;
-    cudaStream_t stream; /* every copy and launch of the context, in order */
-    cudaEvent_t start, stop;
-    void *plan;          /* key poses or REF steps of the current launch */
-    size_t plan_bytes;
-    void *scratch;       /* a volume laid out for its layers (pb_permute), kept: the adjoint's */
-    size_t scratch_bytes; /* gather lays out every tomograph it reads, and a cudaMalloc there would count */
-    size_t layer_limits[3]; /* layered 2-D textures: width, height, layers */
+    /* Every copy and launch of the context, in order. A blocking stream: it
+     * waits for work queued before on the legacy default stream, where CuPy
+     * and PyTorch queue by default, so their arrays are ready. */
+    cudaStream_t stream;
+    cudaEvent_t start, mark, stop;
+    int marked;
 } cu_impl;
 
-typedef struct cu_volume {
-    float *buffer;               /* what the kernels write and the host reads */
-    cudaArray_t array;           /* what the kernels sample; made on first use as an input */
-    cudaTextureObject_t linear;  /* HARDWARE fetches */
-    cudaTextureObject_t point;   /* EXACT and REF reads */
-    int array_stale;
-    cudaArray_t layers[3];             /* layered along each axis, for pb_shift_ab_layers, made on first use */
-    cudaTextureObject_t layers_tex[3]; /* their linear filters */
-    int layers_stale[3];
-} cu_volume;
-
-/* The buffer changed: the array and layers made from it are out of date. */
-static void mark_written(cu_volume *v)
-{
-    v->array_stale = 1;
-    for (int m = 0; m < 3; m++)
-        v->layers_stale[m] = 1;
-}
+/* An image: a CUDA array and its texture objects, which carry the filter: a
+ * linear one for HARDWARE fetches and layers, a point one for EXACT and REF. */
+typedef struct cu_image {
+    cudaArray_t array;
+    cudaTextureObject_t linear, point;
+    size_t extent[3];
+} cu_image;
 
 /* Maps a failed CUDA call to a status; allocation failures are memory errors.
  * Clears the runtime's last error, so that one failure is reported once. */
@@ -145,7 +132,7 @@ static pb_status cuda_context_init(pb_context *ctx, int index, const char *build
         st = fill_info(ctx, index, &ctx->device);
     if (st != PB_OK)
         return st;
-    if ((e = cudaStreamCreateWithFlags(&cu->stream, cudaStreamNonBlocking)) != cudaSuccess)
+    if ((e = cudaStreamCreateWithFlags(&cu->stream, cudaStreamDefault)) != cudaSuccess)
         return cu_fail(ctx, PB_ERR_DEVICE, "cudaStreamCreateWithFlags", e);
     int lim[3] = {0, 0, 0};
     if (cudaDeviceGetAttribute(&lim[0], cudaDevAttrMaxTexture2DLayeredWidth, index) != cudaSuccess ||
@@ -154,8 +141,10 @@ static pb_status cuda_context_init(pb_context *ctx, int index, const char *build
         lim[0] = lim[1] = lim[2] = 0; /* unknown: no layers */
     (void)cudaGetLastError();
     for (int d = 0; d < 3; d++)
-        cu->layer_limits[d] = (size_t)lim[d];
-    if ((e = cudaEventCreate(&cu->start)) != cudaSuccess || (e = cudaEventCreate(&cu->stop)) != cudaSuccess)
+        ctx->layer_limits[d] = (size_t)lim[d];
+    ctx->texture_weight_steps = PB_NVIDIA_WEIGHT_STEPS;
+    if ((e = cudaEventCreate(&cu->start)) != cudaSuccess || (e = cudaEventCreate(&cu->mark)) != cudaSuccess ||
+        (e = cudaEventCreate(&cu->stop)) != cudaSuccess)
         return cu_fail(ctx, PB_ERR_DEVICE, "cudaEventCreate", e);
     /* A GPU the fat binary has no code for fails here, not at the first blur. */
     if ((e = pb_cuda_check_kernels()) != cudaSuccess)
@@ -169,12 +158,10 @@ static void cuda_context_release(pb_context *ctx)
     if (!cu)
         return;
     cudaSetDevice(cu->device);
-    if (cu->plan)
-        cudaFree(cu->plan);
-    if (cu->scratch)
-        cudaFree(cu->scratch);
     if (cu->start)
         cudaEventDestroy(cu->start);
+    if (cu->mark)
+        cudaEventDestroy(cu->mark);
     if (cu->stop)
         cudaEventDestroy(cu->stop);
     if (cu->stream)
@@ -184,86 +171,84 @@ static void cuda_context_release(pb_context *ctx)
     ctx->impl = NULL;
 }
 
-static pb_status cuda_volume_init(pb_volume *vol)
+static void cuda_native(const pb_context *ctx, pb_native *out)
 {
-    pb_status st = use_device(vol->ctx);
-    if (st != PB_OK)
-        return st;
-    cu_volume *v = calloc(1, sizeof *v);
-    if (!v)
-        return pb_error(vol->ctx, PB_ERR_OUT_OF_MEMORY, "out of host memory for a volume");
-    cudaError_t e = cudaMalloc((void **)&v->buffer, vol->count * sizeof(float));
-    if (e != cudaSuccess) {
-        free(v);
-        return cu_fail(vol->ctx, PB_ERR_DEVICE, "cudaMalloc", e);
-    }
-    mark_written(v);
-    vol->impl = v;
-    return PB_OK;
+    const cu_impl *cu = ctx->impl;
+    out->queue = cu->stream;
+    out->device_index = cu->device;
 }
 
-static void release_array(cu_volume *v)
+/* ---- buffers ----------------------------------------------------------- */
+
+static pb_status cuda_buffer_create(pb_context *ctx, size_t bytes, void **buffer)
 {
-    if (v->linear)
-        cudaDestroyTextureObject(v->linear);
-    if (v->point)
-        cudaDestroyTextureObject(v->point);
-    if (v->array)
-        cudaFreeArray(v->array);
-    v->linear = v->point = 0;
-    v->array = NULL;
-    for (int m = 0; m < 3; m++) {
-        if (v->layers_tex[m])
-            cudaDestroyTextureObject(v->layers_tex[m]);
-        if (v->layers[m])
-            cudaFreeArray(v->layers[m]);
-        v->layers_tex[m] = 0;
-        v->layers[m] = NULL;
-    }
+    pb_status st = use_device(ctx);
+    cudaError_t e = st == PB_OK ? cudaMalloc(buffer, bytes) : cudaSuccess;
+    if (e != cudaSuccess)
+        return cu_fail(ctx, PB_ERR_DEVICE, "cudaMalloc", e);
+    return st;
 }
 
-static void cuda_volume_release(pb_volume *vol)
+static void cuda_buffer_release(pb_context *ctx, void *buffer)
 {
-    cu_volume *v = vol->impl;
-    use_device(vol->ctx);
-    release_array(v);
-    cudaFree(v->buffer);
+    use_device(ctx);
+    cudaFree(buffer);
     (void)cudaGetLastError();
-    free(v);
 }
 
-static pb_status cuda_volume_upload(pb_volume *vol, const float *host)
+/* Copies through the stream, then waits: from pageable memory the runtime
+ * stages the data anyway. */
+static pb_status copy_sync(pb_context *ctx, void *dst, const void *src, size_t bytes, enum cudaMemcpyKind kind,
+                           const char *what)
 {
-    cu_impl *cu = vol->ctx->impl;
-    cu_volume *v = vol->impl;
-    pb_status st = use_device(vol->ctx);
+    cu_impl *cu = ctx->impl;
+    pb_status st = use_device(ctx);
     if (st != PB_OK)
         return st;
-    cudaError_t e = cudaMemcpyAsync(v->buffer, host, vol->count * sizeof(float), cudaMemcpyHostToDevice, cu->stream);
+    cudaError_t e = cudaMemcpyAsync(dst, src, bytes, kind, cu->stream);
     if (e == cudaSuccess)
         e = cudaStreamSynchronize(cu->stream);
-    if (e != cudaSuccess)
-        return cu_fail(vol->ctx, PB_ERR_DEVICE, "cudaMemcpyAsync (upload)", e);
-    mark_written(v);
+    return e == cudaSuccess ? PB_OK : cu_fail(ctx, PB_ERR_DEVICE, what, e);
+}
+
+static pb_status cuda_buffer_write(pb_context *ctx, void *buffer, const void *host, size_t bytes)
+{
+    return copy_sync(ctx, buffer, host, bytes, cudaMemcpyHostToDevice, "cudaMemcpyAsync (upload)");
+}
+
+static pb_status cuda_buffer_read(pb_context *ctx, const void *buffer, void *host, size_t bytes)
+{
+    return copy_sync(ctx, host, buffer, bytes, cudaMemcpyDeviceToHost, "cudaMemcpyAsync (download)");
+}
+
+static pb_status cuda_buffer_zero(pb_context *ctx, void *buffer, size_t bytes)
+{
+    cu_impl *cu = ctx->impl;
+    cudaError_t e = cudaMemsetAsync(buffer, 0, bytes, cu->stream);
+    return e == cudaSuccess ? PB_OK : cu_fail(ctx, PB_ERR_DEVICE, "cudaMemsetAsync", e);
+}
+
+/* Device (or managed) memory of the context's GPU. The runtime API cannot
+ * tell an allocation's size: the caller's binding checks it. */
+static pb_status cuda_buffer_check(pb_context *ctx, const void *buffer, size_t bytes, const char *what)
+{
+    (void)bytes;
+    cu_impl *cu = ctx->impl;
+    struct cudaPointerAttributes a;
+    cudaError_t e = cudaPointerGetAttributes(&a, buffer);
+    (void)cudaGetLastError();
+    if (e != cudaSuccess || (a.type != cudaMemoryTypeDevice && a.type != cudaMemoryTypeManaged))
+        return pb_error(ctx, PB_ERR_INVALID_ARGUMENT, "the %s is not CUDA device memory; pass a device pointer "
+                        "(cudaMalloc, a CuPy or PyTorch CUDA array's data pointer)", what);
+    if (a.type == cudaMemoryTypeDevice && a.device != cu->device)
+        return pb_error(ctx, PB_ERR_INVALID_ARGUMENT, "the %s is on CUDA device %d, the context on device %d; "
+                        "copy it there or make the context on device %d", what, a.device, cu->device, a.device);
     return PB_OK;
 }
 
-static pb_status cuda_volume_download(const pb_volume *vol, float *host)
-{
-    cu_impl *cu = vol->ctx->impl;
-    const cu_volume *v = vol->impl;
-    pb_status st = use_device(vol->ctx);
-    if (st != PB_OK)
-        return st;
-    cudaError_t e = cudaMemcpyAsync(host, v->buffer, vol->count * sizeof(float), cudaMemcpyDeviceToHost, cu->stream);
-    if (e == cudaSuccess)
-        e = cudaStreamSynchronize(cu->stream);
-    if (e != cudaSuccess)
-        return cu_fail(vol->ctx, PB_ERR_DEVICE, "cudaMemcpyAsync (download)", e);
-    return PB_OK;
-}
+/* ---- images ------------------------------------------------------------ */
 
-/* One texture object on the volume's array: border addressing (zero outside),
+/* One texture object on an array: border addressing (zero outside),
  * unnormalized coordinates (texel i's centre at i + 0.5), float reads. */
 static cudaError_t make_texture(cudaArray_t array, enum cudaTextureFilterMode filter, cudaTextureObject_t *tex)
 {
@@ -281,336 +266,151 @@ static cudaError_t make_texture(cudaArray_t array, enum cudaTextureFilterMode fi
     return cudaCreateTextureObject(tex, &res, &td, NULL);
 }
 
-/* Brings the volume's array up to date with its buffer (a device-side copy). */
-static pb_status refresh_array(pb_context *ctx, const pb_volume *vol)
+static void cuda_image_release(pb_context *ctx, void *image)
 {
-    cu_impl *cu = ctx->impl;
-    cu_volume *v = vol->impl;
-    const size_t *n = vol->geometry.dims;
-    struct cudaExtent extent = {n[0], n[1], n[2]}; /* in elements, for arrays */
-    cudaError_t e;
-    if (!v->array) {
-        struct cudaChannelFormatDesc fmt = cudaCreateChannelDesc(32, 0, 0, 0, cudaChannelFormatKindFloat);
-        if ((e = cudaMalloc3DArray(&v->array, &fmt, extent, 0)) != cudaSuccess) {
-            v->array = NULL;
-            return cu_fail(ctx, PB_ERR_DEVICE, "cudaMalloc3DArray", e);
-        }
-        if ((e = make_texture(v->array, cudaFilterModeLinear, &v->linear)) != cudaSuccess ||
-            (e = make_texture(v->array, cudaFilterModePoint, &v->point)) != cudaSuccess) {
-            release_array(v);
-            return cu_fail(ctx, PB_ERR_DEVICE, "cudaCreateTextureObject", e);
-        }
-        v->array_stale = 1;
-    }
-    if (v->array_stale) {
-        struct cudaMemcpy3DParms cp;
-        memset(&cp, 0, sizeof cp);
-        cp.srcPtr.ptr = v->buffer;
-        cp.srcPtr.pitch = n[0] * sizeof(float);
-        cp.srcPtr.xsize = n[0];
-        cp.srcPtr.ysize = n[1];
-        cp.dstArray = v->array;
-        cp.extent = extent;
-        cp.kind = cudaMemcpyDeviceToDevice;
-        if ((e = cudaMemcpy3DAsync(&cp, cu->stream)) != cudaSuccess)
-            return cu_fail(ctx, PB_ERR_DEVICE, "cudaMemcpy3DAsync (buffer to array)", e);
-        v->array_stale = 0;
-    }
-    return PB_OK;
+    cu_image *img = image;
+    use_device(ctx);
+    if (img->linear)
+        cudaDestroyTextureObject(img->linear);
+    if (img->point)
+        cudaDestroyTextureObject(img->point);
+    if (img->array)
+        cudaFreeArray(img->array);
+    (void)cudaGetLastError();
+    free(img);
 }
 
-/* kernel's blocks over a grid of dims (pb_kernel_group, pb_kernel_extent). */
-static pb_cuda_shape shape_of(int kernel, const size_t *dims)
+/* Layers are read only through the linear filter (AB HARDWARE). */
+static pb_status cuda_image_create(pb_context *ctx, int layered, const size_t extent[3], void **image)
 {
-    pb_cuda_shape s;
-    size_t extent[3];
-    pb_kernel_group(kernel, s.block);
-    pb_kernel_extent(kernel, dims, extent);
-    for (int d = 0; d < 3; d++)
-        s.grid[d] = (unsigned)((extent[d] + s.block[d] - 1) / s.block[d]);
-    return s;
-}
-
-/* A device buffer of the context that holds at least bytes (*have of them
- * now); it grows as needed and lives as long as the context. */
-static pb_status reserve(pb_context *ctx, void **buf, size_t *have, size_t bytes, const char *call)
-{
-    if (bytes <= *have)
-        return PB_OK;
-    if (*buf)
-        cudaFree(*buf);
-    *buf = NULL;
-    *have = 0;
-    cudaError_t e = cudaMalloc(buf, bytes);
+    pb_status st = use_device(ctx);
+    if (st != PB_OK)
+        return st;
+    cu_image *img = calloc(1, sizeof *img);
+    if (!img)
+        return pb_error(ctx, PB_ERR_OUT_OF_MEMORY, "out of host memory for an image");
+    memcpy(img->extent, extent, sizeof img->extent);
+    struct cudaChannelFormatDesc fmt = cudaCreateChannelDesc(32, 0, 0, 0, cudaChannelFormatKindFloat);
+    struct cudaExtent ext = {extent[0], extent[1], extent[2]}; /* in elements, for arrays */
+    cudaError_t e = cudaMalloc3DArray(&img->array, &fmt, ext, layered ? cudaArrayLayered : 0);
     if (e != cudaSuccess) {
-        *buf = NULL;
-        return cu_fail(ctx, PB_ERR_DEVICE, call, e);
+        img->array = NULL;
+        cuda_image_release(ctx, img);
+        return cu_fail(ctx, PB_ERR_DEVICE, layered ? "cudaMalloc3DArray (layers)" : "cudaMalloc3DArray", e);
     }
-    *have = bytes;
+    if ((e = make_texture(img->array, cudaFilterModeLinear, &img->linear)) != cudaSuccess ||
+        (!layered && (e = make_texture(img->array, cudaFilterModePoint, &img->point)) != cudaSuccess)) {
+        cuda_image_release(ctx, img);
+        return cu_fail(ctx, PB_ERR_DEVICE, "cudaCreateTextureObject", e);
+    }
+    *image = img;
     return PB_OK;
 }
 
-/* Lays vol out in a layered texture along axis m (pb_permute into the
- * context's scratch buffer, then a copy; along z the buffer already is in
- * that order), once per axis and change of the buffer. The forward's object
- * is laid out once and blurred many times; the adjoint's gather lays out every
- * tomograph, and the calls it makes here are on the stream its events time. */
-static pb_status refresh_layers(pb_context *ctx, const pb_volume *vol, int m)
+static pb_status cuda_image_copy(pb_context *ctx, void *image, const void *buffer)
 {
     cu_impl *cu = ctx->impl;
-    cu_volume *v = vol->impl;
-    const size_t *n = vol->geometry.dims;
-    size_t w = n[pb_layer_across(m, 0)], h = n[pb_layer_across(m, 1)];
-    struct cudaExtent extent = {w, h, n[m]};
-    cudaError_t e;
-    if (!v->layers[m]) {
-        struct cudaChannelFormatDesc fmt = cudaCreateChannelDesc(32, 0, 0, 0, cudaChannelFormatKindFloat);
-        if ((e = cudaMalloc3DArray(&v->layers[m], &fmt, extent, cudaArrayLayered)) != cudaSuccess) {
-            v->layers[m] = NULL;
-            return cu_fail(ctx, PB_ERR_DEVICE, "cudaMalloc3DArray (layers)", e);
-        }
-        if ((e = make_texture(v->layers[m], cudaFilterModeLinear, &v->layers_tex[m])) != cudaSuccess) {
-            cudaFreeArray(v->layers[m]);
-            v->layers[m] = NULL;
-            v->layers_tex[m] = 0;
-            return cu_fail(ctx, PB_ERR_DEVICE, "cudaCreateTextureObject (layers)", e);
-        }
-        v->layers_stale[m] = 1;
-    }
-    if (!v->layers_stale[m])
-        return PB_OK;
-    float *source = v->buffer;
-    if (m != 2) {
-        pb_status st = reserve(ctx, &cu->scratch, &cu->scratch_bytes, vol->count * sizeof(float),
-                               "cudaMalloc (layers)");
-        if (st != PB_OK)
-            return st;
-        source = cu->scratch;
-        pb_kparams prm;
-        pb_kparams_permute(n, m, &prm);
-        pb_cuda_shape shape = shape_of(PB_KERNEL_PERMUTE, n);
-        e = pb_cuda_launch_adjoint(PB_KERNEL_PERMUTE, &shape, v->buffer, NULL, &prm, source, cu->stream);
-    } else {
-        e = cudaSuccess;
-    }
-    if (e == cudaSuccess) {
-        struct cudaMemcpy3DParms cp;
-        memset(&cp, 0, sizeof cp);
-        cp.srcPtr.ptr = source;
-        cp.srcPtr.pitch = w * sizeof(float);
-        cp.srcPtr.xsize = w;
-        cp.srcPtr.ysize = h;
-        cp.dstArray = v->layers[m];
-        cp.extent = extent;
-        cp.kind = cudaMemcpyDeviceToDevice;
-        e = cudaMemcpy3DAsync(&cp, cu->stream);
-    }
-    if (e != cudaSuccess)
-        return cu_fail(ctx, PB_ERR_DEVICE, "laying the volume out in layers", e);
-    v->layers_stale[m] = 0;
-    return PB_OK;
+    cu_image *img = image;
+    struct cudaMemcpy3DParms cp;
+    memset(&cp, 0, sizeof cp);
+    cp.srcPtr.ptr = (void *)buffer;
+    cp.srcPtr.pitch = img->extent[0] * sizeof(float);
+    cp.srcPtr.xsize = img->extent[0];
+    cp.srcPtr.ysize = img->extent[1];
+    cp.dstArray = img->array;
+    cp.extent = (struct cudaExtent){img->extent[0], img->extent[1], img->extent[2]};
+    cp.kind = cudaMemcpyDeviceToDevice;
+    cudaError_t e = cudaMemcpy3DAsync(&cp, cu->stream);
+    return e == cudaSuccess ? PB_OK : cu_fail(ctx, PB_ERR_DEVICE, "cudaMemcpy3DAsync (buffer to array)", e);
 }
 
-/* Brings up to date what forward kernel `kernel` reads of vol: its array, or
- * its layers along the plan's axis. */
-static pb_status refresh_input(pb_context *ctx, const pb_volume *vol, int kernel, const pb_path *plan)
-{
-    return pb_kernel_layered(kernel) ? refresh_layers(ctx, vol, pb_path_layer_axis(plan))
-                                               : refresh_array(ctx, vol);
-}
+/* ---- launches and timing ----------------------------------------------- */
 
-/* The context's plan buffer holds at least bytes; it grows as needed. */
-static pb_status reserve_plan(pb_context *ctx, size_t bytes)
+static pb_status cuda_launch(pb_context *ctx, const pb_launch *l)
 {
     cu_impl *cu = ctx->impl;
-    return reserve(ctx, &cu->plan, &cu->plan_bytes, bytes, "cudaMalloc (plan)");
-}
-
-/* The plans' key poses (or REF steps) in the kernels' float layout, one after
- * the other in the context's plan buffer; offsets[i] (may be NULL for one
- * plan) receives where plan i starts. One copy for all: a copy from pageable
- * memory may wait for the stream, which must not happen between launches. */
-static pb_status upload_plans(pb_context *ctx, size_t count, const pb_path *plans, const pb_blur_options *opt,
-                              size_t *offsets)
-{
-    cu_impl *cu = ctx->impl;
-    size_t total = 0, bytes = 0;
-    void **parts = calloc(count, sizeof *parts);
-    size_t *sizes = calloc(count, sizeof *sizes);
-    pb_status st = parts && sizes ? PB_OK : PB_ERR_OUT_OF_MEMORY;
-    for (size_t i = 0; i < count && st == PB_OK; i++) {
-        if (!(parts[i] = pb_kernel_plan_pack(&plans[i], opt->method, &bytes)))
-            st = PB_ERR_OUT_OF_MEMORY;
-        sizes[i] = bytes;
-        total += (bytes + 255) / 256 * 256; /* each plan aligned for the kernels' reads */
-    }
-    char *all = st == PB_OK ? calloc(1, total) : NULL;
-    if (st == PB_OK && !all)
-        st = PB_ERR_OUT_OF_MEMORY;
+    const pb_kernel_info *info = &pb_kernel_table[l->kernel];
+    pb_status st = use_device(ctx);
     if (st != PB_OK)
-        pb_error(ctx, st, "out of host memory for the %s",
-                 opt->method == PB_METHOD_REF ? "reference's steps" : "key poses");
-    size_t at = 0;
-    for (size_t i = 0; i < count && st == PB_OK; i++) {
-        memcpy(all + at, parts[i], sizes[i]);
-        if (offsets)
-            offsets[i] = at;
-        at += (sizes[i] + 255) / 256 * 256;
+        return st;
+    pb_cuda_launch_args a;
+    memset(&a, 0, sizeof a);
+    for (int d = 0; d < 3; d++) {
+        a.block[d] = info->group[d];
+        a.grid[d] = (unsigned)((l->extent[d] + info->group[d] - 1) / info->group[d]);
     }
-    for (size_t i = 0; parts && i < count; i++)
-        free(parts[i]);
-    free(parts);
-    free(sizes);
-    if (st == PB_OK)
-        st = reserve_plan(ctx, total);
-    if (st == PB_OK) {
-        /* From pageable memory the call returns once the data is staged, so the
-         * host copy may go right away. */
-        cudaError_t e = cudaMemcpyAsync(cu->plan, all, total, cudaMemcpyHostToDevice, cu->stream);
-        if (e != cudaSuccess)
-            st = cu_fail(ctx, PB_ERR_DEVICE, "cudaMemcpyAsync (plan)", e);
-    }
-    free(all);
-    return st;
+    const cu_image *img = l->input;
+    if (info->reads == PB_READS_BUFFER)
+        a.buffer = l->input;
+    else
+        a.texture = info->reads == PB_READS_NEAREST ? img->point : img->linear;
+    a.plan = l->plan;
+    a.prm = l->prm;
+    a.out = l->out;
+    a.stream = cu->stream;
+    cudaError_t e = pb_cuda_launch((int)l->kernel, &a);
+    return e == cudaSuccess ? PB_OK : cu_fail(ctx, PB_ERR_LAUNCH, "the kernel launch", e);
 }
 
-static pb_status upload_plan(pb_context *ctx, const pb_path *plan, const pb_blur_options *opt)
-{
-    return upload_plans(ctx, 1, plan, opt, NULL);
-}
-
-/* Which texture object a launch reads through: see cuda/pb_shim_cuda.h. */
-static cudaTextureObject_t texture_of(const cu_volume *v, const pb_blur_options *opt)
-{
-    return opt->method == PB_METHOD_REF || opt->filter == PB_FILTER_EXACT ? v->point : v->linear;
-}
-
-/* Queues one frame's kernel: the plan at offset in the plan buffer. */
-static cudaError_t launch_blur(pb_context *ctx, const pb_volume *object, const pb_path *plan, size_t offset,
-                               const pb_blur_options *opt, pb_volume *tomograph)
+static pb_status record(pb_context *ctx, cudaEvent_t ev)
 {
     cu_impl *cu = ctx->impl;
-    pb_kparams prm;
-    pb_kparams_from_plan(plan, opt, &prm);
-    const cu_volume *in = object->impl;
-    cu_volume *out = tomograph->impl;
-    mark_written(out);
-    int kernel = pb_forward_kernel(plan, opt, cu->layer_limits);
-    cudaTextureObject_t tex = pb_kernel_layered(kernel) ? in->layers_tex[prm.layer_axis] : texture_of(in, opt);
-    pb_cuda_shape shape = shape_of(kernel, plan->geometry.dims);
-    return pb_cuda_launch(kernel, &shape, tex, (const char *)cu->plan + offset, &prm, out->buffer, cu->stream);
+    cudaError_t e = cudaEventRecord(ev, cu->stream);
+    return e == cudaSuccess ? PB_OK : cu_fail(ctx, PB_ERR_LAUNCH, "cudaEventRecord", e);
 }
 
-/* Waits for the work between the context's start and stop events and sets
- * the kernel time from them. A kernel that faulted reports here. */
-static pb_status finish_timed(pb_context *ctx)
+static pb_status cuda_timer_begin(pb_context *ctx)
 {
     cu_impl *cu = ctx->impl;
-    cudaError_t e = cudaEventRecord(cu->stop, cu->stream);
+    cu->marked = 0;
+    return record(ctx, cu->start);
+}
+
+static pb_status cuda_timer_mark(pb_context *ctx)
+{
+    cu_impl *cu = ctx->impl;
+    cu->marked = 1;
+    return record(ctx, cu->mark);
+}
+
+/* A kernel that faulted reports here. */
+static pb_status cuda_timer_end(pb_context *ctx, double *total_ms, double *before_mark_ms)
+{
+    cu_impl *cu = ctx->impl;
+    *total_ms = *before_mark_ms = 0.0;
+    pb_status st = record(ctx, cu->stop);
+    if (st != PB_OK)
+        return st;
+    cudaError_t e = cudaEventSynchronize(cu->stop);
     if (e != cudaSuccess)
-        return cu_fail(ctx, PB_ERR_LAUNCH, "cudaEventRecord", e);
-    if ((e = cudaEventSynchronize(cu->stop)) != cudaSuccess)
         return cu_fail(ctx, PB_ERR_LAUNCH, "cudaEventSynchronize (the kernel failed)", e);
-    float ms = 0.0f;
-    if ((e = cudaEventElapsedTime(&ms, cu->start, cu->stop)) != cudaSuccess)
+    float ms = 0.0f, before = 0.0f;
+    if ((e = cudaEventElapsedTime(&ms, cu->start, cu->stop)) != cudaSuccess ||
+        (cu->marked && (e = cudaEventElapsedTime(&before, cu->start, cu->mark)) != cudaSuccess))
         return cu_fail(ctx, PB_ERR_LAUNCH, "cudaEventElapsedTime", e);
-    ctx->last_kernel_ms = (double)ms;
+    *total_ms = (double)ms;
+    *before_mark_ms = (double)before;
     return PB_OK;
-}
-
-static pb_status cuda_blur(pb_context *ctx, const pb_volume *object, const pb_path *plan,
-                           const pb_blur_options *opt, pb_volume *tomograph)
-{
-    cu_impl *cu = ctx->impl;
-    pb_status st = use_device(ctx);
-    if (st == PB_OK)
-        st = refresh_input(ctx, object, pb_forward_kernel(plan, opt, cu->layer_limits), plan);
-    if (st == PB_OK)
-        st = upload_plan(ctx, plan, opt);
-    if (st != PB_OK)
-        return st;
-    cudaError_t e = cudaEventRecord(cu->start, cu->stream);
-    if (e != cudaSuccess)
-        return cu_fail(ctx, PB_ERR_LAUNCH, "cudaEventRecord", e);
-    if ((e = launch_blur(ctx, object, plan, 0, opt, tomograph)) != cudaSuccess)
-        return cu_fail(ctx, PB_ERR_LAUNCH, "the kernel launch", e);
-    return finish_timed(ctx);
-}
-
-/* The frames back to back on the stream: every input's array refreshed and
- * every plan copied first, then the launches, then one wait. The kernel time
- * spans the first launch to the end of the last. */
-static pb_status cuda_blur_batch(pb_context *ctx, size_t frames, const pb_volume *const *objects,
-                                 const pb_path *plans, const pb_blur_options *opt, pb_volume *const *tomographs)
-{
-    cu_impl *cu = ctx->impl;
-    size_t *offsets = calloc(frames, sizeof *offsets);
-    if (!offsets)
-        return pb_error(ctx, PB_ERR_OUT_OF_MEMORY, "out of host memory for %zu frames", frames);
-    pb_status st = use_device(ctx);
-    for (size_t i = 0; i < frames && st == PB_OK; i++)
-        st = refresh_input(ctx, objects[i], pb_forward_kernel(&plans[i], opt, cu->layer_limits), &plans[i]);
-    if (st == PB_OK)
-        st = upload_plans(ctx, frames, plans, opt, offsets);
-    cudaError_t e = cudaSuccess;
-    if (st == PB_OK && (e = cudaEventRecord(cu->start, cu->stream)) != cudaSuccess)
-        st = cu_fail(ctx, PB_ERR_LAUNCH, "cudaEventRecord", e);
-    for (size_t i = 0; i < frames && st == PB_OK; i++)
-        if ((e = launch_blur(ctx, objects[i], &plans[i], offsets[i], opt, tomographs[i])) != cudaSuccess)
-            st = cu_fail(ctx, PB_ERR_LAUNCH, "the kernel launch", e);
-    free(offsets);
-    return st == PB_OK ? finish_timed(ctx) : st;
-}
-
-/* Under a motion of translations only the adjoint is the shift-invariant
- * kernel mirrored (cl/pb_shift.cl): a gather that reads the tomograph through
- * its array, or its layers where the forward reads layers, and writes (or
- * adds into) every object voxel once. Otherwise the scatter adds into zeros.
- * The array's copy or the layers' (pb_permute and a copy), or the zeroing,
- * counts with the kernel's time. */
-static pb_status cuda_adjoint(pb_context *ctx, const pb_volume *tomograph, const pb_path *plan,
-                              const pb_blur_options *opt, pb_volume *object, int accumulate)
-{
-    cu_impl *cu = ctx->impl;
-    int gather = pb_path_shift_invariant(plan, opt);
-    pb_status st = use_device(ctx);
-    if (st == PB_OK)
-        st = upload_plan(ctx, plan, opt);
-    if (st != PB_OK)
-        return st;
-    pb_kparams prm;
-    pb_kparams_from_plan(plan, opt, &prm);
-    prm.mirror = gather;
-    prm.accumulate = accumulate;
-    /* The scatter's transpose of what the texture unit computed (cl/pb_adjoint.cl). */
-    if (!gather && opt->filter == PB_FILTER_HARDWARE)
-        prm.weight_steps = PB_NVIDIA_WEIGHT_STEPS;
-    const cu_volume *in = tomograph->impl;
-    cu_volume *out = object->impl;
-    mark_written(out);
-    cudaError_t e = cudaEventRecord(cu->start, cu->stream);
-    if (e != cudaSuccess)
-        return cu_fail(ctx, PB_ERR_LAUNCH, "cudaEventRecord", e);
-    int kernel = gather ? pb_forward_kernel(plan, opt, cu->layer_limits) : pb_adjoint_index((int)opt->method);
-    pb_cuda_shape shape = shape_of(kernel, plan->geometry.dims);
-    if (gather) {
-        if ((st = refresh_input(ctx, tomograph, kernel, plan)) != PB_OK)
-            return st;
-        cudaTextureObject_t tex = pb_kernel_layered(kernel) ? in->layers_tex[prm.layer_axis] : texture_of(in, opt);
-        e = pb_cuda_launch(kernel, &shape, tex, cu->plan, &prm, out->buffer, cu->stream);
-    } else {
-        if (!accumulate &&
-            (e = cudaMemsetAsync(out->buffer, 0, object->count * sizeof(float), cu->stream)) != cudaSuccess)
-            return cu_fail(ctx, PB_ERR_DEVICE, "cudaMemsetAsync", e);
-        e = pb_cuda_launch_adjoint(kernel, &shape, in->buffer, cu->plan, &prm, out->buffer, cu->stream);
-    }
-    if (e != cudaSuccess)
-        return cu_fail(ctx, PB_ERR_LAUNCH, "the adjoint kernel launch", e);
-    return finish_timed(ctx);
 }
 
 const pb_backend_ops pb_backend_cuda_ops = {
-    PB_BACKEND_CUDA,      cuda_device_count,  cuda_device_info,    cuda_context_init,
-    cuda_context_release, cuda_volume_init,   cuda_volume_release, cuda_volume_upload,
-    cuda_volume_download, cuda_blur,          cuda_adjoint,        cuda_blur_batch,
+    .id = PB_BACKEND_CUDA,
+    .device_count = cuda_device_count,
+    .device_info = cuda_device_info,
+    .context_init = cuda_context_init,
+    .context_release = cuda_context_release,
+    .native = cuda_native,
+    .buffer_create = cuda_buffer_create,
+    .buffer_release = cuda_buffer_release,
+    .buffer_write = cuda_buffer_write,
+    .buffer_read = cuda_buffer_read,
+    .buffer_zero = cuda_buffer_zero,
+    .buffer_check = cuda_buffer_check,
+    .image_create = cuda_image_create,
+    .image_release = cuda_image_release,
+    .image_copy = cuda_image_copy,
+    .launch = cuda_launch,
+    .timer_begin = cuda_timer_begin,
+    .timer_mark = cuda_timer_mark,
+    .timer_end = cuda_timer_end,
 };

@@ -249,31 +249,47 @@ static void host_context_release(pb_context *ctx)
     (void)ctx;
 }
 
-static pb_status host_volume_init(pb_volume *vol)
+/* Buffers are host memory: the reference reads and writes them directly. */
+static pb_status host_buffer_create(pb_context *ctx, size_t bytes, void **buffer)
 {
-    vol->impl = malloc(vol->count * sizeof(float));
-    if (!vol->impl)
-        return pb_error(vol->ctx, PB_ERR_OUT_OF_MEMORY, "out of host memory for a %zu x %zu x %zu volume (%.1f MiB)",
-                        vol->geometry.dims[0], vol->geometry.dims[1], vol->geometry.dims[2],
-                        vol->count * 4.0 / 1048576.0);
+    *buffer = malloc(bytes);
+    if (!*buffer)
+        return pb_error(ctx, PB_ERR_OUT_OF_MEMORY, "out of host memory for %.1f MiB", bytes / 1048576.0);
     return PB_OK;
 }
 
-static void host_volume_release(pb_volume *vol)
+static void host_buffer_release(pb_context *ctx, void *buffer)
 {
-    free(vol->impl);
+    (void)ctx;
+    free(buffer);
 }
 
-static pb_status host_volume_upload(pb_volume *vol, const float *host)
+static pb_status host_buffer_write(pb_context *ctx, void *buffer, const void *host, size_t bytes)
 {
-    memcpy(vol->impl, host, vol->count * sizeof(float));
+    (void)ctx;
+    memcpy(buffer, host, bytes);
     return PB_OK;
 }
 
-static pb_status host_volume_download(const pb_volume *vol, float *host)
+static pb_status host_buffer_read(pb_context *ctx, const void *buffer, void *host, size_t bytes)
 {
-    memcpy(host, vol->impl, vol->count * sizeof(float));
+    (void)ctx;
+    memcpy(host, buffer, bytes);
     return PB_OK;
+}
+
+static pb_status host_buffer_zero(pb_context *ctx, void *buffer, size_t bytes)
+{
+    (void)ctx;
+    memset(buffer, 0, bytes);
+    return PB_OK;
+}
+
+/* The caller's host memory: its size cannot be known here. */
+static pb_status host_buffer_check(pb_context *ctx, const void *buffer, size_t bytes, const char *what)
+{
+    (void)bytes;
+    return buffer ? PB_OK : pb_error(ctx, PB_ERR_INVALID_ARGUMENT, "the %s memory is NULL", what);
 }
 
 static double elapsed_ms(const struct timespec *t0)
@@ -283,14 +299,12 @@ static double elapsed_ms(const struct timespec *t0)
     return (t1.tv_sec - t0->tv_sec) * 1e3 + (t1.tv_nsec - t0->tv_nsec) * 1e-6;
 }
 
-static pb_status host_blur(pb_context *ctx, const pb_volume *object, const pb_path *plan,
-                           const pb_blur_options *opt, pb_volume *tomograph)
+static pb_status host_forward(pb_context *ctx, const float *in, const pb_path *plan, const pb_blur_options *opt,
+                              const size_t *d, float *out)
 {
     struct timespec t0;
     clock_gettime(CLOCK_MONOTONIC, &t0);
-    const size_t *d = object->geometry.dims;
-    host_io io = {object->impl, NULL, {(long)d[0], (long)d[1], (long)d[2]}};
-    float *out = tomograph->impl;
+    host_io io = {in, NULL, {(long)d[0], (long)d[1], (long)d[2]}};
     for (long iz = 0; iz < io.n[2]; iz++) {
         for (long iy = 0; iy < io.n[1]; iy++)
             for (long ix = 0; ix < io.n[0]; ix++)
@@ -304,20 +318,18 @@ static pb_status host_blur(pb_context *ctx, const pb_volume *object, const pb_pa
 
 /* The transpose, summed in double and rounded once (onto the object's own
  * values with accumulate). */
-static pb_status host_adjoint(pb_context *ctx, const pb_volume *tomograph, const pb_path *plan,
-                              const pb_blur_options *opt, pb_volume *object, int accumulate)
+static pb_status host_adjoint(pb_context *ctx, const float *in, const pb_path *plan, const pb_blur_options *opt,
+                              const size_t *d, float *out, int accumulate)
 {
     struct timespec t0;
     clock_gettime(CLOCK_MONOTONIC, &t0);
-    const size_t *d = object->geometry.dims;
-    double *acc = calloc(object->count, sizeof *acc);
+    size_t count = d[0] * d[1] * d[2];
+    double *acc = calloc(count, sizeof *acc);
     if (!acc)
         return pb_error(ctx, PB_ERR_OUT_OF_MEMORY, "out of host memory for the adjoint's %.1f MiB sum",
-                        object->count * 8.0 / 1048576.0);
+                        count * 8.0 / 1048576.0);
     host_io io = {NULL, acc, {(long)d[0], (long)d[1], (long)d[2]}};
-    const float *in = tomograph->impl;
-    float *out = object->impl;
-    for (size_t i = 0; accumulate && i < object->count; i++)
+    for (size_t i = 0; accumulate && i < count; i++)
         acc[i] = (double)out[i];
     for (long iz = 0; iz < io.n[2]; iz++) {
         for (long iy = 0; iy < io.n[1]; iy++)
@@ -329,7 +341,7 @@ static pb_status host_adjoint(pb_context *ctx, const pb_volume *tomograph, const
         if (ctx->progress && iz + 1 < io.n[2])
             ctx->progress((double)(iz + 1) / (double)io.n[2], ctx->progress_user);
     }
-    for (size_t i = 0; i < object->count; i++)
+    for (size_t i = 0; i < count; i++)
         out[i] = (float)acc[i];
     free(acc);
     ctx->last_kernel_ms = elapsed_ms(&t0);
@@ -337,7 +349,17 @@ static pb_status host_adjoint(pb_context *ctx, const pb_volume *tomograph, const
 }
 
 const pb_backend_ops pb_backend_host_ops = {
-    PB_BACKEND_HOST,   host_device_count,   host_device_info,     host_context_init,
-    host_context_release, host_volume_init, host_volume_release, host_volume_upload,
-    host_volume_download, host_blur,      host_adjoint,         NULL,
+    .id = PB_BACKEND_HOST,
+    .device_count = host_device_count,
+    .device_info = host_device_info,
+    .context_init = host_context_init,
+    .context_release = host_context_release,
+    .buffer_create = host_buffer_create,
+    .buffer_release = host_buffer_release,
+    .buffer_write = host_buffer_write,
+    .buffer_read = host_buffer_read,
+    .buffer_zero = host_buffer_zero,
+    .buffer_check = host_buffer_check,
+    .host_forward = host_forward,
+    .host_adjoint = host_adjoint,
 };

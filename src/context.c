@@ -170,6 +170,8 @@ pb_status pb_context_create(const pb_context_options *options, pb_context **out)
 
 static void context_release(pb_context *ctx)
 {
+    if (ctx->scratch)
+        ctx->ops->buffer_release(ctx, ctx->scratch);
     ctx->ops->context_release(ctx);
     free(ctx);
 }
@@ -179,8 +181,29 @@ void pb_context_destroy(pb_context *ctx)
     if (!ctx || ctx->destroyed)
         return;
     ctx->destroyed = 1;
-    if (ctx->volumes == 0)
+    if (ctx->holders == 0)
         context_release(ctx);
+}
+
+void pb_context_hold(pb_context *ctx)
+{
+    ctx->holders++;
+}
+
+void pb_context_release_hold(pb_context *ctx)
+{
+    if (--ctx->holders == 0 && ctx->destroyed)
+        context_release(ctx);
+}
+
+pb_status pb_context_native(const pb_context *ctx, pb_native *native)
+{
+    if (!ctx || !native)
+        return pb_error(NULL, PB_ERR_INVALID_ARGUMENT, "ctx and native must not be NULL");
+    *native = (pb_native){NULL, NULL, NULL, 0};
+    if (ctx->ops->native)
+        ctx->ops->native(ctx, native);
+    return PB_OK;
 }
 
 pb_backend pb_context_backend(const pb_context *ctx)
@@ -204,6 +227,14 @@ pb_status pb_context_last_kernel_ms(const pb_context *ctx, double *ms)
     return PB_OK;
 }
 
+pb_status pb_context_last_input_ms(const pb_context *ctx, double *ms)
+{
+    if (!ctx || !ms)
+        return pb_error(NULL, PB_ERR_INVALID_ARGUMENT, "ctx and ms must not be NULL");
+    *ms = ctx->last_input_ms;
+    return PB_OK;
+}
+
 pb_status pb_context_set_progress(pb_context *ctx, pb_progress_fn fn, void *user)
 {
     if (!ctx)
@@ -213,14 +244,9 @@ pb_status pb_context_set_progress(pb_context *ctx, pb_progress_fn fn, void *user
     return PB_OK;
 }
 
-size_t pb_progress_slab(size_t nz)
-{
-    return nz < 32 ? 1 : (nz + 31) / 32;
-}
-
 /* ---- volumes ----------------------------------------------------------- */
 
-static pb_status check_geometry(pb_context *ctx, const pb_geometry *g, size_t *count)
+pb_status pb_geometry_check(pb_context *ctx, const pb_geometry *g, size_t *count)
 {
     for (int i = 0; i < 3; i++) {
         if (g->dims[i] == 0)
@@ -270,7 +296,7 @@ pb_status pb_volume_create(pb_context *ctx, const pb_geometry *g, pb_volume **ou
         return pb_error(ctx, PB_ERR_INVALID_ARGUMENT, "ctx, geometry and volume must not be NULL");
     *out = NULL;
     size_t count = 0;
-    pb_status st = check_geometry(ctx, g, &count);
+    pb_status st = pb_geometry_check(ctx, g, &count);
     if (st == PB_OK)
         st = pb_device_check_volume(ctx, &ctx->device, g);
     if (st != PB_OK)
@@ -281,12 +307,13 @@ pb_status pb_volume_create(pb_context *ctx, const pb_geometry *g, pb_volume **ou
     vol->ctx = ctx;
     vol->geometry = *g;
     vol->count = count;
-    st = ctx->ops->volume_init(vol);
+    st = ctx->ops->buffer_create(ctx, count * sizeof(float), &vol->buffer);
     if (st != PB_OK) {
         free(vol);
         return st;
     }
-    ctx->volumes++;
+    pb_images_stale(&vol->images);
+    pb_context_hold(ctx);
     *out = vol;
     return PB_OK;
 }
@@ -296,10 +323,10 @@ void pb_volume_destroy(pb_volume *vol)
     if (!vol)
         return;
     pb_context *ctx = vol->ctx;
-    ctx->ops->volume_release(vol);
+    pb_images_release(ctx, &vol->images);
+    ctx->ops->buffer_release(ctx, vol->buffer);
     free(vol);
-    if (--ctx->volumes == 0 && ctx->destroyed)
-        context_release(ctx);
+    pb_context_release_hold(ctx);
 }
 
 pb_status pb_volume_get_geometry(const pb_volume *vol, pb_geometry *g)
@@ -323,14 +350,16 @@ pb_status pb_volume_upload(pb_volume *vol, const float *host)
                             "activity at voxel (%zu, %zu, %zu) is %g; replace NaN and infinite values (for "
                             "example by 0) before uploading",
                             i % n[0], i / n[0] % n[1], i / (n[0] * n[1]), (double)host[i]);
-    return vol->ctx->ops->volume_upload(vol, host);
+    pb_status st = vol->ctx->ops->buffer_write(vol->ctx, vol->buffer, host, vol->count * sizeof(float));
+    pb_images_stale(&vol->images);
+    return st;
 }
 
 pb_status pb_volume_download(const pb_volume *vol, float *host)
 {
     if (!vol || !host)
         return pb_error(vol ? vol->ctx : NULL, PB_ERR_INVALID_ARGUMENT, "volume and host data must not be NULL");
-    return vol->ctx->ops->volume_download(vol, host);
+    return vol->ctx->ops->buffer_read(vol->ctx, vol->buffer, host, vol->count * sizeof(float));
 }
 
 /* ---- blurring ---------------------------------------------------------- */
@@ -364,7 +393,7 @@ pb_status pb_path_segments(const pb_geometry *geometry, const pb_motion *motion,
     pb_blur_options opt = {PB_METHOD_AB, PB_FILTER_HARDWARE, 0, 0, 0, 0, 0.0};
     if (options)
         opt = *options;
-    pb_status st = check_geometry(NULL, geometry, &count);
+    pb_status st = pb_geometry_check(NULL, geometry, &count);
     if (st == PB_OK)
         st = check_options(NULL, &opt);
     if (st != PB_OK)
@@ -380,23 +409,8 @@ pb_status pb_path_segments(const pb_geometry *geometry, const pb_motion *motion,
     return PB_OK;
 }
 
-pb_status pb_blur_prepare(pb_context *ctx, const pb_volume *object, const pb_blur_options *options,
-                          const pb_volume *tomograph, pb_blur_options *opt)
+pb_status pb_options_prepare(pb_context *ctx, const pb_blur_options *options, pb_blur_options *opt)
 {
-    if (!ctx || !object || !tomograph)
-        return pb_error(ctx, PB_ERR_INVALID_ARGUMENT, "ctx, object, motion and tomograph must not be NULL");
-    if (object->ctx != ctx || tomograph->ctx != ctx)
-        return pb_error(ctx, PB_ERR_SIZE_MISMATCH, "both volumes must belong to the context that blurs them");
-    if (object == tomograph)
-        return pb_error(ctx, PB_ERR_INVALID_ARGUMENT,
-                        "object and tomograph are the same volume; blur into a second volume");
-    const pb_geometry *a = &object->geometry, *b = &tomograph->geometry;
-    for (int i = 0; i < 3; i++)
-        if (a->dims[i] != b->dims[i] || a->voxel_size[i] != b->voxel_size[i])
-            return pb_error(ctx, PB_ERR_SIZE_MISMATCH,
-                            "object %zu x %zu x %zu and tomograph %zu x %zu x %zu volumes differ in size or voxel "
-                            "size; blur into a volume of the object's geometry",
-                            a->dims[0], a->dims[1], a->dims[2], b->dims[0], b->dims[1], b->dims[2]);
     *opt = (pb_blur_options){PB_METHOD_AB, PB_FILTER_HARDWARE, 0, 0, 0, 0, 0.0};
     if (options)
         *opt = *options;
@@ -404,42 +418,6 @@ pb_status pb_blur_prepare(pb_context *ctx, const pb_volume *object, const pb_blu
     if (st == PB_OK && opt->ref_points == 0)
         opt->ref_points = 200;
     return st;
-}
-
-/* pb_blur (in: the object, out: the tomograph) and pb_blur_adjoint (the
- * other way round): the same checks and plan, then one direction of the
- * operator. */
-static pb_status apply(pb_context *ctx, const pb_volume *in, const pb_motion *motion, const pb_blur_options *options,
-                       pb_volume *out, int adjoint)
-{
-    pb_blur_options opt;
-    pb_status st = adjoint ? pb_blur_prepare(ctx, out, options, in, &opt) : pb_blur_prepare(ctx, in, options, out, &opt);
-    if (st == PB_OK && !motion)
-        st = pb_error(ctx, PB_ERR_INVALID_ARGUMENT, "ctx, object, motion and tomograph must not be NULL");
-    if (st != PB_OK)
-        return st;
-    pb_path plan;
-    st = pb_path_create(ctx, &in->geometry, motion, &opt, &plan);
-    if (st != PB_OK)
-        return st;
-    ctx->last_kernel_ms = 0.0;
-    st = adjoint ? ctx->ops->adjoint(ctx, in, &plan, &opt, out, 0) : ctx->ops->blur(ctx, in, &plan, &opt, out);
-    pb_path_destroy(&plan);
-    if (st == PB_OK && ctx->progress)
-        ctx->progress(1.0, ctx->progress_user);
-    return st;
-}
-
-pb_status pb_blur(pb_context *ctx, const pb_volume *object, const pb_motion *motion,
-                  const pb_blur_options *options, pb_volume *tomograph)
-{
-    return apply(ctx, object, motion, options, tomograph, 0);
-}
-
-pb_status pb_blur_adjoint(pb_context *ctx, const pb_volume *tomograph, const pb_motion *motion,
-                          const pb_blur_options *options, pb_volume *object)
-{
-    return apply(ctx, tomograph, motion, options, object, 1);
 }
 
 double pb_error_percent(const float *reference, const float *x, size_t n)

@@ -1,18 +1,16 @@
-/* Dynamic PET: many frames of one pose track in one call. Every frame is
- * checked and planned before any work, so a bad frame costs nothing and
- * writes nothing; then the frames run in order on the device, each exactly as
- * pb_blur would run it. An object volume shared by several frames stays on
- * the device: its image or texture is refreshed once, not per frame. Device
- * backends queue the frames back to back and wait once (blur_batch), unless a
- * progress report asks for a wait per frame. The adjoint runs the same frames
- * the other way round, with a wait per frame (each is milliseconds of
- * atomics); frames that share an object volume sum into it, which makes it the
+/* Dynamic PET: many frames of one pose track. pb_plan_create_frames checks
+ * and plans every frame before any work, so a bad frame costs nothing; the
+ * track is validated once and each frame plans only its own part of it.
+ * pb_blur_frames and pb_blur_frames_adjoint are one-shot plans of frames: the
+ * forward queues the frames back to back on a device and waits once (unless a
+ * progress report asks for a wait per frame); the adjoint runs them in order,
+ * and frames that share an object volume sum into it, which makes it the
  * transpose of pb_blur_frames with the same arguments. */
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 
-#include "backend.h"
+#include "plan.h"
 
 /* The progress of frame `done` of `frames`, handed on as the whole call's. */
 typedef struct frames_progress {
@@ -29,15 +27,9 @@ static void frame_progress(double fraction, void *user)
         p->fn(f, p->user);
 }
 
-/* The frames' arguments: ins[i] is read and outs[i] written (the forward
- * reads objects and writes tomographs, the adjoint the other way round).
- * The adjoint's frames may name one output, which they sum into. */
-static pb_status check_frames(pb_context *ctx, const pb_volume *const *ins, const pb_motion *track,
-                              const double *bounds, size_t frames, pb_volume *const *outs, int adjoint)
+/* Frame bounds: finite and increasing. */
+static pb_status check_bounds(pb_context *ctx, const double *bounds, size_t frames)
 {
-    const char *in_name = adjoint ? "tomograph" : "object", *out_name = adjoint ? "object" : "tomograph";
-    if (!ins || !track || !bounds || !outs)
-        return pb_error(ctx, PB_ERR_INVALID_ARGUMENT, "objects, track, bounds and tomographs must not be NULL");
     if (frames == 0)
         return pb_error(ctx, PB_ERR_INVALID_ARGUMENT, "no frames: give at least one frame (two bounds)");
     for (size_t i = 0; i <= frames; i++)
@@ -48,6 +40,21 @@ static pb_status check_frames(pb_context *ctx, const pb_volume *const *ins, cons
         if (!(bounds[i + 1] > bounds[i]))
             return pb_error(ctx, PB_ERR_BAD_FRAME, "frame %zu ends at %.9g s, not after its start %.9g s; frame "
                             "bounds must increase", i, bounds[i + 1], bounds[i]);
+    return PB_OK;
+}
+
+/* The frames' arguments: ins[i] is read and outs[i] written (the forward
+ * reads objects and writes tomographs, the adjoint the other way round).
+ * The adjoint's frames may name one output, which they sum into. */
+static pb_status check_frames(pb_context *ctx, const pb_volume *const *ins, const pb_motion *track,
+                              const double *bounds, size_t frames, pb_volume *const *outs, int adjoint)
+{
+    const char *in_name = adjoint ? "tomograph" : "object", *out_name = adjoint ? "object" : "tomograph";
+    if (!ins || !track || !bounds || !outs)
+        return pb_error(ctx, PB_ERR_INVALID_ARGUMENT, "objects, track, bounds and tomographs must not be NULL");
+    pb_status st = check_bounds(ctx, bounds, frames);
+    if (st != PB_OK)
+        return st;
     /* A frame's output must not be another frame's input, which it would
      * overwrite before it is read; nor, forward, another frame's output. */
     for (size_t i = 0; i < frames; i++)
@@ -98,6 +105,40 @@ static pb_motion frame_track(const pb_motion *track, double t0, double t1)
     return m;
 }
 
+pb_status pb_plan_create_frames(pb_context *ctx, const pb_geometry *geometry, const pb_motion *track,
+                                const double *bounds, size_t frames, const pb_blur_options *options, pb_plan **plan)
+{
+    if (!ctx || !geometry || !track || !bounds || !plan)
+        return pb_error(ctx, PB_ERR_INVALID_ARGUMENT, "ctx, geometry, track, bounds and plan must not be NULL");
+    *plan = NULL;
+    pb_status st = check_bounds(ctx, bounds, frames);
+    if (st != PB_OK)
+        return st;
+    /* The whole track once; each frame's planning then checks only its part
+     * and says which frame leaves the track. */
+    pb_motion whole = *track;
+    whole.frame_start = bounds[0];
+    whole.frame_end = bounds[frames];
+    if ((st = pb_motion_validate(ctx, &whole)) != PB_OK && st != PB_ERR_TRACK_GAP)
+        return st;
+    pb_plan *p;
+    if ((st = pb_plan_new(ctx, geometry, options, frames, &p)) != PB_OK)
+        return st;
+    for (size_t i = 0; i < frames && st == PB_OK; i++) {
+        pb_motion m = frame_track(track, bounds[i], bounds[i + 1]);
+        if ((st = pb_plan_set_frame(p, i, &m)) != PB_OK) {
+            char where[64];
+            snprintf(where, sizeof where, " (frame %zu of %zu)", i, frames);
+            pb_error_append(ctx, where);
+        }
+    }
+    if (st != PB_OK)
+        pb_plan_destroy(p);
+    else
+        *plan = p;
+    return st;
+}
+
 /* Both directions: every frame checked and planned, then run in order. */
 static pb_status run_frames(pb_context *ctx, const pb_volume *const *ins, const pb_motion *track,
                             const double *bounds, size_t frames, const pb_blur_options *options,
@@ -108,40 +149,34 @@ static pb_status run_frames(pb_context *ctx, const pb_volume *const *ins, const 
     pb_status st = check_frames(ctx, ins, track, bounds, frames, outs, adjoint);
     if (st != PB_OK)
         return st;
-    /* The whole track once; each frame's planning then checks only its part
-     * and says which frame leaves the track. */
-    pb_motion whole = *track;
-    whole.frame_start = bounds[0];
-    whole.frame_end = bounds[frames];
-    if ((st = pb_motion_validate(ctx, &whole)) != PB_OK && st != PB_ERR_TRACK_GAP)
+    if (!ins[0])
+        return pb_error(ctx, PB_ERR_INVALID_ARGUMENT, "frame 0's %s volume is NULL", adjoint ? "tomograph" : "object");
+    pb_plan *plan;
+    if ((st = pb_plan_new(ctx, &ins[0]->geometry, options, frames, &plan)) != PB_OK)
         return st;
-    st = PB_OK;
-    pb_blur_options opt;
-    pb_path *plans = calloc(frames, sizeof *plans);
-    if (!plans)
-        return pb_error(ctx, PB_ERR_OUT_OF_MEMORY, "out of host memory for %zu frame plans", frames);
-    size_t planned = 0;
-    for (; planned < frames && st == PB_OK; planned++) {
-        pb_motion m = frame_track(track, bounds[planned], bounds[planned + 1]);
-        const pb_volume *in = ins[planned];
-        st = adjoint ? pb_blur_prepare(ctx, outs[planned], options, in, &opt)
-                     : pb_blur_prepare(ctx, in, options, outs[planned], &opt);
-        if (st == PB_OK)
-            st = pb_path_create(ctx, &in->geometry, &m, &opt, &plans[planned]);
-        if (st != PB_OK) {
-            char where[96];
-            snprintf(where, sizeof where, " (frame %zu of %zu; no frame was %s)", planned, frames,
-                     adjoint ? "back projected" : "blurred");
+    /* Every frame's volumes, then every frame's plan, before any work. */
+    for (size_t i = 0; i < frames && st == PB_OK; i++)
+        if ((st = pb_plan_check_volumes(plan, ins[i], outs[i], adjoint)) != PB_OK) {
+            char where[64];
+            snprintf(where, sizeof where, " (frame %zu of %zu)", i, frames);
             pb_error_append(ctx, where);
         }
+    pb_plan_destroy(plan);
+    if (st == PB_OK)
+        st = pb_plan_create_frames(ctx, &ins[0]->geometry, track, bounds, frames, options, &plan);
+    if (st != PB_OK) {
+        pb_error_append(ctx, adjoint ? "; no frame was back projected" : "; no frame was blurred");
+        return st;
     }
     frames_progress prog = {ctx->progress, ctx->progress_user, 0, frames};
     double total = 0.0;
-    if (st == PB_OK && !adjoint && !ctx->progress && ctx->ops->blur_batch) {
+    if (!adjoint && !ctx->progress && !ctx->ops->host_forward) {
         /* Queued back to back: progress would need a wait per frame. */
-        st = ctx->ops->blur_batch(ctx, frames, ins, plans, &opt, outs);
+        st = pb_launch_frames(ctx, plan, ins, outs);
+        for (size_t i = 0; i < frames; i++)
+            pb_images_stale(&outs[i]->images);
         total = ctx->last_kernel_ms;
-    } else if (st == PB_OK) {
+    } else {
         if (ctx->progress)
             ctx->progress = frame_progress, ctx->progress_user = &prog;
         for (size_t i = 0; i < frames && st == PB_OK; i++) {
@@ -151,9 +186,9 @@ static pb_status run_frames(pb_context *ctx, const pb_volume *const *ins, const 
                 int seen = 0;
                 for (size_t j = 0; j < i; j++)
                     seen |= outs[j] == outs[i];
-                st = ctx->ops->adjoint(ctx, ins[i], &plans[i], &opt, outs[i], seen);
+                st = pb_plan_adjoint(plan, i, ins[i], outs[i], seen);
             } else {
-                st = ctx->ops->blur(ctx, ins[i], &plans[i], &opt, outs[i]);
+                st = pb_plan_forward(plan, i, ins[i], outs[i]);
             }
             total += ctx->last_kernel_ms;
         }
@@ -162,9 +197,7 @@ static pb_status run_frames(pb_context *ctx, const pb_volume *const *ins, const 
         ctx->progress = prog.fn;
         ctx->progress_user = prog.user;
     }
-    for (size_t i = 0; i < planned; i++) /* a failed frame's plan is empty: safe to destroy */
-        pb_path_destroy(&plans[i]);
-    free(plans);
+    pb_plan_destroy(plan);
     ctx->last_kernel_ms = total;
     if (st == PB_OK && ctx->progress)
         ctx->progress(1.0, ctx->progress_user);

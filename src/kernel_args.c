@@ -4,27 +4,27 @@
 #include <stdlib.h>
 #include <string.h>
 
-void pb_kparams_from_plan(const pb_path *plan, const pb_blur_options *opt, pb_kparams *prm)
+void pb_kparams_from_path(const pb_path *path, const pb_blur_options *opt, pb_kparams *prm)
 {
     memset(prm, 0, sizeof *prm);
     for (int d = 0; d < 3; d++) {
-        prm->dims[d] = (int)plan->geometry.dims[d];
-        prm->voxel[d] = (float)plan->geometry.voxel_size[d];
-        prm->inv_voxel[d] = (float)(1.0 / plan->geometry.voxel_size[d]);
-        prm->center[d] = (float)plan->center[d];
+        prm->dims[d] = (int)path->geometry.dims[d];
+        prm->voxel[d] = (float)path->geometry.voxel_size[d];
+        prm->inv_voxel[d] = (float)(1.0 / path->geometry.voxel_size[d]);
+        prm->center[d] = (float)path->center[d];
     }
-    prm->segments = (int)plan->count - 1;
+    prm->segments = (int)path->count - 1;
     /* AB's steps are sub-segments, at least one; CL and RM's 0 means "as many as
      * AB's slices", decided per voxel in the kernel. */
     prm->steps = opt->method == PB_METHOD_AB && opt->steps == 0 ? 1 : (int)opt->steps;
     prm->ref_points = (int)opt->ref_points;
-    prm->ref_steps = (int)plan->ref_count;
+    prm->ref_steps = (int)path->ref_count;
     prm->seed = opt->seed;
-    if (pb_path_shift_invariant(plan, opt))
-        prm->layer_axis = pb_path_layer_axis(plan);
+    if (pb_path_shift_invariant(path, opt))
+        prm->layer_axis = pb_path_layer_axis(path);
 }
 
-int pb_path_shift_invariant(const pb_path *plan, const pb_blur_options *opt)
+int pb_path_shift_invariant(const pb_path *path, const pb_blur_options *opt)
 {
     if (opt->method == PB_METHOD_REF)
         return 0;
@@ -32,8 +32,8 @@ int pb_path_shift_invariant(const pb_path *plan, const pb_blur_options *opt)
      * (pb_pose_texel_map) and its identity may be off by an ulp in double. A
      * unit quaternion with no vector part is the identity even where SLERP's
      * normalisation left w an ulp off 1. */
-    for (size_t i = 0; i < plan->count; i++) {
-        const double *q = plan->poses[i].pose.rotation;
+    for (size_t i = 0; i < path->count; i++) {
+        const double *q = path->poses[i].pose.rotation;
         if (q[1] != 0.0 || q[2] != 0.0 || q[3] != 0.0)
             return 0;
     }
@@ -42,20 +42,20 @@ int pb_path_shift_invariant(const pb_path *plan, const pb_blur_options *opt)
 
 /* How far segment j of a motion of translations moves every voxel along axis
  * r: the difference of its maps' offsets. */
-static double segment_move(const pb_path *plan, size_t j, int r)
+static double segment_move(const pb_path *path, size_t j, int r)
 {
-    return fabs(plan->poses[j + 1].map[4 * r + 3] - plan->poses[j].map[4 * r + 3]);
+    return fabs(path->poses[j + 1].map[4 * r + 3] - path->poses[j].map[4 * r + 3]);
 }
 
-int pb_path_layer_axis(const pb_path *plan)
+int pb_path_layer_axis(const pb_path *path)
 {
     int axis = -1;
-    for (size_t j = 0; j + 1 < plan->count; j++) {
+    for (size_t j = 0; j + 1 < path->count; j++) {
         double d[3];
-        if (plan->poses[j].skip)
+        if (path->poses[j].skip)
             continue;
         for (int r = 0; r < 3; r++)
-            d[r] = segment_move(plan, j, r);
+            d[r] = segment_move(path, j, r);
         if (d[0] == 0.0 && d[1] == 0.0 && d[2] == 0.0)
             continue;
         int m = d[1] > d[0] ? 1 : 0;
@@ -69,35 +69,59 @@ int pb_path_layer_axis(const pb_path *plan)
 
 /* The most slices one AB walk of a motion of translations crosses along
  * axis m: its longest segment's move along m over AB's sub-segments. */
-static double longest_walk(const pb_path *plan, const pb_blur_options *opt, int m)
+static double longest_walk(const pb_path *path, const pb_blur_options *opt, int m)
 {
     double most = 0.0;
-    for (size_t j = 0; j + 1 < plan->count; j++)
-        if (!plan->poses[j].skip)
-            most = fmax(most, segment_move(plan, j, m));
+    for (size_t j = 0; j + 1 < path->count; j++)
+        if (!path->poses[j].skip)
+            most = fmax(most, segment_move(path, j, m));
     return most / (opt->steps ? (double)opt->steps : 1.0);
 }
 
 /* Layers along x pay only on long walks: their work items walk PB_X_RUN voxels
  * one after the other, and a short walk leaves too little work in flight to
- * hide that. H200, 256^3 (bench/results/2026-11-21_H200_29b8577/x-run.csv):
- * 3 slices 0.233 ms through the 3-D image against 0.284 through layers, 13
- * slices 0.514 against 0.470. The cut lies between. */
+ * hide that; the 3-D image wins below about 8 slices a walk, the layers above
+ * (the measurement: bench/results/README.md, "layers along x"). */
 #define PB_X_LAYERS_MIN_SLICES 8.0
 
-int pb_forward_kernel(const pb_path *plan, const pb_blur_options *opt, const size_t *layer_limits)
+/* The kernel of a family that computes method under filter. */
+static pb_kernel_id find_kernel(pb_kernel_family family, pb_method method, pb_filter filter)
 {
-    int exact = opt->filter == PB_FILTER_EXACT;
-    if (!pb_path_shift_invariant(plan, opt))
-        return pb_kernel_index((int)opt->method, exact);
-    int m = opt->method == PB_METHOD_AB && !exact && layer_limits ? pb_path_layer_axis(plan) : -1;
-    const size_t *n = plan->geometry.dims;
-    if (m == 0 && longest_walk(plan, opt, 0) < PB_X_LAYERS_MIN_SLICES)
+    for (int k = 0; k < PB_KERNEL_COUNT; k++) {
+        const pb_kernel_info *info = &pb_kernel_table[k];
+        if (info->family == family && (info->method == PB_KT_ANY || info->method == (int)method) &&
+            (info->filter == PB_KT_ANY || info->filter == (int)filter))
+            return (pb_kernel_id)k;
+    }
+    return PB_KERNEL_COUNT; /* unreachable: the table covers every method and filter */
+}
+
+/* Whether the object fits the device's layered images laid out along m. */
+static int layers_fit(const size_t *n, int m, const size_t *layer_limits)
+{
+    return n[pb_layer_across(m, 0)] <= layer_limits[0] && n[pb_layer_across(m, 1)] <= layer_limits[1] &&
+           n[m] <= layer_limits[2];
+}
+
+pb_kernel_id pb_forward_kernel(const pb_path *path, const pb_blur_options *opt, const size_t *layer_limits)
+{
+    if (!pb_path_shift_invariant(path, opt))
+        return find_kernel(PB_FAMILY_GENERAL, opt->method, opt->filter);
+    int m = -1;
+    if (opt->method == PB_METHOD_AB && opt->filter == PB_FILTER_HARDWARE && layer_limits)
+        m = pb_path_layer_axis(path);
+    if (m == 0 && longest_walk(path, opt, 0) < PB_X_LAYERS_MIN_SLICES)
         m = -1;
-    if (m >= 0 && n[pb_layer_across(m, 0)] <= layer_limits[0] && n[pb_layer_across(m, 1)] <= layer_limits[1] &&
-        n[m] <= layer_limits[2])
-        return m == 0 ? PB_KERNEL_SHIFT_AB_LAYERS_X : PB_KERNEL_SHIFT_AB_LAYERS;
-    return pb_shift_index((int)opt->method, exact);
+    if (m >= 0 && layers_fit(path->geometry.dims, m, layer_limits))
+        return find_kernel(m == 0 ? PB_FAMILY_LAYERS_X : PB_FAMILY_LAYERS, opt->method, opt->filter);
+    return find_kernel(PB_FAMILY_SHIFT, opt->method, opt->filter);
+}
+
+pb_kernel_id pb_adjoint_kernel(const pb_path *path, const pb_blur_options *opt, const size_t *layer_limits)
+{
+    if (pb_path_shift_invariant(path, opt))
+        return pb_forward_kernel(path, opt, layer_limits);
+    return find_kernel(PB_FAMILY_SCATTER, opt->method, opt->filter);
 }
 
 void pb_kparams_permute(const size_t *dims, int m, pb_kparams *prm)
@@ -108,9 +132,9 @@ void pb_kparams_permute(const size_t *dims, int m, pb_kparams *prm)
     prm->layer_axis = m;
 }
 
-static void kpose_from_plan(const pb_path *plan, size_t index, pb_kpose *out)
+static void kpose_from_path(const pb_path *path, size_t index, pb_kpose *out)
 {
-    const pb_path_pose *p = &plan->poses[index];
+    const pb_path_pose *p = &path->poses[index];
     memset(out, 0, sizeof *out);
     for (int k = 0; k < 12; k++)
         out->map[k] = (float)p->map[k];
@@ -119,64 +143,41 @@ static void kpose_from_plan(const pb_path *plan, size_t index, pb_kpose *out)
     for (int k = 0; k < 3; k++)
         out->translation[k] = (float)p->pose.translation[k];
     out->weight = (float)p->weight;
-    if (index + 1 < plan->count) {
-        double angle = pb_quat_angle(p->pose.rotation, plan->poses[index + 1].pose.rotation);
+    if (index + 1 < path->count) {
+        double angle = pb_quat_angle(p->pose.rotation, path->poses[index + 1].pose.rotation);
         out->angle = (float)angle;
         out->cos_angle = (float)cos(angle);
         out->inv_sin_angle = angle > 0.0 ? (float)(1.0 / sin(angle)) : 0.0f;
     }
 }
 
-static void kstep_from_plan(const pb_path *plan, size_t index, pb_kstep *out)
+static void kstep_from_path(const pb_path *path, size_t index, pb_kstep *out)
 {
     for (int k = 0; k < 12; k++)
-        out->map[k] = (float)plan->ref_steps[index].map[k];
-    out->weight = (float)plan->ref_steps[index].weight;
+        out->map[k] = (float)path->ref_steps[index].map[k];
+    out->weight = (float)path->ref_steps[index].weight;
 }
 
-void *pb_kernel_plan_pack(const pb_path *plan, pb_method method, size_t *bytes)
+void *pb_kernel_path_pack(const pb_path *path, pb_method method, size_t *bytes)
 {
     if (method == PB_METHOD_REF) {
-        pb_kstep *s = calloc(plan->ref_count, sizeof *s);
-        for (size_t i = 0; s && i < plan->ref_count; i++)
-            kstep_from_plan(plan, i, &s[i]);
-        *bytes = plan->ref_count * sizeof *s;
+        pb_kstep *s = calloc(path->ref_count, sizeof *s);
+        for (size_t i = 0; s && i < path->ref_count; i++)
+            kstep_from_path(path, i, &s[i]);
+        *bytes = path->ref_count * sizeof *s;
         return s;
     }
-    pb_kpose *p = calloc(plan->count, sizeof *p);
-    for (size_t i = 0; p && i < plan->count; i++)
-        kpose_from_plan(plan, i, &p[i]);
-    *bytes = plan->count * sizeof *p;
+    pb_kpose *p = calloc(path->count, sizeof *p);
+    for (size_t i = 0; p && i < path->count; i++)
+        kpose_from_path(path, i, &p[i]);
+    *bytes = path->count * sizeof *p;
     return p;
 }
 
-int pb_kernel_layered(int kernel)
+void pb_kernel_extent(pb_kernel_id kernel, const size_t *dims, size_t *extent)
 {
-    return kernel == PB_KERNEL_SHIFT_AB_LAYERS || kernel == PB_KERNEL_SHIFT_AB_LAYERS_X;
-}
-
-void pb_kernel_extent(int kernel, const size_t *dims, size_t *extent)
-{
-    int runs = kernel == PB_KERNEL_SHIFT_AB_LAYERS_X;
+    int runs = pb_kernel_table[kernel].family == PB_FAMILY_LAYERS_X;
     extent[0] = runs ? dims[1] : dims[0];
     extent[1] = runs ? (dims[0] + PB_X_RUN - 1) / PB_X_RUN : dims[1];
     extent[2] = dims[2];
-}
-
-/* A warp of 32 x-neighbours suits the walks under translations: their reads
- * and writes coalesce, and the layered kernel's work items share their layers
- * (the one along x turns its warps along y: pb_kernel_extent). Under rotation
- * a warp's 32 paths fan out across the object, and tiles of 16 x 2 keep them
- * closer: the rotated scatters' atomic adds fall on fewer L2 lines and the
- * classical method's fetches on fewer texture lines. H200, homogeneity 256^3
- * (bench/results/2026-11-21_H200_29b8577/groups-13a3282), 32x4x2 -> 16x2x8:
- * AB's adjoint at 60 degrees 17.9 -> 15.4 ms, AB-E's 21.8 -> 17.6, CL's
- * forward 12.7 -> 12.1; no row of that experiment slower by more than 1.5 %
- * (in the full run, scenario 7's RM adjoint was 13 % slower). */
-void pb_kernel_group(int kernel, unsigned group[3])
-{
-    int general = kernel <= pb_adjoint_index(PB_METHOD_REF);
-    group[0] = general ? 16 : 32;
-    group[1] = general ? 2 : 4;
-    group[2] = general ? 8 : 2;
 }

@@ -1,0 +1,88 @@
+/* Every device kernel, once. The enum, the OpenCL kernel names, CUDA's launch
+ * switch and check (cuda/pb_kernels.cu), what each launch reads and its work
+ * group all come from this table; src/kernel_args.c picks a launch's kernel by
+ * what it is (family, method, filter), never by its position.
+ *
+ * Columns:
+ *   family  GENERAL  the forward gather: each voxel walks its own path
+ *           SCATTER  the adjoint's scatter of the same walk (atomic adds)
+ *           SHIFT    under translations only, voxel 0's walk moved: forward,
+ *                    or mirrored, the adjoint's gather (cl/pb_shift.cl)
+ *           LAYERS   SHIFT for AB HARDWARE through 2-D layers along y or z
+ *           LAYERS_X the same along x, one work item per run of PB_X_RUN voxels
+ *           PERMUTE  lays a buffer out in layers for the copy into them
+ *   method, filter   what it computes (ANY: either)
+ *   reads   LINEAR / NEAREST  the 3-D image through a linear / point filter
+ *           LAYERS  the layered image;  BUFFER  a plain device buffer
+ *   group   TILES  16 x 2 x 8: rotated paths fan out, tiles keep a group's
+ *                  walks close (fewer L2 lines hit by the scatters' atomics,
+ *                  fewer texture lines by CL's fetches)
+ *           ROWS   32 x 4 x 2: under translations a warp of x-neighbours reads
+ *                  and writes coalesced
+ *           (bench/results/README.md points to the measurements.) */
+#ifndef PB_KERNEL_TABLE_H
+#define PB_KERNEL_TABLE_H
+
+/*  id                 name                  family    method filter    reads    group */
+#define PB_KERNELS(X)                                                                         \
+    X(BLUR_AB,          pb_blur_ab,          GENERAL,  AB,    HARDWARE, LINEAR,  TILES)     \
+    X(BLUR_AB_EXACT,    pb_blur_ab_exact,    GENERAL,  AB,    EXACT,    NEAREST, TILES)     \
+    X(BLUR_RM,          pb_blur_rm,          GENERAL,  RM,    HARDWARE, LINEAR,  TILES)     \
+    X(BLUR_RM_EXACT,    pb_blur_rm_exact,    GENERAL,  RM,    EXACT,    NEAREST, TILES)     \
+    X(BLUR_CL,          pb_blur_cl,          GENERAL,  CL,    HARDWARE, LINEAR,  TILES)     \
+    X(BLUR_CL_EXACT,    pb_blur_cl_exact,    GENERAL,  CL,    EXACT,    NEAREST, TILES)     \
+    X(BLUR_REF,         pb_blur_ref,         GENERAL,  REF,   ANY,      NEAREST, TILES)     \
+    X(ADJOINT_AB,       pb_adjoint_ab,       SCATTER,  AB,    ANY,      BUFFER,  TILES)     \
+    X(ADJOINT_RM,       pb_adjoint_rm,       SCATTER,  RM,    ANY,      BUFFER,  TILES)     \
+    X(ADJOINT_CL,       pb_adjoint_cl,       SCATTER,  CL,    ANY,      BUFFER,  TILES)     \
+    X(ADJOINT_REF,      pb_adjoint_ref,      SCATTER,  REF,   ANY,      BUFFER,  TILES)     \
+    X(SHIFT_AB,         pb_shift_ab,         SHIFT,    AB,    HARDWARE, LINEAR,  ROWS)      \
+    X(SHIFT_AB_EXACT,   pb_shift_ab_exact,   SHIFT,    AB,    EXACT,    NEAREST, ROWS)      \
+    X(SHIFT_RM,         pb_shift_rm,         SHIFT,    RM,    HARDWARE, LINEAR,  ROWS)      \
+    X(SHIFT_RM_EXACT,   pb_shift_rm_exact,   SHIFT,    RM,    EXACT,    NEAREST, ROWS)      \
+    X(SHIFT_CL,         pb_shift_cl,         SHIFT,    CL,    HARDWARE, LINEAR,  ROWS)      \
+    X(SHIFT_CL_EXACT,   pb_shift_cl_exact,   SHIFT,    CL,    EXACT,    NEAREST, ROWS)      \
+    X(SHIFT_AB_LAYERS,  pb_shift_ab_layers,  LAYERS,   AB,    HARDWARE, LAYERS,  ROWS)      \
+    X(SHIFT_AB_LAYERS_X, pb_shift_ab_layers_x, LAYERS_X, AB,  HARDWARE, LAYERS,  ROWS)      \
+    X(PERMUTE,          pb_permute,          PERMUTE,  ANY,   ANY,      BUFFER,  ROWS)
+
+typedef enum pb_kernel_id {
+#define PB_KERNEL_ENUM_(id, ...) PB_KERNEL_##id,
+    PB_KERNELS(PB_KERNEL_ENUM_)
+#undef PB_KERNEL_ENUM_
+    PB_KERNEL_COUNT
+} pb_kernel_id;
+
+typedef enum pb_kernel_family {
+    PB_FAMILY_GENERAL, PB_FAMILY_SCATTER, PB_FAMILY_SHIFT, PB_FAMILY_LAYERS, PB_FAMILY_LAYERS_X, PB_FAMILY_PERMUTE
+} pb_kernel_family;
+
+typedef enum pb_kernel_reads { PB_READS_LINEAR, PB_READS_NEAREST, PB_READS_LAYERS, PB_READS_BUFFER } pb_kernel_reads;
+
+/* The method and filter columns in petblur.h's values (pb_method, pb_filter);
+ * -1 for ANY. */
+#define PB_KT_AB 0
+#define PB_KT_RM 1
+#define PB_KT_CL 2
+#define PB_KT_REF 3
+#define PB_KT_HARDWARE 0
+#define PB_KT_EXACT 1
+#define PB_KT_ANY (-1)
+#define PB_KT_TILES {16, 2, 8}
+#define PB_KT_ROWS {32, 4, 2}
+
+typedef struct pb_kernel_info {
+    const char *name;
+    pb_kernel_family family;
+    int method, filter;
+    pb_kernel_reads reads;
+    unsigned group[3];
+} pb_kernel_info;
+
+#define PB_KERNEL_INFO_(id, name, family, method, filter, reads, group)                                          \
+    {#name, PB_FAMILY_##family, PB_KT_##method, PB_KT_##filter, PB_READS_##reads, PB_KT_##group},
+
+/* The table itself, indexed by pb_kernel_id. */
+static const pb_kernel_info pb_kernel_table[PB_KERNEL_COUNT] = {PB_KERNELS(PB_KERNEL_INFO_)};
+
+#endif

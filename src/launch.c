@@ -1,0 +1,209 @@
+/* The launch sequence, once for every device backend, built from the
+ * primitives of src/backend.h: make the kernel's input current (the 3-D image
+ * or the layers of a buffer), zero the output or add into it, launch in
+ * progress slabs, time with device events. */
+#include <stdlib.h>
+
+#include "backend.h"
+#include "kernel_args.h"
+
+void pb_images_stale(pb_images *images)
+{
+    images->image_stale = 1;
+    for (int m = 0; m < 3; m++)
+        images->layers_stale[m] = 1;
+}
+
+void pb_images_release(pb_context *ctx, pb_images *images)
+{
+    if (images->image)
+        ctx->ops->image_release(ctx, images->image);
+    for (int m = 0; m < 3; m++)
+        if (images->layers[m])
+            ctx->ops->image_release(ctx, images->layers[m]);
+    *images = (pb_images){0};
+}
+
+size_t pb_progress_slab(size_t nz)
+{
+    return nz < 32 ? 1 : (nz + 31) / 32;
+}
+
+/* The context's scratch buffer, grown to at least bytes; it lives as long as
+ * the context, so that the adjoint's gather, which lays out every tomograph
+ * it reads, allocates nothing per call. */
+static pb_status reserve_scratch(pb_context *ctx, size_t bytes)
+{
+    if (bytes <= ctx->scratch_bytes)
+        return PB_OK;
+    if (ctx->scratch)
+        ctx->ops->buffer_release(ctx, ctx->scratch);
+    ctx->scratch = NULL;
+    ctx->scratch_bytes = 0;
+    pb_status st = ctx->ops->buffer_create(ctx, bytes, &ctx->scratch);
+    if (st == PB_OK)
+        ctx->scratch_bytes = bytes;
+    return st;
+}
+
+/* Queues kernel over a grid of dims with prm. */
+static pb_status launch(pb_context *ctx, pb_kernel_id kernel, const void *input, const void *plan,
+                        const pb_kparams *prm, void *out, const size_t *dims)
+{
+    pb_launch l = {kernel, input, plan, *prm, out, {0, 0, 0}};
+    pb_kernel_extent(kernel, dims, l.extent);
+    return ctx->ops->launch(ctx, &l);
+}
+
+/* Makes images->layers[m] current with buffer: along z the buffer already is
+ * in layer order and is copied as it is; along x or y pb_permute lays it out
+ * in the scratch buffer first. */
+static pb_status refresh_layers(pb_context *ctx, const void *buffer, const size_t *n, pb_images *images, int m)
+{
+    size_t extent[3] = {n[pb_layer_across(m, 0)], n[pb_layer_across(m, 1)], n[m]};
+    pb_status st = PB_OK;
+    if (!images->layers[m]) {
+        if ((st = ctx->ops->image_create(ctx, 1, extent, &images->layers[m])) != PB_OK)
+            return st;
+        images->layers_stale[m] = 1;
+    }
+    if (!images->layers_stale[m])
+        return PB_OK;
+    const void *source = buffer;
+    if (m != 2) {
+        pb_kparams prm;
+        pb_kparams_permute(n, m, &prm);
+        if ((st = reserve_scratch(ctx, n[0] * n[1] * n[2] * sizeof(float))) != PB_OK ||
+            (st = launch(ctx, PB_KERNEL_PERMUTE, buffer, NULL, &prm, ctx->scratch, n)) != PB_OK)
+            return st;
+        source = ctx->scratch;
+    }
+    if ((st = ctx->ops->image_copy(ctx, images->layers[m], source)) == PB_OK)
+        images->layers_stale[m] = 0;
+    return st;
+}
+
+/* Makes what kernel reads of buffer current and returns it in *input: the
+ * buffer itself, its 3-D image, or its layers along prm->layer_axis. */
+static pb_status refresh_input(pb_context *ctx, pb_kernel_id kernel, const pb_kparams *prm, const void *buffer,
+                               const size_t *dims, pb_images *images, const void **input)
+{
+    pb_status st = PB_OK;
+    switch (pb_kernel_table[kernel].reads) {
+    case PB_READS_BUFFER:
+        *input = buffer;
+        return PB_OK;
+    case PB_READS_LAYERS:
+        st = refresh_layers(ctx, buffer, dims, images, prm->layer_axis);
+        *input = images->layers[prm->layer_axis];
+        return st;
+    default:
+        if (!images->image) {
+            if ((st = ctx->ops->image_create(ctx, 0, dims, &images->image)) != PB_OK)
+                return st;
+            images->image_stale = 1;
+        }
+        if (images->image_stale && (st = ctx->ops->image_copy(ctx, images->image, buffer)) == PB_OK)
+            images->image_stale = 0;
+        *input = images->image;
+        return st;
+    }
+}
+
+/* Launches over the grid: whole, or with a progress report in slabs of
+ * z-slices, each a whole number of work groups deep (a group that reached
+ * past its slab would do the next slab's voxels twice, which the adjoint's
+ * adds would count twice), waiting and reporting after each. The timer runs
+ * from before the first slab; returns with it stopped and the times set. */
+static pb_status launch_slabs(pb_context *ctx, pb_kernel_id kernel, const void *input, const void *plan,
+                              pb_kparams prm, void *out, const size_t *dims)
+{
+    size_t nz = dims[2], slab = ctx->progress ? pb_progress_slab(nz) : nz;
+    unsigned depth = pb_kernel_table[kernel].group[2];
+    slab = (slab + depth - 1) / depth * depth;
+    double total = 0.0, input_ms = 0.0;
+    pb_status st = PB_OK;
+    for (size_t z0 = 0; z0 < nz && st == PB_OK; z0 += slab) {
+        size_t part[3] = {dims[0], dims[1], nz - z0 < slab ? nz - z0 : slab};
+        prm.z0 = (int)z0;
+        if (z0 > 0 && (st = ctx->ops->timer_begin(ctx)) != PB_OK)
+            break;
+        pb_status launched = launch(ctx, kernel, input, plan, &prm, out, part);
+        double ms = 0.0, before = 0.0;
+        st = ctx->ops->timer_end(ctx, &ms, &before); /* waits for what was queued, even after a failure */
+        if (launched != PB_OK)
+            st = launched;
+        total += ms;
+        input_ms += before;
+        if (st == PB_OK && ctx->progress && z0 + slab < nz)
+            ctx->progress((double)(z0 + slab) / (double)nz, ctx->progress_user);
+    }
+    ctx->last_kernel_ms = total;
+    ctx->last_input_ms = input_ms;
+    return st;
+}
+
+pb_status pb_launch_frame(pb_context *ctx, const pb_plan_frame *frame, const pb_geometry *g, int adjoint,
+                          const void *in, pb_images *in_images, void *out, int accumulate, int time_input)
+{
+    const pb_backend_ops *ops = ctx->ops;
+    pb_kernel_id kernel = adjoint ? frame->adjoint : frame->forward;
+    pb_kparams prm = adjoint ? frame->adjoint_prm : frame->forward_prm;
+    prm.accumulate = accumulate;
+    ctx->last_kernel_ms = ctx->last_input_ms = 0.0;
+    pb_status st = PB_OK;
+    int timing = 0;
+    if (time_input)
+        timing = (st = ops->timer_begin(ctx)) == PB_OK;
+    const void *input = NULL;
+    if (st == PB_OK)
+        st = refresh_input(ctx, kernel, &prm, in, g->dims, in_images, &input);
+    if (st == PB_OK && time_input)
+        st = ops->timer_mark(ctx);
+    else if (st == PB_OK)
+        timing = (st = ops->timer_begin(ctx)) == PB_OK;
+    /* The scatter adds into its output: zeros, or what to add to. */
+    if (st == PB_OK && pb_kernel_table[kernel].family == PB_FAMILY_SCATTER && !accumulate)
+        st = ops->buffer_zero(ctx, out, g->dims[0] * g->dims[1] * g->dims[2] * sizeof(float));
+    if (st != PB_OK) {
+        double ms, before;
+        if (timing)
+            ops->timer_end(ctx, &ms, &before); /* waits for what was queued; the first error stands */
+        return st;
+    }
+    return launch_slabs(ctx, kernel, input, frame->poses, prm, out, g->dims);
+}
+
+pb_status pb_launch_frames(pb_context *ctx, const pb_plan *plan, const pb_volume *const *ins,
+                           pb_volume *const *outs)
+{
+    const pb_backend_ops *ops = ctx->ops;
+    const void **inputs = calloc(plan->frames, sizeof *inputs);
+    if (!inputs)
+        return pb_error(ctx, PB_ERR_OUT_OF_MEMORY, "out of host memory for %zu frames", plan->frames);
+    pb_status st = PB_OK;
+    for (size_t i = 0; i < plan->frames && st == PB_OK; i++) {
+        const pb_plan_frame *f = &plan->frame[i];
+        pb_volume *in = (pb_volume *)ins[i];
+        st = refresh_input(ctx, f->forward, &f->forward_prm, in->buffer, plan->geometry.dims, &in->images,
+                           &inputs[i]);
+    }
+    if (st == PB_OK)
+        st = ops->timer_begin(ctx);
+    if (st == PB_OK) {
+        pb_status launched = PB_OK;
+        for (size_t i = 0; i < plan->frames && launched == PB_OK; i++) {
+            const pb_plan_frame *f = &plan->frame[i];
+            launched = launch(ctx, f->forward, inputs[i], f->poses, &f->forward_prm, outs[i]->buffer,
+                              plan->geometry.dims);
+            pb_images_stale(&outs[i]->images);
+        }
+        double before = 0.0;
+        st = ops->timer_end(ctx, &ctx->last_kernel_ms, &before); /* waits for whatever was queued */
+        if (launched != PB_OK)
+            st = launched;
+        ctx->last_input_ms = 0.0;
+    }
+    free(inputs);
+    return st;
+}

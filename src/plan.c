@@ -1,0 +1,274 @@
+/* The public plan: made once from a context, a geometry, a motion (or a
+ * track and frame bounds, frames.c) and options, which it validates, plans and
+ * uploads; applied forward and adjoint many times, to volumes or to the
+ * caller's device memory; destroyed. pb_blur and pb_blur_adjoint are one-shot
+ * plans. */
+#include <stdlib.h>
+
+#include "kernel_args.h"
+#include "plan.h"
+
+pb_status pb_plan_new(pb_context *ctx, const pb_geometry *geometry, const pb_blur_options *options, size_t frames,
+                      pb_plan **out)
+{
+    *out = NULL;
+    size_t count = 0;
+    pb_blur_options opt;
+    pb_status st = pb_geometry_check(ctx, geometry, &count);
+    if (st == PB_OK)
+        st = pb_device_check_volume(ctx, &ctx->device, geometry);
+    if (st == PB_OK)
+        st = pb_options_prepare(ctx, options, &opt);
+    if (st != PB_OK)
+        return st;
+    pb_plan *plan = calloc(1, sizeof *plan);
+    pb_plan_frame *frame = calloc(frames, sizeof *frame);
+    if (!plan || !frame) {
+        free(plan);
+        free(frame);
+        return pb_error(ctx, PB_ERR_OUT_OF_MEMORY, "out of host memory for a plan of %zu frames", frames);
+    }
+    plan->ctx = ctx;
+    plan->geometry = *geometry;
+    plan->count = count;
+    plan->options = opt;
+    plan->frames = frames;
+    plan->frame = frame;
+    pb_context_hold(ctx);
+    *out = plan;
+    return PB_OK;
+}
+
+/* The kernels and parameters of both directions, and the key poses on the
+ * device. Under translations only the adjoint is the forward kernel mirrored
+ * (a gather); otherwise the scatter, whose weights are rounded as the
+ * forward's texture unit rounds them (cl/pb_adjoint.cl). */
+static pb_status upload_frame(pb_plan *plan, pb_plan_frame *f)
+{
+    pb_context *ctx = plan->ctx;
+    const pb_blur_options *opt = &plan->options;
+    f->forward = pb_forward_kernel(&f->path, opt, ctx->layer_limits);
+    f->adjoint = pb_adjoint_kernel(&f->path, opt, ctx->layer_limits);
+    pb_kparams_from_path(&f->path, opt, &f->forward_prm);
+    f->adjoint_prm = f->forward_prm;
+    int gather = pb_kernel_table[f->adjoint].family != PB_FAMILY_SCATTER;
+    f->adjoint_prm.mirror = gather;
+    if (!gather && opt->filter == PB_FILTER_HARDWARE)
+        f->adjoint_prm.weight_steps = ctx->texture_weight_steps;
+    size_t bytes = 0;
+    void *data = pb_kernel_path_pack(&f->path, opt->method, &bytes);
+    if (!data)
+        return pb_error(ctx, PB_ERR_OUT_OF_MEMORY, "out of host memory for the %s",
+                        opt->method == PB_METHOD_REF ? "reference's steps" : "key poses");
+    pb_status st = ctx->ops->buffer_create(ctx, bytes, &f->poses);
+    if (st == PB_OK)
+        st = ctx->ops->buffer_write(ctx, f->poses, data, bytes);
+    free(data);
+    return st;
+}
+
+pb_status pb_plan_set_frame(pb_plan *plan, size_t i, const pb_motion *motion)
+{
+    pb_plan_frame *f = &plan->frame[i];
+    pb_status st = pb_path_create(plan->ctx, &plan->geometry, motion, &plan->options, &f->path);
+    /* The host backend walks the key poses themselves. */
+    if (st == PB_OK && !plan->ctx->ops->host_forward)
+        st = upload_frame(plan, f);
+    return st;
+}
+
+pb_status pb_plan_create(pb_context *ctx, const pb_geometry *geometry, const pb_motion *motion,
+                         const pb_blur_options *options, pb_plan **plan)
+{
+    if (!ctx || !geometry || !motion || !plan)
+        return pb_error(ctx, PB_ERR_INVALID_ARGUMENT, "ctx, geometry, motion and plan must not be NULL");
+    pb_status st = pb_plan_new(ctx, geometry, options, 1, plan);
+    if (st == PB_OK && (st = pb_plan_set_frame(*plan, 0, motion)) != PB_OK) {
+        pb_plan_destroy(*plan);
+        *plan = NULL;
+    }
+    return st;
+}
+
+void pb_plan_destroy(pb_plan *plan)
+{
+    if (!plan)
+        return;
+    pb_context *ctx = plan->ctx;
+    for (size_t i = 0; i < plan->frames; i++) {
+        pb_path_destroy(&plan->frame[i].path);
+        if (plan->frame[i].poses)
+            ctx->ops->buffer_release(ctx, plan->frame[i].poses);
+    }
+    pb_images_release(ctx, &plan->input);
+    free(plan->frame);
+    free(plan);
+    pb_context_release_hold(ctx);
+}
+
+size_t pb_plan_frame_count(const pb_plan *plan)
+{
+    return plan ? plan->frames : 0;
+}
+
+pb_status pb_plan_get_geometry(const pb_plan *plan, pb_geometry *geometry)
+{
+    if (!plan || !geometry)
+        return pb_error(NULL, PB_ERR_INVALID_ARGUMENT, "plan and geometry must not be NULL");
+    *geometry = plan->geometry;
+    return PB_OK;
+}
+
+pb_status pb_plan_check_volumes(const pb_plan *plan, const pb_volume *in, const pb_volume *out, int adjoint)
+{
+    pb_context *ctx = plan->ctx;
+    const char *in_name = adjoint ? "tomograph" : "object", *out_name = adjoint ? "object" : "tomograph";
+    if (!in || !out)
+        return pb_error(ctx, PB_ERR_INVALID_ARGUMENT, "the %s and %s volumes must not be NULL", in_name, out_name);
+    if (in->ctx != ctx || out->ctx != ctx)
+        return pb_error(ctx, PB_ERR_SIZE_MISMATCH, "both volumes must belong to the context that blurs them");
+    if (in == out)
+        return pb_error(ctx, PB_ERR_INVALID_ARGUMENT,
+                        "object and tomograph are the same volume; blur into a second volume");
+    const pb_geometry *p = &plan->geometry;
+    for (int v = 0; v < 2; v++) {
+        const pb_geometry *g = v ? &out->geometry : &in->geometry;
+        for (int i = 0; i < 3; i++)
+            if (g->dims[i] != p->dims[i] || g->voxel_size[i] != p->voxel_size[i])
+                return pb_error(ctx, PB_ERR_SIZE_MISMATCH,
+                                "the %s volume (%zu x %zu x %zu, %g x %g x %g mm) differs from the plan's grid "
+                                "(%zu x %zu x %zu, %g x %g x %g mm); blur volumes of the plan's geometry",
+                                v ? out_name : in_name, g->dims[0], g->dims[1], g->dims[2], g->voxel_size[0],
+                                g->voxel_size[1], g->voxel_size[2], p->dims[0], p->dims[1], p->dims[2],
+                                p->voxel_size[0], p->voxel_size[1], p->voxel_size[2]);
+    }
+    return PB_OK;
+}
+
+static pb_status check_frame(const pb_plan *plan, size_t frame)
+{
+    if (frame >= plan->frames)
+        return pb_error(plan->ctx, PB_ERR_INVALID_ARGUMENT, "frame %zu does not exist: the plan has %zu (0 to %zu)",
+                        frame, plan->frames, plan->frames - 1);
+    return PB_OK;
+}
+
+/* One direction of one frame, then the progress report's end. */
+static pb_status finish(pb_context *ctx, pb_status st)
+{
+    if (st == PB_OK && ctx->progress)
+        ctx->progress(1.0, ctx->progress_user);
+    return st;
+}
+
+static pb_status apply_volumes(pb_plan *plan, size_t frame, const pb_volume *in, pb_volume *out, int adjoint,
+                               int accumulate)
+{
+    if (!plan)
+        return pb_error(NULL, PB_ERR_INVALID_ARGUMENT, "plan must not be NULL");
+    pb_context *ctx = plan->ctx;
+    pb_status st = check_frame(plan, frame);
+    if (st == PB_OK)
+        st = pb_plan_check_volumes(plan, in, out, adjoint);
+    if (st != PB_OK)
+        return st;
+    const pb_plan_frame *f = &plan->frame[frame];
+    const pb_blur_options *opt = &plan->options;
+    const size_t *dims = plan->geometry.dims;
+    if (ctx->ops->host_forward) {
+        st = adjoint ? ctx->ops->host_adjoint(ctx, in->buffer, &f->path, opt, dims, out->buffer, accumulate)
+                     : ctx->ops->host_forward(ctx, in->buffer, &f->path, opt, dims, out->buffer);
+        return finish(ctx, st);
+    }
+    /* The forward's object is made current once and blurred many times: that
+     * copy is not the kernel's. The adjoint's gather lays out every tomograph
+     * it reads: that counts with the kernel. */
+    st = pb_launch_frame(ctx, f, &plan->geometry, adjoint, in->buffer, (pb_images *)&in->images, out->buffer,
+                         accumulate, adjoint);
+    pb_images_stale(&out->images);
+    return finish(ctx, st);
+}
+
+pb_status pb_plan_forward(pb_plan *plan, size_t frame, const pb_volume *object, pb_volume *tomograph)
+{
+    return apply_volumes(plan, frame, object, tomograph, 0, 0);
+}
+
+pb_status pb_plan_adjoint(pb_plan *plan, size_t frame, const pb_volume *tomograph, pb_volume *object, int accumulate)
+{
+    return apply_volumes(plan, frame, tomograph, object, 1, accumulate);
+}
+
+static pb_status apply_device(pb_plan *plan, size_t frame, const void *in, void *out, int adjoint, int accumulate)
+{
+    if (!plan)
+        return pb_error(NULL, PB_ERR_INVALID_ARGUMENT, "plan must not be NULL");
+    pb_context *ctx = plan->ctx;
+    const char *in_name = adjoint ? "tomograph" : "object", *out_name = adjoint ? "object" : "tomograph";
+    size_t bytes = plan->count * sizeof(float);
+    pb_status st = check_frame(plan, frame);
+    if (st == PB_OK && (!in || !out))
+        st = pb_error(ctx, PB_ERR_INVALID_ARGUMENT, "the %s and %s memory must not be NULL", in_name, out_name);
+    if (st == PB_OK && in == out)
+        st = pb_error(ctx, PB_ERR_INVALID_ARGUMENT, "the %s and %s are the same memory; blur into a second array",
+                      in_name, out_name);
+    if (st == PB_OK)
+        st = ctx->ops->buffer_check(ctx, in, bytes, in_name);
+    if (st == PB_OK)
+        st = ctx->ops->buffer_check(ctx, out, bytes, out_name);
+    if (st != PB_OK)
+        return st;
+    const pb_plan_frame *f = &plan->frame[frame];
+    if (ctx->ops->host_forward) {
+        const pb_blur_options *opt = &plan->options;
+        const size_t *dims = plan->geometry.dims;
+        st = adjoint ? ctx->ops->host_adjoint(ctx, in, &f->path, opt, dims, out, accumulate)
+                     : ctx->ops->host_forward(ctx, in, &f->path, opt, dims, out);
+        return finish(ctx, st);
+    }
+    /* The caller's memory may have changed since the last call: its copy into
+     * the plan's image (on the device) is made every time, and timed. */
+    pb_images_stale(&plan->input);
+    return finish(ctx, pb_launch_frame(ctx, f, &plan->geometry, adjoint, in, &plan->input, out, accumulate, 1));
+}
+
+pb_status pb_plan_forward_device(pb_plan *plan, size_t frame, const void *object, void *tomograph)
+{
+    return apply_device(plan, frame, object, tomograph, 0, 0);
+}
+
+pb_status pb_plan_adjoint_device(pb_plan *plan, size_t frame, const void *tomograph, void *object, int accumulate)
+{
+    return apply_device(plan, frame, tomograph, object, 1, accumulate);
+}
+
+/* pb_blur (in: the object, out: the tomograph) and pb_blur_adjoint (the
+ * other way round): a plan of one frame, applied once. */
+static pb_status one_shot(pb_context *ctx, const pb_volume *in, const pb_motion *motion,
+                          const pb_blur_options *options, pb_volume *out, int adjoint)
+{
+    if (!ctx || !in || !out || !motion)
+        return pb_error(ctx, PB_ERR_INVALID_ARGUMENT, "ctx, object, motion and tomograph must not be NULL");
+    pb_plan *plan;
+    pb_status st = pb_plan_new(ctx, &in->geometry, options, 1, &plan);
+    if (st != PB_OK)
+        return st;
+    /* The volumes first: a mismatch costs no planning. */
+    if ((st = pb_plan_check_volumes(plan, in, out, adjoint)) == PB_OK &&
+        (st = pb_plan_set_frame(plan, 0, motion)) == PB_OK)
+        st = adjoint ? pb_plan_adjoint(plan, 0, in, out, 0) : pb_plan_forward(plan, 0, in, out);
+    pb_plan_destroy(plan);
+    return st;
+}
+
+pb_status pb_blur(pb_context *ctx, const pb_volume *object, const pb_motion *motion,
+                  const pb_blur_options *options, pb_volume *tomograph)
+{
+    return one_shot(ctx, object, motion, options, tomograph, 0);
+}
+
+pb_status pb_blur_adjoint(pb_context *ctx, const pb_volume *tomograph, const pb_motion *motion,
+                          const pb_blur_options *options, pb_volume *object)
+{
+    return one_shot(ctx, tomograph, motion, options, object, 1);
+}

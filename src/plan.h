@@ -1,0 +1,20 @@
+/* The plan's internals that frames.c shares with plan.c. */
+#ifndef PB_PLAN_H
+#define PB_PLAN_H
+
+#include "backend.h"
+
+/* An empty plan of `frames` frames for geometry under options (checked, with
+ * their defaults filled in); each frame is then added with
+ * pb_plan_set_frame. */
+pb_status pb_plan_new(pb_context *ctx, const pb_geometry *geometry, const pb_blur_options *options, size_t frames,
+                      pb_plan **plan);
+/* Plans frame i from its part of the motion: key poses, kernels, parameters,
+ * and the key poses uploaded to the device. */
+pb_status pb_plan_set_frame(pb_plan *plan, size_t i, const pb_motion *motion);
+
+/* Whether in and out may be frame arguments of plan in that direction: of
+ * its context, of its geometry, and two volumes. */
+pb_status pb_plan_check_volumes(const pb_plan *plan, const pb_volume *in, const pb_volume *out, int adjoint);
+
+#endif
