@@ -1,0 +1,341 @@
+/* The public plan: made once and applied many times, it must give what the
+ * one-shot calls give, bit for bit, in both directions and for frames, on
+ * volumes and on the caller's own device memory (a cl_mem on OpenCL, a CUDA
+ * device pointer on CUDA, host memory on the host backend), with or without
+ * progress slabs; and it must refuse what does not fit it. The one exception
+ * to "bit for bit" is the adjoint's scatter (motions that turn), whose float
+ * atomic adds land in an order that differs between runs: there the runs must
+ * agree to 1e-5 of the largest value. Fresh random volumes and motions every
+ * run; outputs poisoned first. */
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#ifdef PB_HAVE_OPENCL
+#define CL_TARGET_OPENCL_VERSION 120
+#include <CL/cl.h>
+#endif
+#ifdef PB_HAVE_CUDA
+#include <cuda_runtime_api.h>
+#endif
+
+#include "testlib.h"
+
+static const char *method_names[] = {"AB", "RM", "CL", "REF"};
+
+/* ---- the caller's device memory, per backend --------------------------- */
+
+static void *dev_alloc(pb_context *ctx, size_t bytes)
+{
+    pb_native nat;
+    pb_context_native(ctx, &nat);
+    switch (pb_context_backend(ctx)) {
+#ifdef PB_HAVE_OPENCL
+    case PB_BACKEND_OPENCL: {
+        cl_int e;
+        cl_mem m = clCreateBuffer((cl_context)nat.context, CL_MEM_READ_WRITE, bytes, NULL, &e);
+        return e == CL_SUCCESS ? m : NULL;
+    }
+#endif
+#ifdef PB_HAVE_CUDA
+    case PB_BACKEND_CUDA: {
+        void *p = NULL;
+        cudaSetDevice(nat.device_index);
+        return cudaMalloc(&p, bytes) == cudaSuccess ? p : NULL;
+    }
+#endif
+    default: return malloc(bytes);
+    }
+}
+
+static void dev_free(pb_context *ctx, void *mem)
+{
+    switch (pb_context_backend(ctx)) {
+#ifdef PB_HAVE_OPENCL
+    case PB_BACKEND_OPENCL: clReleaseMemObject((cl_mem)mem); return;
+#endif
+#ifdef PB_HAVE_CUDA
+    case PB_BACKEND_CUDA: cudaFree(mem); return;
+#endif
+    default: free(mem);
+    }
+}
+
+/* Writes (to_device) or reads the caller's memory, finished on return. The
+ * writes go through the context's own queue or stream, as a caller that
+ * shares it would. */
+static int dev_copy(pb_context *ctx, void *mem, float *host, size_t bytes, int to_device)
+{
+    pb_native nat;
+    pb_context_native(ctx, &nat);
+    switch (pb_context_backend(ctx)) {
+#ifdef PB_HAVE_OPENCL
+    case PB_BACKEND_OPENCL: {
+        cl_command_queue q = (cl_command_queue)nat.queue;
+        cl_int e = to_device ? clEnqueueWriteBuffer(q, (cl_mem)mem, CL_TRUE, 0, bytes, host, 0, NULL, NULL)
+                             : clEnqueueReadBuffer(q, (cl_mem)mem, CL_TRUE, 0, bytes, host, 0, NULL, NULL);
+        return e == CL_SUCCESS;
+    }
+#endif
+#ifdef PB_HAVE_CUDA
+    case PB_BACKEND_CUDA: {
+        cudaStream_t s = (cudaStream_t)nat.queue;
+        cudaError_t e = to_device ? cudaMemcpyAsync(mem, host, bytes, cudaMemcpyHostToDevice, s)
+                                  : cudaMemcpyAsync(host, mem, bytes, cudaMemcpyDeviceToHost, s);
+        return e == cudaSuccess && cudaStreamSynchronize(s) == cudaSuccess;
+    }
+#endif
+    default:
+        if (to_device)
+            memcpy(mem, host, bytes);
+        else
+            memcpy(host, mem, bytes);
+        return 1;
+    }
+}
+
+/* ---- helpers ----------------------------------------------------------- */
+
+static void poison(float *v, size_t n)
+{
+    for (size_t i = 0; i < n; i++)
+        v[i] = -1e30f;
+}
+
+/* a and b equal bit for bit, or (exact 0) to tol of b's largest value. */
+static int same(const float *a, const float *b, size_t n, int exact, double tol)
+{
+    if (exact)
+        return memcmp(a, b, n * sizeof *a) == 0;
+    return pb_max_abs_diff(a, b, n) <= tol * fmax(pb_max_abs(b, n), 1e-30);
+}
+
+static void run_volume(pb_status (*fn)(pb_plan *, size_t, const pb_volume *, pb_volume *), pb_plan *plan,
+                       pb_volume *in, pb_volume *out, const float *data, float *result, size_t n)
+{
+    float *p = malloc(n * sizeof *p);
+    poison(p, n);
+    pb_volume_upload(out, p);
+    pb_volume_upload(in, data);
+    pb_check(fn(plan, 0, in, out) == PB_OK, "plan apply: %s", pb_last_error(NULL));
+    pb_volume_download(out, result);
+    free(p);
+}
+
+static pb_status adjoint_overwrite(pb_plan *plan, size_t frame, const pb_volume *in, pb_volume *out)
+{
+    return pb_plan_adjoint(plan, frame, in, out, 0);
+}
+
+static pb_status adjoint_device_overwrite(pb_plan *plan, size_t frame, const void *in, void *out)
+{
+    return pb_plan_adjoint_device(plan, frame, in, out, 0);
+}
+
+/* One motion and options: the one-shot calls, the plan on volumes (twice,
+ * with the other direction between), the plan on device memory, and the plan
+ * with progress slabs, all against each other. */
+static void check_case(pb_context *ctx, const pb_geometry *g, const pb_motion *m, const pb_blur_options *opt,
+                       int turns, const char *what)
+{
+    size_t n = g->dims[0] * g->dims[1] * g->dims[2], bytes = n * sizeof(float);
+    float *x = pb_random_volume(n), *y = pb_random_volume(n);
+    float *once = malloc(bytes), *planned = malloc(bytes), *again = malloc(bytes), *dev = malloc(bytes);
+    pb_volume *in, *out;
+    pb_volume_create(ctx, g, &in);
+    pb_volume_create(ctx, g, &out);
+    pb_plan *plan = NULL;
+    if (!pb_check(pb_plan_create(ctx, g, m, opt, &plan) == PB_OK, "%s: plan: %s", what, pb_last_error(ctx)))
+        goto done;
+    void *din = dev_alloc(ctx, bytes), *dout = dev_alloc(ctx, bytes);
+    if (!pb_check(din && dout, "%s: the test could not allocate device memory", what))
+        goto done;
+    for (int adjoint = 0; adjoint < 2; adjoint++) {
+        const float *data = adjoint ? y : x;
+        /* The scatter's atomics (motions that turn, and REF always): the only
+         * result that is not reproducible. */
+        int exact = !(adjoint && (turns || opt->method == PB_METHOD_REF));
+        const char *dir = adjoint ? "adjoint" : "forward";
+        pb_status st = adjoint ? pb_test_adjoint(ctx, g, data, m, opt, once) : pb_test_blur(ctx, g, data, m, opt, once);
+        pb_check(st == PB_OK, "%s %s: one-shot: %s", what, dir, pb_last_error(ctx));
+        run_volume(adjoint ? adjoint_overwrite : pb_plan_forward, plan, in, out, data, planned, n);
+        pb_check(same(planned, once, n, exact, 1e-5), "%s %s: the plan differs from the one-shot call (largest "
+                 "difference %g)", what, dir, pb_max_abs_diff(planned, once, n));
+        /* The other direction in between, then this one again on the same plan. */
+        run_volume(adjoint ? pb_plan_forward : adjoint_overwrite, plan, in, out, adjoint ? x : y, again, n);
+        run_volume(adjoint ? adjoint_overwrite : pb_plan_forward, plan, in, out, data, again, n);
+        pb_check(same(again, once, n, exact, 1e-5), "%s %s: the plan's second use differs", what, dir);
+
+        /* Device memory in and out. */
+        poison(dev, n);
+        dev_copy(ctx, dout, dev, bytes, 1);
+        dev_copy(ctx, din, (float *)data, bytes, 1);
+        st = adjoint ? adjoint_device_overwrite(plan, 0, din, dout) : pb_plan_forward_device(plan, 0, din, dout);
+        pb_check(st == PB_OK, "%s %s: device memory: %s", what, dir, pb_last_error(ctx));
+        pb_check(dev_copy(ctx, dout, dev, bytes, 0), "%s: reading device memory back", what);
+        pb_check(same(dev, once, n, exact, 1e-5), "%s %s: device memory differs from volumes (largest difference "
+                 "%g)", what, dir, pb_max_abs_diff(dev, once, n));
+        /* The input untouched. */
+        pb_check(dev_copy(ctx, din, dev, bytes, 0) && memcmp(dev, data, bytes) == 0,
+                 "%s %s: the input memory was changed", what, dir);
+
+        /* Progress slabs give the same voxels. */
+        pb_test_progress_log log = {0, 0, 0.0};
+        pb_context_set_progress(ctx, pb_test_record_progress, &log);
+        run_volume(adjoint ? adjoint_overwrite : pb_plan_forward, plan, in, out, data, again, n);
+        pb_context_set_progress(ctx, NULL, NULL);
+        pb_check(same(again, once, n, exact, 1e-5), "%s %s: slabs differ from one launch", what, dir);
+        pb_check(log.calls >= 2 && log.bad == 0 && log.last == 1.0, "%s %s: progress: %d calls, %d bad, last %g",
+                 what, dir, log.calls, log.bad, log.last);
+    }
+    dev_free(ctx, din);
+    dev_free(ctx, dout);
+done:
+    pb_plan_destroy(plan);
+    pb_volume_destroy(in);
+    pb_volume_destroy(out);
+    free(x), free(y), free(once), free(planned), free(again), free(dev);
+}
+
+/* A plan of frames equals pb_blur_frames bit for bit. */
+static void check_frames(pb_context *ctx, const pb_geometry *g, const pb_blur_options *opt)
+{
+    enum { TRACK = 31, FRAMES = 3 };
+    double times[TRACK], axis[3] = {0.2, 0.4, 1.0}, deg = 0.0, t[3] = {0, 0, 0};
+    pb_pose poses[TRACK];
+    for (int k = 0; k < TRACK; k++) {
+        times[k] = k / 30.0;
+        for (int i = 0; i < 3; i++)
+            t[i] += pb_rand_range(-0.3, 0.4);
+        deg = k < 12 ? deg + pb_rand_range(-0.5, 0.8) : deg; /* frame 0 turns, the others only move */
+        poses[k] = pb_test_pose(t[0], t[1], t[2], axis, deg);
+    }
+    pb_motion track = {times, poses, TRACK, 0.0, 0.0, 0, {0, 0, 0}};
+    double bounds[FRAMES + 1] = {0.05, 0.4, pb_rand_range(0.5, 0.7), 0.95};
+    size_t n = g->dims[0] * g->dims[1] * g->dims[2];
+    float *x = pb_random_volume(n), *a = malloc(n * sizeof *a), *b = malloc(n * sizeof *b);
+    pb_volume *obj, *tomo[FRAMES], *out;
+    pb_volume_create(ctx, g, &obj);
+    pb_volume_create(ctx, g, &out);
+    pb_volume_upload(obj, x);
+    const pb_volume *objs[FRAMES];
+    for (int f = 0; f < FRAMES; f++) {
+        pb_volume_create(ctx, g, &tomo[f]);
+        objs[f] = obj;
+    }
+    pb_check(pb_blur_frames(ctx, objs, &track, bounds, FRAMES, opt, tomo) == PB_OK, "frames: %s",
+             pb_last_error(ctx));
+    pb_plan *plan;
+    if (pb_check(pb_plan_create_frames(ctx, g, &track, bounds, FRAMES, opt, &plan) == PB_OK, "plan of frames: %s",
+                 pb_last_error(ctx))) {
+        pb_check(pb_plan_frame_count(plan) == FRAMES, "the plan has %zu frames", pb_plan_frame_count(plan));
+        for (int f = FRAMES - 1; f >= 0; f--) { /* any order */
+            poison(b, n);
+            pb_volume_upload(out, b);
+            pb_check(pb_plan_forward(plan, (size_t)f, obj, out) == PB_OK, "frame %d: %s", f, pb_last_error(ctx));
+            pb_volume_download(out, b);
+            pb_volume_download(tomo[f], a);
+            pb_check(memcmp(a, b, n * sizeof *a) == 0, "%s frame %d: the plan differs from pb_blur_frames",
+                     method_names[opt->method], f);
+        }
+        pb_check(pb_plan_forward(plan, FRAMES, obj, out) == PB_ERR_INVALID_ARGUMENT, "frame %d of %d accepted",
+                 FRAMES, FRAMES);
+        pb_plan_destroy(plan);
+    }
+    for (int f = 0; f < FRAMES; f++)
+        pb_volume_destroy(tomo[f]);
+    pb_volume_destroy(obj);
+    pb_volume_destroy(out);
+    free(x), free(a), free(b);
+}
+
+/* What a plan must refuse, each with its status. */
+static void check_refusals(pb_context *ctx)
+{
+    pb_geometry g = {{9, 8, 7}, {1.5, 1.5, 2.0}}, other = {{9, 8, 6}, {1.5, 1.5, 2.0}};
+    pb_test_motion tm;
+    pb_pose a = pb_test_pose(0, 0, 0, (double[3]){0, 0, 1}, 0), b = pb_test_pose(2, 1, 0, (double[3]){0, 0, 1}, 9);
+    pb_test_motion_init(&tm, &a, &b);
+    pb_plan *plan;
+    pb_check(pb_plan_create(NULL, &g, &tm.motion, NULL, &plan) == PB_ERR_INVALID_ARGUMENT, "NULL ctx");
+    pb_check(pb_plan_create(ctx, &g, NULL, NULL, &plan) == PB_ERR_INVALID_ARGUMENT, "NULL motion");
+    pb_check(pb_plan_create(ctx, &g, &tm.motion, NULL, NULL) == PB_ERR_INVALID_ARGUMENT, "NULL plan");
+    if (!pb_check(pb_plan_create(ctx, &g, &tm.motion, NULL, &plan) == PB_OK, "plan: %s", pb_last_error(ctx)))
+        return;
+    pb_volume *v1, *v2, *w;
+    pb_volume_create(ctx, &g, &v1);
+    pb_volume_create(ctx, &g, &v2);
+    pb_volume_create(ctx, &other, &w);
+    pb_check(pb_plan_forward(plan, 0, v1, w) == PB_ERR_SIZE_MISMATCH, "a volume of another geometry");
+    pb_check(pb_plan_forward(plan, 0, v1, v1) == PB_ERR_INVALID_ARGUMENT, "in and out one volume");
+    pb_check(pb_plan_forward(plan, 1, v1, v2) == PB_ERR_INVALID_ARGUMENT, "frame 1 of 1");
+    pb_check(pb_plan_forward(NULL, 0, v1, v2) == PB_ERR_INVALID_ARGUMENT, "NULL plan");
+    pb_check(pb_plan_adjoint(plan, 0, NULL, v2, 0) == PB_ERR_INVALID_ARGUMENT, "NULL volume");
+    size_t bytes = 9 * 8 * 7 * sizeof(float);
+    void *d1 = dev_alloc(ctx, bytes), *small = dev_alloc(ctx, bytes / 2);
+    pb_check(pb_plan_forward_device(plan, 0, d1, NULL) == PB_ERR_INVALID_ARGUMENT, "NULL device memory");
+    pb_check(pb_plan_forward_device(plan, 0, d1, d1) == PB_ERR_INVALID_ARGUMENT, "in and out one memory");
+    pb_backend backend = pb_context_backend(ctx);
+    if (backend == PB_BACKEND_OPENCL)
+        pb_check(pb_plan_forward_device(plan, 0, d1, small) == PB_ERR_SIZE_MISMATCH, "a cl_mem too small: %s",
+                 pb_last_error(ctx));
+    if (backend == PB_BACKEND_CUDA) {
+        float host[4];
+        pb_check(pb_plan_forward_device(plan, 0, host, d1) == PB_ERR_INVALID_ARGUMENT, "host memory on CUDA: %s",
+                 pb_last_error(ctx));
+    }
+    dev_free(ctx, d1);
+    dev_free(ctx, small);
+    /* A plan keeps its context alive: destroyed first, the plan still works. */
+    pb_volume_destroy(w);
+    pb_volume_destroy(v1);
+    pb_volume_destroy(v2);
+    pb_context_destroy(ctx);
+    pb_geometry got;
+    pb_check(pb_plan_get_geometry(plan, &got) == PB_OK && got.dims[2] == 7, "the plan's geometry");
+    pb_plan_destroy(plan); /* releases the context: ASan's leak check sees it */
+}
+
+int main(int argc, char **argv)
+{
+    pb_test_seed();
+    pb_context *ctx = pb_test_context(argc, argv);
+    /* Not a cube, odd sizes, anisotropic voxels; deep enough in z for slabs
+     * of several work groups. */
+    pb_geometry g = {{21, 14, 40}, {1.2, 1.5, 1.1}};
+    double z[3] = {0, 0, 1}, tilt[3] = {0.3, -0.2, 1.0};
+    pb_pose start = pb_test_pose(pb_rand_range(-1, 1), pb_rand_range(-1, 1), 0, z, 0);
+    struct {
+        const char *name;
+        pb_pose end;
+        int turns;
+    } motions[] = {
+        {"turn", pb_test_pose(pb_rand_range(-4, 4), pb_rand_range(-4, 4), pb_rand_range(-3, 3), tilt,
+                              pb_rand_range(8, 25)), 1},
+        /* Translations only: the shift-invariant kernels, the gather, and the
+         * layers along z, y and x (long walks along x). */
+        {"move along z", pb_test_pose(0.3, -0.2, pb_rand_range(6, 12), z, 0), 0},
+        {"move along y", pb_test_pose(0.2, pb_rand_range(6, 12), 0.4, z, 0), 0},
+        {"move along x", pb_test_pose(pb_rand_range(12, 18), 0.5, -0.3, z, 0), 0},
+    };
+    for (size_t k = 0; k < sizeof motions / sizeof motions[0]; k++) {
+        pb_test_motion tm;
+        pb_test_motion_init(&tm, &start, &motions[k].end);
+        for (int method = PB_METHOD_AB; method <= PB_METHOD_REF; method++)
+            for (int filter = PB_FILTER_HARDWARE; filter <= PB_FILTER_EXACT; filter++) {
+                if (method == PB_METHOD_REF && (filter == PB_FILTER_EXACT || k > 1))
+                    continue; /* REF has one kernel, and is slow on the host */
+                pb_blur_options opt = {(pb_method)method, (pb_filter)filter, 0, 16, 16, 7, 0.0};
+                char what[96];
+                snprintf(what, sizeof what, "%s %s, %s", method_names[method],
+                         filter == PB_FILTER_EXACT ? "EXACT" : "HARDWARE", motions[k].name);
+                check_case(ctx, &g, &tm.motion, &opt, motions[k].turns, what);
+            }
+    }
+    pb_geometry small = {{13, 11, 9}, {1.4, 1.2, 1.7}};
+    for (int method = PB_METHOD_AB; method <= PB_METHOD_CL; method++)
+        check_frames(ctx, &small, &(pb_blur_options){(pb_method)method, PB_FILTER_HARDWARE, 0, 0, 0, 0, 0.0});
+    check_refusals(ctx); /* destroys ctx */
+    return pb_test_finish();
+}
