@@ -159,6 +159,12 @@ PB_API pb_status pb_volume_get_geometry(const pb_volume *volume, pb_geometry *ge
 /* host holds nx*ny*nz floats, x fastest. */
 PB_API pb_status pb_volume_upload(pb_volume *volume, const float *host);
 PB_API pb_status pb_volume_download(const pb_volume *volume, float *host);
+/* The volume's memory on its device: a CUDA device pointer, a cl_mem, or host
+ * memory on the host backend; valid until the volume is destroyed. It can be
+ * the input or output of pb_plan_forward_device and pb_plan_adjoint_device,
+ * or be read by the caller; write the volume itself through pb_volume_upload
+ * or pb_blur, which keep its texture current. */
+PB_API pb_status pb_volume_memory(const pb_volume *volume, void **memory);
 
 /* ---- motion ------------------------------------------------------------ */
 

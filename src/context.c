@@ -362,6 +362,14 @@ pb_status pb_volume_download(const pb_volume *vol, float *host)
     return vol->ctx->ops->buffer_read(vol->ctx, vol->buffer, host, vol->count * sizeof(float));
 }
 
+pb_status pb_volume_memory(const pb_volume *vol, void **memory)
+{
+    if (!vol || !memory)
+        return pb_error(NULL, PB_ERR_INVALID_ARGUMENT, "volume and memory must not be NULL");
+    *memory = vol->buffer;
+    return PB_OK;
+}
+
 /* ---- blurring ---------------------------------------------------------- */
 
 static pb_status check_options(pb_context *ctx, const pb_blur_options *o)
