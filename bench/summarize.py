@@ -55,6 +55,25 @@ def main():
         print(table("NVIDIA OpenCL time / CUDA time", cuda, ratio, "%.2f"))
         ratios = [ratio(m, f, s) for (m, f, s) in cuda if ratio(m, f, s) is not None]
         print(f"Largest OpenCL / CUDA ratio: {max(ratios):.2f} (target: at most 1.5)\n")
+    for label, data in (("CUDA", cuda), ("NVIDIA OpenCL", ocl)):
+        if not data or "device_ms" not in next(iter(data.values())):
+            continue
+        def dev(m, f, s, d=data):
+            return float(d[(m, f, s)]["device_ms"]) if (m, f, s) in d else None
+        def over(m, f, s, d=data):
+            if (m, f, s) not in d:
+                return None
+            r = d[(m, f, s)]
+            return float(r["device_ms"]) / (float(r["median_ms"]) + float(r["device_copy_ms"]))
+        print(f"Through a plan from device memory to device memory ({label}): the device time of the call "
+              "(the copy into the texture and the kernel, device events), and its ratio to the kernel time "
+              "above plus the copy's own time.\n")
+        print(table(f"{label}: device memory in and out, ms", data, dev, "%.3f"))
+        print(table(f"{label}: device path / (kernel + copy)", data, over, "%.3f"))
+        ab = [over("AB", "hardware", s) for s in range(1, 9) if over("AB", "hardware", s) is not None]
+        if ab:
+            print(f"AB HARDWARE, largest ratio {max(ab):.3f} (target: at most 1.1): "
+                  f"{'met' if max(ab) <= 1.1 else 'NOT met'}\n")
     if cuda:
         print("### Targets (AB HARDWARE on CUDA)\n")
         for s, limit in ((2, 0.5), (3, 1.0)):

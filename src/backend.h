@@ -122,7 +122,9 @@ struct pb_volume {
 typedef struct pb_plan_frame {
     pb_path path;
     void *poses; /* device buffer, uploaded once */
-    pb_kernel_id forward, adjoint;
+    /* The forward for an input laid out once (a volume) and for one laid out
+     * every call (the caller's device memory): kernel_args.h. */
+    pb_kernel_id forward, forward_fresh, adjoint;
     pb_kparams forward_prm, adjoint_prm;
 } pb_plan_frame;
 
@@ -155,11 +157,13 @@ void pb_context_hold(struct pb_context *ctx);
 void pb_context_release_hold(struct pb_context *ctx);
 
 /* launch.c: one direction of one frame on a device backend, from a buffer
- * (with its images) into a buffer: the input made current (timed with the
- * kernel when time_input), zeroed or accumulated, launched in progress slabs,
- * timed. Sets ctx->last_kernel_ms and ctx->last_input_ms. */
+ * (with its images) into a buffer: the input made current, zeroed or
+ * accumulated, launched in progress slabs, timed. fresh_input: the input is
+ * new every call (the caller's memory, the adjoint's tomograph): the forward
+ * takes the kernel for such inputs, and making the input current is timed
+ * with the kernel. Sets ctx->last_kernel_ms and ctx->last_input_ms. */
 pb_status pb_launch_frame(struct pb_context *ctx, const pb_plan_frame *frame, const pb_geometry *g, int adjoint,
-                          const void *in, pb_images *in_images, void *out, int accumulate, int time_input);
+                          const void *in, pb_images *in_images, void *out, int accumulate, int fresh_input);
 /* Frames forward, queued back to back and waited for once, every input made
  * current first: frame i reads ins[i] into outs[i]. */
 pb_status pb_launch_frames(struct pb_context *ctx, const struct pb_plan *plan, const struct pb_volume *const *ins,

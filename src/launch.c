@@ -144,21 +144,21 @@ static pb_status launch_slabs(pb_context *ctx, pb_kernel_id kernel, const void *
 }
 
 pb_status pb_launch_frame(pb_context *ctx, const pb_plan_frame *frame, const pb_geometry *g, int adjoint,
-                          const void *in, pb_images *in_images, void *out, int accumulate, int time_input)
+                          const void *in, pb_images *in_images, void *out, int accumulate, int fresh_input)
 {
     const pb_backend_ops *ops = ctx->ops;
-    pb_kernel_id kernel = adjoint ? frame->adjoint : frame->forward;
+    pb_kernel_id kernel = adjoint ? frame->adjoint : fresh_input ? frame->forward_fresh : frame->forward;
     pb_kparams prm = adjoint ? frame->adjoint_prm : frame->forward_prm;
     prm.accumulate = accumulate;
     ctx->last_kernel_ms = ctx->last_input_ms = 0.0;
     pb_status st = PB_OK;
     int timing = 0;
-    if (time_input)
+    if (fresh_input)
         timing = (st = ops->timer_begin(ctx)) == PB_OK;
     const void *input = NULL;
     if (st == PB_OK)
         st = refresh_input(ctx, kernel, &prm, in, g->dims, in_images, &input);
-    if (st == PB_OK && time_input)
+    if (st == PB_OK && fresh_input)
         st = ops->timer_mark(ctx);
     else if (st == PB_OK)
         timing = (st = ops->timer_begin(ctx)) == PB_OK;

@@ -47,7 +47,8 @@ static pb_status upload_frame(pb_plan *plan, pb_plan_frame *f)
 {
     pb_context *ctx = plan->ctx;
     const pb_blur_options *opt = &plan->options;
-    f->forward = pb_forward_kernel(&f->path, opt, ctx->layer_limits);
+    f->forward = pb_forward_kernel(&f->path, opt, ctx->layer_limits, 0);
+    f->forward_fresh = pb_forward_kernel(&f->path, opt, ctx->layer_limits, 1);
     f->adjoint = pb_adjoint_kernel(&f->path, opt, ctx->layer_limits);
     pb_kparams_from_path(&f->path, opt, &f->forward_prm);
     f->adjoint_prm = f->forward_prm;
@@ -182,7 +183,7 @@ static pb_status apply_volumes(pb_plan *plan, size_t frame, const pb_volume *in,
     }
     /* The forward's object is made current once and blurred many times: that
      * copy is not the kernel's. The adjoint's gather lays out every tomograph
-     * it reads: that counts with the kernel. */
+     * it reads: a fresh input, which counts with the kernel. */
     st = pb_launch_frame(ctx, f, &plan->geometry, adjoint, in->buffer, (pb_images *)&in->images, out->buffer,
                          accumulate, adjoint);
     pb_images_stale(&out->images);

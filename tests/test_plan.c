@@ -137,7 +137,7 @@ static pb_status adjoint_device_overwrite(pb_plan *plan, size_t frame, const voi
  * with the other direction between), the plan on device memory, and the plan
  * with progress slabs, all against each other. */
 static void check_case(pb_context *ctx, const pb_geometry *g, const pb_motion *m, const pb_blur_options *opt,
-                       int turns, const char *what)
+                       int turns, int along_x, const char *what)
 {
     size_t n = g->dims[0] * g->dims[1] * g->dims[2], bytes = n * sizeof(float);
     float *x = pb_random_volume(n), *y = pb_random_volume(n);
@@ -174,8 +174,14 @@ static void check_case(pb_context *ctx, const pb_geometry *g, const pb_motion *m
         st = adjoint ? adjoint_device_overwrite(plan, 0, din, dout) : pb_plan_forward_device(plan, 0, din, dout);
         pb_check(st == PB_OK, "%s %s: device memory: %s", what, dir, pb_last_error(ctx));
         pb_check(dev_copy(ctx, dout, dev, bytes, 0), "%s: reading device memory back", what);
-        pb_check(same(dev, once, n, exact, 1e-5), "%s %s: device memory differs from volumes (largest difference "
-                 "%g)", what, dir, pb_max_abs_diff(dev, once, n));
+        /* AB HARDWARE moving along x reads a volume through layers along x,
+         * but device memory, laid out anew every call, through the 3-D image
+         * (src/kernel_args.c): the same weights, blended by the texture unit
+         * in another order, so equal to its rounding (tests/testlib.h). */
+        int other_kernel = !adjoint && along_x && opt->method == PB_METHOD_AB && opt->filter == PB_FILTER_HARDWARE;
+        pb_check(same(dev, once, n, exact && !other_kernel, other_kernel ? PB_TEX_TRILINEAR_ERROR : 1e-5),
+                 "%s %s: device memory differs from volumes (largest difference %g)", what, dir,
+                 pb_max_abs_diff(dev, once, n));
         /* The input untouched. */
         pb_check(dev_copy(ctx, din, dev, bytes, 0) && memcmp(dev, data, bytes) == 0,
                  "%s %s: the input memory was changed", what, dir);
@@ -309,15 +315,15 @@ int main(int argc, char **argv)
     struct {
         const char *name;
         pb_pose end;
-        int turns;
+        int turns, along_x;
     } motions[] = {
         {"turn", pb_test_pose(pb_rand_range(-4, 4), pb_rand_range(-4, 4), pb_rand_range(-3, 3), tilt,
-                              pb_rand_range(8, 25)), 1},
+                              pb_rand_range(8, 25)), 1, 0},
         /* Translations only: the shift-invariant kernels, the gather, and the
          * layers along z, y and x (long walks along x). */
-        {"move along z", pb_test_pose(0.3, -0.2, pb_rand_range(6, 12), z, 0), 0},
-        {"move along y", pb_test_pose(0.2, pb_rand_range(6, 12), 0.4, z, 0), 0},
-        {"move along x", pb_test_pose(pb_rand_range(12, 18), 0.5, -0.3, z, 0), 0},
+        {"move along z", pb_test_pose(0.3, -0.2, pb_rand_range(6, 12), z, 0), 0, 0},
+        {"move along y", pb_test_pose(0.2, pb_rand_range(6, 12), 0.4, z, 0), 0, 0},
+        {"move along x", pb_test_pose(pb_rand_range(12, 18), 0.5, -0.3, z, 0), 0, 1},
     };
     for (size_t k = 0; k < sizeof motions / sizeof motions[0]; k++) {
         pb_test_motion tm;
@@ -330,7 +336,7 @@ int main(int argc, char **argv)
                 char what[96];
                 snprintf(what, sizeof what, "%s %s, %s", method_names[method],
                          filter == PB_FILTER_EXACT ? "EXACT" : "HARDWARE", motions[k].name);
-                check_case(ctx, &g, &tm.motion, &opt, motions[k].turns, what);
+                check_case(ctx, &g, &tm.motion, &opt, motions[k].turns, motions[k].along_x, what);
             }
     }
     pb_geometry small = {{13, 11, 9}, {1.4, 1.2, 1.7}};
