@@ -271,12 +271,10 @@ typedef struct pb_blur_options {
     double max_path_error;
 } pb_blur_options;
 
-/* The default bound of a voxel's polyline against its true path, in voxels.
- * Measured on the Derenzo phantom (96^3, 60 degrees): AB's error against REF
- * is 28.6 % on one segment, 0.32 % at 1 voxel, 0.14 % at 0.5, 0.047 % at 0.25
- * and 0.020 % at 0.1. At 0.25 it is below AB's own error on short straight
- * paths, and a 60 degree turn of 256^3 takes 12 segments (about 14 % more
- * slices than one). */
+/* The default bound of a voxel's polyline against its true path, in voxels:
+ * the chord's error then stays below AB's own error on short straight paths,
+ * at a few segments for large turns (docs/methods.md, "Error-bounded paths",
+ * gives the measurement). */
 #define PB_DEFAULT_MAX_PATH_ERROR 0.25
 
 /* The segments AB and RM walk for a motion on a grid under options (NULL:

@@ -1,26 +1,14 @@
 /* The CUDA backend: the kernels of cl/pb_blur.cl compiled by nvcc
- * (cuda/pb_kernels.cu), run through the CUDA runtime. The only library file that
- * includes a CUDA header; plain C, so it reaches the kernels through
- * cuda/pb_cuda_launch.h. It translates src/backend.h's primitives into runtime
- * calls; every call is checked and its error text reaches the caller. */
-#include <cuda_runtime_api.h>
-
-#include <stdio.h>
+ * (cuda/pb_kernels.cu), run through the CUDA runtime. This file translates
+ * src/backend.h's primitives (buffers, images, launches by kernel id, event
+ * timing) into runtime calls, plain C, reaching the kernels through
+ * cuda/pb_cuda_launch.h; the device side is cuda_device.c. Every call is
+ * checked and its error text reaches the caller. */
 #include <stdlib.h>
 #include <string.h>
 
 #include "../cuda/pb_cuda_launch.h"
-#include "backend.h"
-
-typedef struct cu_impl {
-    int device;
-    /* Every copy and launch of the context, in order. A blocking stream: it
-     * waits for work queued before on the legacy default stream, where CuPy
-     * and PyTorch queue by default, so their arrays are ready. */
-    cudaStream_t stream;
-    cudaEvent_t start, mark, stop;
-    int marked;
-} cu_impl;
+#include "cuda_impl.h"
 
 /* An image: a CUDA array and its texture objects, which carry the filter: a
  * linear one for HARDWARE fetches and layers, a point one for EXACT and REF. */
@@ -29,147 +17,6 @@ typedef struct cu_image {
     cudaTextureObject_t linear, point;
     size_t extent[3];
 } cu_image;
-
-/* Maps a failed CUDA call to a status; allocation failures are memory errors.
- * Clears the runtime's last error, so that one failure is reported once. */
-static pb_status cu_fail(pb_context *ctx, pb_status kind, const char *call, cudaError_t e)
-{
-    (void)cudaGetLastError();
-    const char *hint = "";
-    if (e == cudaErrorMemoryAllocation) {
-        kind = PB_ERR_OUT_OF_MEMORY;
-        hint = "; free device memory or use a smaller volume";
-    } else if (e == cudaErrorNoKernelImageForDevice || e == cudaErrorUnsupportedPtxVersion) {
-        kind = PB_ERR_BUILD;
-        hint = "; petblur's CUDA kernels were not built for this GPU: rebuild with -Dgpu_archs=<its compute "
-               "capability, e.g. 90> or use --device opencl";
-    } else if (e == cudaErrorInsufficientDriver) {
-        hint = "; the NVIDIA driver is older than this CUDA toolkit: update the driver or use --device opencl";
-    }
-    return pb_error(ctx, kind, "%s() failed: %s (%s, %d)%s", call, cudaGetErrorString(e), cudaGetErrorName(e),
-                    (int)e, hint);
-}
-
-/* No GPU, or no driver to reach one (CI machines): zero devices, not an error. */
-static int means_no_device(cudaError_t e)
-{
-    return e == cudaErrorNoDevice || e == cudaErrorInsufficientDriver;
-}
-
-static pb_status cuda_device_count(int *count)
-{
-    *count = 0;
-    cudaError_t e = cudaGetDeviceCount(count);
-    if (means_no_device(e)) {
-        (void)cudaGetLastError();
-        *count = 0;
-        return PB_OK;
-    }
-    return e == cudaSuccess ? PB_OK : cu_fail(NULL, PB_ERR_DEVICE, "cudaGetDeviceCount", e);
-}
-
-static pb_status fill_info(pb_context *ctx, int index, pb_device_info *info)
-{
-    struct cudaDeviceProp p;
-    cudaError_t e = cudaGetDeviceProperties(&p, index);
-    if (e != cudaSuccess)
-        return cu_fail(ctx, PB_ERR_DEVICE, "cudaGetDeviceProperties", e);
-    int runtime = 0, driver = 0;
-    cudaRuntimeGetVersion(&runtime);
-    cudaDriverGetVersion(&driver);
-    memset(info, 0, sizeof *info);
-    snprintf(info->name, sizeof info->name, "%s", p.name);
-    snprintf(info->platform, sizeof info->platform, "CUDA %d.%d (driver API %d.%d), sm_%d%d", runtime / 1000,
-             runtime % 1000 / 10, driver / 1000, driver % 1000 / 10, p.major, p.minor);
-    info->is_gpu = 1;
-    info->image_support = 1; /* every CUDA GPU filters float textures linearly */
-    for (int d = 0; d < 3; d++)
-        info->image3d_max[d] = (size_t)p.maxTexture3D[d];
-    info->max_alloc_bytes = p.totalGlobalMem;
-    info->global_mem_bytes = p.totalGlobalMem;
-    info->compute_units = (unsigned)p.multiProcessorCount;
-    return PB_OK;
-}
-
-static pb_status cuda_device_info(int index, pb_device_info *info)
-{
-    return fill_info(NULL, index, info);
-}
-
-/* The runtime's current device is per thread; a context may be used from any
- * thread, so every entry point selects its device first. */
-static pb_status use_device(pb_context *ctx)
-{
-    cu_impl *cu = ctx->impl;
-    cudaError_t e = cudaSetDevice(cu->device);
-    return e == cudaSuccess ? PB_OK : cu_fail(ctx, PB_ERR_DEVICE, "cudaSetDevice", e);
-}
-
-static pb_status cuda_context_init(pb_context *ctx, int index, const char *build_options)
-{
-    (void)build_options; /* the kernels were compiled with the library */
-    int n = 0;
-    cudaError_t e = cudaGetDeviceCount(&n);
-    if (e != cudaSuccess && !means_no_device(e))
-        return cu_fail(ctx, PB_ERR_DEVICE, "cudaGetDeviceCount", e);
-    if (e != cudaSuccess || n == 0) {
-        (void)cudaGetLastError();
-        return pb_error(ctx, PB_ERR_NO_DEVICE,
-                        "no CUDA device found (%s); check the NVIDIA driver with nvidia-smi, or use --device opencl "
-                        "or --device host",
-                        e != cudaSuccess ? cudaGetErrorString(e) : "the driver lists none");
-    }
-    if (index >= n)
-        return pb_error(ctx, PB_ERR_NO_DEVICE, "CUDA device %d does not exist (%d found); pick 0 to %d", index, n,
-                        n - 1);
-    cu_impl *cu = calloc(1, sizeof *cu);
-    if (!cu)
-        return pb_error(ctx, PB_ERR_OUT_OF_MEMORY, "out of host memory for a CUDA context");
-    ctx->impl = cu;
-    cu->device = index;
-    pb_status st = use_device(ctx);
-    if (st == PB_OK)
-        st = fill_info(ctx, index, &ctx->device);
-    if (st != PB_OK)
-        return st;
-    if ((e = cudaStreamCreateWithFlags(&cu->stream, cudaStreamDefault)) != cudaSuccess)
-        return cu_fail(ctx, PB_ERR_DEVICE, "cudaStreamCreateWithFlags", e);
-    int lim[3] = {0, 0, 0};
-    if (cudaDeviceGetAttribute(&lim[0], cudaDevAttrMaxTexture2DLayeredWidth, index) != cudaSuccess ||
-        cudaDeviceGetAttribute(&lim[1], cudaDevAttrMaxTexture2DLayeredHeight, index) != cudaSuccess ||
-        cudaDeviceGetAttribute(&lim[2], cudaDevAttrMaxTexture2DLayeredLayers, index) != cudaSuccess)
-        lim[0] = lim[1] = lim[2] = 0; /* unknown: no layers */
-    (void)cudaGetLastError();
-    for (int d = 0; d < 3; d++)
-        ctx->layer_limits[d] = (size_t)lim[d];
-    ctx->texture_weight_steps = PB_NVIDIA_WEIGHT_STEPS;
-    if ((e = cudaEventCreate(&cu->start)) != cudaSuccess || (e = cudaEventCreate(&cu->mark)) != cudaSuccess ||
-        (e = cudaEventCreate(&cu->stop)) != cudaSuccess)
-        return cu_fail(ctx, PB_ERR_DEVICE, "cudaEventCreate", e);
-    /* A GPU the fat binary has no code for fails here, not at the first blur. */
-    if ((e = pb_cuda_check_kernels()) != cudaSuccess)
-        return cu_fail(ctx, PB_ERR_BUILD, "cudaFuncGetAttributes", e);
-    return PB_OK;
-}
-
-static void cuda_context_release(pb_context *ctx)
-{
-    cu_impl *cu = ctx->impl;
-    if (!cu)
-        return;
-    cudaSetDevice(cu->device);
-    if (cu->start)
-        cudaEventDestroy(cu->start);
-    if (cu->mark)
-        cudaEventDestroy(cu->mark);
-    if (cu->stop)
-        cudaEventDestroy(cu->stop);
-    if (cu->stream)
-        cudaStreamDestroy(cu->stream);
-    (void)cudaGetLastError();
-    free(cu);
-    ctx->impl = NULL;
-}
 
 static void cuda_native(const pb_context *ctx, pb_native *out)
 {
@@ -182,16 +29,16 @@ static void cuda_native(const pb_context *ctx, pb_native *out)
 
 static pb_status cuda_buffer_create(pb_context *ctx, size_t bytes, void **buffer)
 {
-    pb_status st = use_device(ctx);
+    pb_status st = pb_cu_use_device(ctx);
     cudaError_t e = st == PB_OK ? cudaMalloc(buffer, bytes) : cudaSuccess;
     if (e != cudaSuccess)
-        return cu_fail(ctx, PB_ERR_DEVICE, "cudaMalloc", e);
+        return pb_cu_fail(ctx, PB_ERR_DEVICE, "cudaMalloc", e);
     return st;
 }
 
 static void cuda_buffer_release(pb_context *ctx, void *buffer)
 {
-    use_device(ctx);
+    pb_cu_use_device(ctx);
     cudaFree(buffer);
     (void)cudaGetLastError();
 }
@@ -202,13 +49,13 @@ static pb_status copy_sync(pb_context *ctx, void *dst, const void *src, size_t b
                            const char *what)
 {
     cu_impl *cu = ctx->impl;
-    pb_status st = use_device(ctx);
+    pb_status st = pb_cu_use_device(ctx);
     if (st != PB_OK)
         return st;
     cudaError_t e = cudaMemcpyAsync(dst, src, bytes, kind, cu->stream);
     if (e == cudaSuccess)
         e = cudaStreamSynchronize(cu->stream);
-    return e == cudaSuccess ? PB_OK : cu_fail(ctx, PB_ERR_DEVICE, what, e);
+    return e == cudaSuccess ? PB_OK : pb_cu_fail(ctx, PB_ERR_DEVICE, what, e);
 }
 
 static pb_status cuda_buffer_write(pb_context *ctx, void *buffer, const void *host, size_t bytes)
@@ -225,7 +72,7 @@ static pb_status cuda_buffer_zero(pb_context *ctx, void *buffer, size_t bytes)
 {
     cu_impl *cu = ctx->impl;
     cudaError_t e = cudaMemsetAsync(buffer, 0, bytes, cu->stream);
-    return e == cudaSuccess ? PB_OK : cu_fail(ctx, PB_ERR_DEVICE, "cudaMemsetAsync", e);
+    return e == cudaSuccess ? PB_OK : pb_cu_fail(ctx, PB_ERR_DEVICE, "cudaMemsetAsync", e);
 }
 
 /* Device (or managed) memory of the context's GPU. The runtime API cannot
@@ -269,7 +116,7 @@ static cudaError_t make_texture(cudaArray_t array, enum cudaTextureFilterMode fi
 static void cuda_image_release(pb_context *ctx, void *image)
 {
     cu_image *img = image;
-    use_device(ctx);
+    pb_cu_use_device(ctx);
     if (img->linear)
         cudaDestroyTextureObject(img->linear);
     if (img->point)
@@ -283,7 +130,7 @@ static void cuda_image_release(pb_context *ctx, void *image)
 /* Layers are read only through the linear filter (AB HARDWARE). */
 static pb_status cuda_image_create(pb_context *ctx, int layered, const size_t extent[3], void **image)
 {
-    pb_status st = use_device(ctx);
+    pb_status st = pb_cu_use_device(ctx);
     if (st != PB_OK)
         return st;
     cu_image *img = calloc(1, sizeof *img);
@@ -296,12 +143,12 @@ static pb_status cuda_image_create(pb_context *ctx, int layered, const size_t ex
     if (e != cudaSuccess) {
         img->array = NULL;
         cuda_image_release(ctx, img);
-        return cu_fail(ctx, PB_ERR_DEVICE, layered ? "cudaMalloc3DArray (layers)" : "cudaMalloc3DArray", e);
+        return pb_cu_fail(ctx, PB_ERR_DEVICE, layered ? "cudaMalloc3DArray (layers)" : "cudaMalloc3DArray", e);
     }
     if ((e = make_texture(img->array, cudaFilterModeLinear, &img->linear)) != cudaSuccess ||
         (!layered && (e = make_texture(img->array, cudaFilterModePoint, &img->point)) != cudaSuccess)) {
         cuda_image_release(ctx, img);
-        return cu_fail(ctx, PB_ERR_DEVICE, "cudaCreateTextureObject", e);
+        return pb_cu_fail(ctx, PB_ERR_DEVICE, "cudaCreateTextureObject", e);
     }
     *image = img;
     return PB_OK;
@@ -321,7 +168,7 @@ static pb_status cuda_image_copy(pb_context *ctx, void *image, const void *buffe
     cp.extent = (struct cudaExtent){img->extent[0], img->extent[1], img->extent[2]};
     cp.kind = cudaMemcpyDeviceToDevice;
     cudaError_t e = cudaMemcpy3DAsync(&cp, cu->stream);
-    return e == cudaSuccess ? PB_OK : cu_fail(ctx, PB_ERR_DEVICE, "cudaMemcpy3DAsync (buffer to array)", e);
+    return e == cudaSuccess ? PB_OK : pb_cu_fail(ctx, PB_ERR_DEVICE, "cudaMemcpy3DAsync (buffer to array)", e);
 }
 
 /* ---- launches and timing ----------------------------------------------- */
@@ -330,7 +177,7 @@ static pb_status cuda_launch(pb_context *ctx, const pb_launch *l)
 {
     cu_impl *cu = ctx->impl;
     const pb_kernel_info *info = &pb_kernel_table[l->kernel];
-    pb_status st = use_device(ctx);
+    pb_status st = pb_cu_use_device(ctx);
     if (st != PB_OK)
         return st;
     pb_cuda_launch_args a;
@@ -349,14 +196,14 @@ static pb_status cuda_launch(pb_context *ctx, const pb_launch *l)
     a.out = l->out;
     a.stream = cu->stream;
     cudaError_t e = pb_cuda_launch((int)l->kernel, &a);
-    return e == cudaSuccess ? PB_OK : cu_fail(ctx, PB_ERR_LAUNCH, "the kernel launch", e);
+    return e == cudaSuccess ? PB_OK : pb_cu_fail(ctx, PB_ERR_LAUNCH, "the kernel launch", e);
 }
 
 static pb_status record(pb_context *ctx, cudaEvent_t ev)
 {
     cu_impl *cu = ctx->impl;
     cudaError_t e = cudaEventRecord(ev, cu->stream);
-    return e == cudaSuccess ? PB_OK : cu_fail(ctx, PB_ERR_LAUNCH, "cudaEventRecord", e);
+    return e == cudaSuccess ? PB_OK : pb_cu_fail(ctx, PB_ERR_LAUNCH, "cudaEventRecord", e);
 }
 
 static pb_status cuda_timer_begin(pb_context *ctx)
@@ -383,11 +230,11 @@ static pb_status cuda_timer_end(pb_context *ctx, double *total_ms, double *befor
         return st;
     cudaError_t e = cudaEventSynchronize(cu->stop);
     if (e != cudaSuccess)
-        return cu_fail(ctx, PB_ERR_LAUNCH, "cudaEventSynchronize (the kernel failed)", e);
+        return pb_cu_fail(ctx, PB_ERR_LAUNCH, "cudaEventSynchronize (the kernel failed)", e);
     float ms = 0.0f, before = 0.0f;
     if ((e = cudaEventElapsedTime(&ms, cu->start, cu->stop)) != cudaSuccess ||
         (cu->marked && (e = cudaEventElapsedTime(&before, cu->start, cu->mark)) != cudaSuccess))
-        return cu_fail(ctx, PB_ERR_LAUNCH, "cudaEventElapsedTime", e);
+        return pb_cu_fail(ctx, PB_ERR_LAUNCH, "cudaEventElapsedTime", e);
     *total_ms = (double)ms;
     *before_mark_ms = (double)before;
     return PB_OK;
@@ -395,10 +242,10 @@ static pb_status cuda_timer_end(pb_context *ctx, double *total_ms, double *befor
 
 const pb_backend_ops pb_backend_cuda_ops = {
     .id = PB_BACKEND_CUDA,
-    .device_count = cuda_device_count,
-    .device_info = cuda_device_info,
-    .context_init = cuda_context_init,
-    .context_release = cuda_context_release,
+    .device_count = pb_cuda_device_count,
+    .device_info = pb_cuda_device_info,
+    .context_init = pb_cuda_context_init,
+    .context_release = pb_cuda_context_release,
     .native = cuda_native,
     .buffer_create = cuda_buffer_create,
     .buffer_release = cuda_buffer_release,

@@ -1,267 +1,10 @@
-/* The OpenCL backend (through the ICD loader: PoCL, NVIDIA, AMD, Intel). The only
- * file that includes CL/cl.h. */
-#define CL_TARGET_OPENCL_VERSION 120
-#include <CL/cl.h>
-#include <CL/cl_ext.h> /* CL_PLATFORM_NOT_FOUND_KHR: the ICD loader found no platform */
-
-#include <stdio.h>
+/* The OpenCL backend's primitives (src/backend.h): buffers, images, launches
+ * by kernel id and profiling-event timing, each a translation into OpenCL
+ * calls; the device side is opencl_device.c. */
 #include <stdlib.h>
 #include <string.h>
 
-#include "backend.h"
-
-extern const char pb_kernel_source[];
-
-/* A timed command's event, and whether it was queued before timer_mark. */
-typedef struct cl_timed {
-    cl_event event;
-    int before_mark;
-} cl_timed;
-
-typedef struct cl_impl {
-    cl_device_id device;
-    cl_context context;
-    cl_command_queue queue;
-    cl_program program;
-    cl_kernel kernels[PB_KERNEL_COUNT]; /* indexed by pb_kernel_id */
-    int is_gpu;
-    /* Between timer_begin and timer_end every command gets a profiling event. */
-    int timing, marked;
-    cl_timed *timed;
-    size_t timed_count, timed_cap;
-} cl_impl;
-
-/* An image and its extent, which a copy into it needs. */
-typedef struct cl_image {
-    cl_mem mem;
-    size_t region[3];
-} cl_image;
-
-static const char *cl_error_name(cl_int e)
-{
-    switch (e) {
-    case CL_DEVICE_NOT_FOUND: return "CL_DEVICE_NOT_FOUND";
-    case CL_DEVICE_NOT_AVAILABLE: return "CL_DEVICE_NOT_AVAILABLE";
-    case CL_COMPILER_NOT_AVAILABLE: return "CL_COMPILER_NOT_AVAILABLE";
-    case CL_MEM_OBJECT_ALLOCATION_FAILURE: return "CL_MEM_OBJECT_ALLOCATION_FAILURE";
-    case CL_OUT_OF_RESOURCES: return "CL_OUT_OF_RESOURCES";
-    case CL_OUT_OF_HOST_MEMORY: return "CL_OUT_OF_HOST_MEMORY";
-    case CL_IMAGE_FORMAT_NOT_SUPPORTED: return "CL_IMAGE_FORMAT_NOT_SUPPORTED";
-    case CL_BUILD_PROGRAM_FAILURE: return "CL_BUILD_PROGRAM_FAILURE";
-    case CL_INVALID_VALUE: return "CL_INVALID_VALUE";
-    case CL_INVALID_PLATFORM: return "CL_INVALID_PLATFORM";
-    case CL_INVALID_DEVICE: return "CL_INVALID_DEVICE";
-    case CL_INVALID_BUILD_OPTIONS: return "CL_INVALID_BUILD_OPTIONS";
-    case CL_INVALID_KERNEL_NAME: return "CL_INVALID_KERNEL_NAME";
-    case CL_INVALID_KERNEL_ARGS: return "CL_INVALID_KERNEL_ARGS";
-    case CL_INVALID_ARG_SIZE: return "CL_INVALID_ARG_SIZE";
-    case CL_INVALID_WORK_GROUP_SIZE: return "CL_INVALID_WORK_GROUP_SIZE";
-    case CL_INVALID_IMAGE_SIZE: return "CL_INVALID_IMAGE_SIZE";
-    case CL_INVALID_MEM_OBJECT: return "CL_INVALID_MEM_OBJECT";
-    case CL_INVALID_OPERATION: return "CL_INVALID_OPERATION";
-    case CL_PLATFORM_NOT_FOUND_KHR: return "CL_PLATFORM_NOT_FOUND_KHR (no OpenCL platform installed)";
-    default: return "an OpenCL error";
-    }
-}
-
-/* Maps a failed OpenCL call to a status; allocation failures are memory errors. */
-static pb_status cl_fail(pb_context *ctx, pb_status kind, const char *call, cl_int e)
-{
-    if (e == CL_MEM_OBJECT_ALLOCATION_FAILURE || e == CL_OUT_OF_HOST_MEMORY || e == CL_OUT_OF_RESOURCES)
-        kind = PB_ERR_OUT_OF_MEMORY;
-    return pb_error(ctx, kind, "%s() failed: %s (%d)%s", call, cl_error_name(e), (int)e,
-                    kind == PB_ERR_OUT_OF_MEMORY ? "; free device memory or use a smaller volume" : "");
-}
-
-/* All devices of all platforms, flattened in platform order. */
-static pb_status list_devices(cl_device_id *devices, cl_platform_id *platforms_of, cl_uint max, cl_uint *count)
-{
-    cl_platform_id platforms[16];
-    cl_uint np = 0;
-    *count = 0;
-    cl_int e = clGetPlatformIDs(16, platforms, &np);
-    if (e == CL_PLATFORM_NOT_FOUND_KHR || (e == CL_SUCCESS && np == 0))
-        return PB_OK;
-    if (e != CL_SUCCESS)
-        return cl_fail(NULL, PB_ERR_DEVICE, "clGetPlatformIDs", e);
-    for (cl_uint p = 0; p < np && p < 16; p++) {
-        cl_uint nd = 0;
-        cl_device_id ids[64];
-        e = clGetDeviceIDs(platforms[p], CL_DEVICE_TYPE_ALL, 64, ids, &nd);
-        if (e == CL_DEVICE_NOT_FOUND)
-            continue;
-        if (e != CL_SUCCESS)
-            return cl_fail(NULL, PB_ERR_DEVICE, "clGetDeviceIDs", e);
-        for (cl_uint d = 0; d < nd && d < 64 && *count < max; d++) {
-            if (devices)
-                devices[*count] = ids[d];
-            if (platforms_of)
-                platforms_of[*count] = platforms[p];
-            (*count)++;
-        }
-    }
-    return PB_OK;
-}
-
-static pb_status ocl_device_count(int *count)
-{
-    cl_uint n = 0;
-    pb_status st = list_devices(NULL, NULL, 1024, &n);
-    *count = (int)n;
-    return st;
-}
-
-static void fill_info(cl_device_id dev, cl_platform_id platform, pb_device_info *info)
-{
-    cl_bool images = CL_FALSE;
-    cl_device_type type = 0;
-    cl_ulong max_alloc = 0, global_mem = 0;
-    cl_uint units = 0;
-    memset(info, 0, sizeof *info);
-    clGetDeviceInfo(dev, CL_DEVICE_NAME, sizeof info->name - 1, info->name, NULL);
-    clGetPlatformInfo(platform, CL_PLATFORM_NAME, sizeof info->platform - 1, info->platform, NULL);
-    clGetDeviceInfo(dev, CL_DEVICE_TYPE, sizeof type, &type, NULL);
-    clGetDeviceInfo(dev, CL_DEVICE_IMAGE_SUPPORT, sizeof images, &images, NULL);
-    clGetDeviceInfo(dev, CL_DEVICE_IMAGE3D_MAX_WIDTH, sizeof(size_t), &info->image3d_max[0], NULL);
-    clGetDeviceInfo(dev, CL_DEVICE_IMAGE3D_MAX_HEIGHT, sizeof(size_t), &info->image3d_max[1], NULL);
-    clGetDeviceInfo(dev, CL_DEVICE_IMAGE3D_MAX_DEPTH, sizeof(size_t), &info->image3d_max[2], NULL);
-    clGetDeviceInfo(dev, CL_DEVICE_MAX_MEM_ALLOC_SIZE, sizeof max_alloc, &max_alloc, NULL);
-    clGetDeviceInfo(dev, CL_DEVICE_GLOBAL_MEM_SIZE, sizeof global_mem, &global_mem, NULL);
-    clGetDeviceInfo(dev, CL_DEVICE_MAX_COMPUTE_UNITS, sizeof units, &units, NULL);
-    info->is_gpu = (type & CL_DEVICE_TYPE_GPU) != 0;
-    info->image_support = images == CL_TRUE;
-    info->max_alloc_bytes = max_alloc;
-    info->global_mem_bytes = global_mem;
-    info->compute_units = units;
-}
-
-static pb_status ocl_device_info(int index, pb_device_info *info)
-{
-    cl_device_id devs[1024];
-    cl_platform_id plats[1024];
-    cl_uint n = 0;
-    pb_status st = list_devices(devs, plats, 1024, &n);
-    if (st != PB_OK)
-        return st;
-    fill_info(devs[index], plats[index], info);
-    return PB_OK;
-}
-
-/* Single-channel float 3-D images must exist; linear filtering of float images
- * is then required by OpenCL 1.2 (section 5.3.2.1). */
-static int has_float_r_images(cl_context context)
-{
-    cl_image_format formats[512];
-    cl_uint n = 0;
-    if (clGetSupportedImageFormats(context, CL_MEM_READ_ONLY, CL_MEM_OBJECT_IMAGE3D, 512, formats, &n) != CL_SUCCESS)
-        return 0;
-    for (cl_uint i = 0; i < n && i < 512; i++)
-        if (formats[i].image_channel_order == CL_R && formats[i].image_channel_data_type == CL_FLOAT)
-            return 1;
-    return 0;
-}
-
-static pb_status build_program(pb_context *ctx, cl_impl *cl, const char *extra, int nvidia)
-{
-    cl_int e;
-    const char *src = pb_kernel_source;
-    cl->program = clCreateProgramWithSource(cl->context, 1, &src, NULL, &e);
-    if (e != CL_SUCCESS)
-        return cl_fail(ctx, PB_ERR_BUILD, "clCreateProgramWithSource", e);
-    /* NVIDIA's compiler takes inline PTX, which gives the adjoint a native
-     * float atomic add (cl/pb_shim.h). */
-    const char *vendor = nvidia ? "-DPB_OPENCL_NVIDIA " : "";
-    char options[1024];
-    snprintf(options, sizeof options, "-cl-std=CL1.2 %s%s", vendor, extra ? extra : "");
-    e = clBuildProgram(cl->program, 1, &cl->device, options, NULL, NULL);
-    if (e != CL_SUCCESS) {
-        size_t len = 0;
-        clGetProgramBuildInfo(cl->program, cl->device, CL_PROGRAM_BUILD_LOG, 0, NULL, &len);
-        char *log = malloc(len + 1);
-        if (log) {
-            log[0] = '\0';
-            clGetProgramBuildInfo(cl->program, cl->device, CL_PROGRAM_BUILD_LOG, len, log, NULL);
-            log[len] = '\0';
-        }
-        pb_error(ctx, PB_ERR_BUILD,
-                 "clBuildProgram() failed: %s (%d) with options \"%s\" on '%s'; check the build options or the "
-                 "device's OpenCL compiler. Build log:\n",
-                 cl_error_name(e), (int)e, options, ctx->device.name);
-        pb_error_append(ctx, log ? log : "(no memory for the log)");
-        free(log);
-        return PB_ERR_BUILD;
-    }
-    for (int k = 0; k < PB_KERNEL_COUNT; k++) {
-        cl->kernels[k] = clCreateKernel(cl->program, pb_kernel_table[k].name, &e);
-        if (e != CL_SUCCESS)
-            return cl_fail(ctx, PB_ERR_BUILD, "clCreateKernel", e);
-    }
-    return PB_OK;
-}
-
-static pb_status ocl_context_init(pb_context *ctx, int index, const char *build_options)
-{
-    cl_device_id devs[1024];
-    cl_platform_id plats[1024];
-    cl_uint n = 0;
-    pb_status st = list_devices(devs, plats, 1024, &n);
-    if (st != PB_OK)
-        return pb_error(ctx, st, "%s", pb_last_error(NULL));
-    if (n == 0)
-        return pb_error(ctx, PB_ERR_NO_DEVICE,
-                        "no OpenCL device found; install an OpenCL driver (on Debian: apt-get install "
-                        "pocl-opencl-icd ocl-icd-libopencl1) or check OCL_ICD_VENDORS");
-    if ((cl_uint)index >= n)
-        return pb_error(ctx, PB_ERR_NO_DEVICE, "OpenCL device %d does not exist (%u found); pick 0 to %u", index, n,
-                        n - 1);
-    cl_impl *cl = calloc(1, sizeof *cl);
-    if (!cl)
-        return pb_error(ctx, PB_ERR_OUT_OF_MEMORY, "out of host memory for an OpenCL context");
-    ctx->impl = cl;
-    cl->device = devs[index];
-    fill_info(cl->device, plats[index], &ctx->device);
-    cl->is_gpu = ctx->device.is_gpu;
-    int nvidia = strstr(ctx->device.platform, "NVIDIA") != NULL;
-    /* NVIDIA's texture unit rounds filter weights (cl/pb_adjoint.cl); PoCL's are float. */
-    ctx->texture_weight_steps = nvidia ? PB_NVIDIA_WEIGHT_STEPS : 0.0f;
-    if (clGetDeviceInfo(cl->device, CL_DEVICE_IMAGE2D_MAX_WIDTH, sizeof(size_t), &ctx->layer_limits[0], NULL) ||
-        clGetDeviceInfo(cl->device, CL_DEVICE_IMAGE2D_MAX_HEIGHT, sizeof(size_t), &ctx->layer_limits[1], NULL) ||
-        clGetDeviceInfo(cl->device, CL_DEVICE_IMAGE_MAX_ARRAY_SIZE, sizeof(size_t), &ctx->layer_limits[2], NULL))
-        memset(ctx->layer_limits, 0, sizeof ctx->layer_limits); /* unknown: no layers */
-
-    cl_int e;
-    cl_context_properties props[] = {CL_CONTEXT_PLATFORM, (cl_context_properties)plats[index], 0};
-    cl->context = clCreateContext(props, 1, &cl->device, NULL, NULL, &e);
-    if (e != CL_SUCCESS)
-        return cl_fail(ctx, PB_ERR_DEVICE, "clCreateContext", e);
-    if (ctx->device.image_support && !has_float_r_images(cl->context))
-        ctx->device.image_support = 0;
-    if (!ctx->device.image_support)
-        return pb_device_check_volume(ctx, &ctx->device, &(pb_geometry){{1, 1, 1}, {1, 1, 1}});
-    cl->queue = clCreateCommandQueue(cl->context, cl->device, CL_QUEUE_PROFILING_ENABLE, &e);
-    if (e != CL_SUCCESS)
-        return cl_fail(ctx, PB_ERR_DEVICE, "clCreateCommandQueue", e);
-    return build_program(ctx, cl, build_options, nvidia);
-}
-
-static void ocl_context_release(pb_context *ctx)
-{
-    cl_impl *cl = ctx->impl;
-    if (!cl)
-        return;
-    for (int k = 0; k < PB_KERNEL_COUNT; k++)
-        if (cl->kernels[k])
-            clReleaseKernel(cl->kernels[k]);
-    if (cl->program)
-        clReleaseProgram(cl->program);
-    free(cl->timed);
-    if (cl->queue)
-        clReleaseCommandQueue(cl->queue);
-    if (cl->context)
-        clReleaseContext(cl->context);
-    free(cl);
-    ctx->impl = NULL;
-}
+#include "opencl_impl.h"
 
 static void ocl_native(const pb_context *ctx, pb_native *out)
 {
@@ -279,7 +22,7 @@ static pb_status ocl_buffer_create(pb_context *ctx, size_t bytes, void **buffer)
     cl_int e;
     cl_mem mem = clCreateBuffer(cl->context, CL_MEM_READ_WRITE, bytes, NULL, &e);
     if (e != CL_SUCCESS)
-        return cl_fail(ctx, PB_ERR_DEVICE, "clCreateBuffer", e);
+        return pb_cl_fail(ctx, PB_ERR_DEVICE, "clCreateBuffer", e);
     *buffer = mem;
     return PB_OK;
 }
@@ -294,14 +37,14 @@ static pb_status ocl_buffer_write(pb_context *ctx, void *buffer, const void *hos
 {
     cl_impl *cl = ctx->impl;
     cl_int e = clEnqueueWriteBuffer(cl->queue, (cl_mem)buffer, CL_TRUE, 0, bytes, host, 0, NULL, NULL);
-    return e == CL_SUCCESS ? PB_OK : cl_fail(ctx, PB_ERR_DEVICE, "clEnqueueWriteBuffer", e);
+    return e == CL_SUCCESS ? PB_OK : pb_cl_fail(ctx, PB_ERR_DEVICE, "clEnqueueWriteBuffer", e);
 }
 
 static pb_status ocl_buffer_read(pb_context *ctx, const void *buffer, void *host, size_t bytes)
 {
     cl_impl *cl = ctx->impl;
     cl_int e = clEnqueueReadBuffer(cl->queue, (cl_mem)buffer, CL_TRUE, 0, bytes, host, 0, NULL, NULL);
-    return e == CL_SUCCESS ? PB_OK : cl_fail(ctx, PB_ERR_DEVICE, "clEnqueueReadBuffer", e);
+    return e == CL_SUCCESS ? PB_OK : pb_cl_fail(ctx, PB_ERR_DEVICE, "clEnqueueReadBuffer", e);
 }
 
 /* The event slot of the next command: one of the timer's, or NULL. */
@@ -338,7 +81,7 @@ static pb_status ocl_buffer_zero(pb_context *ctx, void *buffer, size_t bytes)
     cl_event *ev = timed_slot(ctx);
     cl_int e = clEnqueueFillBuffer(cl->queue, (cl_mem)buffer, &zero, sizeof zero, 0, bytes, 0, NULL, ev);
     if (e != CL_SUCCESS)
-        return cl_fail(ctx, PB_ERR_DEVICE, "clEnqueueFillBuffer", e);
+        return pb_cl_fail(ctx, PB_ERR_DEVICE, "clEnqueueFillBuffer", e);
     timed_queued(ctx, ev);
     return PB_OK;
 }
@@ -385,7 +128,7 @@ static pb_status ocl_image_create(pb_context *ctx, int layered, const size_t ext
     img->mem = clCreateImage(cl->context, CL_MEM_READ_ONLY, &fmt, &desc, NULL, &e);
     if (e != CL_SUCCESS) {
         free(img);
-        return cl_fail(ctx, PB_ERR_DEVICE, layered ? "clCreateImage (layers)" : "clCreateImage", e);
+        return pb_cl_fail(ctx, PB_ERR_DEVICE, layered ? "clCreateImage (layers)" : "clCreateImage", e);
     }
     memcpy(img->region, extent, sizeof img->region);
     *image = img;
@@ -408,7 +151,7 @@ static pb_status ocl_image_copy(pb_context *ctx, void *image, const void *buffer
     cl_event *ev = timed_slot(ctx);
     cl_int e = clEnqueueCopyBufferToImage(cl->queue, (cl_mem)buffer, img->mem, 0, origin, img->region, 0, NULL, ev);
     if (e != CL_SUCCESS)
-        return cl_fail(ctx, PB_ERR_DEVICE, "clEnqueueCopyBufferToImage", e);
+        return pb_cl_fail(ctx, PB_ERR_DEVICE, "clEnqueueCopyBufferToImage", e);
     timed_queued(ctx, ev);
     return PB_OK;
 }
@@ -429,7 +172,7 @@ static pb_status ocl_launch(pb_context *ctx, const pb_launch *l)
     e |= clSetKernelArg(k, 2, sizeof l->prm, &l->prm);
     e |= clSetKernelArg(k, 3, sizeof(cl_mem), &out);
     if (e != CL_SUCCESS)
-        return cl_fail(ctx, PB_ERR_LAUNCH, "clSetKernelArg", e);
+        return pb_cl_fail(ctx, PB_ERR_LAUNCH, "clSetKernelArg", e);
     size_t local[3], global[3];
     for (int d = 0; d < 3; d++) {
         local[d] = info->group[d];
@@ -438,7 +181,7 @@ static pb_status ocl_launch(pb_context *ctx, const pb_launch *l)
     cl_event *ev = timed_slot(ctx);
     e = clEnqueueNDRangeKernel(cl->queue, k, 3, NULL, global, cl->is_gpu ? local : NULL, 0, NULL, ev);
     if (e != CL_SUCCESS)
-        return cl_fail(ctx, PB_ERR_LAUNCH, "clEnqueueNDRangeKernel", e);
+        return pb_cl_fail(ctx, PB_ERR_LAUNCH, "clEnqueueNDRangeKernel", e);
     timed_queued(ctx, ev);
     return PB_OK;
 }
@@ -481,15 +224,15 @@ static pb_status ocl_timer_end(pb_context *ctx, double *total_ms, double *before
     }
     cl->timing = cl->marked = 0;
     cl->timed_count = 0;
-    return e == CL_SUCCESS ? PB_OK : cl_fail(ctx, PB_ERR_LAUNCH, "the kernel (clWaitForEvents)", e);
+    return e == CL_SUCCESS ? PB_OK : pb_cl_fail(ctx, PB_ERR_LAUNCH, "the kernel (clWaitForEvents)", e);
 }
 
 const pb_backend_ops pb_backend_opencl_ops = {
     .id = PB_BACKEND_OPENCL,
-    .device_count = ocl_device_count,
-    .device_info = ocl_device_info,
-    .context_init = ocl_context_init,
-    .context_release = ocl_context_release,
+    .device_count = pb_ocl_device_count,
+    .device_info = pb_ocl_device_info,
+    .context_init = pb_ocl_context_init,
+    .context_release = pb_ocl_context_release,
     .native = ocl_native,
     .buffer_create = ocl_buffer_create,
     .buffer_release = ocl_buffer_release,

@@ -96,11 +96,10 @@ static int chord_holds(const pb_path *plan, const double *corner, const double *
  * From each kept pose i the run grows by doubling while its chord holds, then
  * a binary search between the longest run that held and the shortest that did
  * not finds where to end it. A test costs the run's length, so a run of L
- * segments costs O(L log L) pose checks, where growing it one pose at a time
- * cost L^2 / 2: a 30 Hz log's 180 poses a frame took 0.57 ms of planning a
- * frame, now 0.08 ms (a 2-core build machine), against a 0.3 ms blur of
- * 256^3 on an H200. Every chord kept was tested, so the bound holds whatever
- * the search skips. */
+ * segments costs O(L log L) pose checks instead of the L^2 / 2 of growing it
+ * one pose at a time, which for a 30 Hz log cost more than the blur it plans
+ * (bench/results/README.md, the planner's timing). Every chord kept was
+ * tested, so the bound holds whatever the search skips. */
 static int merge_segments(pb_path *plan, const double *dev, double max_error)
 {
     size_t n = plan->count;

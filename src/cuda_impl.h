@@ -1,0 +1,36 @@
+/* What the CUDA backend's two files share: the context's runtime objects
+ * (cuda_device.c opens them, backend_cuda.c runs on them). With
+ * cuda/pb_kernels.cu, the only files that include a CUDA header. */
+#ifndef PB_CUDA_IMPL_H
+#define PB_CUDA_IMPL_H
+
+#include <cuda_runtime_api.h>
+
+#include "backend.h"
+
+typedef struct cu_impl {
+    int device;
+    /* Every copy and launch of the context, in order. A blocking stream: it
+     * waits for work queued before on the legacy default stream, where CuPy
+     * and PyTorch queue by default, so their arrays are ready. */
+    cudaStream_t stream;
+    cudaEvent_t start, mark, stop;
+    int marked;
+} cu_impl;
+
+/* Maps a failed CUDA call to a status and message (allocation failures are
+ * memory errors) and clears the runtime's last error, so that one failure is
+ * reported once. */
+pb_status pb_cu_fail(pb_context *ctx, pb_status kind, const char *call, cudaError_t e);
+/* The runtime's current device is per thread; a context may be used from any
+ * thread, so every entry point that allocates or launches selects its device
+ * first. */
+pb_status pb_cu_use_device(pb_context *ctx);
+
+/* cuda_device.c: the device ops of pb_backend_cuda_ops. */
+pb_status pb_cuda_device_count(int *count);
+pb_status pb_cuda_device_info(int index, pb_device_info *info);
+pb_status pb_cuda_context_init(pb_context *ctx, int index, const char *build_options);
+void pb_cuda_context_release(pb_context *ctx);
+
+#endif

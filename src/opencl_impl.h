@@ -1,0 +1,47 @@
+/* What the OpenCL backend's two files share: the context's runtime objects
+ * (opencl_device.c opens and builds them, backend_opencl.c runs on them).
+ * Only these two files include CL/cl.h. */
+#ifndef PB_OPENCL_IMPL_H
+#define PB_OPENCL_IMPL_H
+
+#define CL_TARGET_OPENCL_VERSION 120
+#include <CL/cl.h>
+
+#include "backend.h"
+
+/* A timed command's event, and whether it was queued before timer_mark. */
+typedef struct cl_timed {
+    cl_event event;
+    int before_mark;
+} cl_timed;
+
+typedef struct cl_impl {
+    cl_device_id device;
+    cl_context context;
+    cl_command_queue queue;
+    cl_program program;
+    cl_kernel kernels[PB_KERNEL_COUNT]; /* indexed by pb_kernel_id */
+    int is_gpu;
+    /* Between timer_begin and timer_end every command gets a profiling event. */
+    int timing, marked;
+    cl_timed *timed;
+    size_t timed_count, timed_cap;
+} cl_impl;
+
+/* An image and its extent, which a copy into it needs. */
+typedef struct cl_image {
+    cl_mem mem;
+    size_t region[3];
+} cl_image;
+
+/* Maps a failed OpenCL call to a status and message; allocation failures are
+ * memory errors. */
+pb_status pb_cl_fail(pb_context *ctx, pb_status kind, const char *call, cl_int e);
+
+/* opencl_device.c: the device ops of pb_backend_opencl_ops. */
+pb_status pb_ocl_device_count(int *count);
+pb_status pb_ocl_device_info(int index, pb_device_info *info);
+pb_status pb_ocl_context_init(pb_context *ctx, int index, const char *build_options);
+void pb_ocl_context_release(pb_context *ctx);
+
+#endif
