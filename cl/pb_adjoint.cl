@@ -91,10 +91,11 @@ PB_FN void pb_ab_segment_adjoint(PB_GLOBAL float *out, pb_kparams prm, const flo
         pb_trilinear_scatter(out, prm, o[0], o[1], o[2], v);
         return;
     }
-    float wsum = 0.0f;
-    PB_AB_FOR_SLICES(w, (void)x; (void)y; (void)z; wsum += s);
+    float wsum = (float)(w.f1 - w.f0 + 1);
+    PB_AB_PARTIAL_SLICES(w, (void)x; (void)y; (void)z; wsum += s);
     float vw = PB_DIV(v, wsum);
-    PB_AB_FOR_SLICES(w, pb_slice_scatter(out, prm, w.m, x, y, z, s * vw));
+    PB_AB_FULL_SLICES(w, pb_slice_scatter(out, prm, w.m, x, y, z, vw));
+    PB_AB_PARTIAL_SLICES(w, pb_slice_scatter(out, prm, w.m, x, y, z, s * vw));
 }
 
 /* Transpose of pb_ab_sampled (ab) or pb_rm_sampled: v spread along a-b. */

@@ -208,21 +208,23 @@ PB_FN int pb_ab_next_partial(const pb_ab_walk *w, int k)
     return k + 1 == w->f0 ? w->f1 + 1 : k + 1;
 }
 
-/* The AB walk, written once: visits every slice of walk w, the fully covered
- * ones first (a loop of their own, free of branches, so the compiler keeps
- * several fetches in flight), then the partly covered ones. BODY runs with the
- * slice's sample point (x, y, z) and its share s in scope. Its three callers
- * supply what happens there: the forward samples the 3-D image
- * (pb_ab_segment) or the layers (cl/pb_shift.cl), the adjoint scatters
- * (cl/pb_adjoint.cl); so all three visit the same slices at the same points
- * with the same shares. */
-#define PB_AB_FOR_SLICES(w, BODY)                                                                                \
+/* The AB walk, written once, in two loops: PB_AB_FULL_SLICES visits the
+ * fully covered slices (share 1; a loop of their own, free of branches, so the
+ * compiler keeps several fetches in flight), PB_AB_PARTIAL_SLICES the partly
+ * covered ones, with their share s. BODY runs with the slice's sample point
+ * (x, y, z) in scope. Its three callers supply what happens there: the forward
+ * samples the 3-D image (pb_ab_segment) or the layers (cl/pb_shift.cl), the
+ * adjoint scatters (cl/pb_adjoint.cl); so all three visit the same slices at
+ * the same points with the same shares. */
+#define PB_AB_FULL_SLICES(w, BODY)                                                                               \
     for (int pb_k = (w).f0; pb_k <= (w).f1; pb_k++) {                                                         \
-        const float pb_kf = (float)pb_k, s = 1.0f;                                                             \
+        const float pb_kf = (float)pb_k;                                                                       \
         const float x = pb_kf * (w).g[0] + (w).c[0], y = pb_kf * (w).g[1] + (w).c[1];                          \
         const float z = pb_kf * (w).g[2] + (w).c[2];                                                           \
         BODY;                                                                                                  \
-    }                                                                                                          \
+    }
+
+#define PB_AB_PARTIAL_SLICES(w, BODY)                                                                            \
     for (int pb_k = (w).k0; pb_k <= (w).k1; pb_k = pb_ab_next_partial(&(w), pb_k)) {                          \
         float pb_kf = (float)pb_k, pb_mean;                                                                    \
         const float s = pb_tent_share((w).lo - pb_kf, (w).hi - pb_kf, &pb_mean);                              \
@@ -289,8 +291,10 @@ PB_FN float pb_ab_segment(pb_image img, int exact, const pb_place *pl, const flo
         pb_midpoint(a, b, o);
         return pb_placed_trilinear(img, exact, pl, o[0], o[1], o[2]);
     }
-    float sum = 0.0f, wsum = 0.0f;
-    PB_AB_FOR_SLICES(w, sum += s * pb_placed_slice(img, exact, pl, w.m, x, y, z); wsum += s);
+    float sum = 0.0f;
+    PB_AB_FULL_SLICES(w, sum += pb_placed_slice(img, exact, pl, w.m, x, y, z));
+    float wsum = (float)(w.f1 - w.f0 + 1);
+    PB_AB_PARTIAL_SLICES(w, sum += s * pb_placed_slice(img, exact, pl, w.m, x, y, z); wsum += s);
     return PB_DIV(sum, wsum);
 }
 

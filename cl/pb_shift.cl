@@ -149,8 +149,10 @@ PB_FN float pb_ab_segment_layers(pb_layers img, pb_kparams prm, const pb_place *
         pb_midpoint(a, b, o);
         return pb_layer_trilinear(img, prm, pl, o[0], o[1], o[2]);
     }
-    float sum = 0.0f, wsum = 0.0f;
-    PB_AB_FOR_SLICES(w, sum += s * pb_layer_slice(img, prm, pl, x, y, z); wsum += s);
+    float sum = 0.0f;
+    PB_AB_FULL_SLICES(w, sum += pb_layer_slice(img, prm, pl, x, y, z));
+    float wsum = (float)(w.f1 - w.f0 + 1);
+    PB_AB_PARTIAL_SLICES(w, sum += s * pb_layer_slice(img, prm, pl, x, y, z); wsum += s);
     return PB_DIV(sum, wsum);
 }
 
