@@ -1,0 +1,60 @@
+#!/usr/bin/env bash
+# Before and after on one GPU machine: builds the source tree given (an older
+# commit, e.g. `git archive OLD | tar -x -C bench-old`, carried along) and this
+# one, and runs pb_bench on CUDA and NVIDIA OpenCL (256^3, the paper's eight
+# motions) alternately, old, new, old, new, so that both see the same machine
+# in the same state. Writes the CSVs and compare.md (new / old per method and
+# motion, the better of each build's two medians) under $OUT.
+#   PB_OLD=<commit> PB_COMMIT=<commit> bash bench/gpu-compare.sh bench-old
+set -uo pipefail
+cd "$(dirname "$0")/.."
+OLD=$1
+OUT=${OUT:-$PWD/gpu-out}
+mkdir -p "$OUT"
+. bench/device-env.sh
+build() { # source dir, build dir
+    (cd "$1" && "${meson[@]}" setup "$2" --buildtype=release -Dcuda=enabled -Dopencl=enabled -Dcli=disabled \
+        >/dev/null && ninja -C "$2" bench/pb_bench >/dev/null) || { echo "gpu-compare: building $1 failed"; exit 1; }
+}
+build "$OLD" "$PWD/build-old" &
+build "$PWD" "$PWD/build-new" &
+wait
+vend=$(mktemp -d)
+mkdir -p "$vend/nvidia"
+echo libnvidia-opencl.so.1 >"$vend/nvidia/nvidia.icd"
+for round in 1 2; do
+    for which in old new; do
+        for d in cuda opencl; do
+            OCL_ICD_VENDORS="$vend/nvidia" ./build-$which/bench/pb_bench --device $d --size 256 --runs 20 \
+                --ref-runs 0 --label $which --csv "$OUT/$which-$d-$round.csv" >/dev/null || exit 1
+        done
+    done
+done
+python3 - "$OUT" "${PB_OLD:-old}" "${PB_COMMIT:-new}" <<'PY' | tee "$OUT/compare.md"
+import csv, sys, os
+out, old, new = sys.argv[1:4]
+rows = [("AB", "hardware"), ("AB", "exact"), ("RM", "hardware"), ("RM", "exact"), ("CL", "hardware"), ("CL", "exact")]
+def best(which, dev):
+    t = {}
+    for r in (1, 2):
+        for row in csv.DictReader(open(os.path.join(out, f"{which}-{dev}-{r}.csv"))):
+            k = (row["method"], row["filter"], int(row["scenario"]))
+            t[k] = min(t.get(k, 1e30), float(row["median_ms"]))
+    return t
+worst = 0.0
+for dev, label in (("cuda", "CUDA (CUDA events)"), ("opencl", "NVIDIA OpenCL (profiling events)")):
+    a, b = best("old", dev), best("new", dev)
+    print(f"### {label}: kernel ms at {old} -> {new}, and new / old\n")
+    print("| method | " + " | ".join(str(s) for s in range(1, 9)) + " |")
+    print("|---|" + "---|" * 8)
+    for m, f in rows:
+        cells = []
+        for s in range(1, 9):
+            k = (m, f, s)
+            r = b[k] / a[k]
+            worst = max(worst, r)
+            cells.append(f"{a[k]:.3f} -> {b[k]:.3f} ({r:.3f})")
+        print(f"| {m} {'HW' if f == 'hardware' else 'EX'} | " + " | ".join(cells) + " |")
+    print()
+print(f"Largest new / old: {worst:.3f} (target: at most 1.03)")
+PY
