@@ -13,7 +13,7 @@ mkdir -p "$OUT"
     "${meson[@]}" setup build-sanitize --buildtype=debugoptimized -Dcuda=enabled -Dopencl=disabled >/dev/null &&
         ninja -C build-sanitize >/dev/null || { echo "gpu-sanitize: the build failed"; exit 1; }
     # test_no_device makes no CUDA call, which compute-sanitizer reports as an error of its own.
-    for t in errors frames adjoint properties backend_vs_host; do
+    for t in errors frames adjoint properties backend_vs_host plan; do
         echo "== memcheck test_$t cuda"
         compute-sanitizer --tool memcheck --error-exitcode 99 --leak-check full ./build-sanitize/tests/test_$t cuda |
             tail -3
