@@ -4,6 +4,11 @@
 #include <stdlib.h>
 #include <string.h>
 
+#define PB_KERNEL_INFO_(id, name, family, method, filter, reads, group)                                          \
+    {#name, PB_FAMILY_##family, PB_KT_##method, PB_KT_##filter, PB_READS_##reads, PB_KT_##group},
+const pb_kernel_info pb_kernel_table[PB_KERNEL_COUNT] = {PB_KERNELS(PB_KERNEL_INFO_)};
+#undef PB_KERNEL_INFO_
+
 void pb_kparams_from_path(const pb_path *path, const pb_blur_options *opt, pb_kparams *prm)
 {
     memset(prm, 0, sizeof *prm);

@@ -79,10 +79,9 @@ typedef struct pb_kernel_info {
     unsigned group[3];
 } pb_kernel_info;
 
-#define PB_KERNEL_INFO_(id, name, family, method, filter, reads, group)                                          \
-    {#name, PB_FAMILY_##family, PB_KT_##method, PB_KT_##filter, PB_READS_##reads, PB_KT_##group},
-
-/* The table itself, indexed by pb_kernel_id. */
-static const pb_kernel_info pb_kernel_table[PB_KERNEL_COUNT] = {PB_KERNELS(PB_KERNEL_INFO_)};
+/* The table itself, indexed by pb_kernel_id (src/kernel_args.c). */
+#ifndef __cplusplus
+extern const pb_kernel_info pb_kernel_table[PB_KERNEL_COUNT];
+#endif
 
 #endif
