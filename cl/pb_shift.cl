@@ -95,9 +95,12 @@ PB_KERNEL void pb_shift_cl_exact(pb_image img, PB_GLOBAL_RO pb_kpose *poses, pb_
  * sample is then one bilinear fetch in its layer, which the texture unit makes
  * at twice its trilinear rate (bench/fetch_rate.cu); the weights are the same
  * two rounded fractions, the slice's own weight exactly 1. The adjoint's
- * gather reads the tomograph through layers too, mirrored as through the 3-D
- * image: laying out each tomograph (pb_permute and a copy, a few hundredths of
- * a millisecond at 256^3) costs less than the trilinear fetches it saves. */
+ * gather reads the tomograph through layers along y or z too, mirrored as
+ * through the 3-D image: laying a tomograph out there (a copy, and along y a
+ * coalesced pb_permute) costs less than the trilinear fetches it saves. Along
+ * x the layout is a transpose that costs more than they save on one blur, so
+ * an input laid out anew for every call (the gather's tomograph, the caller's
+ * device memory) is read through the 3-D image along x (src/kernel_args.c). */
 
 /* Layer `layer` at (pa, pb), or 0 outside the volume along the axis (layers:
  * how many): an array clamps its layer index where a 3-D image reads its zero
@@ -156,12 +159,13 @@ PB_FN float pb_ab_segment_layers(pb_layers img, pb_kparams prm, const pb_place *
     return PB_DIV(sum, wsum);
 }
 
-/* AB over one segment through the layers, in prm.steps sub-segments. */
-PB_FN float pb_ab_sampled_layers(pb_layers img, pb_kparams prm, const pb_place *pl, const float *a, const float *b)
+/* AB over one segment through the layers: the sum over its prm.steps
+ * sub-segments (the caller scales it, weight first, as it always has). */
+PB_FN float pb_ab_pieces_layers(pb_layers img, pb_kparams prm, const pb_place *pl, const float *a, const float *b)
 {
     float sum = 0.0f, inv = 1.0f / (float)prm.steps;
     PB_FOR_PIECES(prm.steps, inv, a, b, sum += pb_ab_segment_layers(img, prm, pl, pa, pb));
-    return sum * inv;
+    return sum;
 }
 
 /* Voxel 0's polyline through the layers, placed by pl. */
@@ -169,7 +173,8 @@ PB_FN float pb_shift_layered(pb_layers img, PB_GLOBAL_RO pb_kpose *poses, pb_kpa
 {
     const float u[3] = {0.5f, 0.5f, 0.5f};
     float total = 0.0f;
-    PB_FOR_SEGMENTS(poses, prm, u, total += poses[j].weight * pb_ab_sampled_layers(img, prm, pl, a, b));
+    PB_FOR_SEGMENTS(poses, prm, u,
+                    total += poses[j].weight * pb_ab_pieces_layers(img, prm, pl, a, b) * (1.0f / (float)prm.steps));
     return total;
 }
 
@@ -203,8 +208,9 @@ PB_KERNEL void pb_shift_ab_layers_x(pb_layers img, PB_GLOBAL_RO pb_kpose *poses,
  * layered image: voxel v goes to layer v[m] at (v[a], v[b]), a and b from
  * pb_layer_across. Along y the rows still run along x, so reads and writes
  * are both coalesced; along z the buffer is already laid out so and is copied
- * as it is. It runs once per object and axis, outside the blur's time. (The
- * second argument only matches the launch's others.) */
+ * as it is. It runs once per object and axis, outside the forward's time, and
+ * for every tomograph the adjoint's gather reads along y, inside its time.
+ * (The second argument only matches the launch's others.) */
 PB_KERNEL void pb_permute(PB_GLOBAL_RO float *in, PB_GLOBAL_RO pb_kpose *unused, pb_kparams prm, PB_GLOBAL float *out)
 {
     int ix = PB_GID_X, iy = PB_GID_Y, iz = PB_GID_Z + prm.z0;

@@ -116,10 +116,11 @@ typedef struct pb_context_options {
  * once. options may be NULL (auto). On failure *ctx is NULL and the message is
  * in pb_last_error(NULL) of the calling thread. */
 PB_API pb_status pb_context_create(const pb_context_options *options, pb_context **ctx);
-/* Releases the context once its last volume is destroyed: volumes may be
- * destroyed before or after it, in any order (as garbage-collected bindings
- * do). After pb_context_destroy the context must not be used again. A context
- * and its volumes are used from one thread at a time. */
+/* Releases the context once its last volume and plan are destroyed: they may
+ * be destroyed before or after it, in any order (as garbage-collected bindings
+ * do). After pb_context_destroy the context must not be used again. A context,
+ * its volumes and its plans are used from one thread at a time (they share the
+ * context's queue, kernels and timers). */
 PB_API void pb_context_destroy(pb_context *ctx);
 
 /* The backend and device the context runs on. */
@@ -138,8 +139,9 @@ PB_API const char *pb_last_error(const pb_context *ctx);
 typedef void (*pb_progress_fn)(double fraction, void *user);
 PB_API pb_status pb_context_set_progress(pb_context *ctx, pb_progress_fn fn, void *user);
 
-/* Kernel time in milliseconds of the context's last pb_blur, from device
- * events (OpenCL profiling events, CUDA events) or the host clock. */
+/* Kernel time in milliseconds of the context's last blur or adjoint (a
+ * one-shot call or a plan's; for frames, their total), from device events
+ * (OpenCL profiling events, CUDA events) or the host clock. */
 PB_API pb_status pb_context_last_kernel_ms(const pb_context *ctx, double *ms);
 
 /* ---- volumes ----------------------------------------------------------- */
@@ -161,9 +163,10 @@ PB_API pb_status pb_volume_upload(pb_volume *volume, const float *host);
 PB_API pb_status pb_volume_download(const pb_volume *volume, float *host);
 /* The volume's memory on its device: a CUDA device pointer, a cl_mem, or host
  * memory on the host backend; valid until the volume is destroyed. It can be
- * the input or output of pb_plan_forward_device and pb_plan_adjoint_device,
- * or be read by the caller; write the volume itself through pb_volume_upload
- * or pb_blur, which keep its texture current. */
+ * the input or output of pb_plan_forward_device and pb_plan_adjoint_device
+ * (which keep the volume's texture current), or be read by the caller. Write
+ * it otherwise only through pb_volume_upload: a texture made from the volume
+ * before would not see another write. */
 PB_API pb_status pb_volume_memory(const pb_volume *volume, void **memory);
 
 /* ---- motion ------------------------------------------------------------ */
@@ -323,7 +326,8 @@ PB_API pb_status pb_blur_adjoint(pb_context *ctx, const pb_volume *tomograph, co
  * may serve several frames: it stays on the device, its image refreshed once)
  * and tomographs[i] receives its blur, which equals pb_blur's of that frame.
  * The track's frame_start and frame_end are not used. Every frame is checked
- * and planned before any is blurred: on an error nothing was written. A
+ * and planned before any is blurred: on an error nothing was written. Every
+ * volume has one geometry (a plan of frames, pb_plan_create_frames). A
  * frame's tomograph must not be any frame's object or another frame's
  * tomograph. pb_context_last_kernel_ms then gives the frames' total. */
 PB_API pb_status pb_blur_frames(pb_context *ctx, const pb_volume *const *objects, const pb_motion *track,
@@ -349,10 +353,11 @@ PB_API pb_status pb_blur_frames_adjoint(pb_context *ctx, const pb_volume *const 
  * B and B^T hundreds of times (VkFFT's life cycle: create, apply, destroy).
  * Creating it validates the motion and options, plans the key poses of every
  * frame and uploads them to the device; applying it does only the device
- * work. A plan keeps its context alive, as volumes do; a plan is used from
- * one thread at a time. pb_blur, pb_blur_adjoint, pb_blur_frames and
- * pb_blur_frames_adjoint are one-shot plans and give the same results bit for
- * bit. */
+ * work. A plan keeps its context alive, as volumes do. pb_blur,
+ * pb_blur_adjoint, pb_blur_frames and pb_blur_frames_adjoint are one-shot
+ * plans and give the same results bit for bit, but for the adjoint's scatter
+ * (motions that turn, and REF), whose float atomic adds land in an order that
+ * differs from run to run. */
 typedef struct pb_plan pb_plan;
 
 /* A plan of one frame (frame 0): motion over [frame_start, frame_end] on
@@ -388,11 +393,17 @@ PB_API pb_status pb_plan_adjoint(pb_plan *plan, size_t frame, const pb_volume *t
  *   is ready, and pb_context_last_kernel_ms holds its device time (the copy
  *   included; pb_context_last_input_ms the copy alone). On CUDA that stream
  *   is a blocking stream: it also waits for work queued earlier on the legacy
- *   default stream (CuPy's and PyTorch's default). Input written on any other
- *   stream or queue must be finished (synchronised) by the caller first.
- * On OpenCL and CUDA the memory is checked to belong to the context's device
- * (OpenCL: and to hold the volume); input and output must not overlap. Values
- * are not checked for NaN here, as pb_volume_upload does. */
+ *   default stream (CuPy's and PyTorch's default), and work queued there later
+ *   waits for it. Input written on any other stream or queue (a per-thread
+ *   default stream included) must be finished (synchronised) by the caller.
+ * On OpenCL a valid cl_mem is checked to belong to the context, to hold the
+ * volume and to be readable (input) or writable (output); on CUDA the pointer
+ * to be device or managed memory of the context's GPU (its size cannot be
+ * asked). Input and output must not overlap. Values are not checked for NaN
+ * here, as pb_volume_upload does. Under a motion of translations only along
+ * x, AB HARDWARE reads a volume through layers along x but device memory,
+ * laid out anew every call, through the 3-D image: on NVIDIA the two differ
+ * by the texture unit's rounding (about 1e-3 of the values), elsewhere not. */
 PB_API pb_status pb_plan_forward_device(pb_plan *plan, size_t frame, const void *object, void *tomograph);
 PB_API pb_status pb_plan_adjoint_device(pb_plan *plan, size_t frame, const void *tomograph, void *object,
                                         int accumulate);

@@ -49,10 +49,11 @@ typedef struct pb_backend_ops {
     pb_status (*buffer_write)(struct pb_context *ctx, void *buffer, const void *host, size_t bytes);
     pb_status (*buffer_read)(struct pb_context *ctx, const void *buffer, void *host, size_t bytes);
     pb_status (*buffer_zero)(struct pb_context *ctx, void *buffer, size_t bytes);
-    /* Whether memory the caller owns can be a kernel's input or output of
-     * bytes: of this device and context, and large enough where the runtime
-     * can tell. */
-    pb_status (*buffer_check)(struct pb_context *ctx, const void *buffer, size_t bytes, const char *what);
+    /* Whether memory the caller owns can be a kernel's input (written 0) or
+     * output (1) of bytes: of this device and context, large enough and
+     * readable or writable where the runtime can tell. */
+    pb_status (*buffer_check)(struct pb_context *ctx, const void *buffer, size_t bytes, const char *what,
+                              int written);
 
     /* The host reference's whole operator (device backends: NULL), on host
      * buffers: the forward overwrites out; the adjoint overwrites it, or with
@@ -106,6 +107,7 @@ struct pb_context {
      * garbage collector frees in any order stay safe. */
     size_t holders;
     int destroyed;
+    struct pb_volume *volumes;
 };
 
 struct pb_volume {
@@ -114,6 +116,9 @@ struct pb_volume {
     size_t count; /* voxels */
     void *buffer;
     pb_images images;
+    /* The context's volumes, so that a device-memory call that writes a
+     * volume's memory (pb_volume_memory) can mark its images stale. */
+    struct pb_volume *prev, *next;
 };
 
 /* One frame of a plan: its key poses on the host (the host backend walks
@@ -170,6 +175,9 @@ pb_status pb_launch_frames(struct pb_context *ctx, const struct pb_plan *plan, c
                            struct pb_volume *const *outs);
 /* A buffer changed: what was made from it is out of date. */
 void pb_images_stale(pb_images *images);
+/* context.c: device memory at `memory` was written behind the volumes' back:
+ * the images of the volume it belongs to, if any, are out of date. */
+void pb_volume_memory_written(struct pb_context *ctx, const void *memory);
 void pb_images_release(struct pb_context *ctx, pb_images *images);
 
 /* Slabs of z-slices for progress reports: how many slices per launch, so that

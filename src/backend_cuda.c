@@ -71,15 +71,19 @@ static pb_status cuda_buffer_read(pb_context *ctx, const void *buffer, void *hos
 static pb_status cuda_buffer_zero(pb_context *ctx, void *buffer, size_t bytes)
 {
     cu_impl *cu = ctx->impl;
+    pb_status st = pb_cu_use_device(ctx);
+    if (st != PB_OK)
+        return st;
     cudaError_t e = cudaMemsetAsync(buffer, 0, bytes, cu->stream);
     return e == cudaSuccess ? PB_OK : pb_cu_fail(ctx, PB_ERR_DEVICE, "cudaMemsetAsync", e);
 }
 
 /* Device (or managed) memory of the context's GPU. The runtime API cannot
  * tell an allocation's size: the caller's binding checks it. */
-static pb_status cuda_buffer_check(pb_context *ctx, const void *buffer, size_t bytes, const char *what)
+static pb_status cuda_buffer_check(pb_context *ctx, const void *buffer, size_t bytes, const char *what, int written)
 {
     (void)bytes;
+    (void)written;
     cu_impl *cu = ctx->impl;
     struct cudaPointerAttributes a;
     cudaError_t e = cudaPointerGetAttributes(&a, buffer);
@@ -167,6 +171,9 @@ static pb_status cuda_image_copy(pb_context *ctx, void *image, const void *buffe
     cp.dstArray = img->array;
     cp.extent = (struct cudaExtent){img->extent[0], img->extent[1], img->extent[2]};
     cp.kind = cudaMemcpyDeviceToDevice;
+    pb_status st = pb_cu_use_device(ctx);
+    if (st != PB_OK)
+        return st;
     cudaError_t e = cudaMemcpy3DAsync(&cp, cu->stream);
     return e == cudaSuccess ? PB_OK : pb_cu_fail(ctx, PB_ERR_DEVICE, "cudaMemcpy3DAsync (buffer to array)", e);
 }
@@ -210,7 +217,8 @@ static pb_status cuda_timer_begin(pb_context *ctx)
 {
     cu_impl *cu = ctx->impl;
     cu->marked = 0;
-    return record(ctx, cu->start);
+    pb_status st = pb_cu_use_device(ctx);
+    return st == PB_OK ? record(ctx, cu->start) : st;
 }
 
 static pb_status cuda_timer_mark(pb_context *ctx)

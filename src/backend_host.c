@@ -286,9 +286,10 @@ static pb_status host_buffer_zero(pb_context *ctx, void *buffer, size_t bytes)
 }
 
 /* The caller's host memory: its size cannot be known here. */
-static pb_status host_buffer_check(pb_context *ctx, const void *buffer, size_t bytes, const char *what)
+static pb_status host_buffer_check(pb_context *ctx, const void *buffer, size_t bytes, const char *what, int written)
 {
     (void)bytes;
+    (void)written;
     return buffer ? PB_OK : pb_error(ctx, PB_ERR_INVALID_ARGUMENT, "the %s memory is NULL", what);
 }
 

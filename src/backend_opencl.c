@@ -62,7 +62,7 @@ static cl_event *timed_slot(pb_context *ctx)
         cl->timed_cap = cap;
     }
     cl->timed[cl->timed_count].event = NULL;
-    cl->timed[cl->timed_count].before_mark = !cl->marked;
+    cl->timed[cl->timed_count].before_mark = 0;
     return &cl->timed[cl->timed_count].event;
 }
 
@@ -86,11 +86,14 @@ static pb_status ocl_buffer_zero(pb_context *ctx, void *buffer, size_t bytes)
     return PB_OK;
 }
 
-static pb_status ocl_buffer_check(pb_context *ctx, const void *buffer, size_t bytes, const char *what)
+/* A valid cl_mem is all it can check: OpenCL has no way to ask whether a
+ * pointer is one, and the ICD loader reads through what it is given. */
+static pb_status ocl_buffer_check(pb_context *ctx, const void *buffer, size_t bytes, const char *what, int written)
 {
     cl_impl *cl = ctx->impl;
     cl_mem mem = (cl_mem)buffer;
     cl_mem_object_type type = 0;
+    cl_mem_flags flags = 0;
     cl_context owner = NULL;
     size_t size = 0;
     if (clGetMemObjectInfo(mem, CL_MEM_TYPE, sizeof type, &type, NULL) != CL_SUCCESS ||
@@ -103,6 +106,10 @@ static pb_status ocl_buffer_check(pb_context *ctx, const void *buffer, size_t by
     if (clGetMemObjectInfo(mem, CL_MEM_SIZE, sizeof size, &size, NULL) != CL_SUCCESS || size < bytes)
         return pb_error(ctx, PB_ERR_SIZE_MISMATCH, "the %s buffer holds %zu bytes, the plan's volume %zu; pass a "
                         "buffer of the plan's geometry", what, size, bytes);
+    if (clGetMemObjectInfo(mem, CL_MEM_FLAGS, sizeof flags, &flags, NULL) == CL_SUCCESS &&
+        (flags & (written ? CL_MEM_READ_ONLY : CL_MEM_WRITE_ONLY)))
+        return pb_error(ctx, PB_ERR_INVALID_ARGUMENT, "the %s buffer is %s; make it CL_MEM_READ_WRITE", what,
+                        written ? "CL_MEM_READ_ONLY, and petblur writes it" : "CL_MEM_WRITE_ONLY, and petblur reads it");
     return PB_OK;
 }
 
@@ -190,15 +197,16 @@ static pb_status ocl_timer_begin(pb_context *ctx)
 {
     cl_impl *cl = ctx->impl;
     cl->timing = 1;
-    cl->marked = 0;
     cl->timed_count = 0;
     return PB_OK;
 }
 
+/* What was timed so far made the input current. */
 static pb_status ocl_timer_mark(pb_context *ctx)
 {
     cl_impl *cl = ctx->impl;
-    cl->marked = 1;
+    for (size_t i = 0; i < cl->timed_count; i++)
+        cl->timed[i].before_mark = 1;
     return PB_OK;
 }
 
@@ -222,7 +230,7 @@ static pb_status ocl_timer_end(pb_context *ctx, double *total_ms, double *before
             *before_mark_ms += ms;
         clReleaseEvent(cl->timed[i].event);
     }
-    cl->timing = cl->marked = 0;
+    cl->timing = 0;
     cl->timed_count = 0;
     return e == CL_SUCCESS ? PB_OK : pb_cl_fail(ctx, PB_ERR_LAUNCH, "the kernel (clWaitForEvents)", e);
 }

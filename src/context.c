@@ -313,6 +313,10 @@ pb_status pb_volume_create(pb_context *ctx, const pb_geometry *g, pb_volume **ou
         return st;
     }
     pb_images_stale(&vol->images);
+    vol->next = ctx->volumes;
+    if (ctx->volumes)
+        ctx->volumes->prev = vol;
+    ctx->volumes = vol;
     pb_context_hold(ctx);
     *out = vol;
     return PB_OK;
@@ -323,6 +327,12 @@ void pb_volume_destroy(pb_volume *vol)
     if (!vol)
         return;
     pb_context *ctx = vol->ctx;
+    if (vol->prev)
+        vol->prev->next = vol->next;
+    else
+        ctx->volumes = vol->next;
+    if (vol->next)
+        vol->next->prev = vol->prev;
     pb_images_release(ctx, &vol->images);
     ctx->ops->buffer_release(ctx, vol->buffer);
     free(vol);
@@ -360,6 +370,13 @@ pb_status pb_volume_download(const pb_volume *vol, float *host)
     if (!vol || !host)
         return pb_error(vol ? vol->ctx : NULL, PB_ERR_INVALID_ARGUMENT, "volume and host data must not be NULL");
     return vol->ctx->ops->buffer_read(vol->ctx, vol->buffer, host, vol->count * sizeof(float));
+}
+
+void pb_volume_memory_written(pb_context *ctx, const void *memory)
+{
+    for (pb_volume *v = ctx->volumes; v; v = v->next)
+        if (v->buffer == memory)
+            pb_images_stale(&v->images);
 }
 
 pb_status pb_volume_memory(const pb_volume *vol, void **memory)

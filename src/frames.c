@@ -169,7 +169,7 @@ static pb_status run_frames(pb_context *ctx, const pb_volume *const *ins, const 
         return st;
     }
     frames_progress prog = {ctx->progress, ctx->progress_user, 0, frames};
-    double total = 0.0;
+    double total = 0.0, input = 0.0;
     if (!adjoint && !ctx->progress && !ctx->ops->host_forward) {
         /* Queued back to back: progress would need a wait per frame. */
         st = pb_launch_frames(ctx, plan, ins, outs);
@@ -191,6 +191,7 @@ static pb_status run_frames(pb_context *ctx, const pb_volume *const *ins, const 
                 st = pb_plan_forward(plan, i, ins[i], outs[i]);
             }
             total += ctx->last_kernel_ms;
+            input += ctx->last_input_ms;
         }
     }
     if (prog.fn) {
@@ -199,6 +200,7 @@ static pb_status run_frames(pb_context *ctx, const pb_volume *const *ins, const 
     }
     pb_plan_destroy(plan);
     ctx->last_kernel_ms = total;
+    ctx->last_input_ms = input;
     if (st == PB_OK && ctx->progress)
         ctx->progress(1.0, ctx->progress_user);
     return st;

@@ -83,6 +83,31 @@ static pb_status refresh_layers(pb_context *ctx, const void *buffer, const size_
     return st;
 }
 
+/* Makes sure what kernel reads of a volume of dims exists: its 3-D image or
+ * its layers, and the scratch buffer their layout takes. Done before a timer
+ * starts, so that the allocations, host work, do not count as device time. */
+static pb_status allocate_input(pb_context *ctx, pb_kernel_id kernel, const pb_kparams *prm, const size_t *dims,
+                                pb_images *images)
+{
+    pb_status st = PB_OK;
+    switch (pb_kernel_table[kernel].reads) {
+    case PB_READS_BUFFER: return PB_OK;
+    case PB_READS_LAYERS: {
+        int m = prm->layer_axis;
+        size_t extent[3] = {dims[pb_layer_across(m, 0)], dims[pb_layer_across(m, 1)], dims[m]};
+        if (!images->layers[m] && (st = ctx->ops->image_create(ctx, 1, extent, &images->layers[m])) == PB_OK)
+            images->layers_stale[m] = 1;
+        if (st == PB_OK && m != 2)
+            st = reserve_scratch(ctx, dims[0] * dims[1] * dims[2] * sizeof(float));
+        return st;
+    }
+    default:
+        if (!images->image && (st = ctx->ops->image_create(ctx, 0, dims, &images->image)) == PB_OK)
+            images->image_stale = 1;
+        return st;
+    }
+}
+
 /* Makes what kernel reads of buffer current and returns it in *input: the
  * buffer itself, its 3-D image, or its layers along prm->layer_axis. */
 static pb_status refresh_input(pb_context *ctx, pb_kernel_id kernel, const pb_kparams *prm, const void *buffer,
@@ -151,9 +176,9 @@ pb_status pb_launch_frame(pb_context *ctx, const pb_plan_frame *frame, const pb_
     pb_kparams prm = adjoint ? frame->adjoint_prm : frame->forward_prm;
     prm.accumulate = accumulate;
     ctx->last_kernel_ms = ctx->last_input_ms = 0.0;
-    pb_status st = PB_OK;
+    pb_status st = allocate_input(ctx, kernel, &prm, g->dims, in_images);
     int timing = 0;
-    if (fresh_input)
+    if (st == PB_OK && fresh_input)
         timing = (st = ops->timer_begin(ctx)) == PB_OK;
     const void *input = NULL;
     if (st == PB_OK)

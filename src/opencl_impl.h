@@ -23,7 +23,7 @@ typedef struct cl_impl {
     cl_kernel kernels[PB_KERNEL_COUNT]; /* indexed by pb_kernel_id */
     int is_gpu;
     /* Between timer_begin and timer_end every command gets a profiling event. */
-    int timing, marked;
+    int timing;
     cl_timed *timed;
     size_t timed_count, timed_cap;
 } cl_impl;

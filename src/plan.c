@@ -214,9 +214,9 @@ static pb_status apply_device(pb_plan *plan, size_t frame, const void *in, void 
         st = pb_error(ctx, PB_ERR_INVALID_ARGUMENT, "the %s and %s are the same memory; blur into a second array",
                       in_name, out_name);
     if (st == PB_OK)
-        st = ctx->ops->buffer_check(ctx, in, bytes, in_name);
+        st = ctx->ops->buffer_check(ctx, in, bytes, in_name, 0);
     if (st == PB_OK)
-        st = ctx->ops->buffer_check(ctx, out, bytes, out_name);
+        st = ctx->ops->buffer_check(ctx, out, bytes, out_name, 1);
     if (st != PB_OK)
         return st;
     const pb_plan_frame *f = &plan->frame[frame];
@@ -225,12 +225,16 @@ static pb_status apply_device(pb_plan *plan, size_t frame, const void *in, void 
         const size_t *dims = plan->geometry.dims;
         st = adjoint ? ctx->ops->host_adjoint(ctx, in, &f->path, opt, dims, out, accumulate)
                      : ctx->ops->host_forward(ctx, in, &f->path, opt, dims, out);
+        pb_volume_memory_written(ctx, out);
         return finish(ctx, st);
     }
     /* The caller's memory may have changed since the last call: its copy into
-     * the plan's image (on the device) is made every time, and timed. */
+     * the plan's image (on the device) is made every time, and timed. The
+     * output may be a volume's own memory. */
     pb_images_stale(&plan->input);
-    return finish(ctx, pb_launch_frame(ctx, f, &plan->geometry, adjoint, in, &plan->input, out, accumulate, 1));
+    st = pb_launch_frame(ctx, f, &plan->geometry, adjoint, in, &plan->input, out, accumulate, 1);
+    pb_volume_memory_written(ctx, out);
+    return finish(ctx, st);
 }
 
 pb_status pb_plan_forward_device(pb_plan *plan, size_t frame, const void *object, void *tomograph)

@@ -49,9 +49,11 @@ static void *dev_alloc(pb_context *ctx, size_t bytes)
     }
 }
 
-static void dev_free(pb_context *ctx, void *mem)
+static void dev_free(pb_backend backend, void *mem)
 {
-    switch (pb_context_backend(ctx)) {
+    if (!mem)
+        return;
+    switch (backend) {
 #ifdef PB_HAVE_OPENCL
     case PB_BACKEND_OPENCL: clReleaseMemObject((cl_mem)mem); return;
 #endif
@@ -149,8 +151,11 @@ static void check_case(pb_context *ctx, const pb_geometry *g, const pb_motion *m
     if (!pb_check(pb_plan_create(ctx, g, m, opt, &plan) == PB_OK, "%s: plan: %s", what, pb_last_error(ctx)))
         goto done;
     void *din = dev_alloc(ctx, bytes), *dout = dev_alloc(ctx, bytes);
-    if (!pb_check(din && dout, "%s: the test could not allocate device memory", what))
+    if (!pb_check(din && dout, "%s: the test could not allocate device memory", what)) {
+        dev_free(pb_context_backend(ctx), din);
+        dev_free(pb_context_backend(ctx), dout);
         goto done;
+    }
     for (int adjoint = 0; adjoint < 2; adjoint++) {
         const float *data = adjoint ? y : x;
         /* The scatter's atomics (motions that turn, and REF always): the only
@@ -169,10 +174,18 @@ static void check_case(pb_context *ctx, const pb_geometry *g, const pb_motion *m
 
         /* Device memory in and out. */
         poison(dev, n);
-        dev_copy(ctx, dout, dev, bytes, 1);
-        dev_copy(ctx, din, (float *)data, bytes, 1);
+        pb_check(dev_copy(ctx, dout, dev, bytes, 1) && dev_copy(ctx, din, (float *)data, bytes, 1),
+                 "%s: writing device memory", what);
         st = adjoint ? adjoint_device_overwrite(plan, 0, din, dout) : pb_plan_forward_device(plan, 0, din, dout);
         pb_check(st == PB_OK, "%s %s: device memory: %s", what, dir, pb_last_error(ctx));
+        /* The device time holds the copy into the texture, and the copy is part of it. */
+        double kernel_ms = -1.0, input_ms = -1.0;
+        pb_context_last_kernel_ms(ctx, &kernel_ms);
+        pb_context_last_input_ms(ctx, &input_ms);
+        int device = pb_context_backend(ctx) != PB_BACKEND_HOST;
+        int reads_buffer = adjoint && (turns || opt->method == PB_METHOD_REF); /* the scatter reads no texture */
+        pb_check(device && !reads_buffer ? input_ms > 0.0 && input_ms < kernel_ms : input_ms == 0.0,
+                 "%s %s: device time %g ms, of it the input's %g ms", what, dir, kernel_ms, input_ms);
         pb_check(dev_copy(ctx, dout, dev, bytes, 0), "%s: reading device memory back", what);
         /* AB HARDWARE moving along x reads a volume through layers along x,
          * but device memory, laid out anew every call, through the 3-D image
@@ -195,13 +208,71 @@ static void check_case(pb_context *ctx, const pb_geometry *g, const pb_motion *m
         pb_check(log.calls >= 2 && log.bad == 0 && log.last == 1.0, "%s %s: progress: %d calls, %d bad, last %g",
                  what, dir, log.calls, log.bad, log.last);
     }
-    dev_free(ctx, din);
-    dev_free(ctx, dout);
+    dev_free(pb_context_backend(ctx), din);
+    dev_free(pb_context_backend(ctx), dout);
 done:
     pb_plan_destroy(plan);
     pb_volume_destroy(in);
     pb_volume_destroy(out);
     free(x), free(y), free(once), free(planned), free(again), free(dev);
+}
+
+/* A volume's texture follows its buffer through every kind of write: B and
+ * B^T applied in turn to two volumes with no upload between, and a device
+ * call that writes a volume's own memory, each step against the one-shot call
+ * on what the step before left. */
+static void check_staleness(pb_context *ctx, const pb_geometry *g, const pb_motion *m, const pb_blur_options *opt,
+                            int scatter, const char *what)
+{
+    size_t n = g->dims[0] * g->dims[1] * g->dims[2], bytes = n * sizeof(float);
+    float *host = pb_random_volume(n), *want = malloc(bytes), *got = malloc(bytes);
+    pb_volume *a, *b;
+    pb_volume_create(ctx, g, &a);
+    pb_volume_create(ctx, g, &b);
+    pb_volume_upload(a, host);
+    pb_plan *plan;
+    if (!pb_check(pb_plan_create(ctx, g, m, opt, &plan) == PB_OK, "%s: plan: %s", what, pb_last_error(ctx)))
+        goto done;
+    for (int step = 0; step < 5; step++) {
+        int adjoint = step % 2;
+        pb_volume *in = adjoint ? b : a, *out = adjoint ? a : b;
+        pb_volume_download(in, host);
+        pb_status st;
+        if (step == 4) { /* the device path into b's own memory, then b read by a gather */
+            void *ma, *mb;
+            pb_volume_memory(a, &ma);
+            pb_volume_memory(b, &mb);
+            st = pb_plan_forward_device(plan, 0, ma, mb);
+            pb_check(st == PB_OK, "%s: device path into a volume: %s", what, pb_last_error(ctx));
+            pb_volume_download(b, host);
+            in = b, out = a, adjoint = 1;
+        }
+        st = adjoint ? pb_test_adjoint(ctx, g, host, m, opt, want) : pb_test_blur(ctx, g, host, m, opt, want);
+        pb_check(st == PB_OK, "%s: one-shot: %s", what, pb_last_error(ctx));
+        st = adjoint ? pb_plan_adjoint(plan, 0, in, out, 0) : pb_plan_forward(plan, 0, in, out);
+        pb_check(st == PB_OK, "%s step %d: %s", what, step, pb_last_error(ctx));
+        pb_volume_download(out, got);
+        pb_check(same(got, want, n, !(adjoint && scatter), 1e-5), "%s step %d (%s): the plan read a stale "
+                 "texture (largest difference %g)", what, step, adjoint ? "adjoint" : "forward",
+                 pb_max_abs_diff(got, want, n));
+    }
+    /* accumulate adds the back projection onto what the object holds. */
+    pb_volume_download(a, host);
+    pb_volume_download(b, want);
+    float *alone = malloc(bytes);
+    pb_test_adjoint(ctx, g, want, m, opt, alone);
+    pb_check(pb_plan_adjoint(plan, 0, b, a, 1) == PB_OK, "%s: accumulate: %s", what, pb_last_error(ctx));
+    pb_volume_download(a, got);
+    for (size_t i = 0; i < n; i++)
+        want[i] = host[i] + alone[i];
+    pb_check(same(got, want, n, 0, 1e-5), "%s: accumulate is not the sum (largest difference %g)", what,
+             pb_max_abs_diff(got, want, n));
+    free(alone);
+    pb_plan_destroy(plan);
+done:
+    pb_volume_destroy(a);
+    pb_volume_destroy(b);
+    free(host), free(want), free(got);
 }
 
 /* A plan of frames equals pb_blur_frames bit for bit. */
@@ -228,6 +299,8 @@ static void check_frames(pb_context *ctx, const pb_geometry *g, const pb_blur_op
     const pb_volume *objs[FRAMES];
     for (int f = 0; f < FRAMES; f++) {
         pb_volume_create(ctx, g, &tomo[f]);
+        poison(a, n);
+        pb_volume_upload(tomo[f], a);
         objs[f] = obj;
     }
     pb_check(pb_blur_frames(ctx, objs, &track, bounds, FRAMES, opt, tomo) == PB_OK, "frames: %s",
@@ -291,16 +364,23 @@ static void check_refusals(pb_context *ctx)
         pb_check(pb_plan_forward_device(plan, 0, host, d1) == PB_ERR_INVALID_ARGUMENT, "host memory on CUDA: %s",
                  pb_last_error(ctx));
     }
-    dev_free(ctx, d1);
-    dev_free(ctx, small);
     /* A plan keeps its context alive: destroyed first, the plan still works. */
+    float *x = pb_random_volume(9 * 8 * 7);
+    pb_check(dev_copy(ctx, d1, x, bytes, 1), "writing device memory");
+    void *d2 = dev_alloc(ctx, bytes);
+    dev_free(backend, small);
     pb_volume_destroy(w);
     pb_volume_destroy(v1);
     pb_volume_destroy(v2);
     pb_context_destroy(ctx);
     pb_geometry got;
     pb_check(pb_plan_get_geometry(plan, &got) == PB_OK && got.dims[2] == 7, "the plan's geometry");
+    pb_check(pb_plan_forward_device(plan, 0, d1, d2) == PB_OK && pb_plan_adjoint_device(plan, 0, d2, d1, 1) == PB_OK,
+             "a plan whose context was destroyed: %s", pb_last_error(NULL));
     pb_plan_destroy(plan); /* releases the context: ASan's leak check sees it */
+    dev_free(backend, d1);
+    dev_free(backend, d2);
+    free(x);
 }
 
 int main(int argc, char **argv)
@@ -338,6 +418,21 @@ int main(int argc, char **argv)
                          filter == PB_FILTER_EXACT ? "EXACT" : "HARDWARE", motions[k].name);
                 check_case(ctx, &g, &tm.motion, &opt, motions[k].turns, motions[k].along_x, what);
             }
+    }
+    /* AB in sub-segments, under the turn and along z. */
+    for (size_t k = 0; k < 2; k++) {
+        pb_test_motion tm;
+        pb_test_motion_init(&tm, &start, &motions[k].end);
+        pb_blur_options opt = {PB_METHOD_AB, PB_FILTER_HARDWARE, 3, 0, 0, 0, 0.0};
+        check_case(ctx, &g, &tm.motion, &opt, motions[k].turns, 0, k ? "AB 3 steps, along z" : "AB 3 steps, turn");
+        /* Staleness and accumulate, under the turn (the scatter) and along z
+         * (the gather through layers). */
+        for (int method = PB_METHOD_AB; method <= PB_METHOD_CL; method++) {
+            pb_blur_options o = {(pb_method)method, PB_FILTER_HARDWARE, 0, 0, 0, 0, 0.0};
+            char what[64];
+            snprintf(what, sizeof what, "%s, %s", method_names[method], motions[k].name);
+            check_staleness(ctx, &g, &tm.motion, &o, motions[k].turns, what);
+        }
     }
     pb_geometry small = {{13, 11, 9}, {1.4, 1.2, 1.7}};
     for (int method = PB_METHOD_AB; method <= PB_METHOD_CL; method++)
