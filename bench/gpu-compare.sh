@@ -3,8 +3,11 @@
 # commit, e.g. `git archive OLD | tar -x -C bench-old`, carried along) and this
 # one, and runs pb_bench on CUDA and NVIDIA OpenCL (256^3, the paper's eight
 # motions) alternately, old, new, old, new, so that both see the same machine
-# in the same state. Writes the CSVs and compare.md (new / old per method and
-# motion, the better of each build's two medians) under $OUT.
+# in the same state. Then both builds' `petblur blur` on one random volume for
+# every method and filter under a turn and translations along x, y and z, on
+# both backends, forward: are the outputs the same bytes? Writes the CSVs,
+# compare.md (new / old per method and motion, the better of each build's two
+# medians; the identity table) under $OUT.
 #   PB_OLD=<commit> PB_COMMIT=<commit> bash bench/gpu-compare.sh bench-old
 set -uo pipefail
 cd "$(dirname "$0")/.."
@@ -13,8 +16,8 @@ OUT=${OUT:-$PWD/gpu-out}
 mkdir -p "$OUT"
 . bench/device-env.sh
 build() { # source dir, build dir
-    (cd "$1" && "${meson[@]}" setup "$2" --buildtype=release -Dcuda=enabled -Dopencl=enabled -Dcli=disabled \
-        >/dev/null && ninja -C "$2" bench/pb_bench >/dev/null) || { echo "gpu-compare: building $1 failed"; exit 1; }
+    (cd "$1" && "${meson[@]}" setup "$2" --buildtype=release -Dcuda=enabled -Dopencl=enabled >/dev/null &&
+        ninja -C "$2" bench/pb_bench src/cli/petblur >/dev/null) || { echo "gpu-compare: building $1 failed"; exit 1; }
 }
 build "$OLD" "$PWD/build-old" &
 build "$PWD" "$PWD/build-new" &
@@ -58,3 +61,36 @@ for dev, label in (("cuda", "CUDA (CUDA events)"), ("opencl", "NVIDIA OpenCL (pr
     print()
 print(f"Largest new / old: {worst:.3f} (target: at most 1.03)")
 PY
+
+# The same bytes out? Forward blurs of one random 64 x 56 x 48 volume.
+work=$(mktemp -d)
+python3 -c "import numpy as np; np.random.default_rng(7).random(64*56*48, dtype=np.float32).tofile('$work/in.raw')"
+{
+    echo
+    echo "### Forward outputs of the two builds, byte for byte (64 x 56 x 48, petblur blur)"
+    echo
+    echo "| device | method | filter | turn | along x | along y | along z |"
+    echo "|---|---|---|---|---|---|---|"
+    for d in cuda opencl; do
+        for m in ab rm cl ref; do
+            for f in hardware exact; do
+                [ $m = ref ] && [ $f = exact ] && continue
+                row="| $d | $m | $f |"
+                for motion in "--translate 3,-2,1 --rotate 12 --axis 0.2,0.3,1" "--translate 14,0.5,-0.3" \
+                    "--translate 0.4,11,0.3" "--translate -0.3,0.2,9"; do
+                    ok=1
+                    for which in old new; do
+                        rm -f "$work/$which.raw"
+                        OCL_ICD_VENDORS="$vend/nvidia" ./build-$which/src/cli/petblur blur -i "$work/in.raw" \
+                            --dims 64,56,48 -o "$work/$which.raw" --device $d --method $m --filter $f $motion -q \
+                            $([ $m = ref ] && echo --points 32) >"$work/log" 2>&1 || { ok=0; cat "$work/log" >&2; }
+                    done
+                    if [ $ok = 0 ]; then row="$row FAILED |"
+                    elif cmp -s "$work/old.raw" "$work/new.raw"; then row="$row same |"
+                    else row="$row DIFFERENT |"; fi
+                done
+                echo "$row"
+            done
+        done
+    done
+} | tee -a "$OUT/compare.md"
