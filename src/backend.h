@@ -96,8 +96,8 @@ struct pb_context {
     void *impl;
     size_t layer_limits[3];      /* largest layered image: width, height, layers; 0: none */
     float texture_weight_steps;  /* the texture unit's weight steps (256 on NVIDIA), 0: float weights */
-    void *scratch;               /* a volume laid out for its layers, kept: the adjoint's gather lays out */
-    size_t scratch_bytes;        /* every tomograph it reads */
+    void *scratch;               /* a volume laid out for its layers (pb_permute), kept */
+    size_t scratch_bytes;
     double last_kernel_ms, last_input_ms;
     pb_progress_fn progress;
     void *progress_user;

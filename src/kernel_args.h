@@ -22,13 +22,13 @@ int pb_path_shift_invariant(const pb_path *path, const pb_blur_options *opt);
 int pb_path_layer_axis(const pb_path *path);
 
 /* The forward kernel: for AB HARDWARE under translations along one axis
- * (along x: of at least PB_X_LAYERS_MIN_SLICES slices a walk, and an input
- * that is not fresh), where the object fits the device's layered images along
- * it (layer_limits: largest width, height and layer count; NULL: none), the
- * layered kernel; otherwise the shift-invariant one where
- * pb_path_shift_invariant, the general one elsewhere. fresh_input: the input
- * is laid out anew for every call (the caller's device memory, the adjoint's
- * tomograph), not once for many. */
+ * (along x: of at least PB_X_LAYERS_MIN_SLICES slices a walk) of an input
+ * laid out once and read many times (not fresh_input: the caller's device
+ * memory and the adjoint's tomograph are laid out anew every call), where the
+ * object fits the device's layered images along it (layer_limits: largest
+ * width, height and layer count; NULL: none), the layered kernel; otherwise
+ * the shift-invariant one where pb_path_shift_invariant, the general one
+ * elsewhere. */
 pb_kernel_id pb_forward_kernel(const pb_path *path, const pb_blur_options *opt, const size_t *layer_limits,
                                int fresh_input);
 /* The adjoint's: under translations only the forward kernel for a fresh

@@ -30,8 +30,7 @@ size_t pb_progress_slab(size_t nz)
 }
 
 /* The context's scratch buffer, grown to at least bytes; it lives as long as
- * the context, so that the adjoint's gather, which lays out every tomograph
- * it reads, allocates nothing per call. */
+ * the context, so that laying out the objects of many plans allocates once. */
 static pb_status reserve_scratch(pb_context *ctx, size_t bytes)
 {
     if (bytes <= ctx->scratch_bytes)
