@@ -94,11 +94,12 @@ PB_KERNEL void pb_shift_cl_exact(pb_image img, PB_GLOBAL_RO pb_kpose *poses, pb_
  * axis (the host checks that they share one and picks it). A slice
  * sample is then one bilinear fetch in its layer, which the texture unit makes
  * at twice its trilinear rate (bench/fetch_rate.cu); the weights are the same
- * two rounded fractions, the slice's own weight exactly 1. The layout costs
- * more than the fetches save on one blur, so only an object laid out once and
- * blurred many times is read through layers; the adjoint's gather (a fresh
- * tomograph every call) and the caller's device memory are read through the
- * 3-D image (src/kernel_args.c). */
+ * two rounded fractions, the slice's own weight exactly 1. The adjoint's
+ * gather reads the tomograph through layers along y or z too, mirrored as
+ * through the 3-D image: laying it out there saves more fetch time than it
+ * costs. Along x the layout is a transpose that costs more than it saves on
+ * one blur, so an input laid out anew every call (the gather's tomograph, the
+ * caller's device memory) reads the 3-D image along x (src/kernel_args.c). */
 
 /* Layer `layer` at (pa, pb), or 0 outside the volume along the axis (layers:
  * how many): an array clamps its layer index where a 3-D image reads its zero
@@ -206,8 +207,9 @@ PB_KERNEL void pb_shift_ab_layers_x(pb_layers img, PB_GLOBAL_RO pb_kpose *poses,
  * layered image: voxel v goes to layer v[m] at (v[a], v[b]), a and b from
  * pb_layer_across. Along y the rows still run along x, so reads and writes
  * are both coalesced; along z the buffer is already laid out so and is copied
- * as it is. It runs once per object and axis, outside the blur's time. (The
- * second argument only matches the launch's others.) */
+ * as it is. It runs once per object and axis, outside the forward's time, and
+ * for every tomograph the adjoint's gather reads along y, inside its time.
+ * (The second argument only matches the launch's others.) */
 PB_KERNEL void pb_permute(PB_GLOBAL_RO float *in, PB_GLOBAL_RO pb_kpose *unused, pb_kparams prm, PB_GLOBAL float *out)
 {
     int ix = PB_GID_X, iy = PB_GID_Y, iz = PB_GID_Z + prm.z0;

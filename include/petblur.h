@@ -400,10 +400,10 @@ PB_API pb_status pb_plan_adjoint(pb_plan *plan, size_t frame, const pb_volume *t
  * volume and to be readable (input) or writable (output); on CUDA the pointer
  * to be device or managed memory of the context's GPU (its size cannot be
  * asked). Input and output must not overlap. Values are not checked for NaN
- * here, as pb_volume_upload does. Under a motion of translations only, AB
- * HARDWARE reads a volume through 2-D layers but device memory, laid out anew
- * every call, through the 3-D image: on NVIDIA the two differ by the texture
- * unit's rounding (about 1e-3 of the values), elsewhere not. */
+ * here, as pb_volume_upload does. Under a motion of translations only along
+ * x, AB HARDWARE reads a volume through layers along x but device memory,
+ * laid out anew every call, through the 3-D image: on NVIDIA the two differ
+ * by the texture unit's rounding (about 1e-3 of the values), elsewhere not. */
 PB_API pb_status pb_plan_forward_device(pb_plan *plan, size_t frame, const void *object, void *tomograph);
 PB_API pb_status pb_plan_adjoint_device(pb_plan *plan, size_t frame, const void *tomograph, void *object,
                                         int accumulate);

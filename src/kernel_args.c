@@ -86,12 +86,12 @@ static double longest_walk(const pb_path *path, const pb_blur_options *opt, int 
 /* Layers along x pay only on long walks: their work items walk PB_X_RUN voxels
  * one after the other, and a short walk leaves too little work in flight to
  * hide that; the 3-D image wins below about 8 slices a walk, the layers above
- * (the measurement: bench/results/README.md, "layers along x"). And layers
- * pay only for an input laid out once and read many times: laying a volume
- * out costs more than the layers save on one blur (along x a transpose; on
- * CUDA the copy into a layered array alone), so an input laid out anew for
- * every call is read through the 3-D image (bench/results/README.md, "device
- * memory"). */
+ * (the measurement: bench/results/README.md, "layers along x"). And along x
+ * they pay only for an input laid out once and read many times: the layout
+ * there is a transpose, which costs more than the layers save on one blur, so
+ * an input laid out anew every call reads the 3-D image along x. Along y and
+ * z the layers save more than their layout costs even on one blur
+ * (bench/results/README.md, "device memory"). */
 #define PB_X_LAYERS_MIN_SLICES 8.0
 
 /* The kernel of a family that computes method under filter. */
@@ -121,7 +121,7 @@ pb_kernel_id pb_forward_kernel(const pb_path *path, const pb_blur_options *opt, 
     int m = -1;
     if (opt->method == PB_METHOD_AB && opt->filter == PB_FILTER_HARDWARE && layer_limits)
         m = pb_path_layer_axis(path);
-    if (fresh_input || (m == 0 && longest_walk(path, opt, 0) < PB_X_LAYERS_MIN_SLICES))
+    if (m == 0 && (fresh_input || longest_walk(path, opt, 0) < PB_X_LAYERS_MIN_SLICES))
         m = -1;
     if (m >= 0 && layers_fit(path->geometry.dims, m, layer_limits))
         return find_kernel(m == 0 ? PB_FAMILY_LAYERS_X : PB_FAMILY_LAYERS, opt->method, opt->filter);

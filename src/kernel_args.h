@@ -22,8 +22,8 @@ int pb_path_shift_invariant(const pb_path *path, const pb_blur_options *opt);
 int pb_path_layer_axis(const pb_path *path);
 
 /* The forward kernel: for AB HARDWARE under translations along one axis
- * (along x: of at least PB_X_LAYERS_MIN_SLICES slices a walk) of an input
- * laid out once and read many times (not fresh_input: the caller's device
+ * (along x: of at least PB_X_LAYERS_MIN_SLICES slices a walk, and an input
+ * laid out once and read many times, not fresh_input: the caller's device
  * memory and the adjoint's tomograph are laid out anew every call), where the
  * object fits the device's layered images along it (layer_limits: largest
  * width, height and layer count; NULL: none), the layered kernel; otherwise

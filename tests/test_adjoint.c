@@ -49,9 +49,9 @@ typedef struct motion_case {
 /* The kinds of motion: none (AB's walk degenerates to a point), translations
  * of several voxels on a slant, most along z, y or x (these four are
  * translations only: the shift-invariant kernels, the adjoint a gather; AB
- * HARDWARE's forward reads layers along the translation's axis, along x 8 to
- * 11 voxels so that its walks are long enough for them,
- * PB_X_LAYERS_MIN_SLICES, while its gather reads the 3-D image,
+ * HARDWARE reads layers along the translation's axis, along x 8 to 11 voxels
+ * so that its forward's walks are long enough for them,
+ * PB_X_LAYERS_MIN_SLICES, while its gather reads the 3-D image there,
  * src/kernel_args.c), a large turn (cut into several segments by the
  * default path bound), and a track of several poses with the frame inside it. */
 #define GATHER_CASES 4
