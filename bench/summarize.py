@@ -58,22 +58,30 @@ def main():
     for label, data in (("CUDA", cuda), ("NVIDIA OpenCL", ocl)):
         if not data or "device_ms" not in next(iter(data.values())):
             continue
+        # One device-to-device copy of the volume: the cheapest input copy of
+        # the table (a copy into the 3-D image; layers add a layout to it).
+        copy = min(float(r["device_copy_ms"]) for r in data.values())
         def dev(m, f, s, d=data):
             return float(d[(m, f, s)]["device_ms"]) if (m, f, s) in d else None
+        def part(m, f, s, d=data):
+            return float(d[(m, f, s)]["device_copy_ms"]) if (m, f, s) in d else None
         def over(m, f, s, d=data):
             if (m, f, s) not in d:
                 return None
             r = d[(m, f, s)]
-            return float(r["device_ms"]) / (float(r["median_ms"]) + float(r["device_copy_ms"]))
+            return float(r["device_ms"]) / (float(r["median_ms"]) + copy)
         print(f"Through a plan from device memory to device memory ({label}): the device time of the call "
-              "(the copy into the texture and the kernel, device events), and its ratio to the kernel time "
-              "above plus the copy's own time.\n")
+              "(the input made current in the texture, and the kernel; device events), the input's part, and the "
+              f"call's ratio to the kernel time above plus one device-to-device copy of the volume ({copy:.3f} ms, "
+              "the cheapest input of the table).\n")
         print(table(f"{label}: device memory in and out, ms", data, dev, "%.3f"))
-        print(table(f"{label}: device path / (kernel + copy)", data, over, "%.3f"))
-        ab = [over("AB", "hardware", s) for s in range(1, 9) if over("AB", "hardware", s) is not None]
+        print(table(f"{label}: of it the input made current, ms", data, part, "%.3f"))
+        print(table(f"{label}: device path / (kernel + one copy)", data, over, "%.3f"))
+        ab = {s: over("AB", "hardware", s) for s in range(1, 9) if over("AB", "hardware", s) is not None}
         if ab:
-            print(f"AB HARDWARE, largest ratio {max(ab):.3f} (target: at most 1.1): "
-                  f"{'met' if max(ab) <= 1.1 else 'NOT met'}\n")
+            bad = [s for s, v in ab.items() if v > 1.1]
+            print(f"AB HARDWARE (target: at most 1.1): met in {len(ab) - len(bad)} of {len(ab)} scenarios"
+                  + (f"; not in {', '.join(map(str, bad))} (largest {max(ab.values()):.3f})" if bad else "") + "\n")
     if cuda:
         print("### Targets (AB HARDWARE on CUDA)\n")
         for s, limit in ((2, 0.5), (3, 1.0)):
