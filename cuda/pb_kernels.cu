@@ -40,6 +40,28 @@ extern "C" cudaError_t pb_cuda_launch(int kernel, const pb_cuda_launch_args *arg
     return cudaErrorInvalidValue;
 }
 
+/* The backend's layout of a volume into layers, CUDA's half of image_layout
+ * (src/backend.h): reads coalesced along x, writes each voxel's layer texel. */
+static __global__ void pb_cuda_layout_kernel(const float *in, int nx, int ny, int nz, int m,
+                                             cudaSurfaceObject_t surface)
+{
+    int ix = PB_GID_X, iy = PB_GID_Y, iz = PB_GID_Z;
+    if (ix >= nx || iy >= ny || iz >= nz)
+        return;
+    /* pb_layer_across's axes, selected rather than indexed (no local memory). */
+    int a = m == 0 ? iy : ix, b = m == 2 ? iy : iz, layer = m == 0 ? ix : (m == 1 ? iy : iz);
+    surf2DLayeredwrite(in[ix + nx * (iy + ny * iz)], surface, a * (int)sizeof(float), b, layer);
+}
+
+extern "C" cudaError_t pb_cuda_layout(const float *in, const size_t dims[3], int m, cudaSurfaceObject_t surface,
+                                      cudaStream_t stream)
+{
+    dim3 block(32, 4, 2);
+    dim3 grid((unsigned)((dims[0] + 31) / 32), (unsigned)((dims[1] + 3) / 4), (unsigned)((dims[2] + 1) / 2));
+    pb_cuda_layout_kernel<<<grid, block, 0, stream>>>(in, (int)dims[0], (int)dims[1], (int)dims[2], m, surface);
+    return cudaGetLastError();
+}
+
 extern "C" cudaError_t pb_cuda_check_kernels(void)
 {
     const void *kernels[PB_KERNEL_COUNT] = {

@@ -70,6 +70,10 @@ typedef struct pb_backend_ops {
     pb_status (*image_create)(struct pb_context *ctx, int layered, const size_t extent[3], void **image);
     void (*image_release)(struct pb_context *ctx, void *image);
     pb_status (*image_copy)(struct pb_context *ctx, void *image, const void *buffer);
+    /* Optional: queues the layout of a dense buffer of a volume of dims (x
+     * fastest) into a layered image along axis m (pb_layer_across), in one
+     * pass. NULL: launch.c lays it out with pb_permute and image_copy. */
+    pb_status (*image_layout)(struct pb_context *ctx, void *image, const void *buffer, const size_t dims[3], int m);
     /* Queues one launch, in groups of its kernel's table row (GPUs), or as the
      * runtime splits it (CPUs). */
     pb_status (*launch)(struct pb_context *ctx, const pb_launch *launch);

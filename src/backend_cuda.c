@@ -11,10 +11,12 @@
 #include "cuda_impl.h"
 
 /* An image: a CUDA array and its texture objects, which carry the filter: a
- * linear one for HARDWARE fetches and layers, a point one for EXACT and REF. */
+ * linear one for HARDWARE fetches and layers, a point one for EXACT and REF;
+ * layers also have a surface, which cuda_image_layout writes through. */
 typedef struct cu_image {
     cudaArray_t array;
     cudaTextureObject_t linear, point;
+    cudaSurfaceObject_t surface;
     size_t extent[3];
 } cu_image;
 
@@ -125,6 +127,8 @@ static void cuda_image_release(pb_context *ctx, void *image)
         cudaDestroyTextureObject(img->linear);
     if (img->point)
         cudaDestroyTextureObject(img->point);
+    if (img->surface)
+        cudaDestroySurfaceObject(img->surface);
     if (img->array)
         cudaFreeArray(img->array);
     (void)cudaGetLastError();
@@ -143,7 +147,8 @@ static pb_status cuda_image_create(pb_context *ctx, int layered, const size_t ex
     memcpy(img->extent, extent, sizeof img->extent);
     struct cudaChannelFormatDesc fmt = cudaCreateChannelDesc(32, 0, 0, 0, cudaChannelFormatKindFloat);
     struct cudaExtent ext = {extent[0], extent[1], extent[2]}; /* in elements, for arrays */
-    cudaError_t e = cudaMalloc3DArray(&img->array, &fmt, ext, layered ? cudaArrayLayered : 0);
+    unsigned flags = layered ? cudaArrayLayered | cudaArraySurfaceLoadStore : 0;
+    cudaError_t e = cudaMalloc3DArray(&img->array, &fmt, ext, flags);
     if (e != cudaSuccess) {
         img->array = NULL;
         cuda_image_release(ctx, img);
@@ -153,6 +158,16 @@ static pb_status cuda_image_create(pb_context *ctx, int layered, const size_t ex
         (!layered && (e = make_texture(img->array, cudaFilterModePoint, &img->point)) != cudaSuccess)) {
         cuda_image_release(ctx, img);
         return pb_cu_fail(ctx, PB_ERR_DEVICE, "cudaCreateTextureObject", e);
+    }
+    if (layered) {
+        struct cudaResourceDesc res;
+        memset(&res, 0, sizeof res);
+        res.resType = cudaResourceTypeArray;
+        res.res.array.array = img->array;
+        if ((e = cudaCreateSurfaceObject(&img->surface, &res)) != cudaSuccess) {
+            cuda_image_release(ctx, img);
+            return pb_cu_fail(ctx, PB_ERR_DEVICE, "cudaCreateSurfaceObject", e);
+        }
     }
     *image = img;
     return PB_OK;
@@ -176,6 +191,20 @@ static pb_status cuda_image_copy(pb_context *ctx, void *image, const void *buffe
         return st;
     cudaError_t e = cudaMemcpy3DAsync(&cp, cu->stream);
     return e == cudaSuccess ? PB_OK : pb_cu_fail(ctx, PB_ERR_DEVICE, "cudaMemcpy3DAsync (buffer to array)", e);
+}
+
+/* The runtime's copy into a layered array is several times slower than into a
+ * 3-D one; a kernel writing through the surface lays a volume out in one pass
+ * (cuda/pb_kernels.cu). */
+static pb_status cuda_image_layout(pb_context *ctx, void *image, const void *buffer, const size_t dims[3], int m)
+{
+    cu_impl *cu = ctx->impl;
+    cu_image *img = image;
+    pb_status st = pb_cu_use_device(ctx);
+    if (st != PB_OK)
+        return st;
+    cudaError_t e = pb_cuda_layout(buffer, dims, m, img->surface, cu->stream);
+    return e == cudaSuccess ? PB_OK : pb_cu_fail(ctx, PB_ERR_LAUNCH, "the layout kernel's launch", e);
 }
 
 /* ---- launches and timing ----------------------------------------------- */
@@ -264,6 +293,7 @@ const pb_backend_ops pb_backend_cuda_ops = {
     .image_create = cuda_image_create,
     .image_release = cuda_image_release,
     .image_copy = cuda_image_copy,
+    .image_layout = cuda_image_layout,
     .launch = cuda_launch,
     .timer_begin = cuda_timer_begin,
     .timer_mark = cuda_timer_mark,

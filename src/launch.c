@@ -54,9 +54,10 @@ static pb_status launch(pb_context *ctx, pb_kernel_id kernel, const void *input,
     return ctx->ops->launch(ctx, &l);
 }
 
-/* Makes images->layers[m] current with buffer: along z the buffer already is
- * in layer order and is copied as it is; along x or y pb_permute lays it out
- * in the scratch buffer first. */
+/* Makes images->layers[m] current with buffer: in one pass where the backend
+ * lays a buffer out in layers itself; otherwise along z the buffer already is
+ * in layer order and is copied as it is, and along x or y pb_permute lays it
+ * out in the scratch buffer first. */
 static pb_status refresh_layers(pb_context *ctx, const void *buffer, const size_t *n, pb_images *images, int m)
 {
     size_t extent[3] = {n[pb_layer_across(m, 0)], n[pb_layer_across(m, 1)], n[m]};
@@ -68,6 +69,11 @@ static pb_status refresh_layers(pb_context *ctx, const void *buffer, const size_
     }
     if (!images->layers_stale[m])
         return PB_OK;
+    if (ctx->ops->image_layout) {
+        if ((st = ctx->ops->image_layout(ctx, images->layers[m], buffer, n, m)) == PB_OK)
+            images->layers_stale[m] = 0;
+        return st;
+    }
     const void *source = buffer;
     if (m != 2) {
         pb_kparams prm;
@@ -96,7 +102,7 @@ static pb_status allocate_input(pb_context *ctx, pb_kernel_id kernel, const pb_k
         size_t extent[3] = {dims[pb_layer_across(m, 0)], dims[pb_layer_across(m, 1)], dims[m]};
         if (!images->layers[m] && (st = ctx->ops->image_create(ctx, 1, extent, &images->layers[m])) == PB_OK)
             images->layers_stale[m] = 1;
-        if (st == PB_OK && m != 2)
+        if (st == PB_OK && m != 2 && !ctx->ops->image_layout)
             st = reserve_scratch(ctx, dims[0] * dims[1] * dims[2] * sizeof(float));
         return st;
     }
