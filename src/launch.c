@@ -54,40 +54,6 @@ static pb_status launch(pb_context *ctx, pb_kernel_id kernel, const void *input,
     return ctx->ops->launch(ctx, &l);
 }
 
-/* Makes images->layers[m] current with buffer: in one pass where the backend
- * lays a buffer out in layers itself; otherwise along z the buffer already is
- * in layer order and is copied as it is, and along x or y pb_permute lays it
- * out in the scratch buffer first. */
-static pb_status refresh_layers(pb_context *ctx, const void *buffer, const size_t *n, pb_images *images, int m)
-{
-    size_t extent[3] = {n[pb_layer_across(m, 0)], n[pb_layer_across(m, 1)], n[m]};
-    pb_status st = PB_OK;
-    if (!images->layers[m]) {
-        if ((st = ctx->ops->image_create(ctx, 1, extent, &images->layers[m])) != PB_OK)
-            return st;
-        images->layers_stale[m] = 1;
-    }
-    if (!images->layers_stale[m])
-        return PB_OK;
-    if (ctx->ops->image_layout) {
-        if ((st = ctx->ops->image_layout(ctx, images->layers[m], buffer, n, m)) == PB_OK)
-            images->layers_stale[m] = 0;
-        return st;
-    }
-    const void *source = buffer;
-    if (m != 2) {
-        pb_kparams prm;
-        pb_kparams_permute(n, m, &prm);
-        if ((st = reserve_scratch(ctx, n[0] * n[1] * n[2] * sizeof(float))) != PB_OK ||
-            (st = launch(ctx, PB_KERNEL_PERMUTE, buffer, NULL, &prm, ctx->scratch, n)) != PB_OK)
-            return st;
-        source = ctx->scratch;
-    }
-    if ((st = ctx->ops->image_copy(ctx, images->layers[m], source)) == PB_OK)
-        images->layers_stale[m] = 0;
-    return st;
-}
-
 /* Makes sure what kernel reads of a volume of dims exists: its 3-D image or
  * its layers, and the scratch buffer their layout takes. Done before a timer
  * starts, so that the allocations, host work, do not count as device time. */
@@ -113,8 +79,36 @@ static pb_status allocate_input(pb_context *ctx, pb_kernel_id kernel, const pb_k
     }
 }
 
-/* Makes what kernel reads of buffer current and returns it in *input: the
- * buffer itself, its 3-D image, or its layers along prm->layer_axis. */
+/* Makes images->layers[m], allocated (allocate_input), current with buffer:
+ * in one pass where the backend lays a buffer out in layers itself; otherwise
+ * along z the buffer already is in layer order and is copied as it is, and
+ * along x or y pb_permute lays it out in the scratch buffer first. */
+static pb_status refresh_layers(pb_context *ctx, const void *buffer, const size_t *n, pb_images *images, int m)
+{
+    pb_status st = PB_OK;
+    if (!images->layers_stale[m])
+        return PB_OK;
+    if (ctx->ops->image_layout) {
+        if ((st = ctx->ops->image_layout(ctx, images->layers[m], buffer, n, m)) == PB_OK)
+            images->layers_stale[m] = 0;
+        return st;
+    }
+    const void *source = buffer;
+    if (m != 2) {
+        pb_kparams prm;
+        pb_kparams_permute(n, m, &prm);
+        if ((st = launch(ctx, PB_KERNEL_PERMUTE, buffer, NULL, &prm, ctx->scratch, n)) != PB_OK)
+            return st;
+        source = ctx->scratch;
+    }
+    if ((st = ctx->ops->image_copy(ctx, images->layers[m], source)) == PB_OK)
+        images->layers_stale[m] = 0;
+    return st;
+}
+
+/* Makes what kernel reads of buffer, allocated (allocate_input), current and
+ * returns it in *input: the buffer itself, its 3-D image, or its layers along
+ * prm->layer_axis. */
 static pb_status refresh_input(pb_context *ctx, pb_kernel_id kernel, const pb_kparams *prm, const void *buffer,
                                const size_t *dims, pb_images *images, const void **input)
 {
@@ -128,11 +122,6 @@ static pb_status refresh_input(pb_context *ctx, pb_kernel_id kernel, const pb_kp
         *input = images->layers[prm->layer_axis];
         return st;
     default:
-        if (!images->image) {
-            if ((st = ctx->ops->image_create(ctx, 0, dims, &images->image)) != PB_OK)
-                return st;
-            images->image_stale = 1;
-        }
         if (images->image_stale && (st = ctx->ops->image_copy(ctx, images->image, buffer)) == PB_OK)
             images->image_stale = 0;
         *input = images->image;
@@ -217,8 +206,10 @@ pb_status pb_launch_frames(pb_context *ctx, const pb_plan *plan, const pb_volume
     for (size_t i = 0; i < plan->frames && st == PB_OK; i++) {
         const pb_plan_frame *f = &plan->frame[i];
         pb_volume *in = (pb_volume *)ins[i];
-        st = refresh_input(ctx, f->forward, &f->forward_prm, in->buffer, plan->geometry.dims, &in->images,
-                           &inputs[i]);
+        st = allocate_input(ctx, f->forward, &f->forward_prm, plan->geometry.dims, &in->images);
+        if (st == PB_OK)
+            st = refresh_input(ctx, f->forward, &f->forward_prm, in->buffer, plan->geometry.dims, &in->images,
+                               &inputs[i]);
     }
     if (st == PB_OK)
         st = ops->timer_begin(ctx);
