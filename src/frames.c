@@ -151,17 +151,14 @@ static pb_status run_frames(pb_context *ctx, const pb_volume *const *ins, const 
         return st;
     if (!ins[0])
         return pb_error(ctx, PB_ERR_INVALID_ARGUMENT, "frame 0's %s volume is NULL", adjoint ? "tomograph" : "object");
-    pb_plan *plan;
-    if ((st = pb_plan_new(ctx, &ins[0]->geometry, options, frames, &plan)) != PB_OK)
-        return st;
     /* Every frame's volumes, then every frame's plan, before any work. */
     for (size_t i = 0; i < frames && st == PB_OK; i++)
-        if ((st = pb_plan_check_volumes(plan, ins[i], outs[i], adjoint)) != PB_OK) {
+        if ((st = pb_check_volumes(ctx, &ins[0]->geometry, ins[i], outs[i], adjoint)) != PB_OK) {
             char where[64];
             snprintf(where, sizeof where, " (frame %zu of %zu)", i, frames);
             pb_error_append(ctx, where);
         }
-    pb_plan_destroy(plan);
+    pb_plan *plan = NULL;
     if (st == PB_OK)
         st = pb_plan_create_frames(ctx, &ins[0]->geometry, track, bounds, frames, options, &plan);
     if (st != PB_OK) {

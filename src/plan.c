@@ -120,9 +120,9 @@ pb_status pb_plan_get_geometry(const pb_plan *plan, pb_geometry *geometry)
     return PB_OK;
 }
 
-pb_status pb_plan_check_volumes(const pb_plan *plan, const pb_volume *in, const pb_volume *out, int adjoint)
+pb_status pb_check_volumes(pb_context *ctx, const pb_geometry *p, const pb_volume *in, const pb_volume *out,
+                           int adjoint)
 {
-    pb_context *ctx = plan->ctx;
     const char *in_name = adjoint ? "tomograph" : "object", *out_name = adjoint ? "object" : "tomograph";
     if (!in || !out)
         return pb_error(ctx, PB_ERR_INVALID_ARGUMENT, "the %s and %s volumes must not be NULL", in_name, out_name);
@@ -131,7 +131,6 @@ pb_status pb_plan_check_volumes(const pb_plan *plan, const pb_volume *in, const 
     if (in == out)
         return pb_error(ctx, PB_ERR_INVALID_ARGUMENT,
                         "object and tomograph are the same volume; blur into a second volume");
-    const pb_geometry *p = &plan->geometry;
     for (int v = 0; v < 2; v++) {
         const pb_geometry *g = v ? &out->geometry : &in->geometry;
         for (int i = 0; i < 3; i++)
@@ -154,6 +153,18 @@ static pb_status check_frame(const pb_plan *plan, size_t frame)
     return PB_OK;
 }
 
+/* One direction of one frame on the host reference, from in to out (host
+ * memory). */
+static pb_status host_apply(const pb_plan *plan, size_t frame, const float *in, float *out, int adjoint,
+                            int accumulate)
+{
+    pb_context *ctx = plan->ctx;
+    const pb_path *path = &plan->frame[frame].path;
+    const size_t *dims = plan->geometry.dims;
+    return adjoint ? ctx->ops->host_adjoint(ctx, in, path, &plan->options, dims, out, accumulate)
+                   : ctx->ops->host_forward(ctx, in, path, &plan->options, dims, out);
+}
+
 /* One direction of one frame, then the progress report's end. */
 static pb_status finish(pb_context *ctx, pb_status st)
 {
@@ -170,17 +181,12 @@ static pb_status apply_volumes(pb_plan *plan, size_t frame, const pb_volume *in,
     pb_context *ctx = plan->ctx;
     pb_status st = check_frame(plan, frame);
     if (st == PB_OK)
-        st = pb_plan_check_volumes(plan, in, out, adjoint);
+        st = pb_check_volumes(ctx, &plan->geometry, in, out, adjoint);
     if (st != PB_OK)
         return st;
     const pb_plan_frame *f = &plan->frame[frame];
-    const pb_blur_options *opt = &plan->options;
-    const size_t *dims = plan->geometry.dims;
-    if (ctx->ops->host_forward) {
-        st = adjoint ? ctx->ops->host_adjoint(ctx, in->buffer, &f->path, opt, dims, out->buffer, accumulate)
-                     : ctx->ops->host_forward(ctx, in->buffer, &f->path, opt, dims, out->buffer);
-        return finish(ctx, st);
-    }
+    if (ctx->ops->host_forward)
+        return finish(ctx, host_apply(plan, frame, in->buffer, out->buffer, adjoint, accumulate));
     /* The forward's object is made current once and blurred many times: that
      * copy is not the kernel's. The adjoint's gather lays out every tomograph
      * it reads: a fresh input, which counts with the kernel. */
@@ -219,20 +225,16 @@ static pb_status apply_device(pb_plan *plan, size_t frame, const void *in, void 
         st = ctx->ops->buffer_check(ctx, out, bytes, out_name, 1);
     if (st != PB_OK)
         return st;
-    const pb_plan_frame *f = &plan->frame[frame];
     if (ctx->ops->host_forward) {
-        const pb_blur_options *opt = &plan->options;
-        const size_t *dims = plan->geometry.dims;
-        st = adjoint ? ctx->ops->host_adjoint(ctx, in, &f->path, opt, dims, out, accumulate)
-                     : ctx->ops->host_forward(ctx, in, &f->path, opt, dims, out);
-        pb_volume_memory_written(ctx, out);
-        return finish(ctx, st);
+        st = host_apply(plan, frame, in, out, adjoint, accumulate);
+    } else {
+        /* The caller's memory may have changed since the last call: its copy
+         * into the plan's image (on the device) is made every time, and timed. */
+        pb_images_stale(&plan->input);
+        st = pb_launch_frame(ctx, &plan->frame[frame], &plan->geometry, adjoint, in, &plan->input, out, accumulate,
+                             1);
     }
-    /* The caller's memory may have changed since the last call: its copy into
-     * the plan's image (on the device) is made every time, and timed. The
-     * output may be a volume's own memory. */
-    pb_images_stale(&plan->input);
-    st = pb_launch_frame(ctx, f, &plan->geometry, adjoint, in, &plan->input, out, accumulate, 1);
+    /* The output may be a volume's own memory. */
     pb_volume_memory_written(ctx, out);
     return finish(ctx, st);
 }
@@ -259,7 +261,7 @@ static pb_status one_shot(pb_context *ctx, const pb_volume *in, const pb_motion 
     if (st != PB_OK)
         return st;
     /* The volumes first: a mismatch costs no planning. */
-    if ((st = pb_plan_check_volumes(plan, in, out, adjoint)) == PB_OK &&
+    if ((st = pb_check_volumes(ctx, &plan->geometry, in, out, adjoint)) == PB_OK &&
         (st = pb_plan_set_frame(plan, 0, motion)) == PB_OK)
         st = adjoint ? pb_plan_adjoint(plan, 0, in, out, 0) : pb_plan_forward(plan, 0, in, out);
     pb_plan_destroy(plan);

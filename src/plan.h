@@ -13,8 +13,9 @@ pb_status pb_plan_new(pb_context *ctx, const pb_geometry *geometry, const pb_blu
  * and the key poses uploaded to the device. */
 pb_status pb_plan_set_frame(pb_plan *plan, size_t i, const pb_motion *motion);
 
-/* Whether in and out may be frame arguments of plan in that direction: of
- * its context, of its geometry, and two volumes. */
-pb_status pb_plan_check_volumes(const pb_plan *plan, const pb_volume *in, const pb_volume *out, int adjoint);
+/* Whether in and out may be one frame's arguments in that direction on grids
+ * of geometry g: of the context ctx, of that geometry, and two volumes. */
+pb_status pb_check_volumes(pb_context *ctx, const pb_geometry *g, const pb_volume *in, const pb_volume *out,
+                           int adjoint);
 
 #endif
