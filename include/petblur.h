@@ -141,7 +141,8 @@ PB_API pb_status pb_context_set_progress(pb_context *ctx, pb_progress_fn fn, voi
 
 /* Kernel time in milliseconds of the context's last blur or adjoint (a
  * one-shot call or a plan's; for frames, their total), from device events
- * (OpenCL profiling events, CUDA events) or the host clock. */
+ * (OpenCL profiling events, CUDA events) or the host clock. After a call
+ * queued on a caller's stream (pb_context_set_stream) it waits for that call. */
 PB_API pb_status pb_context_last_kernel_ms(const pb_context *ctx, double *ms);
 
 /* ---- volumes ----------------------------------------------------------- */
@@ -389,7 +390,8 @@ PB_API pb_status pb_plan_adjoint(pb_plan *plan, size_t frame, const pb_volume *t
  * copied into the plan's texture on the device; nothing touches host memory.
  *   Ordering. The call queues its work on the context's queue
  *   (pb_context_native: the cl_command_queue, or the cudaStream_t) after
- *   everything queued there before, and returns with it finished: the output
+ *   everything queued there before, and returns with it finished (on a
+ *   caller's stream, pb_context_set_stream, once queued): the output
  *   is ready, and pb_context_last_kernel_ms holds its device time (the copy
  *   included; pb_context_last_input_ms the copy alone). On CUDA that stream
  *   is a blocking stream: it also waits for work queued earlier on the legacy
@@ -423,6 +425,20 @@ PB_API pb_status pb_context_native(const pb_context *ctx, pb_native *native);
 /* Of the last call's device time, the part spent making its input current
  * (the copy of device memory into the texture), in milliseconds. */
 PB_API pb_status pb_context_last_input_ms(const pb_context *ctx, double *ms);
+
+/* CUDA only: queue the context's work on the caller's stream (a cudaStream_t
+ * of the context's device: CuPy's or PyTorch's current stream;
+ * cudaStreamLegacy, ((cudaStream_t)0x1), for the legacy default stream, whose
+ * handle CuPy and PyTorch report as 0), or, with NULL, on its own stream
+ * again. Work already queued is handed over: the new stream waits for it, so
+ * calls stay in order across stream changes. While a caller's stream is set,
+ * pb_plan_forward_device and pb_plan_adjoint_device return once their work is
+ * queued, without waiting, as the caller's own kernels do: the output is ready
+ * in stream order, a kernel's fault surfaces at the caller's next
+ * synchronisation, and pb_context_last_kernel_ms waits for the last call to
+ * give its time. Calls on volumes still return finished. On the host and
+ * OpenCL backends NULL is accepted and anything else refused. */
+PB_API pb_status pb_context_set_stream(pb_context *ctx, void *stream);
 
 /* The paper's eq. (5): 100 * sum (x - ref)^2 / sum ref^2 over n voxels, in
  * double. Returns NaN when ref is all zeros or either pointer is NULL. */

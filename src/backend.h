@@ -83,6 +83,11 @@ typedef struct pb_backend_ops {
     pb_status (*timer_begin)(struct pb_context *ctx);
     pb_status (*timer_mark)(struct pb_context *ctx);
     pb_status (*timer_end)(struct pb_context *ctx, double *total_ms, double *before_mark_ms);
+    /* Optional (CUDA): queue on the caller's stream (NULL: the context's own).
+     * There timer_end only records, and timer_wait later waits for what it
+     * timed: returns 1 with the times when such a timing is pending, else 0. */
+    pb_status (*set_stream)(struct pb_context *ctx, void *stream);
+    int (*timer_wait)(const struct pb_context *ctx, pb_status *status, double *total_ms, double *before_mark_ms);
 } pb_backend_ops;
 
 /* What a kernel reads of a buffer, made from it on first use: its 3-D image

@@ -23,7 +23,7 @@ typedef struct cu_image {
 static void cuda_native(const pb_context *ctx, pb_native *out)
 {
     const cu_impl *cu = ctx->impl;
-    out->queue = cu->stream;
+    out->queue = cu->queue;
     out->device_index = cu->device;
 }
 
@@ -41,6 +41,9 @@ static pb_status cuda_buffer_create(pb_context *ctx, size_t bytes, void **buffer
 static void cuda_buffer_release(pb_context *ctx, void *buffer)
 {
     pb_cu_use_device(ctx);
+    /* A call queued on a caller's stream may still use it. */
+    if (((cu_impl *)ctx->impl)->caller_used)
+        cudaDeviceSynchronize();
     cudaFree(buffer);
     (void)cudaGetLastError();
 }
@@ -54,9 +57,9 @@ static pb_status copy_sync(pb_context *ctx, void *dst, const void *src, size_t b
     pb_status st = pb_cu_use_device(ctx);
     if (st != PB_OK)
         return st;
-    cudaError_t e = cudaMemcpyAsync(dst, src, bytes, kind, cu->stream);
+    cudaError_t e = cudaMemcpyAsync(dst, src, bytes, kind, cu->queue);
     if (e == cudaSuccess)
-        e = cudaStreamSynchronize(cu->stream);
+        e = cudaStreamSynchronize(cu->queue);
     return e == cudaSuccess ? PB_OK : pb_cu_fail(ctx, PB_ERR_DEVICE, what, e);
 }
 
@@ -76,7 +79,7 @@ static pb_status cuda_buffer_zero(pb_context *ctx, void *buffer, size_t bytes)
     pb_status st = pb_cu_use_device(ctx);
     if (st != PB_OK)
         return st;
-    cudaError_t e = cudaMemsetAsync(buffer, 0, bytes, cu->stream);
+    cudaError_t e = cudaMemsetAsync(buffer, 0, bytes, cu->queue);
     return e == cudaSuccess ? PB_OK : pb_cu_fail(ctx, PB_ERR_DEVICE, "cudaMemsetAsync", e);
 }
 
@@ -123,6 +126,10 @@ static void cuda_image_release(pb_context *ctx, void *image)
 {
     cu_image *img = image;
     pb_cu_use_device(ctx);
+    /* Calls on a caller's stream return unfinished: a kernel may still read
+     * this image through its texture. */
+    if (((cu_impl *)ctx->impl)->caller_used)
+        cudaDeviceSynchronize();
     if (img->linear)
         cudaDestroyTextureObject(img->linear);
     if (img->point)
@@ -189,7 +196,7 @@ static pb_status cuda_image_copy(pb_context *ctx, void *image, const void *buffe
     pb_status st = pb_cu_use_device(ctx);
     if (st != PB_OK)
         return st;
-    cudaError_t e = cudaMemcpy3DAsync(&cp, cu->stream);
+    cudaError_t e = cudaMemcpy3DAsync(&cp, cu->queue);
     return e == cudaSuccess ? PB_OK : pb_cu_fail(ctx, PB_ERR_DEVICE, "cudaMemcpy3DAsync (buffer to array)", e);
 }
 
@@ -203,7 +210,7 @@ static pb_status cuda_image_layout(pb_context *ctx, void *image, const void *buf
     pb_status st = pb_cu_use_device(ctx);
     if (st != PB_OK)
         return st;
-    cudaError_t e = pb_cuda_layout(buffer, dims, m, img->surface, cu->stream);
+    cudaError_t e = pb_cuda_layout(buffer, dims, m, img->surface, cu->queue);
     return e == cudaSuccess ? PB_OK : pb_cu_fail(ctx, PB_ERR_LAUNCH, "the layout kernel's launch", e);
 }
 
@@ -230,7 +237,7 @@ static pb_status cuda_launch(pb_context *ctx, const pb_launch *l)
     a.plan = l->plan;
     a.prm = l->prm;
     a.out = l->out;
-    a.stream = cu->stream;
+    a.stream = cu->queue;
     cudaError_t e = pb_cuda_launch((int)l->kernel, &a);
     return e == cudaSuccess ? PB_OK : pb_cu_fail(ctx, PB_ERR_LAUNCH, "the kernel launch", e);
 }
@@ -238,14 +245,14 @@ static pb_status cuda_launch(pb_context *ctx, const pb_launch *l)
 static pb_status record(pb_context *ctx, cudaEvent_t ev)
 {
     cu_impl *cu = ctx->impl;
-    cudaError_t e = cudaEventRecord(ev, cu->stream);
+    cudaError_t e = cudaEventRecord(ev, cu->queue);
     return e == cudaSuccess ? PB_OK : pb_cu_fail(ctx, PB_ERR_LAUNCH, "cudaEventRecord", e);
 }
 
 static pb_status cuda_timer_begin(pb_context *ctx)
 {
     cu_impl *cu = ctx->impl;
-    cu->marked = 0;
+    cu->marked = cu->pending = 0;
     pb_status st = pb_cu_use_device(ctx);
     return st == PB_OK ? record(ctx, cu->start) : st;
 }
@@ -257,14 +264,11 @@ static pb_status cuda_timer_mark(pb_context *ctx)
     return record(ctx, cu->mark);
 }
 
-/* A kernel that faulted reports here. */
-static pb_status cuda_timer_end(pb_context *ctx, double *total_ms, double *before_mark_ms)
+/* Waits for the work timed and gives its times; a kernel that faulted
+ * reports here. */
+static pb_status timer_result(pb_context *ctx, double *total_ms, double *before_mark_ms)
 {
     cu_impl *cu = ctx->impl;
-    *total_ms = *before_mark_ms = 0.0;
-    pb_status st = record(ctx, cu->stop);
-    if (st != PB_OK)
-        return st;
     cudaError_t e = cudaEventSynchronize(cu->stop);
     if (e != cudaSuccess)
         return pb_cu_fail(ctx, PB_ERR_LAUNCH, "cudaEventSynchronize (the kernel failed)", e);
@@ -274,6 +278,51 @@ static pb_status cuda_timer_end(pb_context *ctx, double *total_ms, double *befor
         return pb_cu_fail(ctx, PB_ERR_LAUNCH, "cudaEventElapsedTime", e);
     *total_ms = (double)ms;
     *before_mark_ms = (double)before;
+    return PB_OK;
+}
+
+/* On a caller's stream the call returns once queued (a progress report still
+ * waits for each slab); the times wait for pb_context_last_kernel_ms. */
+static pb_status cuda_timer_end(pb_context *ctx, double *total_ms, double *before_mark_ms)
+{
+    cu_impl *cu = ctx->impl;
+    *total_ms = *before_mark_ms = 0.0;
+    pb_status st = record(ctx, cu->stop);
+    if (st != PB_OK)
+        return st;
+    if (cu->caller && !ctx->progress) {
+        cu->pending = 1;
+        return PB_OK;
+    }
+    return timer_result(ctx, total_ms, before_mark_ms);
+}
+
+static int cuda_timer_wait(const pb_context *ctx, pb_status *status, double *total_ms, double *before_mark_ms)
+{
+    const cu_impl *cu = ctx->impl;
+    if (!cu->pending)
+        return 0;
+    /* The context is the caller's to change (the last error's text). */
+    *status = timer_result((pb_context *)ctx, total_ms, before_mark_ms);
+    return 1;
+}
+
+static pb_status cuda_set_stream(pb_context *ctx, void *stream)
+{
+    cu_impl *cu = ctx->impl;
+    cudaStream_t next = stream ? (cudaStream_t)stream : cu->stream;
+    pb_status st = pb_cu_use_device(ctx);
+    if (st != PB_OK || next == cu->queue)
+        return st;
+    cudaError_t e = cudaEventRecord(cu->handoff, cu->queue);
+    if (e == cudaSuccess)
+        e = cudaStreamWaitEvent(next, cu->handoff, 0);
+    if (e != cudaSuccess)
+        return pb_cu_fail(ctx, PB_ERR_INVALID_ARGUMENT,
+                          "pb_context_set_stream (pass a live stream of the context's device)", e);
+    cu->queue = next;
+    cu->caller = stream != NULL;
+    cu->caller_used |= cu->caller;
     return PB_OK;
 }
 
@@ -298,4 +347,6 @@ const pb_backend_ops pb_backend_cuda_ops = {
     .timer_begin = cuda_timer_begin,
     .timer_mark = cuda_timer_mark,
     .timer_end = cuda_timer_end,
+    .set_stream = cuda_set_stream,
+    .timer_wait = cuda_timer_wait,
 };

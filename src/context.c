@@ -219,19 +219,45 @@ pb_status pb_context_device_info(const pb_context *ctx, pb_device_info *info)
     return PB_OK;
 }
 
+/* The last call's times; for a call queued on a caller's stream, once it is
+ * done. */
+static pb_status last_times(const pb_context *ctx, double *kernel_ms, double *input_ms)
+{
+    pb_status st = PB_OK;
+    if (!ctx->ops->timer_wait || !ctx->ops->timer_wait(ctx, &st, kernel_ms, input_ms)) {
+        *kernel_ms = ctx->last_kernel_ms;
+        *input_ms = ctx->last_input_ms;
+    }
+    return st;
+}
+
 pb_status pb_context_last_kernel_ms(const pb_context *ctx, double *ms)
 {
     if (!ctx || !ms)
         return pb_error(NULL, PB_ERR_INVALID_ARGUMENT, "ctx and ms must not be NULL");
-    *ms = ctx->last_kernel_ms;
-    return PB_OK;
+    double input;
+    return last_times(ctx, ms, &input);
 }
 
 pb_status pb_context_last_input_ms(const pb_context *ctx, double *ms)
 {
     if (!ctx || !ms)
         return pb_error(NULL, PB_ERR_INVALID_ARGUMENT, "ctx and ms must not be NULL");
-    *ms = ctx->last_input_ms;
+    double kernel;
+    return last_times(ctx, &kernel, ms);
+}
+
+pb_status pb_context_set_stream(pb_context *ctx, void *stream)
+{
+    if (!ctx)
+        return pb_error(NULL, PB_ERR_INVALID_ARGUMENT, "ctx must not be NULL");
+    if (ctx->ops->set_stream)
+        return ctx->ops->set_stream(ctx, stream);
+    if (stream)
+        return pb_error(ctx, PB_ERR_INVALID_ARGUMENT,
+                        "pb_context_set_stream takes a CUDA stream, and this context runs on the %s backend, which "
+                        "queues on its own queue (pb_context_native); pass NULL or use a CUDA context",
+                        pb_backend_name(ctx->ops->id));
     return PB_OK;
 }
 

@@ -119,8 +119,10 @@ pb_status pb_cuda_context_init(pb_context *ctx, int index, const char *build_opt
     for (int d = 0; d < 3; d++)
         ctx->layer_limits[d] = (size_t)lim[d];
     ctx->texture_weight_steps = PB_NVIDIA_WEIGHT_STEPS;
+    cu->queue = cu->stream;
     if ((e = cudaEventCreate(&cu->start)) != cudaSuccess || (e = cudaEventCreate(&cu->mark)) != cudaSuccess ||
-        (e = cudaEventCreate(&cu->stop)) != cudaSuccess)
+        (e = cudaEventCreate(&cu->stop)) != cudaSuccess ||
+        (e = cudaEventCreateWithFlags(&cu->handoff, cudaEventDisableTiming)) != cudaSuccess)
         return pb_cu_fail(ctx, PB_ERR_DEVICE, "cudaEventCreate", e);
     /* A GPU the fat binary has no code for fails here, not at the first blur. */
     if ((e = pb_cuda_check_kernels()) != cudaSuccess)
@@ -140,6 +142,8 @@ void pb_cuda_context_release(pb_context *ctx)
         cudaEventDestroy(cu->mark);
     if (cu->stop)
         cudaEventDestroy(cu->stop);
+    if (cu->handoff)
+        cudaEventDestroy(cu->handoff);
     if (cu->stream)
         cudaStreamDestroy(cu->stream);
     (void)cudaGetLastError();

@@ -14,7 +14,12 @@ typedef struct cu_impl {
      * waits for work queued before on the legacy default stream, where CuPy
      * and PyTorch queue by default, so their arrays are ready. */
     cudaStream_t stream;
-    cudaEvent_t start, mark, stop;
+    /* Where work is queued: stream, or the caller's (pb_context_set_stream),
+     * where timer_end only records (pending) and calls return unfinished.
+     * handoff orders a new queue after the old one's work. */
+    cudaStream_t queue;
+    int caller, caller_used, pending;
+    cudaEvent_t start, mark, stop, handoff;
     int marked;
 } cu_impl;
 

@@ -330,6 +330,58 @@ static void check_frames(pb_context *ctx, const pb_geometry *g, const pb_blur_op
 }
 
 /* What a plan must refuse, each with its status. */
+/* A caller's stream (CUDA): calls queue on it and return unfinished; what
+ * the caller then queues there sees their output, equal to the context's own
+ * stream's. Elsewhere only NULL is taken. */
+static void check_caller_stream(pb_context *ctx, const pb_geometry *g, const pb_motion *m)
+{
+    int dummy;
+    if (pb_context_backend(ctx) != PB_BACKEND_CUDA) {
+        pb_check(pb_context_set_stream(ctx, &dummy) == PB_ERR_INVALID_ARGUMENT && pb_context_set_stream(ctx, NULL) ==
+                 PB_OK, "pb_context_set_stream off CUDA: %s", pb_last_error(ctx));
+        return;
+    }
+#ifdef PB_HAVE_CUDA
+    size_t n = g->dims[0] * g->dims[1] * g->dims[2], bytes = n * sizeof(float);
+    float *x = pb_random_volume(n), *own = malloc(bytes), *got = malloc(bytes);
+    void *din = dev_alloc(ctx, bytes), *dout = dev_alloc(ctx, bytes);
+    pb_plan *plan = NULL;
+    cudaStream_t s = NULL;
+    if (!pb_check(din && dout && pb_plan_create(ctx, g, m, NULL, &plan) == PB_OK &&
+                  cudaStreamCreateWithFlags(&s, cudaStreamNonBlocking) == cudaSuccess,
+                  "caller's stream: setting up: %s", pb_last_error(ctx)))
+        goto done;
+    for (int adjoint = 0; adjoint < 2; adjoint++) {
+        pb_check(dev_copy(ctx, din, x, bytes, 1), "caller's stream: writing device memory");
+        pb_status st = adjoint ? pb_plan_adjoint_device(plan, 0, din, dout, 0) : pb_plan_forward_device(plan, 0, din, dout);
+        pb_check(st == PB_OK && dev_copy(ctx, dout, own, bytes, 0), "own stream: %s", pb_last_error(ctx));
+        poison(got, n);
+        pb_check(dev_copy(ctx, dout, got, bytes, 1), "caller's stream: poisoning the output");
+        pb_check(pb_context_set_stream(ctx, s) == PB_OK, "pb_context_set_stream: %s", pb_last_error(ctx));
+        st = adjoint ? pb_plan_adjoint_device(plan, 0, din, dout, 0) : pb_plan_forward_device(plan, 0, din, dout);
+        pb_check(st == PB_OK, "caller's stream: %s", pb_last_error(ctx));
+        poison(got, n);
+        cudaError_t e = cudaMemcpyAsync(got, dout, bytes, cudaMemcpyDeviceToHost, s);
+        pb_check(e == cudaSuccess && cudaStreamSynchronize(s) == cudaSuccess, "caller's stream: reading back");
+        double ms = -1.0;
+        pb_check(pb_context_last_kernel_ms(ctx, &ms) == PB_OK && ms > 0.0, "caller's stream: kernel time %g ms", ms);
+        pb_check(pb_context_set_stream(ctx, NULL) == PB_OK, "back to the own stream: %s", pb_last_error(ctx));
+        pb_check(same(got, own, n, !adjoint, 1e-5), "caller's stream %s: differs from the own stream's by %g",
+                 adjoint ? "adjoint" : "forward", pb_max_abs_diff(got, own, n));
+    }
+done:
+    pb_context_set_stream(ctx, NULL);
+    if (s)
+        cudaStreamDestroy(s);
+    pb_plan_destroy(plan);
+    dev_free(PB_BACKEND_CUDA, din);
+    dev_free(PB_BACKEND_CUDA, dout);
+    free(x), free(own), free(got);
+#else
+    (void)g, (void)m;
+#endif
+}
+
 static void check_refusals(pb_context *ctx)
 {
     pb_geometry g = {{9, 8, 7}, {1.5, 1.5, 2.0}}, other = {{9, 8, 6}, {1.5, 1.5, 2.0}};
@@ -437,6 +489,11 @@ int main(int argc, char **argv)
     pb_geometry small = {{13, 11, 9}, {1.4, 1.2, 1.7}};
     for (int method = PB_METHOD_AB; method <= PB_METHOD_CL; method++)
         check_frames(ctx, &small, &(pb_blur_options){(pb_method)method, PB_FILTER_HARDWARE, 0, 0, 0, 0, 0.0});
+    {
+        pb_test_motion tm;
+        pb_test_motion_init(&tm, &start, &motions[0].end);
+        check_caller_stream(ctx, &g, &tm.motion);
+    }
     check_refusals(ctx); /* destroys ctx */
     return pb_test_finish();
 }
