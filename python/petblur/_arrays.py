@@ -1,0 +1,148 @@
+"""The arrays petblur takes: numpy, CuPy, and PyTorch tensors (CPU or CUDA).
+
+Axes: a volume is indexed [x, y, z], as nibabel's img.get_fdata() holds it
+(axis 0 is x). Memory: either order is read in place, Fortran order (x
+fastest: nibabel's, the C library's own) and C order (z fastest: numpy's,
+CuPy's and PyTorch's default), the latter through a plan of the transposed
+grid. Other strides are copied into C order first, on the array's own device.
+dtype: float32; float64 is computed in float32 and returned as float64; any
+other dtype is refused."""
+
+import sys
+
+import numpy as np
+
+from .errors import ArgumentError
+
+
+def _torch():
+    return sys.modules.get("torch")
+
+
+def _cupy():
+    return sys.modules.get("cupy")
+
+
+class Array:
+    """What the operator needs of an array: its kind ('numpy', 'cupy',
+    'torch'), the float32 data in a usable order, the order ('F' or 'C'),
+    the CUDA device (-1 on the host) and a way to allocate the output."""
+
+    def __init__(self, x, what):
+        torch, cupy = _torch(), _cupy()
+        self.original = x
+        if torch is not None and isinstance(x, torch.Tensor):
+            self.kind = "torch"
+            x = x.detach()
+            self.device = x.device.index if x.device.type == "cuda" else -1
+            if x.device.type not in ("cuda", "cpu"):
+                raise ArgumentError(f"the {what} is a torch tensor on {x.device}; petblur takes CPU and CUDA tensors")
+            if x.dtype not in (torch.float32, torch.float64):
+                raise ArgumentError(f"the {what} is a {x.dtype} tensor; give float32 (or float64, computed in "
+                                    "float32): x.float()")
+            self.dtype = x.dtype
+            if x.dtype == torch.float64:
+                x = x.float()
+            if x.device.type == "cpu":  # the numpy path, on the tensor's own memory
+                self.kind = "torch-cpu"
+                x = x.numpy()
+        elif cupy is not None and isinstance(x, cupy.ndarray):
+            self.kind = "cupy"
+            self.device = x.device.id
+            self.dtype = x.dtype
+            if x.dtype not in (np.float32, np.float64):
+                raise ArgumentError(f"the {what} is a {x.dtype} CuPy array; give float32 (or float64, computed in "
+                                    "float32): x.astype(cupy.float32)")
+            if x.dtype == np.float64:
+                x = x.astype(np.float32, order="K")
+        elif isinstance(x, np.ndarray):
+            self.kind = "numpy"
+            self.device = -1
+            x = np.asarray(x)
+            self.dtype = x.dtype
+            if x.dtype not in (np.float32, np.float64):
+                raise ArgumentError(f"the {what} is a {x.dtype} array; give float32 (or float64, computed in "
+                                    "float32): x.astype(numpy.float32)")
+            if x.dtype == np.float64:
+                x = x.astype(np.float32, order="K")
+        else:
+            raise ArgumentError(f"the {what} is a {type(x).__name__}; give a numpy or CuPy array or a torch tensor")
+        self.data = x
+        self.shape = tuple(x.shape)
+
+    @property
+    def on_gpu(self):
+        return self.device >= 0
+
+    def volumes(self, shape):
+        """The array as volumes of shape: a list of (view, order) for a 3-D
+        array, one per frame for a 4-D one; views in neither order are copied
+        (C order)."""
+        x = self.data
+        parts = [x] if x.ndim == 3 else [x[f] for f in range(x.shape[0])]
+        out = []
+        for v in parts:
+            order = _order(v, self.kind)
+            if order is None:
+                v = _contiguous(v, self.kind)
+                order = "C"
+            out.append((v, order))
+        return out
+
+    def empty(self, shape, order):
+        """float32 output of shape on the array's device; order 'F' or 'C' is
+        that of every 3-D volume in it (frames first)."""
+        nd = len(shape)
+        if order == "F":  # each volume x fastest, frames outermost
+            rev = tuple(reversed(shape[nd - 3:]))
+            full = tuple(shape[:nd - 3]) + rev
+            perm = tuple(range(nd - 3)) + tuple(range(nd - 1, nd - 4, -1))
+        else:
+            full, perm = tuple(shape), tuple(range(nd))
+        if self.kind == "torch":
+            torch = _torch()
+            return torch.empty(full, dtype=torch.float32, device=self.original.device).permute(perm)
+        if self.kind == "cupy":
+            cupy = _cupy()
+            with cupy.cuda.Device(self.device):
+                return cupy.empty(full, dtype=np.float32).transpose(perm)
+        return np.empty(full, dtype=np.float32).transpose(perm)
+
+    def result(self, out):
+        """out (float32, of this kind) as the caller's type and dtype."""
+        if self.kind == "torch-cpu":
+            torch = _torch()
+            out = torch.from_numpy(out)
+            return out.double() if self.dtype == torch.float64 else out
+        if self.kind == "torch":
+            torch = _torch()
+            return out.double() if self.dtype == torch.float64 else out
+        return out.astype(np.float64) if self.dtype == np.float64 else out
+
+
+def pointer(v, kind):
+    if kind == "torch":
+        return v.data_ptr()
+    if kind == "cupy":
+        return v.data.ptr
+    return v.ctypes.data
+
+
+def _order(v, kind):
+    """'C' or 'F' for a dense volume (a volume dense both ways is taken as C),
+    None otherwise."""
+    if kind == "torch":
+        if v.is_contiguous():
+            return "C"
+        return "F" if v.permute(2, 1, 0).is_contiguous() else None
+    if v.flags.c_contiguous:
+        return "C"
+    return "F" if v.flags.f_contiguous else None
+
+
+def _contiguous(v, kind):
+    if kind == "torch":
+        return v.contiguous()
+    if kind == "cupy":
+        return _cupy().ascontiguousarray(v)
+    return np.ascontiguousarray(v)

@@ -1,0 +1,217 @@
+"""The C library through ctypes: its structs, its functions' signatures, and
+the translation of a failed status into petblur.Error.
+
+ctypes rather than a compiled extension: the wheel then builds with the C
+compiler alone (no Python headers, no second build system), one shared library
+serves C and Python (the same bits, so equal results), and a call costs a few
+microseconds against kernels of a tenth of a millisecond and more
+(bench/results, the Python benchmark). ctypes releases the GIL during every
+call, so operators on several GPUs run from several threads at once."""
+
+import ctypes
+import os
+import threading
+
+from .errors import error_class
+
+_here = os.path.dirname(os.path.abspath(__file__))
+
+
+def _load():
+    # PETBLUR_LIBRARY: a build tree's library (development, the GPU machine).
+    path = os.environ.get("PETBLUR_LIBRARY") or os.path.join(_here, "libpetblur.so")
+    try:
+        return ctypes.CDLL(path)
+    except OSError as e:
+        raise ImportError(
+            f"petblur: cannot load its C library {path} ({e}); reinstall with 'pip install .' at the repository "
+            "root, or point PETBLUR_LIBRARY at a built libpetblur.so") from e
+
+
+lib = _load()
+
+c_size3 = ctypes.c_size_t * 3
+c_double3 = ctypes.c_double * 3
+
+
+class Geometry(ctypes.Structure):
+    _fields_ = [("dims", c_size3), ("voxel_size", c_double3)]
+
+
+class Pose(ctypes.Structure):
+    _fields_ = [("translation", c_double3), ("rotation", ctypes.c_double * 4)]
+
+
+class CMotion(ctypes.Structure):
+    _fields_ = [("times", ctypes.POINTER(ctypes.c_double)), ("poses", ctypes.POINTER(Pose)),
+                ("count", ctypes.c_size_t), ("frame_start", ctypes.c_double), ("frame_end", ctypes.c_double),
+                ("has_center", ctypes.c_int), ("center", c_double3)]
+
+
+class BlurOptions(ctypes.Structure):
+    _fields_ = [("method", ctypes.c_int), ("filter", ctypes.c_int), ("steps", ctypes.c_uint),
+                ("ref_points", ctypes.c_uint), ("ref_time_steps", ctypes.c_uint), ("seed", ctypes.c_uint32),
+                ("max_path_error", ctypes.c_double)]
+
+
+class ContextOptions(ctypes.Structure):
+    _fields_ = [("backend", ctypes.c_int), ("device_index", ctypes.c_int), ("build_options", ctypes.c_char_p)]
+
+
+class DeviceInfo(ctypes.Structure):
+    _fields_ = [("name", ctypes.c_char * 256), ("platform", ctypes.c_char * 256), ("is_gpu", ctypes.c_int),
+                ("image_support", ctypes.c_int), ("image3d_max", c_size3), ("max_alloc_bytes", ctypes.c_uint64),
+                ("global_mem_bytes", ctypes.c_uint64), ("compute_units", ctypes.c_uint)]
+
+
+class Native(ctypes.Structure):
+    _fields_ = [("context", ctypes.c_void_p), ("queue", ctypes.c_void_p), ("device", ctypes.c_void_p),
+                ("device_index", ctypes.c_int)]
+
+
+class TrackReadOptions(ctypes.Structure):
+    _fields_ = [("format", ctypes.c_int), ("time_divisor", ctypes.c_double), ("xyzw", ctypes.c_int)]
+
+
+BACKEND_AUTO, BACKEND_HOST, BACKEND_OPENCL, BACKEND_CUDA = 0, 1, 2, 3
+BACKEND_NAMES = {BACKEND_HOST: "host", BACKEND_OPENCL: "opencl", BACKEND_CUDA: "cuda"}
+
+_vp, _sz, _int, _dbl = ctypes.c_void_p, ctypes.c_size_t, ctypes.c_int, ctypes.c_double
+_P = ctypes.POINTER
+_signatures = {
+    "pb_status_string": (ctypes.c_char_p, [_int]),
+    "pb_last_error": (ctypes.c_char_p, [_vp]),
+    "pb_device_parse": (_int, [ctypes.c_char_p, _P(_int), _P(_int)]),
+    "pb_backend_compiled": (_int, [_int]),
+    "pb_device_count": (_int, [_int, _P(_int)]),
+    "pb_device_get_info": (_int, [_int, _int, _P(DeviceInfo)]),
+    "pb_context_create": (_int, [_P(ContextOptions), _P(_vp)]),
+    "pb_context_destroy": (None, [_vp]),
+    "pb_context_backend": (_int, [_vp]),
+    "pb_context_device_info": (_int, [_vp, _P(DeviceInfo)]),
+    "pb_context_native": (_int, [_vp, _P(Native)]),
+    "pb_context_set_stream": (_int, [_vp, _vp]),
+    "pb_context_last_kernel_ms": (_int, [_vp, _P(_dbl)]),
+    "pb_context_last_input_ms": (_int, [_vp, _P(_dbl)]),
+    "pb_volume_create": (_int, [_vp, _P(Geometry), _P(_vp)]),
+    "pb_volume_destroy": (None, [_vp]),
+    "pb_volume_upload": (_int, [_vp, _vp]),
+    "pb_volume_download": (_int, [_vp, _vp]),
+    "pb_motion_world_to_grid": (_int, [_P(Geometry), _P(_dbl), _P(CMotion), _P(Pose), _P(CMotion)]),
+    "pb_motion_pose_at": (_int, [_P(CMotion), _dbl, _P(Pose)]),
+    "pb_quaternion_from_axis_angle": (_int, [_P(_dbl), _dbl, _P(_dbl)]),
+    "pb_pose_from_matrix": (_int, [_P(_dbl), _P(Pose)]),
+    "pb_pose_to_matrix": (_int, [_P(Pose), _P(_dbl)]),
+    "pb_path_segments": (_int, [_P(Geometry), _P(CMotion), _P(BlurOptions), _P(_sz)]),
+    "pb_plan_create": (_int, [_vp, _P(Geometry), _P(CMotion), _P(BlurOptions), _P(_vp)]),
+    "pb_plan_create_frames": (_int, [_vp, _P(Geometry), _P(CMotion), _P(_dbl), _sz, _P(BlurOptions), _P(_vp)]),
+    "pb_plan_destroy": (None, [_vp]),
+    "pb_plan_forward": (_int, [_vp, _sz, _vp, _vp]),
+    "pb_plan_adjoint": (_int, [_vp, _sz, _vp, _vp, _int]),
+    "pb_plan_forward_device": (_int, [_vp, _sz, _vp, _vp]),
+    "pb_plan_adjoint_device": (_int, [_vp, _sz, _vp, _vp, _int]),
+    "pb_track_read": (_int, [ctypes.c_char_p, _P(TrackReadOptions), _P(_vp)]),
+    "pb_track_free": (None, [_vp]),
+    "pb_track_count": (_sz, [_vp]),
+    "pb_track_get_format": (_int, [_vp]),
+    "pb_track_times": (_P(_dbl), [_vp]),
+    "pb_track_poses": (_P(Pose), [_vp]),
+}
+for _name, (_res, _args) in _signatures.items():
+    _f = getattr(lib, _name)
+    _f.restype, _f.argtypes = _res, _args
+
+
+def message(ctx=None):
+    return (lib.pb_last_error(ctx) or b"").decode("utf-8", "replace")
+
+
+def check(status, ctx=None):
+    """Raises the error of a failed call; the message is ctx's last error (or
+    the calling thread's, for calls without a context)."""
+    if status != 0:
+        text = message(ctx) or lib.pb_status_string(status).decode()
+        raise error_class(status)(text, status)
+
+
+# Contexts shared by every operator on one device, each used by one thread at a
+# time (the C library's rule: a context, its volumes and plans share its queue
+# and timers). Operators on different devices run in parallel.
+_contexts = {}
+_contexts_lock = threading.Lock()
+
+
+class Context:
+    def __init__(self, backend, index):
+        opts = ContextOptions(backend, index, None)
+        handle = ctypes.c_void_p()
+        check(lib.pb_context_create(ctypes.byref(opts), ctypes.byref(handle)))
+        self.handle = handle
+        self.backend = lib.pb_context_backend(handle)
+        info = DeviceInfo()
+        check(lib.pb_context_device_info(handle, ctypes.byref(info)), handle)
+        self.name = info.name.decode("utf-8", "replace")
+        native = Native()
+        check(lib.pb_context_native(handle, ctypes.byref(native)), handle)
+        self.index = native.device_index if self.backend == BACKEND_CUDA else index
+        # Reentrant: a plan made lazily inside a call, and a finaliser that
+        # destroys one while the same thread holds the lock.
+        self.lock = threading.RLock()
+        self.stream = None  # the CUDA stream the context queues on now (None: its own)
+
+    def set_stream(self, stream):
+        """Under self.lock: queue on stream (a cudaStream_t as int, or None)."""
+        if stream != self.stream:
+            check(lib.pb_context_set_stream(self.handle, stream), self.handle)
+            self.stream = stream
+
+    def last_times(self):
+        """(device ms, of it the input's copy ms) of the context's last call;
+        after a call queued on a caller's stream, once it is done."""
+        ms, inp = ctypes.c_double(), ctypes.c_double()
+        with self.lock:
+            check(lib.pb_context_last_kernel_ms(self.handle, ctypes.byref(ms)), self.handle)
+            check(lib.pb_context_last_input_ms(self.handle, ctypes.byref(inp)), self.handle)
+        return ms.value, inp.value
+
+    @property
+    def device(self):
+        name = BACKEND_NAMES[self.backend]
+        return name if self.backend == BACKEND_HOST else f"{name}:{self.index}"
+
+
+def context(device):
+    """The shared context of a device spec: 'auto', 'host', 'opencl[:N]',
+    'cuda[:N]' (the command line's --device)."""
+    if not isinstance(device, str):
+        device = str(device)  # a torch.device or a CuPy Device's id
+    backend, index = ctypes.c_int(), ctypes.c_int()
+    check(lib.pb_device_parse(device.encode(), ctypes.byref(backend), ctypes.byref(index)))
+    key = (backend.value, index.value)
+    with _contexts_lock:
+        ctx = _contexts.get(key)
+        if ctx is None:
+            # 'auto' and the device it picks share one context.
+            new = Context(*key)
+            ctx = _contexts.setdefault((new.backend, new.index), new)
+            if ctx is not new:
+                lib.pb_context_destroy(new.handle)
+            _contexts[key] = ctx
+        return ctx
+
+
+def devices():
+    """Every device petblur can run on: a list of (spec, name)."""
+    out = []
+    for backend in (BACKEND_CUDA, BACKEND_OPENCL, BACKEND_HOST):
+        if not lib.pb_backend_compiled(backend):
+            continue
+        n = ctypes.c_int(0)
+        if lib.pb_device_count(backend, ctypes.byref(n)) != 0:
+            continue
+        for i in range(n.value):
+            info = DeviceInfo()
+            if lib.pb_device_get_info(backend, i, ctypes.byref(info)) == 0:
+                spec = "host" if backend == BACKEND_HOST else f"{BACKEND_NAMES[backend]}:{i}"
+                out.append((spec, info.name.decode("utf-8", "replace")))
+    return out

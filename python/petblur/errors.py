@@ -1,0 +1,52 @@
+"""Errors: every failure raises petblur.Error, of a subclass per status group
+of the C library (include/petblur.h), carrying the library's message, which
+says what went wrong and how to fix it."""
+
+
+class Error(Exception):
+    """A petblur failure. ``status`` is the C library's pb_status (negative),
+    ``message`` its text."""
+
+    def __init__(self, message, status=-1):
+        super().__init__(message)
+        self.message = message
+        self.status = status
+
+
+class ArgumentError(Error, ValueError):
+    """Bad arguments or inputs: shapes, dtypes, motions, options (-1 .. -99)."""
+
+
+class DeviceError(Error, RuntimeError):
+    """No such backend or device, or a runtime call failed (-200 .. -299)."""
+
+
+class BuildError(Error, RuntimeError):
+    """The kernels did not compile for the device (-300 .. -399)."""
+
+
+class LaunchError(Error, RuntimeError):
+    """A kernel launch failed (-400 .. -499)."""
+
+
+class OutOfMemoryError(Error, MemoryError):
+    """Host or device memory ran out (-500 .. -599)."""
+
+
+class FileError(Error, OSError):
+    """A file could not be read, or its content is malformed (-600 .. -699)."""
+
+
+def error_class(status):
+    """The subclass for a pb_status."""
+    if status >= -99:
+        return ArgumentError
+    if status >= -299:
+        return DeviceError
+    if status >= -399:
+        return BuildError
+    if status >= -499:
+        return LaunchError
+    if status >= -599:
+        return OutOfMemoryError
+    return FileError

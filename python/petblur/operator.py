@@ -1,0 +1,374 @@
+"""The blur B of one frame and of many, as linear operators over numpy, CuPy
+and PyTorch arrays, after parallelproj's LinearOperator: apply(x) (or
+op(x)), adjoint(y), in_shape, out_shape, adjointness_test().
+
+Each operator holds C plans (include/petblur.h): validated, planned and
+uploaded once, applied many times. A CUDA array (CuPy, a PyTorch CUDA tensor)
+is read and written in place on its GPU, on the caller's current stream, and
+the call returns once queued, as the framework's own operations do; numpy
+arrays go through the device's volumes (or, on the host backend, are read in
+place).
+
+Threads: operators are safe to use from several threads at once. Operators on
+one device share its context and take turns on it (a lock held during each
+call, with the GIL released inside the C library); operators on different
+devices run in parallel."""
+
+import ctypes
+import weakref
+
+import numpy as np
+
+from . import _lib
+from ._arrays import Array, pointer
+from .errors import ArgumentError
+from .motion import Motion
+
+_METHODS = {"ab": 0, "rm": 1, "cl": 2, "ref": 3}
+_FILTERS = {"hardware": 0, "exact": 1}
+# Index (k, j, i) of a C-ordered array's memory, read x fastest, to (i, j, k).
+_SWAP = np.array([[0, 0, 1, 0], [0, 1, 0, 0], [1, 0, 0, 0], [0, 0, 0, 1]], dtype=np.float64)
+
+
+def _shape3(shape):
+    try:
+        s = tuple(int(v) for v in shape)
+    except (TypeError, ValueError):
+        raise ArgumentError(f"shape must be three sizes (nx, ny, nz), not {shape!r}") from None
+    if len(s) != 3 or min(s) < 1 or any(int(v) != v for v in shape):
+        raise ArgumentError(f"shape must be three positive sizes (nx, ny, nz), not {shape!r}")
+    return s
+
+
+def _voxel3(voxel_size):
+    v = np.array(voxel_size, dtype=np.float64).reshape(-1)
+    if v.size == 1:
+        v = np.repeat(v, 3)
+    if v.size != 3 or not np.all(np.isfinite(v)) or np.any(v <= 0):
+        raise ArgumentError(f"voxel_size must be three positive sizes in mm (or one for cubes), not {voxel_size!r}")
+    return v
+
+
+def _release_plan(ctx, handle):
+    with ctx.lock:
+        _lib.lib.pb_plan_destroy(handle)
+
+
+def _release_volume(ctx, handle):
+    with ctx.lock:
+        _lib.lib.pb_volume_destroy(handle)
+
+
+class _Operator:
+    def __init__(self, shape, voxel_size, motion, bounds, method, filter, max_path_error, device, affine, steps):
+        self._shape = _shape3(shape)
+        self.voxel_size = _voxel3(voxel_size)
+        if not isinstance(motion, Motion):
+            raise ArgumentError(f"motion must be a petblur.Motion, not {type(motion).__name__}")
+        self.motion = motion
+        if method not in _METHODS:
+            raise ArgumentError(f"method {method!r}: choose 'ab' (the paper's antialiased Bresenham), 'rm', 'cl' or "
+                                "'ref'")
+        if filter not in _FILTERS:
+            raise ArgumentError(f"filter {filter!r}: choose 'hardware' (one filtered fetch per slice) or 'exact'")
+        if max_path_error is None:
+            mpe = 0.0  # the library's default bound
+        else:
+            mpe = float(max_path_error)
+            if not np.isfinite(mpe) or mpe <= 0:
+                raise ArgumentError(f"max_path_error {max_path_error!r}: give a positive bound in voxels, or None for "
+                                    "the default")
+        steps = int(steps)
+        if steps < 0:
+            raise ArgumentError(f"steps {steps}: give 0 (the paper's choice) or a positive count")
+        self.method, self.filter = method, filter
+        self._options = _lib.BlurOptions(_METHODS[method], _FILTERS[filter], steps, 0, 0, 0, mpe)
+        if affine is None:
+            a = np.eye(4)
+            a[:3, :3] = np.diag(self.voxel_size)
+            a[:3, 3] = 0.5 * self.voxel_size
+            self.affine = None
+            self._affine = a
+        else:
+            a = np.array(affine, dtype=np.float64)
+            if a.shape != (4, 4) or not np.all(np.isfinite(a)):
+                raise ArgumentError("affine must be a finite 4x4 voxel-to-world matrix (nibabel's img.affine)")
+            self.affine = self._affine = a
+        self._bounds = np.array(bounds, dtype=np.float64)
+        self._ctx = _lib.context(device)
+        self._plans = {}
+        self._volumes = {}
+        self._plan("F")  # every check now, not at the first call
+
+    # ---- parallelproj's LinearOperator ----
+
+    @property
+    def device(self):
+        """The device the operator runs on: 'host', 'opencl:N' or 'cuda:N'."""
+        return self._ctx.device
+
+    def __call__(self, x):
+        return self.apply(x)
+
+    def adjointness_test(self, rtol=1e-4, seed=None):
+        """<B x, y> against <x, B^T y> for random x and y (numpy, float64
+        sums): returns their relative difference, or raises AssertionError
+        beyond rtol."""
+        rng = np.random.default_rng(seed)
+        x = rng.random(self.in_shape, dtype=np.float32)
+        y = rng.random(self.out_shape, dtype=np.float32)
+        bx = self.apply(x)
+        bty = self.adjoint(y)
+        a = float(np.dot(bx.ravel().astype(np.float64), y.ravel().astype(np.float64)))
+        b = float(np.dot(x.ravel().astype(np.float64), bty.ravel().astype(np.float64)))
+        rel = abs(a - b) / max(abs(a), abs(b), np.finfo(np.float64).tiny)
+        if not rel <= rtol:
+            raise AssertionError(f"<Bx, y> = {a!r} but <x, B^T y> = {b!r}: relative difference {rel:.3g} > {rtol:g}")
+        return rel
+
+    def last_device_ms(self):
+        """(total, input) device milliseconds of the last call on this
+        operator's device, from device events: the whole call, and of it the
+        copy of the input into the texture. After a call queued on a CUDA
+        stream it waits for that call."""
+        return self._ctx.last_times()
+
+    # ---- plans and calls ----
+
+    def _plan(self, order):
+        """The plan for volumes of memory order 'F' (x fastest) or 'C' (z
+        fastest: the transposed grid, the motion's axes swapped with it)."""
+        plan = self._plans.get(order)
+        if plan is not None:
+            return plan
+        f = order == "F"
+        dims = self._shape if f else self._shape[::-1]
+        vox = self.voxel_size if f else self.voxel_size[::-1]
+        affine = self._affine if f else self._affine @ _SWAP
+        frame = (self._bounds[0], self._bounds[-1])
+        g, cm, keep = self.motion._c_motion(dims, vox, affine, frame)
+        handle = ctypes.c_void_p()
+        ctx = self._ctx
+        with ctx.lock:
+            if len(self._bounds) == 2 and not isinstance(self, FramesOperator):
+                st = _lib.lib.pb_plan_create(ctx.handle, ctypes.byref(g), ctypes.byref(cm),
+                                             ctypes.byref(self._options), ctypes.byref(handle))
+            else:
+                b = (ctypes.c_double * len(self._bounds))(*self._bounds)
+                st = _lib.lib.pb_plan_create_frames(ctx.handle, ctypes.byref(g), ctypes.byref(cm), b,
+                                                    len(self._bounds) - 1, ctypes.byref(self._options),
+                                                    ctypes.byref(handle))
+            _lib.check(st, ctx.handle)
+        weakref.finalize(self, _release_plan, ctx, handle)
+        self._plans[order] = (handle, g)
+        del keep
+        return self._plans[order]
+
+    def _volume_pair(self, order, g):
+        pair = self._volumes.get(order)
+        if pair is None:
+            ctx = self._ctx
+            pair = []
+            for _ in range(2):
+                v = ctypes.c_void_p()
+                _lib.check(_lib.lib.pb_volume_create(ctx.handle, ctypes.byref(g), ctypes.byref(v)), ctx.handle)
+                weakref.finalize(self, _release_volume, ctx, v)
+                pair.append(v)
+            self._volumes[order] = pair
+        return pair
+
+    def _run(self, arr, jobs, adjoint):
+        """jobs: (frame, input view, output view, accumulate), of one memory
+        order each; runs them in order."""
+        ctx = self._ctx
+        if arr.on_gpu:
+            if ctx.backend != _lib.BACKEND_CUDA:
+                raise ArgumentError(f"a CUDA array needs a CUDA operator, and this one runs on {self.device}; make it "
+                                    "with device='cuda' (or move the array to the host)")
+            if arr.device != ctx.index:
+                raise ArgumentError(f"the array is on cuda:{arr.device} and the operator on {self.device}; make the "
+                                    f"operator with device='cuda:{arr.device}' or move the array")
+            self._run_cuda(arr, jobs, adjoint)
+        elif ctx.backend == _lib.BACKEND_HOST:
+            with ctx.lock:
+                ctx.set_stream(None)
+                for frame, x, y, acc, order in jobs:
+                    plan = self._plan(order)[0]
+                    self._call_device(plan, frame, pointer(x, "numpy"), pointer(y, "numpy"), acc, adjoint)
+        else:
+            self._run_volumes(jobs, adjoint)
+
+    def _call_device(self, plan, frame, xp, yp, acc, adjoint):
+        lib, ctx = _lib.lib, self._ctx
+        st = (lib.pb_plan_adjoint_device(plan, frame, xp, yp, acc) if adjoint
+              else lib.pb_plan_forward_device(plan, frame, xp, yp))
+        _lib.check(st, ctx.handle)
+
+    def _run_cuda(self, arr, jobs, adjoint):
+        ctx = self._ctx
+        if arr.kind == "torch":
+            import torch
+            guard = torch.cuda.device(arr.device)
+            stream = torch.cuda.current_stream(arr.device).cuda_stream
+        else:
+            import cupy
+            guard = cupy.cuda.Device(arr.device)
+            stream = cupy.cuda.get_current_stream(arr.device).ptr
+        # The frameworks report the legacy default stream as 0, which the C
+        # library reads as "its own stream": cudaStreamLegacy is 0x1.
+        stream = stream or 1
+        plans = {order: self._plan(order)[0] for order in {j[4] for j in jobs}}
+        with guard, ctx.lock:
+            ctx.set_stream(stream)
+            for frame, x, y, acc, order in jobs:
+                self._call_device(plans[order], frame, pointer(x, arr.kind), pointer(y, arr.kind), acc, adjoint)
+
+    def _run_volumes(self, jobs, adjoint):
+        """numpy on a device: through the plan's volumes, uploaded and
+        downloaded (an accumulated output once, at the end)."""
+        lib, ctx = _lib.lib, self._ctx
+        with ctx.lock:
+            ctx.set_stream(None)
+            for i, (frame, x, y, acc, order) in enumerate(jobs):
+                plan, g = self._plan(order)
+                vin, vout = self._volume_pair(order, g)
+                _lib.check(lib.pb_volume_upload(vin, pointer(x, "numpy")), ctx.handle)
+                st = (lib.pb_plan_adjoint(plan, frame, vin, vout, acc) if adjoint
+                      else lib.pb_plan_forward(plan, frame, vin, vout))
+                _lib.check(st, ctx.handle)
+                last = i + 1 == len(jobs) or jobs[i + 1][2] is not y
+                if last:
+                    _lib.check(lib.pb_volume_download(vout, pointer(y, "numpy")), ctx.handle)
+
+
+def _check_shape(arr, shapes, what):
+    if arr.shape not in shapes:
+        want = " or ".join(str(s) for s in shapes)
+        raise ArgumentError(f"the {what} has shape {arr.shape}; the operator takes {want} (axis 0 is x, as nibabel "
+                            "holds volumes)")
+
+
+def _one_order(vols):
+    """Volumes all of one order (else all made C-contiguous)."""
+    if len({o for _, o in vols}) > 1:
+        vols = [(v if o == "C" else _c_copy(v), "C") for v, o in vols]
+    return vols
+
+
+def _c_copy(v):
+    if hasattr(v, "contiguous"):
+        return v.contiguous()
+    if type(v).__module__.startswith("cupy"):
+        import cupy
+        return cupy.ascontiguousarray(v)
+    return np.ascontiguousarray(v)
+
+
+class BlurOperator(_Operator):
+    """y = B x: the motion blur of one frame [t0, t1] of ``motion``, on a grid
+    of ``shape`` (nx, ny, nz) voxels of ``voxel_size`` mm, and its exact
+    transpose ``adjoint``. ``frame`` None takes the motion's whole track.
+    ``method`` 'ab' (the paper's), 'rm', 'cl' or 'ref'; ``filter``
+    'hardware' or 'exact'; ``max_path_error`` bounds a voxel's polyline
+    against its true path, in voxels (None: the library's 0.25); ``device``
+    'auto', 'host', 'opencl[:N]' or 'cuda[:N]'; ``affine`` the grid's
+    voxel-to-world 4x4 (the motion then in world mm). ``steps`` as the C
+    library's options (0: the paper's)."""
+
+    def __init__(self, shape, voxel_size, motion, frame=None, method="ab", filter="hardware", max_path_error=None,
+                 device="auto", affine=None, steps=0):
+        if frame is None:
+            if not isinstance(motion, Motion):
+                raise ArgumentError(f"motion must be a petblur.Motion, not {type(motion).__name__}")
+            frame = (motion.times[0], motion.times[-1])
+        try:
+            t0, t1 = (float(v) for v in frame)
+        except (TypeError, ValueError):
+            raise ArgumentError(f"frame must be (t0, t1) in seconds, not {frame!r}") from None
+        super().__init__(shape, voxel_size, motion, (t0, t1), method, filter, max_path_error, device, affine, steps)
+        self.frame = (t0, t1)
+
+    @property
+    def in_shape(self):
+        return self._shape
+
+    @property
+    def out_shape(self):
+        return self._shape
+
+    def apply(self, x):
+        """B x: the activity x (in_shape) blurred; the same array type, device
+        and dtype back."""
+        return self._direction(x, False, "object (the activity)")
+
+    def adjoint(self, y):
+        """B^T y: the transpose, for back projection."""
+        return self._direction(y, True, "tomograph-space volume")
+
+    def _direction(self, x, adjoint, what):
+        arr = Array(x, what)
+        _check_shape(arr, [self._shape], what)
+        ((v, order),) = arr.volumes(self._shape)
+        out = arr.empty(self._shape, order)
+        self._run(arr, [(0, v, out, 0, order)], adjoint)
+        return arr.result(out)
+
+
+class FramesOperator(_Operator):
+    """The blur of every frame [bounds[i], bounds[i+1]] of one ``track``: its
+    forward takes one activity (shape) blurred into every frame, or a 4-D array
+    of frames (frames, nx, ny, nz), each blurred by its own frame, and gives
+    (frames, nx, ny, nz). Its adjoint takes (frames, nx, ny, nz) and gives the
+    sum of the frames' transposes in one volume when ``per_frame`` is False
+    (the default: the transpose of one activity in every frame, a
+    motion-compensated image from all frames), else each frame's transpose.
+    The other arguments as BlurOperator's."""
+
+    def __init__(self, shape, voxel_size, track, bounds, per_frame=False, method="ab", filter="hardware",
+                 max_path_error=None, device="auto", affine=None, steps=0):
+        b = np.array(bounds, dtype=np.float64).reshape(-1)
+        if b.size < 2:
+            raise ArgumentError(f"bounds must hold at least two times (one frame), not {b.size}")
+        super().__init__(shape, voxel_size, track, b, method, filter, max_path_error, device, affine, steps)
+        self.bounds = b
+        self.frames = b.size - 1
+        self.per_frame = bool(per_frame)
+
+    @property
+    def in_shape(self):
+        return (self.frames,) + self._shape if self.per_frame else self._shape
+
+    @property
+    def out_shape(self):
+        return (self.frames,) + self._shape
+
+    def apply(self, x):
+        """Every frame's blur of x: one activity (shape) or one per frame
+        (frames, nx, ny, nz)."""
+        arr = Array(x, "activity")
+        _check_shape(arr, [self._shape, (self.frames,) + self._shape], "activity")
+        vols = _one_order(arr.volumes(self._shape))
+        order = vols[0][1]
+        out = arr.empty((self.frames,) + self._shape, order)
+        jobs = [(f, vols[f if len(vols) > 1 else 0][0], out[f], 0, order) for f in range(self.frames)]
+        self._run(arr, jobs, False)
+        return arr.result(out)
+
+    def adjoint(self, y, sum=None):
+        """The frames' transposes of y (frames, nx, ny, nz): summed into one
+        volume (``sum`` True; the default unless per_frame), else one per
+        frame."""
+        if sum is None:
+            sum = not self.per_frame
+        arr = Array(y, "frames")
+        _check_shape(arr, [(self.frames,) + self._shape], "frames")
+        vols = _one_order(arr.volumes(self._shape))
+        order = vols[0][1]
+        if sum:
+            out = arr.empty(self._shape, order)
+            jobs = [(f, vols[f][0], out, int(f > 0), order) for f in range(self.frames)]
+        else:
+            out = arr.empty((self.frames,) + self._shape, order)
+            jobs = [(f, vols[f][0], out[f], 0, order) for f in range(self.frames)]
+        self._run(arr, jobs, True)
+        return arr.result(out)
