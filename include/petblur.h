@@ -64,7 +64,10 @@ typedef enum pb_status {
     PB_ERR_LAUNCH = -400,
 
     /* -500 .. -599: memory */
-    PB_ERR_OUT_OF_MEMORY = -500 /* host or device memory */
+    PB_ERR_OUT_OF_MEMORY = -500, /* host or device memory */
+
+    /* -600 .. -699: files */
+    PB_ERR_BAD_FILE = -600 /* a file that cannot be opened or read, or whose content is malformed */
 } pb_status;
 
 /* A short fixed description of a status ("out of memory"). Never NULL. */
@@ -224,6 +227,92 @@ PB_API pb_status pb_pose_to_matrix(const pb_pose *pose, double matrix[16]);
  * and frame, and the centre in grid mm. */
 PB_API pb_status pb_motion_world_to_grid(const pb_geometry *geometry, const double affine[16],
                                          const pb_motion *world, pb_pose *grid_poses, pb_motion *grid);
+
+/* ---- pose tracks from files -------------------------------------------- */
+
+/* Trackers and toolkits log motion in their own formats; pb_track_read reads
+ * them as the command line's --motion does (the same poses, the same
+ * messages), so that a binding needs no parser of its own:
+ *  - PB_TRACK_CSV: petblur's own, a header naming t,tx,ty,tz,qw,qx,qy,qz (s,
+ *    mm, unit quaternion; any order, extra columns ignored; the quaternion may
+ *    be numbered q0..q3 or q1..q4 instead of named);
+ *  - PB_TRACK_MATRIX_CSV: t and a 3x4 rigid matrix row by row,
+ *    r00,r01,r02,tx,r10,...,tz, as yrt-pet writes it (header optional; a 14th
+ *    column, yrt-pet's error, ignored; fields split at commas and blanks);
+ *  - PB_TRACK_POLARIS: NDI Polaris logs in the two layouts STIR reads, .mt
+ *    ("time rand tool q0 qx qy qz tx ty tz rms", time in s) and the NDI
+ *    Toolviewer CSV ("Frame,Q0,Qx,Qy,Qz,x,y,z,Error,OOV" on a 60 Hz frame
+ *    clock, time counted from the first record); missing samples are skipped
+ *    and counted.
+ * PB_TRACK_AUTO tells the format from the file's first line. It is 0, so that
+ * zero-initialised options are the defaults, as everywhere in this header. */
+typedef enum pb_track_format {
+    PB_TRACK_AUTO = 0,
+    PB_TRACK_CSV = 1,
+    PB_TRACK_MATRIX_CSV = 2,
+    PB_TRACK_POLARIS = 3
+} pb_track_format;
+
+/* The conventions a file does not carry. Zero-initialised options (or NULL)
+ * are the defaults: the format told from the content, seconds, w,x,y,z. */
+typedef struct pb_track_read_options {
+    pb_track_format format;
+    /* csv and matrix-csv: the file's time units per second, 1 (or 0) for
+     * seconds, 1000 for milliseconds (yrt-pet's). A Polaris log gives seconds. */
+    double time_divisor;
+    /* csv: nonzero when a header's numbered quaternion columns (q0..q3) are
+     * x,y,z,w rather than w,x,y,z. Named columns (qw,qx,qy,qz) carry their
+     * order, and the other formats no choice: they refuse it. */
+    int xyzw;
+} pb_track_read_options;
+
+/* A track read from a file: samples in time order, each with its line. */
+typedef struct pb_track pb_track;
+
+/* Reads the track at path. Every number must be finite, the times strictly
+ * increasing, csv quaternions of unit norm to 1e-3 (Polaris's are normalised,
+ * as NDI's manual allows them not to be), matrices rigid, and there must be
+ * at least two poses. options may be NULL (defaults). On failure *track is
+ * NULL, and pb_last_error(NULL) of the calling thread says
+ * "FILE:LINE: what is wrong; how to fix it" (the command line's words, its
+ * option names included):
+ *   PB_ERR_BAD_FILE          the file cannot be opened or read, or is malformed
+ *   PB_ERR_NOT_FINITE        a number beyond double's range, NaN or infinity
+ *   PB_ERR_BAD_QUATERNION    a zero quaternion, or a csv one far from unit norm
+ *   PB_ERR_NOT_RIGID         a matrix that is no rotation plus translation
+ *   PB_ERR_TRACK_ORDER       times that do not increase, or fewer than two poses
+ *   PB_ERR_INVALID_ARGUMENT  NULL path or track, an unknown format, a time
+ *                            divisor that is negative or not finite, or an
+ *                            option the file's format does not take
+ *   PB_ERR_OUT_OF_MEMORY */
+PB_API pb_status pb_track_read(const char *path, const pb_track_read_options *options, pb_track **track);
+PB_API void pb_track_free(pb_track *track);
+
+/* What a track holds: pb_track_count samples, each of the arrays below that
+ * long, owned by the track and valid until pb_track_free. For a NULL track:
+ * 0, PB_TRACK_AUTO and NULL. */
+PB_API size_t pb_track_count(const pb_track *track);
+/* The format read: for PB_TRACK_AUTO, the one told from the content. */
+PB_API pb_track_format pb_track_get_format(const pb_track *track);
+/* Seconds, strictly increasing. */
+PB_API const double *pb_track_times(const pb_track *track);
+/* The poses as the file gives them, untouched by any convention (calibration,
+ * reference pose, inversion: the caller's to apply). csv: poses about the
+ * motion's centre, as pb_motion takes them (the grid's centre, or its
+ * has_center). matrix-csv and polaris: rigid 4x4 maps about the origin of
+ * their frame, p' = R p + t (pb_pose_to_matrix gives the matrix back); as a
+ * pb_motion they need has_center = 1 and a centre at that origin, in world mm
+ * through pb_motion_world_to_grid. A Polaris pose is the tool's in the
+ * tracker's frame. */
+PB_API const pb_pose *pb_track_poses(const pb_track *track);
+/* Each pose's line in the file, from 1: what messages about a sample name. */
+PB_API const size_t *pb_track_lines(const pb_track *track);
+/* Missing samples skipped just before each pose (Polaris logs; 0 elsewhere):
+ * interpolating across a long run of them would invent the motion. */
+PB_API const size_t *pb_track_missing(const pb_track *track);
+
+/* "auto", "csv", "matrix-csv", "polaris"; "unknown" for any other value. */
+PB_API const char *pb_track_format_name(pb_track_format format);
 
 /* ---- blurring ---------------------------------------------------------- */
 

@@ -57,6 +57,7 @@ const char *pb_status_string(pb_status status)
     case PB_ERR_BUILD: return "kernel build failed";
     case PB_ERR_LAUNCH: return "kernel launch failed";
     case PB_ERR_OUT_OF_MEMORY: return "out of memory";
+    case PB_ERR_BAD_FILE: return "unreadable or malformed file";
     }
     return "unknown status";
 }

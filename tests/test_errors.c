@@ -237,7 +237,7 @@ static void test_contexts(pb_backend backend)
     for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++)
         expect(pb_device_parse(bad[i], &pb, &idx), PB_ERR_INVALID_ARGUMENT, bad[i], pb_last_error(NULL),
                "opencl[:N]");
-    for (int s = PB_OK; s >= PB_ERR_OUT_OF_MEMORY; s--)
+    for (int s = PB_OK; s >= PB_ERR_BAD_FILE; s--)
         pb_check(strlen(pb_status_string((pb_status)s)) > 0, "status %d has a string", s);
 }
 

@@ -107,7 +107,7 @@ static void track_summary(const pbc_motion *m)
         free(steps);
     }
     printf("%s: %s, %zu poses from %.9g to %.9g s (%.6g s), median step %.6g s (%.4g Hz)\n", m->source,
-           pbc_track_format_name(t->format), t->count, t->times[0], t->times[t->count - 1], span, median,
+           pb_track_format_name(t->format), t->count, t->times[0], t->times[t->count - 1], span, median,
            median > 0 ? 1.0 / median : 0.0);
     printf("missing samples: %zu in %zu gap%s, the longest %.6g s\n", missing, gaps, gaps == 1 ? "" : "s", gap);
 }

@@ -89,7 +89,7 @@ static int read_calibration(const char *path, double m[16])
             fscanf(f, "%*[^\n]");
             continue;
         }
-        if (n == 16 || pbc_track_number(word, &m[n]) != 0 || !isfinite(m[n]))
+        if (n == 16 || pbc_plain_number(word, &m[n]) != 0)
             rc = pbc_fail(PBC_EXIT_USAGE, "--calibration %s: '%s' %s; give the 4x4 tracker-to-scanner matrix as 16 "
                           "numbers, row by row (mm)", path, word, n == 16 ? "is a 17th value" : "is not a number");
         n++;
@@ -108,15 +108,26 @@ static int read_calibration(const char *path, double m[16])
     return rc;
 }
 
-static int track_options(const pbc_command *cmd, const pbc_args *args, pbc_track_read_options *o)
+static int parse_format(const char *text, pb_track_format *format)
+{
+    for (int i = PB_TRACK_CSV; i <= PB_TRACK_POLARIS; i++)
+        if (!strcmp(text, pb_track_format_name((pb_track_format)i))) {
+            *format = (pb_track_format)i;
+            return 0;
+        }
+    return pbc_fail(PBC_EXIT_USAGE, "--motion-format %s: choose csv (t,tx,ty,tz,qw,qx,qy,qz), matrix-csv (t and a "
+                    "3x4 matrix row by row, as yrt-pet writes) or polaris (NDI .mt or Toolviewer CSV)", text);
+}
+
+static int track_options(const pbc_command *cmd, const pbc_args *args, pb_track_read_options *o)
 {
     static const char *const units[] = {"s", "ms"}, *const orders[] = {"wxyz", "xyzw"};
     const char *v;
     int idx, rc = 0;
-    o->format = PBC_TRACK_AUTO;
+    o->format = PB_TRACK_AUTO;
     o->time_divisor = 1.0;
     o->xyzw = 0;
-    if ((v = pbc_arg(cmd, args, "--motion-format")) && (rc = pbc_track_format_parse(v, &o->format)))
+    if ((v = pbc_arg(cmd, args, "--motion-format")) && (rc = parse_format(v, &o->format)))
         return rc;
     if ((v = pbc_arg(cmd, args, "--time-unit"))) {
         if ((rc = pbc_parse_choice("--time-unit", v, units, 2, &idx)))
@@ -131,15 +142,48 @@ static int track_options(const pbc_command *cmd, const pbc_args *args, pbc_track
     return 0;
 }
 
+/* Room for n samples, their lines and missing counts zeroed. */
+static int track_alloc(pbc_track *t, size_t n)
+{
+    t->times = malloc(n * sizeof *t->times);
+    t->poses = malloc(n * sizeof *t->poses);
+    t->lines = calloc(n, sizeof *t->lines);
+    t->missing = calloc(n, sizeof *t->missing);
+    if (!t->times || !t->poses || !t->lines || !t->missing)
+        return pbc_fail(PBC_EXIT_RUNTIME, "out of memory for the motion's %zu poses", n);
+    t->count = n;
+    return 0;
+}
+
+/* The library's reader, its message printed as it stands. */
+static int track_read(const char *path, const pb_track_read_options *o, pbc_track *t)
+{
+    pb_track *file;
+    pb_status st = pb_track_read(path, o, &file);
+    if (st != PB_OK)
+        return pbc_fail(st == PB_ERR_OUT_OF_MEMORY ? PBC_EXIT_RUNTIME : PBC_EXIT_USAGE, "%s", pb_last_error(NULL));
+    size_t n = pb_track_count(file);
+    int rc = track_alloc(t, n);
+    if (!rc) {
+        memcpy(t->times, pb_track_times(file), n * sizeof *t->times);
+        memcpy(t->poses, pb_track_poses(file), n * sizeof *t->poses);
+        memcpy(t->lines, pb_track_lines(file), n * sizeof *t->lines);
+        memcpy(t->missing, pb_track_missing(file), n * sizeof *t->missing);
+        t->format = pb_track_get_format(file);
+    }
+    pb_track_free(file);
+    return rc;
+}
+
 static int motion_from_track(const pbc_command *cmd, const pbc_args *args, pbc_motion *m)
 {
-    pbc_track_read_options o;
+    pb_track_read_options o;
     const char *frame = pbc_arg(cmd, args, "--frame");
     int rc = track_options(cmd, args, &o);
-    if (rc || (rc = pbc_track_read(m->source, &o, &m->track)))
+    if (rc || (rc = track_read(m->source, &o, &m->track)))
         return rc;
     const pbc_track *t = &m->track;
-    m->about_origin = t->format != PBC_TRACK_CSV;
+    m->about_origin = t->format != PB_TRACK_CSV;
     double f[2] = {t->times[0], t->times[t->count - 1]};
     if (frame && (rc = pbc_parse_interval("--frame", frame, f)))
         return rc;
@@ -171,14 +215,16 @@ static int motion_from_pose(const pbc_command *cmd, const pbc_args *args, pbc_mo
         return pbc_fail(PBC_EXIT_USAGE, "--rotate %s: more than ten turns within one frame; give the angle in "
                         "degrees", rot);
     size_t pieces = (size_t)fmax(1.0, ceil(fabs(deg) / MAX_ARC_DEG - 1e-12));
+    if ((rc = track_alloc(&m->track, pieces + 1)))
+        return rc;
     for (size_t i = 0; i <= pieces; i++) {
         double s = (double)i / (double)pieces;
         pb_pose p = {{s * t[0], s * t[1], s * t[2]}, {1, 0, 0, 0}};
         pb_quaternion_from_axis_angle(a, s * deg, p.rotation);
-        if ((rc = pbc_track_append("--translate/--rotate", 0, s, &p, 0, &m->track)))
-            return rc;
+        m->track.times[i] = s;
+        m->track.poses[i] = p;
     }
-    m->track.format = PBC_TRACK_CSV;
+    m->track.format = PB_TRACK_CSV;
     m->motion = (pb_motion){m->track.times, m->track.poses, m->track.count, 0.0, 1.0, 0, {0, 0, 0}};
     return 0;
 }
@@ -226,7 +272,7 @@ int pbc_motion_from_args(const pbc_command *cmd, const pbc_args *args, pbc_motio
         m->source = "--translate/--rotate";
     if (!rc && m->about_origin && m->has_center)
         rc = pbc_fail(PBC_EXIT_USAGE, "--center: a %s track's poses are rigid maps about the world's origin, so "
-                      "they carry their own centre; drop --center", pbc_track_format_name(m->track.format));
+                      "they carry their own centre; drop --center", pb_track_format_name(m->track.format));
     if (!rc && m->has_reference && (m->reference_time < m->track.times[0] ||
                                     m->reference_time > m->track.times[m->track.count - 1]))
         rc = pbc_fail(PBC_EXIT_USAGE, "--reference-time %.9g: the track %s covers %.9g to %.9g s; give a time inside "
@@ -254,7 +300,7 @@ static int apply_conventions(pbc_motion *m, const double c[3])
 {
     pbc_track *t = &m->track;
     double ref[16], cal_inv[16], mt[16];
-    int reference = m->has_reference || t->format == PBC_TRACK_POLARIS;
+    int reference = m->has_reference || t->format == PB_TRACK_POLARIS;
     if (!m->inverse && !reference && !m->has_calibration)
         return 0;
     if (m->inverse)
@@ -519,7 +565,11 @@ int pbc_motion_check_frame(const pbc_motion *m, const pbc_image *img, double t0,
 
 void pbc_motion_free(pbc_motion *m)
 {
-    pbc_track_free(&m->track);
+    free(m->track.times);
+    free(m->track.poses);
+    free(m->track.lines);
+    free(m->track.missing);
     free(m->grid);
+    memset(&m->track, 0, sizeof m->track);
     m->grid = NULL;
 }

@@ -7,7 +7,6 @@
 #include "image_io.h"
 #include "options.h"
 #include "petblur.h"
-#include "track.h"
 
 /* The option rows every command that takes a motion shares. */
 #define PBC_MOTION_OPTIONS                                                                                            \
@@ -30,6 +29,18 @@
                                     "default: the first sample)"},                                                   \
     {"--motion-inverse", NULL, NULL, "the track's poses map scanner to object (yrt-pet's matrices): invert them"},   \
     {"--frame", NULL, "T0,T1", "the frame inside the track, seconds (default the whole track)"}
+
+/* The track a motion is made of: a file's, as pb_track_read read it, or the
+ * poses --translate/--rotate make. Its own copy, since the conventions
+ * rewrite the poses in place. */
+typedef struct pbc_track {
+    double *times;   /* seconds, strictly increasing */
+    pb_pose *poses;  /* csv: about the motion's centre; the other formats: 4x4 maps about the origin */
+    size_t *lines;   /* each pose's line in the file (0 for --translate/--rotate) */
+    size_t *missing; /* missing samples skipped just before each pose */
+    size_t count;
+    pb_track_format format;
+} pbc_track;
 
 typedef struct pbc_motion {
     pb_motion motion;  /* in the grid frame once placed */

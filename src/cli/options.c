@@ -177,6 +177,11 @@ int pbc_parse_number(const char *option, const char *text, double *v)
     return 0;
 }
 
+int pbc_plain_number(const char *text, double *v)
+{
+    return numbers(text, 1, v);
+}
+
 int pbc_parse_count(const char *option, const char *text, unsigned long lo, unsigned long hi, unsigned long *v)
 {
     char *end;

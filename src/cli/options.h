@@ -51,6 +51,9 @@ int pbc_parse_vec3(const char *option, const char *text, int positive, double v[
 /* Two finite numbers "A,B" with A < B. */
 int pbc_parse_interval(const char *option, const char *text, double v[2]);
 int pbc_parse_number(const char *option, const char *text, double *v);
+/* The same without a message, for numbers inside a file: 0, or -1 when text is
+ * not one finite plain decimal number. */
+int pbc_plain_number(const char *text, double *v);
 /* "T0,T1,...": at least two increasing finite numbers, malloc'ed into *v. */
 int pbc_parse_bounds(const char *option, const char *text, double **v, size_t *count);
 int pbc_parse_count(const char *option, const char *text, unsigned long lo, unsigned long hi, unsigned long *v);

@@ -6,7 +6,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "cli.h"
+#include "error.h"
 #include "track.h"
 
 enum { MAX_FIELDS = 64, CSV_COLUMNS = 8, MATRIX_COLUMNS = 13 };
@@ -59,8 +59,8 @@ static void lower(char *s)
 /* Where each wanted column sits in the header; the quaternion's parts may be
  * named (qw, qx, qy, qz) or numbered (q0..q3 or q1..q4, in the order of
  * --quaternion-order). */
-static int map_header(const char *path, char **f, int n, const char *const *names, int count, int xyzw, int quat,
-                      int *column)
+static pb_status map_header(const char *path, char **f, int n, const char *const *names, int count, int xyzw,
+                            int quat, int *column)
 {
     static const char *const numbered[2][4] = {{"q0", "q1", "q2", "q3"}, {"q1", "q2", "q3", "q4"}};
     char found[512] = "";
@@ -89,70 +89,77 @@ static int map_header(const char *path, char **f, int n, const char *const *name
                 column[4 + k] = at[xyzw ? (k + 3) % 4 : k];
     }
     if (quat && named_q && xyzw)
-        return pbc_fail(PBC_EXIT_USAGE, "%s:1: the header names the quaternion's parts (qw,qx,qy,qz), so their order "
-                        "is known; --quaternion-order is for headers that number them (q0,q1,q2,q3)", path);
+        return pb_error(NULL, PB_ERR_INVALID_ARGUMENT, "%s:1: the header names the quaternion's parts (qw,qx,qy,qz), "
+                        "so their order is known; --quaternion-order is for headers that number them (q0,q1,q2,q3)",
+                        path);
     for (int c = 0; c < count; c++)
         if (column[c] < 0) {
             char expected[256] = "";
             for (int k = 0, u = 0; k < count; k++)
                 u += snprintf(expected + u, sizeof expected - (size_t)u, "%s%s", k ? "," : "", names[k]);
-            return pbc_fail(PBC_EXIT_USAGE, "%s:1: the header has no column '%s'; found '%s', expected the columns "
-                            "%s%s (any order, extra columns ignored)", path, names[c], found, expected,
+            return pb_error(NULL, PB_ERR_BAD_FILE, "%s:1: the header has no column '%s'; found '%s', expected the "
+                            "columns %s%s (any order, extra columns ignored)", path, names[c], found, expected,
                             quat ? " (or the quaternion as q0,q1,q2,q3 with --quaternion-order)" : "");
         }
-    return 0;
+    return PB_OK;
 }
 
-static int row_values(const char *path, size_t lineno, char **f, int n, const int need[2], const int *column,
-                      const char *const *names, int count, double *v)
+static pb_status row_values(const char *path, size_t lineno, char **f, int n, const int need[2], const int *column,
+                            const char *const *names, int count, double *v)
 {
     if (n < need[0] || n > need[1])
-        return pbc_fail(PBC_EXIT_USAGE, "%s:%zu: %d field%s where %s %d; fix that row", path, lineno, n,
-                        n == 1 ? "" : "s", need[0] == need[1] ? "the header has" : "a matrix row has 13 or", need[1]);
+        return pb_error(NULL, PB_ERR_BAD_FILE, "%s:%zu: %d field%s where %s %d; fix that row", path, lineno, n,
+                        n == 1 ? "" : "s", need[0] == need[1] ? "the header has" : "a matrix row has 13 or",
+                        need[1]);
     for (int c = 0; c < count; c++) {
         const char *text = f[column[c]];
-        int bad = pbc_track_number(text, &v[c]);
+        int bad = pb_track_number(text, &v[c]);
         if (!*text)
-            return pbc_fail(PBC_EXIT_USAGE, "%s:%zu: field %s is empty; every row needs all %d numbers", path, lineno,
-                            names[c], count);
+            return pb_error(NULL, PB_ERR_BAD_FILE, "%s:%zu: field %s is empty; every row needs all %d numbers", path,
+                            lineno, names[c], count);
         if (bad == 1)
-            return pbc_fail(PBC_EXIT_USAGE, "%s:%zu: field %s is '%s', not a number (plain decimal, e.g. -1.5e-3); "
-                            "fix that row", path, lineno, names[c], text);
+            return pb_error(NULL, PB_ERR_BAD_FILE, "%s:%zu: field %s is '%s', not a number (plain decimal, e.g. "
+                            "-1.5e-3); fix that row", path, lineno, names[c], text);
         if (bad == 2 || !isfinite(v[c]))
-            return pbc_fail(PBC_EXIT_USAGE, "%s:%zu: field %s is '%s', beyond any time, translation or rotation a "
-                            "track can hold; fix that row", path, lineno, names[c], text);
+            return pb_error(NULL, PB_ERR_NOT_FINITE, "%s:%zu: field %s is '%s', beyond any time, translation or "
+                            "rotation a track can hold; fix that row", path, lineno, names[c], text);
     }
-    return 0;
+    return PB_OK;
 }
 
-static int csv_pose(const char *path, size_t lineno, const double *v, double time_divisor, pbc_track *tr)
+static pb_status csv_pose(const char *path, size_t lineno, const double *v, double time_divisor, pb_track *tr)
 {
     pb_pose p;
     memcpy(p.translation, v + 1, 3 * sizeof(double));
-    int rc = pbc_track_unit_quaternion(path, lineno, v + 4, 1, p.rotation);
-    return rc ? rc : pbc_track_append(path, lineno, v[0] / time_divisor, &p, 0, tr);
+    pb_status st = pb_track_unit_quaternion(path, lineno, v + 4, 1, p.rotation);
+    return st != PB_OK ? st : pb_track_append(path, lineno, v[0] / time_divisor, &p, 0, tr);
 }
 
-static int matrix_pose(const char *path, size_t lineno, const double *v, double time_divisor, pbc_track *tr)
+static pb_status matrix_pose(const char *path, size_t lineno, const double *v, double time_divisor, pb_track *tr)
 {
     double m[16] = {v[1], v[2], v[3], v[4], v[5], v[6], v[7], v[8], v[9], v[10], v[11], v[12], 0, 0, 0, 1};
     pb_pose p;
-    if (pb_pose_from_matrix(m, &p) != PB_OK)
-        return pbc_fail(PBC_EXIT_USAGE, "%s:%zu: %s; fix that row", path, lineno, pb_last_error(NULL));
-    return pbc_track_append(path, lineno, v[0] / time_divisor, &p, 0, tr);
+    pb_status st = pb_pose_from_matrix(m, &p);
+    if (st != PB_OK) {
+        char why[512]; /* pb_error writes the text it would read */
+        snprintf(why, sizeof why, "%s", pb_last_error(NULL));
+        return pb_error(NULL, st, "%s:%zu: %s; fix that row", path, lineno, why);
+    }
+    return pb_track_append(path, lineno, v[0] / time_divisor, &p, 0, tr);
 }
 
-int pbc_track_read_csv(const char *path, FILE *f, const pbc_track_read_options *o, pbc_track *tr)
+pb_status pb_track_read_csv(const char *path, FILE *f, const pb_track_read_options *o, pb_track *tr)
 {
-    int matrix = tr->format == PBC_TRACK_MATRIX_CSV;
+    int matrix = tr->format == PB_TRACK_MATRIX_CSV;
     const char *const *names = matrix ? matrix_names : csv_names;
     int count = matrix ? MATRIX_COLUMNS : CSV_COLUMNS, column[MATRIX_COLUMNS], need[2] = {count, count};
     char line[4096], *fields[MAX_FIELDS];
-    int rc = 0, header = 0;
+    pb_status rc = PB_OK;
+    int header = 0;
     for (size_t lineno = 1; !rc; lineno++) {
-        int got = pbc_track_line(path, f, lineno, line, sizeof line);
+        int got = pb_track_line(path, f, lineno, line, sizeof line);
         if (got != 1) {
-            rc = got;
+            rc = (pb_status)got;
             break;
         }
         char *s = lineno == 1 && !strncmp(line, "\xEF\xBB\xBF", 3) ? line + 3 : line; /* spreadsheets' BOM */
@@ -162,7 +169,7 @@ int pbc_track_read_csv(const char *path, FILE *f, const pbc_track_read_options *
         if (!header) {
             header = 1;
             double first;
-            if (matrix && pbc_track_number(fields[0], &first) == 0) {
+            if (matrix && pb_track_number(fields[0], &first) == 0) {
                 /* yrt-pet writes no header: t, the 12 entries, and an error */
                 for (int c = 0; c < count; c++)
                     column[c] = c;
@@ -176,14 +183,14 @@ int pbc_track_read_csv(const char *path, FILE *f, const pbc_track_read_options *
         }
         double v[MATRIX_COLUMNS];
         if (n > MAX_FIELDS)
-            rc = pbc_fail(PBC_EXIT_USAGE, "%s:%zu: more than %d fields; is this a pose track?", path, lineno,
-                          MAX_FIELDS);
+            rc = pb_error(NULL, PB_ERR_BAD_FILE, "%s:%zu: more than %d fields; is this a pose track?", path,
+                          lineno, MAX_FIELDS);
         else if (!(rc = row_values(path, lineno, fields, n, need, column, names, count, v)))
             rc = matrix ? matrix_pose(path, lineno, v, o->time_divisor, tr)
                         : csv_pose(path, lineno, v, o->time_divisor, tr);
     }
     if (!rc && !header)
-        rc = pbc_fail(PBC_EXIT_USAGE, "%s: no rows; a track needs the header %s and at least two rows", path,
-                      matrix ? "t,r00,r01,r02,tx,...,tz" : "t,tx,ty,tz,qw,qx,qy,qz");
+        rc = pb_error(NULL, PB_ERR_BAD_FILE, "%s: no rows; a track needs the header %s and at least two rows",
+                      path, matrix ? "t,r00,r01,r02,tx,...,tz" : "t,tx,ty,tz,qw,qx,qy,qz");
     return rc;
 }

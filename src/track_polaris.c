@@ -12,7 +12,7 @@
 #include <math.h>
 #include <string.h>
 
-#include "cli.h"
+#include "error.h"
 #include "track.h"
 
 #define TOOLVIEWER_HZ 60.0
@@ -22,31 +22,31 @@ static int missing_line(const char *s)
     return strstr(s, "---- Missing ----") || strstr(s, "MISSING");
 }
 
-static int add_record(const char *path, size_t lineno, double t, const double q[4], const double tr[3],
-                      size_t *missing, pbc_track *track)
+static pb_status add_record(const char *path, size_t lineno, double t, const double q[4], const double tr[3],
+                            size_t *missing, pb_track *track)
 {
     pb_pose p;
     for (int i = 0; i < 3; i++)
         if (!isfinite(tr[i]) || !isfinite(q[i]) || !isfinite(q[3]))
-            return pbc_fail(PBC_EXIT_USAGE, "%s:%zu: a record holds NaN or infinity; drop or repair it", path,
-                            lineno);
+            return pb_error(NULL, PB_ERR_NOT_FINITE, "%s:%zu: a record holds NaN or infinity; drop or repair it",
+                            path, lineno);
     memcpy(p.translation, tr, sizeof p.translation);
-    int rc = pbc_track_unit_quaternion(path, lineno, q, 0, p.rotation);
-    if (!rc)
-        rc = pbc_track_append(path, lineno, t, &p, *missing, track);
+    pb_status st = pb_track_unit_quaternion(path, lineno, q, 0, p.rotation);
+    if (st == PB_OK)
+        st = pb_track_append(path, lineno, t, &p, *missing, track);
     *missing = 0;
-    return rc;
+    return st;
 }
 
-static int read_mt(const char *path, FILE *f, pbc_track *track)
+static pb_status read_mt(const char *path, FILE *f, pb_track *track)
 {
     char line[4096], tool;
     size_t missing = 0;
     unsigned rand;
     for (size_t lineno = 2;; lineno++) {
-        int rc = pbc_track_line(path, f, lineno, line, sizeof line);
-        if (rc != 1)
-            return rc;
+        int got = pb_track_line(path, f, lineno, line, sizeof line);
+        if (got != 1)
+            return (pb_status)got;
         double t, q[4], tr[3], rms;
         int end = 0;
         if (!line[strspn(line, " \t")])
@@ -57,23 +57,24 @@ static int read_mt(const char *path, FILE *f, pbc_track *track)
         }
         if (sscanf(line, "%lf %u %c %lf %lf %lf %lf %lf %lf %lf %lf %n", &t, &rand, &tool, &q[0], &q[1], &q[2],
                    &q[3], &tr[0], &tr[1], &tr[2], &rms, &end) != 11 || line[end] || !isfinite(t))
-            return pbc_fail(PBC_EXIT_USAGE, "%s:%zu: not a Polaris record 'time rand tool q0 qx qy qz tx ty tz rms' "
-                            "nor '---- Missing ----'; fix or drop that line", path, lineno);
-        if ((rc = add_record(path, lineno, t, q, tr, &missing, track)))
-            return rc;
+            return pb_error(NULL, PB_ERR_BAD_FILE, "%s:%zu: not a Polaris record 'time rand tool q0 qx qy qz tx ty tz "
+                            "rms' nor '---- Missing ----'; fix or drop that line", path, lineno);
+        pb_status st = add_record(path, lineno, t, q, tr, &missing, track);
+        if (st != PB_OK)
+            return st;
     }
 }
 
-static int read_toolviewer(const char *path, FILE *f, pbc_track *track)
+static pb_status read_toolviewer(const char *path, FILE *f, pb_track *track)
 {
     char line[4096];
     size_t missing = 0;
     long long first = -1;
     int header = 0;
     for (size_t lineno = 2;; lineno++) {
-        int rc = pbc_track_line(path, f, lineno, line, sizeof line);
-        if (rc != 1)
-            return rc;
+        int got = pb_track_line(path, f, lineno, line, sizeof line);
+        if (got != 1)
+            return (pb_status)got;
         long long frame;
         double q[4], tr[3], err;
         unsigned oov;
@@ -90,15 +91,17 @@ static int read_toolviewer(const char *path, FILE *f, pbc_track *track)
         }
         if (sscanf(line, " %lld , %lf , %lf , %lf , %lf , %lf , %lf , %lf , %lf , %u %n", &frame, &q[0], &q[1], &q[2],
                    &q[3], &tr[0], &tr[1], &tr[2], &err, &oov, &end) != 10 || line[end])
-            return pbc_fail(PBC_EXIT_USAGE, "%s:%zu: not a Toolviewer record 'Frame,Q0,Qx,Qy,Qz,x,y,z,Error,OOV' nor "
-                            "'frame, MISSING'; fix or drop that line", path, lineno);
+            return pb_error(NULL, PB_ERR_BAD_FILE, "%s:%zu: not a Toolviewer record 'Frame,Q0,Qx,Qy,Qz,x,y,z,Error,"
+                            "OOV' nor 'frame, MISSING'; fix or drop that line", path, lineno);
         first = first < 0 ? frame : first;
-        if ((rc = add_record(path, lineno, ((double)frame - (double)first) / TOOLVIEWER_HZ, q, tr, &missing, track)))
-            return rc;
+        double t = ((double)frame - (double)first) / TOOLVIEWER_HZ;
+        pb_status st = add_record(path, lineno, t, q, tr, &missing, track);
+        if (st != PB_OK)
+            return st;
     }
 }
 
-int pbc_polaris_layout(const char *first_line)
+int pb_polaris_layout(const char *first_line)
 {
     int d, mo, y, h, mi, s, n = 0;
     if (!strncmp(first_line, "Collection Data", 15))
@@ -106,17 +109,17 @@ int pbc_polaris_layout(const char *first_line)
     return sscanf(first_line, "%d/%d/%d %d:%d:%d -%n", &d, &mo, &y, &h, &mi, &s, &n) == 6 && n > 0;
 }
 
-int pbc_track_read_polaris(const char *path, FILE *f, pbc_track *track)
+pb_status pb_track_read_polaris(const char *path, FILE *f, pb_track *track)
 {
     char line[4096];
-    int rc = pbc_track_line(path, f, 1, line, sizeof line);
-    if (rc != 1)
-        return rc ? rc : pbc_fail(PBC_EXIT_USAGE, "%s: the file is empty", path);
-    int layout = pbc_polaris_layout(line);
+    int got = pb_track_line(path, f, 1, line, sizeof line);
+    if (got != 1)
+        return got ? (pb_status)got : pb_error(NULL, PB_ERR_BAD_FILE, "%s: the file is empty", path);
+    int layout = pb_polaris_layout(line);
     if (layout == 2)
         return read_toolviewer(path, f, track);
     if (layout == 1)
         return read_mt(path, f, track);
-    return pbc_fail(PBC_EXIT_USAGE, "%s:1: not a Polaris log: an .mt file starts 'DD/MM/YYYY hh:mm:ss - v1 v2 tool', "
-                    "a Toolviewer CSV 'Collection Data'; check --motion-format", path);
+    return pb_error(NULL, PB_ERR_BAD_FILE, "%s:1: not a Polaris log: an .mt file starts 'DD/MM/YYYY hh:mm:ss - v1 v2 "
+                    "tool', a Toolviewer CSV 'Collection Data'; check --motion-format", path);
 }
