@@ -140,5 +140,19 @@ def test_bad_files(tmp_path):
         petblur.Motion.from_file(one)
     with pytest.raises(petblur.ArgumentError, match="format"):
         petblur.Motion.from_file(one, format="json")
+    good = tmp_path / "good.csv"
+    good.write_text("t,tx,ty,tz,qw,qx,qy,qz\n0,0,0,0,1,0,0,0\n1,1,0,0,1,0,0,0\n")
     with pytest.raises(petblur.ArgumentError, match="calibration"):
-        petblur.Motion.from_file(bad.with_name("x"), calibration=np.eye(3))
+        petblur.Motion.from_file(good, calibration=np.eye(3))
+    with pytest.raises(petblur.ArgumentError, match="not rigid"):
+        petblur.Motion.from_file(good, calibration=np.diag([2.0, 1, 1, 1]))
+    with pytest.raises(petblur.ArgumentError, match="reference_time"):
+        petblur.Motion.from_file(good, reference_time=5.0)
+    with pytest.raises(petblur.ArgumentError, match="origin"):
+        petblur.Motion.from_file(_matrix_file(tmp_path), center=(1, 2, 3))
+
+
+def _matrix_file(tmp_path):
+    p = tmp_path / "m.csv"
+    p.write_text("0,1,0,0,0,0,1,0,0,0,0,1,0\n1,1,0,0,2,0,1,0,0,0,0,1,0\n")
+    return p
