@@ -1,6 +1,7 @@
 """Shared fixtures: the devices to test on (the host reference, and OpenCL
 where a device is there: PoCL in CI), the command-line program to compare
-with, and fresh random inputs (seeded per run, the seed printed on failure)."""
+with, and fresh random inputs (seeded per run, the seed printed on failure;
+PETBLUR_TEST_SEED replays one)."""
 
 import os
 import pathlib
@@ -35,7 +36,7 @@ def device(request):
 
 @pytest.fixture
 def rng(request):
-    seed = int.from_bytes(os.urandom(4), "little")
+    seed = int(os.environ.get("PETBLUR_TEST_SEED") or int.from_bytes(os.urandom(4), "little"))
     request.node.user_properties.append(("seed", seed))
     print(f"seed {seed}")
     return np.random.default_rng(seed)

@@ -40,7 +40,8 @@ def volume(tmp_path, rng):
     x = rng.random(shape, dtype=np.float32)
     path = tmp_path / "x.nii"
     nib.Nifti1Image(x, affine).to_filename(str(path))
-    return path, np.asfortranarray(x), nib.load(str(path)).affine, vox
+    img = nib.load(str(path))  # the geometry as stored, float32, as the program reads it
+    return path, np.asfortranarray(x), img.affine, np.array(img.header.get_zooms()[:3], dtype=np.float64)
 
 
 def _compare(cli, volume, tmp_path, motion, args, frame):
@@ -58,8 +59,9 @@ def _compare(cli, volume, tmp_path, motion, args, frame):
 def test_polaris_with_calibration(tmp_path, rng, cli, volume):
     n = 12
     t = 65912.5 + 0.05 * np.arange(n)
-    q = np.round(_small_turns(rng, n, 3.0), 4)
-    tr = np.round(np.array([-12.4, 56.8, -1893.3]) + rng.uniform(-3, 3, (n, 3)), 2)
+    # A head 1.9 m from the camera: 0.15 degrees move it by about 5 mm.
+    q = np.round(_small_turns(rng, n, 0.15), 4)
+    tr = np.round(np.array([-12.4, 56.8, -1893.3]) + rng.uniform(-2, 2, (n, 3)), 2)
     lines = ["23/5/2003 18:18:32 - 11 1 966_IRSL_II"]
     for i in range(n):
         lines.append(f"{t[i]:.3f} {13 + i} A " + " ".join(f"{v:.4f}" for v in q[i]) + " " +
