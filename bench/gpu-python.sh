@@ -1,8 +1,8 @@
 #!/usr/bin/env bash
 # On the GPU machine: the Python package end to end. Builds the C tree (the
 # CUDA and host suites, the caller's-stream test among them; test_plan under
-# compute-sanitizer's memcheck), installs the package with pip into a venv
-# that sees the machine's torch and CuPy (meson-python and nibabel come as
+# compute-sanitizer's memcheck), installs the package with pip beside the
+# machine's torch and CuPy (meson-python and nibabel come as
 # wheels in .whl/, nothing is downloaded there), runs the whole pytest suite
 # (numpy, CuPy and torch CUDA, autograd, threads) and bench/python_torch.py on
 # a 256^3 tensor. What comes back through $OUT: tests.txt, pytest.txt,
@@ -35,17 +35,21 @@ compute-sanitizer --tool memcheck --error-exitcode 99 --leak-check full ./build-
     tail -4 | tee "$OUT/sanitize.txt"
 [ "${PIPESTATUS[0]}" = 0 ] || { echo "memcheck test_plan: FAILED" | tee -a "$OUT/sanitize.txt"; status=1; }
 
-echo "== pip install . into a venv beside the machine's torch and CuPy =="
-venv=$(mktemp -d)/venv
-python3 -m venv --system-site-packages "$venv"
-"$venv/bin/pip" install -q --no-index --find-links .whl meson-python pyproject-metadata nibabel 2>&1 | tail -3
-"$venv/bin/pip" install -q --no-index --find-links .whl --no-build-isolation -Csetup-args=-Dgpu_archs=90 . \
+echo "== pip install . beside the machine's torch and CuPy =="
+# The machine's python3 may itself be a venv, whose packages a nested venv
+# would not see: install into a folder of our own on PYTHONPATH instead.
+site=$(mktemp -d)/site
+python3 -m pip install -q --no-deps --no-index --find-links .whl --target "$site" meson meson-python \
+    pyproject-metadata packaging nibabel 2>&1 | tail -3
+export PYTHONPATH=$site PATH="$site/bin:$PATH"
+python3 -m pip install -q --no-deps --no-index --no-build-isolation -Csetup-args=-Dgpu_archs=90 --target "$site" . \
     >/tmp/pip.log 2>&1 || { tail -40 /tmp/pip.log; exit 1; }
+python3 -c 'import petblur; print("installed:", petblur.__file__, petblur.devices())'
 echo "== pytest =="
 (cd /tmp && OCL_ICD_VENDORS=$vend PETBLUR_CLI=$OLDPWD/build-gpu/src/cli/petblur \
-    "$venv/bin/python" -m pytest -v -p no:cacheprovider "$OLDPWD/python/tests") >"$OUT/pytest.txt" 2>&1 || status=1
+    python3 -m pytest -v -p no:cacheprovider "$OLDPWD/python/tests") >"$OUT/pytest.txt" 2>&1 || status=1
 tail -25 "$OUT/pytest.txt"
 echo "== bench/python_torch.py =="
-(cd /tmp && "$venv/bin/python" "$OLDPWD/bench/python_torch.py" --out "$OUT/python_torch.csv") 2>&1 |
+(cd /tmp && python3 "$OLDPWD/bench/python_torch.py" --out "$OUT/python_torch.csv") 2>&1 |
     tee "$OUT/python_torch.md" || status=1
 exit $status

@@ -95,7 +95,7 @@ def main():
         case = {"nx": n, "ny": n, "nz": n, "vx": vs, "vy": vs, "vz": vs, "tx": t[0], "ty": t[1], "tz": t[2],
                 "rot_deg": deg}
         thetas = peer.thetas(case, S)
-        vol = x_c.permute(2, 1, 0)[None, None]  # (N, C, D=z, H=y, W=x), as grid_sample reads it
+        vol = x_c.permute(2, 1, 0).contiguous()[None, None]  # (N, C, D=z, H=y, W=x), dense, as a user holds it
         with torch.no_grad():
             gs_ms = event_ms(lambda: peer.blur(vol, thetas), max(3, args.runs // 5))
         for direction in ("forward", "adjoint"):
