@@ -46,23 +46,15 @@ class Array:
             if x.device.type == "cpu":  # the numpy path, on the tensor's own memory
                 self.kind = "torch-cpu"
                 x = x.numpy()
-        elif cupy is not None and isinstance(x, cupy.ndarray):
-            self.kind = "cupy"
-            self.device = x.device.id
+        elif isinstance(x, np.ndarray) or (cupy is not None and isinstance(x, cupy.ndarray)):
+            gpu = not isinstance(x, np.ndarray)
+            self.kind = "cupy" if gpu else "numpy"
+            self.device = x.device.id if gpu else -1
             self.dtype = x.dtype
             if x.dtype not in (np.float32, np.float64):
-                raise ArgumentError(f"the {what} is a {x.dtype} CuPy array; give float32 (or float64, computed in "
-                                    "float32): x.astype(cupy.float32)")
-            if x.dtype == np.float64:
-                x = x.astype(np.float32, order="K")
-        elif isinstance(x, np.ndarray):
-            self.kind = "numpy"
-            self.device = -1
-            x = np.asarray(x)
-            self.dtype = x.dtype
-            if x.dtype not in (np.float32, np.float64):
-                raise ArgumentError(f"the {what} is a {x.dtype} array; give float32 (or float64, computed in "
-                                    "float32): x.astype(numpy.float32)")
+                module = "cupy" if gpu else "numpy"
+                raise ArgumentError(f"the {what} is a {x.dtype} {'CuPy ' if gpu else ''}array; give float32 (or "
+                                    f"float64, computed in float32): x.astype({module}.float32)")
             if x.dtype == np.float64:
                 x = x.astype(np.float32, order="K")
         else:
