@@ -519,14 +519,17 @@ PB_API pb_status pb_context_last_input_ms(const pb_context *ctx, double *ms);
  * of the context's device: CuPy's or PyTorch's current stream;
  * cudaStreamLegacy, ((cudaStream_t)0x1), for the legacy default stream, whose
  * handle CuPy and PyTorch report as 0), or, with NULL, on its own stream
- * again. Work already queued is handed over: the new stream waits for it, so
- * calls stay in order across stream changes. While a caller's stream is set,
- * pb_plan_forward_device and pb_plan_adjoint_device return once their work is
- * queued, without waiting, as the caller's own kernels do: the output is ready
- * in stream order, a kernel's fault surfaces at the caller's next
- * synchronisation, and pb_context_last_kernel_ms waits for the last call to
- * give its time. Calls on volumes still return finished. On the host and
- * OpenCL backends NULL is accepted and anything else refused. */
+ * again. The new stream first waits for the end of the context's last call,
+ * so calls stay in order across stream changes; the old stream is not
+ * touched. While a caller's stream is set, blurs (pb_plan_*, pb_blur*) return
+ * once their work is queued there, without waiting, as the caller's own
+ * kernels do: the output is ready in stream order, a kernel's fault surfaces
+ * at the caller's next synchronisation, and pb_context_last_kernel_ms waits
+ * for the last call to give its time. Copies to and from host memory
+ * (pb_volume_upload, pb_volume_download, plan creation's) still return
+ * finished. The stream must stay alive while it is set: set NULL before
+ * destroying it. On the host and OpenCL backends NULL is accepted and
+ * anything else refused. */
 PB_API pb_status pb_context_set_stream(pb_context *ctx, void *stream);
 
 /* The paper's eq. (5): 100 * sum (x - ref)^2 / sum ref^2 over n voxels, in

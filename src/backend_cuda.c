@@ -29,6 +29,14 @@ static void cuda_native(const pb_context *ctx, pb_native *out)
 
 /* ---- buffers ----------------------------------------------------------- */
 
+/* Calls on a caller's stream return unfinished: before memory is freed, the
+ * end of the last call's work (stop; at once when it is done, or was never
+ * recorded). */
+static void wait_last_call(pb_context *ctx)
+{
+    cudaEventSynchronize(((cu_impl *)ctx->impl)->stop);
+}
+
 static pb_status cuda_buffer_create(pb_context *ctx, size_t bytes, void **buffer)
 {
     pb_status st = pb_cu_use_device(ctx);
@@ -41,9 +49,7 @@ static pb_status cuda_buffer_create(pb_context *ctx, size_t bytes, void **buffer
 static void cuda_buffer_release(pb_context *ctx, void *buffer)
 {
     pb_cu_use_device(ctx);
-    /* A call queued on a caller's stream may still use it. */
-    if (((cu_impl *)ctx->impl)->caller_used)
-        cudaDeviceSynchronize();
+    wait_last_call(ctx);
     cudaFree(buffer);
     (void)cudaGetLastError();
 }
@@ -126,10 +132,7 @@ static void cuda_image_release(pb_context *ctx, void *image)
 {
     cu_image *img = image;
     pb_cu_use_device(ctx);
-    /* Calls on a caller's stream return unfinished: a kernel may still read
-     * this image through its texture. */
-    if (((cu_impl *)ctx->impl)->caller_used)
-        cudaDeviceSynchronize();
+    wait_last_call(ctx);
     if (img->linear)
         cudaDestroyTextureObject(img->linear);
     if (img->point)
@@ -307,22 +310,22 @@ static int cuda_timer_wait(const pb_context *ctx, pb_status *status, double *tot
     return 1;
 }
 
+/* The new queue waits for the end of the context's last call (stop), so
+ * that calls stay in order; the old queue, which the caller may have
+ * destroyed since, is not touched. */
 static pb_status cuda_set_stream(pb_context *ctx, void *stream)
 {
     cu_impl *cu = ctx->impl;
     cudaStream_t next = stream ? (cudaStream_t)stream : cu->stream;
     pb_status st = pb_cu_use_device(ctx);
-    if (st != PB_OK || next == cu->queue)
+    if (st != PB_OK)
         return st;
-    cudaError_t e = cudaEventRecord(cu->handoff, cu->queue);
-    if (e == cudaSuccess)
-        e = cudaStreamWaitEvent(next, cu->handoff, 0);
+    cudaError_t e = next == cu->queue ? cudaSuccess : cudaStreamWaitEvent(next, cu->stop, 0);
     if (e != cudaSuccess)
         return pb_cu_fail(ctx, PB_ERR_INVALID_ARGUMENT,
                           "pb_context_set_stream (pass a live stream of the context's device)", e);
     cu->queue = next;
     cu->caller = stream != NULL;
-    cu->caller_used |= cu->caller;
     return PB_OK;
 }
 

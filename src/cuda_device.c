@@ -121,8 +121,7 @@ pb_status pb_cuda_context_init(pb_context *ctx, int index, const char *build_opt
     ctx->texture_weight_steps = PB_NVIDIA_WEIGHT_STEPS;
     cu->queue = cu->stream;
     if ((e = cudaEventCreate(&cu->start)) != cudaSuccess || (e = cudaEventCreate(&cu->mark)) != cudaSuccess ||
-        (e = cudaEventCreate(&cu->stop)) != cudaSuccess ||
-        (e = cudaEventCreateWithFlags(&cu->handoff, cudaEventDisableTiming)) != cudaSuccess)
+        (e = cudaEventCreate(&cu->stop)) != cudaSuccess)
         return pb_cu_fail(ctx, PB_ERR_DEVICE, "cudaEventCreate", e);
     /* A GPU the fat binary has no code for fails here, not at the first blur. */
     if ((e = pb_cuda_check_kernels()) != cudaSuccess)
@@ -136,14 +135,14 @@ void pb_cuda_context_release(pb_context *ctx)
     if (!cu)
         return;
     cudaSetDevice(cu->device);
+    if (cu->stop) /* the last call on a caller's stream may still run */
+        cudaEventSynchronize(cu->stop);
     if (cu->start)
         cudaEventDestroy(cu->start);
     if (cu->mark)
         cudaEventDestroy(cu->mark);
     if (cu->stop)
         cudaEventDestroy(cu->stop);
-    if (cu->handoff)
-        cudaEventDestroy(cu->handoff);
     if (cu->stream)
         cudaStreamDestroy(cu->stream);
     (void)cudaGetLastError();

@@ -16,10 +16,11 @@ typedef struct cu_impl {
     cudaStream_t stream;
     /* Where work is queued: stream, or the caller's (pb_context_set_stream),
      * where timer_end only records (pending) and calls return unfinished.
-     * handoff orders a new queue after the old one's work. */
+     * stop, recorded at the end of every call's work, is also what a new
+     * queue waits for, and what releases wait for. */
     cudaStream_t queue;
-    int caller, caller_used, pending;
-    cudaEvent_t start, mark, stop, handoff;
+    int caller, pending;
+    cudaEvent_t start, mark, stop;
     int marked;
 } cu_impl;
 

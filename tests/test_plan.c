@@ -330,9 +330,21 @@ static void check_frames(pb_context *ctx, const pb_geometry *g, const pb_blur_op
 }
 
 /* What a plan must refuse, each with its status. */
-/* A caller's stream (CUDA): calls queue on it and return unfinished; what
- * the caller then queues there sees their output, equal to the context's own
- * stream's. Elsewhere only NULL is taken. */
+/* A caller's stream (CUDA): calls queue on it, after the caller's own work
+ * there, and return unfinished; what the caller then queues there sees their
+ * output, equal to the context's own stream's. The stream is held shut by a
+ * gate (a host function that spins until the test opens it), with the input
+ * written behind the gate: a call that ran anywhere else, or waited, would
+ * read the stale input or never return. Then a second caller's stream after
+ * the first was destroyed. Elsewhere only NULL is taken. */
+#ifdef PB_HAVE_CUDA
+static void CUDART_CB gate_wait(void *flag)
+{
+    while (!__atomic_load_n((int *)flag, __ATOMIC_ACQUIRE))
+        ;
+}
+#endif
+
 static void check_caller_stream(pb_context *ctx, const pb_geometry *g, const pb_motion *m)
 {
     int dummy;
@@ -343,31 +355,54 @@ static void check_caller_stream(pb_context *ctx, const pb_geometry *g, const pb_
     }
 #ifdef PB_HAVE_CUDA
     size_t n = g->dims[0] * g->dims[1] * g->dims[2], bytes = n * sizeof(float);
-    float *x = pb_random_volume(n), *own = malloc(bytes), *got = malloc(bytes);
+    float *x = pb_random_volume(n), *stale = pb_random_volume(n), *own = malloc(bytes), *got = malloc(bytes);
+    float *pinned = NULL;
     void *din = dev_alloc(ctx, bytes), *dout = dev_alloc(ctx, bytes);
     pb_plan *plan = NULL;
     cudaStream_t s = NULL;
     if (!pb_check(din && dout && pb_plan_create(ctx, g, m, NULL, &plan) == PB_OK &&
-                  cudaStreamCreateWithFlags(&s, cudaStreamNonBlocking) == cudaSuccess,
+                  cudaMallocHost((void **)&pinned, bytes) == cudaSuccess,
                   "caller's stream: setting up: %s", pb_last_error(ctx)))
         goto done;
     for (int adjoint = 0; adjoint < 2; adjoint++) {
+        /* The own stream's result. */
         pb_check(dev_copy(ctx, din, x, bytes, 1), "caller's stream: writing device memory");
         pb_status st = adjoint ? pb_plan_adjoint_device(plan, 0, din, dout, 0) : pb_plan_forward_device(plan, 0, din, dout);
         pb_check(st == PB_OK && dev_copy(ctx, dout, own, bytes, 0), "own stream: %s", pb_last_error(ctx));
+        /* Stale input and poisoned output in place; the true input waits behind the gate. */
         poison(got, n);
-        pb_check(dev_copy(ctx, dout, got, bytes, 1), "caller's stream: poisoning the output");
+        pb_check(dev_copy(ctx, din, stale, bytes, 1) && dev_copy(ctx, dout, got, bytes, 1), "caller's stream: poisoning");
+        memcpy(pinned, x, bytes);
+        if (!pb_check(cudaStreamCreateWithFlags(&s, cudaStreamNonBlocking) == cudaSuccess, "cudaStreamCreate"))
+            break;
+        int open = 0;
+        pb_check(cudaLaunchHostFunc(s, gate_wait, &open) == cudaSuccess &&
+                 cudaMemcpyAsync(din, pinned, bytes, cudaMemcpyHostToDevice, s) == cudaSuccess, "the gate");
         pb_check(pb_context_set_stream(ctx, s) == PB_OK, "pb_context_set_stream: %s", pb_last_error(ctx));
         st = adjoint ? pb_plan_adjoint_device(plan, 0, din, dout, 0) : pb_plan_forward_device(plan, 0, din, dout);
         pb_check(st == PB_OK, "caller's stream: %s", pb_last_error(ctx));
-        poison(got, n);
-        cudaError_t e = cudaMemcpyAsync(got, dout, bytes, cudaMemcpyDeviceToHost, s);
-        pb_check(e == cudaSuccess && cudaStreamSynchronize(s) == cudaSuccess, "caller's stream: reading back");
+        pb_check(cudaStreamQuery(s) == cudaErrorNotReady, "caller's stream: the call did not return before its work");
+        pb_check(pb_context_set_stream(ctx, NULL) == PB_OK, "back to the own stream: %s", pb_last_error(ctx));
+        __atomic_store_n(&open, 1, __ATOMIC_RELEASE);
+        pb_check(cudaMemcpyAsync(got, dout, bytes, cudaMemcpyDeviceToHost, s) == cudaSuccess &&
+                 cudaStreamSynchronize(s) == cudaSuccess, "caller's stream: reading back");
         double ms = -1.0;
         pb_check(pb_context_last_kernel_ms(ctx, &ms) == PB_OK && ms > 0.0, "caller's stream: kernel time %g ms", ms);
-        pb_check(pb_context_set_stream(ctx, NULL) == PB_OK, "back to the own stream: %s", pb_last_error(ctx));
         pb_check(same(got, own, n, !adjoint, 1e-5), "caller's stream %s: differs from the own stream's by %g",
                  adjoint ? "adjoint" : "forward", pb_max_abs_diff(got, own, n));
+        /* The stream destroyed (the context left it), then another one. */
+        cudaStreamDestroy(s);
+        s = NULL;
+        pb_check(cudaStreamCreateWithFlags(&s, cudaStreamNonBlocking) == cudaSuccess &&
+                 pb_context_set_stream(ctx, s) == PB_OK, "a second caller's stream: %s", pb_last_error(ctx));
+        poison(got, n);
+        st = adjoint ? pb_plan_adjoint_device(plan, 0, din, dout, 0) : pb_plan_forward_device(plan, 0, din, dout);
+        pb_check(st == PB_OK && pb_context_set_stream(ctx, NULL) == PB_OK && cudaStreamSynchronize(s) == cudaSuccess &&
+                 dev_copy(ctx, dout, got, bytes, 0), "a second caller's stream: %s", pb_last_error(ctx));
+        pb_check(same(got, own, n, !adjoint, 1e-5), "a second caller's stream %s: differs by %g",
+                 adjoint ? "adjoint" : "forward", pb_max_abs_diff(got, own, n));
+        cudaStreamDestroy(s);
+        s = NULL;
     }
 done:
     pb_context_set_stream(ctx, NULL);
@@ -376,9 +411,10 @@ done:
     pb_plan_destroy(plan);
     dev_free(PB_BACKEND_CUDA, din);
     dev_free(PB_BACKEND_CUDA, dout);
-    free(x), free(own), free(got);
+    cudaFreeHost(pinned);
+    free(x), free(stale), free(own), free(got);
 #else
-    (void)g, (void)m;
+    (void)g, (void)m, (void)dummy;
 #endif
 }
 

@@ -8,8 +8,10 @@ microseconds against kernels of a tenth of a millisecond and more
 (bench/results, the Python benchmark). ctypes releases the GIL during every
 call, so operators on several GPUs run from several threads at once."""
 
+import contextlib
 import ctypes
 import os
+import sys
 import threading
 
 from .errors import error_class
@@ -157,19 +159,31 @@ class Context:
         # Reentrant: a plan made lazily inside a call, and a finaliser that
         # destroys one while the same thread holds the lock.
         self.lock = threading.RLock()
-        self.stream = None  # the CUDA stream the context queues on now (None: its own)
+
+    @contextlib.contextmanager
+    def use(self):
+        """The context to this thread (its lock), and, on CUDA, the thread's
+        current device given back afterwards: the library selects the
+        context's device in every call, which would otherwise move PyTorch's
+        and CuPy's current device under them."""
+        with self.lock:
+            if self.backend != BACKEND_CUDA:
+                yield self
+                return
+            with _device_guard():
+                yield self
 
     def set_stream(self, stream):
-        """Under self.lock: queue on stream (a cudaStream_t as int, or None)."""
-        if stream != self.stream:
-            check(lib.pb_context_set_stream(self.handle, stream), self.handle)
-            self.stream = stream
+        """Under use(): queue on stream (a cudaStream_t as int), or with None
+        on the context's own stream again; set back to None after every call,
+        so that the context never holds a stream its caller may destroy."""
+        check(lib.pb_context_set_stream(self.handle, stream), self.handle)
 
     def last_times(self):
         """(device ms, of it the input's copy ms) of the context's last call;
         after a call queued on a caller's stream, once it is done."""
         ms, inp = ctypes.c_double(), ctypes.c_double()
-        with self.lock:
+        with self.use():
             check(lib.pb_context_last_kernel_ms(self.handle, ctypes.byref(ms)), self.handle)
             check(lib.pb_context_last_input_ms(self.handle, ctypes.byref(inp)), self.handle)
         return ms.value, inp.value
@@ -178,6 +192,19 @@ class Context:
     def device(self):
         name = BACKEND_NAMES[self.backend]
         return name if self.backend == BACKEND_HOST else f"{name}:{self.index}"
+
+
+def _device_guard():
+    """Gives the thread's current CUDA device back after the block, through
+    the framework that cares about it (PyTorch's runtime and CuPy's read the
+    driver's current context, which the library's cudaSetDevice moves)."""
+    torch = sys.modules.get("torch")
+    if torch is not None and torch.cuda.is_initialized():
+        return torch.cuda.device(torch.cuda.current_device())
+    cupy = sys.modules.get("cupy")
+    if cupy is not None:
+        return cupy.cuda.Device()
+    return contextlib.nullcontext()
 
 
 def context(device):
@@ -192,7 +219,8 @@ def context(device):
         ctx = _contexts.get(key)
         if ctx is None:
             # 'auto' and the device it picks share one context.
-            new = Context(*key)
+            with _device_guard():
+                new = Context(*key)
             ctx = _contexts.setdefault((new.backend, new.index), new)
             if ctx is not new:
                 lib.pb_context_destroy(new.handle)

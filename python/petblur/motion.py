@@ -95,6 +95,7 @@ class Motion:
         self._reference_time = None
         self._inverse = False
         self._reference_default = False
+        self._warned = False
 
     def __len__(self):
         return self.times.size
@@ -201,7 +202,8 @@ class Motion:
             mats = [_rigid_inverse(m) for m in mats]
         ref = np.eye(4)
         if self._reference_time is not None:
-            if self._reference_default:
+            if self._reference_default and not self._warned:
+                self._warned = True
                 warnings.warn(f"{self._source}: no reference_time; the motion is taken relative to the first sample "
                               f"({self._reference_time:.9g} s)", stacklevel=3)
             rt, rq = _pose_matrix_track(self.times, mats, c, self._reference_time)

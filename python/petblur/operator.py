@@ -50,12 +50,12 @@ def _voxel3(voxel_size):
 
 
 def _release_plan(ctx, handle):
-    with ctx.lock:
+    with ctx.use():
         _lib.lib.pb_plan_destroy(handle)
 
 
 def _release_volume(ctx, handle):
-    with ctx.lock:
+    with ctx.use():
         _lib.lib.pb_volume_destroy(handle)
 
 
@@ -138,18 +138,18 @@ class _Operator:
     def _plan(self, order):
         """The plan for volumes of memory order 'F' (x fastest) or 'C' (z
         fastest: the transposed grid, the motion's axes swapped with it)."""
-        plan = self._plans.get(order)
-        if plan is not None:
-            return plan
-        f = order == "F"
-        dims = self._shape if f else self._shape[::-1]
-        vox = self.voxel_size if f else self.voxel_size[::-1]
-        affine = self._affine if f else self._affine @ _SWAP
-        frame = (self._bounds[0], self._bounds[-1])
-        g, cm, keep = self.motion._c_motion(dims, vox, affine, frame)
-        handle = ctypes.c_void_p()
         ctx = self._ctx
-        with ctx.lock:
+        with ctx.use():  # one plan per order, whichever thread asks first
+            plan = self._plans.get(order)
+            if plan is not None:
+                return plan
+            f = order == "F"
+            dims = self._shape if f else self._shape[::-1]
+            vox = self.voxel_size if f else self.voxel_size[::-1]
+            affine = self._affine if f else self._affine @ _SWAP
+            frame = (self._bounds[0], self._bounds[-1])
+            g, cm, keep = self.motion._c_motion(dims, vox, affine, frame)
+            handle = ctypes.c_void_p()
             if len(self._bounds) == 2 and not isinstance(self, FramesOperator):
                 st = _lib.lib.pb_plan_create(ctx.handle, ctypes.byref(g), ctypes.byref(cm),
                                              ctypes.byref(self._options), ctypes.byref(handle))
@@ -159,10 +159,10 @@ class _Operator:
                                                     len(self._bounds) - 1, ctypes.byref(self._options),
                                                     ctypes.byref(handle))
             _lib.check(st, ctx.handle)
-        weakref.finalize(self, _release_plan, ctx, handle)
-        self._plans[order] = (handle, g)
-        del keep
-        return self._plans[order]
+            del keep  # the C plan copied what it needs
+            weakref.finalize(self, _release_plan, ctx, handle)
+            self._plans[order] = (handle, g)
+            return self._plans[order]
 
     def _volume_pair(self, order, g):
         pair = self._volumes.get(order)
@@ -190,8 +190,7 @@ class _Operator:
                                     f"operator with device='cuda:{arr.device}' or move the array")
             self._run_cuda(arr, jobs, adjoint)
         elif ctx.backend == _lib.BACKEND_HOST:
-            with ctx.lock:
-                ctx.set_stream(None)
+            with ctx.use():
                 for frame, x, y, acc, order in jobs:
                     plan = self._plan(order)[0]
                     self._call_device(plan, frame, pointer(x, "numpy"), pointer(y, "numpy"), acc, adjoint)
@@ -208,27 +207,28 @@ class _Operator:
         ctx = self._ctx
         if arr.kind == "torch":
             import torch
-            guard = torch.cuda.device(arr.device)
             stream = torch.cuda.current_stream(arr.device).cuda_stream
         else:
             import cupy
-            guard = cupy.cuda.Device(arr.device)
-            stream = cupy.cuda.get_current_stream(arr.device).ptr
+            with cupy.cuda.Device(arr.device):
+                stream = cupy.cuda.get_current_stream().ptr
         # The frameworks report the legacy default stream as 0, which the C
         # library reads as "its own stream": cudaStreamLegacy is 0x1.
         stream = stream or 1
         plans = {order: self._plan(order)[0] for order in {j[4] for j in jobs}}
-        with guard, ctx.lock:
+        with ctx.use():
             ctx.set_stream(stream)
-            for frame, x, y, acc, order in jobs:
-                self._call_device(plans[order], frame, pointer(x, arr.kind), pointer(y, arr.kind), acc, adjoint)
+            try:
+                for frame, x, y, acc, order in jobs:
+                    self._call_device(plans[order], frame, pointer(x, arr.kind), pointer(y, arr.kind), acc, adjoint)
+            finally:
+                ctx.set_stream(None)
 
     def _run_volumes(self, jobs, adjoint):
         """numpy on a device: through the plan's volumes, uploaded and
         downloaded (an accumulated output once, at the end)."""
         lib, ctx = _lib.lib, self._ctx
-        with ctx.lock:
-            ctx.set_stream(None)
+        with ctx.use():
             for i, (frame, x, y, acc, order) in enumerate(jobs):
                 plan, g = self._plan(order)
                 vin, vout = self._volume_pair(order, g)
