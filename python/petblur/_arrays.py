@@ -61,6 +61,7 @@ class Array:
             raise ArgumentError(f"the {what} is a {type(x).__name__}; give a numpy or CuPy array or a torch tensor")
         self.data = x
         self.shape = tuple(x.shape)
+        self.what = what
 
     @property
     def on_gpu(self):
@@ -71,6 +72,8 @@ class Array:
         array, one per frame for a 4-D one; views in neither order are copied
         (C order)."""
         x = self.data
+        if not self.on_gpu:
+            _check_finite(x, self.what)
         parts = [x] if x.ndim == 3 else [x[f] for f in range(x.shape[0])]
         out = []
         for v in parts:
@@ -110,6 +113,18 @@ class Array:
             torch = _torch()
             return out.double() if self.dtype == torch.float64 else out
         return out.astype(np.float64) if self.dtype == np.float64 else out
+
+
+def _check_finite(x, what):
+    """Host arrays: one NaN would spread through every blur that reads it;
+    refused here, where the voxel can be named in the array's own axes. (CUDA
+    arrays are not read on the host for this, as the C library's device-memory
+    calls do not check them.)"""
+    finite = np.isfinite(x)
+    if not finite.all():
+        where = tuple(int(i) for i in np.argwhere(~finite)[0])
+        raise ArgumentError(f"the {what} is {x[where]} at {list(where)} (axes {'frame, ' if x.ndim == 4 else ''}x, y, "
+                            "z); replace NaN and infinite values first, for example with numpy.nan_to_num", -4)
 
 
 def pointer(v, kind):

@@ -35,7 +35,7 @@ def _shape3(shape):
         s = tuple(int(v) for v in shape)
     except (TypeError, ValueError):
         raise ArgumentError(f"shape must be three sizes (nx, ny, nz), not {shape!r}") from None
-    if len(s) != 3 or min(s) < 1 or any(int(v) != v for v in shape):
+    if len(s) != 3 or min(s) < 1 or max(s) >= 1 << 40 or any(int(v) != v for v in shape):
         raise ArgumentError(f"shape must be three positive sizes (nx, ny, nz), not {shape!r}")
     return s
 
@@ -46,6 +46,8 @@ def _voxel3(voxel_size):
         v = np.repeat(v, 3)
     if v.size != 3 or not np.all(np.isfinite(v)) or np.any(v <= 0):
         raise ArgumentError(f"voxel_size must be three positive sizes in mm (or one for cubes), not {voxel_size!r}")
+    if np.any(v < 1e-6) or np.any(v > 1e6):
+        raise ArgumentError(f"voxel_size {voxel_size!r}: give sizes in mm, between 1e-6 and 1e6")
     return v
 
 
@@ -79,7 +81,7 @@ class _Operator:
                 raise ArgumentError(f"max_path_error {max_path_error!r}: give a positive bound in voxels, or None for "
                                     "the default")
         steps = int(steps)
-        if steps < 0:
+        if steps < 0 or steps >= 1 << 32:
             raise ArgumentError(f"steps {steps}: give 0 (the paper's choice) or a positive count")
         self.method, self.filter = method, filter
         self._options = _lib.BlurOptions(_METHODS[method], _FILTERS[filter], steps, 0, 0, 0, mpe)

@@ -75,6 +75,15 @@ def test_dtypes(device, rng):
     for bad in (x.astype(np.int32), x.astype(np.float16), x.astype(np.complex64)):
         with pytest.raises(petblur.ArgumentError, match="float32"):
             op(bad)
+    # NaN and infinity are refused, named by the array's own index, in either order.
+    for order in ("C", "F"):
+        for value in (np.nan, np.inf):
+            bad = np.array(x, order=order)
+            i, j, k = (int(rng.integers(n)) for n in bad.shape)
+            bad[i, j, k] = value
+            with pytest.raises(petblur.ArgumentError, match=rf"\[{i}, {j}, {k}\]") as e:
+                op.adjoint(bad)
+            assert e.value.status == -4
 
 
 def test_shapes_and_refusals(device, rng):
@@ -92,8 +101,12 @@ def test_shapes_and_refusals(device, rng):
             petblur.BlurOperator((10, 9, 8), 2.0, m, device=device, **kwargs)
     with pytest.raises(petblur.ArgumentError, match="shape"):
         petblur.BlurOperator((10, 0, 8), 2.0, m, device=device)
-    with pytest.raises(petblur.ArgumentError, match="voxel_size"):
-        petblur.BlurOperator((10, 9, 8), (2, -1, 2), m, device=device)
+    for bad in ((2, -1, 2), 1e-300, (1, 1, np.inf)):
+        with pytest.raises(petblur.ArgumentError, match="voxel_size"):
+            petblur.BlurOperator((10, 9, 8), bad, m, device=device)
+    for steps in (-1, 1 << 40):  # not wrapped into C's unsigned
+        with pytest.raises(petblur.ArgumentError, match="steps"):
+            petblur.BlurOperator((10, 9, 8), 2.0, m, device=device, steps=steps)
     with pytest.raises(petblur.ArgumentError, match="4x4"):
         petblur.BlurOperator((10, 9, 8), 2.0, m, device=device, affine=np.eye(3))
     with pytest.raises(petblur.Error) as e:  # the frame outside the track: the library's own check and words
