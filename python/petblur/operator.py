@@ -234,7 +234,9 @@ class _Operator:
             for i, (frame, x, y, acc, order) in enumerate(jobs):
                 plan, g = self._plan(order)
                 vin, vout = self._volume_pair(order, g)
-                _lib.check(lib.pb_volume_upload(vin, pointer(x, "numpy")), ctx.handle)
+                # One activity in every frame: uploaded once (and laid out once).
+                if i == 0 or x is not jobs[i - 1][1]:
+                    _lib.check(lib.pb_volume_upload(vin, pointer(x, "numpy")), ctx.handle)
                 st = (lib.pb_plan_adjoint(plan, frame, vin, vout, acc) if adjoint
                       else lib.pb_plan_forward(plan, frame, vin, vout))
                 _lib.check(st, ctx.handle)
