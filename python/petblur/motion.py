@@ -15,7 +15,7 @@ import warnings
 import numpy as np
 
 from . import _lib
-from .errors import ArgumentError
+from .errors import ArgumentError, Error
 
 _FORMATS = {None: 0, "auto": 0, "csv": 1, "matrix-csv": 2, "polaris": 3}
 _FORMAT_NAMES = {1: "csv", 2: "matrix-csv", 3: "polaris"}
@@ -152,7 +152,14 @@ class Motion:
         opts = _lib.TrackReadOptions(_FORMATS[format], 1000.0 if time_unit == "ms" else 1.0,
                                      int(quaternion_order == "xyzw"))
         handle = ctypes.c_void_p()
-        _lib.check(_lib.lib.pb_track_read(os.fsencode(path), ctypes.byref(opts), ctypes.byref(handle)))
+        try:
+            _lib.check(_lib.lib.pb_track_read(os.fsencode(path), ctypes.byref(opts), ctypes.byref(handle)))
+        except Error as e:  # the readers' words name the command line's options: these are their names here
+            text = e.message
+            for option, name in (("--motion-format", "format"), ("--time-unit", "time_unit"),
+                                 ("--quaternion-order", "quaternion_order")):
+                text = text.replace(option, name)
+            raise type(e)(text, e.status) from None
         try:
             n = _lib.lib.pb_track_count(handle)
             fmt = _lib.lib.pb_track_get_format(handle)

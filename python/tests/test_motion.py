@@ -142,6 +142,10 @@ def test_bad_files(tmp_path):
         petblur.Motion.from_file(one)
     with pytest.raises(petblur.ArgumentError, match="format"):
         petblur.Motion.from_file(one, format="json")
+    # The reader's refusal of an option the format does not take, in this API's words.
+    with pytest.raises(petblur.Error, match="quaternion_order") as e:
+        petblur.Motion.from_file(_matrix_file(tmp_path), quaternion_order="xyzw")
+    assert "--" not in e.value.message
     good = tmp_path / "good.csv"
     good.write_text("t,tx,ty,tz,qw,qx,qy,qz\n0,0,0,0,1,0,0,0\n1,1,0,0,1,0,0,0\n")
     with pytest.raises(petblur.ArgumentError, match="calibration"):
