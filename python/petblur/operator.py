@@ -75,11 +75,13 @@ class _Operator:
             raise ArgumentError(f"filter {filter!r}: choose 'hardware' (one filtered fetch per slice) or 'exact'")
         if max_path_error is None:
             mpe = 0.0  # the library's default bound
+        elif max_path_error == "paper":
+            mpe = -1.0  # no cuts: one segment per tracked interval, the paper's polyline
         else:
             mpe = float(max_path_error)
             if not np.isfinite(mpe) or mpe <= 0:
-                raise ArgumentError(f"max_path_error {max_path_error!r}: give a positive bound in voxels, or None for "
-                                    "the default")
+                raise ArgumentError(f"max_path_error {max_path_error!r}: give a positive bound in voxels, None for "
+                                    "the default, or 'paper' for one segment per tracked interval")
         steps = int(steps)
         if steps < 0 or steps >= 1 << 32:
             raise ArgumentError(f"steps {steps}: give 0 (the paper's choice) or a positive count")
@@ -274,7 +276,8 @@ class BlurOperator(_Operator):
     transpose ``adjoint``. ``frame`` None takes the motion's whole track.
     ``method`` 'ab' (the paper's), 'rm', 'cl' or 'ref'; ``filter``
     'hardware' or 'exact'; ``max_path_error`` bounds a voxel's polyline
-    against its true path, in voxels (None: the library's 0.25); ``device``
+    against its true path, in voxels (None: the library's 0.25; 'paper': no
+    bound, one segment per tracked interval, as --max-path-error paper); ``device``
     'auto', 'host', 'opencl[:N]' or 'cuda[:N]'; ``affine`` the grid's
     voxel-to-world 4x4 (the motion then in world mm). ``steps`` as the C
     library's options (0: the paper's)."""

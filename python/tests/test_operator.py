@@ -45,6 +45,14 @@ def test_translation_equals_the_path_integral(device, rng):
 def test_adjointness(device, rng, method):
     op = petblur.BlurOperator((19, 14, 11), (1.2, 1.5, 1.1), _turn(rng), method=method, device=device)
     assert op.adjointness_test(rtol=1e-4, seed=int(rng.integers(1 << 30))) <= 1e-4
+    # The paper's polyline (one segment, no bound): its own operator, also transposed exactly.
+    if method != "cl":
+        turn = petblur.Motion.from_axis_angle(angle=80.0)  # the default bound cuts it, the paper does not
+        paper, bounded = (petblur.BlurOperator(op.in_shape, op.voxel_size, turn, method=method, max_path_error=e,
+                                               device=device) for e in ("paper", None))
+        x = rng.random(op.in_shape, dtype=np.float32)
+        assert np.abs(paper(x) - bounded(x)).max() > 1e-3
+        assert paper.adjointness_test(seed=int(rng.integers(1 << 30))) <= 1e-4
     # And by hand, in C order and in Fortran order.
     for order in ("C", "F"):
         x = np.asarray(rng.random(op.in_shape, dtype=np.float32), order=order)
