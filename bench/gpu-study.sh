@@ -1,12 +1,14 @@
 #!/usr/bin/env bash
 # On the GPU machine: issue 21's motion-compensated reconstruction study at
 # full size (examples/motion_study): the program (for the phantom) built, the
-# package installed by pip beside the machine's torch, ASTRA from .whl/
-# (astra-toolbox's cp312 wheel: bring it with pip download on this machine),
-# the study on CUDA (torch tensors; the projector as torch sparse), then its
+# package installed by pip beside the machine's torch, the study on CUDA
+# (torch tensors; the projector as torch sparse), then its
 # table and figures. What comes back through $OUT: results.json, table.md,
-# curves.png, slices.png, study.log, machine.txt.
-#   PB_COMMIT=$(git rev-parse --short HEAD) bash bench/gpu-study.sh
+# curves.png, slices.png, study.log, machine.txt. ASTRA's wheel needs CUDA
+# 12's cudart and cuFFT, which that machine lacks: its projector matrix is made
+# on this machine and carried, git-ignored, as .study/astra-128-180.npz:
+#   python3 examples/motion_study/study.py --preset full --matrix .study/astra-128-180.npz --make-matrix
+#   PB_COMMIT=$(git rev-parse --short HEAD) bash bench/gpu-study.sh   (carry .device .whl .study)
 set -uo pipefail
 cd "$(dirname "$0")/.."
 OUT=${OUT:-$PWD/gpu-out}
@@ -22,12 +24,13 @@ mkdir -p "$OUT"
     ninja -C build-gpu src/cli/petblur >/tmp/build.log 2>&1 || { tail -30 /tmp/setup.log /tmp/build.log; exit 1; }
 site=$(mktemp -d)/site
 python3 -m pip install -q --no-deps --no-index --find-links .whl --target "$site" meson meson-python \
-    pyproject-metadata packaging nibabel astra-toolbox 2>&1 | tail -3
+    pyproject-metadata packaging nibabel 2>&1 | tail -3
 export PYTHONPATH=$site PATH="$site/bin:$PATH"
 python3 -m pip install -q --no-deps --no-index --no-build-isolation -Csetup-args=-Dgpu_archs=90 \
     -Csetup-args=-Dopencl=disabled --target "$site" . >/tmp/pip.log 2>&1 || { tail -40 /tmp/pip.log; exit 1; }
 export PETBLUR_CLI=$PWD/build-gpu/src/cli/petblur
-python3 examples/motion_study/study.py --preset full --device cuda --out "$OUT/run" "$@" 2>&1 | tee "$OUT/study.log"
+python3 examples/motion_study/study.py --preset full --device cuda --matrix .study/astra-128-180.npz \
+    --out "$OUT/run" "$@" 2>&1 | tee "$OUT/study.log"
 status=${PIPESTATUS[0]}
 python3 examples/motion_study/report.py "$OUT/run" >/dev/null 2>>"$OUT/study.log" || status=1
 for f in results.json table.md curves.png slices.png; do cp "$OUT/run/$f" "$OUT/" 2>/dev/null; done

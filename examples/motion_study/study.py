@@ -73,9 +73,26 @@ def phantom(cli, dims, voxel, work):
     return np.ascontiguousarray(img.get_fdata(dtype=np.float32)), img.affine
 
 
-def projector_matrix(n, angles):
+def projector_matrix(n, angles, cache=None):
     """ASTRA's 2-D parallel-beam strip projector on an n x n slice, as a
-    sparse matrix (rays x pixels, the pixel of slice[i, j] at i * n + j)."""
+    sparse matrix (rays x pixels, the pixel of slice[i, j] at i * n + j).
+    cache: an .npz that holds it (made here when missing): the GPU machine
+    cannot load ASTRA's wheel (it needs CUDA 12's cudart and cuFFT), so the
+    matrix ASTRA made travels there as a file."""
+    if cache and os.path.exists(cache):
+        z = np.load(cache)
+        if int(z["n"]) != n or int(z["angles"]) != angles:
+            sys.exit(f"study.py: {cache} holds the matrix of {int(z['n'])} pixels and {int(z['angles'])} angles, "
+                     f"not {n} and {angles}; delete it to make it anew")
+        return sparse.csr_matrix((z["data"], z["indices"], z["indptr"]), shape=tuple(z["shape"]))
+    W = _astra_matrix(n, angles)
+    if cache:
+        np.savez_compressed(cache, data=W.data, indices=W.indices.astype(np.int32),
+                            indptr=W.indptr.astype(np.int32), shape=W.shape, n=n, angles=angles)
+    return W
+
+
+def _astra_matrix(n, angles):
     import astra
     vg = astra.create_vol_geom(n, n)
     pg = astra.create_proj_geom("parallel", 1.0, int(np.ceil(n * 1.45)), np.linspace(0, np.pi, angles,
@@ -288,7 +305,7 @@ def run(args):
     track = motion.track()
     frames = [(k * p["frame_s"], (k + 1) * p["frame_s"]) for k in range(p["frames"])]
     t = time.perf_counter()
-    W = projector_matrix(dims[0], p["angles"])
+    W = projector_matrix(dims[0], p["angles"], args.matrix)
     data = simulate(truth, motion, frames, p, rng, W, voxel)
     still = simulate(truth, motion, frames, p, rng, W, voxel, still=True)
     sim_s = time.perf_counter() - t
@@ -340,7 +357,14 @@ def main():
     ap.add_argument("--iterations", type=int, default=0)
     ap.add_argument("--methods", default="")
     ap.add_argument("--seed", type=int, default=1)
+    ap.add_argument("--matrix", default="", help="the projector's matrix as .npz: read when there, else made by "
+                    "ASTRA and written")
+    ap.add_argument("--make-matrix", action="store_true", help="only make --matrix for the preset, and stop")
     args = ap.parse_args()
+    if args.make_matrix:
+        p = PRESETS[args.preset]
+        projector_matrix(p["dims"][0], p["angles"], args.matrix)
+        return
     run(args)
 
 
