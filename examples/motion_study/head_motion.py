@@ -1,9 +1,9 @@
 """A head-motion track as an optical tracker logs it, at 30 Hz: a slow drift
-over the whole scan, a nod (a pitch of 8 degrees and back over some seconds),
-and a sudden seizure-like jerk (15 degrees and 10 mm within 2 s, then held).
-Poses are in grid mm along the array's axes (x left-right, y
-anterior-posterior, z the scanner axis), about a pivot near the neck, as
-petblur.Motion takes them: p' = R (p - c) + c + t.
+over the whole scan, a nod (a pitch of 8 degrees about the left-right axis and
+back over some seconds), and a sudden seizure-like jerk (15 degrees and 10 mm
+within 2 s, then held). Poses are in grid mm along the array's axes (axis 0
+left-right, 1 front-back, 2 the scanner axis), about a pivot the caller
+places (near the neck), as petblur.Motion takes them: p' = R (p - c) + c + t.
 
 The same analytic functions give the pose at any time, which the data
 simulation samples on its own (scipy's Rotation, not petblur's SLERP)."""
@@ -33,7 +33,7 @@ class HeadMotion:
         # Drift: 3 degrees of yaw and (2, 3, 1.5) mm over the scan.
         yaw = Rotation.from_rotvec(np.outer(np.radians(3.0) * drift, [0, 0, 1]))
         shift = np.outer(drift, [2.0, 3.0, 1.5])
-        # Nod: pitch down 8 degrees over 3 s, held 10 s, back over 4 s.
+        # Nod: pitch 8 degrees over 3 s, held 10 s, back over 4 s.
         down = _smoothstep((t - self.nod_at) / 3.0) - _smoothstep((t - self.nod_at - 13.0) / 4.0)
         nod = Rotation.from_rotvec(np.outer(np.radians(8.0) * down, [1, 0, 0]))
         # Jerk: 15 degrees about a tilted axis and 10 mm within 2 s, held.

@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """The study's outputs from a run folder (study.py's results.json and
 images.npz): table.md, curves.png (NRMSE and lesion contrast against
-iteration) and slices.png (central slices: truth, (a), (b), (e), (f)).
+iteration) and slices.png (slices: truth, (a), (b), (e), (f); axial through the first lesion).
 
   report.py DIR"""
 
@@ -57,13 +57,20 @@ def slices(res, images, path):
     truth = images["truth"]
     vmax = float(truth.max())
     nx, ny, nz = truth.shape
-    # The axial slice through the first lesion (z of its centre), the coronal and sagittal central ones.
+    dx, dy, dz = res["settings"]["voxel"]
+    # The phantom's array runs right to left, front to back, top to bottom:
+    # origin "upper" shows the head's top up, its front up in the axial row,
+    # and the patient's right on the left (radiological). The axial slice goes
+    # through the first lesion.
+    affine = np.array(res["settings"]["affine"])
+    lesion = np.linalg.inv(affine) @ np.array([*res["settings"]["lesions"][0][0], 1.0])
+    k = int(np.clip(round(lesion[2]), 0, nz - 1))
     fig, ax = plt.subplots(3, len(show), figsize=(2.6 * len(show), 7.4))
     for c, (key, label) in enumerate(show):
         v = images[key]
-        ax[0, c].imshow(v[:, :, int(0.62 * nz)].T, origin="lower", cmap="gray_r", vmin=0, vmax=vmax)
-        ax[1, c].imshow(v[:, ny // 2, :].T, origin="lower", cmap="gray_r", vmin=0, vmax=vmax, aspect=2.8 / 2.2)
-        ax[2, c].imshow(v[nx // 2, :, :].T, origin="lower", cmap="gray_r", vmin=0, vmax=vmax, aspect=2.8 / 2.2)
+        ax[0, c].imshow(v[:, :, k].T, origin="upper", cmap="gray_r", vmin=0, vmax=vmax, aspect=dy / dx)
+        ax[1, c].imshow(v[:, ny // 2, :].T, origin="upper", cmap="gray_r", vmin=0, vmax=vmax, aspect=dz / dx)
+        ax[2, c].imshow(v[nx // 2, :, :].T, origin="upper", cmap="gray_r", vmin=0, vmax=vmax, aspect=dz / dy)
         nrmse = "" if key == "truth" else f"\nNRMSE {res['results'][key]['history'][-1]['nrmse']:.3f}"
         ax[0, c].set_title(label + nrmse, fontsize=8)
         for r in range(3):

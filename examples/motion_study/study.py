@@ -41,11 +41,12 @@ import head_motion  # noqa: E402
 import petblur  # noqa: E402
 
 PRESETS = {
-    # grid, voxel mm, angles, frames (s), iterations, poses per frame in the data, counts per frame
+    # grid, voxel mm, angles, frames (s), iterations, poses per frame in the data (4 and 2 a second: the
+    # 2 s jerk gets 8 and 4), counts per frame
     "full": dict(dims=(128, 128, 64), voxel=(2.2, 2.2, 2.8), angles=180, frame_s=60.0, frames=4, iterations=40,
-                 poses=64, counts=3e7, methods="abcdef"),
+                 poses=240, counts=3e7, methods="abcdef"),
     "small": dict(dims=(48, 48, 24), voxel=(5.87, 5.87, 7.47), angles=60, frame_s=60.0, frames=4, iterations=15,
-                  poses=50, counts=3e6, methods="abdef"),
+                  poses=120, counts=3e6, methods="abdef"),
 }
 # The phantom's lesions (src/cli/phantom_brain.c): world centre mm, radius mm, activity.
 LESIONS = [((44.0, 52.0, 30.0), 4.0, 8.0), ((-28.0, -24.0, 4.0), 5.0, 6.0), ((22.0, -56.0, -40.0), 3.0, 7.0)]
@@ -151,7 +152,8 @@ def moved(x, rot, t, centre, voxel):
     Rt = rot.as_matrix().T
     M = np.diag(1 / d) @ Rt @ np.diag(d)
     off = (Rt @ (0.5 * d - centre - t) + centre) / d - 0.5
-    return ndimage.affine_transform(x, M, offset=off, order=1, mode="constant", cval=0.0)
+    # grid-constant: zero outside, interpolated across the border, as a texture with a zero border
+    return ndimage.affine_transform(x, M, offset=off, order=1, mode="grid-constant", cval=0.0)
 
 
 def simulate(truth, motion, frames, p, rng, W, voxel, still=False):
@@ -297,9 +299,11 @@ def run(args):
     truth, affine = phantom(find_cli(), p["dims"], p["voxel"], args.out)
     voxel = np.array(p["voxel"])
     dims = truth.shape
-    # The pivot: near the neck, below and behind the grid's centre.
-    centre = 0.5 * np.array(dims) * voxel
-    pivot = centre + np.array([0.0, -20.0, -0.45 * dims[2] * voxel[2]])
+    # The pivot near the neck: world (0, -20, -75) mm (RAS+: behind and below
+    # the brain's centre), in grid mm through the phantom's placement (whose
+    # array axes run right to left, front to back, top to bottom).
+    pivot = (np.linalg.inv(affine) @ np.array([0.0, -20.0, -75.0, 1.0]))[:3]
+    pivot = (pivot + 0.5) * voxel
     T = p["frame_s"] * p["frames"]
     motion = head_motion.HeadMotion(T, nod_at=0.3 * T, jerk_at=0.6 * T, pivot=pivot)
     track = motion.track()
@@ -342,7 +346,7 @@ def run(args):
     settings.update(preset=args.preset, device=args.device, seed=args.seed, simulation_s=sim_s,
                     petblur_device=petblur.BlurOperator(dims, voxel, petblur.Motion.from_axis_angle(),
                                                         device=args.device).device,
-                    track_samples=len(track[0]), pivot_mm=list(pivot))
+                    track_samples=len(track[0]), pivot_mm=list(pivot), affine=affine.tolist(), lesions=LESIONS)
     with open(os.path.join(args.out, "results.json"), "w") as f:
         json.dump({"settings": settings, "results": results}, f, indent=1)
     np.savez_compressed(os.path.join(args.out, "images.npz"), truth=truth, **images)
