@@ -11,3 +11,19 @@ export LD_LIBRARY_PATH="$dev/lib${LD_LIBRARY_PATH:+:$LD_LIBRARY_PATH}"
 export PATH="$PATH:/usr/local/cuda/bin"
 meson=(meson)
 command -v meson >/dev/null || meson=(python3 -m mesonbuild.mesonmain)
+
+# The package installed by pip beside the machine's torch and CuPy, from the
+# wheels in .whl/ (nothing is downloaded there), into a folder put on
+# PYTHONPATH: the machine's python3 may itself be a venv, whose packages a
+# nested venv would not see. Arguments: extra meson setup options.
+install_package() {
+    local site
+    site=$(mktemp -d)/site
+    python3 -m pip install -q --no-deps --no-index --find-links .whl --target "$site" meson meson-python \
+        pyproject-metadata packaging nibabel 2>&1 | tail -3
+    export PYTHONPATH=$site PATH="$site/bin:$PATH"
+    local args=(-Csetup-args=-Dgpu_archs=90)
+    for a in "$@"; do args+=("-Csetup-args=$a"); done
+    python3 -m pip install -q --no-deps --no-index --no-build-isolation "${args[@]}" --target "$site" . \
+        >/tmp/pip.log 2>&1 || { tail -40 /tmp/pip.log; return 1; }
+}

@@ -36,14 +36,7 @@ compute-sanitizer --tool memcheck --error-exitcode 99 --leak-check full ./build-
 [ "${PIPESTATUS[0]}" = 0 ] || { echo "memcheck test_plan: FAILED" | tee -a "$OUT/sanitize.txt"; status=1; }
 
 echo "== pip install . beside the machine's torch and CuPy =="
-# The machine's python3 may itself be a venv, whose packages a nested venv
-# would not see: install into a folder of our own on PYTHONPATH instead.
-site=$(mktemp -d)/site
-python3 -m pip install -q --no-deps --no-index --find-links .whl --target "$site" meson meson-python \
-    pyproject-metadata packaging nibabel 2>&1 | tail -3
-export PYTHONPATH=$site PATH="$site/bin:$PATH"
-python3 -m pip install -q --no-deps --no-index --no-build-isolation -Csetup-args=-Dgpu_archs=90 --target "$site" . \
-    >/tmp/pip.log 2>&1 || { tail -40 /tmp/pip.log; exit 1; }
+install_package || exit 1
 python3 -c 'import petblur; print("installed:", petblur.__file__, petblur.devices())'
 echo "== pytest =="
 (cd /tmp && OCL_ICD_VENDORS=$vend PETBLUR_CLI=$OLDPWD/build-gpu/src/cli/petblur \

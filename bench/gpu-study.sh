@@ -22,12 +22,7 @@ mkdir -p "$OUT"
 } | tee "$OUT/machine.txt"
 "${meson[@]}" setup build-gpu --buildtype=release -Dcuda=enabled -Dopencl=disabled -Dgpu_archs=90 >/tmp/setup.log 2>&1 &&
     ninja -C build-gpu src/cli/petblur >/tmp/build.log 2>&1 || { tail -30 /tmp/setup.log /tmp/build.log; exit 1; }
-site=$(mktemp -d)/site
-python3 -m pip install -q --no-deps --no-index --find-links .whl --target "$site" meson meson-python \
-    pyproject-metadata packaging nibabel 2>&1 | tail -3
-export PYTHONPATH=$site PATH="$site/bin:$PATH"
-python3 -m pip install -q --no-deps --no-index --no-build-isolation -Csetup-args=-Dgpu_archs=90 \
-    -Csetup-args=-Dopencl=disabled --target "$site" . >/tmp/pip.log 2>&1 || { tail -40 /tmp/pip.log; exit 1; }
+install_package -Dopencl=disabled || exit 1
 export PETBLUR_CLI=$PWD/build-gpu/src/cli/petblur
 python3 examples/motion_study/study.py --preset full --device cuda --matrix .study/astra-128-180.npz \
     --out "$OUT/run" "$@" 2>&1 | tee "$OUT/study.log"
