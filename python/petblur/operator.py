@@ -142,6 +142,9 @@ class _Operator:
     def _plan(self, order):
         """The plan for volumes of memory order 'F' (x fastest) or 'C' (z
         fastest: the transposed grid, the motion's axes swapped with it)."""
+        plan = self._plans.get(order)
+        if plan is not None:  # every call after the first: no lock, no device guard
+            return plan
         ctx = self._ctx
         with ctx.use():  # one plan per order, whichever thread asks first
             plan = self._plans.get(order)
