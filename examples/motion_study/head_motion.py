@@ -19,6 +19,12 @@ def _smoothstep(u):
     return u * u * (3.0 - 2.0 * u)
 
 
+def wxyz(rotations):
+    """scipy's rotations as unit quaternions w, x, y, z (petblur's order)."""
+    xyzw = np.atleast_2d(rotations.as_quat())
+    return np.column_stack([xyzw[:, 3], xyzw[:, :3]])
+
+
 class HeadMotion:
     """duration s; nod_at and jerk_at: when the nod and the jerk start, s."""
 
@@ -48,5 +54,4 @@ class HeadMotion:
         quaternions (w, x, y, z)."""
         t = np.arange(0.0, self.duration + 0.5 / RATE_HZ, 1.0 / RATE_HZ)
         r, shift = self.poses(t)
-        xyzw = r.as_quat()
-        return t, shift, np.column_stack([xyzw[:, 3], xyzw[:, :3]])
+        return t, shift, wxyz(r)

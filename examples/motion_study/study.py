@@ -201,9 +201,8 @@ def operators(method, truth_shape, voxel, motion, track, frames, device):
         if method == "b":
             rots, shifts = motion.poses(t[inside])
             r, s = mean_pose(rots, shifts)
-            xyzw = r.as_quat()
-            wxyz = [xyzw[3], *xyzw[:3]]
-            m = petblur.Motion([0.0, 1.0], [s, s], [wxyz, wxyz], center=c)
+            q = head_motion.wxyz(r)[0]
+            m = petblur.Motion([0.0, 1.0], [s, s], [q, q], center=c)
             out.append(petblur.BlurOperator(truth_shape, voxel, m, device=device))
         elif method == "c":
             m = petblur.Motion(t, tr, q, center=c)
@@ -211,8 +210,7 @@ def operators(method, truth_shape, voxel, motion, track, frames, device):
                                             device=device))
         elif method == "d":
             rots, shifts = motion.poses([t0, t1])
-            xyzw = rots.as_quat()
-            m = petblur.Motion([t0, t1], shifts, np.column_stack([xyzw[:, 3], xyzw[:, :3]]), center=c)
+            m = petblur.Motion([t0, t1], shifts, head_motion.wxyz(rots), center=c)
             out.append(petblur.BlurOperator(truth_shape, voxel, m, max_path_error="paper", device=device))
         elif method == "e":
             m = petblur.Motion(t, tr, q, center=c)
