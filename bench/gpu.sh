@@ -9,8 +9,9 @@
 # floor and the plots (bench/paper.sh). What comes back through $OUT (the
 # device tool returns at most 8 files): tables.md, tests.txt, paper.md,
 # paper.tar.gz (its CSVs, plots and logs), demo-cuda.png and logs.tar.gz with
-# everything else. Commit them under bench/results/ with the date, GPU and
-# commit.
+# everything else. Commit under bench/results/DATE_GPU_COMMIT only what a doc
+# cites (bench/results/README.md): the tarballs would outgrow the repository,
+# and git history keeps what a later run supersedes.
 #
 # The machine has no Khronos CL/ headers and no libOpenCL.so link name: bring
 # them in .device/ (git-ignored) with bench/gpu-prepare.sh on this machine.

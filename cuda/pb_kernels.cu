@@ -4,7 +4,7 @@
 #include <cuda_runtime.h>
 
 #include "../cl/pb_blur.cl"
-#include "../src/kernel_table.h"
+#include "../src/devices/kernel_table.h"
 #include "pb_cuda_launch.h"
 
 /* What a kernel reads, by its first parameter's type: a texture object, or a

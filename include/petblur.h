@@ -49,6 +49,7 @@ typedef enum pb_status {
     PB_ERR_SIZE_MISMATCH = -9,     /* two volumes differ in size, or belong to different contexts */
     PB_ERR_AFFINE_SHEAR = -10,     /* a voxel-to-world affine whose axes are not perpendicular (a shear) */
     PB_ERR_NOT_RIGID = -11,        /* a pose matrix that is not a rotation plus a translation */
+    PB_ERR_OUT_OF_VIEW = -12,      /* the motion takes the whole grid out of the field of view for a whole frame */
 
     /* -200 .. -299: backends and devices */
     PB_ERR_BACKEND_UNAVAILABLE = -200, /* the backend was not compiled into this build */
@@ -314,6 +315,116 @@ PB_API const size_t *pb_track_missing(const pb_track *track);
 /* "auto", "csv", "matrix-csv", "polaris"; "unknown" for any other value. */
 PB_API const char *pb_track_format_name(pb_track_format format);
 
+/* A track from arrays (copied), as a binding or a program holds one: count
+ * (>= 2) samples at strictly increasing finite times, poses as the format
+ * has them (PB_TRACK_CSV: about the motion's centre; PB_TRACK_MATRIX_CSV and
+ * PB_TRACK_POLARIS: rigid maps about the world's origin), the same checks as
+ * pb_track_read. lines and missing (each sample's line in its file, the
+ * samples skipped before it) may be NULL: none. source names the track in
+ * messages (a path, "--translate/--rotate"); NULL is "the track". */
+PB_API pb_status pb_track_create(const char *source, pb_track_format format, const double *times,
+                                 const pb_pose *poses, const size_t *lines, const size_t *missing, size_t count,
+                                 pb_track **track);
+/* The name messages give the track: its path, or create's source. */
+PB_API const char *pb_track_source(const pb_track *track);
+
+/* ---- the motion layer: conventions, placement, frames, checks ---------- */
+
+/* What turns a tracker's log into the patient's motion, M(t) = C P(t)
+ * P(ref)^-1 C^-1 (P inverted first when inverse is set), applied in
+ * pb_track_world. Zero-initialised: none of them, and the grid's centre. */
+typedef struct pb_track_conventions {
+    int inverse;            /* the poses map scanner to object (yrt-pet's): inverted first */
+    int has_reference_time; /* else absolute poses; a Polaris log's reference is its first sample, with a warning */
+    double reference_time;  /* s: the poses become relative to the pose at this time */
+    int has_calibration;
+    double calibration[16]; /* C: tracker to scanner, a row-major rigid 4x4 (pb_calibration_read) */
+    int has_center;         /* csv tracks: the rotation centre, world mm; else the grid's centre */
+    double center[3];
+} pb_track_conventions;
+
+/* A calibration file: 16 numbers (or the top 3x4 as 12) row by row,
+ * separated by blanks, commas or semicolons, '#' comments to the end of a
+ * line; the matrix rigid. On failure the message names the file, its line
+ * and the problem. */
+PB_API pb_status pb_calibration_read(const char *path, double matrix[16]);
+
+/* The grid frame as a world of its own: voxel (i, j, k)'s centre at
+ * ((i + 0.5) dx, (j + 0.5) dy, (k + 0.5) dz), the affine a grid without a
+ * placement (a .raw file; --coords grid) is taken at. */
+PB_API pb_status pb_geometry_grid_affine(const pb_geometry *geometry, double affine[16]);
+
+/* What a track or its frames hold that is allowed but looks like a mistake:
+ * one line per warning in text ("SOURCE:LINE: what; what to check"), and a
+ * bit per kind in flags. A front end prints them (the command line) or
+ * raises them as warnings (Python). */
+enum {
+    PB_WARN_REFERENCE = 1,      /* no reference time: relative to the first sample */
+    PB_WARN_TURN_STEP = 2,      /* a sample turns over 90 degrees from the one before */
+    PB_WARN_FAR_FROM_REST = 4,  /* every pose turns over 90 degrees from rest, or from the first */
+    PB_WARN_TIME_UNIT = 8,      /* times that look like milliseconds */
+    PB_WARN_FRAMES_SPAN = 16,   /* frames that cover almost none of the track */
+    PB_WARN_OUT_OF_VIEW = 32    /* the grid wholly out of view at some poses of a frame */
+};
+typedef struct pb_warnings {
+    unsigned flags;
+    char text[4096];
+} pb_warnings;
+
+/* The track's motion in the world: conventions applied, poses about the
+ * world centre (world->has_center, center: the origin for matrix-csv and
+ * Polaris tracks, else conventions->center or the centre of the grid of
+ * geometry placed by affine, a voxel-to-world 4x4 as
+ * pb_motion_world_to_grid takes; NULL: pb_geometry_grid_affine). geometry may
+ * be NULL when the centre needs no grid. world_poses holds the track's count
+ * poses; *world spans the whole track. conventions may be NULL (none).
+ * Warnings (may be NULL): PB_WARN_REFERENCE, PB_WARN_TURN_STEP,
+ * PB_WARN_FAR_FROM_REST (with the quaternion order that would fit, where
+ * one does), PB_WARN_TIME_UNIT. Refused: a reference time outside the track,
+ * a centre for a track that turns about the origin, a calibration that is not
+ * rigid. */
+PB_API pb_status pb_track_world(const pb_track *track, const pb_track_conventions *conventions,
+                                const pb_geometry *geometry, const double affine[16], pb_pose *world_poses,
+                                pb_motion *world, pb_warnings *warnings);
+
+/* pb_track_world, then pb_motion_world_to_grid: the track's motion in the
+ * grid frame of that grid, as pb_plan_create takes it (grid_poses holds
+ * count poses; *grid spans the whole track, its times the track's). */
+PB_API pb_status pb_track_place(const pb_track *track, const pb_track_conventions *conventions,
+                                const pb_geometry *geometry, const double affine[16], pb_pose *grid_poses,
+                                pb_motion *grid, pb_warnings *warnings);
+
+/* Frames [bounds[i], bounds[i+1]] of a placed track (grid: pb_track_place's)
+ * checked before a blur trusts them. Refused: frames outside the track
+ * (PB_ERR_TRACK_GAP), missing samples (Polaris) that leave a gap over 1 s
+ * inside a frame (PB_ERR_TRACK_GAP), a motion that takes the whole grid out
+ * of the field of view for a whole frame (PB_ERR_OUT_OF_VIEW: the blur would
+ * be zero). Warned: PB_WARN_OUT_OF_VIEW, PB_WARN_TIME_UNIT (a frame over 6
+ * h), PB_WARN_FRAMES_SPAN. */
+PB_API pb_status pb_track_check_frames(const pb_track *track, const pb_motion *grid, const pb_geometry *geometry,
+                                       const double *bounds, size_t frames, pb_warnings *warnings);
+
+/* Frames from BIDS-PET's FrameTimesStart and FrameDuration (n of each, s):
+ * n + 1 bounds. Durations positive, each frame starting where the one before
+ * ends (to 1e-6 s relative). */
+PB_API pb_status pb_frames_from_starts(const double *starts, const double *durations, size_t n, double *bounds);
+
+/* The part of a track (a motion over its whole span) that frame [t0, t1]
+ * needs: from the last sample at or before t0 to the first at or after t1,
+ * with the frame set. Every frame of a plan is cut by this one rule. */
+PB_API pb_status pb_motion_frame(const pb_motion *track, double t0, double t1, pb_motion *part);
+
+/* The time-weighted mean pose over the motion's frame: the mean translation
+ * of its LERP, and the rotation whose quaternion is the normalised mean of
+ * its SLERP (the chordal L2 mean), about the motion's centre: what a model of
+ * one pose per frame takes. */
+PB_API pb_status pb_motion_mean_pose(const pb_motion *motion, pb_pose *mean);
+
+/* Where a pose about centre takes point p: centre + t + R (p - centre). */
+PB_API void pb_pose_apply(const pb_pose *pose, const double center[3], const double p[3], double out[3]);
+/* The angle in degrees of the turn between two poses' rotations. */
+PB_API double pb_pose_turn_deg(const pb_pose *a, const pb_pose *b);
+
 /* ---- blurring ---------------------------------------------------------- */
 
 typedef enum pb_method {
@@ -339,30 +450,44 @@ typedef enum pb_filter {
     PB_FILTER_EXACT = 1
 } pb_filter;
 
-/* Zero-initialised options are the defaults. */
+/* How AB and RM turn a voxel's true path (LERP translation, SLERP rotation)
+ * into the straight segments they walk. CL and REF follow the true path and
+ * ignore it. */
+typedef enum pb_path_model {
+    PB_PATH_DEFAULT = 0, /* bounded by PB_DEFAULT_MAX_PATH_ERROR voxels */
+    PB_PATH_BOUNDED = 1, /* bounded by max_path_error voxels */
+    PB_PATH_TRACKED = 2  /* one segment per tracked interval: the paper's polyline */
+} pb_path_model;
+
+/* Zero-initialised options are the defaults. pb_options_check states every
+ * range once; the command line and the Python package pass its message on. */
 typedef struct pb_blur_options {
     pb_method method;
     pb_filter filter;
     /* CL and RM: samples per segment; 0 takes as many as AB visits slices on that
      * segment for that voxel (the paper's choice). AB: sub-segments per segment;
-     * 0 means 1 (the paper). REF: unused. */
+     * 0 means 1 (the paper). REF: unused. At most 100000. */
     unsigned steps;
-    unsigned ref_points;     /* REF: random points per voxel; 0 = 200 (the paper) */
+    unsigned ref_points;     /* REF: random points per voxel; 0 = 200 (the paper); at most 100000 */
     /* REF: time steps per segment; 0 = max(16, 2 * the largest displacement of the
      * grid's corners over the segment, in voxels), so that every path is sampled
-     * at least every half voxel. */
+     * at least every half voxel. At most 100000. */
     unsigned ref_time_steps;
     uint32_t seed;           /* REF: random points are a pure function of the seed */
     /* AB and RM walk straight segments between key poses; a voxel's true path
-     * (LERP translation, SLERP rotation) bends away from them under rotation.
-     * max_path_error bounds that: every tracked interval is cut into as many
-     * equal pieces as it takes for no voxel centre of the grid to leave its
-     * polyline by more than max_path_error voxels (of the smallest voxel size).
-     * 0 = PB_DEFAULT_MAX_PATH_ERROR; negative = no cuts, one segment per tracked
-     * interval (the paper's polyline). CL and REF follow the true path and
-     * ignore it. pb_path_segments says how many segments a motion gets. */
-    double max_path_error;
+     * bends away from them under rotation. Under a bound every tracked
+     * interval is cut into as many equal pieces as it takes for no voxel
+     * centre of the grid to leave its polyline by more than the bound, in
+     * voxels of the smallest voxel size. pb_path_segments says how many
+     * segments a motion gets. */
+    pb_path_model path;
+    double max_path_error;   /* PB_PATH_BOUNDED only: the bound, finite, in (0, 1000] voxels; else 0 */
 } pb_blur_options;
+
+/* Checks options as every call that takes them does: the status and
+ * message of the first problem (on the calling thread: pb_last_error(NULL)),
+ * naming the field and its range. NULL is the defaults. */
+PB_API pb_status pb_options_check(const pb_blur_options *options);
 
 /* The default bound of a voxel's polyline against its true path, in voxels:
  * the chord's error then stays below AB's own error on short straight paths,
@@ -378,7 +503,7 @@ typedef struct pb_blur_options {
  * interval's rotation angle (radians), r the largest distance of a voxel
  * centre from the rotation centre, |t|max the larger translation of its two
  * poses, |dt| the translation's change (all in mm), vmin the smallest voxel
- * size and E = max_path_error. A C2 curve leaves its chord over a piece of
+ * size and E the bound. A C2 curve leaves its chord over a piece of
  * parameter length h by at most h^2 max|p''| / 8. Then runs of consecutive
  * segments (a 30 Hz log gives one per sample) are merged into one chord while
  * every voxel, at every time, stays within E of its true path: the old
@@ -531,6 +656,12 @@ PB_API pb_status pb_context_last_input_ms(const pb_context *ctx, double *ms);
  * destroying it. On the host and OpenCL backends NULL is accepted and
  * anything else refused. */
 PB_API pb_status pb_context_set_stream(pb_context *ctx, void *stream);
+
+/* This header's structs and enums as the library was built, one per line:
+ * "struct NAME SIZE", "field NAME.FIELD OFFSET SIZE", "enum NAME VALUE". A
+ * binding that copies them (Python's ctypes) checks itself against it when
+ * it loads. */
+PB_API const char *pb_abi_layout(void);
 
 /* The paper's eq. (5): 100 * sum (x - ref)^2 / sum ref^2 over n voxels, in
  * double. Returns NaN when ref is all zeros or either pointer is NULL. */

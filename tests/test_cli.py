@@ -396,7 +396,7 @@ class BadInput(Case):
         self.fails(2, ["--frame and --frames"], *self.blur(*track, "--frames", "0,1", "--frame", "0,1"))
         self.fails(2, ["NIfTI", "out.hv"], *self.blur(*track, "--frames", "0,1")[:5], "-o", self.p("out.hv"),
                    "--device", "host", *track, "--frames", "0,1", out="out.hv")
-        self.fails(2, ["frame 1 of 2", "track"], *self.blur(*track, "--frames", "0,1,2.5"))
+        self.fails(2, ["frame 1 (1 to 2.5 s) lies outside the track", "covers 0 to 2"], *self.blur(*track, "--frames", "0,1,2.5"))
         self.fails(2, ["--sum-frames", "--adjoint"], *self.blur(*track, "--frames", "0,1", "--sum-frames"))
         self.fails(2, ["--sum-frames", "--frames"], *self.blur(*track, "--frame", "0,1", "--adjoint", "--sum-frames"))
 
@@ -427,7 +427,7 @@ class BadInput(Case):
         self.fails(2, ["empty"], *self.blur("--motion", self.p("t.csv")))
         self.fails(2, ["header"], *self.blur("--motion", self.track(ok, ok, header="time,x,y,z")))
         track = self.track("0,0,0,0,1,0,0,0", "10,1,0,0,1,0,0,0")
-        self.fails(2, ["--frame", "covers 0 to 10"], *self.blur("--motion", track, "--frame", "5,12"))
+        self.fails(2, ["frame 0 (5 to 12 s)", "covers 0 to 10"], *self.blur("--motion", track, "--frame", "5,12"))
 
     def test_output_equal_to_input_is_refused(self):
         before = slurp(self.p("in.raw"))

@@ -180,13 +180,13 @@ static void test_motions(pb_context *ctx)
     pb_check(pb_max_abs_diff(ref, near, 216) <= 1e-6, "near-unit quaternion normalised (diff %.3g)",
              pb_max_abs_diff(ref, near, 216));
 
-    pb_blur_options opt = {(pb_method)7, PB_FILTER_EXACT, 0, 0, 0, 0, 0.0};
+    pb_blur_options opt = {(pb_method)7, PB_FILTER_EXACT, 0, 0, 0, 0, PB_PATH_DEFAULT, 0.0};
     expect(pb_blur(ctx, in, &good, &opt, out), PB_ERR_INVALID_ARGUMENT, "unknown method", pb_last_error(ctx),
            "method");
     expect(pb_blur(ctx, in, NULL, NULL, out), PB_ERR_INVALID_ARGUMENT, "NULL motion", pb_last_error(ctx), NULL);
     /* The path error bound: not a number, and one that would need absurdly many
      * segments for a 20 degree turn. */
-    pb_blur_options bound = {PB_METHOD_AB, PB_FILTER_EXACT, 0, 0, 0, 0, (double)NAN};
+    pb_blur_options bound = {PB_METHOD_AB, PB_FILTER_EXACT, 0, 0, 0, 0, PB_PATH_BOUNDED, (double)NAN};
     expect(pb_blur(ctx, in, &mu, &bound, out), PB_ERR_INVALID_ARGUMENT, "NaN max_path_error", pb_last_error(ctx),
            "max_path_error");
     bound.max_path_error = 1e-12;
@@ -198,9 +198,21 @@ static void test_motions(pb_context *ctx)
            pb_last_error(NULL), "raise it");
     expect(pb_path_segments(&g6, NULL, NULL, &segments), PB_ERR_INVALID_ARGUMENT, "pb_path_segments, NULL motion",
            pb_last_error(NULL), "NULL");
-    bound.max_path_error = -1.0; /* the paper's one segment */
+    /* Sign-coded bounds of old are refused, not read as a model. */
+    bound.max_path_error = -1.0;
+    expect(pb_path_segments(&g6, &mu, &bound, &segments), PB_ERR_INVALID_ARGUMENT, "negative bound",
+           pb_last_error(NULL), "above 0");
+    bound.path = PB_PATH_DEFAULT;
+    expect(pb_path_segments(&g6, &mu, &bound, &segments), PB_ERR_INVALID_ARGUMENT, "a bound without its model",
+           pb_last_error(NULL), "PB_PATH_BOUNDED");
+    bound.path = (pb_path_model)3;
+    bound.max_path_error = 0.0;
+    expect(pb_options_check(&bound), PB_ERR_INVALID_ARGUMENT, "unknown path model", pb_last_error(NULL),
+           "path model");
+    bound.path = PB_PATH_TRACKED; /* the paper's one segment */
     pb_check(pb_path_segments(&g6, &mu, &bound, &segments) == PB_OK && segments == 1,
-             "no cuts with a negative bound (%zu segments)", segments);
+             "no cuts on the paper's polyline (%zu segments)", segments);
+    pb_check(pb_options_check(NULL) == PB_OK, "the defaults pass");
     pb_volume_destroy(in);
     pb_volume_destroy(out);
 }
@@ -300,7 +312,7 @@ static void test_null_pointers(pb_context *ctx)
     pb_volume_destroy(NULL);
 }
 
-/* A 10^6-sample track with one segment per sample (max_path_error < 0) is
+/* A 10^6-sample track with one segment per sample (PB_PATH_TRACKED) is
  * refused with a message saying what to do, not walked for minutes. */
 static void test_segment_cap(pb_context *ctx)
 {
@@ -314,7 +326,7 @@ static void test_segment_cap(pb_context *ctx)
     pb_motion m = {t, p, SAMPLES, 0.0, t[SAMPLES - 1], 0, {0, 0, 0}};
     pb_geometry g = {{4, 4, 4}, {1, 1, 1}};
     pb_volume *a = NULL, *b = NULL;
-    pb_blur_options opt = {PB_METHOD_AB, PB_FILTER_EXACT, 0, 0, 0, 0, -1.0};
+    pb_blur_options opt = {PB_METHOD_AB, PB_FILTER_EXACT, 0, 0, 0, 0, PB_PATH_TRACKED, 0.0};
     if (pb_volume_create(ctx, &g, &a) == PB_OK && pb_volume_create(ctx, &g, &b) == PB_OK) {
         expect(pb_blur(ctx, a, &m, &opt, b), PB_ERR_INVALID_ARGUMENT, "10^6 segments", pb_last_error(ctx),
                "path error bound");

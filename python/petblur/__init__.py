@@ -13,9 +13,9 @@ docs/python.md has the whole API."""
 from ._lib import devices, lib as _c
 from .errors import (ArgumentError, BuildError, DeviceError, Error, FileError, LaunchError,
                      OutOfMemoryError)
-from .motion import Motion
+from .motion import Motion, frames_from_sidecar
 from .operator import BlurOperator, FramesOperator
 
 __version__ = "0.1.0"
-__all__ = ["Motion", "BlurOperator", "FramesOperator", "devices", "Error", "ArgumentError", "DeviceError",
+__all__ = ["Motion", "frames_from_sidecar", "BlurOperator", "FramesOperator", "devices", "Error", "ArgumentError", "DeviceError",
            "BuildError", "LaunchError", "OutOfMemoryError", "FileError"]

@@ -5,7 +5,7 @@ ctypes rather than a compiled extension: the wheel then builds with the C
 compiler alone (no Python headers, no second build system), one shared library
 serves C and Python (the same bits, so equal results), and a call costs a few
 microseconds against kernels of a tenth of a millisecond and more
-(bench/results, the Python benchmark). ctypes releases the GIL during every
+(docs/python.md, "Speed"). ctypes releases the GIL during every
 call, so operators on several GPUs run from several threads at once."""
 
 import contextlib
@@ -53,7 +53,7 @@ class CMotion(ctypes.Structure):
 class BlurOptions(ctypes.Structure):
     _fields_ = [("method", ctypes.c_int), ("filter", ctypes.c_int), ("steps", ctypes.c_uint),
                 ("ref_points", ctypes.c_uint), ("ref_time_steps", ctypes.c_uint), ("seed", ctypes.c_uint32),
-                ("max_path_error", ctypes.c_double)]
+                ("path", ctypes.c_int), ("max_path_error", ctypes.c_double)]
 
 
 class ContextOptions(ctypes.Structure):
@@ -75,7 +75,36 @@ class TrackReadOptions(ctypes.Structure):
     _fields_ = [("format", ctypes.c_int), ("time_divisor", ctypes.c_double), ("xyzw", ctypes.c_int)]
 
 
+class TrackConventions(ctypes.Structure):
+    _fields_ = [("inverse", ctypes.c_int), ("has_reference_time", ctypes.c_int), ("reference_time", ctypes.c_double),
+                ("has_calibration", ctypes.c_int), ("calibration", ctypes.c_double * 16),
+                ("has_center", ctypes.c_int), ("center", c_double3)]
+
+
+class Warnings(ctypes.Structure):
+    _fields_ = [("flags", ctypes.c_uint), ("text", ctypes.c_char * 4096)]
+
+
+ProgressFn = ctypes.CFUNCTYPE(None, ctypes.c_double, ctypes.c_void_p)
+
+# The structs above, as the library lays them out (checked at import by
+# check_layout against pb_abi_layout) and the enums' values it reports.
+STRUCTS = {"pb_geometry": Geometry, "pb_pose": Pose, "pb_motion": CMotion, "pb_blur_options": BlurOptions,
+           "pb_context_options": ContextOptions, "pb_device_info": DeviceInfo, "pb_native": Native,
+           "pb_track_read_options": TrackReadOptions, "pb_track_conventions": TrackConventions,
+           "pb_warnings": Warnings}
+
+
 BACKEND_AUTO, BACKEND_HOST, BACKEND_OPENCL, BACKEND_CUDA = 0, 1, 2, 3
+TRACK_CSV, TRACK_MATRIX_CSV, TRACK_POLARIS = 1, 2, 3
+PATH_DEFAULT, PATH_BOUNDED, PATH_TRACKED = 0, 1, 2
+ERR_OUT_OF_VIEW = -12
+ENUMS = {"PB_BACKEND_AUTO": BACKEND_AUTO, "PB_BACKEND_HOST": BACKEND_HOST, "PB_BACKEND_OPENCL": BACKEND_OPENCL,
+         "PB_BACKEND_CUDA": BACKEND_CUDA, "PB_TRACK_AUTO": 0, "PB_TRACK_CSV": TRACK_CSV,
+         "PB_TRACK_MATRIX_CSV": TRACK_MATRIX_CSV, "PB_TRACK_POLARIS": TRACK_POLARIS, "PB_METHOD_AB": 0,
+         "PB_METHOD_RM": 1, "PB_METHOD_CL": 2, "PB_METHOD_REF": 3, "PB_FILTER_HARDWARE": 0, "PB_FILTER_EXACT": 1,
+         "PB_PATH_DEFAULT": PATH_DEFAULT, "PB_PATH_BOUNDED": PATH_BOUNDED, "PB_PATH_TRACKED": PATH_TRACKED,
+         "PB_ERR_OUT_OF_VIEW": ERR_OUT_OF_VIEW}
 BACKEND_NAMES = {BACKEND_HOST: "host", BACKEND_OPENCL: "opencl", BACKEND_CUDA: "cuda"}
 
 _vp, _sz, _int, _dbl = ctypes.c_void_p, ctypes.c_size_t, ctypes.c_int, ctypes.c_double
@@ -118,10 +147,54 @@ _signatures = {
     "pb_track_get_format": (_int, [_vp]),
     "pb_track_times": (_P(_dbl), [_vp]),
     "pb_track_poses": (_P(Pose), [_vp]),
+    "pb_track_lines": (_P(_sz), [_vp]),
+    "pb_track_missing": (_P(_sz), [_vp]),
+    "pb_track_create": (_int, [ctypes.c_char_p, _int, _P(_dbl), _P(Pose), _P(_sz), _P(_sz), _sz, _P(_vp)]),
+    "pb_calibration_read": (_int, [ctypes.c_char_p, _P(_dbl)]),
+    "pb_track_world": (_int, [_vp, _P(TrackConventions), _P(Geometry), _P(_dbl), _P(Pose), _P(CMotion),
+                              _P(Warnings)]),
+    "pb_track_place": (_int, [_vp, _P(TrackConventions), _P(Geometry), _P(_dbl), _P(Pose), _P(CMotion),
+                              _P(Warnings)]),
+    "pb_track_check_frames": (_int, [_vp, _P(CMotion), _P(Geometry), _P(_dbl), _sz, _P(Warnings)]),
+    "pb_frames_from_starts": (_int, [_P(_dbl), _P(_dbl), _sz, _P(_dbl)]),
+    "pb_motion_mean_pose": (_int, [_P(CMotion), _P(Pose)]),
+    "pb_options_check": (_int, [_P(BlurOptions)]),
+    "pb_context_set_progress": (_int, [_vp, ProgressFn, _vp]),
+    "pb_abi_layout": (ctypes.c_char_p, []),
 }
 for _name, (_res, _args) in _signatures.items():
     _f = getattr(lib, _name)
     _f.restype, _f.argtypes = _res, _args
+
+
+def check_layout(structs=None, enums=None):
+    """Raises ImportError where a ctypes struct above differs from the
+    library's (size, a field's offset or size) or an enum value from its:
+    a header changed without this file. structs: {name: ctypes class}
+    (default STRUCTS), enums: {name: value} (default ENUMS)."""
+    structs = STRUCTS if structs is None else structs
+    enums = ENUMS if enums is None else enums
+    seen, problems = set(), []
+    for line in lib.pb_abi_layout().decode().splitlines():
+        kind, name, *v = line.split()
+        if kind == "struct" and name in structs:
+            seen.add(name)
+            if ctypes.sizeof(structs[name]) != int(v[0]):
+                problems.append(f"{name} is {ctypes.sizeof(structs[name])} bytes here, {v[0]} in the library")
+        elif kind == "field" and name.split(".")[0] in structs:
+            cls, field = structs[name.split(".")[0]], name.split(".")[1]
+            desc = getattr(cls, field, None)
+            if desc is None or (desc.offset, desc.size) != (int(v[0]), int(v[1])):
+                have = "missing" if desc is None else f"at {desc.offset}, {desc.size} bytes"
+                problems.append(f"{name} is {have} here, at {v[0]}, {v[1]} bytes in the library")
+        elif kind == "enum" and name in enums:
+            seen.add(name)
+            if enums[name] != int(v[0]):
+                problems.append(f"{name} is {enums[name]} here, {v[0]} in the library")
+    problems += [f"{n} is not described by the library" for n in list(structs) + list(enums) if n not in seen]
+    if problems:
+        raise ImportError("petblur: the Python binding does not match its C library: " + "; ".join(problems) +
+                          "; rebuild the package from one source tree ('pip install .')")
 
 
 def message(ctx=None):
@@ -135,6 +208,8 @@ def check(status, ctx=None):
         text = message(ctx) or lib.pb_status_string(status).decode()
         raise error_class(status)(text, status)
 
+
+check_layout()
 
 # Contexts shared by every operator on one device, each used by one thread at a
 # time (the C library's rule: a context, its volumes and plans share its queue

@@ -1,7 +1,14 @@
 """Motions: time-stamped rigid poses (seconds, mm, unit quaternions w,x,y,z),
-made from arrays, from a tracker's log (every format the command line reads,
-through the C library's reader) or from one pose. A pose maps object space to
-tomograph space, p' = R(q) (p - c) + c + t, about the centre c.
+made from arrays, from a tracker's log (every format the command line reads)
+or from one pose. A pose maps object space to tomograph space,
+p' = R(q) (p - c) + c + t, about the centre c.
+
+Everything a motion means lives in the C library's motion layer
+(include/petblur.h): the readers, the tracker conventions (calibration,
+reference time, inversion), the placement in a grid's world, a frame's part
+of a track, and the checks and warnings on a track and its frames. This file
+holds the arrays and passes them through, so that a track means the same to
+Python as to the command line.
 
 Coordinates: without an affine the operators take a motion along the array's
 axes, in mm from the grid's corner (the command line's --coords grid); with
@@ -9,16 +16,43 @@ affine= (voxel to world, 4x4, as nibabel's img.affine) in the scanner's world
 mm, where tracker logs live (--coords world)."""
 
 import ctypes
+import json
 import os
 import warnings
 
 import numpy as np
 
 from . import _lib
-from .errors import ArgumentError, Error
+from .errors import ArgumentError, Error, FileError
 
 _FORMATS = {None: 0, "auto": 0, "csv": 1, "matrix-csv": 2, "polaris": 3}
-_FORMAT_NAMES = {1: "csv", 2: "matrix-csv", 3: "polaris"}
+
+# The library's messages name the command line's options; these are their
+# names here.
+_WORDS = (("--quaternion-order xyzw", "quaternion_order='xyzw'"), ("--quaternion-order wxyz", "quaternion_order='wxyz'"),
+          ("--time-unit ms", "time_unit='ms'"), ("--motion-format", "format"), ("--time-unit", "time_unit"),
+          ("--quaternion-order", "quaternion_order"), ("--reference-time", "reference_time"),
+          ("--motion-inverse", "inverse"), ("--calibration", "calibration"), ("--center", "center"),
+          ("(see --coords)", "(see affine=)"), ("--frames", "bounds"))
+
+
+def python_words(text):
+    """A library message in this API's words."""
+    for option, name in _WORDS:
+        text = text.replace(option, name)
+    return text
+
+
+def _check(status, ctx=None):
+    try:
+        _lib.check(status, ctx)
+    except Error as e:
+        raise type(e)(python_words(e.message), e.status) from None
+
+
+def _warn(w, stacklevel):
+    for line in w.text.decode("utf-8", "replace").splitlines():
+        warnings.warn(python_words(line), stacklevel=stacklevel + 1)
 
 
 def _vector(name, value, n):
@@ -29,35 +63,35 @@ def _vector(name, value, n):
     if v.size != n:
         raise ArgumentError(f"{name} must be {n} numbers, not {v.size}")
     if not np.all(np.isfinite(v)):
-        raise ArgumentError(f"{name} holds NaN or infinity: {value!r}")
+        raise ArgumentError(f"{name} holds NaN or infinity: {value.tolist() if hasattr(value, 'tolist') else value}")
     return v
 
 
-def _rigid_inverse(m):
-    out = np.eye(4)
-    out[:3, :3] = m[:3, :3].T
-    out[:3, 3] = -m[:3, :3].T @ m[:3, 3]
-    return out
+def _pose(translation, quaternion):
+    return _lib.Pose((ctypes.c_double * 3)(*translation), (ctypes.c_double * 4)(*quaternion))
 
 
-def _pose_matrix(t, q, c):
-    """The 4x4 map of pose (t, q) about c, as the command line composes them."""
-    pose = _lib.Pose((ctypes.c_double * 3)(*t), (ctypes.c_double * 4)(*q))
-    m = (ctypes.c_double * 16)()
-    _lib.check(_lib.lib.pb_pose_to_matrix(ctypes.byref(pose), m))
-    m = np.array(m[:]).reshape(4, 4)
-    m[:3, 3] += c - m[:3, :3] @ c
-    return m
+def _grid(dims, voxel_size):
+    return _lib.Geometry((ctypes.c_size_t * 3)(*dims), (ctypes.c_double * 3)(*voxel_size))
 
 
-def _matrix_pose(m, c):
-    pose = _lib.Pose()
-    flat = (ctypes.c_double * 16)(*m.reshape(-1))
-    status = _lib.lib.pb_pose_from_matrix(flat, ctypes.byref(pose))
-    if status != 0:
-        raise ArgumentError(f"a composed pose is not rigid: {_lib.message()}", status)
-    t = np.array(pose.translation[:]) - (c - m[:3, :3] @ c)
-    return t, np.array(pose.rotation[:])
+class _Track:
+    """The C track of a Motion, alive while the C motions made from it are
+    (they point into its times)."""
+
+    def __init__(self, motion):
+        n = len(motion)
+        times = (ctypes.c_double * n)(*motion.times)
+        poses = (_lib.Pose * n)(*[_pose(t, q) for t, q in zip(motion.translations, motion.quaternions)])
+        lines = None if motion._lines is None else (ctypes.c_size_t * n)(*motion._lines)
+        missing = None if motion._missing is None else (ctypes.c_size_t * n)(*motion._missing)
+        self.handle = ctypes.c_void_p()
+        _check(_lib.lib.pb_track_create(motion._source.encode(), motion._format, times, poses, lines, missing, n,
+                                        ctypes.byref(self.handle)))
+
+    def __del__(self):
+        if getattr(self, "handle", None):
+            _lib.lib.pb_track_free(self.handle)
 
 
 class Motion:
@@ -71,37 +105,35 @@ class Motion:
         self.translations = np.array(translations, dtype=np.float64)
         self.quaternions = np.array(quaternions, dtype=np.float64)
         n = self.times.size
-        if n < 2:
-            raise ArgumentError(f"a motion needs at least two poses (the frame's start and end), not {n}")
         if self.translations.shape != (n, 3):
             raise ArgumentError(f"translations must have shape ({n}, 3), one row per time, not "
                                 f"{self.translations.shape}")
         if self.quaternions.shape != (n, 4):
             raise ArgumentError(f"quaternions must have shape ({n}, 4), w,x,y,z per time, not "
                                 f"{self.quaternions.shape}")
-        for name, a in (("times", self.times), ("translations", self.translations),
-                        ("quaternions", self.quaternions)):
-            if not np.all(np.isfinite(a)):
-                raise ArgumentError(f"{name} hold NaN or infinity")
-        if np.any(np.diff(self.times) <= 0):
-            i = int(np.argmax(np.diff(self.times) <= 0))
-            raise ArgumentError(f"times must increase strictly: {self.times[i + 1]!r} s follows {self.times[i]!r} s "
-                                f"(rows {i} and {i + 1})")
         self.center = None if center is None else _vector("center", center, 3)
-        # Tracker logs: 4x4 maps about the world's origin, and the conventions
-        # (calibration, reference pose, inversion) applied once the grid is known.
-        self.about_origin = False
+        # What a file gives beyond the arrays: its format (csv poses turn about
+        # a centre, tracker matrices about the world's origin), each sample's
+        # line and the samples missing before it; and the conventions.
+        self._format = _lib.TRACK_CSV
+        self._lines = self._missing = None
+        self._source = "the motion"
         self._calibration = None
         self._reference_time = None
         self._inverse = False
-        self._reference_default = False
-        self._warned = False
+        _Track(self)  # the library's checks (finite, increasing, unit quaternions), now
 
     def __len__(self):
         return self.times.size
 
     def __repr__(self):
         return f"petblur.Motion({len(self)} poses, {self.times[0]:g} to {self.times[-1]:g} s)"
+
+    @property
+    def about_origin(self):
+        """True for tracker matrices (matrix-csv, Polaris): poses about the
+        world's origin, which carry their own centre."""
+        return self._format != _lib.TRACK_CSV
 
     @classmethod
     def from_axis_angle(cls, translation=(0.0, 0.0, 0.0), angle=0.0, axis=(0.0, 0.0, 1.0), center=None,
@@ -114,18 +146,18 @@ class Motion:
         a = _vector("axis", axis, 3)
         angle = float(angle)
         if not np.isfinite(angle) or abs(angle) > 3600.0:
-            raise ArgumentError(f"angle {angle!r}: give at most ten turns within one frame, in degrees")
+            raise ArgumentError(f"angle {angle}: give at most ten turns within one frame, in degrees")
         if not np.any(a):
             raise ArgumentError("axis must not be zero; e.g. (0, 0, 1), the scanner axis")
         duration = float(duration)
         if not duration > 0 or not np.isfinite(duration):
-            raise ArgumentError(f"duration {duration!r}: give a positive number of seconds")
+            raise ArgumentError(f"duration {duration}: give a positive number of seconds")
         pieces = max(1, int(np.ceil(abs(angle) / 90.0 - 1e-12)))
         s = np.linspace(0.0, 1.0, pieces + 1)
         q = np.empty((pieces + 1, 4))
         for i, si in enumerate(s):
             qi = (ctypes.c_double * 4)()
-            _lib.check(_lib.lib.pb_quaternion_from_axis_angle((ctypes.c_double * 3)(*a), si * angle, qi))
+            _check(_lib.lib.pb_quaternion_from_axis_angle((ctypes.c_double * 3)(*a), si * angle, qi))
             q[i] = qi[:]
         return cls(s * duration, s[:, None] * t[None, :], q, center)
 
@@ -152,127 +184,148 @@ class Motion:
         opts = _lib.TrackReadOptions(_FORMATS[format], 1000.0 if time_unit == "ms" else 1.0,
                                      int(quaternion_order == "xyzw"))
         handle = ctypes.c_void_p()
+        _check(_lib.lib.pb_track_read(os.fsencode(path), ctypes.byref(opts), ctypes.byref(handle)))
         try:
-            _lib.check(_lib.lib.pb_track_read(os.fsencode(path), ctypes.byref(opts), ctypes.byref(handle)))
-        except Error as e:  # the readers' words name the command line's options: these are their names here
-            text = e.message
-            for option, name in (("--motion-format", "format"), ("--time-unit", "time_unit"),
-                                 ("--quaternion-order", "quaternion_order")):
-                text = text.replace(option, name)
-            raise type(e)(text, e.status) from None
-        try:
-            n = _lib.lib.pb_track_count(handle)
-            fmt = _lib.lib.pb_track_get_format(handle)
-            times = np.ctypeslib.as_array(_lib.lib.pb_track_times(handle), (n,)).copy()
-            poses = (_lib.Pose * n).from_address(ctypes.addressof(_lib.lib.pb_track_poses(handle).contents))
+            lib = _lib.lib
+            n = lib.pb_track_count(handle)
+            fmt = lib.pb_track_get_format(handle)
+            times = np.ctypeslib.as_array(lib.pb_track_times(handle), (n,)).copy()
+            poses = (_lib.Pose * n).from_address(ctypes.addressof(lib.pb_track_poses(handle).contents))
             tr = np.array([p.translation[:] for p in poses])
             q = np.array([p.rotation[:] for p in poses])
+            lines = np.ctypeslib.as_array(lib.pb_track_lines(handle), (n,)).copy()
+            missing = np.ctypeslib.as_array(lib.pb_track_missing(handle), (n,)).copy()
         finally:
             _lib.lib.pb_track_free(handle)
         m = cls(times, tr, q)
-        m.about_origin = fmt != 1
+        m._format, m._lines, m._missing, m._source = fmt, lines, missing, os.fsdecode(path)
         if center is not None:
-            if m.about_origin:
-                raise ArgumentError(f"{os.fspath(path)}: a {_FORMAT_NAMES[fmt]} track's matrices turn about the "
-                                    "world's origin; drop center")
             m.center = _vector("center", center, 3)
         if calibration is not None:
             if isinstance(calibration, (str, bytes, os.PathLike)):
-                calibration = _read_calibration(calibration)
+                cal = (ctypes.c_double * 16)()
+                _check(_lib.lib.pb_calibration_read(os.fsencode(calibration), cal))
+                calibration = np.array(cal[:]).reshape(4, 4)
             c = np.array(calibration, dtype=np.float64)
-            if c.shape != (4, 4) or not np.all(np.isfinite(c)):
-                raise ArgumentError("calibration must be a finite 4x4 tracker-to-scanner matrix")
-            _matrix_pose(c, np.zeros(3))  # rigid, or refused
+            if c.shape != (4, 4):
+                raise ArgumentError("calibration must be a 4x4 tracker-to-scanner matrix, or the path of its file")
             m._calibration = c
         if reference_time is not None:
-            reference_time = float(reference_time)
-            if not times[0] <= reference_time <= times[-1]:
-                raise ArgumentError(f"reference_time {reference_time:.9g}: the track {os.fspath(path)} covers "
-                                    f"{times[0]:.9g} to {times[-1]:.9g} s; give a time inside it")
-            m._reference_time = reference_time
-        elif fmt == 3:
-            m._reference_time = float(times[0])
-            m._reference_default = True
+            m._reference_time = float(reference_time)
         m._inverse = bool(inverse)
-        m._source = os.fspath(path)
+        m._world(_grid((1, 1, 1), (1.0, 1.0, 1.0)), None, warn=False)  # the conventions' refusals, now
         return m
 
-    # ---- placement on a grid (the operators) ----
+    # ---- the library's motion layer ----
 
-    def _world_poses(self, c):
-        """The poses in the world, about c, with the conventions applied."""
-        t, q = self.translations, self.quaternions
-        if not (self._inverse or self._reference_time is not None or self._calibration is not None):
-            return t, q
-        mats = [_pose_matrix(t[i], q[i], c) for i in range(len(self))]
-        if self._inverse:
-            mats = [_rigid_inverse(m) for m in mats]
-        ref = np.eye(4)
+    def _conventions(self):
+        c = _lib.TrackConventions()
+        c.inverse = int(self._inverse)
         if self._reference_time is not None:
-            if self._reference_default and not self._warned:
-                self._warned = True
-                warnings.warn(f"{self._source}: no reference_time; the motion is taken relative to the first sample "
-                              f"({self._reference_time:.9g} s)", stacklevel=3)
-            rt, rq = _pose_matrix_track(self.times, mats, c, self._reference_time)
-            ref = _rigid_inverse(_pose_matrix(rt, rq, c))
-        cal = np.eye(4) if self._calibration is None else self._calibration
-        cal_inv = _rigid_inverse(cal)
-        out_t, out_q = np.empty_like(t), np.empty_like(q)
-        for i, m in enumerate(mats):
-            out_t[i], out_q[i] = _matrix_pose(cal @ (m @ ref) @ cal_inv, c)
-        return out_t, out_q
+            c.has_reference_time, c.reference_time = 1, self._reference_time
+        if self._calibration is not None:
+            c.has_calibration = 1
+            c.calibration[:] = [float(v) for v in self._calibration.reshape(-1)]
+        if self.center is not None:
+            c.has_center = 1
+            c.center[:] = [float(v) for v in self.center]
+        return c
 
-    def _c_motion(self, dims, voxel_size, affine, frame):
-        """The motion in the grid frame of a grid of dims and voxel_size placed
-        by affine: the C struct and the arrays it points into."""
-        g = _lib.Geometry((ctypes.c_size_t * 3)(*dims), (ctypes.c_double * 3)(*voxel_size))
-        grid_center = affine[:3, :3] @ (0.5 * (np.array(dims, dtype=np.float64) - 1)) + affine[:3, 3]
-        has_center = self.about_origin or self.center is not None
-        c = np.zeros(3) if self.about_origin else (self.center if self.center is not None else grid_center)
-        t, q = self._world_poses(c)
+    def _world(self, geometry, affine, warn=True, stacklevel=3):
+        """The poses in the world with the conventions applied: (C motion,
+        what it points into)."""
+        track = _Track(self)
         n = len(self)
-        times = (ctypes.c_double * n)(*self.times)
-        world = (_lib.Pose * n)()
-        for i in range(n):
-            world[i] = _lib.Pose((ctypes.c_double * 3)(*t[i]), (ctypes.c_double * 4)(*q[i]))
-        t0, t1 = frame
-        wm = _lib.CMotion(times, world, n, t0, t1, int(has_center), (ctypes.c_double * 3)(*c))
-        grid = (_lib.Pose * n)()
+        poses = (_lib.Pose * n)()
+        world, w = _lib.CMotion(), _lib.Warnings()
+        flat = None if affine is None else (ctypes.c_double * 16)(*np.asarray(affine, dtype=np.float64).reshape(-1))
+        _check(_lib.lib.pb_track_world(track.handle, ctypes.byref(self._conventions()),
+                                       None if geometry is None else ctypes.byref(geometry), flat, poses,
+                                       ctypes.byref(world), ctypes.byref(w)))
+        if warn:
+            _warn(w, stacklevel)
+        return world, (track, poses)
+
+    def _c_motion(self, dims, voxel_size, affine, bounds, warn=True):
+        """The motion in the grid frame of a grid of dims and voxel_size placed
+        by affine, with frames `bounds` checked as the command line checks
+        them: the C struct, the geometry, and what they point into."""
+        g = _grid(dims, voxel_size)
+        track = _Track(self)
+        n = len(self)
+        grid, w = (_lib.Pose * n)(), _lib.Warnings()
         out = _lib.CMotion()
         flat = (ctypes.c_double * 16)(*np.asarray(affine, dtype=np.float64).reshape(-1))
-        _lib.check(_lib.lib.pb_motion_world_to_grid(ctypes.byref(g), flat, ctypes.byref(wm), grid, ctypes.byref(out)))
-        if not has_center:  # the grid's centre, exactly
-            out.has_center = 0
-        return g, out, (times, world, grid)
+        _check(_lib.lib.pb_track_place(track.handle, ctypes.byref(self._conventions()), ctypes.byref(g), flat, grid,
+                                       ctypes.byref(out), ctypes.byref(w)))
+        out.frame_start, out.frame_end = float(bounds[0]), float(bounds[-1])
+        b = (ctypes.c_double * len(bounds))(*bounds)
+        _check(_lib.lib.pb_track_check_frames(track.handle, ctypes.byref(out), ctypes.byref(g), b, len(bounds) - 1,
+                                              ctypes.byref(w)))
+        if warn:
+            _warn(w, 4)
+        return g, out, (track, grid)
+
+    def pose_at(self, t):
+        """The pose at time t: (translation (3,), quaternion (4,) w,x,y,z),
+        interpolated as the blur does, the conventions applied, about the
+        motion's centre (the grid's, for a csv track without center: then
+        tracker conventions need a center to be given)."""
+        world, keep = self._world(None, None, warn=False)
+        p = _lib.Pose()
+        _check(_lib.lib.pb_motion_pose_at(ctypes.byref(world), float(t), ctypes.byref(p)))
+        return np.array(p.translation[:]), np.array(p.rotation[:])
+
+    def mean_pose(self, t0, t1):
+        """The time-weighted mean pose over the frame [t0, t1], as pose_at
+        gives poses: the mean translation, and the normalised mean of the
+        rotation's quaternions. What a model of one pose per frame takes."""
+        world, keep = self._world(None, None, warn=False)
+        world.frame_start, world.frame_end = float(t0), float(t1)
+        p = _lib.Pose()
+        _check(_lib.lib.pb_motion_mean_pose(ctypes.byref(world), ctypes.byref(p)))
+        return np.array(p.translation[:]), np.array(p.rotation[:])
+
+    # ---- copies, pickles ----
+
+    def __getstate__(self):
+        return dict(self.__dict__)
+
+    def __setstate__(self, state):
+        self.__dict__.update(state)
 
 
-def _pose_matrix_track(times, mats, c, when):
-    """The pose at time `when` of a track of 4x4 maps about c (LERP and SLERP,
-    by the C library)."""
-    n = len(mats)
-    poses = (_lib.Pose * n)()
-    for i, m in enumerate(mats):
-        t, q = _matrix_pose(m, c)
-        poses[i] = _lib.Pose((ctypes.c_double * 3)(*t), (ctypes.c_double * 4)(*q))
-    ct = (ctypes.c_double * n)(*times)
-    whole = _lib.CMotion(ct, poses, n, times[0], times[-1], 0, (ctypes.c_double * 3)())
-    p = _lib.Pose()
-    _lib.check(_lib.lib.pb_motion_pose_at(ctypes.byref(whole), when, ctypes.byref(p)))
-    return np.array(p.translation[:]), np.array(p.rotation[:])
-
-
-def _read_calibration(path):
+def frames_from_sidecar(path):
+    """Frame bounds (n + 1 times, s) from a BIDS-PET sidecar's FrameTimesStart
+    and FrameDuration, as the command line's --frames-from reads them: JSON
+    by Python's json module, the frames' rules (positive durations, each frame
+    starting where the one before ends) by the library."""
     try:
         with open(path, encoding="utf-8") as f:
-            values = f.read().replace(",", " ").split()
+            meta = json.load(f)
     except OSError as e:
-        raise ArgumentError(f"calibration {os.fspath(path)}: cannot open it ({e.strerror}); check the path") from None
+        raise FileError(f"{os.fspath(path)}: cannot open the sidecar ({e.strerror}); check the path", -600) from None
+    except (ValueError, UnicodeDecodeError) as e:
+        raise FileError(f"{os.fspath(path)}: not a JSON sidecar ({e})", -600) from None
+    if not isinstance(meta, dict):
+        raise FileError(f"{os.fspath(path)}: a BIDS sidecar is a JSON object", -600)
+    arrays = []
+    for key in ("FrameTimesStart", "FrameDuration"):
+        v = meta.get(key)
+        if v is None:
+            raise FileError(f"{os.fspath(path)}: no \"{key}\"; a BIDS-PET sidecar gives FrameTimesStart and "
+                            "FrameDuration, in seconds", -600)
+        if not isinstance(v, list) or not all(isinstance(x, (int, float)) and not isinstance(x, bool) for x in v):
+            raise FileError(f"{os.fspath(path)}: \"{key}\" is not an array of numbers; give seconds", -600)
+        arrays.append(np.array(v, dtype=np.float64))
+    starts, durations = arrays
+    if starts.size == 0 or starts.size != durations.size:
+        raise FileError(f"{os.fspath(path)}: {starts.size} frame starts and {durations.size} durations; BIDS gives "
+                        "one of each per frame", -600)
+    bounds = (ctypes.c_double * (starts.size + 1))()
     try:
-        nums = [float(v) for v in values]
-    except ValueError:
-        raise ArgumentError(f"calibration {os.fspath(path)}: give the 4x4 tracker-to-scanner matrix as 16 numbers, "
-                            "row by row") from None
-    if len(nums) != 16:
-        raise ArgumentError(f"calibration {os.fspath(path)}: {len(nums)} numbers; give the 4x4 tracker-to-scanner "
-                            "matrix as 16 numbers, row by row")
-    return np.array(nums).reshape(4, 4)
+        _check(_lib.lib.pb_frames_from_starts((ctypes.c_double * starts.size)(*starts),
+                                              (ctypes.c_double * starts.size)(*durations), starts.size, bounds))
+    except Error as e:
+        raise type(e)(f"{os.fspath(path)}: {e.message}", e.status) from None
+    return np.array(bounds[:])

@@ -14,6 +14,7 @@ one device share its context and take turns on it (a lock held during each
 call, with the GIL released inside the C library); operators on different
 devices run in parallel."""
 
+import contextlib
 import ctypes
 import weakref
 
@@ -62,7 +63,8 @@ def _release_volume(ctx, handle):
 
 
 class _Operator:
-    def __init__(self, shape, voxel_size, motion, bounds, method, filter, max_path_error, device, affine, steps):
+    def __init__(self, shape, voxel_size, motion, bounds, method, filter, max_path_error, device, affine, steps,
+                 progress):
         self._shape = _shape3(shape)
         self.voxel_size = _voxel3(voxel_size)
         if not isinstance(motion, Motion):
@@ -74,19 +76,30 @@ class _Operator:
         if filter not in _FILTERS:
             raise ArgumentError(f"filter {filter!r}: choose 'hardware' (one filtered fetch per slice) or 'exact'")
         if max_path_error is None:
-            mpe = 0.0  # the library's default bound
-        elif max_path_error == "paper":
-            mpe = -1.0  # no cuts: one segment per tracked interval, the paper's polyline
+            path, bound = _lib.PATH_DEFAULT, 0.0
+        elif isinstance(max_path_error, str) and max_path_error == "paper":
+            path, bound = _lib.PATH_TRACKED, 0.0  # one segment per tracked interval, the paper's polyline
         else:
-            mpe = float(max_path_error)
-            if not np.isfinite(mpe) or mpe <= 0:
-                raise ArgumentError(f"max_path_error {max_path_error!r}: give a positive bound in voxels, None for "
-                                    "the default, or 'paper' for one segment per tracked interval")
-        steps = int(steps)
-        if steps < 0 or steps >= 1 << 32:
+            try:
+                path, bound = _lib.PATH_BOUNDED, float(max_path_error)
+            except (TypeError, ValueError):
+                raise ArgumentError(f"max_path_error {max_path_error!r}: give a bound in voxels, None for the "
+                                    "default, or 'paper' for one segment per tracked interval") from None
+        try:
+            steps = int(steps)
+        except (TypeError, ValueError):
+            raise ArgumentError(f"steps {steps!r}: give a whole number") from None
+        if not 0 <= steps < 1 << 32:
             raise ArgumentError(f"steps {steps}: give 0 (the paper's choice) or a positive count")
+        if progress is not None and not callable(progress):
+            raise ArgumentError("progress must be a callable taking the fraction done, or None")
         self.method, self.filter = method, filter
-        self._options = _lib.BlurOptions(_METHODS[method], _FILTERS[filter], steps, 0, 0, 0, mpe)
+        self._options = _lib.BlurOptions(_METHODS[method], _FILTERS[filter], steps, 0, 0, 0, path, bound)
+        try:  # every range stated once, by the library
+            _lib.check(_lib.lib.pb_options_check(ctypes.byref(self._options)))
+        except ArgumentError as e:
+            raise ArgumentError(e.message.replace("PB_PATH_BOUNDED", "a number"), e.status) from None
+        self._progress = progress
         if affine is None:
             a = np.eye(4)
             a[:3, :3] = np.diag(self.voxel_size)
@@ -154,8 +167,8 @@ class _Operator:
             dims = self._shape if f else self._shape[::-1]
             vox = self.voxel_size if f else self.voxel_size[::-1]
             affine = self._affine if f else self._affine @ _SWAP
-            frame = (self._bounds[0], self._bounds[-1])
-            g, cm, keep = self.motion._c_motion(dims, vox, affine, frame)
+            # The checks' warnings once, for the grid the caller named.
+            g, cm, keep = self.motion._c_motion(dims, vox, affine, self._bounds, warn=f)
             handle = ctypes.c_void_p()
             if len(self._bounds) == 2 and not isinstance(self, FramesOperator):
                 st = _lib.lib.pb_plan_create(ctx.handle, ctypes.byref(g), ctypes.byref(cm),
@@ -197,12 +210,26 @@ class _Operator:
                                     f"operator with device='cuda:{arr.device}' or move the array")
             self._run_cuda(arr, jobs, adjoint)
         elif ctx.backend == _lib.BACKEND_HOST:
-            with ctx.use():
+            with ctx.use(), self._reporting():
                 for frame, x, y, acc, order in jobs:
                     plan = self._plan(order)[0]
                     self._call_device(plan, frame, pointer(x, "numpy"), pointer(y, "numpy"), acc, adjoint)
         else:
             self._run_volumes(jobs, adjoint)
+
+    @contextlib.contextmanager
+    def _reporting(self):
+        """progress(fraction) called during the block's calls (under the
+        context's lock): each call's own fraction, 1 at its end."""
+        if self._progress is None:
+            yield
+            return
+        fn = _lib.ProgressFn(lambda fraction, user: self._progress(float(fraction)))
+        _lib.check(_lib.lib.pb_context_set_progress(self._ctx.handle, fn, None), self._ctx.handle)
+        try:
+            yield
+        finally:
+            _lib.lib.pb_context_set_progress(self._ctx.handle, _lib.ProgressFn(), None)
 
     def _call_device(self, plan, frame, xp, yp, acc, adjoint):
         lib, ctx = _lib.lib, self._ctx
@@ -235,7 +262,7 @@ class _Operator:
         """numpy on a device: through the plan's volumes, uploaded and
         downloaded (an accumulated output once, at the end)."""
         lib, ctx = _lib.lib, self._ctx
-        with ctx.use():
+        with ctx.use(), self._reporting():
             for i, (frame, x, y, acc, order) in enumerate(jobs):
                 plan, g = self._plan(order)
                 vin, vout = self._volume_pair(order, g)
@@ -283,10 +310,16 @@ class BlurOperator(_Operator):
     bound, one segment per tracked interval, as --max-path-error paper); ``device``
     'auto', 'host', 'opencl[:N]' or 'cuda[:N]'; ``affine`` the grid's
     voxel-to-world 4x4 (the motion then in world mm). ``steps`` as the C
-    library's options (0: the paper's)."""
+    library's options (0: the paper's). ``progress``: a callable given the
+    fraction done of each call (REF on a CPU takes minutes), or None.
+
+    Making the operator checks the motion on its grid as the command line
+    does: a motion that takes the grid out of view for the whole frame, or
+    a gap in the track, is refused; a quaternion order slip, times in ms or
+    a grid out of view at some poses raise warnings (UserWarning)."""
 
     def __init__(self, shape, voxel_size, motion, frame=None, method="ab", filter="hardware", max_path_error=None,
-                 device="auto", affine=None, steps=0):
+                 device="auto", affine=None, steps=0, progress=None):
         if frame is None:
             if not isinstance(motion, Motion):
                 raise ArgumentError(f"motion must be a petblur.Motion, not {type(motion).__name__}")
@@ -295,7 +328,8 @@ class BlurOperator(_Operator):
             t0, t1 = (float(v) for v in frame)
         except (TypeError, ValueError):
             raise ArgumentError(f"frame must be (t0, t1) in seconds, not {frame!r}") from None
-        super().__init__(shape, voxel_size, motion, (t0, t1), method, filter, max_path_error, device, affine, steps)
+        super().__init__(shape, voxel_size, motion, (t0, t1), method, filter, max_path_error, device, affine, steps,
+                         progress)
         self.frame = (t0, t1)
 
     @property
@@ -327,51 +361,68 @@ class BlurOperator(_Operator):
 class FramesOperator(_Operator):
     """The blur of every frame [bounds[i], bounds[i+1]] of one ``track``: its
     forward takes one activity (shape) blurred into every frame, or a 4-D array
-    of frames (frames, nx, ny, nz), each blurred by its own frame, and gives
-    (frames, nx, ny, nz). Its adjoint takes (frames, nx, ny, nz) and gives the
-    sum of the frames' transposes in one volume when ``per_frame`` is False
-    (the default: the transpose of one activity in every frame, a
-    motion-compensated image from all frames), else each frame's transpose.
-    The other arguments as BlurOperator's."""
+    of frames, each blurred by its own frame, and gives every frame's blur.
+    Its adjoint takes the frames and gives the sum of their transposes in one
+    volume when ``per_frame`` is False (the default: the transpose of one
+    activity in every frame, a motion-compensated image from all frames), else
+    each frame's transpose.
+
+    Frames are the first axis, (frames, nx, ny, nz), as torch and CuPy batch
+    volumes (the batch leads); ``frames_last=True`` takes and gives
+    (nx, ny, nz, frames), as nibabel holds a 4-D image, whose Fortran-ordered
+    arrays are then read and written in place, frame by frame. The other
+    arguments as BlurOperator's."""
 
     def __init__(self, shape, voxel_size, track, bounds, per_frame=False, method="ab", filter="hardware",
-                 max_path_error=None, device="auto", affine=None, steps=0):
+                 max_path_error=None, device="auto", affine=None, steps=0, progress=None, frames_last=False):
         b = np.array(bounds, dtype=np.float64).reshape(-1)
         if b.size < 2:
             raise ArgumentError(f"bounds must hold at least two times (one frame), not {b.size}")
-        super().__init__(shape, voxel_size, track, b, method, filter, max_path_error, device, affine, steps)
+        super().__init__(shape, voxel_size, track, b, method, filter, max_path_error, device, affine, steps,
+                         progress)
         self.bounds = b
         self.frames = b.size - 1
         self.per_frame = bool(per_frame)
+        self.frames_last = bool(frames_last)
+
+    def _frames_shape(self):
+        return self._shape + (self.frames,) if self.frames_last else (self.frames,) + self._shape
 
     @property
     def in_shape(self):
-        return (self.frames,) + self._shape if self.per_frame else self._shape
+        return self._frames_shape() if self.per_frame else self._shape
 
     @property
     def out_shape(self):
-        return (self.frames,) + self._shape
+        return self._frames_shape()
+
+    def _first(self, x):
+        """A 4-D array's frames moved to the front (a view)."""
+        return _move_axis(x, -1, 0) if self.frames_last and len(x.shape) == 4 else x
+
+    def _last(self, y):
+        return _move_axis(y, 0, -1) if self.frames_last and len(y.shape) == 4 else y
 
     def apply(self, x):
-        """Every frame's blur of x: one activity (shape) or one per frame
-        (frames, nx, ny, nz)."""
+        """Every frame's blur of x: one activity (shape) or one per frame."""
         arr = Array(x, "activity")
-        _check_shape(arr, [self._shape, (self.frames,) + self._shape], "activity")
+        _check_shape(arr, [self._shape, self._frames_shape()], "activity")
+        arr.data = self._first(arr.data)
         vols = _one_order(arr.volumes(self._shape))
         order = vols[0][1]
         out = arr.empty((self.frames,) + self._shape, order)
         jobs = [(f, vols[f if len(vols) > 1 else 0][0], out[f], 0, order) for f in range(self.frames)]
         self._run(arr, jobs, False)
-        return arr.result(out)
+        return self._last(arr.result(out))
 
     def adjoint(self, y, sum=None):
-        """The frames' transposes of y (frames, nx, ny, nz): summed into one
-        volume (``sum`` True; the default unless per_frame), else one per
-        frame."""
+        """The frames' transposes of y: summed into one volume (``sum`` True;
+        the default unless per_frame), else one per frame."""
         if sum is None:
             sum = not self.per_frame
         arr = Array(y, "frames")
-        _check_shape(arr, [(self.frames,) + self._shape], "frames")
+        _check_shape(arr, [self._frames_shape()], "frames")
+        arr.data = self._first(arr.data)
         vols = _one_order(arr.volumes(self._shape))
         order = vols[0][1]
         if sum:
@@ -381,4 +432,13 @@ class FramesOperator(_Operator):
             out = arr.empty((self.frames,) + self._shape, order)
             jobs = [(f, vols[f][0], out[f], 0, order) for f in range(self.frames)]
         self._run(arr, jobs, True)
-        return arr.result(out)
+        return self._last(arr.result(out))
+
+
+def _move_axis(x, src, dst):
+    if hasattr(x, "movedim"):  # torch
+        return x.movedim(src, dst)
+    if type(x).__module__.startswith("cupy"):
+        import cupy
+        return cupy.moveaxis(x, src, dst)
+    return np.moveaxis(x, src, dst)

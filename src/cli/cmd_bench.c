@@ -75,9 +75,10 @@ typedef struct bench_files {
 static const struct {
     const char *name;
     pb_method method;
-    double max_path_error;
-} methods[] = {{"AB", PB_METHOD_AB, -1.0},  {"RM", PB_METHOD_RM, -1.0},  {"CL", PB_METHOD_CL, 0.0},
-               {"AB-E", PB_METHOD_AB, 0.0}, {"RM-E", PB_METHOD_RM, 0.0}};
+    pb_path_model path;
+} methods[] = {{"AB", PB_METHOD_AB, PB_PATH_TRACKED},  {"RM", PB_METHOD_RM, PB_PATH_TRACKED},
+               {"CL", PB_METHOD_CL, PB_PATH_DEFAULT},  {"AB-E", PB_METHOD_AB, PB_PATH_DEFAULT},
+               {"RM-E", PB_METHOD_RM, PB_PATH_DEFAULT}};
 static const char *filter_names[] = {"hardware", "exact"};
 
 /* "a,b,c" into tokens of at most 31 characters; calls take(token) for each. */
@@ -257,7 +258,7 @@ static int references(pb_context *ctx, const bench_config *c, const char *name, 
             pbc_image_free(&r);
             continue;
         }
-        pb_blur_options opt = {PB_METHOD_REF, PB_FILTER_EXACT, 0, (unsigned)c->points, 0, (uint32_t)seed, 0.0};
+        pb_blur_options opt = {PB_METHOD_REF, PB_FILTER_EXACT, 0, (unsigned)c->points, 0, (uint32_t)seed, PB_PATH_DEFAULT, 0.0};
         pbc_timing t;
         if ((rc = pbc_bench_time(ctx, in, out, ph->data, motion, &opt, 0, 0, ref[seed - 1], NULL, &t)))
             return rc;
@@ -319,7 +320,7 @@ static int bench_case(pb_context *ctx, const bench_config *c, bench_files *f, co
             work.fetches, work.max_slices, c->reference ? 0UL : c->points);
     for (size_t m = 0; m < sizeof methods / sizeof methods[0]; m++)
         for (int filt = 0; filt < 2; filt++) {
-            pb_blur_options opt = {methods[m].method, (pb_filter)filt, 0, 0, 0, 0, methods[m].max_path_error};
+            pb_blur_options opt = {methods[m].method, (pb_filter)filt, 0, 0, 0, 0, methods[m].path, 0.0};
             size_t segments = 1;
             if ((rc = segments_of(&g, &motion, &opt, &segments)))
                 return rc;
@@ -342,7 +343,7 @@ static int bench_case(pb_context *ctx, const bench_config *c, bench_files *f, co
             char bound[32] = "";
             if (methods[m].method != PB_METHOD_CL)
                 snprintf(bound, sizeof bound, "%g",
-                         opt.max_path_error == 0.0 ? PB_DEFAULT_MAX_PATH_ERROR : fmax(opt.max_path_error, -1.0));
+                         opt.path == PB_PATH_TRACKED ? -1.0 : PB_DEFAULT_MAX_PATH_ERROR);
             fprintf(f->results, ",%s,%s,%s,%.6g,%.6g,%.6g,%.6g,%.6g,%lu,%.0f,%u,%lu,%s,%zu,%.6g\n", device,
                     methods[m].name, filter_names[filt], err, noise, t.kernel_ms, t.kernel_min_ms, t.e2e_ms, c->runs,
                     work.fetches, work.max_slices, c->reference ? 0UL : c->points, bound, segments, t.adjoint_ms);

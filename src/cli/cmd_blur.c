@@ -74,20 +74,19 @@ static int blur_options(const pbc_args *args, pb_blur_options *opt)
             return rc;
         opt->filter = (pb_filter)idx;
     }
-    if ((v = pbc_arg(&command, args, "--steps")) && (rc = pbc_parse_count("--steps", v, 1, 100000, &n)) == 0)
+    /* Counts as far as they fit; their ranges are the library's (pb_options_check). */
+    if ((v = pbc_arg(&command, args, "--steps")) && (rc = pbc_parse_count("--steps", v, 1, 0xffffffffUL, &n)) == 0)
         opt->steps = (unsigned)n;
     else if (v)
         return rc;
-    if ((v = pbc_arg(&command, args, "--max-path-error"))) {
-        if (!strcmp(v, "paper"))
-            opt->max_path_error = -1.0;
-        else if ((rc = pbc_parse_number("--max-path-error", v, &opt->max_path_error)))
-            return rc;
-        else if (!(opt->max_path_error > 0.0))
-            return pbc_fail(PBC_EXIT_USAGE, "--max-path-error %s: give a bound in voxels above 0 (e.g. 0.25), or "
-                            "'paper' for one segment per tracked interval", v);
-    }
-    if ((v = pbc_arg(&command, args, "--points")) && (rc = pbc_parse_count("--points", v, 1, 100000, &n)) == 0)
+    const char *bound = pbc_arg(&command, args, "--max-path-error");
+    if (bound && !strcmp(bound, "paper"))
+        opt->path = PB_PATH_TRACKED;
+    else if (bound && (rc = pbc_parse_number("--max-path-error", bound, &opt->max_path_error)))
+        return rc;
+    else if (bound)
+        opt->path = PB_PATH_BOUNDED;
+    if ((v = pbc_arg(&command, args, "--points")) && (rc = pbc_parse_count("--points", v, 1, 0xffffffffUL, &n)) == 0)
         opt->ref_points = (unsigned)n;
     else if (v)
         return rc;
@@ -95,6 +94,9 @@ static int blur_options(const pbc_args *args, pb_blur_options *opt)
         opt->seed = (uint32_t)n;
     else if (v)
         return rc;
+    if (pb_options_check(opt) != PB_OK)
+        return pbc_fail(PBC_EXIT_USAGE, "%s%s%s", bound ? "--max-path-error " : "", bound ? bound : "",
+                        pb_last_error(NULL));
     return 0;
 }
 
@@ -164,18 +166,6 @@ static int check_frames(const char *in_path, const pbc_image *in, size_t frames)
     return 0;
 }
 
-static int check_motion_frames(const pbc_motion *m, const pbc_image *in, const double *bounds, size_t frames)
-{
-    int rc = 0;
-    double one[2] = {m->motion.frame_start, m->motion.frame_end};
-    pbc_motion_check_frames(m, bounds ? bounds : one, bounds ? frames : 1);
-    if (!bounds)
-        return pbc_motion_check_frame(m, in, one[0], one[1]);
-    for (size_t i = 0; i < frames && !rc; i++)
-        rc = pbc_motion_check_frame(m, in, bounds[i], bounds[i + 1]);
-    return rc;
-}
-
 /* NIfTI's pixdim[4]: the frames' common length, or 0 when they differ. */
 static double common_length(const double *bounds, size_t frames)
 {
@@ -226,7 +216,7 @@ static int run(const pbc_args *args, const char *in_path, const char *out_path, 
     size_t frames = bounds ? nb - 1 : 1;
     const char *label = method_names[opt.method];
     if (!(rc = read_input(args, in_path, bounds != NULL, &in)) && !(rc = bounds ? check_frames(in_path, &in, frames) : 0) &&
-        !(rc = pbc_motion_place(&motion, &in, in_path)) && !(rc = check_motion_frames(&motion, &in, bounds, frames)) &&
+        !(rc = pbc_motion_place(&motion, &in, in_path)) && !(rc = pbc_motion_check_frames(&motion, bounds, frames, 1)) &&
         !(rc = pbc_image_check_not_input(out_path, in_path, &in)) &&
         !(png && (rc = pbc_image_check_not_input(png, in_path, &in))) &&
         !(rc = pbc_image_alloc_frames(&out, in.dims, in.voxel_size, bounds && !sum ? frames : 1)) &&

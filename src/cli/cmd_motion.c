@@ -48,7 +48,8 @@ static int grid_image(const pbc_args *args, pbc_image *img)
 
 static void frame_summary(const pbc_motion *m, const pbc_image *img, size_t index, double t0, double t1)
 {
-    pb_motion part = pbc_motion_part(m, t0, t1);
+    pb_motion part;
+    pb_motion_frame(&m->motion, t0, t1, &part);
     const pb_motion *mo = &part;
     double c[3], ext[3], rot = 0.0, disp = 0.0;
     for (int i = 0; i < 3; i++) {
@@ -68,11 +69,11 @@ static void frame_summary(const pbc_motion *m, const pbc_image *img, size_t inde
         else if (pb_motion_pose_at(mo, t, &p) != PB_OK)
             continue;
         samples += i < mo->count;
-        rot = fmax(rot, pbc_turn_deg(start.rotation, p.rotation));
+        rot = fmax(rot, pb_pose_turn_deg(&start, &p));
         for (int k = 0; k < 8; k++) {
             double v[3] = {(k & 1) ? ext[0] : 0, (k & 2) ? ext[1] : 0, (k & 4) ? ext[2] : 0}, a[3], b[3];
-            pbc_pose_move(&start, c, v, a);
-            pbc_pose_move(&p, c, v, b);
+            pb_pose_apply(&start, c, v, a);
+            pb_pose_apply(&p, c, v, b);
             disp = fmax(disp, sqrt((a[0] - b[0]) * (a[0] - b[0]) + (a[1] - b[1]) * (a[1] - b[1]) +
                                    (a[2] - b[2]) * (a[2] - b[2])));
         }
@@ -88,26 +89,28 @@ static int compare_doubles(const void *a, const void *b)
 
 static void track_summary(const pbc_motion *m)
 {
-    const pbc_track *t = &m->track;
-    double span = t->times[t->count - 1] - t->times[0], gap = 0.0;
-    size_t missing = 0, gaps = 0;
-    double *steps = malloc((t->count - 1) * sizeof *steps);
-    for (size_t i = 1; i < t->count; i++) {
-        double d = t->times[i] - t->times[i - 1];
+    const pb_track *t = m->track;
+    const double *times = pb_track_times(t);
+    const size_t *miss = pb_track_missing(t);
+    size_t n = pb_track_count(t), missing = 0, gaps = 0;
+    double span = times[n - 1] - times[0], gap = 0.0;
+    double *steps = malloc((n - 1) * sizeof *steps);
+    for (size_t i = 1; i < n; i++) {
+        double d = times[i] - times[i - 1];
         if (steps)
             steps[i - 1] = d;
-        missing += t->missing[i];
-        gaps += t->missing[i] > 0;
-        gap = t->missing[i] ? fmax(gap, d) : gap;
+        missing += miss[i];
+        gaps += miss[i] > 0;
+        gap = miss[i] ? fmax(gap, d) : gap;
     }
     double median = 0.0;
     if (steps) {
-        qsort(steps, t->count - 1, sizeof *steps, compare_doubles);
-        median = steps[(t->count - 1) / 2];
+        qsort(steps, n - 1, sizeof *steps, compare_doubles);
+        median = steps[(n - 1) / 2];
         free(steps);
     }
     printf("%s: %s, %zu poses from %.9g to %.9g s (%.6g s), median step %.6g s (%.4g Hz)\n", m->source,
-           pb_track_format_name(t->format), t->count, t->times[0], t->times[t->count - 1], span, median,
+           pb_track_format_name(pb_track_get_format(t)), n, times[0], times[n - 1], span, median,
            median > 0 ? 1.0 / median : 0.0);
     printf("missing samples: %zu in %zu gap%s, the longest %.6g s\n", missing, gaps, gaps == 1 ? "" : "s", gap);
 }
@@ -147,11 +150,7 @@ int pbc_cmd_motion(int argc, char **argv)
         double whole[2] = {m.motion.frame_start, m.motion.frame_end};
         const double *b = bounds ? bounds : whole;
         size_t frames = bounds ? nb - 1 : 1;
-        for (size_t i = 0; i < frames && !rc; i++)
-            if (b[i] < m.track.times[0] || b[i + 1] > m.track.times[m.track.count - 1])
-                rc = pbc_fail(PBC_EXIT_USAGE, "frame %zu (%.9g to %.9g s) lies outside the track (%.9g to %.9g s)", i,
-                              b[i], b[i + 1], m.track.times[0], m.track.times[m.track.count - 1]);
-        if (!rc) {
+        if (!(rc = pbc_motion_check_frames(&m, b, frames, 0))) {
             track_summary(&m);
             printf("frame        start          end  samples  max rot deg max disp mm\n");
             for (size_t i = 0; i < frames; i++)

@@ -30,62 +30,38 @@
     {"--motion-inverse", NULL, NULL, "the track's poses map scanner to object (yrt-pet's matrices): invert them"},   \
     {"--frame", NULL, "T0,T1", "the frame inside the track, seconds (default the whole track)"}
 
-/* The track a motion is made of: a file's, as pb_track_read read it, or the
- * poses --translate/--rotate make. Its own copy, since the conventions
- * rewrite the poses in place. */
-typedef struct pbc_track {
-    double *times;   /* seconds, strictly increasing */
-    pb_pose *poses;  /* csv: about the motion's centre; the other formats: 4x4 maps about the origin */
-    size_t *lines;   /* each pose's line in the file (0 for --translate/--rotate) */
-    size_t *missing; /* missing samples skipped just before each pose */
-    size_t count;
-    pb_track_format format;
-} pbc_track;
-
+/* A motion as the command line gives it: the track (a file's, or the poses
+ * --translate/--rotate make) and the conventions, both the library's
+ * (petblur.h, "the motion layer"); this file only parses and prints. */
 typedef struct pbc_motion {
-    pb_motion motion;  /* in the grid frame once placed */
-    pbc_track track;   /* the track as read, or the poses --translate/--rotate make */
-    pb_pose *grid;     /* the poses in the grid frame */
+    pb_track *track;
+    pb_track_conventions conventions;
     const char *source; /* the track's path, or "--translate/--rotate" */
-    int about_origin;  /* poses map about the world's origin (tracker formats) */
-    int has_center;
-    double center[3];  /* --center */
-    int coords;        /* -1: told by the input; 0: world; 1: grid */
-    int has_calibration, has_reference, inverse;
-    double calibration[16], reference_time;
-    /* Once placed: the track's poses turn about world_center, and the grid's
-     * centre lies at grid_center (world mm; the grid frame's with --coords grid). */
-    double world_center[3], grid_center[3];
+    int coords;         /* -1: told by the input; 0: world; 1: grid */
+    int has_frame;
+    double frame[2];    /* --frame, else the whole track */
+    /* Once placed: */
+    pb_geometry geometry;
+    double affine[16];  /* the grid's voxel-to-world affine, or the grid frame's (--coords grid, .raw) */
+    pb_pose *grid;      /* the poses in the grid frame */
+    pb_motion motion;   /* in the grid frame, over the frame */
 } pbc_motion;
 
 /* Parses the motion options and reads the track; the motion is placed once
  * the input is read. Returns 0 or an exit status after the message. */
 int pbc_motion_from_args(const pbc_command *cmd, const pbc_args *args, pbc_motion *m);
 
-/* Puts the motion into img's grid frame: world coordinates through the image's
- * affine, or the grid's own; applies the tracker conventions and warns about
- * poses that turn more than 90 degrees between samples or times that look like
- * milliseconds. */
+/* Puts the motion into img's grid frame (world coordinates through the image's
+ * affine, or the grid's own), printing the library's warnings. */
 int pbc_motion_place(pbc_motion *m, const pbc_image *img, const char *in_path);
 
-/* Warns once when the frames (bounds[0..frames]) of a track look like
- * milliseconds, or span almost none of the track together. */
-void pbc_motion_check_frames(const pbc_motion *m, const double *bounds, size_t frames);
+/* Checks frames bounds[0..frames] (NULL: the motion's frame) of a placed
+ * motion: the library's refusals and warnings. With refuse 0 a grid out of
+ * view is a warning (petblur motion shows a track a blur would refuse). */
+int pbc_motion_check_frames(const pbc_motion *m, const double *bounds, size_t frames, int refuse);
 
-/* Checks a frame [t0, t1] of a placed motion: a gap of missing samples inside
- * it, a motion that takes the whole grid out of the field of view (refusals),
- * or out of it at some poses (a warning). */
-int pbc_motion_check_frame(const pbc_motion *m, const pbc_image *img, double t0, double t1);
-
-/* The placed motion's samples that frame [t0, t1] needs (the one before it to
- * the one after), found by bisection, with the frame set: a frame of a long log
- * costs its own samples. */
-pb_motion pbc_motion_part(const pbc_motion *m, double t0, double t1);
-
-/* The angle in degrees of the turn between two poses' quaternions. */
-double pbc_turn_deg(const double a[4], const double b[4]);
-/* Where a pose about centre c takes point v: c + t + R (v - c). */
-void pbc_pose_move(const pb_pose *p, const double c[3], const double v[3], double out[3]);
+/* Prints a library call's warnings, one "petblur: warning:" line each. */
+void pbc_print_warnings(const pb_warnings *w);
 
 void pbc_motion_free(pbc_motion *m);
 

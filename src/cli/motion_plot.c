@@ -74,22 +74,34 @@ int pbc_motion_plot(const char *path, const pbc_motion *m, const double *bounds,
     const pb_motion *mo = &m->motion;
     size_t n = mo->count;
     double *v = malloc(4 * n * sizeof *v);
-    if (!v)
+    pb_pose *world = malloc(n * sizeof *world);
+    pb_motion wm;
+    if (!v || !world) {
+        free(v);
+        free(world);
         return pbc_fail(PBC_EXIT_RUNTIME, "out of memory for the picture of %zu poses", n);
-    const double *c = m->grid_center, *mc = m->world_center;
+    }
+    /* The poses in the world, about wm.center, as placing made them. */
+    pb_track_world(m->track, &m->conventions, &m->geometry, m->affine, world, &wm, NULL);
+    double c[3]; /* the grid's centre, world mm */
+    for (int r = 0; r < 3; r++) {
+        c[r] = m->affine[4 * r + 3];
+        for (int k = 0; k < 3; k++)
+            c[r] += m->affine[4 * r + k] * 0.5 * ((double)m->geometry.dims[k] - 1.0);
+    }
     panel pt = {TOP + 20, (double)INFINITY, -(double)INFINITY}, pr = {TOP + 20 + PANEL + GAP, 0.0, -(double)INFINITY};
     for (size_t k = 0; k < n; k++) {
-        const pb_pose *p = &m->track.poses[k]; /* in the world, about world_center */
         double moved[3];
-        pbc_pose_move(p, mc, c, moved); /* where the grid's centre goes */
+        pb_pose_apply(&world[k], wm.center, c, moved); /* where the grid's centre goes */
         for (int i = 0; i < 3; i++) {
             v[4 * k + i] = moved[i] - c[i];
             pt.lo = fmin(pt.lo, v[4 * k + i]);
             pt.hi = fmax(pt.hi, v[4 * k + i]);
         }
-        v[4 * k + 3] = pbc_turn_deg(m->track.poses[0].rotation, p->rotation);
+        v[4 * k + 3] = pb_pose_turn_deg(&world[0], &world[k]);
         pr.hi = fmax(pr.hi, v[4 * k + 3]);
     }
+    free(world);
     /* Flat curves still get a visible range. */
     if (pt.hi - pt.lo < 1e-3) {
         pt.lo -= 0.5;

@@ -41,7 +41,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
         return 0;
     size_t count = 2 + data[0] % 4;
     pb_blur_options opt = {(pb_method)(data[1] & 3), (pb_filter)(data[1] >> 2 & 1), (data[1] >> 3 & 3), 4, 4, 1,
-                           0.0};
+                           0.0, 0.0};
     const uint8_t *p = data + 2;
     size_t n = size - 2;
     double times[5];
@@ -56,6 +56,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     pb_motion m = {times, poses, count, take(&p, &n), take(&p, &n), (int)(size & 1), {0, 0, 0}};
     for (int k = 0; k < 3; k++)
         m.center[k] = take(&p, &n);
+    opt.path = (pb_path_model)(data[1] >> 5 & 3);
     opt.max_path_error = take(&p, &n);
     if (pb_blur(ctx, in, &m, &opt, out) == PB_OK) {
         float res[24];

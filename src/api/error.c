@@ -1,0 +1,97 @@
+#include "error.h"
+
+#include <stdarg.h>
+#include <stdio.h>
+#include <string.h>
+
+#include "backend.h"
+
+static _Thread_local char thread_error[PB_ERROR_TEXT_MAX];
+
+static char *error_text(struct pb_context *ctx)
+{
+    return ctx ? ctx->last_error : thread_error;
+}
+
+pb_status pb_error(struct pb_context *ctx, pb_status status, const char *fmt, ...)
+{
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(error_text(ctx), PB_ERROR_TEXT_MAX, fmt, ap);
+    va_end(ap);
+    return status;
+}
+
+pb_status pb_error_prefix(pb_status status, const char *fmt, ...)
+{
+    char prefix[1024];
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(prefix, sizeof prefix, fmt, ap);
+    va_end(ap);
+    size_t n = strlen(prefix), used = strlen(thread_error);
+    if (n + used >= PB_ERROR_TEXT_MAX)
+        used = PB_ERROR_TEXT_MAX - n - 1;
+    memmove(thread_error + n, thread_error, used);
+    memcpy(thread_error, prefix, n);
+    thread_error[n + used] = '\0';
+    return status;
+}
+
+void pb_error_append(struct pb_context *ctx, const char *text)
+{
+    char *buf = error_text(ctx);
+    size_t used = strlen(buf);
+    snprintf(buf + used, PB_ERROR_TEXT_MAX - used, "%s", text);
+}
+
+void pb_warn(pb_warnings *w, unsigned flag, const char *fmt, ...)
+{
+    if (!w)
+        return;
+    w->flags |= flag;
+    size_t used = strlen(w->text);
+    if (used + 1 >= sizeof w->text)
+        return;
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(w->text + used, sizeof w->text - used - 1, fmt, ap);
+    va_end(ap);
+    used = strlen(w->text);
+    w->text[used] = '\n';
+    w->text[used + 1] = '\0';
+}
+
+const char *pb_last_error(const pb_context *ctx)
+{
+    return ctx ? ctx->last_error : thread_error;
+}
+
+const char *pb_status_string(pb_status status)
+{
+    switch (status) {
+    case PB_OK: return "success";
+    case PB_ERR_INVALID_ARGUMENT: return "invalid argument";
+    case PB_ERR_ZERO_DIMS: return "zero volume dimension";
+    case PB_ERR_BAD_VOXEL_SIZE: return "bad voxel size";
+    case PB_ERR_NOT_FINITE: return "NaN or infinite number";
+    case PB_ERR_BAD_QUATERNION: return "zero or non-unit quaternion";
+    case PB_ERR_BAD_FRAME: return "frame end not after its start";
+    case PB_ERR_TRACK_ORDER: return "track times not strictly increasing";
+    case PB_ERR_TRACK_GAP: return "track does not cover the frame";
+    case PB_ERR_SIZE_MISMATCH: return "volumes differ in size or context";
+    case PB_ERR_AFFINE_SHEAR: return "voxel-to-world affine with a shear";
+    case PB_ERR_NOT_RIGID: return "pose matrix not rigid";
+    case PB_ERR_OUT_OF_VIEW: return "grid out of the field of view for a whole frame";
+    case PB_ERR_BACKEND_UNAVAILABLE: return "backend not compiled in";
+    case PB_ERR_NO_DEVICE: return "no device";
+    case PB_ERR_NO_IMAGE_SUPPORT: return "no 3-D float image support";
+    case PB_ERR_VOLUME_TOO_LARGE: return "volume beyond the device's image limits";
+    case PB_ERR_DEVICE: return "device runtime failure";
+    case PB_ERR_BUILD: return "kernel build failed";
+    case PB_ERR_LAUNCH: return "kernel launch failed";
+    case PB_ERR_OUT_OF_MEMORY: return "out of memory";
+    case PB_ERR_BAD_FILE: return "unreadable or malformed file";
+    }
+    return "unknown status";
+}

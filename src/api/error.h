@@ -1,0 +1,38 @@
+/* Status strings and last-error texts. */
+#ifndef PB_ERROR_H
+#define PB_ERROR_H
+
+#include "petblur.h"
+
+struct pb_context;
+
+/* Sets the last-error text of ctx (of the calling thread when ctx is NULL) and
+ * returns status, so that callers can write `return pb_error(...)`. */
+pb_status pb_error(struct pb_context *ctx, pb_status status, const char *fmt, ...)
+#if defined(__GNUC__)
+    __attribute__((format(printf, 3, 4)))
+#endif
+    ;
+
+/* Adds a warning of kind flag (PB_WARN_*), one line of text, to w (which may
+ * be NULL: nobody asked). */
+void pb_warn(pb_warnings *w, unsigned flag, const char *fmt, ...)
+#if defined(__GNUC__)
+    __attribute__((format(printf, 3, 4)))
+#endif
+    ;
+
+/* Puts a prefix before the calling thread's last-error text (a message of a
+ * call made on the way, in context) and returns status. */
+pb_status pb_error_prefix(pb_status status, const char *fmt, ...)
+#if defined(__GNUC__)
+    __attribute__((format(printf, 2, 3)))
+#endif
+    ;
+
+/* Appends text (a build log, say) to the last-error text of ctx. */
+void pb_error_append(struct pb_context *ctx, const char *text);
+
+#define PB_ERROR_TEXT_MAX 65536
+
+#endif

@@ -1,0 +1,366 @@
+/* The host backend: every method in plain C and double precision, written for
+ * clarity and never for speed. It is the reference the device backends are
+ * tested against, so it shares no arithmetic with the kernels: where a kernel
+ * computes a weight incrementally or piecewise, this file integrates it in
+ * closed form. */
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+
+#include "backend.h"
+#include "cl/pb_kernel_types.h"
+
+/* The operator's two directions share every weight: the forward reads
+ * weight times an object voxel, the adjoint adds weight times the tomograph
+ * voxel's value into it. Each function below gets the product of the weights
+ * above it as `scale` and hands every voxel weight to touch(). */
+typedef struct host_io {
+    const float *in; /* forward: the object volume */
+    double *acc;     /* adjoint: the object volume being summed into */
+    long n[3];
+} host_io;
+
+/* Forward: scale * w * activity of voxel (i, j, k); adjoint: adds scale * w
+ * to it and returns 0. Outside the grid the activity is zero and nothing is
+ * added. */
+static double touch(const host_io *io, long i, long j, long k, double w)
+{
+    if (i < 0 || j < 0 || k < 0 || i >= io->n[0] || j >= io->n[1] || k >= io->n[2])
+        return 0.0;
+    size_t idx = (size_t)(i + io->n[0] * (j + io->n[1] * k));
+    if (io->acc) {
+        io->acc[idx] += w;
+        return 0.0;
+    }
+    return w * (double)io->in[idx];
+}
+
+/* Trilinear interpolation at texel coordinates u (texel i's centre at i + 0.5). */
+static double trilinear(const host_io *io, const double u[3], double scale)
+{
+    double f[3];
+    long i0[3];
+    for (int d = 0; d < 3; d++) {
+        double c = u[d] - 0.5;
+        i0[d] = (long)floor(c);
+        f[d] = c - (double)i0[d];
+    }
+    double sum = 0.0;
+    for (int corner = 0; corner < 8; corner++) {
+        double w = scale;
+        long idx[3];
+        for (int d = 0; d < 3; d++) {
+            int up = corner >> d & 1;
+            idx[d] = i0[d] + up;
+            w *= up ? f[d] : 1.0 - f[d];
+        }
+        sum += touch(io, idx[0], idx[1], idx[2], w);
+    }
+    return sum;
+}
+
+/* Bilinear interpolation inside slice k orthogonal to axis m, at the transverse
+ * texel coordinates of u (u[m] is ignored). */
+static double bilinear_in_slice(const host_io *io, int m, long k, const double u[3], double scale)
+{
+    int t1 = (m + 1) % 3, t2 = (m + 2) % 3;
+    double c1 = u[t1] - 0.5, c2 = u[t2] - 0.5;
+    long i1 = (long)floor(c1), i2 = (long)floor(c2);
+    double f1 = c1 - (double)i1, f2 = c2 - (double)i2;
+    double sum = 0.0;
+    for (int corner = 0; corner < 4; corner++) {
+        long idx[3];
+        idx[m] = k;
+        idx[t1] = i1 + (corner & 1);
+        idx[t2] = i2 + (corner >> 1);
+        double w = ((corner & 1) ? f1 : 1.0 - f1) * ((corner >> 1) ? f2 : 1.0 - f2);
+        sum += touch(io, idx[0], idx[1], idx[2], scale * w);
+    }
+    return sum;
+}
+
+static void apply_map(const double m[12], const double u[3], double out[3])
+{
+    for (int r = 0; r < 3; r++)
+        out[r] = m[4 * r] * u[0] + m[4 * r + 1] * u[1] + m[4 * r + 2] * u[2] + m[4 * r + 3];
+}
+
+/* Integral over [-1, u] of the tent 1 - |s| (u clamped to [-1, 1]), and of s
+ * times the tent: the overlap of a unit box with a box centred on a slice, and
+ * its first moment. */
+static double tent_integral(double u)
+{
+    u = fmax(-1.0, fmin(1.0, u));
+    return u <= 0.0 ? 0.5 * (u + 1.0) * (u + 1.0) : 1.0 - 0.5 * (1.0 - u) * (1.0 - u);
+}
+
+static double tent_moment(double u)
+{
+    u = fmax(-1.0, fmin(1.0, u));
+    return u <= 0.0 ? u * u / 2.0 + u * u * u / 3.0 - 1.0 / 6.0 : u * u / 2.0 - u * u * u / 3.0 - 1.0 / 6.0;
+}
+
+/* Points (in voxel-centre coordinates: voxel i's centre at i) of a segment. */
+static int major_axis(const double a[3], const double b[3])
+{
+    int m = 0;
+    for (int d = 1; d < 3; d++)
+        if (fabs(b[d] - a[d]) > fabs(b[m] - a[m]))
+            m = d;
+    return m;
+}
+
+/* Slices AB visits on the segment a-b (texel coordinates): all whose tent
+ * weight is not zero. CL and RM take as many samples by default. */
+static long ab_slice_count(const double a[3], const double b[3])
+{
+    int m = major_axis(a, b);
+    double lo = fmin(a[m], b[m]) - 0.5, hi = fmax(a[m], b[m]) - 0.5;
+    return (long)ceil(hi) - (long)floor(lo) + 1;
+}
+
+/* Antialiased Bresenham along a-b (texel coordinates): slice k along the major
+ * axis gets the share of the path that overlaps it, the time average of the
+ * tent 1 - |x - k|; inside the slice, the four voxels around the path's
+ * tent-weighted mean position get bilinear (the paper's A_S, A_T) weights. */
+static double ab_segment(const host_io *io, const double a[3], const double b[3], double scale)
+{
+    int m = major_axis(a, b);
+    double am = a[m] - 0.5, bm = b[m] - 0.5;
+    double lo = fmin(am, bm), hi = fmax(am, bm), len = hi - lo;
+    if (len < 1e-9) {
+        /* A point: the tent weights of its two slices times bilinear weights are
+         * the trilinear weights. */
+        double mid[3] = {0.5 * (a[0] + b[0]), 0.5 * (a[1] + b[1]), 0.5 * (a[2] + b[2])};
+        return trilinear(io, mid, scale);
+    }
+    double sum = 0.0;
+    for (long k = (long)floor(lo); k <= (long)ceil(hi); k++) {
+        double w = tent_integral(hi - k) - tent_integral(lo - k);
+        if (w <= 0.0)
+            continue;
+        double mean = k + (tent_moment(hi - k) - tent_moment(lo - k)) / w;
+        double s = (mean - am) / (bm - am);
+        double p[3];
+        for (int d = 0; d < 3; d++)
+            p[d] = a[d] + s * (b[d] - a[d]);
+        sum += bilinear_in_slice(io, m, k, p, scale * w / len);
+    }
+    return sum;
+}
+
+/* Tomograph voxel (ix, iy, iz) under the plan: its blurred value (forward), or
+ * with io->acc, scale spread over the object voxels it reads (adjoint). */
+static double blur_voxel(const host_io *io, const pb_path *plan, const pb_blur_options *opt, long ix, long iy,
+                         long iz, double scale)
+{
+    const double u[3] = {ix + 0.5, iy + 0.5, iz + 0.5};
+    double total = 0.0;
+
+    if (opt->method == PB_METHOD_REF) {
+        unsigned voxel = (unsigned)(ix + io->n[0] * (iy + io->n[1] * iz));
+        unsigned key = pb_ref_key(opt->seed, voxel);
+        for (size_t s = 0; s < plan->ref_count; s++) {
+            double w = scale * plan->ref_steps[s].weight / opt->ref_points;
+            for (unsigned k = 0; k < opt->ref_points; k++) {
+                unsigned c = (unsigned)(s * opt->ref_points + k);
+                double p[3] = {ix + (pb_ref_bits(key, c, 0) + 0.5) / 16777216.0,
+                               iy + (pb_ref_bits(key, c, 1) + 0.5) / 16777216.0,
+                               iz + (pb_ref_bits(key, c, 2) + 0.5) / 16777216.0};
+                double o[3];
+                apply_map(plan->ref_steps[s].map, p, o);
+                /* Box model: the object voxel that holds the point. */
+                total += touch(io, (long)floor(o[0]), (long)floor(o[1]), (long)floor(o[2]), w);
+            }
+        }
+        return total;
+    }
+
+    for (size_t j = 0; j + 1 < plan->count; j++) {
+        const pb_path_pose *p0 = &plan->poses[j], *p1 = &plan->poses[j + 1];
+        if (p0->skip) /* clipped: reads nothing of the object (path_clip.c) */
+            continue;
+        double a[3], b[3];
+        apply_map(p0->map, u, a);
+        apply_map(p1->map, u, b);
+        double seg_scale = scale * p0->weight;
+        if (opt->method == PB_METHOD_AB) {
+            unsigned parts = opt->steps ? opt->steps : 1;
+            for (unsigned r = 0; r < parts; r++) {
+                double pa[3], pb[3];
+                for (int d = 0; d < 3; d++) {
+                    pa[d] = a[d] + (b[d] - a[d]) * r / parts;
+                    pb[d] = a[d] + (b[d] - a[d]) * (r + 1) / parts;
+                }
+                total += ab_segment(io, pa, pb, seg_scale / parts);
+            }
+        } else {
+            long n = opt->steps ? (long)opt->steps : ab_slice_count(a, b);
+            for (long i = 0; i < n; i++) {
+                double s = (i + 0.5) / n, o[3];
+                if (opt->method == PB_METHOD_RM) {
+                    for (int d = 0; d < 3; d++)
+                        o[d] = a[d] + s * (b[d] - a[d]);
+                } else {
+                    /* Classical: the pose itself is interpolated at every step. */
+                    pb_pose pose;
+                    double map[12];
+                    pb_pose_interpolate(&p0->pose, &p1->pose, s, &pose);
+                    pb_pose_texel_map(&pose, plan->center, plan->geometry.voxel_size, map);
+                    apply_map(map, u, o);
+                }
+                total += trilinear(io, o, seg_scale / n);
+            }
+        }
+    }
+    return total;
+}
+
+/* ---- ops ----------------------------------------------------------------- */
+
+static pb_status host_device_count(int *count)
+{
+    *count = 1;
+    return PB_OK;
+}
+
+static pb_status host_device_info(int index, pb_device_info *info)
+{
+    (void)index;
+    memset(info, 0, sizeof *info);
+    strcpy(info->name, "host CPU (double precision reference)");
+    strcpy(info->platform, "host");
+    info->image_support = 1;
+    info->compute_units = 1;
+    return PB_OK;
+}
+
+static pb_status host_context_init(pb_context *ctx, int index, const char *build_options)
+{
+    (void)build_options;
+    if (index != 0)
+        return pb_error(ctx, PB_ERR_NO_DEVICE, "the host backend has one device, 0; device %d does not exist", index);
+    return host_device_info(0, &ctx->device);
+}
+
+static void host_context_release(pb_context *ctx)
+{
+    (void)ctx;
+}
+
+/* Buffers are host memory: the reference reads and writes them directly. */
+static pb_status host_buffer_create(pb_context *ctx, size_t bytes, void **buffer)
+{
+    *buffer = malloc(bytes);
+    if (!*buffer)
+        return pb_error(ctx, PB_ERR_OUT_OF_MEMORY, "out of host memory for %.1f MiB", bytes / 1048576.0);
+    return PB_OK;
+}
+
+static void host_buffer_release(pb_context *ctx, void *buffer)
+{
+    (void)ctx;
+    free(buffer);
+}
+
+static pb_status host_buffer_write(pb_context *ctx, void *buffer, const void *host, size_t bytes)
+{
+    (void)ctx;
+    memcpy(buffer, host, bytes);
+    return PB_OK;
+}
+
+static pb_status host_buffer_read(pb_context *ctx, const void *buffer, void *host, size_t bytes)
+{
+    (void)ctx;
+    memcpy(host, buffer, bytes);
+    return PB_OK;
+}
+
+static pb_status host_buffer_zero(pb_context *ctx, void *buffer, size_t bytes)
+{
+    (void)ctx;
+    memset(buffer, 0, bytes);
+    return PB_OK;
+}
+
+/* The caller's host memory: its size cannot be known here. */
+static pb_status host_buffer_check(pb_context *ctx, const void *buffer, size_t bytes, const char *what, int written)
+{
+    (void)bytes;
+    (void)written;
+    return buffer ? PB_OK : pb_error(ctx, PB_ERR_INVALID_ARGUMENT, "the %s memory is NULL", what);
+}
+
+static double elapsed_ms(const struct timespec *t0)
+{
+    struct timespec t1;
+    clock_gettime(CLOCK_MONOTONIC, &t1);
+    return (t1.tv_sec - t0->tv_sec) * 1e3 + (t1.tv_nsec - t0->tv_nsec) * 1e-6;
+}
+
+static pb_status host_forward(pb_context *ctx, const float *in, const pb_path *plan, const pb_blur_options *opt,
+                              const size_t *d, float *out)
+{
+    struct timespec t0;
+    clock_gettime(CLOCK_MONOTONIC, &t0);
+    host_io io = {in, NULL, {(long)d[0], (long)d[1], (long)d[2]}};
+    for (long iz = 0; iz < io.n[2]; iz++) {
+        for (long iy = 0; iy < io.n[1]; iy++)
+            for (long ix = 0; ix < io.n[0]; ix++)
+                out[ix + io.n[0] * (iy + io.n[1] * iz)] = (float)blur_voxel(&io, plan, opt, ix, iy, iz, 1.0);
+        if (ctx->progress && iz + 1 < io.n[2])
+            ctx->progress((double)(iz + 1) / (double)io.n[2], ctx->progress_user);
+    }
+    ctx->last_kernel_ms = elapsed_ms(&t0);
+    return PB_OK;
+}
+
+/* The transpose, summed in double and rounded once (onto the object's own
+ * values with accumulate). */
+static pb_status host_adjoint(pb_context *ctx, const float *in, const pb_path *plan, const pb_blur_options *opt,
+                              const size_t *d, float *out, int accumulate)
+{
+    struct timespec t0;
+    clock_gettime(CLOCK_MONOTONIC, &t0);
+    size_t count = d[0] * d[1] * d[2];
+    double *acc = calloc(count, sizeof *acc);
+    if (!acc)
+        return pb_error(ctx, PB_ERR_OUT_OF_MEMORY, "out of host memory for the adjoint's %.1f MiB sum",
+                        count * 8.0 / 1048576.0);
+    host_io io = {NULL, acc, {(long)d[0], (long)d[1], (long)d[2]}};
+    for (size_t i = 0; accumulate && i < count; i++)
+        acc[i] = (double)out[i];
+    for (long iz = 0; iz < io.n[2]; iz++) {
+        for (long iy = 0; iy < io.n[1]; iy++)
+            for (long ix = 0; ix < io.n[0]; ix++) {
+                double v = (double)in[ix + io.n[0] * (iy + io.n[1] * iz)];
+                if (v != 0.0)
+                    blur_voxel(&io, plan, opt, ix, iy, iz, v);
+            }
+        if (ctx->progress && iz + 1 < io.n[2])
+            ctx->progress((double)(iz + 1) / (double)io.n[2], ctx->progress_user);
+    }
+    for (size_t i = 0; i < count; i++)
+        out[i] = (float)acc[i];
+    free(acc);
+    ctx->last_kernel_ms = elapsed_ms(&t0);
+    return PB_OK;
+}
+
+const pb_backend_ops pb_backend_host_ops = {
+    .id = PB_BACKEND_HOST,
+    .device_count = host_device_count,
+    .device_info = host_device_info,
+    .context_init = host_context_init,
+    .context_release = host_context_release,
+    .buffer_create = host_buffer_create,
+    .buffer_release = host_buffer_release,
+    .buffer_write = host_buffer_write,
+    .buffer_read = host_buffer_read,
+    .buffer_zero = host_buffer_zero,
+    .buffer_check = host_buffer_check,
+    .host_forward = host_forward,
+    .host_adjoint = host_adjoint,
+};

@@ -1,0 +1,64 @@
+/* Host maths shared by every backend: quaternions, poses, and the plan that turns
+ * a frame's pose track into the key poses whose segments the methods walk.
+ * Double precision throughout. The one internal header of the motion layer
+ * (src/motion), in sections by the file that implements them. */
+#ifndef PB_MOTION_H
+#define PB_MOTION_H
+
+#include "petblur.h"
+
+struct pb_context;
+
+/* ---- quaternion.c: quaternion and pose maths ----------------------------- */
+
+/* 1 when none of v[0..n-1] is NaN or infinite. */
+int pb_all_finite(const double *v, size_t n);
+
+/* Quaternions are w, x, y, z. */
+void pb_quat_mul(const double a[4], const double b[4], double out[4]);
+void pb_quat_conj(const double q[4], double out[4]);
+double pb_quat_dot(const double a[4], const double b[4]);
+/* The angle between two unit quaternions as 4-vectors (SLERP's angle; half the
+ * rotation from a to b when they share a hemisphere), as 2 atan2(|a - b|,
+ * |a + b|), which stays accurate for tiny angles where acos(a . b) does not. */
+double pb_quat_angle(const double a[4], const double b[4]);
+/* Shorter-arc SLERP: the result for s in [0, 1] runs from a to b (or -b). */
+void pb_quat_slerp(const double a[4], const double b[4], double s, double out[4]);
+/* Row-major 3x3 rotation matrix of a unit quaternion. */
+void pb_quat_to_matrix(const double q[4], double r[9]);
+void pb_quat_rotate(const double q[4], const double v[3], double out[3]);
+
+/* A pose with its centre: p_tomo = R(q) (p_obj - c) + c + t. */
+void pb_pose_apply_inverse(const pb_pose *pose, const double center[3], const double p[3], double out[3]);
+/* For poses about one common centre, which cancels: (a o b)(p) = a(b(p)). */
+void pb_pose_compose(const pb_pose *a, const pb_pose *b, pb_pose *out);
+void pb_pose_invert(const pb_pose *pose, pb_pose *out);
+/* LERP of translations, shorter-arc SLERP of rotations. */
+void pb_pose_interpolate(const pb_pose *a, const pb_pose *b, double s, pb_pose *out);
+
+/* The affine map from tomograph texel coordinates to object texel coordinates
+ * (texel i's centre at i + 0.5) of a pose: u_obj = M[:, 0:3] u_tomo + M[:, 3],
+ * row-major 3x4. */
+void pb_pose_texel_map(const pb_pose *pose, const double center[3], const double voxel[3], double m[12]);
+
+/* A copy of the pose with its quaternion scaled to unit norm. */
+void pb_pose_normalized(const pb_pose *in, pb_pose *out);
+
+/* ---- motion_check.c: validation, and poses of a validated track ---------- */
+
+
+/* Checks a motion: every problem gets its own status and a message (on ctx, or
+ * the thread's when ctx is NULL) naming what to fix. */
+pb_status pb_motion_validate(struct pb_context *ctx, const pb_motion *motion);
+
+/* The pose of a validated motion at time t in [times[0], times[count-1]]. */
+void pb_motion_interpolate(const pb_motion *motion, double t, pb_pose *pose);
+
+/* ---- conventions.c and track_checks.c: a track made the patient's motion -- */
+
+struct pb_track;
+/* The warnings of a track's poses in the world (conventions applied): turns
+ * between samples, poses far from rest, times that look like milliseconds. */
+void pb_track_warn_poses(const struct pb_track *track, const pb_pose *world, pb_warnings *warnings);
+
+#endif

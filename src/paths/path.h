@@ -1,0 +1,55 @@
+/* The key poses a frame's blur walks (src/paths): made from a validated
+ * motion, cut so that every voxel stays within the error bound of its true
+ * path, and clipped to the grid. No backend knows how a path was made. */
+#ifndef PB_PATH_H
+#define PB_PATH_H
+
+#include "motion.h"
+
+/* ---- path_plan.c: the plan ----------------------------------------------- */
+
+/* One key pose of a plan. */
+typedef struct pb_path_pose {
+    double time;
+    pb_pose pose;      /* unit quaternion on the same hemisphere as the previous key pose */
+    double map[12];    /* pb_pose_texel_map of the pose */
+    double weight;     /* fraction of the frame spent on the segment to the next key pose; 0 when skipped */
+    int skip;          /* the segment to the next key pose reads nothing of the object: not walked */
+} pb_path_pose;
+
+/* One REF time step: where it is, and its share of the frame. */
+typedef struct pb_path_step {
+    double map[12];
+    double weight;
+} pb_path_step;
+
+typedef struct pb_path {
+    pb_geometry geometry;
+    double center[3];        /* mm */
+    size_t count;            /* key poses: frame start, tracked poses inside, frame end */
+    pb_path_pose *poses;
+    size_t ref_count;        /* REF time steps over the whole frame (0 unless REF) */
+    pb_path_step *ref_steps;
+} pb_path;
+
+/* Validates the motion and options and builds the plan. */
+pb_status pb_path_create(struct pb_context *ctx, const pb_geometry *geometry, const pb_motion *motion,
+                         const pb_blur_options *options, pb_path *plan);
+void pb_path_destroy(pb_path *plan);
+
+/* The most segments one blur may walk; far above what any sane bound needs (a
+ * full turn at 0.01 voxels on a 512^3 grid takes about 6000). */
+enum { PB_MAX_SEGMENTS = 100000 };
+
+/* Error-bounded polylines (path_split.c): the plan with every interval cut
+ * into the equal pieces that keep each voxel centre within max_error voxels of
+ * its chord, then runs of pieces merged into chords within the same bound
+ * (maps and weights still to fill). */
+pb_status pb_path_split(struct pb_context *ctx, pb_path *plan, double max_error);
+
+/* Walks clipped to the grid (path_clip.c): each segment cut to the part of it
+ * during which a sample can land in the object grid, the rest marked skip,
+ * so that a blur's cost is bounded by the grid whatever the motion. */
+pb_status pb_path_clip(struct pb_context *ctx, pb_path *plan);
+
+#endif

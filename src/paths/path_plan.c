@@ -1,0 +1,156 @@
+/* Planning: turns a validated pose track into the key poses whose segments
+ * the methods walk (frame ends and tracked poses inside, on one hemisphere),
+ * cut by the path error bound (path_split.c) and clipped to the grid
+ * (path_clip.c), with their texel maps, weights and, for REF, time steps. */
+#include "path.h"
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "error.h"
+
+/* Largest distance any point of the grid moves between two poses, in voxels of
+ * the smallest voxel size. The displacement is affine in the point, so its norm
+ * is largest at a corner. */
+static double largest_corner_motion(const pb_path *plan, const pb_pose *a, const pb_pose *b)
+{
+    const double *v = plan->geometry.voxel_size;
+    double vmin = fmin(v[0], fmin(v[1], v[2]));
+    double worst = 0.0;
+    for (int c = 0; c < 8; c++) {
+        double p[3], pa[3], pb[3];
+        for (int i = 0; i < 3; i++)
+            p[i] = (c >> i & 1) ? (double)plan->geometry.dims[i] * v[i] : 0.0;
+        pb_pose_apply_inverse(a, plan->center, p, pa);
+        pb_pose_apply_inverse(b, plan->center, p, pb);
+        double d = sqrt((pa[0] - pb[0]) * (pa[0] - pb[0]) + (pa[1] - pb[1]) * (pa[1] - pb[1]) +
+                        (pa[2] - pb[2]) * (pa[2] - pb[2]));
+        worst = fmax(worst, d / vmin);
+    }
+    return worst;
+}
+
+static pb_status plan_ref_steps(struct pb_context *ctx, const pb_blur_options *opt, pb_path *plan)
+{
+    size_t nseg = plan->count - 1;
+    size_t total = 0;
+    unsigned *per = calloc(nseg, sizeof *per);
+    if (!per)
+        return pb_error(ctx, PB_ERR_OUT_OF_MEMORY, "out of host memory planning the reference");
+    for (size_t j = 0; j < nseg; j++) {
+        unsigned n = plan->poses[j].skip ? 0 : opt->ref_time_steps;
+        if (n == 0 && !plan->poses[j].skip) {
+            double d = largest_corner_motion(plan, &plan->poses[j].pose, &plan->poses[j + 1].pose);
+            n = (unsigned)fmax(16.0, 2.0 * ceil(d));
+        }
+        per[j] = n;
+        total += n;
+    }
+    plan->ref_steps = calloc(total ? total : 1, sizeof *plan->ref_steps);
+    if (!plan->ref_steps) {
+        free(per);
+        return pb_error(ctx, PB_ERR_OUT_OF_MEMORY, "out of host memory for %zu reference time steps", total);
+    }
+    size_t k = 0;
+    for (size_t j = 0; j < nseg; j++) {
+        for (unsigned i = 0; i < per[j]; i++, k++) {
+            pb_pose p;
+            pb_pose_interpolate(&plan->poses[j].pose, &plan->poses[j + 1].pose, (i + 0.5) / per[j], &p);
+            pb_pose_texel_map(&p, plan->center, plan->geometry.voxel_size, plan->ref_steps[k].map);
+            plan->ref_steps[k].weight = plan->poses[j].weight / per[j];
+        }
+    }
+    /* Every segment clipped: one step of weight 0 keeps the buffers that the
+     * devices upload non-empty, and adds nothing. */
+    if (total == 0) {
+        pb_pose_texel_map(&plan->poses[0].pose, plan->center, plan->geometry.voxel_size, plan->ref_steps[0].map);
+        plan->ref_steps[0].weight = 0.0;
+        total = 1;
+    }
+    plan->ref_count = total;
+    free(per);
+    return PB_OK;
+}
+
+pb_status pb_path_create(struct pb_context *ctx, const pb_geometry *g, const pb_motion *m,
+                         const pb_blur_options *opt, pb_path *plan)
+{
+    memset(plan, 0, sizeof *plan);
+    pb_status st = pb_motion_validate(ctx, m);
+    if (st != PB_OK)
+        return st;
+    plan->geometry = *g;
+    for (int i = 0; i < 3; i++)
+        plan->center[i] = m->has_center ? m->center[i] : 0.5 * (double)g->dims[i] * g->voxel_size[i];
+
+    /* Key poses: the frame's start, every tracked pose strictly inside, its end. */
+    size_t inside = 0;
+    for (size_t i = 0; i < m->count; i++)
+        inside += m->times[i] > m->frame_start && m->times[i] < m->frame_end;
+    plan->count = inside + 2;
+    plan->poses = calloc(plan->count, sizeof *plan->poses);
+    if (!plan->poses)
+        return pb_error(ctx, PB_ERR_OUT_OF_MEMORY, "out of host memory for %zu key poses", plan->count);
+    size_t k = 0;
+    plan->poses[k].time = m->frame_start;
+    pb_motion_interpolate(m, m->frame_start, &plan->poses[k++].pose);
+    for (size_t i = 0; i < m->count; i++) {
+        if (m->times[i] > m->frame_start && m->times[i] < m->frame_end) {
+            plan->poses[k].time = m->times[i];
+            pb_pose_normalized(&m->poses[i], &plan->poses[k++].pose);
+        }
+    }
+    plan->poses[k].time = m->frame_end;
+    pb_motion_interpolate(m, m->frame_end, &plan->poses[k].pose);
+
+    /* Same hemisphere as the previous pose, so a plain SLERP between
+     * neighbours (as the kernels do it) takes the shorter arc. */
+    for (size_t j = 1; j < plan->count; j++)
+        if (pb_quat_dot(plan->poses[j].pose.rotation, plan->poses[j - 1].pose.rotation) < 0.0)
+            for (int i = 0; i < 4; i++)
+                plan->poses[j].pose.rotation[i] = -plan->poses[j].pose.rotation[i];
+    /* The polyline methods get their intervals cut to the path error bound. */
+    if ((opt->method == PB_METHOD_AB || opt->method == PB_METHOD_RM) && opt->path != PB_PATH_TRACKED) {
+        st = pb_path_split(ctx, plan, opt->path == PB_PATH_BOUNDED ? opt->max_path_error : PB_DEFAULT_MAX_PATH_ERROR);
+        if (st != PB_OK) {
+            pb_path_destroy(plan);
+            return st;
+        }
+    }
+    /* The error bound caps the segments it makes; a track walked as it is
+     * (PB_PATH_TRACKED, CL, REF) gets the same cap. */
+    if (plan->count - 1 > PB_MAX_SEGMENTS) {
+        size_t n = plan->count - 1;
+        pb_path_destroy(plan);
+        return pb_error(ctx, PB_ERR_INVALID_ARGUMENT,
+                        "the frame holds %zu tracked intervals, more than the %d segments one blur walks; use AB or RM "
+                        "with a path error bound (which merges a log's samples), or shorter frames", n,
+                        PB_MAX_SEGMENTS);
+    }
+    if ((st = pb_path_clip(ctx, plan)) != PB_OK) {
+        pb_path_destroy(plan);
+        return st;
+    }
+    double span = m->frame_end - m->frame_start;
+    for (size_t j = 0; j < plan->count; j++) {
+        pb_path_pose *p = &plan->poses[j];
+        pb_pose_texel_map(&p->pose, plan->center, g->voxel_size, p->map);
+        p->weight = j + 1 < plan->count && !p->skip ? (plan->poses[j + 1].time - p->time) / span : 0.0;
+    }
+    if (opt->method == PB_METHOD_REF) {
+        st = plan_ref_steps(ctx, opt, plan);
+        if (st != PB_OK) {
+            pb_path_destroy(plan);
+            return st;
+        }
+    }
+    return PB_OK;
+}
+
+void pb_path_destroy(pb_path *plan)
+{
+    free(plan->poses);
+    free(plan->ref_steps);
+    memset(plan, 0, sizeof *plan);
+}
