@@ -1,0 +1,149 @@
+"""The program and Python on the same track files refuse and warn alike,
+since both stand on the library's checks (include/petblur.h, "the motion
+layer"): a track that leaves the grid for the whole frame, a one-sample
+glitch of 120 degrees, a grid out of view at most poses, and a whole track
+written x,y,z,w but read as w,x,y,z. Also the binding's layout check, made to
+fail on purpose."""
+
+import ctypes
+import re
+import subprocess
+import warnings
+
+import nibabel as nib
+import numpy as np
+import pytest
+
+import petblur
+from petblur import _lib
+from scipy.spatial.transform import Rotation
+
+
+def _track(path, times, trans, quats):
+    rows = ["t,tx,ty,tz,q0,q1,q2,q3"] + [",".join(f"{v:.10g}" for v in (t, *p, *q))
+                                         for t, p, q in zip(times, trans, quats)]
+    path.write_text("\n".join(rows) + "\n")
+    return path
+
+
+def _cases(tmp_path, rng):
+    n = 31
+    times = np.linspace(0.0, 3.0, n)
+    rest = Rotation.from_rotvec(rng.normal(scale=0.03, size=(n, 3)))
+    wxyz = np.roll(rest.as_quat(), 1, axis=1)  # scipy gives x,y,z,w
+    small = rng.uniform(-2, 2, (n, 3))
+    away = small + [900.0, 0, 0]
+    most = small.copy()
+    most[2:] += [0, 0, -900.0]
+    glitch = wxyz.copy()
+    glitch[12] = np.roll(Rotation.from_rotvec([0, np.radians(120), 0]).as_quat(), 1)
+    return {
+        "away": (_track(tmp_path / "away.csv", times, away, wxyz), "refuse", "out of the field of view"),
+        "glitch": (_track(tmp_path / "glitch.csv", times, small, glitch), "warn", "degrees from the one before"),
+        "most": (_track(tmp_path / "most.csv", times, most, wxyz), "warn", "wholly outside the field of view"),
+        "xyzw": (_track(tmp_path / "xyzw.csv", times, small, rest.as_quat()), "warn",
+                 "every pose turns more than 90 degrees from rest"),
+    }
+
+
+def _cli_words(err):
+    """The program's warnings and refusal, in Python's option names."""
+    lines = [re.sub(r"^petblur: (warning: )?", "", line) for line in err.splitlines()]
+    return [petblur.motion.python_words(line) for line in lines if line]
+
+
+def test_program_and_python_refuse_and_warn_alike(tmp_path, rng, cli):
+    shape, vox = (20, 18, 12), np.array([2.0, 2.0, 3.0])
+    affine = np.diag(np.append(vox, 1.0))
+    affine[:3, 3] = [-19.0, -17.0, -16.5]
+    x = rng.random(shape, dtype=np.float32)
+    nib.Nifti1Image(x, affine).to_filename(str(tmp_path / "x.nii"))
+    for name, (path, kind, words) in _cases(tmp_path, rng).items():
+        out = tmp_path / f"{name}.nii"
+        p = subprocess.run([cli, "blur", "-q", "-i", str(tmp_path / "x.nii"), "-o", str(out), "--device", "host",
+                            "--motion", str(path)], capture_output=True, text=True)
+        cli_lines = _cli_words(p.stderr)
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            try:
+                petblur.BlurOperator(shape, vox, petblur.Motion.from_file(path), affine=affine, device="host")
+                refused = None
+            except petblur.ArgumentError as e:
+                refused = e.message
+        py_lines = [str(w.message) for w in caught] + ([refused] if refused else [])
+        if kind == "refuse":
+            assert p.returncode == 2 and not out.exists(), (name, p.stderr)
+            assert refused is not None and words in refused, (name, refused)
+        else:
+            assert p.returncode == 0 and out.exists(), (name, p.stderr)
+            assert refused is None, (name, refused)
+            assert any(words in line for line in py_lines), (name, py_lines)
+        # Word for word the same messages, in each API's option names.
+        assert sorted(cli_lines) == sorted(py_lines), (name, cli_lines, py_lines)
+        assert any(words in line for line in cli_lines), (name, cli_lines)
+
+
+def test_the_order_that_fits_is_named(tmp_path, rng):
+    cases = _cases(tmp_path, rng)
+    with pytest.warns(UserWarning, match=r"read as x,y,z,w \(quaternion_order='xyzw'\) instead"):
+        petblur.BlurOperator((20, 18, 12), 2.0, petblur.Motion.from_file(cases["xyzw"][0]), device="host")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # read as written: no warning at all
+        petblur.BlurOperator((20, 18, 12), 2.0, petblur.Motion.from_file(cases["xyzw"][0], quaternion_order="xyzw"),
+                             device="host")
+
+
+def test_frames_from_a_sidecar_and_mean_pose(tmp_path):
+    side = tmp_path / "sub-01_pet.json"
+    side.write_text('{"FrameTimesStart": [0, 10, 20], "FrameDuration": [10, 10, 30], "Other": {"FrameDuration": 1}}')
+    np.testing.assert_array_equal(petblur.frames_from_sidecar(side), [0, 10, 20, 50])
+    side.write_text('{"FrameTimesStart": [0, 10], "FrameDuration": [5, 10]}')
+    with pytest.raises(petblur.ArgumentError, match="frame 0 ends at 5 s but frame 1 starts at 10 s"):
+        petblur.frames_from_sidecar(side)
+    # A steady turn of 40 degrees about z over [0, 4]: the mean over [0, 4] is
+    # the turn at 2 s, the translation's mean its midpoint.
+    m = petblur.Motion.from_axis_angle(translation=(8, 0, -4), angle=40, duration=4.0)
+    t, q = m.mean_pose(0.0, 4.0)
+    np.testing.assert_allclose(t, [4, 0, -2], atol=1e-12)
+    np.testing.assert_allclose(q, [np.cos(np.radians(10)), 0, 0, np.sin(np.radians(10))], atol=1e-12)
+    t, q = m.pose_at(1.0)
+    np.testing.assert_allclose(t, [2, 0, -1], atol=1e-12)
+    np.testing.assert_allclose(q, [np.cos(np.radians(5)), 0, 0, np.sin(np.radians(5))], atol=1e-12)
+
+
+def test_a_wrong_binding_layout_is_caught():
+    _lib.check_layout()  # the real one passes
+
+    class Pose(ctypes.Structure):  # rotation before translation: the same size, the wrong offsets
+        _fields_ = [("rotation", ctypes.c_double * 4), ("translation", ctypes.c_double * 3)]
+
+    with pytest.raises(ImportError, match=r"pb_pose\.translation is at 32"):
+        _lib.check_layout(structs={"pb_pose": Pose}, enums={})
+    with pytest.raises(ImportError, match="PB_PATH_TRACKED is 3 here, 2 in the library"):
+        _lib.check_layout(structs={}, enums={"PB_PATH_TRACKED": 3})
+
+
+def test_options_checked_by_the_library():
+    m = petblur.Motion.from_axis_angle(angle=10)
+    for bad, words in ((-1, "above 0"), (float("nan"), "above 0"), (5000, "at most 1000"), ("fine", "bound in voxels")):
+        with pytest.raises(petblur.ArgumentError, match=words):
+            petblur.BlurOperator((8, 8, 8), 1.0, m, max_path_error=bad, device="host")
+    with pytest.raises(petblur.ArgumentError, match="steps 200000 is above 100000"):
+        petblur.BlurOperator((8, 8, 8), 1.0, m, steps=200000, method="rm", device="host")
+
+
+def test_progress_and_frames_last(rng):
+    shape = (9, 8, 7)
+    m = petblur.Motion(np.linspace(0, 4, 5), rng.uniform(-2, 2, (5, 3)), [[1, 0, 0, 0]] * 5)
+    seen = []
+    op = petblur.BlurOperator(shape, 1.5, m, device="host", progress=seen.append)
+    op(rng.random(shape, dtype=np.float32))
+    assert seen and seen[-1] == 1.0 and all(0 <= f <= 1 for f in seen)
+    frames = petblur.FramesOperator(shape, 1.5, m, [0, 1, 3, 4], per_frame=True, device="host")
+    last = petblur.FramesOperator(shape, 1.5, m, [0, 1, 3, 4], per_frame=True, device="host", frames_last=True)
+    x = rng.random((3,) + shape, dtype=np.float32)
+    xl = np.asfortranarray(np.moveaxis(x, 0, -1))  # nibabel's [x, y, z, t]
+    assert last.in_shape == shape + (3,)
+    np.testing.assert_array_equal(np.moveaxis(last(xl), -1, 0), frames(x))
+    y = rng.random((3,) + shape, dtype=np.float32)
+    np.testing.assert_array_equal(np.moveaxis(last.adjoint(np.moveaxis(y, 0, -1)), -1, 0), frames.adjoint(y))
