@@ -12,7 +12,7 @@
  * every W lies on one affine map of W) a gather would map and weigh every
  * tomograph voxel in the box around each of V's n preimages, 8 under no turn
  * and dozens under an oblique one, where the scatter makes 8 adds a sample.
- * The scatter's price is its atomics, measured in bench/ (adjoint rows): under
+ * The scatter's price is its atomics: under
  * rotations they, not the texture unit, bound the adjoint (docs/performance.md).
  *
  * Weights are the forward's: computed in float as the EXACT filter computes

@@ -14,8 +14,8 @@
  *   sum_s w_s tri(V + 1 - p_s - W - 1/2) = sum_s w_s tri(-(W + p_s - V - 1/2)),
  * the same, as the tent is even: the exact transpose, computed as a gather of
  * the same cost as the forward. The scatter (pb_adjoint.cl) pays up to eight
- * atomic adds per sample where this pays one fetch (bench/results: the
- * adjoint rows of the translation scenarios).
+ * atomic adds per sample where this pays one fetch (docs/performance.md,
+ * "How fast is the adjoint?").
  *
  * With the HARDWARE filter the texture unit rounds each axis's fraction f to
  * 1/256 (ties up) in both directions; the mirror reads fraction 1 - f, and

@@ -33,7 +33,7 @@ cudaError_t pb_cuda_launch(int kernel, const pb_cuda_launch_args *args);
 /* Writes the volume `in` of dims (x fastest) into the layered array behind
  * `surface`, laid out along axis m (pb_layer_across), in one pass: the
  * runtime's copy into a layered array is several times slower than a copy
- * into a 3-D one (bench/results/README.md, "device memory"). */
+ * into a 3-D one (docs/performance.md, "Device memory in and out"). */
 cudaError_t pb_cuda_layout(const float *in, const size_t dims[3], int m, cudaSurfaceObject_t surface,
                            cudaStream_t stream);
 

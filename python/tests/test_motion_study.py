@@ -2,8 +2,8 @@
 48 x 48 x 24 voxels, 60 angles, 15 MLEM iterations, on PoCL where it is
 there): what the physics implies must hold, with margins below those measured
 (small version on the build machine's PoCL, seeds 1-3: (b) 25-26 % below (a),
-(e) 5.7-6.0 % below (b); the full version's, bench/results/*_study: 38 % and
-34 %): a
+(e) 5.7-6.0 % below (b); the full version's, examples/motion_study/README.md:
+38 % and 34 %): a
 model of the motion inside each frame (e) reconstructs closer to the truth
 than one pose per frame (b), which is closer than no model (a). And the data's
 resampling moves a volume as petblur's poses do."""

@@ -86,12 +86,12 @@ static double longest_walk(const pb_path *path, const pb_blur_options *opt, int 
 /* Layers along x pay only on long walks: their work items walk PB_X_RUN voxels
  * one after the other, and a short walk leaves too little work in flight to
  * hide that; the 3-D image wins below about 8 slices a walk, the layers above
- * (the measurement: bench/results/README.md, "layers along x"). And along x
+ * (docs/performance.md, "What bounds AB"). And along x
  * they pay only for an input laid out once and read many times: the layout
  * there is a transpose, which costs more than the layers save on one blur, so
  * an input laid out anew every call reads the 3-D image along x. Along y and
  * z the layers save more than their layout costs even on one blur
- * (bench/results/README.md, "device memory"). */
+ * (docs/performance.md, "Device memory in and out"). */
 #define PB_X_LAYERS_MIN_SLICES 8.0
 
 /* The kernel of a family that computes method under filter. */

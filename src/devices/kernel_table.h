@@ -19,7 +19,7 @@
  *                  fewer texture lines by CL's fetches)
  *           ROWS   32 x 4 x 2: under translations a warp of x-neighbours reads
  *                  and writes coalesced
- *           (bench/results/README.md points to the measurements.) */
+ *           (docs/performance.md says why.) */
 #ifndef PB_KERNEL_TABLE_H
 #define PB_KERNEL_TABLE_H
 

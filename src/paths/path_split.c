@@ -98,7 +98,7 @@ static int chord_holds(const pb_path *plan, const double *corner, const double *
  * not finds where to end it. A test costs the run's length, so a run of L
  * segments costs O(L log L) pose checks instead of the L^2 / 2 of growing it
  * one pose at a time, which for a 30 Hz log cost more than the blur it plans
- * (bench/results/README.md, the planner's timing). Every chord kept was
+ * (docs/performance.md, "Dynamic frames"). Every chord kept was
  * tested, so the bound holds whatever the search skips. */
 static int merge_segments(pb_path *plan, const double *dev, double max_error)
 {
