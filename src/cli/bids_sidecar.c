@@ -11,6 +11,7 @@
 
 #include "cli.h"
 #include "commands.h"
+#include "petblur.h"
 
 /* Sidecars are a few kB; anything this big is not one. */
 #define MAX_SIDECAR_BYTES (4 << 20)
@@ -109,22 +110,17 @@ int pbc_bids_frames(const char *path, double **bounds, size_t *count)
     if (!rc && (ns == 0 || ns != nd))
         rc = pbc_fail(PBC_EXIT_USAGE, "--frames-from %s: %zu frame starts and %zu durations; BIDS gives one of each "
                       "per frame", path, ns, nd);
-    for (size_t i = 0; !rc && i < ns; i++) {
-        if (!(length[i] > 0.0))
-            rc = pbc_fail(PBC_EXIT_USAGE, "--frames-from %s: frame %zu lasts %g s; durations must be positive", path,
-                          i, length[i]);
-        else if (i + 1 < ns && fabs(start[i] + length[i] - start[i + 1]) > 1e-6 * fmax(1.0, fabs(start[i + 1])))
-            rc = pbc_fail(PBC_EXIT_USAGE, "--frames-from %s: frame %zu ends at %.9g s but frame %zu starts at %.9g s; "
-                          "petblur's frames follow each other without gaps (give --frames for other frames)", path,
-                          i, start[i] + length[i], i + 1, start[i + 1]);
-    }
     *bounds = rc ? NULL : malloc((ns + 1) * sizeof **bounds);
     if (!rc && !*bounds)
         rc = pbc_fail(PBC_EXIT_RUNTIME, "out of memory reading %s", path);
-    if (!rc) {
-        memcpy(*bounds, start, ns * sizeof *start);
-        (*bounds)[ns] = start[ns - 1] + length[ns - 1];
+    /* The frames' rules are the library's, as Python's are. */
+    if (!rc && pb_frames_from_starts(start, length, ns, *bounds) != PB_OK)
+        rc = pbc_fail(PBC_EXIT_USAGE, "--frames-from %s: %s", path, pb_last_error(NULL));
+    if (!rc)
         *count = ns + 1;
+    else {
+        free(*bounds);
+        *bounds = NULL;
     }
     free(start);
     free(length);

@@ -94,9 +94,12 @@ static int blur_options(const pbc_args *args, pb_blur_options *opt)
         opt->seed = (uint32_t)n;
     else if (v)
         return rc;
-    if (pb_options_check(opt) != PB_OK)
-        return pbc_fail(PBC_EXIT_USAGE, "%s%s%s", bound ? "--max-path-error " : "", bound ? bound : "",
-                        pb_last_error(NULL));
+    if (pb_options_check(opt) != PB_OK) { /* the library's words, with the option's name */
+        const char *msg = pb_last_error(NULL);
+        if (!strncmp(msg, "max_path_error ", 15))
+            return pbc_fail(PBC_EXIT_USAGE, "--max-path-error %s", msg + 15);
+        return pbc_fail(PBC_EXIT_USAGE, "%s", msg);
+    }
     return 0;
 }
 
