@@ -27,22 +27,6 @@ static void frame_progress(double fraction, void *user)
         p->fn(f, p->user);
 }
 
-/* Frame bounds: finite and increasing. */
-static pb_status check_bounds(pb_context *ctx, const double *bounds, size_t frames)
-{
-    if (frames == 0)
-        return pb_error(ctx, PB_ERR_INVALID_ARGUMENT, "no frames: give at least one frame (two bounds)");
-    for (size_t i = 0; i <= frames; i++)
-        if (!isfinite(bounds[i]))
-            return pb_error(ctx, PB_ERR_NOT_FINITE, "frame bound %zu is %g; give finite times in seconds", i,
-                            bounds[i]);
-    for (size_t i = 0; i < frames; i++)
-        if (!(bounds[i + 1] > bounds[i]))
-            return pb_error(ctx, PB_ERR_BAD_FRAME, "frame %zu ends at %.9g s, not after its start %.9g s; frame "
-                            "bounds must increase", i, bounds[i + 1], bounds[i]);
-    return PB_OK;
-}
-
 /* The frames' arguments: ins[i] is read and outs[i] written (the forward
  * reads objects and writes tomographs, the adjoint the other way round).
  * The adjoint's frames may name one output, which they sum into. */
@@ -52,7 +36,7 @@ static pb_status check_frames(pb_context *ctx, const pb_volume *const *ins, cons
     const char *in_name = adjoint ? "tomograph" : "object", *out_name = adjoint ? "object" : "tomograph";
     if (!ins || !track || !bounds || !outs)
         return pb_error(ctx, PB_ERR_INVALID_ARGUMENT, "objects, track, bounds and tomographs must not be NULL");
-    pb_status st = check_bounds(ctx, bounds, frames);
+    pb_status st = pb_frame_bounds_check(ctx, bounds, frames);
     if (st != PB_OK)
         return st;
     /* A frame's output must not be another frame's input, which it would
@@ -75,7 +59,7 @@ pb_status pb_plan_create_frames(pb_context *ctx, const pb_geometry *geometry, co
     if (!ctx || !geometry || !track || !bounds || !plan)
         return pb_error(ctx, PB_ERR_INVALID_ARGUMENT, "ctx, geometry, track, bounds and plan must not be NULL");
     *plan = NULL;
-    pb_status st = check_bounds(ctx, bounds, frames);
+    pb_status st = pb_frame_bounds_check(ctx, bounds, frames);
     if (st != PB_OK)
         return st;
     /* The whole track once; each frame's planning then checks only its part

@@ -54,6 +54,12 @@ pb_status pb_motion_validate(struct pb_context *ctx, const pb_motion *motion);
 /* The pose of a validated motion at time t in [times[0], times[count-1]]. */
 void pb_motion_interpolate(const pb_motion *motion, double t, pb_pose *pose);
 
+/* ---- motion_frame.c: frames ----------------------------------------------- */
+
+/* Frame bounds bounds[0..frames]: at least one frame, finite, increasing;
+ * the one check of them that plans and the track checks share. */
+pb_status pb_frame_bounds_check(struct pb_context *ctx, const double *bounds, size_t frames);
+
 /* ---- conventions.c and track_checks.c: a track made the patient's motion -- */
 
 struct pb_track;

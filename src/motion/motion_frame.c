@@ -5,6 +5,21 @@
 #include "error.h"
 #include "motion.h"
 
+pb_status pb_frame_bounds_check(struct pb_context *ctx, const double *bounds, size_t frames)
+{
+    if (frames == 0)
+        return pb_error(ctx, PB_ERR_INVALID_ARGUMENT, "no frames: give at least one frame (two bounds)");
+    for (size_t i = 0; i <= frames; i++)
+        if (!isfinite(bounds[i]))
+            return pb_error(ctx, PB_ERR_NOT_FINITE, "frame bound %zu is %g; give finite times in seconds", i,
+                            bounds[i]);
+    for (size_t i = 0; i < frames; i++)
+        if (!(bounds[i + 1] > bounds[i]))
+            return pb_error(ctx, PB_ERR_BAD_FRAME, "frame %zu ends at %.9g s, not after its start %.9g s; frame "
+                            "bounds must increase", i, bounds[i + 1], bounds[i]);
+    return PB_OK;
+}
+
 pb_status pb_motion_frame(const pb_motion *track, double t0, double t1, pb_motion *part)
 {
     if (!track || !part || !track->times || !track->poses || track->count < 2)

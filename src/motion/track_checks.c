@@ -234,13 +234,11 @@ pb_status pb_track_check_frames(const pb_track *track, const pb_motion *grid, co
         return pb_error(NULL, PB_ERR_INVALID_ARGUMENT, "track, grid, geometry and bounds must not be NULL");
     if (grid->count != track->count || grid->times != track->times)
         return pb_error(NULL, PB_ERR_INVALID_ARGUMENT, "grid must be the track's motion as pb_track_place made it");
-    if (frames == 0)
-        return pb_error(NULL, PB_ERR_INVALID_ARGUMENT, "no frames: give at least one frame (two bounds)");
+    pb_status st = pb_frame_bounds_check(NULL, bounds, frames);
+    if (st != PB_OK)
+        return st;
     const pb_track *t = track;
     for (size_t i = 0; i < frames; i++) {
-        if (!isfinite(bounds[i]) || !isfinite(bounds[i + 1]) || !(bounds[i + 1] > bounds[i]))
-            return pb_error(NULL, PB_ERR_BAD_FRAME, "frame %zu runs from %.9g to %.9g s; give finite bounds that "
-                            "increase", i, bounds[i], bounds[i + 1]);
         if (bounds[i] < t->times[0] || bounds[i + 1] > t->times[t->count - 1])
             return pb_error(NULL, PB_ERR_TRACK_GAP, "frame %zu (%.9g to %.9g s) lies outside the track %s, which "
                             "covers %.9g to %.9g s; choose frames inside it", i, bounds[i], bounds[i + 1], t->source,
@@ -250,7 +248,7 @@ pb_status pb_track_check_frames(const pb_track *track, const pb_motion *grid, co
     for (size_t i = 0; i < frames; i++) {
         size_t lo, hi;
         frame_samples(t, bounds[i], bounds[i + 1], &lo, &hi);
-        pb_status st = check_gap(t, bounds[i], bounds[i + 1], lo, hi);
+        st = check_gap(t, bounds[i], bounds[i + 1], lo, hi);
         if (st == PB_OK)
             st = check_view(t, grid, geometry, bounds[i], bounds[i + 1], lo, hi, warnings);
         if (st != PB_OK)
