@@ -116,9 +116,9 @@ static pb_status run_frames(pb_context *ctx, const pb_volume *const *ins, const 
     }
     frames_progress prog = {ctx->progress, ctx->progress_user, 0, frames};
     double total = 0.0, input = 0.0;
-    if (!adjoint && !ctx->progress && !ctx->ops->host_forward) {
+    if (!adjoint && !ctx->progress) {
         /* Queued back to back: progress would need a wait per frame. */
-        st = pb_launch_frames(ctx, plan, ins, outs);
+        st = ctx->ops->frames_forward(ctx, plan, ins, outs);
         for (size_t i = 0; i < frames; i++)
             pb_images_stale(&outs[i]->images);
         total = ctx->last_kernel_ms;

@@ -5,7 +5,6 @@
  * plans. */
 #include <stdlib.h>
 
-#include "kernel_args.h"
 #include "plan.h"
 
 pb_status pb_plan_new(pb_context *ctx, const pb_geometry *geometry, const pb_blur_options *options, size_t frames,
@@ -39,42 +38,12 @@ pb_status pb_plan_new(pb_context *ctx, const pb_geometry *geometry, const pb_blu
     return PB_OK;
 }
 
-/* The kernels and parameters of both directions, and the key poses on the
- * device. Under translations only the adjoint is the forward kernel mirrored
- * (a gather); otherwise the scatter, whose weights are rounded as the
- * forward's texture unit rounds them (cl/pb_adjoint.cl). */
-static pb_status upload_frame(pb_plan *plan, pb_plan_frame *f)
-{
-    pb_context *ctx = plan->ctx;
-    const pb_blur_options *opt = &plan->options;
-    f->forward = pb_forward_kernel(&f->path, opt, ctx->layer_limits, 0);
-    f->forward_fresh = pb_forward_kernel(&f->path, opt, ctx->layer_limits, 1);
-    f->adjoint = pb_adjoint_kernel(&f->path, opt, ctx->layer_limits);
-    pb_kparams_from_path(&f->path, opt, &f->forward_prm);
-    f->adjoint_prm = f->forward_prm;
-    int gather = pb_kernel_table[f->adjoint].family != PB_FAMILY_SCATTER;
-    f->adjoint_prm.mirror = gather;
-    if (!gather && opt->filter == PB_FILTER_HARDWARE)
-        f->adjoint_prm.weight_steps = ctx->texture_weight_steps;
-    size_t bytes = 0;
-    void *data = pb_kernel_path_pack(&f->path, opt->method, &bytes);
-    if (!data)
-        return pb_error(ctx, PB_ERR_OUT_OF_MEMORY, "out of host memory for the %s",
-                        opt->method == PB_METHOD_REF ? "reference's steps" : "key poses");
-    pb_status st = ctx->ops->buffer_create(ctx, bytes, &f->poses);
-    if (st == PB_OK)
-        st = ctx->ops->buffer_write(ctx, f->poses, data, bytes);
-    free(data);
-    return st;
-}
-
 pb_status pb_plan_set_frame(pb_plan *plan, size_t i, const pb_motion *motion)
 {
     pb_plan_frame *f = &plan->frame[i];
     pb_status st = pb_path_create(plan->ctx, &plan->geometry, motion, &plan->options, &f->path);
-    /* The host backend walks the key poses themselves. */
-    if (st == PB_OK && !plan->ctx->ops->host_forward)
-        st = upload_frame(plan, f);
+    if (st == PB_OK)
+        st = plan->ctx->ops->frame_prepare(plan->ctx, &plan->options, f);
     return st;
 }
 
@@ -153,18 +122,6 @@ static pb_status check_frame(const pb_plan *plan, size_t frame)
     return PB_OK;
 }
 
-/* One direction of one frame on the host reference, from in to out (host
- * memory). */
-static pb_status host_apply(const pb_plan *plan, size_t frame, const float *in, float *out, int adjoint,
-                            int accumulate)
-{
-    pb_context *ctx = plan->ctx;
-    const pb_path *path = &plan->frame[frame].path;
-    const size_t *dims = plan->geometry.dims;
-    return adjoint ? ctx->ops->host_adjoint(ctx, in, path, &plan->options, dims, out, accumulate)
-                   : ctx->ops->host_forward(ctx, in, path, &plan->options, dims, out);
-}
-
 /* One direction of one frame, then the progress report's end. */
 static pb_status finish(pb_context *ctx, pb_status st)
 {
@@ -184,14 +141,11 @@ static pb_status apply_volumes(pb_plan *plan, size_t frame, const pb_volume *in,
         st = pb_check_volumes(ctx, &plan->geometry, in, out, adjoint);
     if (st != PB_OK)
         return st;
-    const pb_plan_frame *f = &plan->frame[frame];
-    if (ctx->ops->host_forward)
-        return finish(ctx, host_apply(plan, frame, in->buffer, out->buffer, adjoint, accumulate));
     /* The forward's object is made current once and blurred many times: that
      * copy is not the kernel's. The adjoint's gather lays out every tomograph
      * it reads: a fresh input, which counts with the kernel. */
-    st = pb_launch_frame(ctx, f, &plan->geometry, adjoint, in->buffer, (pb_images *)&in->images, out->buffer,
-                         accumulate, adjoint);
+    st = ctx->ops->frame_apply(ctx, plan, frame, adjoint, in->buffer, (pb_images *)&in->images, out->buffer,
+                               accumulate, adjoint);
     pb_images_stale(&out->images);
     return finish(ctx, st);
 }
@@ -225,15 +179,10 @@ static pb_status apply_device(pb_plan *plan, size_t frame, const void *in, void 
         st = ctx->ops->buffer_check(ctx, out, bytes, out_name, 1);
     if (st != PB_OK)
         return st;
-    if (ctx->ops->host_forward) {
-        st = host_apply(plan, frame, in, out, adjoint, accumulate);
-    } else {
-        /* The caller's memory may have changed since the last call: its copy
-         * into the plan's image (on the device) is made every time, and timed. */
-        pb_images_stale(&plan->input);
-        st = pb_launch_frame(ctx, &plan->frame[frame], &plan->geometry, adjoint, in, &plan->input, out, accumulate,
-                             1);
-    }
+    /* The caller's memory may have changed since the last call: its copy
+     * into the plan's image (on a device) is made every time, and timed. */
+    pb_images_stale(&plan->input);
+    st = ctx->ops->frame_apply(ctx, plan, frame, adjoint, in, &plan->input, out, accumulate, 1);
     /* The output may be a volume's own memory. */
     pb_volume_memory_written(ctx, out);
     return finish(ctx, st);

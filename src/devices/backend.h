@@ -3,7 +3,9 @@
  * built from them (which kernel, its input made current, zeroing, progress
  * slabs, timing) is written once, in launch.c, for every device backend. The
  * host backend is the reference: it offers the whole operator in double
- * precision, and its buffers are host memory. Only a backend's own file
+ * precision, and its buffers are host memory. Both kinds offer the same
+ * per-frame operation (frame_prepare, frame_apply, frames_forward), so the
+ * plan above never asks which backend it holds. Only a backend's own file
  * includes its runtime's headers; everything above this table dispatches
  * through it. */
 #ifndef PB_BACKEND_H
@@ -30,6 +32,27 @@ typedef struct pb_launch {
     size_t extent[3];  /* work items per axis, before rounding to whole groups */
 } pb_launch;
 
+/* What a kernel reads of a buffer, made from it on first use: its 3-D image
+ * and its layers along each axis, each marked stale when the buffer changes. */
+typedef struct pb_images {
+    void *image;
+    int image_stale;
+    void *layers[3];
+    int layers_stale[3];
+} pb_images;
+
+/* One frame of a plan: its key poses on the host (the host backend walks
+ * them) and on the device, and the kernels and parameters of both
+ * directions. */
+typedef struct pb_plan_frame {
+    pb_path path;
+    void *poses; /* device buffer, uploaded once */
+    /* The forward for an input laid out once (a volume) and for one laid out
+     * every call (the caller's device memory): kernel_args.h. */
+    pb_kernel_id forward, forward_fresh, adjoint;
+    pb_kparams forward_prm, adjoint_prm;
+} pb_plan_frame;
+
 typedef struct pb_backend_ops {
     pb_backend id;
     /* Device listing; errors go to the calling thread's last-error text. */
@@ -55,13 +78,23 @@ typedef struct pb_backend_ops {
     pb_status (*buffer_check)(struct pb_context *ctx, const void *buffer, size_t bytes, const char *what,
                               int written);
 
-    /* The host reference's whole operator (device backends: NULL), on host
-     * buffers: the forward overwrites out; the adjoint overwrites it, or with
-     * accumulate adds into it. Sets ctx->last_kernel_ms. */
-    pb_status (*host_forward)(struct pb_context *ctx, const float *in, const pb_path *path,
-                              const pb_blur_options *opt, const size_t *dims, float *out);
-    pb_status (*host_adjoint)(struct pb_context *ctx, const float *in, const pb_path *path,
-                              const pb_blur_options *opt, const size_t *dims, float *out, int accumulate);
+    /* The per-frame operation, one shape on every backend. frame_prepare
+     * readies a planned frame (frame->path set) for runs under opt: on a
+     * device its kernels, their parameters and its key poses in device
+     * memory; the host walks the path itself. frame_apply runs one direction
+     * of frame `index` of plan from in into out, memory of this backend: the
+     * forward overwrites out; the adjoint overwrites it, or with accumulate
+     * adds into it. in_images are what a device made of in before, and
+     * fresh_input says that in is new this call (the caller's memory, the
+     * adjoint's tomograph). frames_forward runs every frame of plan forward,
+     * frame i from ins[i] into outs[i], queued back to back where it can.
+     * Each sets ctx->last_kernel_ms and ctx->last_input_ms and reports
+     * progress within the call, not its end. */
+    pb_status (*frame_prepare)(struct pb_context *ctx, const pb_blur_options *opt, pb_plan_frame *frame);
+    pb_status (*frame_apply)(struct pb_context *ctx, const struct pb_plan *plan, size_t index, int adjoint,
+                             const void *in, pb_images *in_images, void *out, int accumulate, int fresh_input);
+    pb_status (*frames_forward)(struct pb_context *ctx, const struct pb_plan *plan,
+                                const struct pb_volume *const *ins, struct pb_volume *const *outs);
 
     /* Device primitives (host: NULL). Images are float, single channel,
      * filtered by the kernels' samplers: 3-D of extent, or layered (extent[2]
@@ -89,15 +122,6 @@ typedef struct pb_backend_ops {
     pb_status (*set_stream)(struct pb_context *ctx, void *stream);
     int (*timer_wait)(const struct pb_context *ctx, pb_status *status, double *total_ms, double *before_mark_ms);
 } pb_backend_ops;
-
-/* What a kernel reads of a buffer, made from it on first use: its 3-D image
- * and its layers along each axis, each marked stale when the buffer changes. */
-typedef struct pb_images {
-    void *image;
-    int image_stale;
-    void *layers[3];
-    int layers_stale[3];
-} pb_images;
 
 struct pb_context {
     const pb_backend_ops *ops;
@@ -130,18 +154,6 @@ struct pb_volume {
     struct pb_volume *prev, *next;
 };
 
-/* One frame of a plan: its key poses on the host (the host backend walks
- * them) and on the device, and the kernels and parameters of both
- * directions. */
-typedef struct pb_plan_frame {
-    pb_path path;
-    void *poses; /* device buffer, uploaded once */
-    /* The forward for an input laid out once (a volume) and for one laid out
-     * every call (the caller's device memory): kernel_args.h. */
-    pb_kernel_id forward, forward_fresh, adjoint;
-    pb_kparams forward_prm, adjoint_prm;
-} pb_plan_frame;
-
 struct pb_plan {
     struct pb_context *ctx;
     pb_geometry geometry;
@@ -160,7 +172,12 @@ extern const pb_backend_ops pb_backend_opencl_ops;
 extern const pb_backend_ops pb_backend_cuda_ops;
 #endif
 
-/* context.c: the checks every blur makes of its options, with the defaults
+/* devices.c: the backend of options, the automatic choice made (which fills
+ * in the backend and device index), compiled in, and the device index not
+ * negative. */
+pb_status pb_backend_select(pb_context_options *opt, const pb_backend_ops **ops);
+
+/* options.c, volume.c, context.c: the checks every blur makes of its options, with the defaults
  * filled in; whether a volume of geometry g fits the device (a pure function
  * of the device's reported capabilities, so that every refusal can be tested
  * without such a device); a context's holders. */
@@ -170,16 +187,15 @@ pb_status pb_device_check_volume(struct pb_context *ctx, const pb_device_info *i
 void pb_context_hold(struct pb_context *ctx);
 void pb_context_release_hold(struct pb_context *ctx);
 
-/* launch.c: one direction of one frame on a device backend, from a buffer
- * (with its images) into a buffer: the input made current, zeroed or
- * accumulated, launched in progress slabs, timed. fresh_input: the input is
- * new every call (the caller's memory, the adjoint's tomograph): the forward
- * takes the kernel for such inputs, and making the input current is timed
- * with the kernel. Sets ctx->last_kernel_ms and ctx->last_input_ms. */
-pb_status pb_launch_frame(struct pb_context *ctx, const pb_plan_frame *frame, const pb_geometry *g, int adjoint,
+/* launch.c: the per-frame operation of every device backend. A frame's
+ * kernels, parameters and key poses on the device; one direction of one frame
+ * from a buffer (with its images) into a buffer: the input made current,
+ * zeroed or accumulated, launched in progress slabs, timed (a fresh input's
+ * copy with the kernel); every frame forward, queued back to back and waited
+ * for once, every input made current first. */
+pb_status pb_launch_prepare(struct pb_context *ctx, const pb_blur_options *opt, pb_plan_frame *frame);
+pb_status pb_launch_frame(struct pb_context *ctx, const struct pb_plan *plan, size_t index, int adjoint,
                           const void *in, pb_images *in_images, void *out, int accumulate, int fresh_input);
-/* Frames forward, queued back to back and waited for once, every input made
- * current first: frame i reads ins[i] into outs[i]. */
 pb_status pb_launch_frames(struct pb_context *ctx, const struct pb_plan *plan, const struct pb_volume *const *ins,
                            struct pb_volume *const *outs);
 /* A buffer changed: what was made from it is out of date. */

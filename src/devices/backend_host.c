@@ -349,6 +349,36 @@ static pb_status host_adjoint(pb_context *ctx, const float *in, const pb_path *p
     return PB_OK;
 }
 
+/* The per-frame operation: the path is all a frame needs here. */
+static pb_status host_frame_prepare(pb_context *ctx, const pb_blur_options *opt, pb_plan_frame *frame)
+{
+    (void)ctx, (void)opt, (void)frame;
+    return PB_OK;
+}
+
+static pb_status host_frame_apply(pb_context *ctx, const pb_plan *plan, size_t index, int adjoint, const void *in,
+                                  pb_images *in_images, void *out, int accumulate, int fresh_input)
+{
+    (void)in_images, (void)fresh_input;
+    const pb_path *path = &plan->frame[index].path;
+    ctx->last_input_ms = 0.0;
+    return adjoint ? host_adjoint(ctx, in, path, &plan->options, plan->geometry.dims, out, accumulate)
+                   : host_forward(ctx, in, path, &plan->options, plan->geometry.dims, out);
+}
+
+static pb_status host_frames_forward(pb_context *ctx, const pb_plan *plan, const pb_volume *const *ins,
+                                     pb_volume *const *outs)
+{
+    double total = 0.0;
+    pb_status st = PB_OK;
+    for (size_t i = 0; i < plan->frames && st == PB_OK; i++) {
+        st = host_frame_apply(ctx, plan, i, 0, ins[i]->buffer, NULL, outs[i]->buffer, 0, 0);
+        total += ctx->last_kernel_ms;
+    }
+    ctx->last_kernel_ms = total;
+    return st;
+}
+
 const pb_backend_ops pb_backend_host_ops = {
     .id = PB_BACKEND_HOST,
     .device_count = host_device_count,
@@ -361,6 +391,7 @@ const pb_backend_ops pb_backend_host_ops = {
     .buffer_read = host_buffer_read,
     .buffer_zero = host_buffer_zero,
     .buffer_check = host_buffer_check,
-    .host_forward = host_forward,
-    .host_adjoint = host_adjoint,
+    .frame_prepare = host_frame_prepare,
+    .frame_apply = host_frame_apply,
+    .frames_forward = host_frames_forward,
 };

@@ -1,7 +1,8 @@
-/* The launch sequence, once for every device backend, built from the
- * primitives of src/backend.h: make the kernel's input current (the 3-D image
- * or the layers of a buffer), zero the output or add into it, launch in
- * progress slabs, time with device events. */
+/* The per-frame operation of every device backend, written once from the
+ * primitives of backend.h: a frame's kernels chosen and its key poses
+ * uploaded; the kernel's input made current (the 3-D image or the layers of a
+ * buffer), the output zeroed or added into, launches in progress slabs, timed
+ * with device events. */
 #include <stdlib.h>
 
 #include "backend.h"
@@ -162,9 +163,38 @@ static pb_status launch_slabs(pb_context *ctx, pb_kernel_id kernel, const void *
     return st;
 }
 
-pb_status pb_launch_frame(pb_context *ctx, const pb_plan_frame *frame, const pb_geometry *g, int adjoint,
-                          const void *in, pb_images *in_images, void *out, int accumulate, int fresh_input)
+/* The kernels and parameters of both directions, and the key poses on the
+ * device. Under translations only the adjoint is the forward kernel mirrored
+ * (a gather); otherwise the scatter, whose weights are rounded as the
+ * forward's texture unit rounds them (cl/pb_adjoint.cl). */
+pb_status pb_launch_prepare(pb_context *ctx, const pb_blur_options *opt, pb_plan_frame *f)
 {
+    f->forward = pb_forward_kernel(&f->path, opt, ctx->layer_limits, 0);
+    f->forward_fresh = pb_forward_kernel(&f->path, opt, ctx->layer_limits, 1);
+    f->adjoint = pb_adjoint_kernel(&f->path, opt, ctx->layer_limits);
+    pb_kparams_from_path(&f->path, opt, &f->forward_prm);
+    f->adjoint_prm = f->forward_prm;
+    int gather = pb_kernel_table[f->adjoint].family != PB_FAMILY_SCATTER;
+    f->adjoint_prm.mirror = gather;
+    if (!gather && opt->filter == PB_FILTER_HARDWARE)
+        f->adjoint_prm.weight_steps = ctx->texture_weight_steps;
+    size_t bytes = 0;
+    void *data = pb_kernel_path_pack(&f->path, opt->method, &bytes);
+    if (!data)
+        return pb_error(ctx, PB_ERR_OUT_OF_MEMORY, "out of host memory for the %s",
+                        opt->method == PB_METHOD_REF ? "reference's steps" : "key poses");
+    pb_status st = ctx->ops->buffer_create(ctx, bytes, &f->poses);
+    if (st == PB_OK)
+        st = ctx->ops->buffer_write(ctx, f->poses, data, bytes);
+    free(data);
+    return st;
+}
+
+pb_status pb_launch_frame(pb_context *ctx, const pb_plan *plan, size_t index, int adjoint, const void *in,
+                          pb_images *in_images, void *out, int accumulate, int fresh_input)
+{
+    const pb_plan_frame *frame = &plan->frame[index];
+    const pb_geometry *g = &plan->geometry;
     const pb_backend_ops *ops = ctx->ops;
     pb_kernel_id kernel = adjoint ? frame->adjoint : fresh_input ? frame->forward_fresh : frame->forward;
     pb_kparams prm = adjoint ? frame->adjoint_prm : frame->forward_prm;

@@ -1,0 +1,148 @@
+/* Volumes: a grid's checks (its size, what the device can hold) and its
+ * memory on the device, uploaded, downloaded and handed out. */
+#include <math.h>
+#include <stdint.h>
+#include <stdlib.h>
+
+#include "backend.h"
+
+pb_status pb_geometry_check(pb_context *ctx, const pb_geometry *g, size_t *count)
+{
+    for (int i = 0; i < 3; i++) {
+        if (g->dims[i] == 0)
+            return pb_error(ctx, PB_ERR_ZERO_DIMS, "volume dimension %c is 0 (dims %zu x %zu x %zu); every dimension needs at least one voxel",
+                            "xyz"[i], g->dims[0], g->dims[1], g->dims[2]);
+        if (!isfinite(g->voxel_size[i]) || !(g->voxel_size[i] > 0.0))
+            return pb_error(ctx, PB_ERR_BAD_VOXEL_SIZE, "voxel size %c is %g mm; give a positive, finite size in mm",
+                            "xyz"[i], g->voxel_size[i]);
+    }
+    /* Kernels index voxels with 32-bit ints and bytes with size_t. */
+    if (g->dims[0] > INT32_MAX / g->dims[1] || g->dims[0] * g->dims[1] > INT32_MAX / g->dims[2])
+        return pb_error(ctx, PB_ERR_VOLUME_TOO_LARGE,
+                        "volume %zu x %zu x %zu has more than 2^31 - 1 voxels; split it into slabs",
+                        g->dims[0], g->dims[1], g->dims[2]);
+    *count = g->dims[0] * g->dims[1] * g->dims[2];
+    return PB_OK;
+}
+
+pb_status pb_device_check_volume(pb_context *ctx, const pb_device_info *info, const pb_geometry *g)
+{
+    if (!info->image_support)
+        return pb_error(ctx, PB_ERR_NO_IMAGE_SUPPORT,
+                        "device '%s' cannot hold 3-D float images with linear filtering, which every method "
+                        "samples; choose another device or the host backend",
+                        info->name);
+    for (int i = 0; i < 3; i++) {
+        if (info->image3d_max[i] && g->dims[i] > info->image3d_max[i])
+            return pb_error(ctx, PB_ERR_VOLUME_TOO_LARGE,
+                            "volume %zu x %zu x %zu exceeds the largest 3-D image of device '%s' (%zu x %zu x %zu); "
+                            "crop or resample the volume, or use a device with larger images",
+                            g->dims[0], g->dims[1], g->dims[2], info->name, info->image3d_max[0],
+                            info->image3d_max[1], info->image3d_max[2]);
+    }
+    uint64_t bytes = (uint64_t)g->dims[0] * g->dims[1] * g->dims[2] * sizeof(float);
+    if (info->max_alloc_bytes && bytes > info->max_alloc_bytes)
+        return pb_error(ctx, PB_ERR_OUT_OF_MEMORY,
+                        "volume %zu x %zu x %zu needs %.1f MiB in one allocation, more than device '%s' allows "
+                        "(%.1f MiB); use a smaller volume or a device with more memory",
+                        g->dims[0], g->dims[1], g->dims[2], bytes / 1048576.0, info->name,
+                        info->max_alloc_bytes / 1048576.0);
+    return PB_OK;
+}
+
+pb_status pb_volume_create(pb_context *ctx, const pb_geometry *g, pb_volume **out)
+{
+    if (!ctx || !g || !out)
+        return pb_error(ctx, PB_ERR_INVALID_ARGUMENT, "ctx, geometry and volume must not be NULL");
+    *out = NULL;
+    size_t count = 0;
+    pb_status st = pb_geometry_check(ctx, g, &count);
+    if (st == PB_OK)
+        st = pb_device_check_volume(ctx, &ctx->device, g);
+    if (st != PB_OK)
+        return st;
+    pb_volume *vol = calloc(1, sizeof *vol);
+    if (!vol)
+        return pb_error(ctx, PB_ERR_OUT_OF_MEMORY, "out of host memory for a volume");
+    vol->ctx = ctx;
+    vol->geometry = *g;
+    vol->count = count;
+    st = ctx->ops->buffer_create(ctx, count * sizeof(float), &vol->buffer);
+    if (st != PB_OK) {
+        free(vol);
+        return st;
+    }
+    pb_images_stale(&vol->images);
+    vol->next = ctx->volumes;
+    if (ctx->volumes)
+        ctx->volumes->prev = vol;
+    ctx->volumes = vol;
+    pb_context_hold(ctx);
+    *out = vol;
+    return PB_OK;
+}
+
+void pb_volume_destroy(pb_volume *vol)
+{
+    if (!vol)
+        return;
+    pb_context *ctx = vol->ctx;
+    if (vol->prev)
+        vol->prev->next = vol->next;
+    else
+        ctx->volumes = vol->next;
+    if (vol->next)
+        vol->next->prev = vol->prev;
+    pb_images_release(ctx, &vol->images);
+    ctx->ops->buffer_release(ctx, vol->buffer);
+    free(vol);
+    pb_context_release_hold(ctx);
+}
+
+pb_status pb_volume_get_geometry(const pb_volume *vol, pb_geometry *g)
+{
+    if (!vol || !g)
+        return pb_error(NULL, PB_ERR_INVALID_ARGUMENT, "volume and geometry must not be NULL");
+    *g = vol->geometry;
+    return PB_OK;
+}
+
+pb_status pb_volume_upload(pb_volume *vol, const float *host)
+{
+    if (!vol || !host)
+        return pb_error(vol ? vol->ctx : NULL, PB_ERR_INVALID_ARGUMENT, "volume and host data must not be NULL");
+    /* One NaN would spread through every blur that reads it; refuse it here,
+     * where the voxel can still be named. */
+    const size_t *n = vol->geometry.dims;
+    for (size_t i = 0; i < vol->count; i++)
+        if (!isfinite(host[i]))
+            return pb_error(vol->ctx, PB_ERR_NOT_FINITE,
+                            "activity at voxel (%zu, %zu, %zu) is %g; replace NaN and infinite values (for "
+                            "example by 0) before uploading",
+                            i % n[0], i / n[0] % n[1], i / (n[0] * n[1]), (double)host[i]);
+    pb_status st = vol->ctx->ops->buffer_write(vol->ctx, vol->buffer, host, vol->count * sizeof(float));
+    pb_images_stale(&vol->images);
+    return st;
+}
+
+pb_status pb_volume_download(const pb_volume *vol, float *host)
+{
+    if (!vol || !host)
+        return pb_error(vol ? vol->ctx : NULL, PB_ERR_INVALID_ARGUMENT, "volume and host data must not be NULL");
+    return vol->ctx->ops->buffer_read(vol->ctx, vol->buffer, host, vol->count * sizeof(float));
+}
+
+void pb_volume_memory_written(pb_context *ctx, const void *memory)
+{
+    for (pb_volume *v = ctx->volumes; v; v = v->next)
+        if (v->buffer == memory)
+            pb_images_stale(&v->images);
+}
+
+pb_status pb_volume_memory(const pb_volume *vol, void **memory)
+{
+    if (!vol || !memory)
+        return pb_error(NULL, PB_ERR_INVALID_ARGUMENT, "volume and memory must not be NULL");
+    *memory = vol->buffer;
+    return PB_OK;
+}
