@@ -144,32 +144,11 @@ static int segment_may_see(const pb_motion *mo, const pb_geometry *g, const pb_p
     return lo <= hi;
 }
 
-/* The samples [*lo, *hi) whose times lie in (t0, t1], by bisection. */
-static void frame_samples(const pb_track *t, double t0, double t1, size_t *lo, size_t *hi)
-{
-    size_t a = 0, b = t->count;
-    while (a < b) {
-        size_t mid = a + (b - a) / 2;
-        if (t->times[mid] <= t0)
-            a = mid + 1;
-        else
-            b = mid;
-    }
-    *lo = a;
-    for (b = t->count; a < b;) {
-        size_t mid = a + (b - a) / 2;
-        if (t->times[mid] <= t1)
-            a = mid + 1;
-        else
-            b = mid;
-    }
-    *hi = a;
-}
-
+/* The frame's samples are lo to hi, as pb_motion_frame cuts them: from the
+ * last at or before the frame's start to the first at or after its end. */
 static pb_status check_gap(const pb_track *t, double t0, double t1, size_t lo, size_t hi)
 {
-    /* Gaps that overlap the frame end at a sample in (t0, t1] or at the first after t1. */
-    for (size_t i = lo > 0 ? lo : 1; i <= hi && i < t->count; i++)
+    for (size_t i = lo + 1; i <= hi; i++)
         if (t->missing[i] && t->times[i] > t0 && t->times[i - 1] < t1 && t->times[i] - t->times[i - 1] > MAX_GAP_S)
             return pb_error(NULL, PB_ERR_TRACK_GAP, "%s:%zu-%zu: %zu missing samples leave a gap of %.3g s (%.9g to "
                             "%.9g s) inside the frame %.9g to %.9g s, longer than the %.3g s petblur interpolates "
@@ -181,20 +160,19 @@ static pb_status check_gap(const pb_track *t, double t0, double t1, size_t lo, s
 
 /* The frame's ends and every tracked pose inside it (taken as they are:
  * interpolating each would cost a pass over the track). */
-static pb_status check_view(const pb_track *t, const pb_motion *grid, const pb_geometry *g, double t0, double t1,
-                            size_t lo, size_t hi, pb_warnings *w)
+static pb_status check_view(const pb_track *t, const pb_motion *grid, const pb_geometry *g,
+                            const pb_motion *part, pb_warnings *w)
 {
+    double t0 = part->frame_start, t1 = part->frame_end;
     size_t seen = 0, poses = 0;
     int may_see = 0;
-    pb_motion part;
-    pb_motion_frame(grid, t0, t1, &part);
     pb_pose prev = {{0, 0, 0}, {1, 0, 0, 0}};
-    for (size_t i = lo; i <= hi + 1; i++) {
+    for (size_t i = 0; i <= part->count + 1; i++) {
         pb_pose p;
-        if (i == lo || i == hi + 1)
-            pb_motion_interpolate(&part, i == lo ? t0 : t1, &p);
-        else if (t->times[i - 1] > t0 && t->times[i - 1] < t1)
-            p = grid->poses[i - 1];
+        if (i == 0 || i == part->count + 1)
+            pb_motion_interpolate(part, i == 0 ? t0 : t1, &p);
+        else if (part->times[i - 1] > t0 && part->times[i - 1] < t1)
+            p = part->poses[i - 1];
         else
             continue;
         if (poses++ > 0)
@@ -246,11 +224,12 @@ pb_status pb_track_check_frames(const pb_track *track, const pb_motion *grid, co
     }
     warn_frames(t, bounds, frames, warnings);
     for (size_t i = 0; i < frames; i++) {
-        size_t lo, hi;
-        frame_samples(t, bounds[i], bounds[i + 1], &lo, &hi);
-        st = check_gap(t, bounds[i], bounds[i + 1], lo, hi);
+        pb_motion part;
+        pb_motion_frame(grid, bounds[i], bounds[i + 1], &part);
+        size_t lo = (size_t)(part.times - grid->times);
+        st = check_gap(t, bounds[i], bounds[i + 1], lo, lo + part.count - 1);
         if (st == PB_OK)
-            st = check_view(t, grid, geometry, bounds[i], bounds[i + 1], lo, hi, warnings);
+            st = check_view(t, grid, geometry, &part, warnings);
         if (st != PB_OK)
             return st;
     }
