@@ -122,17 +122,22 @@ typedef struct pb_context_options {
 PB_API pb_status pb_context_create(const pb_context_options *options, pb_context **ctx);
 /* Releases the context once its last volume and plan are destroyed: they may
  * be destroyed before or after it, in any order (as garbage-collected bindings
- * do). After pb_context_destroy the context must not be used again. A context,
- * its volumes and its plans are used from one thread at a time (they share the
- * context's queue, kernels and timers). */
+ * do). After pb_context_destroy the context must not be used again; its
+ * plans and volumes still work. A context, its volumes and its plans take one
+ * thread at a time (they share the context's queue, kernels and timers): a
+ * call made while another thread works in the context is refused
+ * (PB_ERR_INVALID_ARGUMENT) and does nothing. */
 PB_API void pb_context_destroy(pb_context *ctx);
 
 /* The backend and device the context runs on. */
 PB_API pb_backend pb_context_backend(const pb_context *ctx);
 PB_API pb_status pb_context_device_info(const pb_context *ctx, pb_device_info *info);
 
-/* The text of the last error on ctx (or, for ctx == NULL, of the calling
- * thread's last failed call that had no context). "" when there was none. */
+/* The message of a failure. pb_last_error(NULL): the calling thread's last
+ * failed call, whatever it was given (every failing call writes it, so it
+ * always matches the status just returned on this thread). pb_last_error(ctx):
+ * the last failed call on ctx, from whichever thread used it. "" when there
+ * was none. Successful calls leave both as they were. */
 PB_API const char *pb_last_error(const pb_context *ctx);
 
 /* Progress of long work (REF on large volumes on a CPU takes minutes): fn is

@@ -133,7 +133,9 @@ static void test_motions(pb_context *ctx)
            "track time 2");
     m = good;
     m.count = 1;
-    expect(pb_blur(ctx, in, &m, NULL, out), PB_ERR_TRACK_ORDER, "one pose", pb_last_error(ctx), NULL);
+    expect(pb_blur(ctx, in, &m, NULL, out), PB_ERR_TRACK_GAP, "one pose", pb_last_error(ctx), "one pose");
+    m.count = 0;
+    expect(pb_blur(ctx, in, &m, NULL, out), PB_ERR_INVALID_ARGUMENT, "no poses", pb_last_error(ctx), "no poses");
 
     double nan_times[3] = {0.0, (double)NAN, 2.0};
     m = good;

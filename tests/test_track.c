@@ -320,7 +320,7 @@ static void test_refusals(void)
     expect_bad_row("scaled matrix", matrix, "7,2,0,0,0,0,2,0,0,0,0,2,0", PB_ERR_NOT_RIGID, "fix that row");
     pb_track_read_options polaris_ms = {PB_TRACK_POLARIS, 1000.0, 0}, matrix_xyzw = {PB_TRACK_MATRIX_CSV, 1.0, 1};
     BAD_FILE("empty", "", NULL, PB_ERR_BAD_FILE, ": the file is empty");
-    BAD_FILE("one pose", "t,tx,ty,tz,qw,qx,qy,qz\n0,0,0,0,1,0,0,0\n", NULL, PB_ERR_TRACK_ORDER, ": 1 pose;");
+    BAD_FILE("one pose", "t,tx,ty,tz,qw,qx,qy,qz\n0,0,0,0,1,0,0,0\n", NULL, PB_ERR_TRACK_GAP, ": 1 pose;");
     BAD_FILE("no column", "t,tx,ty,tz,qw,qx,qy\n", NULL, PB_ERR_BAD_FILE, ":1: the header has no column 'qz'");
     BAD_FILE("no header", "1,2,3\n", NULL, PB_ERR_BAD_FILE, ":1: '1,2,3' is no header");
     BAD_FILE("NUL", "t,tx\0,ty\n", NULL, PB_ERR_BAD_FILE, ":1: holds a NUL byte");

@@ -23,8 +23,6 @@ pb_status pb_context_create(const pb_context_options *options, pb_context **out)
     ctx->ops = ops;
     st = ops->context_init(ctx, opt.device_index, opt.build_options);
     if (st != PB_OK) {
-        /* The backend wrote its message on ctx; hand it to the thread. */
-        pb_error(NULL, st, "%s", ctx->last_error);
         ops->context_release(ctx);
         free(ctx);
         return st;
@@ -53,6 +51,46 @@ void pb_context_destroy(pb_context *ctx)
 void pb_context_hold(pb_context *ctx)
 {
     ctx->holders++;
+}
+
+/* The contexts this thread is inside (a progress report may call into a
+ * second one), and how deeply. */
+enum { MAX_NESTED = 8 };
+static _Thread_local pb_context *inside[MAX_NESTED];
+static _Thread_local unsigned depth[MAX_NESTED];
+static _Thread_local int entered;
+
+pb_status pb_context_enter(pb_context *ctx)
+{
+    for (int i = 0; i < entered; i++)
+        if (inside[i] == ctx) {
+            depth[i]++;
+            return PB_OK;
+        }
+    if (entered == MAX_NESTED)
+        return pb_error(NULL, PB_ERR_INVALID_ARGUMENT, "calls nest in more than %d contexts; call petblur from a "
+                        "progress report less deeply", MAX_NESTED);
+    if (atomic_exchange(&ctx->busy, 1))
+        return pb_error(NULL, PB_ERR_INVALID_ARGUMENT, "the context (%s) is in use by another thread; a context, its "
+                        "volumes and its plans take one thread at a time: take turns with a lock, or give each "
+                        "thread its own context", ctx->device.name);
+    inside[entered] = ctx;
+    depth[entered++] = 1;
+    return PB_OK;
+}
+
+void pb_context_leave(pb_context *ctx)
+{
+    for (int i = entered - 1; i >= 0; i--)
+        if (inside[i] == ctx) {
+            if (--depth[i] == 0) {
+                inside[i] = inside[entered - 1];
+                depth[i] = depth[entered - 1];
+                entered--;
+                atomic_store(&ctx->busy, 0);
+            }
+            return;
+        }
 }
 
 void pb_context_release_hold(pb_context *ctx)

@@ -6,19 +6,23 @@
 
 #include "backend.h"
 
+/* Every failure writes the calling thread's text, so that pb_last_error(NULL)
+ * always tells the last failure of this thread, with or without a context;
+ * a failure on a context also leaves the text on it. */
 static _Thread_local char thread_error[PB_ERROR_TEXT_MAX];
-
-static char *error_text(struct pb_context *ctx)
-{
-    return ctx ? ctx->last_error : thread_error;
-}
+/* Formatted here first: a message may quote the text it replaces. */
+static _Thread_local char scratch[PB_ERROR_TEXT_MAX];
 
 pb_status pb_error(struct pb_context *ctx, pb_status status, const char *fmt, ...)
 {
     va_list ap;
     va_start(ap, fmt);
-    vsnprintf(error_text(ctx), PB_ERROR_TEXT_MAX, fmt, ap);
+    vsnprintf(scratch, PB_ERROR_TEXT_MAX, fmt, ap);
     va_end(ap);
+    size_t n = strlen(scratch) + 1;
+    memcpy(thread_error, scratch, n);
+    if (ctx)
+        memcpy(ctx->last_error, scratch, n);
     return status;
 }
 
@@ -27,7 +31,7 @@ pb_status pb_error_prefix(pb_status status, const char *fmt, ...)
     char prefix[1024];
     va_list ap;
     va_start(ap, fmt);
-    vsnprintf(prefix, sizeof prefix, fmt, ap);
+    vsnprintf(prefix, sizeof prefix, fmt, ap); /* fmt's arguments may quote the text */
     va_end(ap);
     size_t n = strlen(prefix), used = strlen(thread_error);
     if (n + used >= PB_ERROR_TEXT_MAX)
@@ -40,9 +44,10 @@ pb_status pb_error_prefix(pb_status status, const char *fmt, ...)
 
 void pb_error_append(struct pb_context *ctx, const char *text)
 {
-    char *buf = error_text(ctx);
-    size_t used = strlen(buf);
-    snprintf(buf + used, PB_ERROR_TEXT_MAX - used, "%s", text);
+    size_t used = strlen(thread_error);
+    snprintf(thread_error + used, PB_ERROR_TEXT_MAX - used, "%s", text);
+    if (ctx)
+        memcpy(ctx->last_error, thread_error, strlen(thread_error) + 1);
 }
 
 void pb_warn(pb_warnings *w, unsigned flag, const char *fmt, ...)

@@ -53,11 +53,10 @@ static pb_status check_frames(pb_context *ctx, const pb_volume *const *ins, cons
     return PB_OK;
 }
 
-pb_status pb_plan_create_frames(pb_context *ctx, const pb_geometry *geometry, const pb_motion *track,
-                                const double *bounds, size_t frames, const pb_blur_options *options, pb_plan **plan)
+static pb_status plan_create_frames_entered(pb_context *ctx, const pb_geometry *geometry, const pb_motion *track,
+                                            const double *bounds, size_t frames, const pb_blur_options *options,
+                                            pb_plan **plan)
 {
-    if (!ctx || !geometry || !track || !bounds || !plan)
-        return pb_error(ctx, PB_ERR_INVALID_ARGUMENT, "ctx, geometry, track, bounds and plan must not be NULL");
     *plan = NULL;
     pb_status st = pb_frame_bounds_check(ctx, bounds, frames);
     if (st != PB_OK)
@@ -88,13 +87,24 @@ pb_status pb_plan_create_frames(pb_context *ctx, const pb_geometry *geometry, co
     return st;
 }
 
-/* Both directions: every frame checked and planned, then run in order. */
-static pb_status run_frames(pb_context *ctx, const pb_volume *const *ins, const pb_motion *track,
-                            const double *bounds, size_t frames, const pb_blur_options *options,
-                            pb_volume *const *outs, int adjoint)
+pb_status pb_plan_create_frames(pb_context *ctx, const pb_geometry *geometry, const pb_motion *track,
+                                const double *bounds, size_t frames, const pb_blur_options *options, pb_plan **plan)
 {
-    if (!ctx)
-        return pb_error(NULL, PB_ERR_INVALID_ARGUMENT, "ctx must not be NULL");
+    if (!ctx || !geometry || !track || !bounds || !plan)
+        return pb_error(ctx, PB_ERR_INVALID_ARGUMENT, "ctx, geometry, track, bounds and plan must not be NULL");
+    pb_status st = pb_context_enter(ctx);
+    if (st != PB_OK)
+        return st;
+    st = plan_create_frames_entered(ctx, geometry, track, bounds, frames, options, plan);
+    pb_context_leave(ctx);
+    return st;
+}
+
+/* Both directions: every frame checked and planned, then run in order. */
+static pb_status run_frames_entered(pb_context *ctx, const pb_volume *const *ins, const pb_motion *track,
+                                    const double *bounds, size_t frames, const pb_blur_options *options,
+                                    pb_volume *const *outs, int adjoint)
+{
     pb_status st = check_frames(ctx, ins, track, bounds, frames, outs, adjoint);
     if (st != PB_OK)
         return st;
@@ -149,6 +159,20 @@ static pb_status run_frames(pb_context *ctx, const pb_volume *const *ins, const 
     ctx->last_input_ms = input;
     if (st == PB_OK && ctx->progress)
         ctx->progress(1.0, ctx->progress_user);
+    return st;
+}
+
+static pb_status run_frames(pb_context *ctx, const pb_volume *const *ins, const pb_motion *track,
+                            const double *bounds, size_t frames, const pb_blur_options *options,
+                            pb_volume *const *outs, int adjoint)
+{
+    if (!ctx)
+        return pb_error(NULL, PB_ERR_INVALID_ARGUMENT, "ctx must not be NULL");
+    pb_status st = pb_context_enter(ctx);
+    if (st != PB_OK)
+        return st;
+    st = run_frames_entered(ctx, ins, track, bounds, frames, options, outs, adjoint);
+    pb_context_leave(ctx);
     return st;
 }
 

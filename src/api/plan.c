@@ -3,6 +3,7 @@
  * uploads; applied forward and adjoint many times, to volumes or to the
  * caller's device memory; destroyed. pb_blur and pb_blur_adjoint are one-shot
  * plans. */
+#include <stdint.h>
 #include <stdlib.h>
 
 #include "plan.h"
@@ -47,16 +48,27 @@ pb_status pb_plan_set_frame(pb_plan *plan, size_t i, const pb_motion *motion)
     return st;
 }
 
-pb_status pb_plan_create(pb_context *ctx, const pb_geometry *geometry, const pb_motion *motion,
-                         const pb_blur_options *options, pb_plan **plan)
+static pb_status plan_create_entered(pb_context *ctx, const pb_geometry *geometry, const pb_motion *motion,
+                                     const pb_blur_options *options, pb_plan **plan)
 {
-    if (!ctx || !geometry || !motion || !plan)
-        return pb_error(ctx, PB_ERR_INVALID_ARGUMENT, "ctx, geometry, motion and plan must not be NULL");
     pb_status st = pb_plan_new(ctx, geometry, options, 1, plan);
     if (st == PB_OK && (st = pb_plan_set_frame(*plan, 0, motion)) != PB_OK) {
         pb_plan_destroy(*plan);
         *plan = NULL;
     }
+    return st;
+}
+
+pb_status pb_plan_create(pb_context *ctx, const pb_geometry *geometry, const pb_motion *motion,
+                         const pb_blur_options *options, pb_plan **plan)
+{
+    if (!ctx || !geometry || !motion || !plan)
+        return pb_error(ctx, PB_ERR_INVALID_ARGUMENT, "ctx, geometry, motion and plan must not be NULL");
+    pb_status st = pb_context_enter(ctx);
+    if (st != PB_OK)
+        return st;
+    st = plan_create_entered(ctx, geometry, motion, options, plan);
+    pb_context_leave(ctx);
     return st;
 }
 
@@ -130,11 +142,9 @@ static pb_status finish(pb_context *ctx, pb_status st)
     return st;
 }
 
-static pb_status apply_volumes(pb_plan *plan, size_t frame, const pb_volume *in, pb_volume *out, int adjoint,
-                               int accumulate)
+static pb_status apply_volumes_entered(pb_plan *plan, size_t frame, const pb_volume *in, pb_volume *out, int adjoint,
+                                       int accumulate)
 {
-    if (!plan)
-        return pb_error(NULL, PB_ERR_INVALID_ARGUMENT, "plan must not be NULL");
     pb_context *ctx = plan->ctx;
     pb_status st = check_frame(plan, frame);
     if (st == PB_OK)
@@ -150,6 +160,19 @@ static pb_status apply_volumes(pb_plan *plan, size_t frame, const pb_volume *in,
     return finish(ctx, st);
 }
 
+static pb_status apply_volumes(pb_plan *plan, size_t frame, const pb_volume *in, pb_volume *out, int adjoint,
+                               int accumulate)
+{
+    if (!plan)
+        return pb_error(NULL, PB_ERR_INVALID_ARGUMENT, "plan must not be NULL");
+    pb_status st = pb_context_enter(plan->ctx);
+    if (st != PB_OK)
+        return st;
+    st = apply_volumes_entered(plan, frame, in, out, adjoint, accumulate);
+    pb_context_leave(plan->ctx);
+    return st;
+}
+
 pb_status pb_plan_forward(pb_plan *plan, size_t frame, const pb_volume *object, pb_volume *tomograph)
 {
     return apply_volumes(plan, frame, object, tomograph, 0, 0);
@@ -160,10 +183,9 @@ pb_status pb_plan_adjoint(pb_plan *plan, size_t frame, const pb_volume *tomograp
     return apply_volumes(plan, frame, tomograph, object, 1, accumulate);
 }
 
-static pb_status apply_device(pb_plan *plan, size_t frame, const void *in, void *out, int adjoint, int accumulate)
+static pb_status apply_device_entered(pb_plan *plan, size_t frame, const void *in, void *out, int adjoint,
+                                      int accumulate)
 {
-    if (!plan)
-        return pb_error(NULL, PB_ERR_INVALID_ARGUMENT, "plan must not be NULL");
     pb_context *ctx = plan->ctx;
     const char *in_name = adjoint ? "tomograph" : "object", *out_name = adjoint ? "object" : "tomograph";
     size_t bytes = plan->count * sizeof(float);
@@ -173,6 +195,11 @@ static pb_status apply_device(pb_plan *plan, size_t frame, const void *in, void 
     if (st == PB_OK && in == out)
         st = pb_error(ctx, PB_ERR_INVALID_ARGUMENT, "the %s and %s are the same memory; blur into a second array",
                       in_name, out_name);
+    /* A partial overlap would be read after it is written. */
+    uintptr_t a = (uintptr_t)in, b = (uintptr_t)out;
+    if (st == PB_OK && ctx->ops->addresses && (a < b ? b - a : a - b) < bytes)
+        st = pb_error(ctx, PB_ERR_INVALID_ARGUMENT, "the %s and %s memory overlap (%zu bytes apart, each %zu bytes); "
+                      "blur into an array of its own", in_name, out_name, (size_t)(a < b ? b - a : a - b), bytes);
     if (st == PB_OK)
         st = ctx->ops->buffer_check(ctx, in, bytes, in_name, 0);
     if (st == PB_OK)
@@ -188,6 +215,18 @@ static pb_status apply_device(pb_plan *plan, size_t frame, const void *in, void 
     return finish(ctx, st);
 }
 
+static pb_status apply_device(pb_plan *plan, size_t frame, const void *in, void *out, int adjoint, int accumulate)
+{
+    if (!plan)
+        return pb_error(NULL, PB_ERR_INVALID_ARGUMENT, "plan must not be NULL");
+    pb_status st = pb_context_enter(plan->ctx);
+    if (st != PB_OK)
+        return st;
+    st = apply_device_entered(plan, frame, in, out, adjoint, accumulate);
+    pb_context_leave(plan->ctx);
+    return st;
+}
+
 pb_status pb_plan_forward_device(pb_plan *plan, size_t frame, const void *object, void *tomograph)
 {
     return apply_device(plan, frame, object, tomograph, 0, 0);
@@ -200,11 +239,9 @@ pb_status pb_plan_adjoint_device(pb_plan *plan, size_t frame, const void *tomogr
 
 /* pb_blur (in: the object, out: the tomograph) and pb_blur_adjoint (the
  * other way round): a plan of one frame, applied once. */
-static pb_status one_shot(pb_context *ctx, const pb_volume *in, const pb_motion *motion,
-                          const pb_blur_options *options, pb_volume *out, int adjoint)
+static pb_status one_shot_entered(pb_context *ctx, const pb_volume *in, const pb_motion *motion,
+                                  const pb_blur_options *options, pb_volume *out, int adjoint)
 {
-    if (!ctx || !in || !out || !motion)
-        return pb_error(ctx, PB_ERR_INVALID_ARGUMENT, "ctx, object, motion and tomograph must not be NULL");
     pb_plan *plan;
     pb_status st = pb_plan_new(ctx, &in->geometry, options, 1, &plan);
     if (st != PB_OK)
@@ -214,6 +251,19 @@ static pb_status one_shot(pb_context *ctx, const pb_volume *in, const pb_motion 
         (st = pb_plan_set_frame(plan, 0, motion)) == PB_OK)
         st = adjoint ? pb_plan_adjoint(plan, 0, in, out, 0) : pb_plan_forward(plan, 0, in, out);
     pb_plan_destroy(plan);
+    return st;
+}
+
+static pb_status one_shot(pb_context *ctx, const pb_volume *in, const pb_motion *motion,
+                          const pb_blur_options *options, pb_volume *out, int adjoint)
+{
+    if (!ctx || !in || !out || !motion)
+        return pb_error(ctx, PB_ERR_INVALID_ARGUMENT, "ctx, object, motion and tomograph must not be NULL");
+    pb_status st = pb_context_enter(ctx);
+    if (st != PB_OK)
+        return st;
+    st = one_shot_entered(ctx, in, motion, options, out, adjoint);
+    pb_context_leave(ctx);
     return st;
 }
 

@@ -50,10 +50,8 @@ pb_status pb_device_check_volume(pb_context *ctx, const pb_device_info *info, co
     return PB_OK;
 }
 
-pb_status pb_volume_create(pb_context *ctx, const pb_geometry *g, pb_volume **out)
+static pb_status volume_create_entered(pb_context *ctx, const pb_geometry *g, pb_volume **out)
 {
-    if (!ctx || !g || !out)
-        return pb_error(ctx, PB_ERR_INVALID_ARGUMENT, "ctx, geometry and volume must not be NULL");
     *out = NULL;
     size_t count = 0;
     pb_status st = pb_geometry_check(ctx, g, &count);
@@ -82,6 +80,18 @@ pb_status pb_volume_create(pb_context *ctx, const pb_geometry *g, pb_volume **ou
     return PB_OK;
 }
 
+pb_status pb_volume_create(pb_context *ctx, const pb_geometry *g, pb_volume **out)
+{
+    if (!ctx || !g || !out)
+        return pb_error(ctx, PB_ERR_INVALID_ARGUMENT, "ctx, geometry and volume must not be NULL");
+    pb_status st = pb_context_enter(ctx);
+    if (st != PB_OK)
+        return st;
+    st = volume_create_entered(ctx, g, out);
+    pb_context_leave(ctx);
+    return st;
+}
+
 void pb_volume_destroy(pb_volume *vol)
 {
     if (!vol)
@@ -107,10 +117,8 @@ pb_status pb_volume_get_geometry(const pb_volume *vol, pb_geometry *g)
     return PB_OK;
 }
 
-pb_status pb_volume_upload(pb_volume *vol, const float *host)
+static pb_status volume_upload_entered(pb_volume *vol, const float *host)
 {
-    if (!vol || !host)
-        return pb_error(vol ? vol->ctx : NULL, PB_ERR_INVALID_ARGUMENT, "volume and host data must not be NULL");
     /* One NaN would spread through every blur that reads it; refuse it here,
      * where the voxel can still be named. */
     const size_t *n = vol->geometry.dims;
@@ -125,11 +133,33 @@ pb_status pb_volume_upload(pb_volume *vol, const float *host)
     return st;
 }
 
+pb_status pb_volume_upload(pb_volume *vol, const float *host)
+{
+    if (!vol || !host)
+        return pb_error(vol ? vol->ctx : NULL, PB_ERR_INVALID_ARGUMENT, "volume and host data must not be NULL");
+    pb_status st = pb_context_enter(vol->ctx);
+    if (st != PB_OK)
+        return st;
+    st = volume_upload_entered(vol, host);
+    pb_context_leave(vol->ctx);
+    return st;
+}
+
+static pb_status volume_download_entered(const pb_volume *vol, float *host)
+{
+    return vol->ctx->ops->buffer_read(vol->ctx, vol->buffer, host, vol->count * sizeof(float));
+}
+
 pb_status pb_volume_download(const pb_volume *vol, float *host)
 {
     if (!vol || !host)
         return pb_error(vol ? vol->ctx : NULL, PB_ERR_INVALID_ARGUMENT, "volume and host data must not be NULL");
-    return vol->ctx->ops->buffer_read(vol->ctx, vol->buffer, host, vol->count * sizeof(float));
+    pb_status st = pb_context_enter(vol->ctx);
+    if (st != PB_OK)
+        return st;
+    st = volume_download_entered(vol, host);
+    pb_context_leave(vol->ctx);
+    return st;
 }
 
 void pb_volume_memory_written(pb_context *ctx, const void *memory)

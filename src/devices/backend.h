@@ -11,6 +11,8 @@
 #ifndef PB_BACKEND_H
 #define PB_BACKEND_H
 
+#include <stdatomic.h>
+
 #include "error.h"
 #include "kernel_table.h"
 #include "path.h"
@@ -55,6 +57,10 @@ typedef struct pb_plan_frame {
 
 typedef struct pb_backend_ops {
     pb_backend id;
+    /* Whether buffers are addresses in one space (host memory, CUDA's unified
+     * addressing), so that two ranges can be seen to overlap; OpenCL's are
+     * handles. */
+    int addresses;
     /* Device listing; errors go to the calling thread's last-error text. */
     pb_status (*device_count)(int *count);
     pb_status (*device_info)(int index, pb_device_info *info);
@@ -141,6 +147,9 @@ struct pb_context {
     size_t holders;
     int destroyed;
     struct pb_volume *volumes;
+    /* Set while a thread works in the context (pb_context_enter), so that a
+     * second thread's call is refused, not raced. */
+    atomic_int busy;
 };
 
 struct pb_volume {
@@ -185,6 +194,11 @@ pb_status pb_options_prepare(struct pb_context *ctx, const pb_blur_options *opti
 pb_status pb_geometry_check(struct pb_context *ctx, const pb_geometry *g, size_t *count);
 pb_status pb_device_check_volume(struct pb_context *ctx, const pb_device_info *info, const pb_geometry *g);
 void pb_context_hold(struct pb_context *ctx);
+/* A call's work in ctx: refused when another thread is inside it; nested
+ * calls of one thread (a one-shot blur's plan, a progress report that blurs
+ * again) enter again. Every PB_OK of enter is matched by one leave. */
+pb_status pb_context_enter(struct pb_context *ctx);
+void pb_context_leave(struct pb_context *ctx);
 void pb_context_release_hold(struct pb_context *ctx);
 
 /* launch.c: the per-frame operation of every device backend. A frame's

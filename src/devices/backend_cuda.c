@@ -331,6 +331,7 @@ static pb_status cuda_set_stream(pb_context *ctx, void *stream)
 
 const pb_backend_ops pb_backend_cuda_ops = {
     .id = PB_BACKEND_CUDA,
+    .addresses = 1,
     .device_count = pb_cuda_device_count,
     .device_info = pb_cuda_device_info,
     .context_init = pb_cuda_context_init,

@@ -267,14 +267,14 @@ static void host_buffer_release(pb_context *ctx, void *buffer)
 static pb_status host_buffer_write(pb_context *ctx, void *buffer, const void *host, size_t bytes)
 {
     (void)ctx;
-    memcpy(buffer, host, bytes);
+    memmove(buffer, host, bytes); /* host may be the volume's own memory (pb_volume_memory) */
     return PB_OK;
 }
 
 static pb_status host_buffer_read(pb_context *ctx, const void *buffer, void *host, size_t bytes)
 {
     (void)ctx;
-    memcpy(host, buffer, bytes);
+    memmove(host, buffer, bytes);
     return PB_OK;
 }
 
@@ -381,6 +381,7 @@ static pb_status host_frames_forward(pb_context *ctx, const pb_plan *plan, const
 
 const pb_backend_ops pb_backend_host_ops = {
     .id = PB_BACKEND_HOST,
+    .addresses = 1,
     .device_count = host_device_count,
     .device_info = host_device_info,
     .context_init = host_context_init,

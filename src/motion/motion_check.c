@@ -42,11 +42,12 @@ pb_status pb_motion_validate(struct pb_context *ctx, const pb_motion *m)
 {
     if (!m || !m->times || !m->poses)
         return pb_error(ctx, PB_ERR_INVALID_ARGUMENT, "motion, its times and its poses must not be NULL");
-    if (m->count < 2)
-        return pb_error(ctx, PB_ERR_TRACK_ORDER,
-                        "the track has %zu pose(s); give at least two, at or before the frame's start and at or "
-                        "after its end",
-                        m->count);
+    if (m->count == 0)
+        return pb_error(ctx, PB_ERR_INVALID_ARGUMENT, "the motion has no poses; give at least two, at or before the "
+                        "frame's start and at or after its end");
+    if (m->count == 1)
+        return pb_error(ctx, PB_ERR_TRACK_GAP, "the motion has one pose, which cannot cover a frame; give at least two, "
+                        "at or before the frame's start and at or after its end (the same pose twice for none)");
     if (!isfinite(m->frame_start) || !isfinite(m->frame_end))
         return pb_error(ctx, PB_ERR_NOT_FINITE, "the frame [%g, %g] is not finite; give finite times in seconds",
                         m->frame_start, m->frame_end);

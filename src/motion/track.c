@@ -82,8 +82,8 @@ static pb_status read_open(const char *path, FILE *f, const pb_track_read_option
                         "--quaternion-order", path);
     st = format == PB_TRACK_POLARIS ? pb_track_read_polaris(path, f, track) : pb_track_read_csv(path, f, o, track);
     if (st == PB_OK && track->count < 2)
-        st = pb_error(NULL, PB_ERR_TRACK_ORDER, "%s: %zu pose%s; a track needs at least two (the frame's start and "
-                      "end)", path, track->count, track->count == 1 ? "" : "s");
+        st = pb_error(NULL, track->count ? PB_ERR_TRACK_GAP : PB_ERR_BAD_FILE, "%s: %zu pose%s; a track needs at "
+                      "least two (the frame's start and end)", path, track->count, track->count == 1 ? "" : "s");
     return st;
 }
 
@@ -144,8 +144,8 @@ pb_status pb_track_create(const char *source, pb_track_format format, const doub
     if (!source)
         source = "the track";
     if (count < 2)
-        return pb_error(NULL, PB_ERR_TRACK_ORDER, "%s: %zu pose%s; a track needs at least two (the frame's start and "
-                        "end)", source, count, count == 1 ? "" : "s");
+        return pb_error(NULL, count ? PB_ERR_TRACK_GAP : PB_ERR_INVALID_ARGUMENT, "%s: %zu pose%s; a track needs at "
+                        "least two (the frame's start and end)", source, count, count == 1 ? "" : "s");
     pb_track *t = calloc(1, sizeof *t);
     if (!t || !(t->source = strdup(source))) {
         free(t);
