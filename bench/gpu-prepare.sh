@@ -10,17 +10,18 @@ loader=$(readlink -f /usr/lib/x86_64-linux-gnu/libOpenCL.so.1)
 cp "$loader" .device/lib/libOpenCL.so
 cp "$loader" .device/lib/libOpenCL.so.1
 
-# The petblur program's libraries (nifti_clib, libpng, zlib): headers, shared
-# objects and pkg-config files, whose prefix is rewritten by gpu.sh on arrival.
+# The program's libraries (nifti_clib, libpng, zlib) and the library's
+# (jansson): headers, shared objects and pkg-config files, whose prefix is
+# rewritten by gpu.sh on arrival.
 mkdir -p .device/include/nifti .device/lib/pkgconfig
 cp /usr/include/nifti/*.h .device/include/nifti/
 cp /usr/include/png.h /usr/include/pngconf.h /usr/include/pnglibconf.h /usr/include/zlib.h /usr/include/zconf.h \
-    .device/include/
+    /usr/include/jansson.h /usr/include/jansson_config.h .device/include/
 cp -r /usr/include/libpng16 .device/include/
-for lib in libnifti2 libznz libpng16 libz; do
+for lib in libnifti2 libznz libpng16 libz libjansson; do
     cp -L /usr/lib/x86_64-linux-gnu/$lib.so* .device/lib/
 done
-for pc in libpng libpng16 zlib; do
+for pc in libpng libpng16 zlib jansson; do
     sed 's|^prefix=.*|prefix=@DEVICE@|; s|^libdir=.*|libdir=${prefix}/lib|; s|^includedir=.*|includedir=${prefix}/include|' \
         /usr/lib/x86_64-linux-gnu/pkgconfig/$pc.pc >.device/lib/pkgconfig/$pc.pc
 done

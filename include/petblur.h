@@ -413,6 +413,14 @@ PB_API pb_status pb_track_check_frames(const pb_track *track, const pb_motion *g
  * n + 1 bounds. Durations positive, each frame starting where the one before
  * ends (to 1e-6 s relative). */
 PB_API pb_status pb_frames_from_starts(const double *starts, const double *durations, size_t n, double *bounds);
+/* Frames from a BIDS-PET sidecar (the JSON beside a PET image): its top-level
+ * FrameTimesStart and FrameDuration, by pb_frames_from_starts' rules. Read as
+ * strict JSON (RFC 8259, UTF-8), as Python's json reads it: keys inside nested
+ * objects are not the sidecar's, of duplicate keys the last counts, numbers
+ * are any JSON number (finite). *frames is the frame count; the bounds (frames
+ * + 1) are written when capacity holds them: call with capacity 0 to learn the
+ * count. Files over 4 MiB are refused. */
+PB_API pb_status pb_frames_read_sidecar(const char *path, double *bounds, size_t capacity, size_t *frames);
 
 /* The part of a track (a motion over its whole span) that frame [t0, t1]
  * needs: from the last sample at or before t0 to the first at or after t1,

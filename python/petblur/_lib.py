@@ -157,6 +157,7 @@ _signatures = {
                               _P(Warnings)]),
     "pb_track_check_frames": (_int, [_vp, _P(CMotion), _P(Geometry), _P(_dbl), _sz, _P(Warnings)]),
     "pb_frames_from_starts": (_int, [_P(_dbl), _P(_dbl), _sz, _P(_dbl)]),
+    "pb_frames_read_sidecar": (_int, [ctypes.c_char_p, _P(_dbl), _sz, _P(_sz)]),
     "pb_motion_mean_pose": (_int, [_P(CMotion), _P(Pose)]),
     "pb_options_check": (_int, [_P(BlurOptions)]),
     "pb_context_set_progress": (_int, [_vp, ProgressFn, _vp]),

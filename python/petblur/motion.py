@@ -16,14 +16,13 @@ affine= (voxel to world, 4x4, as nibabel's img.affine) in the scanner's world
 mm, where tracker logs live (--coords world)."""
 
 import ctypes
-import json
 import os
 import warnings
 
 import numpy as np
 
 from . import _lib
-from .errors import ArgumentError, Error, FileError
+from .errors import ArgumentError, Error
 
 _FORMATS = {None: 0, "auto": 0, "csv": 1, "matrix-csv": 2, "polaris": 3}
 
@@ -288,44 +287,25 @@ class Motion:
 
     # ---- copies, pickles ----
 
+    # A motion is its arrays and conventions, all plain Python and numpy:
+    # deepcopy and pickle copy them; a C track is made again from them per use.
     def __getstate__(self):
         return dict(self.__dict__)
 
     def __setstate__(self, state):
         self.__dict__.update(state)
+        _Track(self)  # a pickle is checked as the arrays were: finite, increasing, unit quaternions
 
 
 def frames_from_sidecar(path):
-    """Frame bounds (n + 1 times, s) from a BIDS-PET sidecar's FrameTimesStart
-    and FrameDuration, as the command line's --frames-from reads them: JSON
-    by Python's json module, the frames' rules (positive durations, each frame
-    starting where the one before ends) by the library."""
-    try:
-        with open(path, encoding="utf-8") as f:
-            meta = json.load(f)
-    except OSError as e:
-        raise FileError(f"{os.fspath(path)}: cannot open the sidecar ({e.strerror}); check the path", -600) from None
-    except (ValueError, UnicodeDecodeError) as e:
-        raise FileError(f"{os.fspath(path)}: not a JSON sidecar ({e})", -600) from None
-    if not isinstance(meta, dict):
-        raise FileError(f"{os.fspath(path)}: a BIDS sidecar is a JSON object", -600)
-    arrays = []
-    for key in ("FrameTimesStart", "FrameDuration"):
-        v = meta.get(key)
-        if v is None:
-            raise FileError(f"{os.fspath(path)}: no \"{key}\"; a BIDS-PET sidecar gives FrameTimesStart and "
-                            "FrameDuration, in seconds", -600)
-        if not isinstance(v, list) or not all(isinstance(x, (int, float)) and not isinstance(x, bool) for x in v):
-            raise FileError(f"{os.fspath(path)}: \"{key}\" is not an array of numbers; give seconds", -600)
-        arrays.append(np.array(v, dtype=np.float64))
-    starts, durations = arrays
-    if starts.size == 0 or starts.size != durations.size:
-        raise FileError(f"{os.fspath(path)}: {starts.size} frame starts and {durations.size} durations; BIDS gives "
-                        "one of each per frame", -600)
-    bounds = (ctypes.c_double * (starts.size + 1))()
-    try:
-        _check(_lib.lib.pb_frames_from_starts((ctypes.c_double * starts.size)(*starts),
-                                              (ctypes.c_double * starts.size)(*durations), starts.size, bounds))
-    except Error as e:
-        raise type(e)(f"{os.fspath(path)}: {e.message}", e.status) from None
+    """Frame bounds (n + 1 times, s) from a BIDS-PET sidecar's top-level
+    FrameTimesStart and FrameDuration: the library's reader, the one the
+    command line's --frames-from uses (strict JSON read as Python's json reads
+    it, the frames' rules: positive durations, each frame starting where the
+    one before ends)."""
+    name = os.fsencode(path)
+    frames = ctypes.c_size_t()
+    _check(_lib.lib.pb_frames_read_sidecar(name, None, 0, ctypes.byref(frames)))
+    bounds = (ctypes.c_double * (frames.value + 1))()
+    _check(_lib.lib.pb_frames_read_sidecar(name, bounds, frames.value + 1, ctypes.byref(frames)))
     return np.array(bounds[:])

@@ -255,5 +255,8 @@ pb_status pb_frames_from_starts(const double *starts, const double *durations, s
     }
     memcpy(bounds, starts, n * sizeof *bounds);
     bounds[n] = starts[n - 1] + durations[n - 1];
+    if (!isfinite(bounds[n]))
+        return pb_error(NULL, PB_ERR_NOT_FINITE, "the last frame ends beyond the largest double (%g s + %g s); give "
+                        "seconds of a scan", starts[n - 1], durations[n - 1]);
     return PB_OK;
 }
