@@ -1,36 +1,55 @@
-/* Output files appear whole or not at all: each is written under a temporary
- * name in its own folder (so that rename is atomic on the same file system)
- * and renamed into place only when complete. A failure removes the temporary. */
+/* Output files appear whole or not at all, and never through a link: each is
+ * written under a temporary name in its own folder (so that rename is atomic
+ * on the same file system), created exclusively (O_EXCL | O_NOFOLLOW) and
+ * written only through the descriptor that creation returned, never reopened
+ * by name. It is renamed into place when complete, after checking that the
+ * name still is the file we wrote; a failure removes the temporary. */
 #ifndef PBC_ATOMIC_FILE_H
 #define PBC_ATOMIC_FILE_H
 
 #include <stddef.h>
 #include <stdio.h>
+#include <sys/types.h>
 
 typedef struct pbc_temp {
-    char path[4096];  /* the final name */
-    char temp[4096];  /* where it is written meanwhile; ends with path's extension */
+    char path[4096]; /* the final name, as given */
+    char temp[4096]; /* the temporary's path (messages, the signal handler); ends with path's extension */
+    int dir;         /* the folder of both, open: every later step happens in this folder, whatever its path
+                      * comes to name meanwhile */
+    int fd;          /* the temporary, open from its creation until commit or abort; -1 for a backup */
+    dev_t dev;       /* what fd is (or what a backup kept): a name must still be this file to be renamed */
+    ino_t ino;
 } pbc_temp;
 
-/* Reserves a fresh temporary name beside path that ends in the same extension
- * as path (".nii.gz", ".png", ...), so that libraries that pick the format by
- * name still do. The file is created empty (O_EXCL). Returns 0 or an exit
- * status after printing the message. */
-int pbc_temp_reserve(pbc_temp *t, const char *path);
-/* pbc_temp_reserve, then opens the temporary for writing ("wb"). */
+/* Creates a fresh temporary beside path, ending in the same extension as path
+ * (".nii.gz", ".png", ...), with O_CREAT | O_EXCL | O_NOFOLLOW, and keeps it
+ * open in t->fd. A writer that needs its own descriptor (zlib's gzdopen) takes
+ * a dup() of t->fd. Returns 0 or an exit status after printing the message. */
+int pbc_temp_create(pbc_temp *t, const char *path);
+/* pbc_temp_create, then *f = a stdio stream on a dup() of the descriptor. */
 int pbc_temp_open(pbc_temp *t, const char *path, FILE **f);
-/* Flushes and closes f (when not NULL), then renames the temporary into place.
- * On any failure removes the temporary and returns an exit status. */
+/* Flushes and closes f (when not NULL), syncs the temporary, gives it the
+ * permission bits of the file it replaces, and renames it into place if the
+ * temporary's name still is the file that was written (and checks the final
+ * name afterwards). On any failure removes what it can and returns an exit
+ * status after the message; the output is then never a link. */
 int pbc_temp_commit(pbc_temp *t, FILE *f);
-/* Takes the temporary off the list that a signal removes: for a name that will
- * hold something to keep (an .hv pair's old data file while the new is
- * written). */
-void pbc_temp_keep(pbc_temp *t);
-/* Closes f (when not NULL) and removes the temporary. */
+/* Closes f (when not NULL) and the temporary, and removes it. */
 void pbc_temp_abort(pbc_temp *t, FILE *f);
 
+/* Backups, for an output that comes in two files (an Interfile pair): the
+ * existing regular file at path is kept under a fresh hidden name beside it
+ * (a hard link) until the new pair is in place. *kept is 0 when path does not
+ * exist. Returns 0 or an exit status after the message. */
+int pbc_backup_make(pbc_temp *b, const char *path, int *kept);
+/* Puts the backup back at its path, if its name still is the file it kept;
+ * returns 0, or -1 when it could not (the backup is then removed). */
+int pbc_backup_restore(pbc_temp *b);
+/* Removes the backup. */
+void pbc_backup_drop(pbc_temp *b);
+
 /* 1 when the two paths name the same existing file (same device and inode), or
- * are the same string; used to refuse an output that would overwrite an input. */
+ * are the same string. */
 int pbc_same_file(const char *a, const char *b);
 
 /* The extension that decides a file's format, lower-cased into ext (".nii.gz",

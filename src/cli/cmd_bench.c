@@ -391,13 +391,6 @@ static int bench_phantom(pb_context *ctx, const bench_config *c, bench_files *f,
     }
     if (c->keep && (rc = volume_path(path, sizeof path, c->dir, name, 0, 0)))
         goto done;
-    /* A --brain file inside DIR/volumes must not be replaced by its own copy. */
-    if (c->keep && c->brain && kind == PBC_PHANTOM_BRAIN &&
-        (pbc_same_file(path, c->brain) || pbc_same_file(path, ph.source))) {
-        rc = pbc_fail(PBC_EXIT_USAGE, "--brain %s: --keep-volumes would rewrite it as %s; choose another --out-dir",
-                      c->brain, path);
-        goto done;
-    }
     if (c->keep && (rc = pbc_image_write(path, &ph)))
         goto done;
     for (int s = 1; s <= 8 && !rc; s++)
@@ -412,6 +405,47 @@ done:
     free(res);
     pbc_image_free(&ph);
     return rc;
+}
+
+/* The volumes under dir that a run reads (--reference: the references) or
+ * writes (--keep-volumes: the phantoms too), as volume_path names them. */
+static void list_volumes(pbc_files *f, const bench_config *c, const char *option, const char *dir, int written)
+{
+    char path[4096];
+    for (int p = 0; p < c->phantom_count && !f->status; p++) {
+        const char *name = pbc_phantom_name(c->phantoms[p]);
+        if (written && !(f->status = volume_path(path, sizeof path, dir, name, 0, 0)))
+            pbc_files_write(f, option, path);
+        for (int s = 1; s <= 8; s++)
+            for (int seed = 1; seed <= 2 && c->scenario[s - 1] && !f->status; seed++) {
+                if ((f->status = volume_path(path, sizeof path, dir, name, s, seed)))
+                    break;
+                if (written)
+                    pbc_files_write(f, option, path);
+                else
+                    pbc_files_read(f, option, path);
+            }
+    }
+}
+
+/* Every file bench reads and writes, for the rule that no output names a file
+ * the command reads (pbc_files_check): a --brain inside DIR/volumes is not
+ * replaced by its own copy. */
+static int check_files(const bench_config *c)
+{
+    pbc_files f = {0};
+    char path[4096];
+    pbc_files_read_image(&f, "--brain", c->brain);
+    if (c->reference)
+        list_volumes(&f, c, "--reference", c->reference, 0);
+    for (int i = 0; i < 2 && !f.status; i++)
+        if (snprintf(path, sizeof path, "%s/%s", c->dir, i ? "cases.csv" : "results.csv") >= (int)sizeof path)
+            f.status = pbc_fail(PBC_EXIT_USAGE, "--out-dir %s: the path is too long", c->dir);
+        else
+            pbc_files_write(&f, "--out-dir", path);
+    if (c->keep)
+        list_volumes(&f, c, "--out-dir", c->dir, 1);
+    return pbc_files_check(&f);
 }
 
 static int open_outputs(const bench_config *c, bench_files *f)
@@ -453,7 +487,7 @@ int pbc_cmd_bench(int argc, char **argv)
         return rc < 0 ? 0 : rc;
     if (pbc_arg(&command, &args, "--quiet"))
         pbc_show_progress = 0;
-    if ((rc = parse_config(&args, &c)) || (rc = pbc_open_device(pbc_arg(&command, &args, "--device"), &ctx)) ||
+    if ((rc = parse_config(&args, &c)) || (rc = check_files(&c)) || (rc = pbc_open_device(pbc_arg(&command, &args, "--device"), &ctx)) ||
         (rc = open_outputs(&c, &f)))
         goto done;
     char dev[600], device[300];

@@ -103,9 +103,21 @@ static int blur_options(const pbc_args *args, pb_blur_options *opt)
     return 0;
 }
 
-/* Every path is checked before any work, so a typo costs no minutes of REF;
- * whether an output would overwrite the input (or its data file) is checked
- * once the input is read, before the device opens. */
+/* Every file blur reads and writes, for the rule that no output names one it
+ * reads (pbc_files_check). */
+static int check_files(const pbc_args *args, const char *in, const char *out, const char *png)
+{
+    pbc_files f = {0};
+    pbc_files_read_image(&f, "-i", in);
+    pbc_files_read(&f, "--motion", pbc_arg(&command, args, "--motion"));
+    pbc_files_read(&f, "--calibration", pbc_arg(&command, args, "--calibration"));
+    pbc_files_read(&f, "--frames-from", pbc_arg(&command, args, "--frames-from"));
+    pbc_files_write(&f, "-o", out);
+    pbc_files_write(&f, "--png", png);
+    return pbc_files_check(&f);
+}
+
+/* Every path is checked before any work, so a typo costs no minutes of REF. */
 static int check_paths(const pbc_args *args, const char **in, const char **out, const char **png)
 {
     *in = pbc_arg(&command, args, "--input");
@@ -116,9 +128,7 @@ static int check_paths(const pbc_args *args, const char **in, const char **out, 
     int rc = pbc_check_output("-o", *out, 0);
     if (!rc && *png)
         rc = pbc_check_output("--png", *png, 1);
-    if (!rc && *png && !strcmp(*png, *out))
-        rc = pbc_fail(PBC_EXIT_USAGE, "--png and -o name the same file; give the picture its own name");
-    return rc;
+    return rc ? rc : check_files(args, *in, *out, *png);
 }
 
 static int read_input(const pbc_args *args, const char *in, int frames, pbc_image *img)
@@ -220,8 +230,6 @@ static int run(const pbc_args *args, const char *in_path, const char *out_path, 
     const char *label = method_names[opt.method];
     if (!(rc = read_input(args, in_path, bounds != NULL, &in)) && !(rc = bounds ? check_frames(in_path, &in, frames) : 0) &&
         !(rc = pbc_motion_place(&motion, &in, in_path)) && !(rc = pbc_motion_check_frames(&motion, bounds, frames, 1)) &&
-        !(rc = pbc_image_check_not_input(out_path, in_path, &in)) &&
-        !(png && (rc = pbc_image_check_not_input(png, in_path, &in))) &&
         !(rc = pbc_image_alloc_frames(&out, in.dims, in.voxel_size, bounds && !sum ? frames : 1)) &&
         !(rc = pbc_open_device(pbc_arg(&command, args, "--device"), &ctx))) {
         out.orientation = in.orientation;

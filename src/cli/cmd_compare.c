@@ -52,7 +52,12 @@ int pbc_cmd_compare(int argc, char **argv)
     int rc = pbc_parse_args(&command, argc, argv, &args);
     if (rc)
         return rc < 0 ? 0 : rc;
-    if (!(rc = read_both(&args, &ref, &test))) {
+    /* Nothing is written; the list still checks where an Interfile data
+     * file lies before any reading. */
+    pbc_files files = {0};
+    pbc_files_read_image(&files, "REFERENCE", args.positional[0]);
+    pbc_files_read_image(&files, "TEST", args.positional[1]);
+    if (!(rc = pbc_files_check(&files)) && !(rc = read_both(&args, &ref, &test))) {
         size_t n = pbc_image_frame_voxels(&ref) * pbc_image_frame_count(&ref); /* every frame */
         double err = pb_error_percent(ref.data, test.data, n), maxdiff = 0.0, maxref = 0.0;
         for (size_t i = 0; i < n; i++) {

@@ -139,6 +139,20 @@ static int demo(pb_context *ctx, const pbc_args *args, const pbc_image *phantom,
     return rc;
 }
 
+/* The demo's outputs (phantom, one volume per method, the picture) need files
+ * of their own (pbc_files_check); it reads nothing. */
+static int check_files(const char *dir)
+{
+    pbc_files f = {0};
+    char path[4096];
+    for (int r = -1; r <= RUNS && !f.status; r++) {
+        const char *name = r < 0 ? "phantom" : r < RUNS ? runs[r].file : "demo";
+        if (!(f.status = out_path(path, sizeof path, dir, name, r < RUNS ? ".nii.gz" : ".png")))
+            pbc_files_write(&f, "--out-dir", path);
+    }
+    return pbc_files_check(&f);
+}
+
 int pbc_cmd_demo(int argc, char **argv)
 {
     pbc_args args;
@@ -151,7 +165,9 @@ int pbc_cmd_demo(int argc, char **argv)
     if (pbc_arg(&command, &args, "--quiet"))
         pbc_show_progress = 0;
     const char *dir = pbc_arg(&command, &args, "--out-dir");
-    if ((rc = make_phantom(&args, &phantom, &kind)) || (rc = pbc_open_device(pbc_arg(&command, &args, "--device"), &ctx)))
+    dir = dir ? dir : "petblur-demo";
+    if ((rc = check_files(dir)) || (rc = make_phantom(&args, &phantom, &kind)) ||
+        (rc = pbc_open_device(pbc_arg(&command, &args, "--device"), &ctx)))
         goto done;
     /* A frame that starts at rest and ends moved and turned about the scanner
      * axis through the grid's centre. */
@@ -165,7 +181,7 @@ int pbc_cmd_demo(int argc, char **argv)
     printf("phantom: %s, %zu x %zu x %zu voxels of %.3g x %.3g x %.3g mm\n", pbc_phantom_name(kind), phantom.dims[0],
            phantom.dims[1], phantom.dims[2], phantom.voxel_size[0], phantom.voxel_size[1], phantom.voxel_size[2]);
     printf("motion: translation (9, 6, -4.5) mm and 10 deg about z over the frame\n");
-    rc = demo(ctx, &args, &phantom, &motion, dir ? dir : "petblur-demo");
+    rc = demo(ctx, &args, &phantom, &motion, dir);
 done:
     pb_context_destroy(ctx);
     pbc_image_free(&phantom);

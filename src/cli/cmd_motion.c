@@ -115,6 +115,19 @@ static void track_summary(const pbc_motion *m)
     printf("missing samples: %zu in %zu gap%s, the longest %.6g s\n", missing, gaps, gaps == 1 ? "" : "s", gap);
 }
 
+/* Every file motion reads, and its one output, for the rule that no output
+ * names a file the command reads (pbc_files_check). */
+static int check_files(const pbc_args *args, const char *png)
+{
+    pbc_files f = {0};
+    pbc_files_read(&f, "the track", args->positional[0]);
+    pbc_files_read_image(&f, "-i", pbc_arg(&command, args, "--input"));
+    pbc_files_read(&f, "--calibration", pbc_arg(&command, args, "--calibration"));
+    pbc_files_read(&f, "--frames-from", pbc_arg(&command, args, "--frames-from"));
+    pbc_files_write(&f, "--png", png);
+    return pbc_files_check(&f);
+}
+
 int pbc_cmd_motion(int argc, char **argv)
 {
     pbc_args args;
@@ -130,7 +143,7 @@ int pbc_cmd_motion(int argc, char **argv)
         }
     const char *png = pbc_arg(&command, &args, "--png"), *fv = pbc_arg(&command, &args, "--frames"),
                *json = pbc_arg(&command, &args, "--frames-from");
-    if (png && (rc = pbc_check_output("--png", png, 1)))
+    if ((png && (rc = pbc_check_output("--png", png, 1))) || (rc = check_files(&args, png)))
         return rc;
     if (fv && json)
         return pbc_fail(PBC_EXIT_USAGE, "--frames and --frames-from: give one");

@@ -64,6 +64,15 @@ static int geometry(const pbc_args *args, pbc_phantom_kind kind, size_t dims[3],
     return 0;
 }
 
+/* The volume and its picture need files of their own (pbc_files_check). */
+static int check_files(const char *out, const char *png)
+{
+    pbc_files f = {0};
+    pbc_files_write(&f, "-o", out);
+    pbc_files_write(&f, "--png", png);
+    return pbc_files_check(&f);
+}
+
 int pbc_cmd_phantom(int argc, char **argv)
 {
     pbc_args args;
@@ -77,7 +86,8 @@ int pbc_cmd_phantom(int argc, char **argv)
         return pbc_fail(PBC_EXIT_USAGE, "phantom needs --kind and -o OUT; see petblur phantom --help");
     if (pbc_phantom_parse(name, &kind) != 0)
         return pbc_fail(PBC_EXIT_USAGE, "--kind %s: choose homogeneity, derenzo or brain", name);
-    if ((rc = pbc_check_output("-o", out, 0)) || (png && (rc = pbc_check_output("--png", png, 1))))
+    if ((rc = pbc_check_output("-o", out, 0)) || (png && (rc = pbc_check_output("--png", png, 1))) ||
+        (rc = check_files(out, png)))
         return rc;
     size_t dims[3];
     double vs[3];

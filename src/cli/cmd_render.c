@@ -22,6 +22,15 @@ static const pbc_command command = {
     options, (int)(sizeof options / sizeof options[0]), 1, 1,
     "example:\n  petblur render blurred.nii.gz -o blurred.png"};
 
+/* The picture must not name the volume it shows (pbc_files_check). */
+static int check_files(const char *in, const char *out)
+{
+    pbc_files f = {0};
+    pbc_files_read_image(&f, "the input", in);
+    pbc_files_write(&f, "-o", out);
+    return pbc_files_check(&f);
+}
+
 int pbc_cmd_render(int argc, char **argv)
 {
     pbc_args args;
@@ -32,7 +41,7 @@ int pbc_cmd_render(int argc, char **argv)
                *title = pbc_arg(&command, &args, "--title");
     if (!out)
         return pbc_fail(PBC_EXIT_USAGE, "render needs -o PICTURE.png; see petblur render --help");
-    if ((rc = pbc_check_output("-o", out, 1)))
+    if ((rc = pbc_check_output("-o", out, 1)) || (rc = check_files(in, out)))
         return rc;
     size_t dims[3];
     double vs[3];
@@ -43,10 +52,6 @@ int pbc_cmd_render(int argc, char **argv)
     hints.allow_frames = 1;
     if ((rc = pbc_image_read(in, &hints, &img)))
         return rc;
-    if ((rc = pbc_image_check_not_input(out, in, &img))) {
-        pbc_image_free(&img);
-        return rc;
-    }
     if (!title) {
         const char *slash = strrchr(in, '/');
         title = slash ? slash + 1 : in;

@@ -16,8 +16,44 @@ int pbc_cmd_bench(int argc, char **argv);
 int pbc_cmd_motion(int argc, char **argv);
 
 /* Shared checks of file arguments. */
-/* Refuses an output path whose extension no writer knows (before any work). */
+/* Refuses an output path whose extension no writer knows, whose folder takes no
+ * new file, or that stands for something petblur does not replace (a folder,
+ * a link, a write-protected file) (before any work). */
 int pbc_check_output(const char *option, const char *path, int picture);
+
+/* Every file a command reads and every file it writes, for the one rule that
+ * no output names a file the command reads, nor another output (by path,
+ * link, or device and inode). A command lists them all and calls
+ * pbc_files_check before any work. */
+enum { PBC_MAX_FILES = 128 };
+typedef struct pbc_file_use {
+    const char *option; /* "-i", "--motion", "--png", ...; "" for a positional argument */
+    char *path;         /* malloc'ed */
+    char *header;       /* an Interfile pair's data file: its header (malloc'ed); else NULL */
+    int written;
+} pbc_file_use;
+typedef struct pbc_files {
+    pbc_file_use use[PBC_MAX_FILES];
+    int count;
+    int status; /* the first failure while the list was made (its message printed), else 0 */
+} pbc_files;
+
+/* Add a file the command reads, as it is (a track, a calibration, a sidecar)
+ * or as an image, whose Interfile data file comes with it (found by parsing
+ * the header, by the rule of where a data file may live; a failure is kept in
+ * f->status, its message printed). A NULL path adds nothing. */
+void pbc_files_read(pbc_files *f, const char *option, const char *path);
+void pbc_files_read_image(pbc_files *f, const char *option, const char *path);
+/* Adds a file the command writes (NULL: nothing); OUT.hv brings OUT.v. */
+void pbc_files_write(pbc_files *f, const char *option, const char *path);
+/* The rule, then frees the list. Returns f->status if set, else 0, or
+ * PBC_EXIT_USAGE after a message that names both files and the fix. */
+int pbc_files_check(pbc_files *f);
+
+/* The data file of the Interfile header path, as reading it would find it
+ * (image_interfile.c), by the rule of where a data file may live. Returns 0 or
+ * an exit status after the message. */
+int pbc_interfile_data_of(const char *path, char *data, size_t size);
 
 /* Creates the folder dir (named by option, e.g. "--out-dir") unless it exists. */
 int pbc_make_dir(const char *option, const char *dir);

@@ -1,7 +1,11 @@
-/* Checks of output paths, made before any work so that a typo costs nothing. */
+/* Checks of file arguments, made before any work so that a typo costs nothing:
+ * what an output may be, and the one rule that no output names a file the
+ * command reads or another output. */
+#define _XOPEN_SOURCE 700 /* realpath */
 #include <errno.h>
 #include <limits.h>
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 #include <sys/stat.h>
 #include <unistd.h>
@@ -55,6 +59,142 @@ int pbc_check_output(const char *option, const char *path, int picture)
     int rc = replaceable(option, path);
     if (!rc && !strcmp(ext, ".hv") && !pbc_interfile_data_name(path, data, sizeof data))
         rc = replaceable(option, data);
+    return rc;
+}
+
+static void add(pbc_files *f, const char *option, const char *path, const char *header, int written)
+{
+    if (f->status || !path)
+        return;
+    if (f->count == PBC_MAX_FILES) {
+        f->status = pbc_fail(PBC_EXIT_RUNTIME, "%s %s: more than %d files in one command; petblur cannot check "
+                             "them all", option, path, PBC_MAX_FILES);
+        return;
+    }
+    pbc_file_use *u = &f->use[f->count];
+    u->option = option;
+    u->written = written;
+    u->path = strdup(path);
+    u->header = header ? strdup(header) : NULL;
+    f->count++;
+    if (!u->path || (header && !u->header))
+        f->status = pbc_fail(PBC_EXIT_RUNTIME, "out of memory while checking the files' names");
+}
+
+static int is_interfile(const char *path)
+{
+    char ext[32];
+    pbc_file_extension(path, ext, sizeof ext);
+    return !strcmp(ext, ".hv");
+}
+
+void pbc_files_read(pbc_files *f, const char *option, const char *path)
+{
+    add(f, option, path, NULL, 0);
+}
+
+void pbc_files_read_image(pbc_files *f, const char *option, const char *path)
+{
+    char data[PATH_MAX];
+    add(f, option, path, NULL, 0);
+    if (f->status || !path || !is_interfile(path))
+        return;
+    f->status = pbc_interfile_data_of(path, data, sizeof data);
+    add(f, option, data, path, 0);
+}
+
+void pbc_files_write(pbc_files *f, const char *option, const char *path)
+{
+    char data[PATH_MAX];
+    add(f, option, path, NULL, 1);
+    if (f->status || !path || !is_interfile(path))
+        return;
+    f->status = pbc_interfile_data_name(path, data, sizeof data);
+    add(f, option, data, path, 1);
+}
+
+/* Where a name leads: the device and inode of the file it reaches (through
+ * links), and the real path: the file's own when it exists, else its folder's
+ * and its name (an output not written yet), else the name as given. Hard
+ * links differ in real path but share the inode; two names of one file not
+ * yet there share the real path. */
+typedef struct file_id {
+    int exists;
+    dev_t dev;
+    ino_t ino;
+    char where[PATH_MAX];
+} file_id;
+
+static void identify(const char *path, file_id *id)
+{
+    struct stat st;
+    id->exists = stat(path, &st) == 0;
+    id->dev = id->exists ? st.st_dev : 0;
+    id->ino = id->exists ? st.st_ino : 0;
+    if (id->exists && realpath(path, id->where))
+        return;
+    char dir[PATH_MAX], real[PATH_MAX];
+    const char *slash = strrchr(path, '/');
+    snprintf(dir, sizeof dir, "%.*s", slash ? (int)(slash - path) + 1 : 1, slash ? path : ".");
+    int n = realpath(dir, real) ? snprintf(id->where, sizeof id->where, "%s/%s", strcmp(real, "/") ? real : "",
+                                           slash ? slash + 1 : path)
+                                : -1;
+    if (n < 0 || n >= (int)sizeof id->where)
+        snprintf(id->where, sizeof id->where, "%s", path);
+}
+
+static int same_file(const file_id *a, const file_id *b)
+{
+    if (a->exists && b->exists)
+        return a->dev == b->dev && a->ino == b->ino;
+    return !strcmp(a->where, b->where);
+}
+
+/* "-o out.hv (its data file out.v)", "--motion t.csv" */
+static void describe(const pbc_file_use *u, char *out, size_t size)
+{
+    if (u->header)
+        snprintf(out, size, "%s %s (its data file %s)", u->option, u->header, u->path);
+    else
+        snprintf(out, size, "%s %s", u->option, u->path);
+}
+
+static int refuse(const pbc_file_use *out, const pbc_file_use *other)
+{
+    char a[2 * PATH_MAX + 64], b[2 * PATH_MAX + 64];
+    describe(out, a, sizeof a);
+    describe(other, b, sizeof b);
+    if (other->written)
+        return pbc_fail(PBC_EXIT_USAGE, "%s and %s name the same file; each output needs a file of its own: give "
+                        "%s another name", b, a, out->option);
+    return pbc_fail(PBC_EXIT_USAGE, "%s and %s name the same file (by name, link or inode); petblur never writes "
+                    "over its inputs: give %s another name", a, b, out->option);
+}
+
+static void files_free(pbc_files *f)
+{
+    for (int i = 0; i < f->count; i++) {
+        free(f->use[i].path);
+        free(f->use[i].header);
+    }
+    f->count = 0;
+}
+
+/* Each output against every input and every output listed before it. */
+int pbc_files_check(pbc_files *f)
+{
+    int rc = f->status;
+    file_id *ids = rc || !f->count ? NULL : malloc((size_t)f->count * sizeof *ids);
+    if (!rc && f->count && !ids)
+        rc = pbc_fail(PBC_EXIT_RUNTIME, "out of memory while checking the files' names");
+    for (int i = 0; ids && i < f->count; i++)
+        identify(f->use[i].path, &ids[i]);
+    for (int w = 0; ids && !rc && w < f->count; w++)
+        for (int j = 0; f->use[w].written && !rc && j < f->count; j++)
+            if (j != w && (!f->use[j].written || j < w) && same_file(&ids[w], &ids[j]))
+                rc = refuse(&f->use[w], &f->use[j]);
+    free(ids);
+    files_free(f);
     return rc;
 }
 

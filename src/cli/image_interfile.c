@@ -1,5 +1,6 @@
 /* Interfile 3.3 images as STIR reads and writes them: a text header (.hv)
  * naming a data file (.v) beside it. */
+#define _XOPEN_SOURCE 700 /* realpath */
 #include <ctype.h>
 #include <errno.h>
 #include <limits.h>
@@ -12,6 +13,7 @@
 
 #include "atomic_file.h"
 #include "cli.h"
+#include "commands.h"
 #include "image_formats.h"
 
 /* Headers are a few kB; anything this big is not one. */
@@ -294,21 +296,13 @@ static int take_header(const char *path, const interfile_header *h, pbc_image *i
     return 0;
 }
 
-/* A relative data file name is relative to the header's folder. */
-static int data_file_path(const char *path, const char *name, char *out, size_t size)
-{
-    const char *slash = strrchr(path, '/');
-    int dirlen = name[0] == '/' || !slash ? 0 : (int)(slash - path + 1);
-    if (snprintf(out, size, "%.*s%s", dirlen, path, name) >= (int)size)
-        return pbc_fail(PBC_EXIT_USAGE, "%s: the path of its data file is too long; move the files to a shorter "
-                        "path", path);
-    return 0;
-}
-
-/* The data file must be named relative to the header, inside its folder (no
- * absolute name, no ".."), as STIR writes it, and be a regular file (a link
- * to one is fine: git-annex and DataLad keep data so): a small header that is
- * easily sent must not read /etc/passwd as voxels or block on a FIFO. */
+/* Where a header's data file may live (docs/cli.md, "Outputs"): named
+ * relative to the header, without "..", and, once every link on the way is
+ * resolved, inside the header's folder or below it, as STIR writes it. A link
+ * inside that folder is fine (git-annex and DataLad keep data as links), one
+ * that leads out of it is not: a header is small and easily sent, and must not
+ * make petblur read /etc/passwd or ~/.ssh as voxels, block on a FIFO, or write
+ * an output over a file elsewhere. */
 static int check_data_name(const char *path, const char *name)
 {
     int up = !strcmp(name, "..") || !strncmp(name, "../", 3) || strstr(name, "/../") ||
@@ -332,12 +326,65 @@ static int check_data_file(const char *path, const char *data_path)
     return 0;
 }
 
+/* The name's "inside" once links are resolved: the data file's real path
+ * starts with the real path of the header's folder. */
+static int check_data_inside(const char *path, const char *data_path)
+{
+    char dir[PATH_MAX], folder[PATH_MAX], real[PATH_MAX];
+    const char *slash = strrchr(path, '/');
+    snprintf(dir, sizeof dir, "%.*s", slash ? (int)(slash - path) + 1 : 1, slash ? path : ".");
+    if (!realpath(dir, folder) || !realpath(data_path, real))
+        return pbc_fail(PBC_EXIT_USAGE, "%s: cannot resolve its data file %s (%s); check the header's folder and "
+                        "'!name of data file'", path, data_path, strerror(errno));
+    size_t n = strlen(folder);
+    int root = n == 1; /* "/": everything is below it */
+    if (!strncmp(real, folder, n) && (root || real[n] == '/'))
+        return 0;
+    return pbc_fail(PBC_EXIT_USAGE, "%s: its data file %s leads through a link to %s, outside the header's folder "
+                    "%s; petblur reads data files only inside their header's folder or below it: copy the data "
+                    "file there (cp --dereference), or move the header beside it", path, data_path, real, folder);
+}
+
+/* A relative data file name is relative to the header's folder. */
+static int data_file_path(const char *path, const char *name, char *out, size_t size)
+{
+    const char *slash = strrchr(path, '/');
+    int dirlen = !slash ? 0 : (int)(slash - path + 1);
+    if (snprintf(out, size, "%.*s%s", dirlen, path, name) >= (int)size)
+        return pbc_fail(PBC_EXIT_USAGE, "%s: the path of its data file is too long; move the files to a shorter "
+                        "path", path);
+    return 0;
+}
+
+/* The data file of a parsed header, by the rule above. */
+static int locate_data(const char *path, const interfile_header *h, char *out, size_t size)
+{
+    int rc = h->data_file[0] ? 0 : missing(path, "!name of data file", "the data file's name, relative to the "
+                                           "header's folder");
+    if (!rc)
+        rc = check_data_name(path, h->data_file);
+    if (!rc)
+        rc = data_file_path(path, h->data_file, out, size);
+    if (!rc)
+        rc = check_data_file(path, out);
+    return rc ? rc : check_data_inside(path, out);
+}
+
+int pbc_interfile_data_of(const char *path, char *data, size_t size)
+{
+    char *text = NULL;
+    interfile_header h;
+    int rc = load_header(path, &text);
+    if (!rc)
+        rc = parse_header(path, text, &h);
+    free(text);
+    return rc ? rc : locate_data(path, &h, data, size);
+}
+
 static int read_data(const char *path, const char *data_path, long long offset, const pbc_sample_format *format,
                      pbc_image *img)
 {
-    int rc = check_data_file(path, data_path);
-    if (rc)
-        return rc;
+    int rc = 0;
     FILE *f = fopen(data_path, "rb");
     if (!f)
         return pbc_fail(PBC_EXIT_USAGE, "%s: cannot open its data file %s (%s); check '!name of data file' in the "
@@ -373,9 +420,7 @@ int pbc_interfile_read(const char *path, const pbc_read_hints *hints, pbc_image 
     if (!rc)
         rc = take_header(path, &h, img, &format, &offset);
     if (!rc)
-        rc = check_data_name(path, h.data_file);
-    if (!rc)
-        rc = data_file_path(path, h.data_file, data_path, sizeof data_path);
+        rc = locate_data(path, &h, data_path, sizeof data_path);
     if (!rc)
         rc = pbc_image_prepare(path, hints, img);
     double affine[16];
@@ -471,29 +516,27 @@ int pbc_interfile_write(const char *path, const pbc_image *img)
      * place, and put back if that fails. */
     pbc_temp backup;
     int kept = 0;
-    if (access(data_path, F_OK) == 0 && !(rc = pbc_temp_reserve(&backup, data_path))) {
-        pbc_temp_keep(&backup); /* a signal mid-write must not take the old data's last copy */
-        kept = remove(backup.temp) == 0 && link(data_path, backup.temp) == 0;
-        if (!kept)
-            rc = pbc_fail(PBC_EXIT_RUNTIME, "%s: cannot keep the existing %s while the new pair is written (%s); "
-                          "nothing was written", path, data_path, strerror(errno));
-    }
+    rc = pbc_backup_make(&backup, data_path, &kept);
     if (rc) {
         pbc_temp_abort(&header_temp, header);
         pbc_temp_abort(&data_temp, data);
         return rc;
     }
     rc = pbc_temp_commit(&data_temp, data);
-    if (rc) {
+    int moved = rc == 0;
+    if (rc)
         pbc_temp_abort(&header_temp, header);
-    } else if ((rc = pbc_temp_commit(&header_temp, header)) != 0) {
-        /* Data without its header would be an orphan nobody can read. */
-        if (kept && rename(backup.temp, data_path) == 0)
-            kept = 0;
-        else
-            remove(data_path);
+    else
+        rc = pbc_temp_commit(&header_temp, header);
+    if (!rc) {
+        if (kept)
+            pbc_backup_drop(&backup);
+        return 0;
     }
-    if (kept)
-        remove(backup.temp);
+    /* A failure leaves the old pair as it was; new data without its header
+     * would be an orphan nobody can read. */
+    int restored = kept && pbc_backup_restore(&backup) == 0;
+    if (moved && !restored)
+        unlink(data_path);
     return rc;
 }

@@ -1,7 +1,6 @@
 /* NIfTI images through nifti_clib: any single-file NIfTI-1 (or NIfTI-2) volume
  * in, float32 NIfTI-1 out, with the input's placement in scanner space kept. */
 #include <errno.h>
-#include <fcntl.h>
 #include <math.h>
 #include <stddef.h>
 #include <stdint.h>
@@ -9,6 +8,7 @@
 #include <unistd.h>
 
 #include <nifti2_io.h>
+#include <zlib.h>
 
 #include "atomic_file.h"
 #include "cli.h"
@@ -222,35 +222,29 @@ static int make_header(const char *path, const pbc_image *img, nifti_1_header *h
     return 0;
 }
 
-/* The temporary is written by znzlib, not through a FILE of ours, so it is
- * synced here before the rename makes it the output. */
-static int sync_file(const char *name)
-{
-    int fd = open(name, O_RDONLY);
-    if (fd < 0)
-        return -1;
-    int rc = fsync(fd);
-    close(fd);
-    return rc;
-}
-
-/* Returns 0 or the errno of the first failure. */
-static int write_file(const char *name, int compress, const nifti_1_header *hdr, const pbc_image *img)
+/* Returns 0 or the errno of the first failure. The temporary is written
+ * through its descriptor (a copy that gzclose closes), never reopened by name;
+ * zlib writes .nii plainly ("T": transparent) and .nii.gz compressed.
+ * pbc_temp_commit syncs it. */
+static int write_file(int fd, int compress, const nifti_1_header *hdr, const pbc_image *img)
 {
     static const char extender[4] = {0};
     size_t n = pbc_image_voxels(img);
     errno = 0;
-    znzFile fp = znzopen(name, "wb", compress);
-    if (znz_isnull(fp))
-        return errno ? errno : EIO;
-    int ok = znzwrite(hdr, sizeof *hdr, 1, fp) == 1 && znzwrite(extender, 1, sizeof extender, fp) == sizeof extender
-             && znzwrite(img->data, sizeof *img->data, n, fp) == n;
+    int copy = dup(fd);
+    gzFile fp = copy >= 0 ? gzdopen(copy, compress ? "wb" : "wbT") : NULL;
+    if (!fp) {
+        int e = errno ? errno : EIO;
+        if (copy >= 0)
+            close(copy);
+        return e;
+    }
+    int ok = gzfwrite(hdr, sizeof *hdr, 1, fp) == 1 && gzfwrite(extender, 1, sizeof extender, fp) == sizeof extender
+             && gzfwrite(img->data, sizeof *img->data, n, fp) == n;
     int e = ok ? 0 : errno ? errno : EIO;
     /* A full disk often shows only when the last block is written at close. */
-    if (znzclose(fp) != 0 && !e)
+    if (gzclose(fp) != Z_OK && !e)
         e = errno ? errno : EIO;
-    if (!e && sync_file(name) != 0)
-        e = errno;
     return e;
 }
 
@@ -267,12 +261,12 @@ int pbc_nifti_write(const char *path, const pbc_image *img)
     if (rc)
         return rc;
     pbc_temp t;
-    rc = pbc_temp_reserve(&t, path);
+    rc = pbc_temp_create(&t, path);
     if (rc)
         return rc;
     char ext[16];
     pbc_file_extension(path, ext, sizeof ext);
-    int e = write_file(t.temp, !strcmp(ext, ".nii.gz"), &hdr, img);
+    int e = write_file(t.fd, !strcmp(ext, ".nii.gz"), &hdr, img);
     if (e) {
         pbc_temp_abort(&t, NULL);
         return pbc_fail(PBC_EXIT_RUNTIME, "%s: writing failed (%s); nothing was written; free some space or choose "
