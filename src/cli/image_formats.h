@@ -63,8 +63,17 @@ typedef struct pbc_nifti_facts {
     int version, swap;
     long long vox_offset;
     double pixdim[3]; /* as written: nifti_clib turns 0 into 1 */
+    /* The orientation as written: nifti_clib turns NaN and infinity into 0. */
+    int qform_code, sform_code;
+    double qfac, quatern[3], qoffset[3], srow[12];
 } pbc_nifti_facts;
 int pbc_nifti_check_header(const char *path, pbc_nifti_facts *facts);
+/* The grid's place in the world as nibabel chooses it (image_nifti_orientation.c):
+ * the sform when its code is set, else the qform when its code is set, else
+ * none; in mm (unit_mm per file unit). A form that would be used but is not
+ * finite, not a rotation (qform) or singular is refused: 0 or an exit status
+ * after the message. */
+int pbc_nifti_orientation(const char *path, const pbc_nifti_facts *facts, double unit_mm, pbc_orientation *o);
 
 int pbc_nifti_read(const char *path, const pbc_read_hints *hints, pbc_image *img);
 int pbc_nifti_write(const char *path, const pbc_image *img);

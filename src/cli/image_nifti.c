@@ -86,16 +86,9 @@ static double unit_in_mm(int xyz_units)
     }
 }
 
-static void copy_affine(double to[4][4], const nifti_dmat44 *from, double mm)
-{
-    for (int r = 0; r < 4; r++)
-        for (int c = 0; c < 4; c++)
-            to[r][c] = r < 3 ? from->m[r][c] * mm : from->m[r][c];
-}
-
-/* Sizes and the affines are kept in mm, so that the output, written in mm,
- * lands where the input was whatever its units. A pixdim of 0 (or NaN) is left
- * as 0 for --voxel-size to fill in. */
+/* Sizes (and the affines, image_nifti_orientation.c) are kept in mm, so that
+ * the output, written in mm, lands where the input was whatever its units. A
+ * pixdim of 0 (or NaN) is left as 0 for --voxel-size to fill in. */
 static void take_geometry(const nifti_image *nim, const double pixdim[3], pbc_image *img)
 {
     double mm = unit_in_mm(nim->xyz_units);
@@ -105,12 +98,6 @@ static void take_geometry(const nifti_image *nim, const double pixdim[3], pbc_im
     }
     img->frames = nim->ndim >= 4 && nim->dim[4] > 1 ? (size_t)nim->dim[4] : 1;
     pbc_orientation *o = &img->orientation;
-    o->qform_code = nim->qform_code;
-    o->sform_code = nim->sform_code;
-    if (o->qform_code > 0)
-        copy_affine(o->qto_xyz, &nim->qto_xyz, mm);
-    if (o->sform_code > 0)
-        copy_affine(o->sto_xyz, &nim->sto_xyz, mm);
     memcpy(o->descrip, nim->descrip, sizeof o->descrip);
     o->descrip[sizeof o->descrip - 1] = '\0';
 }
@@ -149,8 +136,11 @@ int pbc_nifti_read(const char *path, const pbc_read_hints *hints, pbc_image *img
         rc = sample_format(path, nim, &format);
     if (!rc) {
         take_geometry(nim, pixdim, img);
-        rc = pbc_image_prepare(path, hints, img);
+        /* From the header's own bytes: nifti_clib reads NaN fields as 0. */
+        rc = pbc_nifti_orientation(path, &facts, unit_in_mm(nim->xyz_units), &img->orientation);
     }
+    if (!rc)
+        rc = pbc_image_prepare(path, hints, img);
     if (!rc)
         rc = read_data(path, nim, &format, img);
     nifti_image_free(nim);

@@ -71,6 +71,58 @@ static int bytes_per_voxel(int datatype)
     }
 }
 
+/* Element i of a float field (NIfTI-1) or double field (NIfTI-2) at offset. */
+static double real_at(const unsigned char *b, int v2, int swap, size_t offset, int i)
+{
+    if (v2) {
+        double d;
+        memcpy(&d, b + offset + 8 * (size_t)i, 8);
+        if (swap)
+            nifti_swap_8bytes(1, &d);
+        return d;
+    }
+    float f;
+    memcpy(&f, b + offset + 4 * (size_t)i, 4);
+    if (swap)
+        nifti_swap_4bytes(1, &f);
+    return (double)f;
+}
+
+/* A short (NIfTI-1) or int (NIfTI-2) code at offset. */
+static int code_at(const unsigned char *b, int v2, int swap, size_t offset)
+{
+    if (v2) {
+        int32_t c;
+        memcpy(&c, b + offset, 4);
+        if (swap)
+            nifti_swap_4bytes(1, &c);
+        return (int)c;
+    }
+    int16_t c;
+    memcpy(&c, b + offset, 2);
+    if (swap)
+        nifti_swap_2bytes(1, &c);
+    return c;
+}
+
+#define FIELD(name) (v2 ? offsetof(nifti_2_header, name) : offsetof(nifti_1_header, name))
+
+static void orientation_facts(const unsigned char *b, int v2, int swap, pbc_nifti_facts *facts)
+{
+    facts->qform_code = code_at(b, v2, swap, FIELD(qform_code));
+    facts->sform_code = code_at(b, v2, swap, FIELD(sform_code));
+    facts->qfac = real_at(b, v2, swap, FIELD(pixdim), 0);
+    const size_t quatern[3] = {FIELD(quatern_b), FIELD(quatern_c), FIELD(quatern_d)};
+    const size_t qoffset[3] = {FIELD(qoffset_x), FIELD(qoffset_y), FIELD(qoffset_z)};
+    const size_t srow[3] = {FIELD(srow_x), FIELD(srow_y), FIELD(srow_z)};
+    for (int i = 0; i < 3; i++) {
+        facts->quatern[i] = real_at(b, v2, swap, quatern[i], 0);
+        facts->qoffset[i] = real_at(b, v2, swap, qoffset[i], 0);
+        for (int c = 0; c < 4; c++)
+            facts->srow[4 * i + c] = real_at(b, v2, swap, srow[i], c);
+    }
+}
+
 int pbc_nifti_check_header(const char *path, pbc_nifti_facts *facts)
 {
     unsigned char b[sizeof(nifti_2_header)];
@@ -159,20 +211,9 @@ int pbc_nifti_check_header(const char *path, pbc_nifti_facts *facts)
     facts->version = v2 ? 2 : 1;
     facts->swap = swap;
     facts->vox_offset = offset;
-    for (int i = 0; i < 3; i++) {
-        if (v2) {
-            double d;
-            memcpy(&d, b + offsetof(nifti_2_header, pixdim) + 8 * (i + 1), 8);
-            if (swap)
-                nifti_swap_8bytes(1, &d);
-            facts->pixdim[i] = d;
-        } else {
-            float f;
-            memcpy(&f, b + offsetof(nifti_1_header, pixdim) + 4 * (i + 1), 4);
-            if (swap)
-                nifti_swap_4bytes(1, &f);
-            facts->pixdim[i] = (double)f;
-        }
-    }
+    for (int i = 0; i < 3; i++)
+        facts->pixdim[i] = real_at(b, v2, swap, v2 ? offsetof(nifti_2_header, pixdim) : offsetof(nifti_1_header, pixdim),
+                                   i + 1);
+    orientation_facts(b, v2, swap, facts);
     return 0;
 }
