@@ -266,6 +266,8 @@ int pbc_temp_commit(pbc_temp *t, FILE *f)
     untrack_temp(t->temp);
     if (moved != 0) {
         pbc_temp_abort(t, NULL);
+        if (e == ENOENT) /* taken away between the check and the rename */
+            return replaced(t);
         return pbc_fail(PBC_EXIT_RUNTIME, "%s: cannot move the finished file into place (%s); nothing was written",
                         t->path, strerror(e));
     }
