@@ -6,7 +6,8 @@ fastest: nibabel's, the C library's own) and C order (z fastest: numpy's,
 CuPy's and PyTorch's default), the latter through a plan of the transposed
 grid. Other strides are copied into C order first, on the array's own device.
 dtype: float32; float64 is computed in float32 and returned as float64; any
-other dtype is refused."""
+other dtype is refused. Values: NaN and infinity in host arrays are refused,
+and so are numpy masked arrays (the library would read under the mask)."""
 
 import sys
 
@@ -46,6 +47,11 @@ class Array:
             if x.device.type == "cpu":  # the numpy path, on the tensor's own memory
                 self.kind = "torch-cpu"
                 x = x.numpy()
+        elif isinstance(x, np.ma.MaskedArray):
+            # The library reads every voxel, masked or not: a NaN under the
+            # mask would be blurred into its neighbours.
+            raise ArgumentError(f"the {what} is a numpy masked array, whose mask petblur cannot honour; give "
+                                "x.filled(0) (masked voxels as 0) or np.ma.getdata(x) (the values under the mask)")
         elif isinstance(x, np.ndarray) or (cupy is not None and isinstance(x, cupy.ndarray)):
             gpu = not isinstance(x, np.ndarray)
             self.kind = "cupy" if gpu else "numpy"

@@ -12,10 +12,17 @@ place).
 Threads: operators are safe to use from several threads at once. Operators on
 one device share its context and take turns on it (a lock held during each
 call, with the GIL released inside the C library); operators on different
-devices run in parallel."""
+devices run in parallel.
+
+Copies: copy.copy shares the C plans (freed with the last copy);
+copy.deepcopy and pickle rebuild the operator from its description, on the
+device its spec names where it is loaded (docs/python.md, "Copies, pickling
+and Dask")."""
 
 import contextlib
+import copy
 import ctypes
+import pickle
 import weakref
 
 import numpy as np
@@ -52,14 +59,26 @@ def _voxel3(voxel_size):
     return v
 
 
-def _release_plan(ctx, handle):
-    with ctx.use():
-        _lib.lib.pb_plan_destroy(handle)
+class _Handles:
+    """An operator's C objects: its plans and volumes by memory order, on the
+    shared context. Shallow copies of the operator hold this one object, so
+    the C objects live until the last of them goes. weakref.finalize rather
+    than __del__: it also runs at exit, before the modules are torn down."""
+
+    def __init__(self, ctx):
+        self.plans = {}  # order: (plan, geometry)
+        self.volumes = {}  # order: [input, output]
+        self._made = []  # (destroy, handle) of every C object, in the order made
+        weakref.finalize(self, _release, ctx, self._made)
+
+    def made(self, destroy, handle):
+        self._made.append((destroy, handle))
 
 
-def _release_volume(ctx, handle):
+def _release(ctx, made):
     with ctx.use():
-        _lib.lib.pb_volume_destroy(handle)
+        for destroy, handle in reversed(made):
+            destroy(handle)
 
 
 class _Operator:
@@ -112,9 +131,14 @@ class _Operator:
                 raise ArgumentError("affine must be a finite 4x4 voxel-to-world matrix (nibabel's img.affine)")
             self.affine = self._affine = a
         self._bounds = np.array(bounds, dtype=np.float64)
+        device = device if isinstance(device, str) else str(device)  # a torch.device, a CuPy Device's id
+        # What deepcopy and pickle rebuild from, the device as named (its spec,
+        # resolved again where it is loaded).
+        self._common = dict(method=method, filter=filter,
+                            max_path_error=bound if path == _lib.PATH_BOUNDED else max_path_error,
+                            device=device, affine=self.affine, steps=steps)
         self._ctx = _lib.context(device)
-        self._plans = {}
-        self._volumes = {}
+        self._handles = _Handles(self._ctx)
         self._plan("F")  # every check now, not at the first call
 
     # ---- parallelproj's LinearOperator ----
@@ -143,6 +167,37 @@ class _Operator:
             raise AssertionError(f"<Bx, y> = {a!r} but <x, B^T y> = {b!r}: relative difference {rel:.3g} > {rtol:g}")
         return rel
 
+    # ---- copies and pickles ----
+
+    # Set on an operator rebuilt by deepcopy or pickle: the checks warned
+    # when the original was made.
+    _quiet = False
+
+    def __copy__(self):
+        """The same operator: its C plans shared, freed with the last copy."""
+        new = type(self).__new__(type(self))
+        new.__dict__.update(self.__dict__)
+        return new
+
+    def __deepcopy__(self, memo):
+        """A new operator from a copy of the description, with C plans of its
+        own. progress is shared: it reports to the caller, and a copy of, say,
+        a progress bar would report to no one."""
+        return _rebuild(type(self), copy.deepcopy(self._description(), memo), self._progress)
+
+    def __reduce__(self):
+        """The description, no C object nor volume: the loading process plans
+        again, on the device the spec names there (for 'auto', its own)."""
+        progress = self._progress
+        if progress is not None:
+            try:
+                pickle.dumps(progress)
+            except Exception as e:
+                raise pickle.PicklingError(
+                    f"cannot pickle this operator: its progress callable {progress!r} cannot be pickled ({e}); make "
+                    "the operator with progress=None, or with a function defined at a module's top level") from None
+        return _rebuild, (type(self), self._description(), progress)
+
     def last_device_ms(self):
         """(total, input) device milliseconds of the last call on this
         operator's device, from device events: the whole call, and of it the
@@ -155,12 +210,13 @@ class _Operator:
     def _plan(self, order):
         """The plan for volumes of memory order 'F' (x fastest) or 'C' (z
         fastest: the transposed grid, the motion's axes swapped with it)."""
-        plan = self._plans.get(order)
+        plans = self._handles.plans
+        plan = plans.get(order)
         if plan is not None:  # every call after the first: no lock, no device guard
             return plan
         ctx = self._ctx
-        with ctx.use():  # one plan per order, whichever thread asks first
-            plan = self._plans.get(order)
+        with ctx.use():  # one plan per order, whichever thread (or copy) asks first
+            plan = plans.get(order)
             if plan is not None:
                 return plan
             f = order == "F"
@@ -168,7 +224,7 @@ class _Operator:
             vox = self.voxel_size if f else self.voxel_size[::-1]
             affine = self._affine if f else self._affine @ _SWAP
             # The checks' warnings once, for the grid the caller named.
-            g, cm, keep = self.motion._c_motion(dims, vox, affine, self._bounds, warn=f)
+            g, cm, keep = self.motion._c_motion(dims, vox, affine, self._bounds, warn=f and not self._quiet)
             handle = ctypes.c_void_p()
             if len(self._bounds) == 2 and not isinstance(self, FramesOperator):
                 st = _lib.lib.pb_plan_create(ctx.handle, ctypes.byref(g), ctypes.byref(cm),
@@ -180,21 +236,23 @@ class _Operator:
                                                     ctypes.byref(handle))
             _lib.check(st, ctx.handle)
             del keep  # the C plan copied what it needs
-            weakref.finalize(self, _release_plan, ctx, handle)
-            self._plans[order] = (handle, g)
-            return self._plans[order]
+            self._handles.made(_lib.lib.pb_plan_destroy, handle)
+            plans[order] = (handle, g)
+            return plans[order]
 
     def _volume_pair(self, order, g):
-        pair = self._volumes.get(order)
+        """Under the context's lock: the plan's input and output volumes."""
+        volumes = self._handles.volumes
+        pair = volumes.get(order)
         if pair is None:
             ctx = self._ctx
             pair = []
             for _ in range(2):
                 v = ctypes.c_void_p()
                 _lib.check(_lib.lib.pb_volume_create(ctx.handle, ctypes.byref(g), ctypes.byref(v)), ctx.handle)
-                weakref.finalize(self, _release_volume, ctx, v)
+                self._handles.made(_lib.lib.pb_volume_destroy, v)
                 pair.append(v)
-            self._volumes[order] = pair
+            volumes[order] = pair
         return pair
 
     def _run(self, arr, jobs, adjoint):
@@ -332,6 +390,10 @@ class BlurOperator(_Operator):
                          progress)
         self.frame = (t0, t1)
 
+    def _description(self):
+        return dict(shape=self._shape, voxel_size=self.voxel_size, motion=self.motion, frame=self.frame,
+                    **self._common)
+
     @property
     def in_shape(self):
         return self._shape
@@ -385,6 +447,10 @@ class FramesOperator(_Operator):
         self.per_frame = bool(per_frame)
         self.frames_last = bool(frames_last)
 
+    def _description(self):
+        return dict(shape=self._shape, voxel_size=self.voxel_size, track=self.motion, bounds=self.bounds,
+                    per_frame=self.per_frame, frames_last=self.frames_last, **self._common)
+
     def _frames_shape(self):
         return self._shape + (self.frames,) if self.frames_last else (self.frames,) + self._shape
 
@@ -433,6 +499,14 @@ class FramesOperator(_Operator):
             jobs = [(f, vols[f][0], out[f], 0, order) for f in range(self.frames)]
         self._run(arr, jobs, True)
         return self._last(arr.result(out))
+
+
+def _rebuild(cls, description, progress):
+    """An operator made again from its description (deepcopy, pickle.load)."""
+    op = cls.__new__(cls)
+    op._quiet = True
+    op.__init__(progress=progress, **description)
+    return op
 
 
 def _move_axis(x, src, dst):

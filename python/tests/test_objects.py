@@ -1,0 +1,392 @@
+"""Operators and motions as Python objects: copy.copy shares an operator's C
+plans and outlives the original; deepcopy and pickle rebuild from the
+description (in this process and in a fresh one), small and free of C
+pointers and volumes; masked arrays, NaN and infinity are refused; a zero
+quaternion in a track file is refused, naming file and line.
+
+Inputs are fresh random ones each run (conftest's rng: the seed is printed,
+PETBLUR_TEST_SEED replays it). The operators take no output array, so there
+is none to fill with NaN beforehand."""
+
+import copy
+import gc
+import os
+import pathlib
+import pickle
+import subprocess
+import sys
+import threading
+import warnings
+import weakref
+
+import numpy as np
+import pytest
+
+import petblur
+from petblur import _lib
+
+SHAPE = (32, 32, 32)  # of the pickle whose size is bounded
+
+
+def _motion(rng, n=100):
+    """n poses over 10 s: small turns about random axes, moves of a few mm."""
+    axes = rng.normal(size=(n, 3))
+    axes /= np.linalg.norm(axes, axis=1)[:, None]
+    half = np.radians(rng.uniform(0, 6, n)) / 2
+    q = np.c_[np.cos(half), np.sin(half)[:, None] * axes]
+    return petblur.Motion(np.linspace(0, 10, n), rng.uniform(-3, 3, (n, 3)), q)
+
+
+def _operator(kind, device, rng, shape=None, **kw):
+    """A BlurOperator of a part of a 100-pose track, or a FramesOperator of
+    four frames (frames last or first, at random), on a grid of shape (a
+    random one of 12 to 19 voxels a side when None)."""
+    shape = tuple(int(n) for n in rng.integers(12, 20, 3)) if shape is None else shape
+    m = _motion(rng)
+    vox = rng.uniform(1.5, 2.5, 3)
+    if kind == "blur":
+        t0 = rng.uniform(0, 3)
+        return petblur.BlurOperator(shape, vox, m, frame=(t0, t0 + rng.uniform(2, 6)), device=device, **kw)
+    return petblur.FramesOperator(shape, vox, m, np.sort(rng.uniform(0, 10, 5)), device=device,
+                                  frames_last=bool(rng.integers(2)), **kw)
+
+
+KINDS = pytest.mark.parametrize("kind", ["blur", "frames"])
+
+
+def _inputs(op, rng, order):
+    """Random x and y for apply and adjoint, each volume in memory order 'C'
+    or 'F' (which picks the operator's plan: 'F' is made with the operator,
+    'C' at its first use)."""
+    last = getattr(op, "frames_last", False)
+
+    def ordered(a):
+        if a.ndim == 3:
+            return np.asarray(a, order=order)
+        f = np.moveaxis(a, -1 if last else 0, 0)  # frames first, then each volume laid out
+        f = np.ascontiguousarray(f) if order == "C" else np.moveaxis(np.asfortranarray(np.moveaxis(f, 0, -1)), -1, 0)
+        return np.moveaxis(f, 0, -1 if last else 0)
+
+    return ordered(rng.random(op.in_shape, dtype=np.float32)), ordered(rng.random(op.out_shape, dtype=np.float32))
+
+
+def _results(op, x, y):
+    return op(x), op.adjoint(y)
+
+
+def _assert_same(got, want, device):
+    """(B x, B^T y) against what another operator gave: the same to the bit,
+    but for a device's adjoint, which scatters with float atomics whose order
+    varies from run to run, even on one operator (docs/testing.md): to their
+    rounding, here of many adds and of four frames' sums."""
+    for g, w, adjoint in zip(got, want, (False, True)):
+        assert g.shape == w.shape and g.dtype == w.dtype
+        if adjoint and device != "host":
+            np.testing.assert_allclose(g, w, rtol=0, atol=1e-4 * np.abs(w).max())
+        else:
+            assert np.array_equal(g, w), f"results differ: max |diff| {np.abs(g - w).max()}"
+
+
+@KINDS
+def test_copy_shares_the_plans_and_outlives_the_original(device, rng, kind):
+    op = _operator(kind, device, rng)
+    x, y = _inputs(op, rng, "F")
+    want = _results(op, x, y)  # the original's, from its Fortran plan only
+    rebuilt = copy.deepcopy(op)  # for the C-order plan below
+    c = copy.copy(op)
+    assert c._handles is op._handles and c.device == op.device
+    handles = weakref.ref(op._handles)
+    del op
+    gc.collect()
+    assert handles() is not None  # the copy holds them
+    _assert_same(_results(c, x, y), want, device)
+    # The C-order plan, made by the copy after the original went, into the
+    # handles it shares, and seen by a copy of the copy.
+    xc, yc = _inputs(c, rng, "C")
+    want_c = _results(rebuilt, xc, yc)
+    _assert_same(_results(c, xc, yc), want_c, device)
+    assert c.adjointness_test(rtol=1e-4, seed=int(rng.integers(1 << 30))) <= 1e-4
+    cc = copy.copy(c)
+    del c
+    gc.collect()
+    assert set(cc._handles.plans) == {"F", "C"}
+    _assert_same(_results(cc, xc, yc), want_c, device)
+    # The last holder gone: the C objects with it.
+    del cc
+    gc.collect()
+    assert handles() is None
+
+
+def test_copies_run_together_from_threads(device, rng):
+    """Copies share one plan; the context's lock lets them take turns."""
+    op = _operator("blur", device, rng)
+    xs = [rng.random(op.in_shape, dtype=np.float32) for _ in range(4)]
+    want = [op(x) for x in xs]
+    copies = [copy.copy(op) for _ in xs]
+    del op
+    gc.collect()
+    got = [None] * len(xs)
+
+    def run(i):
+        got[i] = copies[i](xs[i])
+
+    threads = [threading.Thread(target=run, args=(i,)) for i in range(len(xs))]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    for g, w in zip(got, want):
+        np.testing.assert_array_equal(g, w)
+
+
+@KINDS
+def test_deepcopy_rebuilds(device, rng, kind):
+    op = _operator(kind, device, rng, method=str(rng.choice(["ab", "rm"])), max_path_error=rng.uniform(0.1, 0.5))
+    x, y = _inputs(op, rng, str(rng.choice(["C", "F"])))
+    want = _results(op, x, y)
+    d = copy.deepcopy(op)
+    assert d._handles is not op._handles and d.motion is not op.motion and d.device == op.device
+    assert type(d) is type(op) and d.in_shape == op.in_shape and d.out_shape == op.out_shape
+    assert d.method == op.method and d._common == op._common
+    np.testing.assert_array_equal(d.voxel_size, op.voxel_size)
+    del op
+    gc.collect()
+    _assert_same(_results(d, x, y), want, device)
+
+
+@KINDS
+def test_pickle_round_trip(device, rng, kind):
+    op = _operator(kind, device, rng, filter=str(rng.choice(["hardware", "exact"])),
+                   max_path_error=rng.choice([None, "paper"]), steps=int(rng.integers(0, 3)))
+    x, y = _inputs(op, rng, str(rng.choice(["C", "F"])))
+    want = _results(op, x, y)
+    loaded = pickle.loads(pickle.dumps(op))
+    assert type(loaded) is type(op) and loaded._handles is not op._handles and loaded.device == op.device
+    assert loaded._common == op._common and loaded.in_shape == op.in_shape and loaded.out_shape == op.out_shape
+    if kind == "frames":
+        assert loaded.frames_last == op.frames_last and loaded.per_frame == op.per_frame
+        np.testing.assert_array_equal(loaded.bounds, op.bounds)
+    else:
+        assert loaded.frame == op.frame
+    del op
+    gc.collect()
+    _assert_same(_results(loaded, x, y), want, device)
+
+
+@KINDS
+def test_pickle_is_small(device, rng, kind):
+    """The description of a 32^3 grid and a 100-pose motion: no volume, no
+    ctypes object, and the same bytes after a call made the operator's
+    volumes and its C-order plan."""
+    op = _operator(kind, device, rng, shape=SHAPE)
+    data = pickle.dumps(op)
+    assert len(data) < 64 * 1024, len(data)
+    assert b"ctypes" not in data and b"_Handles" not in data
+    op(rng.random(SHAPE, dtype=np.float32))
+    assert pickle.dumps(op) == data
+
+
+_CHILD = """
+import pickle, sys
+import numpy as np
+with open(sys.argv[1], "rb") as f:
+    op = pickle.load(f)
+x, y = np.load(sys.argv[2]), np.load(sys.argv[3])
+np.save(sys.argv[4], op(x))
+np.save(sys.argv[5], op.adjoint(y))
+print(op.device)
+"""
+
+
+@KINDS
+def test_pickle_loads_in_a_fresh_process(device, rng, tmp_path, kind):
+    """The loading process plans again on its own: the same results, saved
+    as .npy."""
+    env = dict(os.environ)
+    package = str(pathlib.Path(petblur.__file__).resolve().parents[1])
+    env["PYTHONPATH"] = os.pathsep.join([package] + [p for p in [env.get("PYTHONPATH")] if p])
+    op = _operator(kind, device, rng)
+    x, y = _inputs(op, rng, str(rng.choice(["C", "F"])))
+    want = _results(op, x, y)
+    files = [tmp_path / name for name in ("op.pickle", "x.npy", "y.npy", "bx.npy", "bty.npy")]
+    files[0].write_bytes(pickle.dumps(op))
+    np.save(files[1], x)
+    np.save(files[2], y)
+    run = subprocess.run([sys.executable, "-c", _CHILD] + [str(f) for f in files], env=env, capture_output=True,
+                         text=True, timeout=300)
+    assert run.returncode == 0, run.stderr
+    assert run.stdout.split()[-1] == op.device
+    _assert_same((np.load(files[3]), np.load(files[4])), want, device)
+
+
+def test_pickle_keeps_the_device_spec(monkeypatch, rng):
+    """The spec as given, resolved where the pickle is loaded: 'auto' picks
+    that process's device."""
+    spec = "auto" if any(s.startswith("opencl") for s, _ in petblur.devices()) else "host"
+    op, frames = _operator("blur", spec, rng), _operator("frames", spec, rng)
+    asked = []
+    real = _lib.context
+
+    def context(device):
+        asked.append(device)
+        return real(device)
+
+    monkeypatch.setattr(_lib, "context", context)
+    pickle.loads(pickle.dumps(op))
+    copy.deepcopy(frames)
+    assert asked == [spec, spec]
+
+
+def test_rebuilt_operators_do_not_warn_again(device):
+    """Every pose turned 180 degrees: the quaternion-order warning once, when
+    the operator is made, not again in its copies."""
+    flipped = petblur.Motion([0.0, 1.0], np.zeros((2, 3)), [[0, 0, 0, 1], [0, 0, 0, 1]])
+    with pytest.warns(UserWarning, match="quaternion_order"):
+        op = petblur.BlurOperator((12, 12, 12), 2.0, flipped, device=device)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        copy.deepcopy(op)
+        pickle.loads(pickle.dumps(op))
+        copy.copy(op)
+
+
+def _progress(fraction):
+    _progress.seen.append(fraction)
+
+
+_progress.seen = []
+
+
+class _Bar:
+    """A progress callable that holds a lock, as progress bars do."""
+
+    def __init__(self):
+        self.lock = threading.Lock()
+        self.seen = []
+
+    def __call__(self, fraction):
+        self.seen.append(fraction)
+
+
+@KINDS
+def test_progress_and_pickles(device, rng, kind):
+    shape = (12, 11, 10)
+    x = rng.random(shape, dtype=np.float32)
+    loaded = pickle.loads(pickle.dumps(_operator(kind, device, rng, shape, progress=_progress)))
+    assert loaded._progress is _progress
+    _progress.seen.clear()
+    loaded(x)
+    assert _progress.seen and _progress.seen[-1] == 1.0
+    for progress in (lambda f: None, _Bar()):
+        op = _operator(kind, device, rng, shape, progress=progress)
+        with pytest.raises(pickle.PicklingError, match=r"progress=None.*module's top level"):
+            pickle.dumps(op)
+        # deepcopy needs no pickle, and reports to the same callable.
+        assert copy.deepcopy(op)._progress is progress
+    bar = _Bar()
+    copy.deepcopy(_operator(kind, device, rng, shape, progress=bar))(x)
+    assert bar.seen and bar.seen[-1] == 1.0
+
+
+def test_motion_copies(tmp_path, rng):
+    """Arrays and conventions (centre, calibration, reference time, inverse)
+    survive deepcopy and pickle: the same poses."""
+    m = _motion(rng, 20)
+    path = tmp_path / "track.csv"
+    with open(path, "w") as f:
+        f.write("t,tx,ty,tz,qw,qx,qy,qz\n")
+        for t, tr, q in zip(m.times, m.translations, m.quaternions):
+            f.write(",".join(f"{v:.17g}" for v in (t, *tr, *q)) + "\n")
+    cal = np.eye(4)
+    cal[:3, 3] = rng.uniform(-50, 50, 3)
+    read = petblur.Motion.from_file(path, calibration=cal, reference_time=rng.uniform(0, 10), inverse=True,
+                                    center=rng.uniform(-20, 20, 3))
+    for motion in (m, read):
+        for other in (copy.deepcopy(motion), pickle.loads(pickle.dumps(motion))):
+            assert other is not motion and other.times is not motion.times
+            for name in ("times", "translations", "quaternions"):
+                np.testing.assert_array_equal(getattr(other, name), getattr(motion, name))
+            for t in rng.uniform(0, 10, 5):
+                for a, b in zip(other.pose_at(t), motion.pose_at(t)):
+                    np.testing.assert_array_equal(a, b)
+    # A pickle is checked when it is loaded, as the arrays were when made.
+    state = m.__getstate__()
+    state["quaternions"] = state["quaternions"].copy()
+    state["quaternions"][int(rng.integers(len(m)))] = 0.0
+    with pytest.raises(petblur.ArgumentError, match="zero"):
+        petblur.Motion.__new__(petblur.Motion).__setstate__(state)
+
+
+def _masked(a, rng):
+    """a as a masked array with NaN under its mask."""
+    mask = rng.random(a.shape) < 0.1
+    data = a.copy()
+    data[mask] = np.nan
+    return np.ma.MaskedArray(data, mask=mask)
+
+
+@KINDS
+def test_masked_arrays_are_refused(device, rng, kind):
+    op = _operator(kind, device, rng)
+    x, y = _inputs(op, rng, "C")
+    for call, a in ((op.apply, x), (op.adjoint, y)):
+        for m in (_masked(a, rng), np.ma.MaskedArray(a)):  # NaN under the mask; no mask at all
+            with pytest.raises(petblur.ArgumentError, match=r"masked array.*x\.filled\(0\).*np\.ma\.getdata"):
+                call(m)
+
+
+@KINDS
+def test_nan_and_infinity_are_refused(device, rng, kind):
+    """Host arrays are checked before the library reads them, on the host
+    backend (which reads them in place) as on a device: the voxel named."""
+    op = _operator(kind, device, rng)
+    for order in ("C", "F"):
+        x, y = _inputs(op, rng, order)
+        _refuses_nonfinite(op, x, y, rng)
+
+
+def _refuses_nonfinite(op, x, y, rng):
+    for call, a in ((op.apply, x), (op.adjoint, y)):
+        for bad in (np.nan, np.inf, -np.inf):
+            for dtype in (np.float32, np.float64):
+                b = a.astype(dtype, order="K")
+                where = tuple(int(rng.integers(n)) for n in b.shape)
+                b[where] = bad
+                if b.ndim == 4 and getattr(op, "frames_last", False):
+                    where = (where[3],) + where[:3]  # named as (frame, x, y, z)
+                with pytest.raises(petblur.ArgumentError, match=rf"is {bad} at \[{', '.join(map(str, where))}\]"):
+                    call(b)
+
+
+@pytest.mark.parametrize("fmt", ["csv", "csv-xyzw", "polaris-mt", "polaris-toolviewer", "matrix-csv"])
+def test_zero_quaternion_in_a_file_is_refused(tmp_path, rng, fmt):
+    """An all-zero rotation in a record that is not marked missing: an error
+    naming the file and the line, in every format."""
+    n = int(rng.integers(3, 12))
+    bad = int(rng.integers(n))
+    path = tmp_path / ("log.mt" if fmt == "polaris-mt" else "log.csv")
+    kw = {}
+    if fmt in ("csv", "csv-xyzw"):
+        xyzw = fmt == "csv-xyzw"
+        header = ["t,tx,ty,tz,q0,q1,q2,q3" if xyzw else "t,tx,ty,tz,qw,qx,qy,qz"]
+        rows = [f"{i},1,2,3," + ("0,0,0,0" if i == bad else "0,0,0,1" if xyzw else "1,0,0,0") for i in range(n)]
+        kw = {"quaternion_order": "xyzw"} if xyzw else {}
+    elif fmt == "polaris-mt":
+        header = ["23/5/2003 18:18:32 - 11 1 966_IRSL_II", "65899.9 0 A : ---- Missing ----"]
+        rows = [f"{65900 + 0.1 * i:.1f} {i} A {'0' if i == bad else '0.5'} 0 0 0 1 2 3 0.18" for i in range(n)]
+    elif fmt == "polaris-toolviewer":
+        header = ["Collection Data : Port 0B  ( ICL          S/N: 3608C803 Type: 01000000 Rev: 000 )",
+                  "[June 25, 2010  04:00PM]", "", "Frame, Q0, Qx, Qy, Qz, x, y, z, Error, OOV", "99, MISSING"]
+        rows = [f"{100 + i}, {'0' if i == bad else '2'}, 0, 0, 0, 1, 2, 3, 0.18, 0" for i in range(n)]
+    else:
+        header = ["t,r00,r01,r02,tx,r10,r11,r12,ty,r20,r21,r22,tz"]
+        rows = [f"{i}," + ("0,0,0,1,0,0,0,2,0,0,0,3" if i == bad else "1,0,0,1,0,1,0,2,0,0,1,3") for i in range(n)]
+    path.write_text("\n".join(header + rows) + "\n")
+    line = len(header) + bad + 1
+    with pytest.raises(petblur.Error, match=rf"{path}:{line}: .*(zero|not a rotation)"):
+        petblur.Motion.from_file(path, **kw)
+    # The same poses as arrays.
+    q = np.tile([1.0, 0, 0, 0], (n, 1))
+    q[bad] = 0
+    with pytest.raises(petblur.ArgumentError, match="zero"):
+        petblur.Motion(np.arange(n, dtype=float), np.zeros((n, 3)), q)
