@@ -232,7 +232,7 @@ class Aliases(Case):
         os.link(self.p("demo", "ref.nii.gz"), self.p("demo", "ab.nii.gz"))
         r = petblur("demo", "--size", "16", "--points", "4", "--out-dir", self.p("demo"), "-q")
         self.assertEqual(r.returncode, 2, r.stderr)
-        self.assertIn("each output needs a file of its own", r.stderr)
+        self.assertIn("each output needs a file of its own: choose another --out-dir", r.stderr)
         self.assertEqual(sorted(os.listdir(self.p("demo"))), ["ab.nii.gz", "ref.nii.gz"])
 
     def test_bench(self):
@@ -247,11 +247,12 @@ class Aliases(Case):
         write(self.p("refs", "volumes", "brain_s1_ref2.raw"), "reference")
         os.mkdir(self.p("tables"))
         os.link(self.p("refs", "volumes", "brain_s1_ref2.raw"), self.p("tables", "cases.csv"))
+        fix = "choose another --out-dir"
         cases = [(("--brain", self.p("run", "volumes", "brain.raw"), "--dims", "16,16,8", "--keep-volumes",
-                   "--out-dir", self.p("run")), ["--brain", "--out-dir"], self.p("run", "volumes", "brain.raw")),
+                   "--out-dir", self.p("run")), ["--brain", fix], self.p("run", "volumes", "brain.raw")),
                  (("--brain", self.p("run", "volumes", "head.hv"), "--keep-volumes", "--out-dir", self.p("run")),
-                  ["--brain", "its data file", "--out-dir"], self.p("run", "volumes", "brain_s1_ref1.raw")),
-                 (("--reference", self.p("refs"), "--out-dir", self.p("tables")), ["--reference", "--out-dir"],
+                  ["--brain", "its data file", fix], self.p("run", "volumes", "brain_s1_ref1.raw")),
+                 (("--reference", self.p("refs"), "--out-dir", self.p("tables")), ["--reference", fix],
                   self.p("refs", "volumes", "brain_s1_ref2.raw"))]
         for args, words, victim in cases:
             with self.subTest(args=args[:2]):

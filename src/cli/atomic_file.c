@@ -163,7 +163,7 @@ static int temp_name(pbc_temp *t, const char *path, unsigned attempt, const char
 
 static int start(pbc_temp *t, const char *path)
 {
-    t->fd = -1;
+    t->fd = t->dir = -1;
     t->temp[0] = '\0';
     if (snprintf(t->path, sizeof t->path, "%s", path) >= (int)sizeof t->path)
         return pbc_fail(PBC_EXIT_USAGE, "%s: the output path is too long; choose a shorter one", path);

@@ -159,16 +159,27 @@ static void describe(const pbc_file_use *u, char *out, size_t size)
         snprintf(out, size, "%s %s", u->option, u->path);
 }
 
+/* The fix: another name for the output, or another folder where the folder
+ * is all the user names (demo's and bench's --out-dir). */
+static void fix(const pbc_file_use *out, char *text, size_t size)
+{
+    if (!strcmp(out->option, "--out-dir"))
+        snprintf(text, size, "choose another --out-dir");
+    else
+        snprintf(text, size, "give %s another name", out->option);
+}
+
 static int refuse(const pbc_file_use *out, const pbc_file_use *other)
 {
-    char a[2 * PATH_MAX + 64], b[2 * PATH_MAX + 64];
+    char a[2 * PATH_MAX + 64], b[2 * PATH_MAX + 64], how[64];
     describe(out, a, sizeof a);
     describe(other, b, sizeof b);
+    fix(out, how, sizeof how);
     if (other->written)
-        return pbc_fail(PBC_EXIT_USAGE, "%s and %s name the same file; each output needs a file of its own: give "
-                        "%s another name", b, a, out->option);
+        return pbc_fail(PBC_EXIT_USAGE, "%s and %s name the same file; each output needs a file of its own: %s", b,
+                        a, how);
     return pbc_fail(PBC_EXIT_USAGE, "%s and %s name the same file (by name, link or inode); petblur never writes "
-                    "over its inputs: give %s another name", a, b, out->option);
+                    "over its inputs: %s", a, b, how);
 }
 
 static void files_free(pbc_files *f)
