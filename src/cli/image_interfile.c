@@ -330,18 +330,23 @@ static int check_data_file(const char *path, const char *data_path)
  * starts with the real path of the header's folder. */
 static int check_data_inside(const char *path, const char *data_path)
 {
-    char dir[PATH_MAX], folder[PATH_MAX], real[PATH_MAX];
-    const char *slash = strrchr(path, '/');
+    /* The folders on the way must stay inside the header's folder; the file
+     * itself may be a link to a regular file anywhere, as git-annex and
+     * DataLad keep data (check_data_file has made sure it is one). */
+    char dir[PATH_MAX], data_dir[PATH_MAX], folder[PATH_MAX], real[PATH_MAX];
+    const char *slash = strrchr(path, '/'), *data_slash = strrchr(data_path, '/');
     snprintf(dir, sizeof dir, "%.*s", slash ? (int)(slash - path) + 1 : 1, slash ? path : ".");
-    if (!realpath(dir, folder) || !realpath(data_path, real))
+    snprintf(data_dir, sizeof data_dir, "%.*s", data_slash ? (int)(data_slash - data_path) + 1 : 1,
+             data_slash ? data_path : ".");
+    if (!realpath(dir, folder) || !realpath(data_dir, real))
         return pbc_fail(PBC_EXIT_USAGE, "%s: cannot resolve its data file %s (%s); check the header's folder and "
                         "'!name of data file'", path, data_path, strerror(errno));
     size_t n = strlen(folder);
     int root = n == 1; /* "/": everything is below it */
-    if (!strncmp(real, folder, n) && (root || real[n] == '/'))
+    if (!strncmp(real, folder, n) && (root || real[n] == '/' || real[n] == '\0'))
         return 0;
-    return pbc_fail(PBC_EXIT_USAGE, "%s: its data file %s leads through a link to %s, outside the header's folder "
-                    "%s; petblur reads data files only inside their header's folder or below it: copy the data "
+    return pbc_fail(PBC_EXIT_USAGE, "%s: its data file %s lies in %s, outside the header's folder %s (through a link "
+                    "to a folder); petblur reads data files only in their header's folder or below it: copy the data "
                     "file there (cp --dereference), or move the header beside it", path, data_path, real, folder);
 }
 
