@@ -352,11 +352,3 @@ void pbc_backup_drop(pbc_temp *b)
     unlinkat(b->dir, base_name(b->temp), 0);
     close_all(b);
 }
-
-int pbc_same_file(const char *a, const char *b)
-{
-    if (!strcmp(a, b))
-        return 1;
-    struct stat sa, sb;
-    return stat(a, &sa) == 0 && stat(b, &sb) == 0 && sa.st_dev == sb.st_dev && sa.st_ino == sb.st_ino;
-}

@@ -48,9 +48,6 @@ int pbc_backup_restore(pbc_temp *b);
 /* Removes the backup. */
 void pbc_backup_drop(pbc_temp *b);
 
-/* 1 when the two paths name the same existing file (same device and inode), or
- * are the same string. */
-int pbc_same_file(const char *a, const char *b);
 
 /* The extension that decides a file's format, lower-cased into ext (".nii.gz",
  * ".nii", ".hv", ".raw", ".png", ".csv"), or "" when there is none. */

@@ -222,22 +222,6 @@ int pbc_image_read(const char *path, const pbc_read_hints *hints, pbc_image *img
     return rc;
 }
 
-int pbc_image_check_not_input(const char *out, const char *in_path, const pbc_image *in)
-{
-    char ext[32], data[4096];
-    const char *written[2] = {out, NULL};
-    pbc_file_extension(out, ext, sizeof ext);
-    if (!strcmp(ext, ".hv") && pbc_interfile_data_name(out, data, sizeof data) == 0)
-        written[1] = data;
-    for (int w = 0; w < 2 && written[w]; w++)
-        if (pbc_same_file(written[w], in_path) || (in->source[0] && pbc_same_file(written[w], in->source)))
-            return pbc_fail(PBC_EXIT_USAGE, "%s would overwrite the input %s%s%s; petblur never overwrites its "
-                            "inputs, so choose another output name", written[w], in_path,
-                            strcmp(in->source, in_path) ? " or its data file " : "",
-                            strcmp(in->source, in_path) ? in->source : "");
-    return 0;
-}
-
 int pbc_image_write(const char *path, const pbc_image *img)
 {
     const image_format *format = find_format(path);

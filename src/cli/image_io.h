@@ -74,9 +74,5 @@ size_t pbc_image_frame_count(const pbc_image *img);
 
 void pbc_image_free(pbc_image *img);
 
-/* Refuses (PBC_EXIT_USAGE, with the message) an output path that would
- * overwrite the input in_path or the file its voxels came from, counting the
- * data file that an Interfile output writes beside its header. */
-int pbc_image_check_not_input(const char *out, const char *in_path, const pbc_image *in);
 
 #endif
