@@ -12,6 +12,7 @@
 
 usage: test_outputs.py PATH/TO/petblur
 """
+import contextlib
 import hashlib
 import json
 import os
@@ -41,6 +42,32 @@ def digest(path):
 def write(path, text):
     with open(path, "w") as f:
         f.write(text)
+
+
+@contextlib.contextmanager
+def attacker(folder, victim):
+    """A thread that, while the block runs, swaps every '.petblur-' file in folder for a link to victim; yields the
+    names it swapped."""
+    stop, swaps = threading.Event(), []
+
+    def attack():
+        while not stop.is_set():
+            for e in os.scandir(folder):
+                if ".petblur-" in e.name and not e.is_symlink():
+                    try:
+                        os.unlink(e.path)
+                        os.symlink(victim, e.path)
+                        swaps.append(e.name)
+                    except OSError:
+                        pass
+
+    t = threading.Thread(target=attack)
+    t.start()
+    try:
+        yield swaps
+    finally:
+        stop.set()
+        t.join()
 
 
 class Case(unittest.TestCase):
@@ -300,27 +327,9 @@ class Links(Case):
         victim = self.p("victim", "precious.txt")
         hit = 0
         for _ in range(rounds):
-            stop, swaps = threading.Event(), []
-
-            def attack():
-                while not stop.is_set():
-                    for e in os.scandir(self.p("out")):
-                        if ".petblur-" in e.name and not e.is_symlink():
-                            try:
-                                os.unlink(e.path)
-                                os.symlink(victim, e.path)
-                                swaps.append(e.name)
-                            except OSError:
-                                pass
-
             before = os.stat(victim)
-            t = threading.Thread(target=attack)
-            t.start()
-            try:
+            with attacker(self.p("out"), victim) as swaps:
                 r = petblur(*args, timeout=300)
-            finally:
-                stop.set()
-                t.join()
             after = os.stat(victim)
             self.assertEqual(digest(victim), self.precious)
             self.assertEqual((after.st_size, after.st_mtime_ns), (before.st_size, before.st_mtime_ns))
@@ -370,27 +379,9 @@ class Links(Case):
         np.random.default_rng().random((128, 128, 128), dtype=np.float32).tofile(self.p("in.raw"))
         for _ in range(3):
             self.ok("phantom", "--kind", "brain", "--dims", "8,8,4", "-o", self.p("out", "o.hv"), "-q")
-            r = None
-            stop = threading.Event()
-
-            def attack():
-                while not stop.is_set():
-                    for e in os.scandir(self.p("out")):
-                        if ".petblur-" in e.name and not e.is_symlink():
-                            try:
-                                os.unlink(e.path)
-                                os.symlink(self.p("victim", "precious.txt"), e.path)
-                            except OSError:
-                                pass
-
-            t = threading.Thread(target=attack)
-            t.start()
-            try:
+            with attacker(self.p("out"), self.p("victim", "precious.txt")):
                 r = petblur("blur", "-i", self.p("in.raw"), "--dims", "128,128,128", "-o", self.p("out", "o.hv"),
                             "--translate", "0,0,0", "--device", "host", "-q")
-            finally:
-                stop.set()
-                t.join()
             self.assertIn(r.returncode, (0, 3), r.stderr)
             self.assertEqual(digest(self.p("victim", "precious.txt")), self.precious)
             for f in ("o.hv", "o.v"):
@@ -401,7 +392,8 @@ class Links(Case):
 
 class InterfileData(Case):
     """Where a header's data file may live: named relative to the header, no '..', and inside the header's folder
-    once links are resolved. The same for blur, motion -i, render and compare."""
+    once the folders on the way are resolved (the file itself may link anywhere, as annexed data does). The same for
+    blur, motion -i, render and compare."""
 
     def setUp(self):
         super().setUp()
