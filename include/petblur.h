@@ -575,6 +575,63 @@ PB_API pb_status pb_blur_frames_adjoint(pb_context *ctx, const pb_volume *const 
                                         const double *bounds, size_t frames, const pb_blur_options *options,
                                         pb_volume *const *objects);
 
+/* ---- motion from the frames -------------------------------------------- */
+
+/* The derivative of a blur with respect to its pose: the six volumes
+ * d(B x)/d(xi_j) for a rigid perturbation xi = (v, w) (mm, radians) applied
+ * to every pose of the motion on the object's side, T(t) -> T(t) G(xi)^-1
+ * with G(xi) p = p + v + w x (p - c) to first order about the motion's centre
+ * c: v moves the object, w turns it. They are B applied to the object's
+ * gradient images, dx/dp_j and ((p - c) x grad x)_j, taken by central
+ * differences (zero outside the grid): the derivative of the continuous model
+ * that B discretises, which a Gauss-Newton registration needs. It matches
+ * finite differences of B x to the object's sampling (docs/motion.md, "Motion
+ * from the frames", gives the measurement). derivatives[0..5] are tomograph
+ * volumes of the object's context and geometry, all different from it. */
+PB_API pb_status pb_blur_pose_derivative(pb_context *ctx, const pb_volume *object, const pb_motion *motion,
+                                         const pb_blur_options *options, pb_volume *const derivatives[6]);
+
+/* How pb_motion_estimate works. Zero-initialised: the defaults. */
+typedef struct pb_estimate_options {
+    size_t reference;      /* the frame whose object the motion moves: poses are relative to it */
+    unsigned levels;       /* resolution levels, each halving the grid; 0: as many as keep 12 voxels a side, at most 3 */
+    unsigned iterations;   /* Gauss-Newton iterations at most per level and frame; 0: 12 */
+    int frame_poses_only;  /* nonzero: one pose per frame; 0: a frame that holds a jerk gets the poses on both sides */
+    double fwhm_mm;        /* smoothing before registration, mm; 0: two voxels of each level */
+} pb_estimate_options;
+
+/* What pb_motion_estimate found, frame by frame (may be NULL). */
+typedef struct pb_estimate_report {
+    double seconds;        /* the whole call's wall time */
+    size_t moving_frames;  /* frames given motion inside them */
+} pb_estimate_report;
+
+/* The patient's rigid motion estimated from the frames themselves. frames
+ * holds count volumes of geometry, frame after frame (a 4-D NIfTI's order,
+ * x fastest), placed in the world by affine (row-major voxel-to-world 4x4 as
+ * pb_motion_world_to_grid takes; NULL: the grid frame, pb_geometry_grid_affine);
+ * frame i spans [bounds[i], bounds[i+1]] seconds. Each frame is registered
+ * rigidly to the reference frame (multi-resolution Gauss-Newton on
+ * d(B x)/d(pose) with a per-frame scale and offset, which is normalised
+ * cross-correlation: tracer uptake may change from frame to frame), then to
+ * the mean of all frames moved back onto the reference. A frame whose blur
+ * along the path between its neighbours' poses reproduces it better than any
+ * one pose gets that path, timed by how long the frame dwells along it
+ * (non-negative least squares): a jerk inside a frame lands between the right
+ * poses at the right time. *track (pb_track_free) is a PB_TRACK_MATRIX_CSV
+ * track in the world of affine: rigid maps about the world's origin that take
+ * a point of the reference frame's object to where it is at each time, with
+ * a pose at every frame's mid-time and at the first and last bound; the
+ * reference frame's pose is the identity. Refused: fewer than two frames, a
+ * reference out of range, bounds that are not finite and increasing, frames
+ * with NaN or infinite voxels, frames with no counts (all zero or negative),
+ * grids under 8 voxels a side. ctx's progress report, if any, hears the
+ * whole call's progress. */
+PB_API pb_status pb_motion_estimate(pb_context *ctx, const pb_geometry *geometry, const double affine[16],
+                                    const float *frames, size_t count, const double *bounds,
+                                    const pb_estimate_options *options, pb_track **track,
+                                    pb_estimate_report *report);
+
 /* ---- plans ------------------------------------------------------------- */
 
 /* A blur operator made once and applied many times, as an MLEM loop applies

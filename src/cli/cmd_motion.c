@@ -130,6 +130,9 @@ static int check_files(const pbc_args *args, const char *png)
 
 int pbc_cmd_motion(int argc, char **argv)
 {
+    /* a track named "estimate" is ./estimate */
+    if (argc > 0 && !strcmp(argv[0], "estimate"))
+        return pbc_cmd_motion_estimate(argc - 1, argv + 1);
     pbc_args args;
     int rc = pbc_parse_args(&command, argc, argv, &args);
     if (rc)

@@ -14,6 +14,8 @@ int pbc_cmd_devices(int argc, char **argv);
 int pbc_cmd_demo(int argc, char **argv);
 int pbc_cmd_bench(int argc, char **argv);
 int pbc_cmd_motion(int argc, char **argv);
+/* petblur motion estimate, reached through petblur motion. */
+int pbc_cmd_motion_estimate(int argc, char **argv);
 
 /* Shared checks of file arguments. */
 /* Refuses an output path whose extension no writer knows, whose folder takes no

@@ -44,6 +44,14 @@ void pb_pose_texel_map(const pb_pose *pose, const double center[3], const double
 /* A copy of the pose with its quaternion scaled to unit norm. */
 void pb_pose_normalized(const pb_pose *in, pb_pose *out);
 
+/* ---- world.c: world coordinates ------------------------------------------ */
+
+/* A voxel-to-world affine's direction matrix d (row-major, unit columns) and
+ * the world position of the grid's corner, after checking that its columns
+ * are perpendicular and as long as the voxels: world = d p + corner for p in
+ * mm from the grid's corner. */
+pb_status pb_affine_frame(const pb_geometry *g, const double a[16], double d[9], double corner[3]);
+
 /* ---- motion_check.c: validation, and poses of a validated track ---------- */
 
 

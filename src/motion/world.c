@@ -112,7 +112,7 @@ pb_status pb_pose_to_matrix(const pb_pose *pose, double m[16])
 /* The affine's direction matrix (row-major) and the world position of the
  * grid's corner, after checking that its columns are perpendicular and as long
  * as the voxels. */
-static pb_status affine_frame(const pb_geometry *g, const double a[16], double d[9], double corner[3])
+pb_status pb_affine_frame(const pb_geometry *g, const double a[16], double d[9], double corner[3])
 {
     if (!pb_all_finite(a, 16))
         return pb_error(NULL, PB_ERR_NOT_FINITE, "the voxel-to-world affine holds NaN or infinity");
@@ -165,7 +165,7 @@ pb_status pb_motion_world_to_grid(const pb_geometry *geometry, const double affi
             return pb_error(NULL, PB_ERR_BAD_VOXEL_SIZE, "voxel size %d is %g mm; give a positive finite size", i,
                             geometry->voxel_size[i]);
     double d[9], corner[3];
-    if ((st = affine_frame(geometry, affine, d, corner)) != PB_OK)
+    if ((st = pb_affine_frame(geometry, affine, d, corner)) != PB_OK)
         return st;
     /* A quaternion's vector part is an axis, a pseudovector: in the grid's
      * axes it is det(D) D^T v, so a reflected frame turns the other way. */

@@ -1,0 +1,214 @@
+/* petblur motion estimate: the patient's motion from a 4-D series of frames,
+ * written as a track that petblur blur --motion reads. The estimate itself is
+ * the library's (pb_motion_estimate); this file reads, checks and writes. */
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "atomic_file.h"
+#include "blur_run.h"
+#include "cli.h"
+#include "commands.h"
+
+static const pbc_option options[] = {
+    {"--output", "-o", "TRACK.csv", "the track (required)"},
+    {"--frames", NULL, "T0,T1,...", "the frames' boundaries, seconds: one more than the series' frames"},
+    {"--frames-from", NULL, "SIDECAR.json", "the frames from a BIDS-PET sidecar (FrameTimesStart, FrameDuration)"},
+    {"--format", NULL, "FORMAT", "matrix-csv (default: rigid maps about the world's origin) or csv (poses about the "
+                                 "centre of FRAMES' grid, which blur then needs as its grid or --center)"},
+    {"--reference", NULL, "K", "the frame whose object the track moves, from 0 (default 0)"},
+    {"--frame-poses-only", NULL, NULL, "one pose per frame: no motion inside frames"},
+    {"--levels", NULL, "N", "resolution levels, each halving the grid (default: up to 3)"},
+    {"--iterations", NULL, "N", "Gauss-Newton steps at most per level and frame (default 12)"},
+    {"--fwhm", NULL, "MM", "smoothing before registration, mm (default two voxels of each level)"},
+    PBC_OPTION_DEVICE,
+    {"--quiet", "-q", NULL, "print nothing but errors"},
+};
+
+static const pbc_command command = {
+    "motion estimate", "FRAMES.nii[.gz] (--frames-from SIDECAR.json | --frames T0,T1,...) -o TRACK.csv [options]",
+    "Estimates the head's rigid motion from the frames of a dynamic PET series, inside frames too: each frame\n"
+    "is registered to the reference frame and to the mean of all frames, and a frame that holds a jerk gets the\n"
+    "poses on both sides of it. TRACK says where a point of the reference frame's object is at each time, in the\n"
+    "world coordinates of FRAMES' affine: give it to petblur blur --motion and petblur.Motion.from_file as it is.",
+    options, (int)(sizeof options / sizeof options[0]), 1, 1,
+    "examples:\n"
+    "  petblur motion estimate sub-01_pet.nii.gz --frames-from sub-01_pet.json -o motion.csv\n"
+    "  petblur blur -i sub-01_pet.nii.gz -o blurred.nii.gz --motion motion.csv --frames-from sub-01_pet.json"};
+
+static int check_files(const pbc_args *args, const char *out)
+{
+    pbc_files f = {0};
+    pbc_files_read_image(&f, "FRAMES", args->positional[0]);
+    pbc_files_read(&f, "--frames-from", pbc_arg(&command, args, "--frames-from"));
+    pbc_files_write(&f, "-o", out);
+    return pbc_files_check(&f);
+}
+
+static void show_progress(double fraction, void *unused)
+{
+    (void)unused;
+    if (fraction < 1.0)
+        fprintf(stderr, "\rpetblur: estimating motion %3d%%", (int)(100.0 * fraction));
+    else
+        fprintf(stderr, "\r%*s\r", 40, "");
+    fflush(stderr);
+}
+
+/* The world position of the grid's centre: a csv track's poses turn about it. */
+static void grid_center(const pbc_image *img, const double a[16], double c[3])
+{
+    for (int r = 0; r < 3; r++) {
+        c[r] = a[4 * r + 3];
+        for (int k = 0; k < 3; k++)
+            c[r] += a[4 * r + k] * 0.5 * ((double)img->dims[k] - 1.0);
+    }
+}
+
+static int write_track(const char *path, const pb_track *track, int csv, const double center[3])
+{
+    pbc_temp t;
+    FILE *f;
+    int rc = pbc_temp_open(&t, path, &f);
+    if (rc)
+        return rc;
+    const double *times = pb_track_times(track);
+    const pb_pose *poses = pb_track_poses(track);
+    fputs(csv ? "t,tx,ty,tz,qw,qx,qy,qz\n" : "t,r00,r01,r02,tx,r10,r11,r12,ty,r20,r21,r22,tz\n", f);
+    for (size_t i = 0; i < pb_track_count(track); i++) {
+        double m[16];
+        pb_pose_to_matrix(&poses[i], m);
+        fprintf(f, "%.12g", times[i]);
+        if (csv) {
+            /* about the centre: t_c = t + R c - c */
+            double tc[3];
+            for (int r = 0; r < 3; r++)
+                tc[r] = m[4 * r + 3] + m[4 * r] * center[0] + m[4 * r + 1] * center[1] + m[4 * r + 2] * center[2] -
+                        center[r];
+            fprintf(f, ",%.12g,%.12g,%.12g,%.12g,%.12g,%.12g,%.12g\n", tc[0], tc[1], tc[2], poses[i].rotation[0],
+                    poses[i].rotation[1], poses[i].rotation[2], poses[i].rotation[3]);
+        } else {
+            for (int r = 0; r < 3; r++)
+                fprintf(f, ",%.12g,%.12g,%.12g,%.12g", m[4 * r], m[4 * r + 1], m[4 * r + 2], m[4 * r + 3]);
+            fputc('\n', f);
+        }
+    }
+    return pbc_temp_commit(&t, f);
+}
+
+static int options_from_args(const pbc_args *args, pb_estimate_options *o, int *csv)
+{
+    const char *v;
+    unsigned long n;
+    double d;
+    int rc = 0;
+    memset(o, 0, sizeof *o);
+    static const char *const formats[] = {"matrix-csv", "csv"};
+    *csv = 0;
+    if ((v = pbc_arg(&command, args, "--format")) && (rc = pbc_parse_choice("--format", v, formats, 2, csv)))
+        return rc;
+    if ((v = pbc_arg(&command, args, "--reference"))) {
+        if ((rc = pbc_parse_count("--reference", v, 0, 1000000, &n)))
+            return rc;
+        o->reference = n;
+    }
+    if ((v = pbc_arg(&command, args, "--levels"))) {
+        if ((rc = pbc_parse_count("--levels", v, 1, 6, &n)))
+            return rc;
+        o->levels = (unsigned)n;
+    }
+    if ((v = pbc_arg(&command, args, "--iterations"))) {
+        if ((rc = pbc_parse_count("--iterations", v, 1, 1000, &n)))
+            return rc;
+        o->iterations = (unsigned)n;
+    }
+    if ((v = pbc_arg(&command, args, "--fwhm"))) {
+        if ((rc = pbc_parse_number("--fwhm", v, &d)))
+            return rc;
+        if (!(d > 0 && d <= 1000))
+            return pbc_fail(PBC_EXIT_USAGE, "--fwhm %s: give a width in mm, above 0 and at most 1000", v);
+        o->fwhm_mm = d;
+    }
+    o->frame_poses_only = pbc_arg(&command, args, "--frame-poses-only") != NULL;
+    return 0;
+}
+
+static int run(const pbc_args *args, const char *in_path, const char *out_path)
+{
+    pb_estimate_options o;
+    int csv, quiet = pbc_arg(&command, args, "--quiet") != NULL;
+    const char *fv = pbc_arg(&command, args, "--frames"), *json = pbc_arg(&command, args, "--frames-from");
+    int rc = options_from_args(args, &o, &csv);
+    if (rc)
+        return rc;
+    if (!fv == !json)
+        return pbc_fail(PBC_EXIT_USAGE, "the frames' times: give --frames-from SIDECAR.json or --frames T0,T1,...");
+    double *bounds = NULL;
+    size_t nb = 0;
+    pbc_image img = {0};
+    pb_context *ctx = NULL;
+    pb_track *track = NULL;
+    pbc_read_hints hints = {0};
+    hints.allow_frames = 1;
+    if ((rc = fv ? pbc_parse_bounds("--frames", fv, &bounds, &nb) : pbc_bids_frames(json, &bounds, &nb)))
+        return rc;
+    size_t frames = nb - 1;
+    rc = pbc_image_read(in_path, &hints, &img);
+    size_t have = rc ? 0 : pbc_image_frame_count(&img);
+    if (!rc && have < 2)
+        rc = pbc_fail(PBC_EXIT_USAGE, "%s holds one volume: motion from the frames needs a 4-D series [x, y, z, t] "
+                      "of at least two frames", in_path);
+    else if (!rc && have != frames)
+        rc = pbc_fail(PBC_EXIT_USAGE, "%s has %zu frames but %s gives %zu; give the frames of this series", in_path,
+                      have, fv ? "--frames" : json, frames);
+    else if (!rc && o.reference >= frames)
+        rc = pbc_fail(PBC_EXIT_USAGE, "--reference %zu: the series has frames 0 to %zu", o.reference, frames - 1);
+    double affine[16], center[3];
+    if (!rc) {
+        if (!pbc_image_affine(&img, affine)) {
+            pb_geometry g = {{img.dims[0], img.dims[1], img.dims[2]},
+                             {img.voxel_size[0], img.voxel_size[1], img.voxel_size[2]}};
+            pb_geometry_grid_affine(&g, affine);
+        }
+        grid_center(&img, affine, center);
+        rc = pbc_open_device(pbc_arg(&command, args, "--device"), &ctx);
+    }
+    if (!rc) {
+        pb_geometry g = {{img.dims[0], img.dims[1], img.dims[2]},
+                         {img.voxel_size[0], img.voxel_size[1], img.voxel_size[2]}};
+        pb_estimate_report report = {0};
+        pb_context_set_progress(ctx, pbc_show_progress && !quiet ? show_progress : NULL, NULL);
+        pb_status st = pb_motion_estimate(ctx, &g, affine, img.data, frames, bounds, &o, &track, &report);
+        if (st != PB_OK) {
+            if (pbc_show_progress && !quiet)
+                show_progress(1.0, NULL);
+            rc = pbc_fail(pbc_exit_for(st), "%s: %s", in_path, pb_last_error(ctx));
+        } else if (!(rc = write_track(out_path, track, csv, center)) && !quiet) {
+            char dev[600];
+            pbc_describe_device(ctx, dev, sizeof dev);
+            printf("%s: %zu poses from %zu frames (%zu with motion inside), %s, on %s in %.1f s\n", out_path,
+                   pb_track_count(track), frames, report.moving_frames, csv ? "csv" : "matrix-csv", dev,
+                   report.seconds);
+        }
+    }
+    pb_track_free(track);
+    pb_context_destroy(ctx);
+    pbc_image_free(&img);
+    free(bounds);
+    return rc;
+}
+
+int pbc_cmd_motion_estimate(int argc, char **argv)
+{
+    pbc_args args;
+    int rc = pbc_parse_args(&command, argc, argv, &args);
+    if (rc)
+        return rc < 0 ? 0 : rc;
+    const char *out = pbc_arg(&command, &args, "--output");
+    if (!out)
+        return pbc_fail(PBC_EXIT_USAGE, "give the track's file: -o TRACK.csv");
+    if ((rc = pbc_check_output("-o", out, 0)) || (rc = check_files(&args, out)))
+        return rc;
+    return run(&args, args.positional[0], out);
+}

@@ -1,0 +1,493 @@
+/* pb_motion_estimate: the patient's motion from the frames themselves.
+ *
+ * Three passes, each frame registered coarse to fine (register.c):
+ *  1. every frame to the reference frame, each starting from its neighbour's
+ *     pose (motion is continuous);
+ *  2. every frame to the mean of all frames moved back onto the reference
+ *     (their scale and offset taken out), whose noise is that of all the
+ *     counts rather than of one short frame;
+ *  3. inside frames (inside.c): a frame between two neighbours is fitted as
+ *     a dwell along the path between their poses; where that explains it
+ *     clearly better than one pose, the frame gets the path.
+ * Poses live in the grid frame about the grid's centre until the track is
+ * written, in the world of the affine. */
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+
+#include "backend.h"
+#include "error.h"
+#include "estimate.h"
+#include "motion.h"
+
+/* The points of a path a frame may dwell at, and how much better than one
+ * pose (relative residual) a dwell must explain a frame to be believed:
+ * docs/motion.md, "Motion from the frames", gives the measurement. */
+enum { DWELL_POINTS = 9 };
+#define DWELL_GAIN 0.01
+/* The shortest time a path's step takes, as a fraction of its frame. */
+#define STEP_FRACTION 0.01
+
+typedef struct estimate {
+    pb_context *ctx;
+    pb_geometry g;
+    size_t count, levels;
+    unsigned iterations;
+    double fwhm, c[3];
+    const float *raw;       /* the frames as given */
+    float *frames[8];       /* per level: every frame, smoothed */
+    pbe_level level[8];
+    float *scratch, *tmp;   /* six volumes of level 0; one line */
+    pb_progress_fn progress;
+    void *progress_user;
+    double done, total;
+} estimate;
+
+static void report_progress(estimate *e, double units)
+{
+    e->done += units;
+    if (e->progress)
+        e->progress(fmin(1.0, e->done / e->total), e->progress_user);
+}
+
+static size_t voxels(const pb_geometry *g)
+{
+    return g->dims[0] * g->dims[1] * g->dims[2];
+}
+
+/* Smoothed copies of src (level 0) on every level. */
+static void pyramid(estimate *e, const float *src, float *const *out)
+{
+    memcpy(out[0], src, sizeof(float) * voxels(&e->level[0].g));
+    for (size_t l = 1; l < e->levels; l++)
+        pbe_downsample(&e->level[l - 1].g, out[l - 1], &e->level[l].g, out[l]);
+    for (size_t l = 0; l < e->levels; l++) {
+        double fwhm = e->fwhm > 0 ? e->fwhm : 2.0 * fmax(e->level[l].g.voxel_size[0],
+                                                           fmax(e->level[l].g.voxel_size[1],
+                                                                e->level[l].g.voxel_size[2]));
+        pbe_smooth(&e->level[l].g, out[l], fwhm, e->tmp);
+    }
+}
+
+static pb_status set_reference(estimate *e, const float *reference)
+{
+    float *ref[8];
+    pb_status st = PB_OK;
+    for (size_t l = 0; l < e->levels; l++)
+        if (!(ref[l] = malloc(sizeof(float) * e->level[l].n)))
+            st = PB_ERR_OUT_OF_MEMORY;
+    if (st == PB_OK) {
+        pyramid(e, reference, ref);
+        for (size_t l = 0; l < e->levels && st == PB_OK; l++)
+            st = pbe_level_set_reference(&e->level[l], ref[l], e->c, e->scratch);
+    }
+    for (size_t l = 0; l < e->levels; l++)
+        free(ref[l]);
+    return st;
+}
+
+static pb_status register_frame(estimate *e, size_t k, pbe_fit *fit)
+{
+    for (size_t l = e->levels; l-- > 0;) {
+        const float *f = e->frames[l] + k * e->level[l].n;
+        pb_status st = pbe_register(e->ctx, &e->level[l], f, e->c, e->iterations, fit);
+        if (st != PB_OK)
+            return st;
+    }
+    report_progress(e, 1.0);
+    return PB_OK;
+}
+
+/* Pass 1 and 2: each frame from its neighbour's pose, outwards from start. */
+static pb_status register_all(estimate *e, size_t start, pbe_fit *fits, int refit_start)
+{
+    pb_status st = PB_OK;
+    if (refit_start)
+        st = register_frame(e, start, &fits[start]);
+    for (size_t k = start + 1; k < e->count && st == PB_OK; k++) {
+        if (!refit_start)
+            fits[k].pose = fits[k - 1].pose;
+        st = register_frame(e, k, &fits[k]);
+    }
+    for (size_t k = start; k-- > 0 && st == PB_OK;) {
+        if (!refit_start)
+            fits[k].pose = fits[k + 1].pose;
+        st = register_frame(e, k, &fits[k]);
+    }
+    return st;
+}
+
+/* The mean of the frames moved back onto the reference: frame k is
+ * scale B(T_k) x + offset, so B(T_k^-1)(f_k - offset) / scale is x again. */
+static pb_status mean_image(estimate *e, const pbe_fit *fits, float *mean)
+{
+    const size_t n = e->level[0].n;
+    pbe_level *lv = &e->level[0];
+    float *shifted = e->scratch; /* level 0's scratch: free between references */
+    memset(mean, 0, sizeof(float) * n);
+    size_t used = 0;
+    for (size_t k = 0; k < e->count; k++) {
+        if (!(fits[k].scale > 0))
+            continue;
+        const float *f = e->raw + k * n;
+        for (size_t i = 0; i < n; i++)
+            shifted[i] = (float)(((double)f[i] - fits[k].offset) / fits[k].scale);
+        pb_pose inverse, poses[2];
+        double times[2];
+        pb_motion m;
+        pb_pose_invert(&fits[k].pose, &inverse);
+        pbe_static_motion(&inverse, e->c, times, poses, &m);
+        pb_status st = pb_volume_upload(lv->in[0], shifted);
+        if (st == PB_OK)
+            st = pb_blur(e->ctx, lv->in[0], &m, NULL, lv->out[0]);
+        if (st == PB_OK)
+            st = pb_volume_download(lv->out[0], lv->host[0]);
+        if (st != PB_OK)
+            return st;
+        for (size_t i = 0; i < n; i++)
+            mean[i] += lv->host[0][i];
+        used++;
+    }
+    for (size_t i = 0; i < n; i++)
+        mean[i] /= (float)(used ? used : 1);
+    return PB_OK;
+}
+
+/* Pass 3: which frames dwell along the path between their neighbours. */
+static pb_status inside_frames(estimate *e, const pbe_fit *fits, size_t reference, double *dwell, int *moving,
+                               size_t *moving_count)
+{
+    double *gain = calloc(e->count, sizeof(double));
+    if (!gain)
+        return PB_ERR_OUT_OF_MEMORY;
+    pb_status st = PB_OK;
+    for (size_t k = 1; k + 1 < e->count && st == PB_OK; k++) {
+        const pb_pose *s = &fits[k - 1].pose, *t = &fits[k + 1].pose;
+        double ext = 0.0, far[3], a[3], b[3];
+        for (int i = 0; i < 3; i++)
+            ext = fmax(ext, e->g.dims[i] * e->g.voxel_size[i]);
+        /* a path shorter than a tenth of a voxel anywhere holds nothing to find */
+        for (int i = 0; i < 3; i++)
+            far[i] = e->c[i] + 0.5 * ext;
+        pb_pose_apply(s, e->c, far, a);
+        pb_pose_apply(t, e->c, far, b);
+        double span = sqrt((a[0] - b[0]) * (a[0] - b[0]) + (a[1] - b[1]) * (a[1] - b[1]) + (a[2] - b[2]) * (a[2] - b[2]));
+        if (k != reference && span > 0.1 * e->g.voxel_size[0]) {
+            double sse;
+            st = pbe_dwell(e->ctx, &e->level[0], e->frames[0] + k * e->level[0].n, e->c, s, t, DWELL_POINTS,
+                           dwell + k * (DWELL_POINTS + 1), &sse);
+            if (st == PB_OK && fits[k].sse > 0)
+                gain[k] = 1.0 - sse / fits[k].sse;
+        }
+        report_progress(e, 1.0);
+    }
+    /* the clearest first; a moving frame's neighbours keep their one pose,
+     * which its path starts and ends at */
+    *moving_count = 0;
+    for (;;) {
+        size_t best = 0;
+        for (size_t k = 1; k + 1 < e->count; k++)
+            if (!moving[k] && !moving[k - 1] && !moving[k + 1] && gain[k] > DWELL_GAIN &&
+                (best == 0 || gain[k] > gain[best]))
+                best = k;
+        if (best == 0)
+            break;
+        moving[best] = 1;
+        gain[best - 1] = gain[best + 1] = 0.0;
+        ++*moving_count;
+    }
+    free(gain);
+    return st;
+}
+
+typedef struct keys {
+    double *t;
+    pb_pose *p;
+    size_t n;
+} keys;
+
+static void key(keys *k, double t, const pb_pose *p)
+{
+    if (k->n > 0 && !(t > k->t[k->n - 1]))
+        return;
+    k->t[k->n] = t;
+    k->p[k->n++] = *p;
+}
+
+/* A moving frame's poses: it holds each point of the path for its dwell, in
+ * path order, stepping between them in STEP_FRACTION of the frame. */
+static void path_keys(keys *out, double t0, double t1, const pb_pose *s, const pb_pose *e, const double *u)
+{
+    double total = 0.0, w[DWELL_POINTS];
+    for (int i = 0; i < DWELL_POINTS; i++)
+        total += u[i];
+    for (int i = 0; i < DWELL_POINTS; i++)
+        w[i] = total > 0 && u[i] / total >= 2.0 * STEP_FRACTION ? u[i] / total : 0.0;
+    total = 0.0;
+    for (int i = 0; i < DWELL_POINTS; i++)
+        total += w[i];
+    double len = t1 - t0, step = STEP_FRACTION * len, at = t0;
+    for (int i = 0; i < DWELL_POINTS; i++) {
+        if (w[i] <= 0)
+            continue;
+        pb_pose p;
+        pb_pose_interpolate(s, e, (double)i / (DWELL_POINTS - 1), &p);
+        double hold = w[i] / total * len;
+        double a = at == t0 ? t0 : at + 0.5 * step, b = at + hold >= t1 - 1e-9 * len ? t1 : at + hold - 0.5 * step;
+        key(out, a, &p);
+        key(out, b, &p);
+        at += hold;
+    }
+}
+
+/* A grid pose about c as a world map about the world's origin:
+ * R_w = D R D^T, t_w = D (c - R c + t) + o - R_w o. */
+static pb_status world_pose(const double d[9], const double o[3], const double c[3], const pb_pose *grid,
+                            pb_pose *world)
+{
+    double m[16], r[9], rw[9] = {0}, w[16] = {0};
+    pb_pose_to_matrix(grid, m);
+    for (int i = 0; i < 3; i++)
+        for (int j = 0; j < 3; j++)
+            r[3 * i + j] = m[4 * i + j];
+    for (int i = 0; i < 3; i++)
+        for (int j = 0; j < 3; j++)
+            for (int a = 0; a < 3; a++)
+                for (int b = 0; b < 3; b++)
+                    rw[3 * i + j] += d[3 * i + a] * r[3 * a + b] * d[3 * j + b];
+    double v[3];
+    for (int i = 0; i < 3; i++) {
+        v[i] = c[i] + grid->translation[i];
+        for (int j = 0; j < 3; j++)
+            v[i] -= r[3 * i + j] * c[j];
+    }
+    for (int i = 0; i < 3; i++) {
+        double t = o[i];
+        for (int j = 0; j < 3; j++)
+            t += d[3 * i + j] * v[j] - rw[3 * i + j] * o[j];
+        for (int j = 0; j < 3; j++)
+            w[4 * i + j] = rw[3 * i + j];
+        w[4 * i + 3] = t;
+    }
+    w[15] = 1.0;
+    return pb_pose_from_matrix(w, world);
+}
+
+static pb_status check_input(const pb_geometry *g, const float *frames, size_t count, const double *bounds,
+                             const pb_estimate_options *o)
+{
+    if (count < 2)
+        return pb_error(NULL, PB_ERR_INVALID_ARGUMENT, "motion from the frames needs at least two frames, got %zu: "
+                        "a 3-D image or a single frame has nothing to register; give a 4-D series", count);
+    if (o->reference >= count)
+        return pb_error(NULL, PB_ERR_INVALID_ARGUMENT, "the reference frame %zu is out of range: the series has "
+                        "frames 0 to %zu", o->reference, count - 1);
+    if (o->iterations > 1000)
+        return pb_error(NULL, PB_ERR_INVALID_ARGUMENT, "iterations is %u; give 1 to 1000 (0: the default)",
+                        o->iterations);
+    if (o->levels > 6)
+        return pb_error(NULL, PB_ERR_INVALID_ARGUMENT, "levels is %u; give 1 to 6 (0: the default)", o->levels);
+    if (!isfinite(o->fwhm_mm) || o->fwhm_mm < 0 || o->fwhm_mm > 1000)
+        return pb_error(NULL, PB_ERR_INVALID_ARGUMENT, "fwhm_mm is %g; give 0 (the default) to 1000 mm", o->fwhm_mm);
+    for (int a = 0; a < 3; a++) {
+        if (g->dims[a] < 8)
+            return pb_error(NULL, PB_ERR_ZERO_DIMS, "the grid is %zu x %zu x %zu voxels: registration needs at "
+                            "least 8 a side", g->dims[0], g->dims[1], g->dims[2]);
+        if (!(g->voxel_size[a] > 0) || !isfinite(g->voxel_size[a]))
+            return pb_error(NULL, PB_ERR_BAD_VOXEL_SIZE, "voxel size %d is %g mm; give a positive finite size", a,
+                            g->voxel_size[a]);
+    }
+    pb_status st = pb_frame_bounds_check(NULL, bounds, count);
+    if (st != PB_OK)
+        return st;
+    const size_t n = voxels(g);
+    for (size_t k = 0; k < count; k++) {
+        const float *f = frames + k * n;
+        float top = 0.0f;
+        for (size_t i = 0; i < n; i++) {
+            if (!isfinite(f[i]))
+                return pb_error(NULL, PB_ERR_NOT_FINITE, "frame %zu holds %s at voxel (%zu, %zu, %zu); replace NaN "
+                                "and infinite voxels (with 0) before estimating motion", k,
+                                isnan(f[i]) ? "NaN" : "an infinity", i % g->dims[0], i / g->dims[0] % g->dims[1],
+                                i / (g->dims[0] * g->dims[1]));
+            top = fmaxf(top, f[i]);
+        }
+        if (!(top > 0.0f))
+            return pb_error(NULL, PB_ERR_INVALID_ARGUMENT, "frame %zu (%g to %g s) holds no counts (no voxel above "
+                            "0): it has nothing to register; leave it out of the series", k, bounds[k],
+                            bounds[k + 1]);
+    }
+    return PB_OK;
+}
+
+static double now_seconds(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
+
+static pb_status estimate_run(estimate *e, const double *bounds, const pb_estimate_options *o, const double d[9],
+                              const double corner[3], pb_track **track, pb_estimate_report *report)
+{
+    const size_t count = e->count, ref = o->reference;
+    pbe_fit *fits = calloc(count, sizeof *fits);
+    double *dwell = calloc(count * (DWELL_POINTS + 1), sizeof(double));
+    int *moving = calloc(count, sizeof(int));
+    float *mean = malloc(sizeof(float) * e->level[0].n);
+    keys k = {malloc(sizeof(double) * (count * 2 * DWELL_POINTS + 4)),
+              malloc(sizeof(pb_pose) * (count * 2 * DWELL_POINTS + 4)), 0};
+    size_t moving_count = 0;
+    pb_status st = fits && dwell && moving && mean && k.t && k.p ? PB_OK : PB_ERR_OUT_OF_MEMORY;
+    for (size_t i = 0; i < count && fits; i++) {
+        fits[i].pose.rotation[0] = 1.0;
+        fits[i].scale = 1.0;
+    }
+    /* 1: to the reference frame */
+    if (st == PB_OK)
+        st = set_reference(e, e->raw + ref * e->level[0].n);
+    if (st == PB_OK)
+        st = register_all(e, ref, fits, 0);
+    /* 2: to the mean; the reference frame gets a pose too, which is then taken out */
+    if (st == PB_OK)
+        st = mean_image(e, fits, mean);
+    report_progress(e, (double)count / 4);
+    if (st == PB_OK)
+        st = set_reference(e, mean);
+    if (st == PB_OK)
+        st = register_all(e, ref, fits, 1);
+    /* 3: inside frames, against the same mean */
+    if (st == PB_OK && !o->frame_poses_only)
+        st = inside_frames(e, fits, ref, dwell, moving, &moving_count);
+    if (st == PB_OK) {
+        pb_pose back;
+        pb_pose_invert(&fits[ref].pose, &back);
+        key(&k, bounds[0], &fits[0].pose);
+        for (size_t f = 0; f < count; f++) {
+            if (moving[f])
+                path_keys(&k, bounds[f], bounds[f + 1], &fits[f - 1].pose, &fits[f + 1].pose,
+                          dwell + f * (DWELL_POINTS + 1));
+            else
+                key(&k, 0.5 * (bounds[f] + bounds[f + 1]), &fits[f].pose);
+        }
+        key(&k, bounds[count], &fits[count - 1].pose);
+        for (size_t i = 0; i < k.n && st == PB_OK; i++) {
+            pb_pose rel;
+            pb_pose_compose(&k.p[i], &back, &rel);
+            pb_pose_normalized(&rel, &rel);
+            st = world_pose(d, corner, e->c, &rel, &k.p[i]);
+        }
+        if (st == PB_OK)
+            st = pb_track_create("the motion estimated from the frames", PB_TRACK_MATRIX_CSV, k.t, k.p, NULL, NULL,
+                                 k.n, track);
+    }
+    if (report)
+        report->moving_frames = moving_count;
+    free(fits);
+    free(dwell);
+    free(moving);
+    free(mean);
+    free(k.t);
+    free(k.p);
+    return st;
+}
+
+pb_status pb_motion_estimate(pb_context *ctx, const pb_geometry *geometry, const double affine[16],
+                             const float *frames, size_t count, const double *bounds,
+                             const pb_estimate_options *options, pb_track **track, pb_estimate_report *report)
+{
+    double started = now_seconds();
+    if (track)
+        *track = NULL;
+    if (!ctx || !geometry || !frames || !bounds || !track)
+        return pb_error(ctx, PB_ERR_INVALID_ARGUMENT, "context, geometry, frames, bounds and track must not be NULL");
+    pb_estimate_options o = {0};
+    if (options)
+        o = *options;
+    double grid_affine[16], d[9], corner[3];
+    pb_status st = check_input(geometry, frames, count, bounds, &o);
+    if (st == PB_OK && !affine) {
+        pb_geometry_grid_affine(geometry, grid_affine);
+        affine = grid_affine;
+    }
+    if (st == PB_OK)
+        st = pb_affine_frame(geometry, affine, d, corner);
+    if (st != PB_OK)
+        return pb_error(ctx, st, "%s", pb_last_error(NULL));
+    if ((st = pb_context_enter(ctx)) != PB_OK)
+        return st;
+
+    estimate e;
+    memset(&e, 0, sizeof e);
+    e.ctx = ctx;
+    e.g = *geometry;
+    e.count = count;
+    e.raw = frames;
+    e.iterations = o.iterations ? o.iterations : 12;
+    e.fwhm = o.fwhm_mm;
+    for (int a = 0; a < 3; a++)
+        e.c[a] = 0.5 * (double)geometry->dims[a] * geometry->voxel_size[a];
+    pb_geometry g = *geometry;
+    e.levels = 1;
+    for (;;) {
+        pb_geometry c;
+        pbe_coarser(&g, &c);
+        size_t want = o.levels ? o.levels : 3;
+        int fits = c.dims[0] >= (o.levels ? 4 : 12) && c.dims[1] >= (o.levels ? 4 : 12) &&
+                   c.dims[2] >= (o.levels ? 4 : 12);
+        if (e.levels >= want || !fits)
+            break;
+        g = c;
+        e.levels++;
+    }
+    /* the progress report hears this call's progress, not each blur's */
+    e.progress = ctx->progress;
+    e.progress_user = ctx->progress_user;
+    ctx->progress = NULL;
+    e.total = 3.25 * (double)count;
+
+    g = *geometry;
+    for (size_t l = 0; l < e.levels && st == PB_OK; l++) {
+        if (l > 0)
+            pbe_coarser(&e.level[l - 1].g, &g);
+        st = pbe_level_init(ctx, &e.level[l], &g);
+        if (st == PB_OK && !(e.frames[l] = malloc(sizeof(float) * e.level[l].n * count)))
+            st = PB_ERR_OUT_OF_MEMORY;
+    }
+    size_t longest = geometry->dims[0];
+    if (geometry->dims[1] > longest)
+        longest = geometry->dims[1];
+    if (geometry->dims[2] > longest)
+        longest = geometry->dims[2];
+    if (st == PB_OK && (!(e.scratch = malloc(sizeof(float) * 6 * e.level[0].n)) ||
+                        !(e.tmp = malloc(sizeof(float) * longest))))
+        st = PB_ERR_OUT_OF_MEMORY;
+    for (size_t k = 0; k < count && st == PB_OK; k++) {
+        float *levels[8];
+        for (size_t l = 0; l < e.levels; l++)
+            levels[l] = e.frames[l] + k * e.level[l].n;
+        pyramid(&e, frames + k * e.level[0].n, levels);
+    }
+    if (st == PB_OK)
+        st = estimate_run(&e, bounds, &o, d, corner, track, report);
+    for (size_t l = 0; l < e.levels; l++) {
+        pbe_level_free(&e.level[l]);
+        free(e.frames[l]);
+    }
+    free(e.scratch);
+    free(e.tmp);
+    ctx->progress = e.progress;
+    ctx->progress_user = e.progress_user;
+    if (st == PB_OK && e.progress)
+        e.progress(1.0, e.progress_user);
+    if (st == PB_ERR_OUT_OF_MEMORY)
+        pb_error(ctx, st, "out of host memory estimating motion from %zu frames of %zu x %zu x %zu voxels", count,
+                 geometry->dims[0], geometry->dims[1], geometry->dims[2]);
+    else if (st != PB_OK)
+        pb_error(ctx, st, "estimating motion from the frames: %s", pb_last_error(ctx));
+    if (report)
+        report->seconds = now_seconds() - started;
+    pb_context_leave(ctx);
+    return st;
+}

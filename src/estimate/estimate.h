@@ -1,0 +1,77 @@
+/* Motion from the frames (pb_motion_estimate, pb_blur_pose_derivative): the
+ * one internal header of src/estimate, in sections by the file that
+ * implements them. Host images are float, x fastest; poses are in the grid
+ * frame (mm from the grid's corner) about one centre shared by every level. */
+#ifndef PB_ESTIMATE_H
+#define PB_ESTIMATE_H
+
+#include "petblur.h"
+
+/* ---- images.c: host image operations -------------------------------------- */
+
+/* The grid of the next coarser level: ceil(n / 2) voxels of twice the size,
+ * from the same corner, so that a position in mm means the same point on
+ * every level. */
+void pbe_coarser(const pb_geometry *fine, pb_geometry *coarse);
+/* 2x2x2 block means onto the coarser grid (a block cut by the edge averages
+ * the voxels it holds). */
+void pbe_downsample(const pb_geometry *fine, const float *in, const pb_geometry *coarse, float *out);
+/* Separable Gaussian of full width at half maximum fwhm mm, zero outside the
+ * grid, renormalised at the edges so that a constant stays constant. tmp
+ * holds a volume. */
+void pbe_smooth(const pb_geometry *g, float *v, double fwhm_mm, float *tmp);
+/* The object's six derivative images about centre c (mm): dx/dp_j, and
+ * ((p - c) x grad x)_j, by central differences with zero outside the grid. */
+void pbe_pose_gradients(const pb_geometry *g, const float *x, const double c[3], float *const out[6]);
+
+/* ---- register.c: one frame against a reference ------------------------------ */
+
+/* A reference on one level, on the device: the image and its six derivative
+ * images, and seven outputs for their blurs (with host copies). */
+typedef struct pbe_level {
+    pb_geometry g;
+    size_t n;
+    pb_volume *in[7];    /* x, then its derivative images */
+    pb_volume *out[7];   /* B of each */
+    float *host[7];      /* out downloaded */
+} pbe_level;
+
+pb_status pbe_level_init(pb_context *ctx, pbe_level *level, const pb_geometry *g);
+/* Uploads a reference x and its derivative images about c. scratch holds six volumes. */
+pb_status pbe_level_set_reference(pbe_level *level, const float *x, const double c[3], float *scratch);
+void pbe_level_free(pbe_level *level);
+
+/* The rigid fit of one frame: f ~ scale * B(pose) x + offset. */
+typedef struct pbe_fit {
+    pb_pose pose;        /* grid frame, about the estimate's centre */
+    double scale, offset;
+    double sse;          /* sum of squared residuals at the end */
+    unsigned iterations;
+} pbe_fit;
+
+/* A motion holding pose still over [0, 1] about c (times and poses: two each). */
+void pbe_static_motion(const pb_pose *pose, const double c[3], double times[2], pb_pose poses[2], pb_motion *m);
+/* The blur of the level's reference only (level->host[0]) under motion m. */
+pb_status pbe_blur_reference(pb_context *ctx, pbe_level *level, const pb_motion *m);
+/* Levenberg-Marquardt on the pose (scale and offset refitted each step) from
+ * fit->pose, at most iterations steps. */
+pb_status pbe_register(pb_context *ctx, pbe_level *level, const float *frame, const double c[3],
+                       unsigned iterations, pbe_fit *fit);
+/* Least squares of f on [a, 1]: the scale, offset and residual. */
+void pbe_fit_scale(const float *a, const float *f, size_t n, double *scale, double *offset, double *sse);
+
+/* ---- inside.c: motion inside a frame ---------------------------------------- */
+
+/* The frame's dwell along the path from pose s to pose e: weights u[0..m-1]
+ * of the poses at s + (e - s) i / (m - 1), non-negative, with an offset,
+ * fitted by least squares to the frame; *sse is the fit's residual. The
+ * level's reference must be set. */
+pb_status pbe_dwell(pb_context *ctx, pbe_level *level, const float *frame, const double c[3], const pb_pose *s,
+                    const pb_pose *e, size_t m, double *u, double *sse);
+
+/* Non-negative least squares on normal equations: minimises
+ * |A u - f|^2 given G = A^T A (n x n, row-major), h = A^T f, with u[j] >= 0
+ * for j < n_nonneg and the rest free. */
+void pbe_nnls(const double *gram, const double *h, size_t n, size_t n_nonneg, double *u);
+
+#endif

@@ -1,0 +1,246 @@
+/* One frame registered rigidly to a reference: Levenberg-Marquardt on the
+ * pose, the residual f - (a B(T) x + b) with a and b refitted at every step
+ * (the least-squares form of normalised cross-correlation, which tolerates
+ * tracer uptake that changes from frame to frame). The Jacobian comes from
+ * the blurs of the reference's derivative images (pbe_pose_gradients), so
+ * each step is seven blurs on the device and one pass over the voxels here. */
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "estimate.h"
+#include "motion.h"
+
+static const pb_blur_options blur_options = {.method = PB_METHOD_AB, .filter = PB_FILTER_EXACT};
+
+pb_status pbe_level_init(pb_context *ctx, pbe_level *level, const pb_geometry *g)
+{
+    memset(level, 0, sizeof *level);
+    level->g = *g;
+    level->n = g->dims[0] * g->dims[1] * g->dims[2];
+    for (int i = 0; i < 7; i++) {
+        pb_status st = pb_volume_create(ctx, g, &level->in[i]);
+        if (st == PB_OK)
+            st = pb_volume_create(ctx, g, &level->out[i]);
+        if (st != PB_OK)
+            return st;
+        if (!(level->host[i] = malloc(sizeof(float) * level->n)))
+            return PB_ERR_OUT_OF_MEMORY;
+    }
+    return PB_OK;
+}
+
+void pbe_level_free(pbe_level *level)
+{
+    for (int i = 0; i < 7; i++) {
+        pb_volume_destroy(level->in[i]);
+        pb_volume_destroy(level->out[i]);
+        free(level->host[i]);
+    }
+    memset(level, 0, sizeof *level);
+}
+
+pb_status pbe_level_set_reference(pbe_level *level, const float *x, const double c[3], float *scratch)
+{
+    float *d[6];
+    for (int j = 0; j < 6; j++)
+        d[j] = scratch + (size_t)j * level->n;
+    pbe_pose_gradients(&level->g, x, c, d);
+    pb_status st = pb_volume_upload(level->in[0], x);
+    for (int j = 0; j < 6 && st == PB_OK; j++)
+        st = pb_volume_upload(level->in[1 + j], d[j]);
+    return st;
+}
+
+void pbe_static_motion(const pb_pose *pose, const double c[3], double times[2], pb_pose poses[2], pb_motion *m)
+{
+    times[0] = 0.0;
+    times[1] = 1.0;
+    poses[0] = poses[1] = *pose;
+    memset(m, 0, sizeof *m);
+    m->times = times;
+    m->poses = poses;
+    m->count = 2;
+    m->frame_start = 0.0;
+    m->frame_end = 1.0;
+    m->has_center = 1;
+    memcpy(m->center, c, sizeof m->center);
+}
+
+static pb_status blur_images(pb_context *ctx, pbe_level *level, const pb_motion *m, int count)
+{
+    for (int i = 0; i < count; i++) {
+        pb_status st = pb_blur(ctx, level->in[i], m, &blur_options, level->out[i]);
+        if (st == PB_OK)
+            st = pb_volume_download(level->out[i], level->host[i]);
+        if (st != PB_OK)
+            return st;
+    }
+    return PB_OK;
+}
+
+pb_status pbe_blur_reference(pb_context *ctx, pbe_level *level, const pb_motion *m)
+{
+    return blur_images(ctx, level, m, 1);
+}
+
+void pbe_fit_scale(const float *a, const float *f, size_t n, double *scale, double *offset, double *sse)
+{
+    double sa = 0, sf = 0, saa = 0, saf = 0, sff = 0;
+    for (size_t i = 0; i < n; i++) {
+        double x = a[i], y = f[i];
+        sa += x;
+        sf += y;
+        saa += x * x;
+        saf += x * y;
+        sff += y * y;
+    }
+    double N = (double)n, var = saa - sa * sa / N, cov = saf - sa * sf / N;
+    double s = var > 0 ? cov / var : 0.0;
+    *scale = s;
+    *offset = (sf - s * sa) / N;
+    /* |f - s a - b|^2 at the optimum: the variance of f not explained by a */
+    double rest = (sff - sf * sf / N) - s * cov;
+    *sse = rest > 0 ? rest : 0.0;
+}
+
+/* Solves the n x n system (row-major a, destroyed) for x by Gaussian
+ * elimination with partial pivoting; 0 when singular. */
+static int solve(double *a, double *b, int n, double *x)
+{
+    for (int c = 0; c < n; c++) {
+        int p = c;
+        for (int r = c + 1; r < n; r++)
+            if (fabs(a[r * n + c]) > fabs(a[p * n + c]))
+                p = r;
+        if (!(fabs(a[p * n + c]) > 0))
+            return 0;
+        if (p != c) {
+            for (int k = 0; k < n; k++) {
+                double t = a[c * n + k];
+                a[c * n + k] = a[p * n + k];
+                a[p * n + k] = t;
+            }
+            double t = b[c];
+            b[c] = b[p];
+            b[p] = t;
+        }
+        for (int r = c + 1; r < n; r++) {
+            double f = a[r * n + c] / a[c * n + c];
+            for (int k = c; k < n; k++)
+                a[r * n + k] -= f * a[c * n + k];
+            b[r] -= f * b[c];
+        }
+    }
+    for (int r = n - 1; r >= 0; r--) {
+        double s = b[r];
+        for (int k = r + 1; k < n; k++)
+            s -= a[r * n + k] * x[k];
+        x[r] = s / a[r * n + r];
+    }
+    return 1;
+}
+
+/* T o G(step)^-1: the pose after the object-side perturbation v = step[0..2]
+ * (mm), w = step[3..5] (radians), about the common centre. */
+static void perturb(const pb_pose *pose, const double step[6], pb_pose *out)
+{
+    pb_pose g, gi;
+    double angle = sqrt(step[3] * step[3] + step[4] * step[4] + step[5] * step[5]);
+    memcpy(g.translation, step, sizeof g.translation);
+    if (angle > 0) {
+        double s = sin(0.5 * angle) / angle;
+        g.rotation[0] = cos(0.5 * angle);
+        g.rotation[1] = s * step[3];
+        g.rotation[2] = s * step[4];
+        g.rotation[3] = s * step[5];
+    } else {
+        g.rotation[0] = 1;
+        g.rotation[1] = g.rotation[2] = g.rotation[3] = 0;
+    }
+    pb_pose_invert(&g, &gi);
+    pb_pose_compose(pose, &gi, out);
+    pb_pose_normalized(out, out);
+}
+
+enum { NP = 8 };
+
+pb_status pbe_register(pb_context *ctx, pbe_level *level, const float *frame, const double c[3],
+                       unsigned iterations, pbe_fit *fit)
+{
+    const size_t n = level->n;
+    double lambda = 1e-3, best_sse = INFINITY;
+    double best_a[NP * NP] = {0}, best_g[NP] = {0};
+    pb_pose best_pose = fit->pose, trial = fit->pose;
+    double best_scale = 1, best_offset = 0;
+    double times[2];
+    pb_pose poses[2];
+    pb_motion m;
+    fit->iterations = 0;
+    for (unsigned it = 0; it <= iterations; it++) {
+        pbe_static_motion(&trial, c, times, poses, &m);
+        pb_status st = blur_images(ctx, level, &m, 7);
+        if (st != PB_OK)
+            return st;
+        double a, b, sse;
+        pbe_fit_scale(level->host[0], frame, n, &a, &b, &sse);
+        if (sse < best_sse) {
+            /* accepted: the normal equations at this pose */
+            double A[NP * NP] = {0}, g[NP] = {0};
+            const float *const *h = (const float *const *)level->host;
+            for (size_t i = 0; i < n; i++) {
+                double J[NP];
+                for (int j = 0; j < 6; j++)
+                    J[j] = a * (double)h[1 + j][i];
+                J[6] = (double)h[0][i];
+                J[7] = 1.0;
+                double r = a * (double)h[0][i] + b - (double)frame[i];
+                for (int p = 0; p < NP; p++) {
+                    g[p] += J[p] * r;
+                    for (int q = p; q < NP; q++)
+                        A[p * NP + q] += J[p] * J[q];
+                }
+            }
+            for (int p = 0; p < NP; p++)
+                for (int q = 0; q < p; q++)
+                    A[p * NP + q] = A[q * NP + p];
+            double gain = best_sse - sse;
+            best_sse = sse;
+            best_pose = trial;
+            best_scale = a;
+            best_offset = b;
+            memcpy(best_a, A, sizeof A);
+            memcpy(best_g, g, sizeof g);
+            lambda = fmax(lambda / 3.0, 1e-7);
+            if (it > 0 && gain < 1e-7 * sse)
+                break;
+        } else {
+            lambda *= 8.0;
+            if (lambda > 1e6)
+                break;
+        }
+        if (it == iterations)
+            break;
+        double A[NP * NP], g[NP], step[NP];
+        memcpy(A, best_a, sizeof A);
+        for (int p = 0; p < NP; p++) {
+            A[p * NP + p] *= 1.0 + lambda;
+            g[p] = -best_g[p];
+        }
+        if (!solve(A, g, NP, step))
+            break;
+        perturb(&best_pose, step, &trial);
+        fit->iterations = it + 1;
+        double move = sqrt(step[0] * step[0] + step[1] * step[1] + step[2] * step[2]);
+        double turn = sqrt(step[3] * step[3] + step[4] * step[4] + step[5] * step[5]);
+        if (move < 1e-3 && turn < 1e-5) {
+            best_pose = trial;
+            break;
+        }
+    }
+    fit->pose = best_pose;
+    fit->scale = best_scale;
+    fit->offset = best_offset;
+    fit->sse = best_sse;
+    return PB_OK;
+}
