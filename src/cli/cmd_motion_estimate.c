@@ -208,7 +208,7 @@ int pbc_cmd_motion_estimate(int argc, char **argv)
     const char *out = pbc_arg(&command, &args, "--output");
     if (!out)
         return pbc_fail(PBC_EXIT_USAGE, "give the track's file: -o TRACK.csv");
-    if ((rc = pbc_check_output("-o", out, 0)) || (rc = check_files(&args, out)))
+    if ((rc = pbc_check_output("-o", out, 2)) || (rc = check_files(&args, out)))
         return rc;
     return run(&args, args.positional[0], out);
 }

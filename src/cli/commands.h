@@ -20,8 +20,9 @@ int pbc_cmd_motion_estimate(int argc, char **argv);
 /* Shared checks of file arguments. */
 /* Refuses an output path whose extension no writer knows, whose folder takes no
  * new file, or that stands for something petblur does not replace (a folder,
- * a link, a write-protected file) (before any work). */
-int pbc_check_output(const char *option, const char *path, int picture);
+ * a link, a write-protected file) (before any work). kind: 0 an image, 1 a
+ * picture (.png), 2 a table (.csv: a track). */
+int pbc_check_output(const char *option, const char *path, int kind);
 
 /* Every file a command reads and every file it writes, for the one rule that
  * no output names a file the command reads, nor another output (by path,

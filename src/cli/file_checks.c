@@ -36,13 +36,13 @@ static int replaceable(const char *option, const char *path)
     return 0;
 }
 
-int pbc_check_output(const char *option, const char *path, int picture)
+int pbc_check_output(const char *option, const char *path, int kind)
 {
     char ext[32];
     pbc_file_extension(path, ext, sizeof ext);
-    if (picture ? strcmp(ext, ".png") != 0 : !pbc_image_format_known(path))
-        return pbc_fail(PBC_EXIT_USAGE, "%s %s: unknown extension '%s'; use %s", option, path, ext,
-                        picture ? ".png" : ".nii, .nii.gz, .hv or .raw");
+    static const char *const kinds[] = {".nii, .nii.gz, .hv or .raw", ".png", ".csv"};
+    if (kind == 2 ? strcmp(ext, ".csv") != 0 : kind ? strcmp(ext, ".png") != 0 : !pbc_image_format_known(path))
+        return pbc_fail(PBC_EXIT_USAGE, "%s %s: unknown extension '%s'; use %s", option, path, ext, kinds[kind]);
     /* The folder must take a new file now, not after minutes of blurring. */
     char dir[4096];
     const char *slash = strrchr(path, '/');

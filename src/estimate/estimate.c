@@ -1,11 +1,12 @@
 /* pb_motion_estimate: the patient's motion from the frames themselves.
  *
  * Three passes, each frame registered coarse to fine (register.c):
- *  1. every frame to the reference frame, each starting from its neighbour's
- *     pose (motion is continuous);
- *  2. every frame to the mean of all frames moved back onto the reference
- *     (their scale and offset taken out), whose noise is that of all the
- *     counts rather than of one short frame;
+ *  1. every frame against its neighbour towards the reference frame, whose
+ *     contrast is nearly its own, the poses chained;
+ *  2. twice, every frame against its own reference (references.c): the
+ *     frame's projection onto the principal images of the other frames moved
+ *     back onto the reference, which has the frame's contrast (uptake changes
+ *     from frame to frame) and the noise of all the others' counts;
  *  3. inside frames (inside.c): a frame between two neighbours is fitted as
  *     a dwell along the path between their poses; where that explains it
  *     clearly better than one pose, the frame gets the path.
@@ -99,64 +100,76 @@ static pb_status register_frame(estimate *e, size_t k, pbe_fit *fit)
     return PB_OK;
 }
 
-/* Pass 1 and 2: each frame from its neighbour's pose, outwards from start. */
-static pb_status register_all(estimate *e, size_t start, pbe_fit *fits, int refit_start)
+/* Pass 1: each frame against its neighbour towards the reference frame,
+ * whose contrast is nearly its own, and the poses chained: f_k = B(D) f_j
+ * for the neighbour j makes T_k = D T_j. */
+static pb_status register_chain(estimate *e, size_t ref, pbe_fit *fits)
 {
     pb_status st = PB_OK;
-    if (refit_start)
-        st = register_frame(e, start, &fits[start]);
-    for (size_t k = start + 1; k < e->count && st == PB_OK; k++) {
-        if (!refit_start)
-            fits[k].pose = fits[k - 1].pose;
-        st = register_frame(e, k, &fits[k]);
-    }
-    for (size_t k = start; k-- > 0 && st == PB_OK;) {
-        if (!refit_start)
-            fits[k].pose = fits[k + 1].pose;
-        st = register_frame(e, k, &fits[k]);
-    }
+    for (int side = 0; side < 2 && st == PB_OK; side++)
+        for (size_t k = side ? ref : ref + 1; (side ? k-- > 0 : k < e->count) && st == PB_OK; k += side ? 0 : 1) {
+            size_t j = side ? k + 1 : k - 1;
+            pbe_fit step = fits[k];
+            memset(&step.pose, 0, sizeof step.pose);
+            step.pose.rotation[0] = 1.0;
+            st = set_reference(e, e->raw + j * e->level[0].n);
+            if (st == PB_OK)
+                st = register_frame(e, k, &step);
+            if (st == PB_OK) {
+                pb_pose_compose(&step.pose, &fits[j].pose, &fits[k].pose);
+                pb_pose_normalized(&fits[k].pose, &fits[k].pose);
+            }
+        }
     return st;
 }
 
-/* The mean of the frames moved back onto the reference: frame k is
- * scale B(T_k) x + offset, so B(T_k^-1)(f_k - offset) / scale is x again. */
-static pb_status mean_image(estimate *e, const pbe_fit *fits, float *mean)
+/* The raw frames moved back onto the reference: B(T_k^-1) f_k, level 0. */
+static pb_status move_back(estimate *e, const pbe_fit *fits, float *moved)
 {
     const size_t n = e->level[0].n;
     pbe_level *lv = &e->level[0];
-    float *shifted = e->scratch; /* level 0's scratch: free between references */
-    memset(mean, 0, sizeof(float) * n);
-    size_t used = 0;
     for (size_t k = 0; k < e->count; k++) {
-        if (!(fits[k].scale > 0))
-            continue;
-        const float *f = e->raw + k * n;
-        for (size_t i = 0; i < n; i++)
-            shifted[i] = (float)(((double)f[i] - fits[k].offset) / fits[k].scale);
         pb_pose inverse, poses[2];
         double times[2];
         pb_motion m;
         pb_pose_invert(&fits[k].pose, &inverse);
         pbe_static_motion(&inverse, e->c, times, poses, &m);
-        pb_status st = pb_volume_upload(lv->in[0], shifted);
+        pb_status st = pb_volume_upload(lv->in[0], e->raw + k * n);
         if (st == PB_OK)
             st = pb_blur(e->ctx, lv->in[0], &m, NULL, lv->out[0]);
         if (st == PB_OK)
-            st = pb_volume_download(lv->out[0], lv->host[0]);
+            st = pb_volume_download(lv->out[0], moved + k * n);
         if (st != PB_OK)
             return st;
-        for (size_t i = 0; i < n; i++)
-            mean[i] += lv->host[0][i];
-        used++;
     }
-    for (size_t i = 0; i < n; i++)
-        mean[i] /= (float)(used ? used : 1);
     return PB_OK;
 }
 
+/* Frame k's own reference (references.c) on every level. */
+static pb_status frame_reference(estimate *e, const float *moved, const double *gram, size_t k, float *reference)
+{
+    pb_status st = pbe_frame_reference(moved, e->level[0].n, e->count, gram, k, reference);
+    return st == PB_OK ? set_reference(e, reference) : st;
+}
+
+/* Passes 2 and on: every frame against its own reference, from its pose. */
+static pb_status register_own(estimate *e, pbe_fit *fits, float *moved, double *gram, float *reference)
+{
+    pb_status st = move_back(e, fits, moved);
+    if (st != PB_OK)
+        return st;
+    pbe_gram(moved, e->level[0].n, e->count, gram);
+    for (size_t k = 0; k < e->count && st == PB_OK; k++) {
+        st = frame_reference(e, moved, gram, k, reference);
+        if (st == PB_OK)
+            st = register_frame(e, k, &fits[k]);
+    }
+    return st;
+}
+
 /* Pass 3: which frames dwell along the path between their neighbours. */
-static pb_status inside_frames(estimate *e, const pbe_fit *fits, size_t reference, double *dwell, int *moving,
-                               size_t *moving_count)
+static pb_status inside_frames(estimate *e, const pbe_fit *fits, size_t reference, const float *moved,
+                               const double *gram, float *own, double *dwell, int *moving, size_t *moving_count)
 {
     double *gain = calloc(e->count, sizeof(double));
     if (!gain)
@@ -175,8 +188,10 @@ static pb_status inside_frames(estimate *e, const pbe_fit *fits, size_t referenc
         double span = sqrt((a[0] - b[0]) * (a[0] - b[0]) + (a[1] - b[1]) * (a[1] - b[1]) + (a[2] - b[2]) * (a[2] - b[2]));
         if (k != reference && span > 0.1 * e->g.voxel_size[0]) {
             double sse;
-            st = pbe_dwell(e->ctx, &e->level[0], e->frames[0] + k * e->level[0].n, e->c, s, t, DWELL_POINTS,
-                           dwell + k * (DWELL_POINTS + 1), &sse);
+            st = frame_reference(e, moved, gram, k, own);
+            if (st == PB_OK)
+                    st = pbe_dwell(e->ctx, &e->level[0], e->frames[0] + k * e->level[0].n, e->c, s, t, DWELL_POINTS,
+                               dwell + k * (DWELL_POINTS + 1), &sse);
             if (st == PB_OK && fits[k].sse > 0)
                 gain[k] = 1.0 - sse / fits[k].sse;
         }
@@ -335,31 +350,27 @@ static pb_status estimate_run(estimate *e, const double *bounds, const pb_estima
     pbe_fit *fits = calloc(count, sizeof *fits);
     double *dwell = calloc(count * (DWELL_POINTS + 1), sizeof(double));
     int *moving = calloc(count, sizeof(int));
-    float *mean = malloc(sizeof(float) * e->level[0].n);
+    float *moved = malloc(sizeof(float) * e->level[0].n * count), *own = malloc(sizeof(float) * e->level[0].n);
+    double *gram = malloc(sizeof(double) * count * count);
     keys k = {malloc(sizeof(double) * (count * 2 * DWELL_POINTS + 4)),
               malloc(sizeof(pb_pose) * (count * 2 * DWELL_POINTS + 4)), 0};
     size_t moving_count = 0;
-    pb_status st = fits && dwell && moving && mean && k.t && k.p ? PB_OK : PB_ERR_OUT_OF_MEMORY;
+    pb_status st = fits && dwell && moving && moved && own && gram && k.t && k.p ? PB_OK : PB_ERR_OUT_OF_MEMORY;
     for (size_t i = 0; i < count && fits; i++) {
         fits[i].pose.rotation[0] = 1.0;
         fits[i].scale = 1.0;
     }
-    /* 1: to the reference frame */
+    /* 1: along the chain of neighbours */
     if (st == PB_OK)
-        st = set_reference(e, e->raw + ref * e->level[0].n);
-    if (st == PB_OK)
-        st = register_all(e, ref, fits, 0);
-    /* 2: to the mean; the reference frame gets a pose too, which is then taken out */
-    if (st == PB_OK)
-        st = mean_image(e, fits, mean);
-    report_progress(e, (double)count / 4);
-    if (st == PB_OK)
-        st = set_reference(e, mean);
-    if (st == PB_OK)
-        st = register_all(e, ref, fits, 1);
-    /* 3: inside frames, against the same mean */
+        st = register_chain(e, ref, fits);
+    /* 2: each frame against its own reference, twice (the second from
+     * references moved back by better poses); the reference frame gets a
+     * pose too, which is then taken out */
+    for (int round = 0; round < 2 && st == PB_OK; round++)
+        st = register_own(e, fits, moved, gram, own);
+    /* 3: inside frames, against the same references */
     if (st == PB_OK && !o->frame_poses_only)
-        st = inside_frames(e, fits, ref, dwell, moving, &moving_count);
+        st = inside_frames(e, fits, ref, moved, gram, own, dwell, moving, &moving_count);
     if (st == PB_OK) {
         pb_pose back;
         pb_pose_invert(&fits[ref].pose, &back);
@@ -387,7 +398,9 @@ static pb_status estimate_run(estimate *e, const double *bounds, const pb_estima
     free(fits);
     free(dwell);
     free(moving);
-    free(mean);
+    free(moved);
+    free(own);
+    free(gram);
     free(k.t);
     free(k.p);
     return st;
@@ -445,7 +458,7 @@ pb_status pb_motion_estimate(pb_context *ctx, const pb_geometry *geometry, const
     e.progress = ctx->progress;
     e.progress_user = ctx->progress_user;
     ctx->progress = NULL;
-    e.total = 3.25 * (double)count;
+    e.total = 4.0 * (double)count;
 
     g = *geometry;
     for (size_t l = 0; l < e.levels && st == PB_OK; l++) {

@@ -60,6 +60,18 @@ pb_status pbe_register(pb_context *ctx, pbe_level *level, const float *frame, co
 /* Least squares of f on [a, 1]: the scale, offset and residual. */
 void pbe_fit_scale(const float *a, const float *f, size_t n, double *scale, double *offset, double *sse);
 
+/* ---- references.c: a reference per frame ---------------------------------- */
+
+/* How many principal images a series of frames gives each frame's reference. */
+size_t pbe_reference_rank(size_t frames);
+/* The frames' inner products (frames x frames, row-major), frames moved back
+ * onto the reference, n voxels each, frame after frame. */
+void pbe_gram(const float *moved, size_t n, size_t frames, double *gram);
+/* Frame k's reference: its projection onto the leading principal images of
+ * the other frames. */
+pb_status pbe_frame_reference(const float *moved, size_t n, size_t frames, const double *gram, size_t k,
+                              float *out);
+
 /* ---- inside.c: motion inside a frame ---------------------------------------- */
 
 /* The frame's dwell along the path from pose s to pose e: weights u[0..m-1]
