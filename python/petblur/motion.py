@@ -215,6 +215,48 @@ class Motion:
         m._world(_grid((1, 1, 1), (1.0, 1.0, 1.0)), None, warn=False)  # the conventions' refusals, now
         return m
 
+    @classmethod
+    def from_frames(cls, frames, affine=None, starts=None, durations=None, reference=0, device="auto", bounds=None,
+                    frame_poses_only=False, levels=0, iterations=0, fwhm=0.0):
+        """The head's rigid motion estimated from a dynamic series itself, as
+        `petblur motion estimate` does (the C library's pb_motion_estimate):
+        ``frames`` [x, y, z, t] (numpy, CuPy or torch; read on the host),
+        placed in the world by ``affine`` (voxel to world, nibabel's
+        img.affine; None: the grid frame), frame k spanning ``starts[k]`` for
+        ``durations[k]`` seconds (BIDS-PET's FrameTimesStart and
+        FrameDuration; or ``bounds``, the n + 1 boundaries, as
+        frames_from_sidecar gives them). The motion moves the object seen in
+        frame ``reference`` (its pose is the identity); a frame holding a jerk
+        gets the poses on both sides of it unless ``frame_poses_only``.
+        ``levels``, ``iterations`` and ``fwhm`` (mm) are the command line's
+        --levels, --iterations and --fwhm (0: the defaults). The poses are
+        rigid maps about the world's origin, as a matrix-csv track's: give
+        the operators the same affine."""
+        from . import estimate
+        if bounds is None:
+            if starts is None or durations is None:
+                raise ArgumentError("give the frames' times: starts= and durations= (BIDS-PET's FrameTimesStart and "
+                                    "FrameDuration), or bounds=")
+            s = _vector("starts", starts, np.size(starts))
+            d = _vector("durations", durations, np.size(durations))
+            if s.size != d.size:
+                raise ArgumentError(f"starts has {s.size} frames and durations {d.size}; give one of each per frame")
+            out = (ctypes.c_double * (s.size + 1))()
+            _check(_lib.lib.pb_frames_from_starts((ctypes.c_double * s.size)(*s), (ctypes.c_double * d.size)(*d),
+                                                  s.size, out))
+            bounds = np.array(out[:])
+        elif starts is not None or durations is not None:
+            raise ArgumentError("give starts= and durations=, or bounds=, not both")
+        try:
+            times, tr, q, report = estimate.estimate(frames, affine, bounds, reference, device, frame_poses_only,
+                                                     levels, iterations, fwhm)
+        except Error as e:
+            raise type(e)(python_words(e.message), e.status) from None
+        m = cls(times, tr, q)
+        m._format, m._source = _lib.TRACK_MATRIX_CSV, "the motion estimated from the frames"
+        m.estimate_seconds, m.moving_frames = report.seconds, int(report.moving_frames)
+        return m
+
     # ---- the library's motion layer ----
 
     def _conventions(self):

@@ -38,6 +38,9 @@ const char *pb_abi_layout(void)
     F(pb_track_conventions, reference_time); F(pb_track_conventions, has_calibration);
     F(pb_track_conventions, calibration); F(pb_track_conventions, has_center); F(pb_track_conventions, center);
     S(pb_warnings); F(pb_warnings, flags); F(pb_warnings, text);
+    S(pb_estimate_options); F(pb_estimate_options, reference); F(pb_estimate_options, levels);
+    F(pb_estimate_options, iterations); F(pb_estimate_options, frame_poses_only); F(pb_estimate_options, fwhm_mm);
+    S(pb_estimate_report); F(pb_estimate_report, seconds); F(pb_estimate_report, moving_frames);
     E(PB_BACKEND_AUTO); E(PB_BACKEND_HOST); E(PB_BACKEND_OPENCL); E(PB_BACKEND_CUDA);
     E(PB_TRACK_AUTO); E(PB_TRACK_CSV); E(PB_TRACK_MATRIX_CSV); E(PB_TRACK_POLARIS);
     E(PB_METHOD_AB); E(PB_METHOD_RM); E(PB_METHOD_CL); E(PB_METHOD_REF);

@@ -1,0 +1,92 @@
+"""Motion from the frames: petblur.Motion.from_frames, through the C
+library's pb_motion_estimate (the one the command line's `petblur motion
+estimate` calls), so that both give the same track."""
+
+import ctypes
+
+import numpy as np
+
+from . import _lib
+from ._arrays import Array, _check_finite
+from .errors import ArgumentError
+
+
+class EstimateOptions(ctypes.Structure):
+    _fields_ = [("reference", ctypes.c_size_t), ("levels", ctypes.c_uint), ("iterations", ctypes.c_uint),
+                ("frame_poses_only", ctypes.c_int), ("fwhm_mm", ctypes.c_double)]
+
+
+class EstimateReport(ctypes.Structure):
+    _fields_ = [("seconds", ctypes.c_double), ("moving_frames", ctypes.c_size_t)]
+
+
+_lib.check_layout({"pb_estimate_options": EstimateOptions, "pb_estimate_report": EstimateReport}, {})
+_P, _vp, _dbl = ctypes.POINTER, ctypes.c_void_p, ctypes.c_double
+_lib.lib.pb_motion_estimate.restype = ctypes.c_int
+_lib.lib.pb_motion_estimate.argtypes = [_vp, _P(_lib.Geometry), _P(_dbl), _vp, ctypes.c_size_t, _P(_dbl),
+                                        _P(EstimateOptions), _P(_vp), _P(EstimateReport)]
+
+
+def _host_frames(frames):
+    """[x, y, z, t] float32 on the host, x fastest then frame after frame."""
+    a = Array(frames, "frames")
+    x = a.data
+    if a.kind == "torch":
+        x = x.cpu().numpy()
+    elif a.kind == "cupy":
+        x = x.get()
+    x = np.asarray(x)
+    if x.ndim != 4:
+        raise ArgumentError(f"frames must be 4-D, [x, y, z, t], not of shape {x.shape}: a 3-D image or a single "
+                            "frame has nothing to register")
+    x = np.asfortranarray(x, dtype=np.float32)
+    for k in range(x.shape[3]):
+        _check_finite(x[..., k], f"frame {k}")
+    return x
+
+
+def estimate(frames, affine, bounds, reference, device, frame_poses_only, levels, iterations, fwhm):
+    """(times, 4x4 world maps about the world's origin, report) of the motion."""
+    x = _host_frames(frames)
+    nx, ny, nz, nt = x.shape
+    if affine is None:
+        geometry_voxel = (1.0, 1.0, 1.0)
+        flat = None
+    else:
+        a = np.asarray(affine, dtype=np.float64)
+        if a.shape != (4, 4) or not np.all(np.isfinite(a)):
+            raise ArgumentError(f"affine must be a finite 4x4 voxel-to-world matrix (nibabel's img.affine), not "
+                                f"{a.shape}")
+        geometry_voxel = tuple(float(v) for v in np.linalg.norm(a[:3, :3], axis=0))
+        flat = (ctypes.c_double * 16)(*a.reshape(-1))
+    b = np.asarray(bounds, dtype=np.float64).reshape(-1)
+    if b.size != nt + 1:
+        raise ArgumentError(f"the frames' times give {b.size - 1} frames but frames holds {nt} (its last axis); give "
+                            "one start and duration per frame")
+    for name, v, lo, hi in (("levels", levels, 0, 6), ("iterations", iterations, 0, 1000)):
+        if not isinstance(v, (int, np.integer)) or not lo <= v <= hi:
+            raise ArgumentError(f"{name} {v!r}: give a whole number from {lo} (the default) to {hi}")
+    if not isinstance(reference, (int, np.integer)) or not 0 <= reference < nt:
+        raise ArgumentError(f"reference {reference!r}: the series has frames 0 to {nt - 1}")
+    fwhm = float(fwhm)
+    if not np.isfinite(fwhm) or not 0.0 <= fwhm <= 1000.0:
+        raise ArgumentError(f"fwhm {fwhm}: give 0 (two voxels of each level) to 1000 mm")
+    g = _lib.Geometry((ctypes.c_size_t * 3)(nx, ny, nz), (ctypes.c_double * 3)(*geometry_voxel))
+    opts = EstimateOptions(int(reference), int(levels), int(iterations), int(bool(frame_poses_only)), fwhm)
+    cb = (ctypes.c_double * b.size)(*b)
+    track, report = ctypes.c_void_p(), EstimateReport()
+    ctx = _lib.context(device)
+    with ctx.use():
+        status = _lib.lib.pb_motion_estimate(ctx.handle, ctypes.byref(g), flat, x.ctypes.data, nt, cb,
+                                             ctypes.byref(opts), ctypes.byref(track), ctypes.byref(report))
+        _lib.check(status, ctx.handle)
+    try:
+        lib = _lib.lib
+        n = lib.pb_track_count(track)
+        times = np.ctypeslib.as_array(lib.pb_track_times(track), (n,)).copy()
+        poses = (_lib.Pose * n).from_address(ctypes.addressof(lib.pb_track_poses(track).contents))
+        translations = np.array([p.translation[:] for p in poses])
+        quaternions = np.array([p.rotation[:] for p in poses])
+    finally:
+        _lib.lib.pb_track_free(track)
+    return times, translations, quaternions, report
