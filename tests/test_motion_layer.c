@@ -40,6 +40,142 @@ static double pose_distance(const pb_pose *a, const pb_pose *b)
     return fmax(d, 1.0 - fabs(dot));
 }
 
+/* ---- calibration files --------------------------------------------------- */
+
+/* A calibration's text, built value by value in a random layout: blanks, one
+ * comma or semicolon, line breaks on either side of it, comments and blank
+ * lines. Each value's first byte is kept, so a refusal's line is known. */
+typedef struct {
+    char text[4096];
+    size_t used, at[16];
+} cal_text;
+
+static void cal_put(cal_text *c, const char *s)
+{
+    c->used += (size_t)snprintf(c->text + c->used, sizeof c->text - c->used, "%s", s);
+}
+
+static size_t cal_line(const cal_text *c, size_t offset)
+{
+    size_t line = 1;
+    for (size_t i = 0; i < offset; i++)
+        line += c->text[i] == '\n';
+    return line;
+}
+
+static void cal_layout(cal_text *c, char values[][48], size_t n)
+{
+    static const char *const seps[] = {" ", "\t", ", ", ",", "; ", " ,\t", "  ;"};
+    static const char *const breaks[] = {"\n", " # row\n", "\n\n", "\r\n", "\n# a comment line\n", "\n  \t\n"};
+    c->used = 0;
+    if (pb_rand_uniform() < 0.3)
+        cal_put(c, pb_rand_uniform() < 0.5 ? "# tracker to scanner, mm\n" : "\n");
+    for (size_t i = 0; i < n; i++) {
+        if (i > 0) {
+            const char *sep = seps[(size_t)(pb_rand_uniform() * 7)];
+            int broken = i % 4 == 0 ? pb_rand_uniform() < 0.8 : pb_rand_uniform() < 0.1;
+            const char *br = broken ? breaks[(size_t)(pb_rand_uniform() * 6)] : "";
+            int after = pb_rand_uniform() < 0.5; /* the separator at the next line's start */
+            cal_put(c, after ? br : sep);
+            cal_put(c, after ? sep : br);
+        }
+        c->at[i] = c->used;
+        cal_put(c, values[i]);
+    }
+    cal_put(c, pb_rand_uniform() < 0.8 ? "\n" : "");
+}
+
+/* One calibration's text read: the status, and for a refusal the line and
+ * words its message must hold. */
+static void expect_calibration(const char *what, const cal_text *c, pb_status want, size_t line, const char *words,
+                               const double want_m[16])
+{
+    file_with("cal.txt", c->text);
+    char path[128], start[160];
+    snprintf(path, sizeof path, "%s/cal.txt", dir);
+    snprintf(start, sizeof start, line ? "%s:%zu: " : "%s: ", path, line);
+    double m[16];
+    pb_status st = pb_calibration_read(path, m);
+    const char *msg = pb_last_error(NULL);
+    if (want == PB_OK) {
+        pb_check(st == PB_OK && !memcmp(m, want_m, sizeof m), "%s: %s: %s\n%s", what, pb_status_string(st), msg,
+                 c->text);
+        return;
+    }
+    pb_check(st == want && !strncmp(msg, start, strlen(start)) && strstr(msg, words), "%s: status %d, '%s'; want "
+             "%d, '%s...%s'\n%s", what, (int)st, msg, (int)want, start, words, c->text);
+}
+
+static void test_calibration_class(void)
+{
+    static const char *const not_numbers[] = {"0x1p3", "0X10", "inf", "-Infinity", "nan", "NaN", "1e", "1.2.3",
+                                              "--1", "1e5e5", "1_0", "1'000", "0b1", "\xd9\xa1", "e5", "."};
+    for (int round = 0; round < 40; round++) {
+        pb_pose pose;
+        random_pose(&pose, 180.0, 500.0);
+        double m[16];
+        pb_pose_to_matrix(&pose, m);
+        size_t n = pb_rand_uniform() < 0.5 ? 12 : 16;
+        char values[16][48];
+        for (size_t i = 0; i < 16; i++)
+            snprintf(values[i], sizeof values[i], "%.17g", m[i]);
+        cal_text c;
+        cal_layout(&c, values, n);
+        expect_calibration("a fresh calibration", &c, PB_OK, 0, NULL, m);
+        /* A 3x4 with its 4th row after ", " is the 4x4. */
+        if (n == 12) {
+            snprintf(values[11], sizeof values[11], "%.17g, 0 0 0 1", m[11]);
+            cal_layout(&c, values, 12);
+            expect_calibration("a 4th row after ', '", &c, PB_OK, 0, NULL, m);
+            snprintf(values[11], sizeof values[11], "%.17g", m[11]);
+        }
+        /* A 17th value, on the 16th's line or the next. */
+        size_t k = (size_t)(pb_rand_uniform() * 3);
+        snprintf(values[15], sizeof values[15], "%.17g%s", m[15], k == 0 ? " 7" : k == 1 ? ", 0 0 0 1" : "\n\n7");
+        cal_layout(&c, values, 16);
+        expect_calibration("a 17th value", &c, PB_ERR_BAD_FILE, cal_line(&c, c.at[15]) + 2 * (k == 2),
+                           "is a 17th value", NULL);
+        snprintf(values[15], sizeof values[15], "%.17g", m[15]);
+        /* 13 to 15 values: no matrix. */
+        size_t count = 13 + (size_t)(pb_rand_uniform() * 3);
+        cal_layout(&c, values, count);
+        char words[32];
+        snprintf(words, sizeof words, "%zu numbers", count);
+        expect_calibration("13 to 15 values", &c, PB_ERR_BAD_FILE, 0, words, NULL);
+        /* One value no number of the grammar. */
+        size_t at = (size_t)(pb_rand_uniform() * (double)n);
+        const char *bad = not_numbers[(size_t)(pb_rand_uniform() * 16)];
+        snprintf(values[at], sizeof values[at], "%s", bad);
+        cal_layout(&c, values, n);
+        snprintf(words, sizeof words, "value %zu is '", at + 1);
+        expect_calibration("not a number", &c, PB_ERR_BAD_FILE, cal_line(&c, c.at[at]), words, NULL);
+        snprintf(values[at], sizeof values[at], "%s", pb_rand_uniform() < 0.5 ? "1e999" : "-1E+400");
+        cal_layout(&c, values, n);
+        expect_calibration("beyond a double", &c, PB_ERR_NOT_FINITE, cal_line(&c, c.at[at]), "beyond", NULL);
+        /* An empty value: two separators, or one before the first value. */
+        snprintf(values[at], sizeof values[at], "%.17g%s", m[at], pb_rand_uniform() < 0.5 ? ",," : " ; ,");
+        cal_layout(&c, values, n);
+        expect_calibration("an empty value", &c, PB_ERR_BAD_FILE, cal_line(&c, c.at[at]), "with no value before it",
+                           NULL);
+        snprintf(values[at], sizeof values[at], "%.17g", m[at]);
+        snprintf(values[0], sizeof values[0], ", %.17g", m[0]);
+        cal_layout(&c, values, n);
+        expect_calibration("a separator first", &c, PB_ERR_BAD_FILE, cal_line(&c, c.at[0]), "with no value before",
+                           NULL);
+        snprintf(values[0], sizeof values[0], "%.17g", m[0]);
+        snprintf(values[n - 1], sizeof values[n - 1], "%.17g;", m[n - 1]);
+        cal_layout(&c, values, n);
+        expect_calibration("a separator last", &c, PB_ERR_BAD_FILE, cal_line(&c, c.at[n - 1]), "after the last value",
+                           NULL);
+        snprintf(values[n - 1], sizeof values[n - 1], "%.17g", m[n - 1]);
+    }
+    /* Underflow is that number: 1e-400 is 0, as every decimal reader takes it;
+     * -0 is -0, bit for bit. */
+    cal_text c = {.used = 0};
+    cal_put(&c, "1 0 0 0\n0 1 0 0\n0 0 1 0\n1e-400 -0 0.0e-999 1\n");
+    expect_calibration("an underflow", &c, PB_OK, 0, NULL, (double[16]){1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, -0.0, 0, 1});
+}
+
 static void test_calibration(void)
 {
     double m[16];
@@ -52,16 +188,17 @@ static void test_calibration(void)
         pb_status status;
     } bad[] = {
         {"1 0 0 0\n0 1 0 0\n0 0 1 0\n0 0 0 1\n7\n", "cal.txt:5: '7' is a 17th value", PB_ERR_BAD_FILE},
-        {"1 0 0 0x1p3\n0 1 0 0\n0 0 1 0\n", "cal.txt:1: '0x1p3' is not a number", PB_ERR_BAD_FILE},
+        {"1 0 0 0x1p3\n0 1 0 0\n0 0 1 0\n", "cal.txt:1: value 4 is '0x1p3', not a number", PB_ERR_BAD_FILE},
         {"1 0 0 0\n0 1 0 0\n0 0 1\n", "11 numbers", PB_ERR_BAD_FILE},
         {"2 0 0 0\n0 1 0 0\n0 0 1 0\n", "not a rotation", PB_ERR_NOT_RIGID},
-        {"1 0 0 1e999\n0 1 0 0\n0 0 1 0\n", "cal.txt:1: '1e999'", PB_ERR_NOT_FINITE},
+        {"1 0 0 1e999\n0 1 0 0\n0 0 1 0\n", "cal.txt:1: value 4 is '1e999', beyond", PB_ERR_NOT_FINITE},
     };
     for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) {
         pb_status st = pb_calibration_read(file_with("cal.txt", bad[i].text), m);
         pb_check(st == bad[i].status && strstr(pb_last_error(NULL), bad[i].words), "calibration %zu: status %d, "
                  "'%s'", i, (int)st, pb_last_error(NULL));
     }
+    test_calibration_class();
 }
 
 /* A pose about centre c as a 4x4 about the origin: composed here by applying

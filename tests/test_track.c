@@ -200,7 +200,15 @@ static void test_matrix(int yrt)
     read_back(yrt ? "matrix-csv, yrt-pet's" : "matrix-csv, header", &o, PB_TRACK_MATRIX_CSV, &e, &tol, 1);
 }
 
-/* A Polaris .mt log: seconds since midnight, quaternions scaled by 0.5 to 2,
+/* NDI's quaternions need not be unit: a factor of 0.5 to 2, now and then
+ * times 1e200 or 1e-170, whose squares overflow and underflow a double. */
+static double ndi_scale(void)
+{
+    double u = pb_rand_uniform(), s = pb_rand_range(0.5, 2.0);
+    return u < 0.1 ? 1e200 * s : u < 0.2 ? 1e-170 * s : s;
+}
+
+/* A Polaris .mt log: seconds since midnight, quaternions scaled (ndi_scale),
  * runs of missing samples. */
 static void test_polaris_mt(void)
 {
@@ -214,20 +222,21 @@ static void test_polaris_mt(void)
             fprintf(f, "%.6f %zu A : ---- Missing ----\n", e.times[i] - 0.001 * (double)(e.missing[i] + 1), i);
         line += noise(f, 0);
         const pb_pose *p = &e.poses[i];
-        double s = pb_rand_range(0.5, 2.0);
-        fprintf(f, "%.6f %zu A %.9f %.9f %.9f %.9f %.6f %.6f %.6f 0.18\n", e.times[i], i, s * p->rotation[0],
+        double s = ndi_scale();
+        fprintf(f, "%.6f %zu A %.9e %.9e %.9e %.9e %.6f %.6f %.6f 0.18\n", e.times[i], i, s * p->rotation[0],
                 s * p->rotation[1], s * p->rotation[2], s * p->rotation[3], p->translation[0], p->translation[1],
                 p->translation[2]);
         e.lines[i] = ++line;
     }
     fclose(f);
-    /* Each part off by d = 5e-10 and |q| >= 0.5: normalised, off by 4 d / 0.5. */
+    /* Each part off by 5e-10 of it (%.9e), so its share of the norm too:
+     * normalised, off by 4 x 5e-10 at most. */
     tolerance tol = {PRINTED(6), PRINTED(6), 8.0 * PRINTED(9)};
     read_back("polaris .mt", NULL, PB_TRACK_POLARIS, &e, &tol, 0);
 }
 
 /* NDI Toolviewer's CSV: a 60 Hz frame clock counted from the first record,
- * missing frames before it too. */
+ * missing frames before it too; frame numbers positive, negative, or both. */
 static void test_polaris_toolviewer(void)
 {
     expected e;
@@ -238,15 +247,17 @@ static void test_polaris_toolviewer(void)
           "Frame,         Q0,         Qx,         Qy,         Qz,          x,          y,          z,"
           "      Error,        OOV\n", f);
     size_t line = 4;
-    long long frame = 402115 + (long long)(pb_rand_uniform() * 1000), first = 0;
+    long long frame = (long long)pb_rand_range(-402115.0, 402115.0), first = 0;
+    if (pb_rand_uniform() < 0.3) /* counting up through 0 */
+        frame = -(long long)(pb_rand_uniform() * 30);
     for (size_t i = 0; i < e.n; i++) {
         for (; pb_rand_uniform() < 0.3; e.missing[i]++, line++)
             fprintf(f, "   %lld,    MISSING\n", frame++);
         first = i ? first : frame;
         e.times[i] = (double)(frame - first) / 60.0;
         const pb_pose *p = &e.poses[i];
-        double s = pb_rand_range(0.5, 2.0);
-        fprintf(f, "%lld, %.9f, %.9f, %.9f, %.9f, %.6f, %.6f, %.6f, 0.1834, 0\n", frame, s * p->rotation[0],
+        double s = ndi_scale();
+        fprintf(f, "%lld, %.9e, %.9e, %.9e, %.9e, %.6f, %.6f, %.6f, 0.1834, 0\n", frame, s * p->rotation[0],
                 s * p->rotation[1], s * p->rotation[2], s * p->rotation[3], p->translation[0], p->translation[1],
                 p->translation[2]);
         e.lines[i] = ++line;
@@ -307,12 +318,91 @@ static void expect_bad_file(const char *what, const char *text, size_t size, con
 /* A file of the literal's bytes, NUL bytes included. */
 #define BAD_FILE(what, literal, o, want, start) expect_bad_file(what, literal, sizeof literal - 1, o, want, start)
 
+/* Numbers and layouts: hex, inf and nan in every format, a header that names
+ * a column twice, the Polaris layouts' fields; each with its line. */
+static void test_layout_refusals(void)
+{
+    static const char mt[] = "23/5/2003 18:18:32 - 11 1 tool\n", tv[] = "Collection Data\n[June 25, 2010  04:00PM]"
+                             "\n\nFrame,Q0,Qx,Qy,Qz,x,y,z,Error,OOV\n";
+    static const struct {
+        const char *what, *text;
+        pb_status status;
+        const char *start;
+    } cases[] = {
+        {"mt hex", "1 2 A 0x1p0 0 0 0 1 2 3 0.1\n", PB_ERR_BAD_FILE, ":2: q0 is '0x1p0', not a number"},
+        {"mt hex time", "0x10 2 A 1 0 0 0 1 2 3 0.1\n", PB_ERR_BAD_FILE, ":2: time is '0x10', not a number"},
+        {"mt inf", "1 2 A 1 0 0 0 1 inf 3 0.1\n", PB_ERR_BAD_FILE, ":2: ty is 'inf', not a number"},
+        {"mt nan rms", "\n1 2 A 1 0 0 0 1 2 3 NaN\n", PB_ERR_BAD_FILE, ":3: rms is 'NaN', not a number"},
+        {"mt overflow", "1 2 A 1 0 0 0 1 2 -1e400 0.1\n", PB_ERR_NOT_FINITE, ":2: tz is '-1e400', beyond"},
+        {"mt tool", "1 2 AB 1 0 0 0 1 2 3 0.1\n", PB_ERR_BAD_FILE, ":2: the tool is 'AB', not one character"},
+        {"mt rand", "1 -2 A 1 0 0 0 1 2 3 0.1\n", PB_ERR_BAD_FILE, ":2: rand is '-2', not a whole number"},
+        {"mt missing hex", "0x1 2 A : ---- Missing ----\n", PB_ERR_BAD_FILE, ":2: time is '0x1'"},
+        {"mt zero", "1 2 A 0 0 0 0 1 2 3 0.1\n", PB_ERR_BAD_QUATERNION, ":2: the quaternion is zero"},
+        {"mt 12 fields", "1 2 A 1 0 0 0 1 2 3 0.1 9\n", PB_ERR_BAD_FILE, ":2: more than 11 fields"},
+        {"tv hex", "5, 0x1p0, 0, 0, 0, 1, 2, 3, 0.1, 0\n", PB_ERR_BAD_FILE, ":5: Q0 is '0x1p0', not a number"},
+        {"tv inf", "5, 1, 0, 0, 0, 1, 2, INF, 0.1, 0\n", PB_ERR_BAD_FILE, ":5: z is 'INF', not a number"},
+        {"tv frame", "5.5, 1, 0, 0, 0, 1, 2, 3, 0.1, 0\n", PB_ERR_BAD_FILE, ":5: Frame is '5.5', not a whole"},
+        {"tv frame 16 digits", "1000000000000000, MISSING\n", PB_ERR_BAD_FILE, ":5: Frame is '1000000000000000', "
+         "beyond 999999999999999"},
+        {"tv oov", "5, 1, 0, 0, 0, 1, 2, 3, 0.1, -1\n", PB_ERR_BAD_FILE, ":5: OOV is '-1', not a whole number"},
+        {"tv 9 fields", "5, 1, 0, 0, 0, 1, 2, 3, 0.1\n", PB_ERR_BAD_FILE, ":5: 9 fields, not a Toolviewer"},
+        {"tv zero", "-4, 1, 0, 0, 0, 1, 2, 3, 0.1, 0\n-3, 0, 0, 0, 0, 1, 2, 3, 0.1, 0\n", PB_ERR_BAD_QUATERNION,
+         ":6: the quaternion is zero"},
+        {"tv order", "-4, 1, 0, 0, 0, 1, 2, 3, 0.1, 0\n-5, 1, 0, 0, 0, 1, 2, 3, 0.1, 0\n", PB_ERR_TRACK_ORDER,
+         ":6: time -0.0166"},
+    };
+    for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
+        char text[512];
+        snprintf(text, sizeof text, "%s%s", !strncmp(cases[i].what, "mt", 2) ? mt : tv, cases[i].text);
+        expect_bad_file(cases[i].what, text, strlen(text), NULL, cases[i].status, cases[i].start);
+    }
+    static const struct {
+        const char *what, *header, *start;
+        pb_status status;
+    } headers[] = {
+        {"t twice", "t,tx,ty,tz,qw,qx,qy,qz,t", ":1: the header names the time twice, 't' (column 1) and 't' "
+         "(column 9)", PB_ERR_BAD_FILE},
+        {"time and t", "time,tx,ty,tz,qw,qx,qy,qz,T", ":1: the header names the time twice, 'time' (column 1) and "
+         "'t' (column 9)", PB_ERR_BAD_FILE},
+        {"timestamp and time", "tx,ty,tz,timestamp,qw,qx,qy,qz,Time", ":1: the header names the time twice",
+         PB_ERR_BAD_FILE},
+        {"tx twice", "t,tx,ty,tz,qw,qx,qy,qz, TX ", ":1: the header names tx twice", PB_ERR_BAD_FILE},
+        {"qz twice", "t,tx,ty,tz,qw,qx,qy,qz,qz", ":1: the header names qz twice", PB_ERR_BAD_FILE},
+        {"q1 twice", "t,tx,ty,tz,q0,q1,q2,q3,q1", ":1: the header names q1 twice", PB_ERR_BAD_FILE},
+        {"named and numbered", "t,tx,ty,tz,qw,qx,qy,qz,q0", ":1: the header gives the quaternion both named",
+         PB_ERR_BAD_FILE},
+        {"both numberings", "t,tx,ty,tz,q0,q1,q2,q3,q4", ":1: the header numbers the quaternion both",
+         PB_ERR_BAD_FILE},
+        {"matrix r11 twice", "t,r00,r01,r02,tx,r10,r11,r12,ty,r20,r21,r22,tz,r11", ":1: the header names r11 twice",
+         PB_ERR_BAD_FILE},
+        {"header after comments", "# logger 2.1\n\nt,tx,ty,tz,qw,qx,qy", ":3: the header has no column 'qz'",
+         PB_ERR_BAD_FILE},
+    };
+    for (size_t i = 0; i < sizeof headers / sizeof headers[0]; i++) {
+        char text[512];
+        snprintf(text, sizeof text, "%s\n0,0,0,0,1,0,0,0,0\n1,0,0,0,1,0,0,0,0\n", headers[i].header);
+        expect_bad_file(headers[i].what, text, strlen(text), NULL, headers[i].status, headers[i].start);
+    }
+    BAD_FILE("tv header", "Collection Data\n[June 25, 2010  04:00PM]\n\nframe, q0, qx, qy, qz, tx, ty, tz, error, "
+             "oov\n", NULL, PB_ERR_BAD_FILE, ":4: a Toolviewer header other than");
+}
+
 static void test_refusals(void)
 {
     const char *csv = "t,tx,ty,tz,qw,qx,qy,qz", *matrix = "t,r00,r01,r02,tx,r10,r11,r12,ty,r20,r21,r22,tz";
     expect_bad_row("not a number", csv, "7,1,0,0,1,0,0,abc", PB_ERR_BAD_FILE, "field qz is 'abc', not a number");
     expect_bad_row("hex", csv, "7,0x10,0,0,1,0,0,0", PB_ERR_BAD_FILE, "not a number");
-    expect_bad_row("overflow", csv, "7,1e999,0,0,1,0,0,0", PB_ERR_NOT_FINITE, "beyond any time");
+    expect_bad_row("overflow", csv, "7,1e999,0,0,1,0,0,0", PB_ERR_NOT_FINITE, "field tx is '1e999', beyond");
+    expect_bad_row("inf", csv, "7,1,0,0,1,0,0,-inf", PB_ERR_BAD_FILE, "field qz is '-inf', not a number");
+    expect_bad_row("nan", csv, "nan,1,0,0,1,0,0,0", PB_ERR_BAD_FILE, "field t is 'nan', not a number");
+    expect_bad_row("hex float", csv, "7,1,0x1p-2,0,1,0,0,0", PB_ERR_BAD_FILE, "field ty is '0x1p-2', not a number");
+    expect_bad_row("decimal comma", csv, "7,1,0,0,\"1,0\",0,0,0", PB_ERR_BAD_FILE, "9 fields");
+    expect_bad_row("blank inside", csv, "7,1 5,0,0,1,0,0,0", PB_ERR_BAD_FILE, "field tx is '1 5', not a number");
+    expect_bad_row("empty", csv, "7,1,,0,1,0,0,0", PB_ERR_BAD_FILE, "field ty is empty");
+    /* csv quaternions must be unit: one scaled by 1e200 or 1e-170 names its
+     * norm, which neither overflows nor underflows to zero. */
+    expect_bad_row("norm 1e200", csv, "7,1,0,0,0,1e200,0,0", PB_ERR_BAD_QUATERNION, "norm is 1e+200, not 1");
+    expect_bad_row("norm 1e-170", csv, "7,1,0,0,0,0,-1e-170,0", PB_ERR_BAD_QUATERNION, "norm is 1e-170, not 1");
     expect_bad_row("fields", csv, "7,1,0,0,1,0,0", PB_ERR_BAD_FILE, "7 fields where the header has 8");
     expect_bad_row("norm", csv, "7,1,0,0,1.1,0,0,0", PB_ERR_BAD_QUATERNION, "norm is 1.1");
     expect_bad_row("zero quaternion", csv, "7,1,0,0,0,0,0,0", PB_ERR_BAD_QUATERNION, "the quaternion is zero");
@@ -325,7 +415,8 @@ static void test_refusals(void)
     BAD_FILE("no header", "1,2,3\n", NULL, PB_ERR_BAD_FILE, ":1: '1,2,3' is no header");
     BAD_FILE("NUL", "t,tx\0,ty\n", NULL, PB_ERR_BAD_FILE, ":1: holds a NUL byte");
     BAD_FILE("mt record", "23/5/2003 18:18:32 - 11 1 tool\n1 2 A 1 0 0\n", NULL, PB_ERR_BAD_FILE,
-                    ":2: not a Polaris record");
+                    ":2: 6 fields, not a Polaris record");
+    test_layout_refusals();
     BAD_FILE("polaris in ms", "23/5/2003 18:18:32 - 11 1 tool\n", &polaris_ms, PB_ERR_INVALID_ARGUMENT,
                     ": a Polaris log gives seconds");
     BAD_FILE("matrix xyzw", "t,r00\n", &matrix_xyzw, PB_ERR_INVALID_ARGUMENT, ": a matrix-csv track holds");

@@ -1,6 +1,7 @@
 /* Pose tracks from motion logs (pb_track_read, petblur.h): the one internal
- * header of track.c, track_samples.c, track_csv.c and track_polaris.c. Every message names the
- * file and line, and says how to fix it. */
+ * header of track.c, track_samples.c, track_csv.c and track_polaris.c; their
+ * numbers are numbers.h's. Every message names the file and line, and says how
+ * to fix it. */
 #ifndef PB_TRACK_H
 #define PB_TRACK_H
 
@@ -25,15 +26,21 @@ struct pb_track {
  * one's. */
 pb_status pb_track_append(const char *path, size_t line, double t, const pb_pose *pose, size_t missing,
                           pb_track *track);
-/* A quaternion w,x,y,z as a unit quaternion: norm within 1e-3 of 1 when strict,
- * any nonzero norm otherwise. */
+/* A quaternion w,x,y,z as a unit quaternion: norm within 1e-3 of 1 when strict
+ * (kept as it is), any nonzero norm otherwise (normalised). The norm is taken
+ * after scaling by the largest part, so that NDI's unnormalised quaternions
+ * neither overflow (1e200) nor underflow (1e-170). */
 pb_status pb_track_unit_quaternion(const char *path, size_t line, const double q[4], int strict, double out[4]);
 /* Reads one line into buf (NUL-terminated, end of line stripped): 0 at the
  * end of the file, 1 for a line, or a negative status after the message. */
 int pb_track_line(const char *path, FILE *f, size_t lineno, char *buf, size_t size);
-/* A plain decimal number (no hex, inf or nan): 0, 1 when it is not one, 2 when
- * it is beyond double's range. */
-int pb_track_number(const char *text, double *v);
+/* ASCII white space within a line (space, tab, \v, \f, \r), whatever the
+ * locale: what the readers trim and split at. */
+int pb_track_blank(char c);
+/* s without blanks at either end (cut in place). */
+char *pb_track_trim(char *s);
+/* s in ASCII lower case, in place, whatever the locale. */
+void pb_track_lower(char *s);
 
 /* ---- track_csv.c and track_polaris.c: the formats ------------------------- */
 

@@ -1,12 +1,11 @@
 /* Pose tracks as CSV: petblur's own (t, translation, quaternion) and rigid
  * matrices row by row (yrt-pet's). Columns are found by name, so their order
  * and extra columns do not matter; a matrix file may come without a header. */
-#include <ctype.h>
-#include <math.h>
-#include <stdlib.h>
+#include <stdio.h>
 #include <string.h>
 
 #include "error.h"
+#include "numbers.h"
 #include "track.h"
 
 enum { MAX_FIELDS = 64, CSV_COLUMNS = 8, MATRIX_COLUMNS = 13 };
@@ -16,90 +15,117 @@ static const char *const csv_names[CSV_COLUMNS] = {"t", "tx", "ty", "tz", "qw", 
 static const char *const matrix_names[MATRIX_COLUMNS] = {"t", "r00", "r01", "r02", "tx", "r10", "r11", "r12",
                                                          "ty", "r20", "r21", "r22", "tz"};
 
-static char *trim(char *s)
-{
-    while (isspace((unsigned char)*s))
-        s++;
-    char *e = s + strlen(s);
-    while (e > s && isspace((unsigned char)e[-1]))
-        *--e = '\0';
-    return s;
-}
-
-/* Splits at commas, or with `blanks` at any run of commas, spaces and tabs (as
+/* Splits at commas, or with `blanks` at any run of commas and blanks (as
  * yrt-pet reads its files); returns the number of fields, or MAX_FIELDS + 1
  * when there are more. */
 static int split(char *line, char **fields, int blanks)
 {
-    const char *sep = blanks ? ", \t" : ",";
     int n = 0;
-    char *s = trim(line);
+    char *s = pb_track_trim(line);
     while (n <= MAX_FIELDS) {
-        size_t len = strcspn(s, sep);
+        size_t len = 0;
+        while (s[len] && s[len] != ',' && !(blanks && pb_track_blank(s[len])))
+            len++;
         char *next = s[len] ? s + len + 1 : NULL;
         s[len] = '\0';
         if (n < MAX_FIELDS)
-            fields[n] = trim(s);
+            fields[n] = pb_track_trim(s);
         n++;
         if (!next)
             return n;
-        if (blanks)
-            next += strspn(next, sep);
+        while (blanks && (*next == ',' || pb_track_blank(*next)))
+            next++;
         s = next;
     }
     return n;
 }
 
-static void lower(char *s)
+/* The column that holds name, by one of its spellings: the time is t, time or
+ * timestamp. -1 where none does; -2, after the message, where two do. */
+static int find_column(const char *path, size_t lineno, char **f, int n, const char *name)
 {
-    for (; *s; s++)
-        *s = (char)tolower((unsigned char)*s);
+    int at = -1;
+    for (int i = 0; i < n; i++) {
+        int time = !strcmp(name, "t") && (!strcmp(f[i], "time") || !strcmp(f[i], "timestamp"));
+        if (strcmp(f[i], name) && !time)
+            continue;
+        if (at >= 0) {
+            pb_error(NULL, PB_ERR_BAD_FILE, "%s:%zu: the header names %s twice, '%s' (column %d) and '%s' (column "
+                     "%d), so which one to read is ambiguous; keep one", path, lineno,
+                     strcmp(name, "t") ? name : "the time", f[at], at + 1, f[i], i + 1);
+            return -2;
+        }
+        at = i;
+    }
+    return at;
 }
 
-/* Where each wanted column sits in the header; the quaternion's parts may be
- * named (qw, qx, qy, qz) or numbered (q0..q3 or q1..q4, in the order of
- * --quaternion-order). */
-static pb_status map_header(const char *path, char **f, int n, const char *const *names, int count, int xyzw,
-                            int quat, int *column)
+/* The quaternion's parts as numbered columns, q0..q3 or q1..q4, in the order
+ * of --quaternion-order: 0 when the header numbers none of them, 1 after
+ * filling part[] as w,x,y,z (-1 where one is missing), or a negative status. */
+static int numbered_quaternion(const char *path, size_t lineno, char **f, int n, int xyzw, int part[4])
 {
-    static const char *const numbered[2][4] = {{"q0", "q1", "q2", "q3"}, {"q1", "q2", "q3", "q4"}};
+    int at[5];
+    for (int k = 0; k < 5; k++) {
+        char name[3] = {'q', (char)('0' + k), '\0'};
+        if ((at[k] = find_column(path, lineno, f, n, name)) == -2)
+            return PB_ERR_BAD_FILE;
+    }
+    if (at[0] >= 0 && at[4] >= 0)
+        return pb_error(NULL, PB_ERR_BAD_FILE, "%s:%zu: the header numbers the quaternion both q0..q3 and q1..q4 "
+                        "(columns %d and %d), so which parts to read is ambiguous; keep one numbering", path, lineno,
+                        at[0] + 1, at[4] + 1);
+    if (at[0] < 0 && at[1] < 0 && at[2] < 0 && at[3] < 0 && at[4] < 0)
+        return 0;
+    const int *first = at[0] >= 0 ? at : at + 1;
+    for (int k = 0; k < 4; k++) /* x,y,z,w order: the last numbered part is w */
+        part[k] = first[xyzw ? (k + 3) % 4 : k];
+    return 1;
+}
+
+/* Where each wanted column sits in the header at lineno; the quaternion's
+ * parts may be named (qw, qx, qy, qz) or numbered (q0..q3 or q1..q4, in the
+ * order of --quaternion-order), not both. A name given twice is ambiguous. */
+static pb_status map_header(const char *path, size_t lineno, char **f, int n, const char *const *names, int count,
+                            int xyzw, int quat, int *column)
+{
+    if (n > MAX_FIELDS)
+        return pb_error(NULL, PB_ERR_BAD_FILE, "%s:%zu: the header has more than %d columns; is this a pose track?",
+                        path, lineno, MAX_FIELDS);
     char found[512] = "";
     size_t used = 0;
-    for (int c = 0; c < count; c++)
-        column[c] = -1;
-    int named_q = 0;
-    for (int i = 0; i < n && i < MAX_FIELDS; i++) {
-        lower(f[i]);
+    for (int i = 0; i < n; i++) {
+        pb_track_lower(f[i]);
         if (used + 1 < sizeof found) /* what fits is enough to show */
             used += (size_t)snprintf(found + used, sizeof found - used, "%s%s", i ? "," : "", f[i]);
-        for (int c = 0; c < count; c++)
-            if (!strcmp(f[i], names[c]) || (c == 0 && (!strcmp(f[i], "time") || !strcmp(f[i], "timestamp")))) {
-                column[c] = i;
-                named_q |= quat && c >= 4;
-            }
     }
-    for (int set = 0; quat && !named_q && set < 2; set++) {
-        int at[4] = {-1, -1, -1, -1};
-        for (int i = 0; i < n && i < MAX_FIELDS; i++)
-            for (int k = 0; k < 4; k++)
-                if (!strcmp(f[i], numbered[set][k]))
-                    at[k] = i;
-        if (at[0] >= 0 && at[1] >= 0 && at[2] >= 0 && at[3] >= 0)
-            for (int k = 0; k < 4; k++) /* x,y,z,w order: the last numbered part is w */
-                column[4 + k] = at[xyzw ? (k + 3) % 4 : k];
+    int named_q = 0;
+    for (int c = 0; c < count; c++) {
+        if ((column[c] = find_column(path, lineno, f, n, names[c])) == -2)
+            return PB_ERR_BAD_FILE;
+        named_q |= quat && c >= 4 && column[c] >= 0;
     }
-    if (quat && named_q && xyzw)
-        return pb_error(NULL, PB_ERR_INVALID_ARGUMENT, "%s:1: the header names the quaternion's parts (qw,qx,qy,qz), "
-                        "so their order is known; --quaternion-order is for headers that number them (q0,q1,q2,q3)",
-                        path);
+    int part[4];
+    int numbered = quat ? numbered_quaternion(path, lineno, f, n, xyzw, part) : 0;
+    if (numbered < 0)
+        return (pb_status)numbered;
+    if (named_q && numbered)
+        return pb_error(NULL, PB_ERR_BAD_FILE, "%s:%zu: the header gives the quaternion both named (qw,qx,qy,qz) "
+                        "and numbered (q0..q3 or q1..q4), so which to read is ambiguous; keep one", path, lineno);
+    for (int k = 0; numbered && k < 4; k++)
+        column[4 + k] = part[k];
+    if (named_q && xyzw)
+        return pb_error(NULL, PB_ERR_INVALID_ARGUMENT, "%s:%zu: the header names the quaternion's parts (qw,qx,qy,"
+                        "qz), so their order is known; --quaternion-order is for headers that number them (q0,q1,q2,"
+                        "q3)", path, lineno);
     for (int c = 0; c < count; c++)
         if (column[c] < 0) {
             char expected[256] = "";
             for (int k = 0, u = 0; k < count; k++)
                 u += snprintf(expected + u, sizeof expected - (size_t)u, "%s%s", k ? "," : "", names[k]);
-            return pb_error(NULL, PB_ERR_BAD_FILE, "%s:1: the header has no column '%s'; found '%s', expected the "
-                            "columns %s%s (any order, extra columns ignored)", path, names[c], found, expected,
-                            quat ? " (or the quaternion as q0,q1,q2,q3 with --quaternion-order)" : "");
+            return pb_error(NULL, PB_ERR_BAD_FILE, "%s:%zu: the header has no column '%s'; found '%s', expected the "
+                            "columns %s%s (any order, extra columns ignored)", path, lineno, names[c], found,
+                            expected, quat ? " (or the quaternion as q0,q1,q2,q3 with --quaternion-order)" : "");
         }
     return PB_OK;
 }
@@ -107,22 +133,19 @@ static pb_status map_header(const char *path, char **f, int n, const char *const
 static pb_status row_values(const char *path, size_t lineno, char **f, int n, const int need[2], const int *column,
                             const char *const *names, int count, double *v)
 {
+    if (n > MAX_FIELDS)
+        return pb_error(NULL, PB_ERR_BAD_FILE, "%s:%zu: more than %d fields; is this a pose track?", path, lineno,
+                        MAX_FIELDS);
     if (n < need[0] || n > need[1])
         return pb_error(NULL, PB_ERR_BAD_FILE, "%s:%zu: %d field%s where %s %d; fix that row", path, lineno, n,
                         n == 1 ? "" : "s", need[0] == need[1] ? "the header has" : "a matrix row has 13 or",
                         need[1]);
     for (int c = 0; c < count; c++) {
-        const char *text = f[column[c]];
-        int bad = pb_track_number(text, &v[c]);
-        if (!*text)
-            return pb_error(NULL, PB_ERR_BAD_FILE, "%s:%zu: field %s is empty; every row needs all %d numbers", path,
-                            lineno, names[c], count);
-        if (bad == 1)
-            return pb_error(NULL, PB_ERR_BAD_FILE, "%s:%zu: field %s is '%s', not a number (plain decimal, e.g. "
-                            "-1.5e-3); fix that row", path, lineno, names[c], text);
-        if (bad == 2 || !isfinite(v[c]))
-            return pb_error(NULL, PB_ERR_NOT_FINITE, "%s:%zu: field %s is '%s', beyond any time, translation or "
-                            "rotation a track can hold; fix that row", path, lineno, names[c], text);
+        char what[32];
+        snprintf(what, sizeof what, "field %s", names[c]);
+        pb_status st = pb_number_read(path, lineno, what, f[column[c]], &v[c]);
+        if (st != PB_OK)
+            return st;
     }
     return PB_OK;
 }
@@ -163,29 +186,27 @@ pb_status pb_track_read_csv(const char *path, FILE *f, const pb_track_read_optio
             break;
         }
         char *s = lineno == 1 && !strncmp(line, "\xEF\xBB\xBF", 3) ? line + 3 : line; /* spreadsheets' BOM */
-        if (!*trim(s) || *trim(s) == '#') /* blank lines and comments, as loggers write them */
+        s = pb_track_trim(s);
+        if (!*s || *s == '#') /* blank lines and comments, as loggers write them */
             continue;
         int n = split(s, fields, matrix);
         if (!header) {
             header = 1;
             double first;
-            if (matrix && pb_track_number(fields[0], &first) == 0) {
+            if (matrix && pb_number_scan(fields[0], &first) != PB_NUMBER_MALFORMED) {
                 /* yrt-pet writes no header: t, the 12 entries, and an error */
                 for (int c = 0; c < count; c++)
                     column[c] = c;
                 need[1] = count + 1;
             } else {
-                if ((rc = map_header(path, fields, n, names, count, o->xyzw, !matrix, column)))
+                if ((rc = map_header(path, lineno, fields, n, names, count, o->xyzw, !matrix, column)))
                     break;
                 need[0] = need[1] = n;
                 continue;
             }
         }
         double v[MATRIX_COLUMNS];
-        if (n > MAX_FIELDS)
-            rc = pb_error(NULL, PB_ERR_BAD_FILE, "%s:%zu: more than %d fields; is this a pose track?", path,
-                          lineno, MAX_FIELDS);
-        else if (!(rc = row_values(path, lineno, fields, n, need, column, names, count, v)))
+        if (!(rc = row_values(path, lineno, fields, n, need, column, names, count, v)))
             rc = matrix ? matrix_pose(path, lineno, v, o->time_divisor, tr)
                         : csv_pose(path, lineno, v, o->time_divisor, tr);
     }

@@ -1,6 +1,6 @@
-/* What every track reader shares: lines, numbers, quaternions and the
- * samples appended in time order (track.h). The readers call these; nothing
- * here calls a reader. */
+/* What every track reader shares: lines, blanks, quaternions and the samples
+ * appended in time order (track.h); numbers are numbers.c's. The readers call
+ * these; nothing here calls a reader. */
 #include <errno.h>
 #include <math.h>
 #include <stdlib.h>
@@ -15,9 +15,9 @@ int pb_track_line(const char *path, FILE *f, size_t lineno, char *buf, size_t si
     int c = EOF;
     while ((c = getc(f)) != EOF && c != '\n') {
         if (c == '\0')
-            return pb_error(NULL, PB_ERR_BAD_FILE, "%s:%zu: holds a NUL byte; a pose track is text", path, lineno);
+            return pb_error(NULL, PB_ERR_BAD_FILE, "%s:%zu: holds a NUL byte; give a text file", path, lineno);
         if (n + 1 >= size)
-            return pb_error(NULL, PB_ERR_BAD_FILE, "%s:%zu: line longer than %zu characters; is this a pose track?",
+            return pb_error(NULL, PB_ERR_BAD_FILE, "%s:%zu: line longer than %zu characters; is this the right file?",
                             path, lineno, size - 1);
         buf[n++] = (char)c;
     }
@@ -29,31 +29,46 @@ int pb_track_line(const char *path, FILE *f, size_t lineno, char *buf, size_t si
     return c == EOF && n == 0 ? 0 : 1;
 }
 
-int pb_track_number(const char *text, double *v)
+int pb_track_blank(char c)
 {
-    /* Plain decimal only: strtod would also take hex floats, "inf" and "nan". */
-    if (!*text || strspn(text, "0123456789+-.eE") != strlen(text))
-        return 1;
-    char *end;
-    errno = 0;
-    *v = strtod(text, &end);
-    if (*end || end == text)
-        return 1;
-    return errno == ERANGE && fabs(*v) > 1.0 ? 2 : 0; /* an underflow to (almost) 0 is that number */
+    return c == ' ' || c == '\t' || c == '\v' || c == '\f' || c == '\r';
+}
+
+char *pb_track_trim(char *s)
+{
+    while (pb_track_blank(*s))
+        s++;
+    char *e = s + strlen(s);
+    while (e > s && pb_track_blank(e[-1]))
+        *--e = '\0';
+    return s;
+}
+
+void pb_track_lower(char *s)
+{
+    for (; *s; s++)
+        if (*s >= 'A' && *s <= 'Z')
+            *s = (char)(*s - 'A' + 'a');
 }
 
 pb_status pb_track_unit_quaternion(const char *path, size_t line, const double q[4], int strict, double out[4])
 {
-    double norm = sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]);
-    if (!(norm > 0.0))
+    double largest = fmax(fmax(fabs(q[0]), fabs(q[1])), fmax(fabs(q[2]), fabs(q[3])));
+    if (!(largest > 0.0))
         return pb_error(NULL, PB_ERR_BAD_QUATERNION, "%s:%zu: the quaternion is zero, which is no rotation at all; "
                         "the identity is 1,0,0,0", path, line);
+    double s[4], sum = 0.0;
+    for (int i = 0; i < 4; i++) {
+        s[i] = q[i] / largest;
+        sum += s[i] * s[i];
+    }
+    double norm = sqrt(sum); /* of s, in [1, 2]; q's is largest * norm */
     /* The library normalises small rounding; anything more is a broken log. */
-    if (strict && fabs(norm - 1.0) > 1e-3)
+    if (strict && fabs(largest * norm - 1.0) > 1e-3)
         return pb_error(NULL, PB_ERR_BAD_QUATERNION, "%s:%zu: the quaternion's norm is %.6g, not 1; write unit "
-                        "quaternions (w,x,y,z divided by their norm)", path, line, norm);
+                        "quaternions (w,x,y,z divided by their norm)", path, line, largest * norm);
     for (int i = 0; i < 4; i++)
-        out[i] = strict ? q[i] : q[i] / norm;
+        out[i] = strict ? q[i] : s[i] / norm;
     return PB_OK;
 }
 
