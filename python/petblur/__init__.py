@@ -11,11 +11,11 @@ Volumes are indexed [x, y, z] (axis 0 is x, as nibabel holds them), float32.
 docs/python.md has the whole API."""
 
 from ._lib import devices, lib as _c
-from .errors import (ArgumentError, BuildError, DeviceError, Error, FileError, LaunchError,
+from .errors import (ArgumentError, BuildError, DeviceError, Error, FileContentError, FileError, LaunchError,
                      OutOfMemoryError)
 from .motion import Motion, frames_from_sidecar
 from .operator import BlurOperator, FramesOperator
 
 __version__ = "0.1.0"
 __all__ = ["Motion", "frames_from_sidecar", "BlurOperator", "FramesOperator", "devices", "Error", "ArgumentError", "DeviceError",
-           "BuildError", "LaunchError", "OutOfMemoryError", "FileError"]
+           "BuildError", "LaunchError", "OutOfMemoryError", "FileError", "FileContentError"]

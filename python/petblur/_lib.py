@@ -168,6 +168,22 @@ for _name, (_res, _args) in _signatures.items():
     _f.restype, _f.argtypes = _res, _args
 
 
+class FileStatus(int):
+    """The status of a call that reads a file: check() raises a rule on values
+    that the file breaks (a zero quaternion, times out of order) as
+    FileContentError, a FileError, since the file is what to fix
+    (errors.error_class)."""
+
+
+def _file_status(status, func, args):
+    return FileStatus(status)
+
+
+# The readers: tracks, calibrations, BIDS sidecars.
+for _name in ("pb_track_read", "pb_calibration_read", "pb_frames_read_sidecar"):
+    getattr(lib, _name).errcheck = _file_status
+
+
 def check_layout(structs=None, enums=None):
     """Raises ImportError where a ctypes struct above differs from the
     library's (size, a field's offset or size) or an enum value from its:
@@ -207,7 +223,7 @@ def check(status, ctx=None):
     the calling thread's, for calls without a context)."""
     if status != 0:
         text = message(ctx) or lib.pb_status_string(status).decode()
-        raise error_class(status)(text, status)
+        raise error_class(status, isinstance(status, FileStatus))(text, int(status))
 
 
 check_layout()

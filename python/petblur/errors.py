@@ -37,8 +37,19 @@ class FileError(Error, OSError):
     """A file could not be read, or its content is malformed (-600 .. -699)."""
 
 
-def error_class(status):
-    """The subclass for a pb_status."""
+class FileContentError(FileError, ArgumentError):
+    """A file that breaks a rule on its values: a zero quaternion, times that
+    do not increase, a matrix that is no rotation, frames with a gap. A
+    FileError, since the file is what to fix, and an ArgumentError, the group
+    of its status (-1 .. -99), which ``status`` keeps."""
+
+
+def error_class(status, reading_file=False):
+    """The subclass for a pb_status. A call that reads a file (reading_file)
+    raises a rule on values that the file breaks as FileContentError; its
+    own arguments (PB_ERR_INVALID_ARGUMENT, -1) stay ArgumentError."""
+    if reading_file and -99 <= status <= -2:
+        return FileContentError
     if status >= -99:
         return ArgumentError
     if status >= -299:
