@@ -6,7 +6,9 @@
 # of 64^3 (3 mm) and the benchmark's 24 frames of 128^3 (1.5 mm). SimpleITK is
 # not on that machine: its side of the comparison runs on the two-core machine
 # the issue measured it on. nibabel comes as a wheel in .whl/.
-#   PB_COMMIT=$(git rev-parse --short HEAD) bash bench/gpu-estimate.sh
+# Two calls, each within the device's ten minutes (the build is kept between):
+#   PB_COMMIT=$(git rev-parse --short HEAD) bash bench/gpu-estimate.sh tests axial
+#   PB_COMMIT=$(git rev-parse --short HEAD) bash bench/gpu-estimate.sh fine
 set -uo pipefail
 cd "$(dirname "$0")/.."
 OUT=${OUT:-$PWD/gpu-out}
@@ -20,15 +22,18 @@ mkdir -p "$OUT"
     nproc | sed 's/^/cpu cores: /'
 } | tee "$OUT/machine.txt"
 status=0
-"${meson[@]}" setup build-gpu --buildtype=release -Dcuda=enabled -Dopencl=enabled -Dgpu_archs=90 >/tmp/setup.log 2>&1 &&
-    ninja -C build-gpu >/tmp/build.log 2>&1 || { tail -30 /tmp/setup.log /tmp/build.log; exit 1; }
+what=" $* "
+[ -f build-gpu/build.ninja ] || "${meson[@]}" setup build-gpu --buildtype=release -Dcuda=enabled -Dopencl=enabled -Dgpu_archs=90 >/tmp/setup.log 2>&1 &&
+ninja -C build-gpu >/tmp/build.log 2>&1 || { tail -30 /tmp/setup.log /tmp/build.log; exit 1; }
 site=$(mktemp -d)/site
 python3 -m pip install -q --no-deps --no-index --find-links .whl --target "$site" nibabel 2>&1 | tail -3
 export PYTHONPATH=$site
 nv=$(mktemp -d)
 echo libnvidia-opencl.so.1 >"$nv/nvidia.icd"
+[[ $what == *" tests "* ]] && {
 "${meson[@]}" test -C build-gpu --no-rebuild --print-errorlogs --suite host --suite cuda >/tmp/tests.log 2>&1 ||
     status=1
+grep -h "d(Bx)/d" build-gpu/meson-logs/testlog.txt >"$OUT/pose_derivative.txt" 2>/dev/null
 "${meson[@]}" test -C build-gpu --no-rebuild --print-errorlogs motion_estimate world cli >>/tmp/tests.log 2>&1 ||
     status=1
 OCL_ICD_VENDORS=$nv "${meson[@]}" test -C build-gpu --no-rebuild --print-errorlogs --suite opencl \
@@ -37,8 +42,9 @@ for f in /tmp/tests.log /tmp/tests-ocl.log; do
     grep -E '^ *[0-9]+/[0-9]+ |^(Ok|Fail|Skipped|Timeout):' "$f"
 done | tee "$OUT/tests.txt"
 [ $status = 0 ] || tail -80 /tmp/tests.log /tmp/tests-ocl.log >>"$OUT/tests.txt"
-grep -h "d(Bx)/d" build-gpu/meson-logs/testlog.txt >"$OUT/pose_derivative.txt" 2>/dev/null
+}
 for setup in axial fine; do
+    [[ $what == *" $setup "* ]] || continue
     python3 bench/estimate_validation.py --petblur build-gpu/src/cli/petblur --device cuda --setup $setup \
         --out "/tmp/val-$setup" --no-sitk >"$OUT/validation-$setup.txt" 2>&1 || status=1
     cp "/tmp/val-$setup/results.json" "$OUT/validation-$setup.json" 2>/dev/null
