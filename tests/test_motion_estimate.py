@@ -66,9 +66,9 @@ class Estimate(unittest.TestCase):
         self.assertLess(e_in.max(), 2.6, msg)
         # the jerk's frame: poses on both sides of the jerk beat one pose
         self.assertLess(e_in[j], 0.75 * e_frames[j], msg)
-        # the reference frame is the identity
+        # the reference frame is the identity (to the rounding of poses composed in the world)
         t, maps = hf.read_matrix_csv(inside)
-        self.assertTrue(np.allclose(maps[0], np.eye(4), atol=1e-9), maps[0])
+        self.assertTrue(np.allclose(maps[0], np.eye(4), atol=1e-5), maps[0])
 
     def test_csv_is_the_same_motion(self):
         """--format csv (poses about the grid's centre in the world) against matrix-csv, converted in numpy; and
