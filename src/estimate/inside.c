@@ -60,9 +60,9 @@ pb_status pbe_dwell(pb_context *ctx, pbe_level *level, const float *frame, const
     }
     if (st == PB_OK) {
         for (size_t v = 0; v < n; v++) {
-            double f = frame[v];
+            double f = (double)frame[v];
             for (size_t i = 0; i < m; i++) {
-                double a = views[i][v];
+                double a = (double)views[i][v];
                 h[i] += a * f;
                 for (size_t j = i; j < m; j++)
                     gram[i * k + j] += a * (double)views[j][v];

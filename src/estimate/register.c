@@ -88,7 +88,7 @@ void pbe_fit_scale(const float *a, const float *f, size_t n, double *scale, doub
 {
     double sa = 0, sf = 0, saa = 0, saf = 0, sff = 0;
     for (size_t i = 0; i < n; i++) {
-        double x = a[i], y = f[i];
+        double x = (double)a[i], y = (double)f[i];
         sa += x;
         sf += y;
         saa += x * x;
@@ -169,7 +169,7 @@ pb_status pbe_register(pb_context *ctx, pbe_level *level, const float *frame, co
                        unsigned iterations, pbe_fit *fit)
 {
     const size_t n = level->n;
-    double lambda = 1e-3, best_sse = INFINITY;
+    double lambda = 1e-3, best_sse = (double)INFINITY;
     double best_a[NP * NP] = {0}, best_g[NP] = {0};
     pb_pose best_pose = fit->pose, trial = fit->pose;
     double best_scale = 1, best_offset = 0;
