@@ -46,7 +46,8 @@ def _host_frames(frames):
 
 
 def estimate(frames, affine, bounds, reference, device, frame_poses_only, levels, iterations, fwhm):
-    """(times, 4x4 world maps about the world's origin, report) of the motion."""
+    """The motion's C track (matrix-csv: world maps about the world's origin; the caller frees it) and the
+    report."""
     x = _host_frames(frames)
     nx, ny, nz, nt = x.shape
     if affine is None:
@@ -80,13 +81,4 @@ def estimate(frames, affine, bounds, reference, device, frame_poses_only, levels
         status = _lib.lib.pb_motion_estimate(ctx.handle, ctypes.byref(g), flat, x.ctypes.data, nt, cb,
                                              ctypes.byref(opts), ctypes.byref(track), ctypes.byref(report))
         _lib.check(status, ctx.handle)
-    try:
-        lib = _lib.lib
-        n = lib.pb_track_count(track)
-        times = np.ctypeslib.as_array(lib.pb_track_times(track), (n,)).copy()
-        poses = (_lib.Pose * n).from_address(ctypes.addressof(lib.pb_track_poses(track).contents))
-        translations = np.array([p.translation[:] for p in poses])
-        quaternions = np.array([p.rotation[:] for p in poses])
-    finally:
-        _lib.lib.pb_track_free(track)
-    return times, translations, quaternions, report
+    return track, report

@@ -184,18 +184,7 @@ class Motion:
                                      int(quaternion_order == "xyzw"))
         handle = ctypes.c_void_p()
         _check(_lib.lib.pb_track_read(os.fsencode(path), ctypes.byref(opts), ctypes.byref(handle)))
-        try:
-            lib = _lib.lib
-            n = lib.pb_track_count(handle)
-            fmt = lib.pb_track_get_format(handle)
-            times = np.ctypeslib.as_array(lib.pb_track_times(handle), (n,)).copy()
-            poses = (_lib.Pose * n).from_address(ctypes.addressof(lib.pb_track_poses(handle).contents))
-            tr = np.array([p.translation[:] for p in poses])
-            q = np.array([p.rotation[:] for p in poses])
-            lines = np.ctypeslib.as_array(lib.pb_track_lines(handle), (n,)).copy()
-            missing = np.ctypeslib.as_array(lib.pb_track_missing(handle), (n,)).copy()
-        finally:
-            _lib.lib.pb_track_free(handle)
+        fmt, times, tr, q, lines, missing = track_arrays(handle)
         m = cls(times, tr, q)
         m._format, m._lines, m._missing, m._source = fmt, lines, missing, os.fsdecode(path)
         if center is not None:
@@ -248,12 +237,13 @@ class Motion:
         elif starts is not None or durations is not None:
             raise ArgumentError("give starts= and durations=, or bounds=, not both")
         try:
-            times, tr, q, report = estimate.estimate(frames, affine, bounds, reference, device, frame_poses_only,
-                                                     levels, iterations, fwhm)
+            handle, report = estimate.estimate(frames, affine, bounds, reference, device, frame_poses_only, levels,
+                                               iterations, fwhm)
         except Error as e:
             raise type(e)(python_words(e.message), e.status) from None
+        fmt, times, tr, q, _, _ = track_arrays(handle)
         m = cls(times, tr, q)
-        m._format, m._source = _lib.TRACK_MATRIX_CSV, "the motion estimated from the frames"
+        m._format, m._source = fmt, "the motion estimated from the frames"
         m.estimate_seconds, m.moving_frames = report.seconds, int(report.moving_frames)
         return m
 
@@ -337,6 +327,22 @@ class Motion:
     def __setstate__(self, state):
         self.__dict__.update(state)
         _Track(self)  # a pickle is checked as the arrays were: finite, increasing, unit quaternions
+
+
+def track_arrays(handle):
+    """A C track's format, times, translations, quaternions, lines and missing
+    counts, copied out; the track is freed."""
+    lib = _lib.lib
+    try:
+        n = lib.pb_track_count(handle)
+        times = np.ctypeslib.as_array(lib.pb_track_times(handle), (n,)).copy()
+        poses = (_lib.Pose * n).from_address(ctypes.addressof(lib.pb_track_poses(handle).contents))
+        return (lib.pb_track_get_format(handle), times, np.array([p.translation[:] for p in poses]),
+                np.array([p.rotation[:] for p in poses]),
+                np.ctypeslib.as_array(lib.pb_track_lines(handle), (n,)).copy(),
+                np.ctypeslib.as_array(lib.pb_track_missing(handle), (n,)).copy())
+    finally:
+        lib.pb_track_free(handle)
 
 
 def frames_from_sidecar(path):

@@ -21,6 +21,8 @@ import random
 import numpy as np
 import pytest
 
+import byte_edits
+
 import petblur
 from petblur import _lib
 
@@ -211,19 +213,7 @@ def broken_sidecar(rng):
 
 
 def mutated(rng, data):
-    """data with one to three bytes replaced, inserted or removed."""
-    b = bytearray(data)
-    for _ in range(rng.randint(1, 3)):
-        i = rng.randrange(len(b) + 1)
-        op = rng.randrange(3)
-        byte = rng.choice(b'{}[],:"0123456789.eE+-\\ \n' + bytes([rng.randrange(256)]))
-        if op == 0 and i < len(b):
-            b[i] = byte
-        elif op == 1:
-            b.insert(i, byte)
-        elif i < len(b):
-            del b[i]
-    return bytes(b)
+    return byte_edits.mutated(rng, data, b'{}[],:"0123456789.eE+-\\ \n')
 
 
 @pytest.fixture(scope="module")

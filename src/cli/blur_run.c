@@ -33,7 +33,7 @@ void pbc_describe_device(pb_context *ctx, char *text, size_t size)
     snprintf(text, size, "%s  %s [%s]", pb_backend_name(pb_context_backend(ctx)), info.name, info.platform);
 }
 
-static void show_progress(double fraction, void *label)
+void pbc_progress_line(double fraction, void *label)
 {
     /* \r rewrites one line; the final call clears it. */
     if (fraction < 1.0)
@@ -54,7 +54,7 @@ int pbc_blur_image(pb_context *ctx, const pbc_image *in, const pb_motion *motion
     pb_geometry g = {{in->dims[0], in->dims[1], in->dims[2]}, {in->voxel_size[0], in->voxel_size[1], in->voxel_size[2]}};
     pb_volume *src = NULL, *dst = NULL;
     pb_status st;
-    pb_context_set_progress(ctx, pbc_show_progress ? show_progress : NULL, (void *)label);
+    pb_context_set_progress(ctx, pbc_show_progress ? pbc_progress_line : NULL, (void *)label);
     if ((st = pb_volume_create(ctx, &g, &src)) == PB_OK && (st = pb_volume_create(ctx, &g, &dst)) == PB_OK &&
         (st = pb_volume_upload(src, in->data)) == PB_OK)
         st = adjoint ? pb_blur_adjoint(ctx, src, motion, options, dst) : pb_blur(ctx, src, motion, options, dst);
@@ -63,7 +63,7 @@ int pbc_blur_image(pb_context *ctx, const pbc_image *in, const pb_motion *motion
     if (st == PB_OK)
         pb_context_last_kernel_ms(ctx, ms);
     else if (pbc_show_progress)
-        show_progress(1.0, NULL);
+        pbc_progress_line(1.0, NULL);
     pb_volume_destroy(src);
     pb_volume_destroy(dst);
     return st == PB_OK ? 0 : blur_failed(ctx, st, label);
@@ -87,7 +87,7 @@ int pbc_blur_frames_image(pb_context *ctx, const pbc_image *in, const pb_motion 
         return pbc_fail(PBC_EXIT_RUNTIME, "%s: out of host memory for %zu frames", label, frames);
     }
     pb_status st = PB_OK;
-    pb_context_set_progress(ctx, pbc_show_progress ? show_progress : NULL, (void *)label);
+    pb_context_set_progress(ctx, pbc_show_progress ? pbc_progress_line : NULL, (void *)label);
     /* Each input frame goes up once; a 3-D input serves every frame. */
     for (size_t i = 0; i < sources && st == PB_OK; i++)
         if ((st = pb_volume_create(ctx, &g, &src[i])) == PB_OK)
@@ -111,7 +111,7 @@ int pbc_blur_frames_image(pb_context *ctx, const pbc_image *in, const pb_motion 
     for (size_t i = 0; i < outputs && st == PB_OK; i++)
         st = pb_volume_download(dst[i], out + i * n);
     if (st != PB_OK && pbc_show_progress)
-        show_progress(1.0, NULL);
+        pbc_progress_line(1.0, NULL);
     for (size_t i = 0; i < sources; i++)
         pb_volume_destroy(src[i]);
     for (size_t i = 0; i < outputs; i++)

@@ -17,6 +17,10 @@ int pbc_exit_for(pb_status st);
  * library's message and returns an exit status on failure. */
 int pbc_open_device(const char *spec, pb_context **ctx);
 
+/* A pb_progress_fn: "petblur: LABEL  42%" on one line of stderr (label: a
+ * const char *), cleared at 1. */
+void pbc_progress_line(double fraction, void *label);
+
 /* "opencl:0  pthread-... [Portable Computing Language]" */
 void pbc_describe_device(pb_context *ctx, char *text, size_t size);
 

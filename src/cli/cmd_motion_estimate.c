@@ -46,16 +46,6 @@ static int check_files(const pbc_args *args, const char *out)
     return pbc_files_check(&f);
 }
 
-static void show_progress(double fraction, void *unused)
-{
-    (void)unused;
-    if (fraction < 1.0)
-        fprintf(stderr, "\rpetblur: estimating motion %3d%%", (int)(100.0 * fraction));
-    else
-        fprintf(stderr, "\r%*s\r", 40, "");
-    fflush(stderr);
-}
-
 /* The world position of the grid's centre: a csv track's poses turn about it. */
 static void grid_center(const pbc_image *img, const double a[16], double c[3])
 {
@@ -178,11 +168,12 @@ static int run(const pbc_args *args, const char *in_path, const char *out_path)
         pb_geometry g = {{img.dims[0], img.dims[1], img.dims[2]},
                          {img.voxel_size[0], img.voxel_size[1], img.voxel_size[2]}};
         pb_estimate_report report = {0};
-        pb_context_set_progress(ctx, pbc_show_progress && !quiet ? show_progress : NULL, NULL);
+        pb_context_set_progress(ctx, pbc_show_progress && !quiet ? pbc_progress_line : NULL,
+                                (void *)"estimating motion");
         pb_status st = pb_motion_estimate(ctx, &g, affine, img.data, frames, bounds, &o, &track, &report);
         if (st != PB_OK) {
             if (pbc_show_progress && !quiet)
-                show_progress(1.0, NULL);
+                pbc_progress_line(1.0, NULL);
             rc = pbc_fail(pbc_exit_for(st), "%s: %s", in_path, pb_last_error(ctx));
         } else if (!(rc = write_track(out_path, track, csv, center)) && !quiet) {
             char dev[600];

@@ -175,14 +175,15 @@ static pb_status inside_frames(estimate *e, const pbe_fit *fits, size_t referenc
     if (!gain)
         return PB_ERR_OUT_OF_MEMORY;
     pb_status st = PB_OK;
+    /* a path shorter than a tenth of a voxel at this far point holds nothing to find */
+    double ext = 0.0, far[3];
+    for (int i = 0; i < 3; i++)
+        ext = fmax(ext, (double)e->g.dims[i] * e->g.voxel_size[i]);
+    for (int i = 0; i < 3; i++)
+        far[i] = e->c[i] + 0.5 * ext;
     for (size_t k = 1; k + 1 < e->count && st == PB_OK; k++) {
         const pb_pose *s = &fits[k - 1].pose, *t = &fits[k + 1].pose;
-        double ext = 0.0, far[3], a[3], b[3];
-        for (int i = 0; i < 3; i++)
-            ext = fmax(ext, e->g.dims[i] * e->g.voxel_size[i]);
-        /* a path shorter than a tenth of a voxel anywhere holds nothing to find */
-        for (int i = 0; i < 3; i++)
-            far[i] = e->c[i] + 0.5 * ext;
+        double a[3], b[3];
         pb_pose_apply(s, e->c, far, a);
         pb_pose_apply(t, e->c, far, b);
         double span = sqrt((a[0] - b[0]) * (a[0] - b[0]) + (a[1] - b[1]) * (a[1] - b[1]) + (a[2] - b[2]) * (a[2] - b[2]));
