@@ -370,6 +370,13 @@ static void test_frames(void)
     pb_check(pb_frames_from_starts(starts, durations, 3, bounds) == PB_ERR_BAD_FRAME &&
                  strstr(pb_last_error(NULL), "frame 1 ends at 110 s but frame 2 starts at 120 s"),
              "a gap between BIDS frames: %s", pb_last_error(NULL));
+    /* 1.8 s after 5.6e74 s is 5.6e74 s in doubles: an empty frame. */
+    double far_start[2] = {5.6e74, 5.6e74}, far_duration[2] = {1.8, 1.8};
+    pb_check(pb_frames_from_starts(far_start, far_duration, 1, bounds) == PB_ERR_BAD_FRAME &&
+                 strstr(pb_last_error(NULL), "below double precision"),
+             "a frame lost to rounding: %s", pb_last_error(NULL));
+    pb_check(pb_frames_from_starts(far_start, far_duration, 2, bounds) == PB_ERR_BAD_FRAME,
+             "two frames at one double: %s", pb_last_error(NULL));
 }
 
 /* A track written x,y,z,w and read as w,x,y,z: every pose near 180 degrees

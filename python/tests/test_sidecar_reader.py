@@ -8,7 +8,7 @@ The reference is strict JSON as Python reads it (json.loads on UTF-8, no NaN
 or Infinity) followed by the frame rules of the BIDS text, written here
 independently: top-level FrameTimesStart and FrameDuration, arrays of finite
 numbers of one length, positive durations, each frame starting where the one
-before ends (to 1e-6 s relative). One documented difference is folded into the
+before ends (to 1e-6 s relative) and ending after it starts in doubles. One documented difference is folded into the
 reference: an escaped lone surrogate ("\\ud800") is refused, as jansson refuses
 it; RFC 8259 section 8.2 leaves such strings undefined."""
 
@@ -79,7 +79,10 @@ def reference(data):
     end = starts[-1] + durations[-1]
     if not math.isfinite(end):
         return None
-    return starts + [end]
+    bounds = starts + [end]
+    if any(not b > a for a, b in zip(bounds, bounds[1:])):
+        return None  # a frame shorter than its start's rounding step
+    return bounds
 
 
 def library(path):

@@ -258,5 +258,13 @@ pb_status pb_frames_from_starts(const double *starts, const double *durations, s
     if (!isfinite(bounds[n]))
         return pb_error(NULL, PB_ERR_NOT_FINITE, "the last frame ends beyond the largest double (%g s + %g s); give "
                         "seconds of a scan", starts[n - 1], durations[n - 1]);
+    /* A duration far below its start's rounding step leaves the frame empty
+     * in doubles (1.8 s after 5e74 s is 5e74 s): the frames must still follow
+     * each other. */
+    for (size_t i = 0; i < n; i++)
+        if (!(bounds[i + 1] > bounds[i]))
+            return pb_error(NULL, PB_ERR_BAD_FRAME, "frame %zu starts at %.17g s and lasts %g s, which at that time "
+                            "is below double precision (it would end where it starts or before); give times in "
+                            "seconds from the scan's TimeZero", i, starts[i], durations[i]);
     return PB_OK;
 }
