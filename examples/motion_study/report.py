@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """The study's outputs from a run folder (study.py's results.json and
 images.npz): table.md, curves.png (NRMSE and lesion contrast against
-iteration) and slices.png (slices: truth, (a), (b), (e), (f); axial through the first lesion).
+iteration) and slices.png (slices: truth, (a), (b), (e), (f), (g); axial through the first lesion).
 
   report.py DIR"""
 
@@ -25,6 +25,14 @@ def table(res):
         cr = " / ".join(f"{v:.2f}" for v in last["contrast_recovery"])
         lines.append(f"| {r['label']} | {last['nrmse']:.4f} | {cr} | {last['background_variability']:.3f} | "
                      f"{r['projector_s']:.1f} | {r['blur_s']:.1f} |")
+    e = res.get("estimate")
+    if e:
+        lines += ["", f"(g)'s track: {e['short_frames']} frames of {e['short_s']:g} s, each reconstructed by "
+                  f"{s.get('short_iterations', '?')} MLEM iterations without a motion model ({e['reconstruction_s']:.1f} "
+                  f"s), then petblur.Motion.from_frames ({e['estimate_s']:.1f} s, {e['keys']} keys, "
+                  f"{e['moving_frames']} frames with motion inside). Its displacement error inside the brain against "
+                  f"the true track, averaged over each frame: {e['mean_mm']:.2f} mm mean over frames, "
+                  f"{e['max_mm']:.2f} mm at the worst (frame {e['worst_frame']})."]
     return "\n".join(lines) + "\n"
 
 
@@ -53,7 +61,7 @@ def slices(res, images, path):
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-    show = [("truth", "truth")] + [(m, res["results"][m]["label"]) for m in "abef" if m in res["results"]]
+    show = [("truth", "truth")] + [(m, res["results"][m]["label"]) for m in "abefg" if m in res["results"]]
     truth = images["truth"]
     vmax = float(truth.max())
     nx, ny, nz = truth.shape

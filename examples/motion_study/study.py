@@ -16,7 +16,11 @@ system model A B_k of frame k for
       petblur CL, one sample per interval),
   (d) petblur AB, the paper's one-segment polyline (frame start to end),
   (e) petblur AB on the whole track, the default path bound,
-  (f) data acquired without motion, no model: the ideal.
+  (f) data acquired without motion, no model: the ideal,
+  (g) petblur AB as (e), on the track estimated from the data alone: the
+      acquisition cut into short frames (10 s), each reconstructed by the
+      same MLEM without a motion model, and petblur.Motion.from_frames on
+      them (no tracker).
 Metrics against the truth at every iteration: NRMSE inside the brain, each
 lesion's contrast recovery, background variability in white matter, and the
 time spent in the projector and in the blur.
@@ -42,17 +46,17 @@ import petblur  # noqa: E402
 
 PRESETS = {
     # grid, voxel mm, angles, frames (s), iterations, poses per frame in the data (4 and 2 a second: the
-    # 2 s jerk gets 8 and 4), counts per frame
+    # 2 s jerk gets 8 and 4), counts per frame; (g): short frames (s) and their MLEM iterations
     "full": dict(dims=(128, 128, 64), voxel=(2.2, 2.2, 2.8), angles=180, frame_s=60.0, frames=4, iterations=40,
-                 poses=240, counts=3e7, methods="abcdef"),
+                 poses=240, counts=3e7, methods="abcdefg", short_s=10.0, short_iterations=10),
     "small": dict(dims=(48, 48, 24), voxel=(5.87, 5.87, 7.47), angles=60, frame_s=60.0, frames=4, iterations=15,
-                  poses=120, counts=3e6, methods="abdef"),
+                  poses=120, counts=3e6, methods="abdefg", short_s=10.0, short_iterations=10),
 }
 # The phantom's lesions (src/cli/phantom_brain.c): world centre mm, radius mm, activity.
 LESIONS = [((44.0, 52.0, 30.0), 4.0, 8.0), ((-28.0, -24.0, 4.0), 5.0, 6.0), ((22.0, -56.0, -40.0), 3.0, 7.0)]
 LABELS = {"a": "(a) no motion model", "b": "(b) one pose per frame (mean)", "c": "(c) sub-frames, one pose each",
           "d": "(d) petblur, one segment per frame", "e": "(e) petblur, path bound 0.25 voxel",
-          "f": "(f) no motion (ideal)"}
+          "f": "(f) no motion (ideal)", "g": "(g) petblur, track estimated from 10 s frames"}
 
 
 def find_cli():
@@ -156,31 +160,41 @@ def moved(x, rot, t, centre, voxel):
     return ndimage.affine_transform(x, M, offset=off, order=1, mode="grid-constant", cval=0.0)
 
 
-def simulate(truth, motion, frames, p, rng, W, voxel, still=False):
+def simulate(truth, motion, frames, p, rng, W, voxel, still=False, parts=1):
     """Each frame's expected activity (the mean of p['poses'] moved images at
     equally spaced times) projected, scaled to the counts, plus a uniform
-    background of 20 % of the mean, with Poisson noise."""
+    background of 20 % of the mean, with Poisson noise. A frame is acquired
+    as `parts` equal short frames, Poisson each, whose sum is its data: the
+    short frames that (g) estimates the motion from are the same acquisition.
+    Returns the frames' (sinograms, scales, backgrounds) and the short
+    frames' (sinograms, scales, backgrounds, bounds)."""
     nx, ny, nz = truth.shape
-    sinos, scales, backgrounds = [], [], []
+    short = ([], [], [], [frames[0][0]])
     base = None
+    per_part = p["poses"] // parts
     for t0, t1 in frames:
-        if still:
-            mean = truth
-        else:
-            times = t0 + (np.arange(p["poses"]) + 0.5) * (t1 - t0) / p["poses"]
-            rots, shifts = motion.poses(times)
-            mean = np.zeros_like(truth, dtype=np.float64)
-            for k in range(len(times)):
-                mean += moved(truth, rots[k], shifts[k], motion.pivot, voxel)
-            mean = (mean / len(times)).astype(np.float32)
-        proj = W @ mean.reshape(nx * ny, nz)
-        if base is None:  # one scale for every frame: the same tracer, the same scanner
-            base = p["counts"] / float(proj.sum())
-        r = 0.2 * base * float(proj.mean())
-        sinos.append(rng.poisson(base * proj + r).astype(np.float32))
-        scales.append(base)
-        backgrounds.append(r)
-    return sinos, scales, backgrounds
+        for j in range(parts):
+            a, b = t0 + j * (t1 - t0) / parts, t0 + (j + 1) * (t1 - t0) / parts
+            if still:
+                mean = truth
+            else:
+                times = a + (np.arange(per_part) + 0.5) * (b - a) / per_part
+                rots, shifts = motion.poses(times)
+                mean = np.zeros_like(truth, dtype=np.float64)
+                for k in range(len(times)):
+                    mean += moved(truth, rots[k], shifts[k], motion.pivot, voxel)
+                mean = (mean / len(times)).astype(np.float32)
+            proj = W @ mean.reshape(nx * ny, nz)
+            if base is None:  # one scale for every frame: the same tracer, the same scanner
+                base = p["counts"] / float(proj.sum())
+            r = 0.2 * base * float(proj.mean())
+            short[0].append(rng.poisson((base * proj + r) / parts).astype(np.float32))
+            short[1].append(base / parts)
+            short[2].append(r / parts)
+            short[3].append(b)
+    sinos = [sum(short[0][k * parts:(k + 1) * parts]) for k in range(len(frames))]
+    backgrounds = [sum(short[2][k * parts:(k + 1) * parts]) for k in range(len(frames))]
+    return (sinos, [base] * len(frames), backgrounds), short
 
 
 def mean_pose(rots, shifts):
@@ -188,7 +202,7 @@ def mean_pose(rots, shifts):
     return rots.mean(), shifts.mean(axis=0)
 
 
-def operators(method, truth_shape, voxel, motion, track, frames, device):
+def operators(method, truth_shape, voxel, motion, track, frames, device, estimated=None):
     """The blur of each frame for a method (None: none)."""
     t, tr, q = track
     c = motion.pivot
@@ -215,7 +229,59 @@ def operators(method, truth_shape, voxel, motion, track, frames, device):
         elif method == "e":
             m = petblur.Motion(t, tr, q, center=c)
             out.append(petblur.BlurOperator(truth_shape, voxel, m, frame=(t0, t1), device=device))
+        elif method == "g":
+            m, affine = estimated
+            out.append(petblur.BlurOperator(truth_shape, voxel, m, frame=(t0, t1), affine=affine, device=device))
     return out
+
+
+def estimate_motion(short, W, dims, p, affine, device, torch_mode, conv, to_host, xp_ones):
+    """(g)'s track from the data alone: each short frame reconstructed by
+    MLEM without a motion model, then petblur.Motion.from_frames on the
+    series (world coordinates, the phantom's affine). Returns the motion,
+    the short frames' images and the seconds spent in each step."""
+    sinos, scales, backgrounds, bounds = short
+    proj = Projector(W, dims, "torch" if torch_mode else "numpy")
+    t = time.perf_counter()
+    images = [mlem([conv(y)], [s], [r], [None], proj, p["short_iterations"], lambda x: None, to_host, xp_ones)[0]
+              for y, s, r in zip(sinos, scales, backgrounds)]
+    recon_s = time.perf_counter() - t
+    b = np.asarray(bounds)
+    m = petblur.Motion.from_frames(np.stack(images, axis=-1), affine, starts=b[:-1], durations=np.diff(b),
+                                   device=device)
+    return m, images, recon_s
+
+
+def track_error(m, motion, affine, voxel, truth, bounds, samples=20):
+    """The estimated track against the truth as bench/estimate_validation.py
+    measures it: per short frame, the displacement of points inside the
+    brain (mm) averaged over the frame's time (`samples` times) and the
+    points; the mean and the max over frames. The estimate's maps (world,
+    about the origin) are interpolated here by scipy (LERP, SLERP), the
+    truth's taken from head_motion."""
+    from scipy.spatial.transform import Rotation, Slerp
+    ijk = np.argwhere(truth >= 0.9)[::7].astype(np.float64)
+    d = np.asarray(voxel, dtype=np.float64)
+    grid_mm = (ijk + 0.5) * d                      # head_motion's frame: grid mm
+    world = ijk @ affine[:3, :3].T + affine[:3, 3]
+    inv = np.linalg.inv(affine)
+    rot = Slerp(m.times, Rotation.from_quat(np.column_stack([m.quaternions[:, 1:], m.quaternions[:, :1]])))
+    per_frame = []
+    for t0, t1 in zip(bounds[:-1], bounds[1:]):
+        times = t0 + (np.arange(samples) + 0.5) * (t1 - t0) / samples
+        rots, shifts = motion.poses(times)
+        est_rot = rot(times)
+        e = 0.0
+        for k, t in enumerate(times):
+            tr = np.array([np.interp(t, m.times, m.translations[:, i]) for i in range(3)])
+            w = est_rot[k].apply(world) + tr
+            est = ((w @ inv[:3, :3].T + inv[:3, 3]) + 0.5) * d
+            true = rots[k].apply(grid_mm - motion.pivot) + motion.pivot + shifts[k]
+            e += np.linalg.norm(est - true, axis=1).mean() / samples
+        per_frame.append(e)
+    per_frame = np.array(per_frame)
+    return {"mean_mm": float(per_frame.mean()), "max_mm": float(per_frame.max()),
+            "worst_frame": int(per_frame.argmax()), "per_frame_mm": per_frame.tolist()}
 
 
 class Metrics:
@@ -308,8 +374,9 @@ def run(args):
     frames = [(k * p["frame_s"], (k + 1) * p["frame_s"]) for k in range(p["frames"])]
     t = time.perf_counter()
     W = projector_matrix(dims[0], p["angles"], args.matrix)
-    data = simulate(truth, motion, frames, p, rng, W, voxel)
-    still = simulate(truth, motion, frames, p, rng, W, voxel, still=True)
+    parts = int(round(p["frame_s"] / p["short_s"]))
+    data, short = simulate(truth, motion, frames, p, rng, W, voxel, parts=parts)
+    still, _ = simulate(truth, motion, frames, p, rng, W, voxel, still=True)
     sim_s = time.perf_counter() - t
     torch_mode = args.device.startswith("cuda")
     if torch_mode:
@@ -325,10 +392,22 @@ def run(args):
     metrics = Metrics(truth, affine, voxel)
     results = {}
     images = {}
+    estimated, estimate = None, {}
+    if "g" in methods:
+        m_est, short_images, recon_s = estimate_motion(short, W, dims, p, affine, args.device, torch_mode, conv,
+                                                       to_host, xp_ones)
+        estimated = (m_est, affine)
+        estimate = dict(track_error(m_est, motion, affine, voxel, truth, short[3]), short_frames=len(short_images),
+                        short_s=p["short_s"], reconstruction_s=recon_s, estimate_s=m_est.estimate_seconds,
+                        moving_frames=m_est.moving_frames, keys=len(m_est))
+        print(f"(g) track from {len(short_images)} frames of {p['short_s']:g} s: displacement error "
+              f"{estimate['mean_mm']:.2f} mm mean over frames, {estimate['max_mm']:.2f} at the worst (frame "
+              f"{estimate['worst_frame']}); MLEM {recon_s:.1f} s, estimate "
+              f"{m_est.estimate_seconds:.1f} s", flush=True)
     for m in methods:
         proj = Projector(W, dims, "torch" if torch_mode else "numpy")
         sinos, scales, backgrounds = still if m == "f" else data
-        blurs = operators(m, dims, voxel, motion, track, frames, args.device)
+        blurs = operators(m, dims, voxel, motion, track, frames, args.device, estimated)
         t = time.perf_counter()
         x, history, blur_s = mlem([conv(s) for s in sinos], scales, backgrounds, blurs, proj, p["iterations"],
                                   metrics, to_host, xp_ones)
@@ -346,9 +425,9 @@ def run(args):
                                                         device=args.device).device,
                     track_samples=len(track[0]), pivot_mm=list(pivot), affine=affine.tolist(), lesions=LESIONS)
     with open(os.path.join(args.out, "results.json"), "w") as f:
-        json.dump({"settings": settings, "results": results}, f, indent=1)
+        json.dump({"settings": settings, "results": results, "estimate": estimate}, f, indent=1)
     np.savez_compressed(os.path.join(args.out, "images.npz"), truth=truth, **images)
-    return truth, images, results, settings
+    return truth, images, results, dict(settings, estimate=estimate)
 
 
 def main():

@@ -5,7 +5,10 @@ there): what the physics implies must hold, with margins below those measured
 (e) 5.7-6.0 % below (b); the full version's, examples/motion_study/README.md:
 38 % and 34 %): a
 model of the motion inside each frame (e) reconstructs closer to the truth
-than one pose per frame (b), which is closer than no model (a). And the data's
+than one pose per frame (b), which is closer than no model (a); the track
+estimated from the data's own short frames (g) within 5 % of the tracker's
+(e), as issue 30 asks (seeds 1-3: (g) 0.998-1.003 times (e)'s NRMSE; its track 0.70-0.88 mm
+off on the mean frame, 3.8-4.3 mm at the worst, the nod's). And the data's
 resampling moves a volume as petblur's poses do."""
 
 import argparse
@@ -50,13 +53,17 @@ def test_motion_study_small(tmp_path, cli, rng, monkeypatch):
     study = _study()
     monkeypatch.setenv("PETBLUR_CLI", cli)
     device = "opencl" if any(s.startswith("opencl") for s, _ in petblur.devices()) else "host"
-    args = argparse.Namespace(preset="small", device=device, out=str(tmp_path), iterations=0, methods="abe",
+    args = argparse.Namespace(preset="small", device=device, out=str(tmp_path), iterations=0, methods="abeg",
                               seed=int(rng.integers(1 << 30)), matrix="")
     truth, images, results, settings = study.run(args)
-    nrmse = {m: results[m]["history"][-1]["nrmse"] for m in "abe"}
-    print(nrmse)
+    nrmse = {m: results[m]["history"][-1]["nrmse"] for m in "abeg"}
+    print(nrmse, settings["estimate"])
     assert nrmse["b"] < 0.9 * nrmse["a"], nrmse
     assert nrmse["e"] < 0.98 * nrmse["b"], nrmse
+    # (g): the track estimated from the data's own 10 s frames does what the
+    # tracker's does, within the issue's 5 %, and is close to the truth.
+    assert nrmse["g"] < 1.05 * nrmse["e"], nrmse
+    assert settings["estimate"]["mean_mm"] < 1.5 and settings["estimate"]["max_mm"] < 6.0, settings["estimate"]
     # Every iterate finite and the error falling on the whole (MLEM from a flat start).
     for m, r in results.items():
         h = [it["nrmse"] for it in r["history"]]
