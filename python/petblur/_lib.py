@@ -160,6 +160,7 @@ _signatures = {
     "pb_frames_read_sidecar": (_int, [ctypes.c_char_p, _P(_dbl), _sz, _P(_sz)]),
     "pb_motion_mean_pose": (_int, [_P(CMotion), _P(Pose)]),
     "pb_options_check": (_int, [_P(BlurOptions)]),
+    "pb_blur_pose_derivative": (_int, [_vp, _vp, _P(CMotion), _P(BlurOptions), _P(_vp)]),
     "pb_context_set_progress": (_int, [_vp, ProgressFn, _vp]),
     "pb_abi_layout": (ctypes.c_char_p, []),
 }
