@@ -45,21 +45,30 @@ def _host_frames(frames):
     return x
 
 
-def estimate(frames, affine, bounds, reference, device, frame_poses_only, levels, iterations, fwhm):
+def estimate(frames, affine, voxel_size, bounds, reference, device, frame_poses_only, levels, iterations, fwhm):
     """The motion's C track (matrix-csv: world maps about the world's origin; the caller frees it) and the
     report."""
     x = _host_frames(frames)
     nx, ny, nz, nt = x.shape
     if affine is None:
-        geometry_voxel = (1.0, 1.0, 1.0)
-        flat = None
-    else:
-        a = np.asarray(affine, dtype=np.float64)
-        if a.shape != (4, 4) or not np.all(np.isfinite(a)):
-            raise ArgumentError(f"affine must be a finite 4x4 voxel-to-world matrix (nibabel's img.affine), not "
-                                f"{a.shape}")
-        geometry_voxel = tuple(float(v) for v in np.linalg.norm(a[:3, :3], axis=0))
-        flat = (ctypes.c_double * 16)(*a.reshape(-1))
+        # Without an affine the series lies in the grid frame the operators
+        # take without one: voxel_size mm, the grid's corner at the origin.
+        if voxel_size is None:
+            raise ArgumentError("give affine= (the series' voxel-to-world 4x4, nibabel's img.affine) or voxel_size= "
+                                "(mm): without either the motion's translations would be in voxels, not mm")
+        d = np.asarray(voxel_size, dtype=np.float64).reshape(-1)
+        if d.size != 3 or not np.all(np.isfinite(d)) or not np.all(d > 0):
+            raise ArgumentError(f"voxel_size {voxel_size!r}: give three positive, finite sizes in mm")
+        affine = np.eye(4)
+        affine[:3, :3] = np.diag(d)
+        affine[:3, 3] = 0.5 * d
+    elif voxel_size is not None:
+        raise ArgumentError("give affine= or voxel_size=, not both: the affine holds the voxel size")
+    a = np.asarray(affine, dtype=np.float64)
+    if a.shape != (4, 4) or not np.all(np.isfinite(a)):
+        raise ArgumentError(f"affine must be a finite 4x4 voxel-to-world matrix (nibabel's img.affine), not {a.shape}")
+    geometry_voxel = tuple(float(v) for v in np.linalg.norm(a[:3, :3], axis=0))
+    flat = (ctypes.c_double * 16)(*a.reshape(-1))
     b = np.asarray(bounds, dtype=np.float64).reshape(-1)
     if b.size != nt + 1:
         raise ArgumentError(f"the frames' times give {b.size - 1} frames but frames holds {nt} (its last axis); give "
@@ -67,7 +76,7 @@ def estimate(frames, affine, bounds, reference, device, frame_poses_only, levels
     for name, v, lo, hi in (("levels", levels, 0, 6), ("iterations", iterations, 0, 1000)):
         if not isinstance(v, (int, np.integer)) or not lo <= v <= hi:
             raise ArgumentError(f"{name} {v!r}: give a whole number from {lo} (the default) to {hi}")
-    if not isinstance(reference, (int, np.integer)) or not 0 <= reference < nt:
+    if isinstance(reference, bool) or not isinstance(reference, (int, np.integer)) or not 0 <= reference < nt:
         raise ArgumentError(f"reference {reference!r}: the series has frames 0 to {nt - 1}")
     fwhm = float(fwhm)
     if not np.isfinite(fwhm) or not 0.0 <= fwhm <= 1000.0:

@@ -206,12 +206,13 @@ class Motion:
 
     @classmethod
     def from_frames(cls, frames, affine=None, starts=None, durations=None, reference=0, device="auto", bounds=None,
-                    frame_poses_only=False, levels=0, iterations=0, fwhm=0.0):
+                    frame_poses_only=False, levels=0, iterations=0, fwhm=0.0, voxel_size=None):
         """The head's rigid motion estimated from a dynamic series itself, as
         `petblur motion estimate` does (the C library's pb_motion_estimate):
         ``frames`` [x, y, z, t] (numpy, CuPy or torch; read on the host),
         placed in the world by ``affine`` (voxel to world, nibabel's
-        img.affine; None: the grid frame), frame k spanning ``starts[k]`` for
+        img.affine), or, without one, given ``voxel_size`` (mm) in the grid
+        frame the operators take without an affine; frame k spanning ``starts[k]`` for
         ``durations[k]`` seconds (BIDS-PET's FrameTimesStart and
         FrameDuration; or ``bounds``, the n + 1 boundaries, as
         frames_from_sidecar gives them). The motion moves the object seen in
@@ -237,8 +238,8 @@ class Motion:
         elif starts is not None or durations is not None:
             raise ArgumentError("give starts= and durations=, or bounds=, not both")
         try:
-            handle, report = estimate.estimate(frames, affine, bounds, reference, device, frame_poses_only, levels,
-                                               iterations, fwhm)
+            handle, report = estimate.estimate(frames, affine, voxel_size, bounds, reference, device,
+                                               frame_poses_only, levels, iterations, fwhm)
         except Error as e:
             raise type(e)(python_words(e.message), e.status) from None
         fmt, times, tr, q, _, _ = track_arrays(handle)

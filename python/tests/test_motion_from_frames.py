@@ -243,6 +243,27 @@ def test_orders_and_dtypes_agree(rng):
     np.testing.assert_allclose(a.quaternions, b.quaternions, rtol=0, atol=1e-12)
 
 
+def test_voxel_size_is_the_grid_frame(rng):
+    """Without an affine, voxel_size= places the series in the grid frame
+    the operators take without one (voxel_size mm, the grid's corner at the
+    origin): the very track that frame's affine, written out, gives; in mm,
+    so twice the voxel size doubles the translations."""
+    s = Series(rng, (16, 16, 16), (4.0, 4.0, 4.0), 4, jerk=2)
+    d = np.array([3.0, 2.5, 3.5])
+    grid = np.diag([*d, 1.0])
+    grid[:3, 3] = 0.5 * d
+    a = petblur.Motion.from_frames(s.frames, None, s.starts, s.durations, device="host", levels=1, voxel_size=d)
+    b = petblur.Motion.from_frames(s.frames, grid, s.starts, s.durations, device="host", levels=1)
+    np.testing.assert_array_equal(a.times, b.times)
+    np.testing.assert_allclose(a.translations, b.translations, rtol=0, atol=1e-9)
+    np.testing.assert_allclose(a.quaternions, b.quaternions, rtol=0, atol=1e-12)
+    c = petblur.Motion.from_frames(s.frames, None, s.starts, s.durations, device="host", levels=1, voxel_size=2 * d)
+    moved = np.abs(a.translations).max()
+    assert moved > 0.05, a.translations
+    # About the world's origin a rotation's translation scales with the grid too.
+    np.testing.assert_allclose(c.translations, 2 * a.translations, rtol=0, atol=1e-3 * moved)
+
+
 # ---- a known motion -------------------------------------------------------
 
 
@@ -386,6 +407,11 @@ BAD = {
     "iterations": (None, {"iterations": -1}, ("iterations -1",)),
     "fwhm": (None, {"fwhm": np.nan}, ("fwhm nan",)),
     "device": (None, {"device": "nonsense"}, ("nonsense", "host")),
+    "reference True": (None, {"reference": True}, ("reference True",)),
+    "neither affine nor voxel size": (None, {"affine": lambda a: None}, ("affine=", "voxel_size=", "voxels, not mm")),
+    "affine and voxel size": (None, {"voxel_size": (4.0, 4.0, 4.0)}, ("not both",)),
+    "voxel size of two": (None, {"affine": lambda a: None, "voxel_size": (4.0, 4.0)}, ("voxel_size", "three")),
+    "voxel size zero": (None, {"affine": lambda a: None, "voxel_size": (4.0, 0.0, 4.0)}, ("voxel_size", "positive")),
 }
 
 
