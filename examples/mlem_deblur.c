@@ -75,8 +75,9 @@ int main(int argc, char **argv)
     for (size_t i = 0; i < n; i++)
         x[i] = 1.0f;
     for (int it = 0; it <= ITERATIONS; it++) {
-        double err = pb_error_percent(truth, x, n);
-        printf("iteration %2d: error %.3f %%\n", it, err);
+        pb_comparison c;
+        double err = pb_compare(truth, x, n, &c) == PB_OK ? c.rms_percent : (double)NAN;
+        printf("iteration %2d: relative RMS error %.3f %%\n", it, err);
         if (!isfinite(err))
             return fail("a NaN in the image", ctx);
         if (it == 1)

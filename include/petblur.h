@@ -733,8 +733,26 @@ PB_API pb_status pb_context_set_stream(pb_context *ctx, void *stream);
  * it loads. */
 PB_API const char *pb_abi_layout(void);
 
-/* The paper's eq. (5): 100 * sum (x - ref)^2 / sum ref^2 over n voxels, in
- * double. Returns NaN when ref is all zeros or either pointer is NULL. */
+/* How far x is from a reference, as users measure it, in percent. */
+typedef struct pb_comparison {
+    double rms_percent;     /* relative L2: 100 * sqrt(sum (x - ref)^2 / sum ref^2) */
+    double max_percent;     /* relative max: 100 * max |x - ref| / max |ref| */
+    double max_difference;  /* max |x - ref|, in the volumes' unit */
+    size_t worst;           /* the index of that voxel (the first, on ties) */
+    double eq5_percent;     /* the paper's eq. (5), 100 * sum (x - ref)^2 / sum ref^2: the square of
+                               rms_percent / 10, kept where the paper's tables are reproduced */
+} pb_comparison;
+
+/* Compares n values of x with a reference (double sums). Refuses NULL
+ * pointers, n = 0, a reference that is zero everywhere (no relative error
+ * exists; PB_ERR_INVALID_ARGUMENT) and a value that is NaN or infinite in
+ * either (PB_ERR_NOT_FINITE, naming the first such index). */
+PB_API pb_status pb_compare(const float *reference, const float *x, size_t n, pb_comparison *out);
+
+/* The paper's eq. (5) alone (pb_comparison.eq5_percent): 100 * sum (x -
+ * ref)^2 / sum ref^2 over n voxels, in double. A squared ratio: 0.05 here is
+ * a relative RMS error of 2.2 %. Returns NaN when ref is all zeros or either
+ * pointer is NULL. */
 PB_API double pb_error_percent(const float *reference, const float *x, size_t n);
 
 #ifdef __cplusplus

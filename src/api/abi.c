@@ -41,6 +41,8 @@ const char *pb_abi_layout(void)
     S(pb_estimate_options); F(pb_estimate_options, reference); F(pb_estimate_options, levels);
     F(pb_estimate_options, iterations); F(pb_estimate_options, frame_poses_only); F(pb_estimate_options, fwhm_mm);
     S(pb_estimate_report); F(pb_estimate_report, seconds); F(pb_estimate_report, moving_frames);
+    S(pb_comparison); F(pb_comparison, rms_percent); F(pb_comparison, max_percent);
+    F(pb_comparison, max_difference); F(pb_comparison, worst); F(pb_comparison, eq5_percent);
     E(PB_BACKEND_AUTO); E(PB_BACKEND_HOST); E(PB_BACKEND_OPENCL); E(PB_BACKEND_CUDA);
     E(PB_TRACK_AUTO); E(PB_TRACK_CSV); E(PB_TRACK_MATRIX_CSV); E(PB_TRACK_POLARIS);
     E(PB_METHOD_AB); E(PB_METHOD_RM); E(PB_METHOD_CL); E(PB_METHOD_REF);

@@ -1,4 +1,5 @@
-/* petblur compare: the paper's error measure (eq. 5) between two volumes. */
+/* petblur compare: how far a volume is from a reference, as relative RMS
+ * and max in percent, and the paper's eq. (5) named as such. */
 #include <math.h>
 #include <stdio.h>
 
@@ -15,9 +16,12 @@ static const pbc_option options[] = {
 
 static const pbc_command command = {
     "compare", "REFERENCE TEST [--dims NX,NY,NZ]",
-    "Prints how far TEST is from REFERENCE: the paper's error, eq. (5),\n"
-    "  error% = 100 * sum (test - ref)^2 / sum ref^2,\n"
-    "the largest absolute difference, and, last, the line \"error% = <number>\".",
+    "Prints how far TEST is from REFERENCE, over every voxel of every frame:\n"
+    "  rms% = 100 * sqrt(sum (test - ref)^2 / sum ref^2)   (relative L2)\n"
+    "  max% = 100 * max |test - ref| / max |ref|          (relative max)\n"
+    "  eq5% = 100 * sum (test - ref)^2 / sum ref^2          (the paper's eq. (5), the square\n"
+    "         of rms% / 10: 0.05 there is 2.2 % RMS)\n"
+    "the worst voxel, and, last, the line \"rms% = <n> max% = <n> eq5% = <n>\".",
     options, (int)(sizeof options / sizeof options[0]), 2, 2,
     "example:\n  petblur compare ref.nii.gz ab.nii.gz"};
 
@@ -59,19 +63,25 @@ int pbc_cmd_compare(int argc, char **argv)
     pbc_files_read_image(&files, "TEST", args.positional[1]);
     if (!(rc = pbc_files_check(&files)) && !(rc = read_both(&args, &ref, &test))) {
         size_t n = pbc_image_frame_voxels(&ref) * pbc_image_frame_count(&ref); /* every frame */
-        double err = pb_error_percent(ref.data, test.data, n), maxdiff = 0.0, maxref = 0.0;
-        for (size_t i = 0; i < n; i++) {
-            maxdiff = fmax(maxdiff, fabs((double)test.data[i] - (double)ref.data[i]));
-            maxref = fmax(maxref, fabs((double)ref.data[i]));
-        }
-        if (isnan(err)) {
+        pb_comparison c;
+        pb_status st = pb_compare(ref.data, test.data, n, &c);
+        if (st == PB_ERR_NOT_FINITE) {
+            rc = pbc_fail(PBC_EXIT_USAGE, "%s or %s holds a value that is not finite: %s", args.positional[0],
+                          args.positional[1], pb_last_error(NULL));
+        } else if (st != PB_OK) {
             rc = pbc_fail(PBC_EXIT_USAGE, "%s is zero everywhere, so the relative error is undefined; give a "
                           "non-zero reference", args.positional[0]);
         } else {
-            printf("reference: %s (%zu x %zu x %zu, largest |value| %.6g)\n", args.positional[0], ref.dims[0],
-                   ref.dims[1], ref.dims[2], maxref);
-            printf("test: %s\nlargest |difference|: %.6g\n", args.positional[1], maxdiff);
-            printf("error%% = %.6g\n", err);
+            size_t frame = pbc_image_frame_voxels(&ref), v = c.worst % frame;
+            size_t ix = v % ref.dims[0], iy = v / ref.dims[0] % ref.dims[1], iz = v / ref.dims[0] / ref.dims[1];
+            printf("reference: %s (%zu x %zu x %zu)\ntest: %s\n", args.positional[0], ref.dims[0], ref.dims[1],
+                   ref.dims[2], args.positional[1]);
+            printf("relative RMS error: %.6g %%\n", c.rms_percent);
+            printf("relative max error: %.6g %% (|difference| %.6g at voxel %zu,%zu,%zu of frame %zu; reference "
+                   "%.6g there)\n", c.max_percent, c.max_difference, ix, iy, iz, c.worst / frame,
+                   (double)ref.data[c.worst]);
+            printf("the paper's eq. (5): %.6g %%\n", c.eq5_percent);
+            printf("rms%% = %.6g max%% = %.6g eq5%% = %.6g\n", c.rms_percent, c.max_percent, c.eq5_percent);
         }
     }
     pbc_image_free(&ref);

@@ -16,7 +16,7 @@ static const struct {
     {"blur", pbc_cmd_blur, "blur a volume along the motion inside a frame (NIfTI, Interfile, raw)"},
     {"motion", pbc_cmd_motion, "a pose track's summary per frame, and a picture of it, before a blur trusts it"},
     {"phantom", pbc_cmd_phantom, "make the paper's homogeneity, Derenzo or brain phantom"},
-    {"compare", pbc_cmd_compare, "the paper's error % (eq. 5) of a volume against a reference"},
+    {"compare", pbc_cmd_compare, "relative RMS and max error (%) of a volume against a reference"},
     {"render", pbc_cmd_render, "a picture (PNG) of a volume's central slices"},
     {"devices", pbc_cmd_devices, "the backends and devices found, with their limits"},
     {"demo", pbc_cmd_demo, "the main job: a phantom blurred by AB, RM and CL, each compared with REF"},
