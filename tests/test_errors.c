@@ -1,9 +1,11 @@
 /* Every refusal the library makes: each bad input is triggered and its own
  * status checked, with a message that names the problem. */
 #include <math.h>
+#include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <time.h>
 
 #include "backend.h"
 #include "testlib.h"
@@ -280,6 +282,49 @@ static void test_binding_misuse(int argc, char **argv)
              "an axis of 1e200 gives a unit quaternion");
 }
 
+/* pb_compare against sums written out here in long double: relative RMS and
+ * max, the worst voxel, eq. (5) as the square of RMS / 10; refusals of
+ * NULL, n = 0, a zero reference and values that are not finite. */
+static void test_compare(void)
+{
+    enum { N = 997 };
+    static float ref[N], x[N];
+    uint32_t seed = (uint32_t)time(NULL);
+    long double num = 0, den = 0, maxd = 0, maxr = 0;
+    size_t worst = 0;
+    for (size_t i = 0; i < N; i++) {
+        seed = seed * 1664525u + 1013904223u;
+        ref[i] = (float)(seed >> 8) / (float)(1u << 24) * 10.0f - 2.0f;
+        seed = seed * 1664525u + 1013904223u;
+        x[i] = ref[i] + ((float)(seed >> 8) / (float)(1u << 24) - 0.5f) * 0.2f;
+        long double d = fabsl((long double)x[i] - (long double)ref[i]);
+        num += d * d;
+        den += (long double)ref[i] * (long double)ref[i];
+        if (d > maxd) {
+            maxd = d;
+            worst = i;
+        }
+        if (fabsl((long double)ref[i]) > maxr)
+            maxr = fabsl((long double)ref[i]);
+    }
+    pb_comparison c;
+    double rms = (double)(100.0L * sqrtl(num / den)), mx = (double)(100.0L * maxd / maxr);
+    pb_check(pb_compare(ref, x, N, &c) == PB_OK && fabs(c.rms_percent / rms - 1.0) < 1e-12 &&
+                 fabs(c.max_percent / mx - 1.0) < 1e-12 && c.worst == worst &&
+                 fabs(c.eq5_percent / (c.rms_percent * c.rms_percent / 100.0) - 1.0) < 1e-12,
+             "pb_compare: rms %.9g (want %.9g), max %.9g (want %.9g), worst %zu (want %zu)", c.rms_percent, rms,
+             c.max_percent, mx, c.worst, worst);
+    pb_check(pb_compare(NULL, x, N, &c) == PB_ERR_INVALID_ARGUMENT && pb_compare(ref, x, 0, &c) ==
+                 PB_ERR_INVALID_ARGUMENT && pb_compare(ref, x, N, NULL) == PB_ERR_INVALID_ARGUMENT,
+             "pb_compare refuses NULL and n = 0");
+    x[17] = NAN;
+    pb_check(pb_compare(ref, x, N, &c) == PB_ERR_NOT_FINITE && strstr(pb_last_error(NULL), "value 17"),
+             "pb_compare refuses NaN: %s", pb_last_error(NULL));
+    static float zero[N];
+    pb_check(pb_compare(zero, ref, N, &c) == PB_ERR_INVALID_ARGUMENT && strstr(pb_last_error(NULL), "zero everywhere"),
+             "pb_compare refuses a zero reference: %s", pb_last_error(NULL));
+}
+
 /* Every public function that takes a pointer refuses NULL with a status (the
  * sanitizer run checks that nothing is read through one). */
 static void test_null_pointers(pb_context *ctx)
@@ -359,6 +404,7 @@ int main(int argc, char **argv)
     test_segment_cap(ctx);
     test_null_pointers(ctx);
     test_binding_misuse(argc, argv);
+    test_compare();
     pb_context_destroy(ctx);
     return pb_test_finish();
 }
