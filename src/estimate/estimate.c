@@ -8,8 +8,9 @@
  *     back onto the reference, which has the frame's contrast (uptake changes
  *     from frame to frame) and the noise of all the others' counts;
  *  3. inside frames (inside.c): a frame between two neighbours is fitted as
- *     a dwell along the path between their poses; where that explains it
- *     clearly better than one pose, the frame gets the path.
+ *     a dwell along a path that starts or ends at a still neighbour's pose
+ *     (between the two, or from one on through its own pose); where that
+ *     explains it clearly better than one pose, the frame gets the path.
  * Poses live in the grid frame about the grid's centre until the track is
  * written, in the world of the affine. */
 #include <math.h>
@@ -167,53 +168,102 @@ static pb_status register_own(estimate *e, pbe_fit *fits, float *moved, double *
     return st;
 }
 
-/* Pass 3: which frames dwell along the path between their neighbours. */
-static pb_status inside_frames(estimate *e, const pbe_fit *fits, size_t reference, const float *moved,
-                               const double *gram, float *own, double *dwell, int *moving, size_t *moving_count)
+/* Pass 3: which frames dwell along a path, and which path. A path starts
+ * or ends at a still neighbour's pose: between the two neighbours (the
+ * motion began and ended inside the frame), or from one neighbour on
+ * through the frame's own pose as far again (the motion went on into the
+ * other neighbour, which then moves too: a nod held across a frame's end). */
+enum { PATH_BETWEEN, PATH_ON, PATH_FROM, PATHS };
+
+typedef struct frame_path {
+    double gain;       /* 1 - its residual / one pose's; 0: not tried */
+    pb_pose start, end;
+    double dwell[DWELL_POINTS + 1];
+} frame_path;
+
+/* The path of a kind for frame k, from its neighbours' and its own poses. */
+static void path_ends(const pbe_fit *fits, size_t k, int kind, pb_pose *start, pb_pose *end)
 {
-    double *gain = calloc(e->count, sizeof(double));
-    if (!gain)
-        return PB_ERR_OUT_OF_MEMORY;
-    pb_status st = PB_OK;
-    /* a path shorter than a tenth of a voxel at this far point holds nothing to find */
-    double ext = 0.0, far[3];
+    const pb_pose *before = &fits[k - 1].pose, *own = &fits[k].pose, *after = &fits[k + 1].pose;
+    *start = kind == PATH_FROM ? *after : *before;
+    *end = kind == PATH_BETWEEN ? *after : *own;
+    if (kind == PATH_ON)
+        pb_pose_interpolate(before, own, 2.0, end);
+    if (kind == PATH_FROM)
+        pb_pose_interpolate(after, own, 2.0, start);
+    pb_pose_normalized(start, start);
+    pb_pose_normalized(end, end);
+}
+
+static double path_span(const estimate *e, const pb_pose *a, const pb_pose *b)
+{
+    /* how far the grid's far corner moves along it, mm */
+    double ext = 0.0, far[3], pa[3], pb[3], d = 0.0;
     for (int i = 0; i < 3; i++)
         ext = fmax(ext, (double)e->g.dims[i] * e->g.voxel_size[i]);
     for (int i = 0; i < 3; i++)
         far[i] = e->c[i] + 0.5 * ext;
+    pb_pose_apply(a, e->c, far, pa);
+    pb_pose_apply(b, e->c, far, pb);
+    for (int i = 0; i < 3; i++)
+        d += (pa[i] - pb[i]) * (pa[i] - pb[i]);
+    return sqrt(d);
+}
+
+/* Whether frame k may follow a path of a kind: the neighbours it starts or
+ * ends at stay still, and no moving frame's path starts or ends at k.
+ * moving[k] is 1 + the kind a frame follows, 0 for a still one. */
+static int path_free(const int *moving, const int *anchor, size_t k, int kind)
+{
+    return !moving[k] && !anchor[k] && (kind == PATH_FROM || !moving[k - 1]) && (kind == PATH_ON || !moving[k + 1]);
+}
+
+static pb_status inside_frames(estimate *e, const pbe_fit *fits, size_t reference, const float *moved,
+                               const double *gram, float *own, frame_path *paths, int *moving, size_t *moving_count)
+{
+    int *anchor = calloc(e->count, sizeof(int));
+    if (!anchor)
+        return PB_ERR_OUT_OF_MEMORY;
+    pb_status st = PB_OK;
     for (size_t k = 1; k + 1 < e->count && st == PB_OK; k++) {
-        const pb_pose *s = &fits[k - 1].pose, *t = &fits[k + 1].pose;
-        double a[3], b[3];
-        pb_pose_apply(s, e->c, far, a);
-        pb_pose_apply(t, e->c, far, b);
-        double span = sqrt((a[0] - b[0]) * (a[0] - b[0]) + (a[1] - b[1]) * (a[1] - b[1]) + (a[2] - b[2]) * (a[2] - b[2]));
-        if (k != reference && span > 0.1 * e->g.voxel_size[0]) {
+        int referenced = 0;
+        for (int kind = 0; kind < PATHS && st == PB_OK && k != reference; kind++) {
+            frame_path *p = &paths[k * PATHS + (size_t)kind];
+            path_ends(fits, k, kind, &p->start, &p->end);
+            /* a path shorter than a tenth of a voxel at the far corner holds nothing to find */
+            if (!(path_span(e, &p->start, &p->end) > 0.1 * e->g.voxel_size[0]))
+                continue;
+            if (!referenced) {
+                st = frame_reference(e, moved, gram, k, own);
+                referenced = 1;
+            }
             double sse;
-            st = frame_reference(e, moved, gram, k, own);
             if (st == PB_OK)
-                    st = pbe_dwell(e->ctx, &e->level[0], e->frames[0] + k * e->level[0].n, e->c, s, t, DWELL_POINTS,
-                               dwell + k * (DWELL_POINTS + 1), &sse);
+                st = pbe_dwell(e->ctx, &e->level[0], e->frames[0] + k * e->level[0].n, e->c, &p->start, &p->end,
+                               DWELL_POINTS, p->dwell, &sse);
             if (st == PB_OK && fits[k].sse > 0)
-                gain[k] = 1.0 - sse / fits[k].sse;
+                p->gain = 1.0 - sse / fits[k].sse;
         }
         report_progress(e, 1.0);
     }
-    /* the clearest first; a moving frame's neighbours keep their one pose,
-     * which its path starts and ends at */
+    /* the clearest first, of the paths still free */
     *moving_count = 0;
     for (;;) {
         size_t best = 0;
-        for (size_t k = 1; k + 1 < e->count; k++)
-            if (!moving[k] && !moving[k - 1] && !moving[k + 1] && gain[k] > DWELL_GAIN &&
-                (best == 0 || gain[k] > gain[best]))
-                best = k;
+        for (size_t i = PATHS; i < (e->count - 1) * PATHS; i++)
+            if (paths[i].gain > DWELL_GAIN && path_free(moving, anchor, i / PATHS, (int)(i % PATHS)) &&
+                (best == 0 || paths[i].gain > paths[best].gain))
+                best = i;
         if (best == 0)
             break;
-        moving[best] = 1;
-        gain[best - 1] = gain[best + 1] = 0.0;
+        size_t k = best / PATHS;
+        int kind = (int)(best % PATHS);
+        moving[k] = 1 + kind;
+        anchor[k - 1] |= kind != PATH_FROM;
+        anchor[k + 1] |= kind != PATH_ON;
         ++*moving_count;
     }
-    free(gain);
+    free(anchor);
     return st;
 }
 
@@ -349,14 +399,15 @@ static pb_status estimate_run(estimate *e, const double *bounds, const pb_estima
 {
     const size_t count = e->count, ref = o->reference;
     pbe_fit *fits = calloc(count, sizeof *fits);
-    double *dwell = calloc(count * (DWELL_POINTS + 1), sizeof(double));
     int *moving = calloc(count, sizeof(int));
+    frame_path *paths = calloc(count * PATHS, sizeof *paths);
     float *moved = malloc(sizeof(float) * e->level[0].n * count), *own = malloc(sizeof(float) * e->level[0].n);
     double *gram = malloc(sizeof(double) * count * count);
     keys k = {malloc(sizeof(double) * (count * 2 * DWELL_POINTS + 4)),
               malloc(sizeof(pb_pose) * (count * 2 * DWELL_POINTS + 4)), 0};
     size_t moving_count = 0;
-    pb_status st = fits && dwell && moving && moved && own && gram && k.t && k.p ? PB_OK : PB_ERR_OUT_OF_MEMORY;
+    pb_status st = fits && moving && paths && moved && own && gram && k.t && k.p ? PB_OK
+                                                                                      : PB_ERR_OUT_OF_MEMORY;
     for (size_t i = 0; i < count && fits; i++) {
         fits[i].pose.rotation[0] = 1.0;
         fits[i].scale = 1.0;
@@ -371,15 +422,16 @@ static pb_status estimate_run(estimate *e, const double *bounds, const pb_estima
         st = register_own(e, fits, moved, gram, own);
     /* 3: inside frames, against the same references */
     if (st == PB_OK && !o->frame_poses_only)
-        st = inside_frames(e, fits, ref, moved, gram, own, dwell, moving, &moving_count);
+        st = inside_frames(e, fits, ref, moved, gram, own, paths, moving, &moving_count);
     if (st == PB_OK) {
         pb_pose back;
         pb_pose_invert(&fits[ref].pose, &back);
         key(&k, bounds[0], &fits[0].pose);
         for (size_t f = 0; f < count; f++) {
-            if (moving[f])
-                path_keys(&k, bounds[f], bounds[f + 1], &fits[f - 1].pose, &fits[f + 1].pose,
-                          dwell + f * (DWELL_POINTS + 1));
+            if (moving[f]) {
+                const frame_path *p = &paths[f * PATHS + (size_t)(moving[f] - 1)];
+                path_keys(&k, bounds[f], bounds[f + 1], &p->start, &p->end, p->dwell);
+            }
             else
                 key(&k, 0.5 * (bounds[f] + bounds[f + 1]), &fits[f].pose);
         }
@@ -397,8 +449,8 @@ static pb_status estimate_run(estimate *e, const double *bounds, const pb_estima
     if (report)
         report->moving_frames = moving_count;
     free(fits);
-    free(dwell);
     free(moving);
+    free(paths);
     free(moved);
     free(own);
     free(gram);
