@@ -55,7 +55,7 @@ PRESETS = {
 # The phantom's lesions (src/cli/phantom_brain.c): world centre mm, radius mm, activity.
 LESIONS = [((44.0, 52.0, 30.0), 4.0, 8.0), ((-28.0, -24.0, 4.0), 5.0, 6.0), ((22.0, -56.0, -40.0), 3.0, 7.0)]
 LABELS = {"a": "(a) no motion model", "b": "(b) one pose per frame (mean)", "c": "(c) sub-frames, one pose each",
-          "d": "(d) petblur, one segment per frame", "e": "(e) petblur, path bound 0.25 voxel",
+          "d": "(d) petblur, one segment per frame", "e": "(e) petblur, default path bound",
           "f": "(f) no motion (ideal)", "g": "(g) petblur, track estimated from 10 s frames"}
 
 

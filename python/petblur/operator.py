@@ -364,7 +364,7 @@ class BlurOperator(_Operator):
     transpose ``adjoint``. ``frame`` None takes the motion's whole track.
     ``method`` 'ab' (the paper's), 'rm', 'cl' or 'ref'; ``filter``
     'hardware' or 'exact'; ``max_path_error`` bounds a voxel's polyline
-    against its true path, in voxels (None: the library's 0.25; 'paper': no
+    against its true path, in voxels (None: the library's 0.1; 'paper': no
     bound, one segment per tracked interval, as --max-path-error paper); ``device``
     'auto', 'host', 'opencl[:N]' or 'cuda[:N]'; ``affine`` the grid's
     voxel-to-world 4x4 (the motion then in world mm). ``steps`` as the C

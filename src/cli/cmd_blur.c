@@ -23,7 +23,7 @@ static const pbc_option options[] = {
     {"--method", NULL, "ab|rm|cl|ref", "AB (default), ray marching, classical, or the multi-point reference"},
     {"--filter", NULL, "hardware|exact", "one filtered fetch per sample (default), or float weights; REF: unused"},
     {"--steps", NULL, "N", "RM, CL: samples per segment (default: as many slices as AB visits); AB: sub-segments"},
-    {"--max-path-error", NULL, "E", "AB, RM: the most a voxel's path may leave its polyline, voxels (default 0.25; "
+    {"--max-path-error", NULL, "E", "AB, RM: the most a voxel's path may leave its polyline, voxels (default 0.1; "
                                     "'paper': one segment per tracked interval)"},
     {"--points", NULL, "K", "REF: random points per voxel (default 200)"},
     {"--seed", NULL, "S", "REF: seed of the random points (default 1)"},
