@@ -289,7 +289,8 @@ static void test_compare(void)
 {
     enum { N = 997 };
     static float ref[N], x[N];
-    uint32_t seed = (uint32_t)time(NULL);
+    const uint32_t first_seed = (uint32_t)time(NULL);
+    uint32_t seed = first_seed;
     long double num = 0, den = 0, maxd = 0, maxr = 0;
     size_t worst = 0;
     for (size_t i = 0; i < N; i++) {
@@ -312,8 +313,8 @@ static void test_compare(void)
     pb_check(pb_compare(ref, x, N, &c) == PB_OK && fabs(c.rms_percent / rms - 1.0) < 1e-12 &&
                  fabs(c.max_percent / mx - 1.0) < 1e-12 && c.worst == worst &&
                  fabs(c.eq5_percent / (c.rms_percent * c.rms_percent / 100.0) - 1.0) < 1e-12,
-             "pb_compare: rms %.9g (want %.9g), max %.9g (want %.9g), worst %zu (want %zu)", c.rms_percent, rms,
-             c.max_percent, mx, c.worst, worst);
+             "pb_compare: rms %.9g (want %.9g), max %.9g (want %.9g), worst %zu (want %zu); seed %u", c.rms_percent,
+             rms, c.max_percent, mx, c.worst, worst, first_seed);
     pb_check(pb_compare(NULL, x, N, &c) == PB_ERR_INVALID_ARGUMENT && pb_compare(ref, x, 0, &c) ==
                  PB_ERR_INVALID_ARGUMENT && pb_compare(ref, x, N, NULL) == PB_ERR_INVALID_ARGUMENT,
              "pb_compare refuses NULL and n = 0");

@@ -57,8 +57,10 @@ def estimate(frames, affine, voxel_size, bounds, reference, device, frame_poses_
             raise ArgumentError("give affine= (the series' voxel-to-world 4x4, nibabel's img.affine) or voxel_size= "
                                 "(mm): without either the motion's translations would be in voxels, not mm")
         d = np.asarray(voxel_size, dtype=np.float64).reshape(-1)
+        if d.size == 1:  # one size for the three axes, as the operators take it
+            d = np.repeat(d, 3)
         if d.size != 3 or not np.all(np.isfinite(d)) or not np.all(d > 0):
-            raise ArgumentError(f"voxel_size {voxel_size!r}: give three positive, finite sizes in mm")
+            raise ArgumentError(f"voxel_size {voxel_size!r}: give one or three positive, finite sizes in mm")
         affine = np.eye(4)
         affine[:3, :3] = np.diag(d)
         affine[:3, 3] = 0.5 * d

@@ -410,7 +410,7 @@ BAD = {
     "reference True": (None, {"reference": True}, ("reference True",)),
     "neither affine nor voxel size": (None, {"affine": lambda a: None}, ("affine=", "voxel_size=", "voxels, not mm")),
     "affine and voxel size": (None, {"voxel_size": (4.0, 4.0, 4.0)}, ("not both",)),
-    "voxel size of two": (None, {"affine": lambda a: None, "voxel_size": (4.0, 4.0)}, ("voxel_size", "three")),
+    "voxel size of two": (None, {"affine": lambda a: None, "voxel_size": (4.0, 4.0)}, ("voxel_size", "one or three")),
     "voxel size zero": (None, {"affine": lambda a: None, "voxel_size": (4.0, 0.0, 4.0)}, ("voxel_size", "positive")),
 }
 

@@ -321,7 +321,7 @@ static int bench_case(pb_context *ctx, const bench_config *c, bench_files *f, co
                name, s, motion_text, "box", noise.rms_percent, noise.max_percent, noise.eq5_percent, ref_ms, "",
                c->points);
     row_prefix(f->results, name, ph, s, sc);
-    fprintf(f->results, ",%s,REF,exact,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g,,,1,%.0f,%u,%lu,,1\n", device,
+    fprintf(f->results, ",%s,REF,exact,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g,,,1,%.0f,%u,%lu,,1,\n", device,
             noise.rms_percent, noise.max_percent, noise.eq5_percent, noise.rms_percent, noise.eq5_percent, ref_ms,
             work.fetches, work.max_slices, c->reference ? 0UL : c->points);
     for (size_t m = 0; m < sizeof methods / sizeof methods[0]; m++)

@@ -186,7 +186,7 @@ static void path_ends(const pbe_fit *fits, size_t k, int kind, pb_pose *start, p
 {
     const pb_pose *before = &fits[k - 1].pose, *own = &fits[k].pose, *after = &fits[k + 1].pose;
     *start = kind == PATH_FROM ? *after : *before;
-    *end = kind == PATH_BETWEEN ? *after : *own;
+    *end = kind == PATH_ON ? *own : *after;
     if (kind == PATH_ON)
         pb_pose_interpolate(before, own, 2.0, end);
     if (kind == PATH_FROM)

@@ -261,10 +261,15 @@ pb_status pb_frames_from_starts(const double *starts, const double *durations, s
     /* A duration far below its start's rounding step leaves the frame empty
      * in doubles (1.8 s after 5e74 s is 5e74 s): the frames must still follow
      * each other. */
-    for (size_t i = 0; i < n; i++)
-        if (!(bounds[i + 1] > bounds[i]))
+    for (size_t i = 0; i < n; i++) {
+        if (bounds[i + 1] > bounds[i])
+            continue;
+        if (starts[i] + durations[i] == starts[i])
             return pb_error(NULL, PB_ERR_BAD_FRAME, "frame %zu starts at %.17g s and lasts %g s, which at that time "
-                            "is below double precision (it would end where it starts or before); give times in "
-                            "seconds from the scan's TimeZero", i, starts[i], durations[i]);
+                            "is below double precision (it would end where it starts); give times in seconds from "
+                            "the scan's TimeZero", i, starts[i], durations[i]);
+        return pb_error(NULL, PB_ERR_BAD_FRAME, "frame %zu starts at %.9g s and frame %zu at %.9g s: frames must start "
+                        "one after another, each where the one before ends", i, bounds[i], i + 1, bounds[i + 1]);
+    }
     return PB_OK;
 }
