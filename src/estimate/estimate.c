@@ -221,9 +221,12 @@ static int path_free(const int *moving, const int *anchor, size_t k, int kind)
 static pb_status inside_frames(estimate *e, const pbe_fit *fits, size_t reference, const float *moved,
                                const double *gram, float *own, frame_path *paths, int *moving, size_t *moving_count)
 {
-    int *anchor = calloc(e->count, sizeof(int));
-    if (!anchor)
+    int *anchor = calloc(e->count, sizeof(int)), *moves = calloc(e->count, sizeof(int));
+    if (!anchor || !moves) {
+        free(anchor);
+        free(moves);
         return PB_ERR_OUT_OF_MEMORY;
+    }
     pb_status st = PB_OK;
     for (size_t k = 1; k + 1 < e->count && st == PB_OK; k++) {
         int referenced = 0;
@@ -246,6 +249,20 @@ static pb_status inside_frames(estimate *e, const pbe_fit *fits, size_t referenc
         }
         report_progress(e, 1.0);
     }
+    /* A path into a neighbour is for motion that neighbour holds too: where
+     * it shows none, the path between the neighbours (a jerk between still
+     * frames) is the model, and a longer path would only spread the dwell
+     * over coarser points. */
+    for (size_t k = 1; k + 1 < e->count; k++) {
+        for (int kind = 0; kind < PATHS; kind++)
+            moves[k] |= paths[k * PATHS + (size_t)kind].gain > DWELL_GAIN;
+    }
+    for (size_t k = 1; k + 1 < e->count; k++) {
+        if (!moves[k + 1])
+            paths[k * PATHS + PATH_ON].gain = 0.0;
+        if (!moves[k - 1])
+            paths[k * PATHS + PATH_FROM].gain = 0.0;
+    }
     /* the clearest first, of the paths still free */
     *moving_count = 0;
     for (;;) {
@@ -264,6 +281,7 @@ static pb_status inside_frames(estimate *e, const pbe_fit *fits, size_t referenc
         ++*moving_count;
     }
     free(anchor);
+    free(moves);
     return st;
 }
 
