@@ -17,10 +17,10 @@ static const pbc_option options[] = {
 static const pbc_command command = {
     "compare", "REFERENCE TEST [--dims NX,NY,NZ]",
     "Prints how far TEST is from REFERENCE, over every voxel of every frame:\n"
-    "  rms% = 100 * sqrt(sum (test - ref)^2 / sum ref^2)   (relative L2)\n"
+    "  rms% = 100 * sqrt(sum (test - ref)^2 / sum ref^2)  (relative L2)\n"
     "  max% = 100 * max |test - ref| / max |ref|          (relative max)\n"
-    "  eq5% = 100 * sum (test - ref)^2 / sum ref^2          (the paper's eq. (5), the square\n"
-    "         of rms% / 10: 0.05 there is 2.2 % RMS)\n"
+    "  eq5% = 100 * sum (test - ref)^2 / sum ref^2        (the paper's eq. (5): the square\n"
+    "                                                      of rms% / 10; 0.05 there is 2.2 % RMS)\n"
     "the worst voxel, and, last, the line \"rms% = <n> max% = <n> eq5% = <n>\".",
     options, (int)(sizeof options / sizeof options[0]), 2, 2,
     "example:\n  petblur compare ref.nii.gz ab.nii.gz"};
