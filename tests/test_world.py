@@ -323,8 +323,12 @@ class Tracks(Case):
                 outs[what] = self.blur(f"{what}.nii", *motion, *frame)
                 # The same rigid maps, composed and rounded another way: float rounding of the output apart.
                 np.testing.assert_allclose(outs[what], base, rtol=0, atol=2e-6 * base.max())
-        self.assertTrue(np.array_equal(outs["polaris-mt"], outs["polaris-toolviewer"]),
-                        "the two Polaris layouts hold the same numbers")
+        # The two Polaris layouts hold the same poses, the .mt's quaternions
+        # scaled by 1.0004 (NDI's need not be unit): equal once normalised, to
+        # its rounding, which may move a key pose by an ulp and the output by
+        # float rounding (array_equal held on most draws, not all).
+        np.testing.assert_allclose(outs["polaris-mt"], outs["polaris-toolviewer"], rtol=0, atol=1e-6 * base.max(),
+                                   err_msg="the two Polaris layouts hold the same numbers")
         # Without the calibration the tracker's frame is taken for the scanner's: another motion.
         wrong = self.blur("nocal.nii", "--motion", self.p("p.mt"), "--reference-time", str(self.REF), *frame)
         self.assertGreater(np.abs(wrong - base).max(), 0.05 * base.max())
