@@ -27,3 +27,17 @@ install_package() {
     python3 -m pip install -q --no-deps --no-index --no-build-isolation "${args[@]}" --target "$site" . \
         >/tmp/pip.log 2>&1 || { tail -40 /tmp/pip.log; return 1; }
 }
+
+# What machine.txt says of a run: when, which commit (PB_COMMIT: the copy
+# there has no trustworthy git state), the GPU, the toolkit and the cores.
+# Extra lines a script wants follow on its standard input.
+write_machine() {
+    {
+        echo "date: $(date -u +%Y-%m-%dT%H:%MZ)"
+        echo "commit: ${PB_COMMIT:-unknown}"
+        nvidia-smi --query-gpu=name,driver_version,memory.total --format=csv,noheader 2>&1
+        nvcc --version | tail -1
+        nproc | sed 's/^/cpu cores: /'
+        [ -t 0 ] || cat
+    } | tee "$1"
+}

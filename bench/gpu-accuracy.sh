@@ -13,12 +13,7 @@ cd "$(dirname "$0")/.."
 OUT=${OUT:-$PWD/gpu-out}
 mkdir -p "$OUT"
 . bench/device-env.sh
-{
-    echo "date: $(date -u +%Y-%m-%dT%H:%MZ)"
-    echo "commit: ${PB_COMMIT:-unknown}"
-    nvidia-smi --query-gpu=name,driver_version --format=csv,noheader 2>&1
-    nproc | sed 's/^/cpu cores: /'
-} | tee "$OUT/machine.txt"
+write_machine "$OUT/machine.txt" </dev/null
 install_package -Dopencl=disabled || exit 1
 (cd /tmp && python3 "$OLDPWD/bench/accuracy_case.py" --device cuda --times 3000 \
     --bounds default,0.25,0.1,0.05,0.02,0.01,paper --methods ab,rm --out "$OUT/accuracy.json" "$@") 2>&1 |

@@ -14,13 +14,7 @@ cd "$(dirname "$0")/.."
 OUT=${OUT:-$PWD/gpu-out}
 mkdir -p "$OUT"
 . bench/device-env.sh
-{
-    echo "date: $(date -u +%Y-%m-%dT%H:%MZ)"
-    echo "commit: ${PB_COMMIT:-unknown}"
-    nvidia-smi --query-gpu=name,driver_version,memory.total --format=csv,noheader 2>&1
-    nvcc --version | tail -1
-    nproc | sed 's/^/cpu cores: /'
-} | tee "$OUT/machine.txt"
+write_machine "$OUT/machine.txt" </dev/null
 status=0
 what=" $* "
 [ -f build-gpu/build.ninja ] || "${meson[@]}" setup build-gpu --buildtype=release -Dcuda=enabled -Dopencl=enabled -Dgpu_archs=90 >/tmp/setup.log 2>&1 &&

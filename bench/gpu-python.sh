@@ -14,13 +14,9 @@ OUT=${OUT:-$PWD/gpu-out}
 mkdir -p "$OUT"
 . bench/device-env.sh
 {
-    echo "date: $(date -u +%Y-%m-%dT%H:%MZ)"
-    echo "commit: ${PB_COMMIT:-unknown}"
-    nvidia-smi --query-gpu=name,driver_version,memory.total --format=csv,noheader 2>&1
-    nvcc --version | tail -1
     python3 -c 'import sys, numpy, torch; print("python", sys.version.split()[0], "numpy", numpy.__version__, "torch", torch.__version__)'
     python3 -c 'import cupy; print("cupy", cupy.__version__)' 2>&1 | tail -1
-} | tee "$OUT/machine.txt"
+} | write_machine "$OUT/machine.txt"
 
 status=0
 "${meson[@]}" setup build-gpu --buildtype=release -Dcuda=enabled -Dopencl=enabled -Dgpu_archs=90 >/tmp/setup.log 2>&1 &&

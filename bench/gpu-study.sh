@@ -14,12 +14,7 @@ cd "$(dirname "$0")/.."
 OUT=${OUT:-$PWD/gpu-out}
 mkdir -p "$OUT"
 . bench/device-env.sh
-{
-    echo "date: $(date -u +%Y-%m-%dT%H:%MZ)"
-    echo "commit: ${PB_COMMIT:-unknown}"
-    nvidia-smi --query-gpu=name,driver_version --format=csv,noheader 2>&1
-    nproc | sed 's/^/cpu cores: /'
-} | tee "$OUT/machine.txt"
+write_machine "$OUT/machine.txt" </dev/null
 "${meson[@]}" setup build-gpu --buildtype=release -Dcuda=enabled -Dopencl=disabled -Dgpu_archs=90 >/tmp/setup.log 2>&1 &&
     ninja -C build-gpu src/cli/petblur >/tmp/build.log 2>&1 || { tail -30 /tmp/setup.log /tmp/build.log; exit 1; }
 install_package -Dopencl=disabled || exit 1
