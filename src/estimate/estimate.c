@@ -195,14 +195,10 @@ static void path_ends(const pbe_fit *fits, size_t k, int kind, pb_pose *start, p
     pb_pose_normalized(end, end);
 }
 
-static double path_span(const estimate *e, const pb_pose *a, const pb_pose *b)
+/* How far a point (the grid's far corner) moves along a path, mm. */
+static double path_span(const estimate *e, const double far[3], const pb_pose *a, const pb_pose *b)
 {
-    /* how far the grid's far corner moves along it, mm */
-    double ext = 0.0, far[3], pa[3], pb[3], d = 0.0;
-    for (int i = 0; i < 3; i++)
-        ext = fmax(ext, (double)e->g.dims[i] * e->g.voxel_size[i]);
-    for (int i = 0; i < 3; i++)
-        far[i] = e->c[i] + 0.5 * ext;
+    double pa[3], pb[3], d = 0.0;
     pb_pose_apply(a, e->c, far, pa);
     pb_pose_apply(b, e->c, far, pb);
     for (int i = 0; i < 3; i++)
@@ -228,13 +224,18 @@ static pb_status inside_frames(estimate *e, const pbe_fit *fits, size_t referenc
         return PB_ERR_OUT_OF_MEMORY;
     }
     pb_status st = PB_OK;
+    double ext = 0.0, far[3];
+    for (int i = 0; i < 3; i++)
+        ext = fmax(ext, (double)e->g.dims[i] * e->g.voxel_size[i]);
+    for (int i = 0; i < 3; i++)
+        far[i] = e->c[i] + 0.5 * ext;
     for (size_t k = 1; k + 1 < e->count && st == PB_OK; k++) {
         int referenced = 0;
         for (int kind = 0; kind < PATHS && st == PB_OK && k != reference; kind++) {
             frame_path *p = &paths[k * PATHS + (size_t)kind];
             path_ends(fits, k, kind, &p->start, &p->end);
             /* a path shorter than a tenth of a voxel at the far corner holds nothing to find */
-            if (!(path_span(e, &p->start, &p->end) > 0.1 * e->g.voxel_size[0]))
+            if (!(path_span(e, far, &p->start, &p->end) > 0.1 * e->g.voxel_size[0]))
                 continue;
             if (!referenced) {
                 st = frame_reference(e, moved, gram, k, own);
