@@ -1,0 +1,98 @@
+"""petblur.dask: a FramesOperator's frames as tasks on a Dask LocalCluster of
+two worker processes (issue 34), against the same operator in this process,
+on the host and PoCL. Fresh random volumes, tracks and frame bounds each run
+(conftest's rng); frames split unevenly over the tasks. The forward reads the
+same plans in either process, so it must agree bit for bit; the adjoint's
+sum adds the frames in another order (and PoCL's scatter adds atomically),
+so to float rounding. A worker plans each frame range once and keeps it for
+later tasks (the iterations of a reconstruction)."""
+
+import numpy as np
+import pytest
+from distributed import Client, LocalCluster
+
+import petblur
+import petblur.dask
+
+
+@pytest.fixture(scope="module")
+def client():
+    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
+        with Client(cluster) as c:
+            yield c
+
+
+def _frames_operator(rng, device, per_frame=False, frames=5):
+    shape = tuple(int(n) for n in rng.integers(12, 20, 3))
+    n = 60
+    axes = rng.normal(size=(n, 3))
+    axes /= np.linalg.norm(axes, axis=1)[:, None]
+    half = np.radians(rng.uniform(0, 8, n)) / 2
+    q = np.c_[np.cos(half), np.sin(half)[:, None] * axes]
+    track = petblur.Motion(np.linspace(0, 30, n), rng.uniform(-4, 4, (n, 3)), q)
+    bounds = np.sort(rng.uniform(0, 30, frames + 1))
+    return petblur.FramesOperator(shape, rng.uniform(1.5, 2.5, 3), track, bounds, per_frame=per_frame, device=device)
+
+
+def _close(a, b, rtol):
+    return float(np.abs(a - b).max()) <= rtol * float(np.abs(b).max())
+
+
+def test_forward_and_summed_adjoint_equal_one_process(client, device, rng):
+    import dask.array as da
+    op = _frames_operator(rng, device)
+    x = rng.random(op.in_shape, dtype=np.float32)
+    y = rng.random(op.out_shape, dtype=np.float32)
+    Y = petblur.dask.forward(op, x, frames_per_task=2)
+    assert Y.shape == op.out_shape and Y.numblocks[0] == 3
+    fwd = client.compute(Y).result()
+    np.testing.assert_array_equal(fwd, op.apply(x))
+    s = client.compute(petblur.dask.adjoint(op, da.from_array(y, chunks=(2,) + op._shape), frames_per_task=2)).result()
+    assert s.shape == op._shape and _close(s, op.adjoint(y), 1e-5)
+
+
+def test_per_frame_inputs_and_unsummed_adjoint(client, device, rng):
+    import dask.array as da
+    op = _frames_operator(rng, device, per_frame=True, frames=4)
+    x = rng.random(op.in_shape, dtype=np.float32)
+    y = rng.random(op.out_shape, dtype=np.float64)
+    fwd = client.compute(petblur.dask.forward(op, da.from_array(x, chunks=(1,) + op._shape), frames_per_task=3))
+    np.testing.assert_array_equal(fwd.result(), op.apply(x))
+    per = client.compute(petblur.dask.adjoint(op, y, frames_per_task=1)).result()
+    ref = op.adjoint(y)
+    assert per.dtype == np.float64 and per.shape == ref.shape and _close(per, ref, 1e-5), np.abs(per - ref).max()
+
+
+def test_each_worker_plans_a_frame_range_once(client, rng):
+    op = _frames_operator(rng, "host", frames=5)
+    first, second = sorted(client.scheduler_info()["workers"])
+    plans = lambda: client.run(lambda: __import__("petblur.dask").dask._plans)  # noqa: E731
+    before = plans()
+    for worker, new in ((first, 3), (first, 0), (second, 3)):
+        # a fresh activity each time: new tasks (Dask would reuse a result it still holds), the same frame ranges
+        x = rng.random(op.in_shape, dtype=np.float32)
+        Y = petblur.dask.forward(op, x, frames_per_task=2)  # three frame ranges
+        expect = op.apply(x)
+        np.testing.assert_array_equal(client.compute(Y, workers=[worker]).result(), expect)
+        now = plans()
+        assert now[worker] - before[worker] == new, (worker, before, now)
+        before = now
+    # the adjoint's tasks carry the same frame ranges: planned already
+    client.compute(petblur.dask.adjoint(op, expect, frames_per_task=2), workers=[second]).result()
+    assert plans()[second] == before[second]
+
+
+def test_refusals(rng):
+    op = _frames_operator(rng, "host")
+    x = np.zeros(op.in_shape, np.float32)
+    for bad in (0, -1, 1.5, True, "2"):
+        with pytest.raises(petblur.ArgumentError, match="frames_per_task"):
+            petblur.dask.forward(op, x, frames_per_task=bad)
+    with pytest.raises(petblur.ArgumentError, match="shape"):
+        petblur.dask.forward(op, np.zeros((3, 3, 3), np.float32))
+    with pytest.raises(petblur.ArgumentError, match="FramesOperator"):
+        petblur.dask.forward(petblur.BlurOperator((8, 8, 8), 2.0, petblur.Motion.from_axis_angle((1, 0, 0)),
+                                                  device="host"), np.zeros((8, 8, 8), np.float32))
+    last = petblur.FramesOperator(op._shape, op.voxel_size, op.motion, op.bounds, frames_last=True, device="host")
+    with pytest.raises(petblur.ArgumentError, match="frames_last=False"):
+        petblur.dask.adjoint(last, np.zeros(last.out_shape, np.float32))
