@@ -82,12 +82,25 @@ def test_each_worker_plans_a_frame_range_once(client, rng):
     assert plans()[second] == before[second]
 
 
+def test_workers_plan_on_the_device_given(client, device, rng):
+    # made on the host here, planned on `device` in the workers: the same frames as an operator made there
+    op = _frames_operator(rng, "host", frames=3)
+    there = petblur.FramesOperator(op._shape, op.voxel_size, op.motion, op.bounds, device=device)
+    x = rng.random(op.in_shape, dtype=np.float32)
+    got = client.compute(petblur.dask.forward(op, x, frames_per_task=2, device=device)).result()
+    np.testing.assert_array_equal(got, there.apply(x))
+    specs = client.run(lambda: sorted({o._description()["device"] for o in __import__("petblur.dask").dask._cache.values()}))
+    assert any(device in v for v in specs.values()), specs
+
+
 def test_refusals(rng):
     op = _frames_operator(rng, "host")
     x = np.zeros(op.in_shape, np.float32)
     for bad in (0, -1, 1.5, True, "2"):
         with pytest.raises(petblur.ArgumentError, match="frames_per_task"):
             petblur.dask.forward(op, x, frames_per_task=bad)
+    with pytest.raises(petblur.ArgumentError, match="device"):
+        petblur.dask.forward(op, x, device=0)
     with pytest.raises(petblur.ArgumentError, match="shape"):
         petblur.dask.forward(op, np.zeros((3, 3, 3), np.float32))
     with pytest.raises(petblur.ArgumentError, match="FramesOperator"):
