@@ -10,6 +10,7 @@
  * how far each frame's contrast lies from the reference frame's, chosen to
  * minimise what the frames hold beyond their leading principal images. */
 #include <math.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -17,6 +18,7 @@
 #include "motion.h"
 
 enum { NG = 6 };
+static int g_skip[256];
 
 typedef struct collective {
     pb_context *ctx;
@@ -60,6 +62,117 @@ static pb_status residual(collective *cv, const double p[NG], double *out)
         memcpy(cv->moved + k * n, cv->level->host[0], sizeof(float) * n);
     }
     pbe_gram(cv->moved, n, m, cv->gram);
+    if (getenv("PBE_OBJ") && atoi(getenv("PBE_OBJ")) == 3) {
+        /* the principal images moved forward onto each frame, fitted there:
+         * the data are never resampled */
+        memcpy(cv->a, cv->gram, sizeof(double) * m * m);
+        pbe_eigen(cv->a, m, cv->w, cv->v);
+        size_t r = cv->rank < m ? cv->rank : m, idx[8];
+        for (size_t q = 0; q < r; q++) {
+            size_t best = m;
+            for (size_t j = 0; j < m; j++) {
+                int used = 0;
+                for (size_t u = 0; u < q; u++)
+                    used |= idx[u] == j;
+                if (!used && (best == m || cv->w[j] > cv->w[best]))
+                    best = j;
+            }
+            idx[q] = best;
+        }
+        float *U = malloc(sizeof(float) * n * r), *A = malloc(sizeof(float) * n * r);
+        for (size_t q = 0; q < r; q++) {
+            double norm = 1.0 / sqrt(fmax(cv->w[idx[q]], 1e-300));
+            for (size_t v = 0; v < n; v++) {
+                double acc = 0.0;
+                for (size_t i = 0; i < m; i++)
+                    acc += cv->v[i * m + idx[q]] * (double)cv->moved[i * n + v];
+                U[q * n + v] = (float)(acc * norm);
+            }
+        }
+        double total = 0.0;
+        for (size_t k = 0; k < m; k++) {
+            pb_pose pose, poses[2];
+            double times[2];
+            pb_motion motion;
+            corrected(cv, k, p, &pose);
+            pbe_static_motion(&pose, cv->c, times, poses, &motion);
+            for (size_t q = 0; q < r; q++) {
+                pb_status st = pb_volume_upload(cv->level->in[0], U + q * n);
+                if (st == PB_OK)
+                    st = pbe_blur_reference(cv->ctx, cv->level, &motion);
+                if (st != PB_OK) {
+                    free(U), free(A);
+                    return st;
+                }
+                memcpy(A + q * n, cv->level->host[0], sizeof(float) * n);
+            }
+            /* least squares of f_k on the r moved images and 1 */
+            double g[81] = {0}, h[9] = {0}, ff = 0.0;
+            const size_t np = r + 1;
+            const float *f = cv->frames + k * n;
+            for (size_t v = 0; v < n; v++) {
+                double x[9];
+                for (size_t q = 0; q < r; q++)
+                    x[q] = (double)A[q * n + v];
+                x[r] = 1.0;
+                for (size_t a = 0; a < np; a++) {
+                    h[a] += x[a] * (double)f[v];
+                    for (size_t b = 0; b < np; b++)
+                        g[a * np + b] += x[a] * x[b];
+                }
+                ff += (double)f[v] * (double)f[v];
+            }
+            double cg[81], cc[9], coef[9];
+            memcpy(cg, g, sizeof cg);
+            memcpy(cc, h, sizeof cc);
+            /* Gaussian elimination */
+            int ok = 1;
+            for (size_t c = 0; c < np && ok; c++) {
+                size_t piv = c;
+                for (size_t rr = c + 1; rr < np; rr++)
+                    if (fabs(cg[rr * np + c]) > fabs(cg[piv * np + c]))
+                        piv = rr;
+                if (!(fabs(cg[piv * np + c]) > 0)) {
+                    ok = 0;
+                    break;
+                }
+                for (size_t kk = 0; kk < np; kk++) {
+                    double t = cg[c * np + kk];
+                    cg[c * np + kk] = cg[piv * np + kk];
+                    cg[piv * np + kk] = t;
+                }
+                double t = cc[c];
+                cc[c] = cc[piv];
+                cc[piv] = t;
+                for (size_t rr = c + 1; rr < np; rr++) {
+                    double fct = cg[rr * np + c] / cg[c * np + c];
+                    for (size_t kk = c; kk < np; kk++)
+                        cg[rr * np + kk] -= fct * cg[c * np + kk];
+                    cc[rr] -= fct * cc[c];
+                }
+            }
+            for (size_t c = np; ok && c-- > 0;) {
+                double sum = cc[c];
+                for (size_t kk = c + 1; kk < np; kk++)
+                    sum -= cg[c * np + kk] * coef[kk];
+                coef[c] = sum / cg[c * np + c];
+            }
+            /* the residual summed directly */
+            double sse = 0.0;
+            for (size_t v = 0; ok && v < n; v++) {
+                double model = coef[r];
+                for (size_t q = 0; q < r; q++)
+                    model += coef[q] * (double)A[q * n + v];
+                sse += (model - (double)f[v]) * (model - (double)f[v]);
+            }
+            if (!g_skip[k])
+                total += ok ? sse : ff;
+        }
+        free(U);
+        free(A);
+        *out = total;
+        return PB_OK;
+    }
     if (getenv("PBE_OBJ") && atoi(getenv("PBE_OBJ")) == 1 && cv->weight) {
         double total = 0.0;
         for (size_t k = 0; k < m; k++) {
@@ -155,6 +268,40 @@ static int contrast_weights(const double *gram, size_t m, size_t ref, double *a,
         double s1 = v[k * m + first];
         weight[k] = fabs(s1) > 0 ? v[k * m + second] / s1 : 0.0;
     }
+    /* frames the rank-r model explains worst (motion inside them): left out */
+    if (getenv("PBE_TRIM")) {
+        double frac[256], sorted[256];
+        size_t r = 3;
+        for (size_t k = 0; k < m; k++) {
+            /* energy of frame k outside the top r eigenvectors' span, from the Gram's eigen-decomposition:
+               |m_k|^2 - sum_top w_j v_kj^2 */
+            double top = 0.0;
+            int used[256] = {0};
+            for (size_t q = 0; q < r; q++) {
+                size_t best = m;
+                for (size_t j = 0; j < m; j++)
+                    if (!used[j] && (best == m || w[j] > w[best]))
+                        best = j;
+                used[best] = 1;
+                top += w[best] * v[k * m + best] * v[k * m + best];
+            }
+            frac[k] = 1.0 - top / gram[k * m + k];
+            sorted[k] = frac[k];
+        }
+        for (size_t i = 0; i < m; i++)
+            for (size_t j = i + 1; j < m; j++)
+                if (sorted[j] < sorted[i]) {
+                    double t = sorted[i];
+                    sorted[i] = sorted[j];
+                    sorted[j] = t;
+                }
+        double med = sorted[m / 2], fac = atof(getenv("PBE_TRIM"));
+        for (size_t k = 0; k < m; k++) {
+            g_skip[k] = frac[k] > fac * med;
+            if (getenv("PBE_VERBOSE"))
+                fprintf(stderr, "frame %zu: outside %.4f%s\n", k, frac[k], g_skip[k] ? " (left out)" : "");
+        }
+    }
     double at_ref = weight[ref];
     for (size_t k = 0; k < m; k++) {
         weight[k] -= at_ref;
@@ -162,8 +309,13 @@ static int contrast_weights(const double *gram, size_t m, size_t ref, double *a,
     }
     if (!(widest > 0))
         return 0;
-    for (size_t k = 0; k < m; k++)
+    for (size_t k = 0; k < m; k++) {
         weight[k] /= widest;
+        if (g_skip[k])
+            weight[k] = 0.0;
+        if (getenv("PBE_VERBOSE"))
+            fprintf(stderr, "frame %zu: weight %.3f\n", k, weight[k]);
+    }
     return 1;
 }
 
