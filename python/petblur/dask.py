@@ -127,8 +127,8 @@ def adjoint(op, y, frames_per_task=1, sum=None, device=None):
     """The frames' transposes of y (frames, nx, ny, nz; numpy or dask) as a
     dask array: their sum (nx, ny, nz) when ``sum`` is True (the default
     unless op.per_frame), reduced over the tasks' partial sums; else one per
-    frame. Give the forward's frames_per_task, so that both use the same
-    planned operators."""
+    frame. Give the forward's frames_per_task and device, so that both use
+    the same planned operators."""
     import dask
     import dask.array as da
     parts = _parts(op, frames_per_task, device)
