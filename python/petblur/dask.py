@@ -82,13 +82,13 @@ def _parts(op, frames_per_task, device):
         raise ArgumentError(f"device {device!r}: give a device spec such as 'cuda', 'opencl:0' or 'host'")
     if isinstance(frames_per_task, bool) or not isinstance(frames_per_task, (int, np.integer)) or frames_per_task < 1:
         raise ArgumentError(f"frames_per_task {frames_per_task!r}: give a whole number of frames, at least 1")
+    d = dict(op._description())
+    if device is not None:
+        d["device"] = device
     out = []
     for start in range(0, op.frames, int(frames_per_task)):
         stop = min(start + int(frames_per_task), op.frames)
-        d = dict(op._description())
         d["bounds"] = op.bounds[start:stop + 1].copy()
-        if device is not None:
-            d["device"] = device
         out.append((start, stop, pickle.dumps((type(op), d))))
     return out
 
