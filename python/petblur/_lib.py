@@ -287,6 +287,23 @@ class Context:
         return name if self.backend == BACKEND_HOST else f"{name}:{self.index}"
 
 
+def _current_cuda_device():
+    """What 'cuda' without an index names: the process's current GPU as
+    PyTorch or CuPy set it (torch.cuda.set_device(LOCAL_RANK) under torchrun,
+    cupy.cuda.Device(i).use()), else the first. Neither is imported for it,
+    and PyTorch is not asked where it has not started CUDA (asking would)."""
+    torch = sys.modules.get("torch")
+    if torch is not None and torch.cuda.is_initialized():
+        return int(torch.cuda.current_device())
+    cupy = sys.modules.get("cupy")
+    if cupy is not None:
+        try:
+            return int(cupy.cuda.runtime.getDevice())
+        except Exception:  # no GPU or driver: the library says so itself
+            return 0
+    return 0
+
+
 def _device_guard():
     """Gives the thread's current CUDA device back after the block, through
     the framework that cares about it (PyTorch's runtime and CuPy's read the
@@ -307,6 +324,8 @@ def context(device):
         device = str(device)  # a torch.device or a CuPy Device's id
     backend, index = ctypes.c_int(), ctypes.c_int()
     check(lib.pb_device_parse(device.encode(), ctypes.byref(backend), ctypes.byref(index)))
+    if device == "cuda":
+        index.value = _current_cuda_device()
     key = (backend.value, index.value)
     with _contexts_lock:
         ctx = _contexts.get(key)
