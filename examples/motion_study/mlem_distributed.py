@@ -48,7 +48,7 @@ PRESETS = {
     "small": dict(dims=(48, 48, 24), voxel=(5.87, 5.87, 7.47), angles=60, frames=8, frame_s=30.0, iterations=10,
                   poses=30, counts=1e6),
     "full": dict(dims=(128, 128, 64), voxel=(2.2, 2.2, 2.8), angles=180, frames=24, frame_s=10.0, iterations=20,
-                 poses=40, counts=1e7),
+                 poses=20, counts=1e7),
 }
 
 
@@ -130,14 +130,14 @@ def sparse(M, dev):
 
 
 def run(args):
-    dist.init_process_group("nccl" if args.device.startswith("cuda") else "gloo")
-    rank, world = dist.get_rank(), dist.get_world_size()
     if args.device.startswith("cuda"):
-        local = int(os.environ.get("LOCAL_RANK", 0))
-        torch.cuda.set_device(local)
-        dev = torch.device("cuda", local)
+        dev = torch.device("cuda", int(os.environ.get("LOCAL_RANK", 0)))
+        torch.cuda.set_device(dev)
+        dist.init_process_group("nccl", device_id=dev)
     else:
         dev = torch.device("cpu")
+        dist.init_process_group("gloo")
+    rank, world = dist.get_rank(), dist.get_world_size()
     p = dict(PRESETS[args.preset])
     if args.iterations:
         p["iterations"] = args.iterations

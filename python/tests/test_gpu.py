@@ -172,3 +172,41 @@ def test_threads(rng):
     for t in threads:
         t.join()
     assert not errors, errors
+
+
+def test_cuda_is_the_current_device(rng):
+    """device='cuda' names the process's current GPU (torch.cuda.set_device,
+    as torchrun's ranks set it), 'cuda:N' the GPU N whatever is current."""
+    last = torch.cuda.device_count() - 1
+    with torch.cuda.device(last):
+        op = _op(rng, device="cuda")
+        assert op.device == f"cuda:{last}"
+        x = torch.rand(op.in_shape, device=f"cuda:{last}")
+        assert op(x).device == x.device and torch.cuda.current_device() == last
+    assert _op(rng, device="cuda:0").device == "cuda:0"
+
+
+def test_dask_two_workers_share_one_gpu(rng):
+    """Two Dask worker processes planning on one GPU (device='cuda' in
+    each) give what one process gives: the forward bit for bit (the same
+    plans), the adjoint's sum to float rounding (another order, atomics)."""
+    distributed = pytest.importorskip("distributed")
+    import petblur.dask
+    n = 60
+    axes = rng.normal(size=(n, 3))
+    axes /= np.linalg.norm(axes, axis=1)[:, None]
+    half = np.radians(rng.uniform(0, 8, n)) / 2
+    q = np.c_[np.cos(half), np.sin(half)[:, None] * axes]
+    track = petblur.Motion(np.linspace(0, 30, n), rng.uniform(-4, 4, (n, 3)), q)
+    F = petblur.FramesOperator((64, 56, 48), (2.0, 2.0, 2.5), track, np.sort(rng.uniform(0, 30, 6)), device="cuda")
+    x = rng.random(F.in_shape, dtype=np.float32)
+    y = rng.random(F.out_shape, dtype=np.float32)
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
+                                  dashboard_address=None) as cluster, distributed.Client(cluster) as client:
+        Y = client.compute(petblur.dask.forward(F, x, frames_per_task=2)).result()
+        s = client.compute(petblur.dask.adjoint(F, y, frames_per_task=2)).result()
+        devices = client.run(lambda: sorted({op.device for op in __import__("petblur.dask").dask._cache.values()}))
+    assert sorted(devices.values()) == [["cuda:0"], ["cuda:0"]], devices
+    np.testing.assert_array_equal(Y, F.apply(x))
+    ref = F.adjoint(y)
+    assert float(np.abs(s - ref).max()) <= 1e-5 * float(np.abs(ref).max())
