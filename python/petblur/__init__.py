@@ -10,12 +10,12 @@ on GPUs and CPUs, as linear operators over numpy, CuPy and PyTorch arrays.
 Volumes are indexed [x, y, z] (axis 0 is x, as nibabel holds them), float32.
 docs/python.md has the whole API."""
 
-from ._lib import devices, lib as _c
+from ._lib import backends, devices, lib as _c
 from .errors import (ArgumentError, BuildError, DeviceError, Error, FileContentError, FileError, LaunchError,
                      OutOfMemoryError)
 from .motion import Motion, frames_from_sidecar
 from .operator import BlurOperator, FramesOperator
 
 __version__ = "0.1.0"
-__all__ = ["Motion", "frames_from_sidecar", "BlurOperator", "FramesOperator", "devices", "Error", "ArgumentError", "DeviceError",
+__all__ = ["Motion", "frames_from_sidecar", "BlurOperator", "FramesOperator", "backends", "devices", "Error", "ArgumentError", "DeviceError",
            "BuildError", "LaunchError", "OutOfMemoryError", "FileError", "FileContentError"]

@@ -340,6 +340,25 @@ def context(device):
         return ctx
 
 
+def backends():
+    """Each backend of this build and whether it can run here: a list of
+    (name, devices found, reason), the reason '' where it can run, else why
+    not (not compiled in, its runtime library missing, no device) and how to
+    fix it, as `petblur devices` prints it."""
+    out = []
+    for backend in (BACKEND_HOST, BACKEND_OPENCL, BACKEND_CUDA):
+        name = BACKEND_NAMES[backend]
+        if not lib.pb_backend_compiled(backend):
+            out.append((name, 0, f"the {name} backend is not compiled into this build of petblur"))
+            continue
+        n = ctypes.c_int(0)
+        if lib.pb_device_count(backend, ctypes.byref(n)) != 0:
+            out.append((name, 0, message()))
+        else:
+            out.append((name, n.value, "" if n.value else f"no {name} device found"))
+    return out
+
+
 def devices():
     """Every device petblur can run on: a list of (spec, name)."""
     out = []

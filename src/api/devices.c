@@ -1,6 +1,7 @@
 /* Backends and their devices: which backends this build holds, device names
  * ("opencl:1"), listing, and the automatic choice. */
 #include <ctype.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -113,7 +114,11 @@ static pb_status choose_auto(pb_backend *backend, int *index)
         *index = 0;
         return PB_OK;
     }
-    if (backend_ops(PB_BACKEND_OPENCL) && pb_device_count(PB_BACKEND_OPENCL, &n) == PB_OK && n > 0) {
+    pb_status opencl = backend_ops(PB_BACKEND_OPENCL) ? pb_device_count(PB_BACKEND_OPENCL, &n) : PB_OK;
+    char why[768] = "";
+    if (opencl != PB_OK) /* the reason, before the next message replaces it */
+        snprintf(why, sizeof why, " (OpenCL: %s)", pb_last_error(NULL));
+    if (backend_ops(PB_BACKEND_OPENCL) && opencl == PB_OK && n > 0) {
         *backend = PB_BACKEND_OPENCL;
         *index = 0;
         for (int i = 0; i < n; i++) {
@@ -126,8 +131,9 @@ static pb_status choose_auto(pb_backend *backend, int *index)
         return PB_OK;
     }
     return pb_error(NULL, PB_ERR_NO_DEVICE,
-                    "no CUDA or OpenCL device found; install an OpenCL driver (on Debian: apt-get install "
-                    "pocl-opencl-icd) or choose the host backend");
+                    "no CUDA or OpenCL device found%s; install an OpenCL driver (on Debian: apt-get install "
+                    "pocl-opencl-icd) or choose the host backend",
+                    why);
 }
 pb_status pb_backend_select(pb_context_options *opt, const pb_backend_ops **ops)
 {

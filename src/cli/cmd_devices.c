@@ -35,8 +35,10 @@ int pbc_cmd_devices(int argc, char **argv)
             printf("%-7s not compiled into this build\n", pb_backend_name(backend));
             continue;
         }
-        if (pb_device_count(backend, &n) != PB_OK) {
-            printf("%-7s error: %s\n", pb_backend_name(backend), pb_last_error(NULL));
+        pb_status st = pb_device_count(backend, &n);
+        if (st != PB_OK) {
+            printf("%-7s %s: %s\n", pb_backend_name(backend),
+                   st == PB_ERR_BACKEND_UNAVAILABLE ? "unavailable" : "error", pb_last_error(NULL));
             continue;
         }
         if (n == 0)

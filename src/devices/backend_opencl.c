@@ -20,7 +20,7 @@ static pb_status ocl_buffer_create(pb_context *ctx, size_t bytes, void **buffer)
 {
     cl_impl *cl = ctx->impl;
     cl_int e;
-    cl_mem mem = clCreateBuffer(cl->context, CL_MEM_READ_WRITE, bytes, NULL, &e);
+    cl_mem mem = pb_cl.clCreateBuffer(cl->context, CL_MEM_READ_WRITE, bytes, NULL, &e);
     if (e != CL_SUCCESS)
         return pb_cl_fail(ctx, PB_ERR_DEVICE, "clCreateBuffer", e);
     *buffer = mem;
@@ -30,20 +30,20 @@ static pb_status ocl_buffer_create(pb_context *ctx, size_t bytes, void **buffer)
 static void ocl_buffer_release(pb_context *ctx, void *buffer)
 {
     (void)ctx;
-    clReleaseMemObject((cl_mem)buffer);
+    pb_cl.clReleaseMemObject((cl_mem)buffer);
 }
 
 static pb_status ocl_buffer_write(pb_context *ctx, void *buffer, const void *host, size_t bytes)
 {
     cl_impl *cl = ctx->impl;
-    cl_int e = clEnqueueWriteBuffer(cl->queue, (cl_mem)buffer, CL_TRUE, 0, bytes, host, 0, NULL, NULL);
+    cl_int e = pb_cl.clEnqueueWriteBuffer(cl->queue, (cl_mem)buffer, CL_TRUE, 0, bytes, host, 0, NULL, NULL);
     return e == CL_SUCCESS ? PB_OK : pb_cl_fail(ctx, PB_ERR_DEVICE, "clEnqueueWriteBuffer", e);
 }
 
 static pb_status ocl_buffer_read(pb_context *ctx, const void *buffer, void *host, size_t bytes)
 {
     cl_impl *cl = ctx->impl;
-    cl_int e = clEnqueueReadBuffer(cl->queue, (cl_mem)buffer, CL_TRUE, 0, bytes, host, 0, NULL, NULL);
+    cl_int e = pb_cl.clEnqueueReadBuffer(cl->queue, (cl_mem)buffer, CL_TRUE, 0, bytes, host, 0, NULL, NULL);
     return e == CL_SUCCESS ? PB_OK : pb_cl_fail(ctx, PB_ERR_DEVICE, "clEnqueueReadBuffer", e);
 }
 
@@ -79,7 +79,7 @@ static pb_status ocl_buffer_zero(pb_context *ctx, void *buffer, size_t bytes)
     cl_impl *cl = ctx->impl;
     const float zero = 0.0f;
     cl_event *ev = timed_slot(ctx);
-    cl_int e = clEnqueueFillBuffer(cl->queue, (cl_mem)buffer, &zero, sizeof zero, 0, bytes, 0, NULL, ev);
+    cl_int e = pb_cl.clEnqueueFillBuffer(cl->queue, (cl_mem)buffer, &zero, sizeof zero, 0, bytes, 0, NULL, ev);
     if (e != CL_SUCCESS)
         return pb_cl_fail(ctx, PB_ERR_DEVICE, "clEnqueueFillBuffer", e);
     timed_queued(ctx, ev);
@@ -96,17 +96,17 @@ static pb_status ocl_buffer_check(pb_context *ctx, const void *buffer, size_t by
     cl_mem_flags flags = 0;
     cl_context owner = NULL;
     size_t size = 0;
-    if (clGetMemObjectInfo(mem, CL_MEM_TYPE, sizeof type, &type, NULL) != CL_SUCCESS ||
+    if (pb_cl.clGetMemObjectInfo(mem, CL_MEM_TYPE, sizeof type, &type, NULL) != CL_SUCCESS ||
         type != CL_MEM_OBJECT_BUFFER)
         return pb_error(ctx, PB_ERR_INVALID_ARGUMENT, "the %s is not an OpenCL buffer; pass a cl_mem made by "
                         "clCreateBuffer", what);
-    if (clGetMemObjectInfo(mem, CL_MEM_CONTEXT, sizeof owner, &owner, NULL) != CL_SUCCESS || owner != cl->context)
+    if (pb_cl.clGetMemObjectInfo(mem, CL_MEM_CONTEXT, sizeof owner, &owner, NULL) != CL_SUCCESS || owner != cl->context)
         return pb_error(ctx, PB_ERR_INVALID_ARGUMENT, "the %s buffer belongs to another OpenCL context; make it in "
                         "the context's own (pb_context_native)", what);
-    if (clGetMemObjectInfo(mem, CL_MEM_SIZE, sizeof size, &size, NULL) != CL_SUCCESS || size < bytes)
+    if (pb_cl.clGetMemObjectInfo(mem, CL_MEM_SIZE, sizeof size, &size, NULL) != CL_SUCCESS || size < bytes)
         return pb_error(ctx, PB_ERR_SIZE_MISMATCH, "the %s buffer holds %zu bytes, the plan's volume %zu; pass a "
                         "buffer of the plan's geometry", what, size, bytes);
-    if (clGetMemObjectInfo(mem, CL_MEM_FLAGS, sizeof flags, &flags, NULL) == CL_SUCCESS &&
+    if (pb_cl.clGetMemObjectInfo(mem, CL_MEM_FLAGS, sizeof flags, &flags, NULL) == CL_SUCCESS &&
         (flags & (written ? CL_MEM_READ_ONLY : CL_MEM_WRITE_ONLY)))
         return pb_error(ctx, PB_ERR_INVALID_ARGUMENT, "the %s buffer is %s; make it CL_MEM_READ_WRITE", what,
                         written ? "CL_MEM_READ_ONLY, and petblur writes it" : "CL_MEM_WRITE_ONLY, and petblur reads it");
@@ -132,7 +132,7 @@ static pb_status ocl_image_create(pb_context *ctx, int layered, const size_t ext
     else
         desc.image_depth = extent[2];
     cl_int e;
-    img->mem = clCreateImage(cl->context, CL_MEM_READ_ONLY, &fmt, &desc, NULL, &e);
+    img->mem = pb_cl.clCreateImage(cl->context, CL_MEM_READ_ONLY, &fmt, &desc, NULL, &e);
     if (e != CL_SUCCESS) {
         free(img);
         return pb_cl_fail(ctx, PB_ERR_DEVICE, layered ? "clCreateImage (layers)" : "clCreateImage", e);
@@ -146,7 +146,7 @@ static void ocl_image_release(pb_context *ctx, void *image)
 {
     (void)ctx;
     cl_image *img = image;
-    clReleaseMemObject(img->mem);
+    pb_cl.clReleaseMemObject(img->mem);
     free(img);
 }
 
@@ -156,7 +156,7 @@ static pb_status ocl_image_copy(pb_context *ctx, void *image, const void *buffer
     cl_image *img = image;
     size_t origin[3] = {0, 0, 0};
     cl_event *ev = timed_slot(ctx);
-    cl_int e = clEnqueueCopyBufferToImage(cl->queue, (cl_mem)buffer, img->mem, 0, origin, img->region, 0, NULL, ev);
+    cl_int e = pb_cl.clEnqueueCopyBufferToImage(cl->queue, (cl_mem)buffer, img->mem, 0, origin, img->region, 0, NULL, ev);
     if (e != CL_SUCCESS)
         return pb_cl_fail(ctx, PB_ERR_DEVICE, "clEnqueueCopyBufferToImage", e);
     timed_queued(ctx, ev);
@@ -174,10 +174,10 @@ static pb_status ocl_launch(pb_context *ctx, const pb_launch *l)
     cl_kernel k = cl->kernels[l->kernel];
     cl_mem in = info->reads == PB_READS_BUFFER ? (cl_mem)l->input : ((const cl_image *)l->input)->mem;
     cl_mem plan = (cl_mem)l->plan, out = (cl_mem)l->out;
-    cl_int e = clSetKernelArg(k, 0, sizeof(cl_mem), &in);
-    e |= clSetKernelArg(k, 1, sizeof(cl_mem), &plan);
-    e |= clSetKernelArg(k, 2, sizeof l->prm, &l->prm);
-    e |= clSetKernelArg(k, 3, sizeof(cl_mem), &out);
+    cl_int e = pb_cl.clSetKernelArg(k, 0, sizeof(cl_mem), &in);
+    e |= pb_cl.clSetKernelArg(k, 1, sizeof(cl_mem), &plan);
+    e |= pb_cl.clSetKernelArg(k, 2, sizeof l->prm, &l->prm);
+    e |= pb_cl.clSetKernelArg(k, 3, sizeof(cl_mem), &out);
     if (e != CL_SUCCESS)
         return pb_cl_fail(ctx, PB_ERR_LAUNCH, "clSetKernelArg", e);
     size_t local[3], global[3];
@@ -186,7 +186,7 @@ static pb_status ocl_launch(pb_context *ctx, const pb_launch *l)
         global[d] = cl->is_gpu ? (l->extent[d] + local[d] - 1) / local[d] * local[d] : l->extent[d];
     }
     cl_event *ev = timed_slot(ctx);
-    e = clEnqueueNDRangeKernel(cl->queue, k, 3, NULL, global, cl->is_gpu ? local : NULL, 0, NULL, ev);
+    e = pb_cl.clEnqueueNDRangeKernel(cl->queue, k, 3, NULL, global, cl->is_gpu ? local : NULL, 0, NULL, ev);
     if (e != CL_SUCCESS)
         return pb_cl_fail(ctx, PB_ERR_LAUNCH, "clEnqueueNDRangeKernel", e);
     timed_queued(ctx, ev);
@@ -215,20 +215,20 @@ static pb_status ocl_timer_mark(pb_context *ctx)
 static pb_status ocl_timer_end(pb_context *ctx, double *total_ms, double *before_mark_ms)
 {
     cl_impl *cl = ctx->impl;
-    cl_int e = clFinish(cl->queue);
+    cl_int e = pb_cl.clFinish(cl->queue);
     if (e == CL_SUCCESS)
         for (size_t i = 0; i < cl->timed_count && e == CL_SUCCESS; i++)
-            e = clWaitForEvents(1, &cl->timed[i].event); /* a failed kernel's status is its event's */
+            e = pb_cl.clWaitForEvents(1, &cl->timed[i].event); /* a failed kernel's status is its event's */
     *total_ms = *before_mark_ms = 0.0;
     for (size_t i = 0; i < cl->timed_count; i++) {
         cl_ulong t0 = 0, t1 = 0;
-        clGetEventProfilingInfo(cl->timed[i].event, CL_PROFILING_COMMAND_START, sizeof t0, &t0, NULL);
-        clGetEventProfilingInfo(cl->timed[i].event, CL_PROFILING_COMMAND_END, sizeof t1, &t1, NULL);
+        pb_cl.clGetEventProfilingInfo(cl->timed[i].event, CL_PROFILING_COMMAND_START, sizeof t0, &t0, NULL);
+        pb_cl.clGetEventProfilingInfo(cl->timed[i].event, CL_PROFILING_COMMAND_END, sizeof t1, &t1, NULL);
         double ms = t1 > t0 ? (double)(t1 - t0) * 1e-6 : 0.0;
         *total_ms += ms;
         if (cl->timed[i].before_mark)
             *before_mark_ms += ms;
-        clReleaseEvent(cl->timed[i].event);
+        pb_cl.clReleaseEvent(cl->timed[i].event);
     }
     cl->timing = 0;
     cl->timed_count = 0;

@@ -1,5 +1,5 @@
 /* The OpenCL backend's device side, through the ICD loader (PoCL, NVIDIA, AMD,
- * Intel): listing devices, opening one, building the kernels from the
+ * Intel; opened at run time by opencl_loader.c): listing devices, opening one, building the kernels from the
  * embedded source, and naming the runtime's errors. */
 #include "opencl_impl.h"
 
@@ -53,7 +53,7 @@ static pb_status list_devices(cl_device_id *devices, cl_platform_id *platforms_o
     cl_platform_id platforms[16];
     cl_uint np = 0;
     *count = 0;
-    cl_int e = clGetPlatformIDs(16, platforms, &np);
+    cl_int e = pb_cl.clGetPlatformIDs(16, platforms, &np);
     if (e == CL_PLATFORM_NOT_FOUND_KHR || (e == CL_SUCCESS && np == 0))
         return PB_OK;
     if (e != CL_SUCCESS)
@@ -61,7 +61,7 @@ static pb_status list_devices(cl_device_id *devices, cl_platform_id *platforms_o
     for (cl_uint p = 0; p < np && p < 16; p++) {
         cl_uint nd = 0;
         cl_device_id ids[64];
-        e = clGetDeviceIDs(platforms[p], CL_DEVICE_TYPE_ALL, 64, ids, &nd);
+        e = pb_cl.clGetDeviceIDs(platforms[p], CL_DEVICE_TYPE_ALL, 64, ids, &nd);
         if (e == CL_DEVICE_NOT_FOUND)
             continue;
         if (e != CL_SUCCESS)
@@ -80,7 +80,11 @@ static pb_status list_devices(cl_device_id *devices, cl_platform_id *platforms_o
 pb_status pb_ocl_device_count(int *count)
 {
     cl_uint n = 0;
-    pb_status st = list_devices(NULL, NULL, 1024, &n);
+    *count = 0;
+    pb_status st = pb_cl_load(NULL);
+    if (st != PB_OK)
+        return st;
+    st = list_devices(NULL, NULL, 1024, &n);
     *count = (int)n;
     return st;
 }
@@ -92,16 +96,16 @@ static void fill_info(cl_device_id dev, cl_platform_id platform, pb_device_info 
     cl_ulong max_alloc = 0, global_mem = 0;
     cl_uint units = 0;
     memset(info, 0, sizeof *info);
-    clGetDeviceInfo(dev, CL_DEVICE_NAME, sizeof info->name - 1, info->name, NULL);
-    clGetPlatformInfo(platform, CL_PLATFORM_NAME, sizeof info->platform - 1, info->platform, NULL);
-    clGetDeviceInfo(dev, CL_DEVICE_TYPE, sizeof type, &type, NULL);
-    clGetDeviceInfo(dev, CL_DEVICE_IMAGE_SUPPORT, sizeof images, &images, NULL);
-    clGetDeviceInfo(dev, CL_DEVICE_IMAGE3D_MAX_WIDTH, sizeof(size_t), &info->image3d_max[0], NULL);
-    clGetDeviceInfo(dev, CL_DEVICE_IMAGE3D_MAX_HEIGHT, sizeof(size_t), &info->image3d_max[1], NULL);
-    clGetDeviceInfo(dev, CL_DEVICE_IMAGE3D_MAX_DEPTH, sizeof(size_t), &info->image3d_max[2], NULL);
-    clGetDeviceInfo(dev, CL_DEVICE_MAX_MEM_ALLOC_SIZE, sizeof max_alloc, &max_alloc, NULL);
-    clGetDeviceInfo(dev, CL_DEVICE_GLOBAL_MEM_SIZE, sizeof global_mem, &global_mem, NULL);
-    clGetDeviceInfo(dev, CL_DEVICE_MAX_COMPUTE_UNITS, sizeof units, &units, NULL);
+    pb_cl.clGetDeviceInfo(dev, CL_DEVICE_NAME, sizeof info->name - 1, info->name, NULL);
+    pb_cl.clGetPlatformInfo(platform, CL_PLATFORM_NAME, sizeof info->platform - 1, info->platform, NULL);
+    pb_cl.clGetDeviceInfo(dev, CL_DEVICE_TYPE, sizeof type, &type, NULL);
+    pb_cl.clGetDeviceInfo(dev, CL_DEVICE_IMAGE_SUPPORT, sizeof images, &images, NULL);
+    pb_cl.clGetDeviceInfo(dev, CL_DEVICE_IMAGE3D_MAX_WIDTH, sizeof(size_t), &info->image3d_max[0], NULL);
+    pb_cl.clGetDeviceInfo(dev, CL_DEVICE_IMAGE3D_MAX_HEIGHT, sizeof(size_t), &info->image3d_max[1], NULL);
+    pb_cl.clGetDeviceInfo(dev, CL_DEVICE_IMAGE3D_MAX_DEPTH, sizeof(size_t), &info->image3d_max[2], NULL);
+    pb_cl.clGetDeviceInfo(dev, CL_DEVICE_MAX_MEM_ALLOC_SIZE, sizeof max_alloc, &max_alloc, NULL);
+    pb_cl.clGetDeviceInfo(dev, CL_DEVICE_GLOBAL_MEM_SIZE, sizeof global_mem, &global_mem, NULL);
+    pb_cl.clGetDeviceInfo(dev, CL_DEVICE_MAX_COMPUTE_UNITS, sizeof units, &units, NULL);
     info->is_gpu = (type & CL_DEVICE_TYPE_GPU) != 0;
     info->image_support = images == CL_TRUE;
     info->max_alloc_bytes = max_alloc;
@@ -114,7 +118,9 @@ pb_status pb_ocl_device_info(int index, pb_device_info *info)
     cl_device_id devs[1024];
     cl_platform_id plats[1024];
     cl_uint n = 0;
-    pb_status st = list_devices(devs, plats, 1024, &n);
+    pb_status st = pb_cl_load(NULL);
+    if (st == PB_OK)
+        st = list_devices(devs, plats, 1024, &n);
     if (st != PB_OK)
         return st;
     fill_info(devs[index], plats[index], info);
@@ -127,7 +133,7 @@ static int has_float_r_images(cl_context context)
 {
     cl_image_format formats[512];
     cl_uint n = 0;
-    if (clGetSupportedImageFormats(context, CL_MEM_READ_ONLY, CL_MEM_OBJECT_IMAGE3D, 512, formats, &n) != CL_SUCCESS)
+    if (pb_cl.clGetSupportedImageFormats(context, CL_MEM_READ_ONLY, CL_MEM_OBJECT_IMAGE3D, 512, formats, &n) != CL_SUCCESS)
         return 0;
     for (cl_uint i = 0; i < n && i < 512; i++)
         if (formats[i].image_channel_order == CL_R && formats[i].image_channel_data_type == CL_FLOAT)
@@ -139,7 +145,7 @@ static pb_status build_program(pb_context *ctx, cl_impl *cl, const char *extra, 
 {
     cl_int e;
     const char *src = pb_kernel_source;
-    cl->program = clCreateProgramWithSource(cl->context, 1, &src, NULL, &e);
+    cl->program = pb_cl.clCreateProgramWithSource(cl->context, 1, &src, NULL, &e);
     if (e != CL_SUCCESS)
         return pb_cl_fail(ctx, PB_ERR_BUILD, "clCreateProgramWithSource", e);
     /* NVIDIA's compiler takes inline PTX, which gives the adjoint a native
@@ -147,14 +153,14 @@ static pb_status build_program(pb_context *ctx, cl_impl *cl, const char *extra, 
     const char *vendor = nvidia ? "-DPB_OPENCL_NVIDIA " : "";
     char options[1024];
     snprintf(options, sizeof options, "-cl-std=CL1.2 %s%s", vendor, extra ? extra : "");
-    e = clBuildProgram(cl->program, 1, &cl->device, options, NULL, NULL);
+    e = pb_cl.clBuildProgram(cl->program, 1, &cl->device, options, NULL, NULL);
     if (e != CL_SUCCESS) {
         size_t len = 0;
-        clGetProgramBuildInfo(cl->program, cl->device, CL_PROGRAM_BUILD_LOG, 0, NULL, &len);
+        pb_cl.clGetProgramBuildInfo(cl->program, cl->device, CL_PROGRAM_BUILD_LOG, 0, NULL, &len);
         char *log = malloc(len + 1);
         if (log) {
             log[0] = '\0';
-            clGetProgramBuildInfo(cl->program, cl->device, CL_PROGRAM_BUILD_LOG, len, log, NULL);
+            pb_cl.clGetProgramBuildInfo(cl->program, cl->device, CL_PROGRAM_BUILD_LOG, len, log, NULL);
             log[len] = '\0';
         }
         pb_error(ctx, PB_ERR_BUILD,
@@ -166,7 +172,7 @@ static pb_status build_program(pb_context *ctx, cl_impl *cl, const char *extra, 
         return PB_ERR_BUILD;
     }
     for (int k = 0; k < PB_KERNEL_COUNT; k++) {
-        cl->kernels[k] = clCreateKernel(cl->program, pb_kernel_table[k].name, &e);
+        cl->kernels[k] = pb_cl.clCreateKernel(cl->program, pb_kernel_table[k].name, &e);
         if (e != CL_SUCCESS)
             return pb_cl_fail(ctx, PB_ERR_BUILD, "clCreateKernel", e);
     }
@@ -178,7 +184,10 @@ pb_status pb_ocl_context_init(pb_context *ctx, int index, const char *build_opti
     cl_device_id devs[1024];
     cl_platform_id plats[1024];
     cl_uint n = 0;
-    pb_status st = list_devices(devs, plats, 1024, &n);
+    pb_status st = pb_cl_load(ctx);
+    if (st != PB_OK)
+        return st;
+    st = list_devices(devs, plats, 1024, &n);
     if (st != PB_OK)
         return pb_error(ctx, st, "%s", pb_last_error(NULL));
     if (n == 0)
@@ -198,21 +207,21 @@ pb_status pb_ocl_context_init(pb_context *ctx, int index, const char *build_opti
     int nvidia = strstr(ctx->device.platform, "NVIDIA") != NULL;
     /* NVIDIA's texture unit rounds filter weights (cl/pb_adjoint.cl); PoCL's are float. */
     ctx->texture_weight_steps = nvidia ? PB_NVIDIA_WEIGHT_STEPS : 0.0f;
-    if (clGetDeviceInfo(cl->device, CL_DEVICE_IMAGE2D_MAX_WIDTH, sizeof(size_t), &ctx->layer_limits[0], NULL) ||
-        clGetDeviceInfo(cl->device, CL_DEVICE_IMAGE2D_MAX_HEIGHT, sizeof(size_t), &ctx->layer_limits[1], NULL) ||
-        clGetDeviceInfo(cl->device, CL_DEVICE_IMAGE_MAX_ARRAY_SIZE, sizeof(size_t), &ctx->layer_limits[2], NULL))
+    if (pb_cl.clGetDeviceInfo(cl->device, CL_DEVICE_IMAGE2D_MAX_WIDTH, sizeof(size_t), &ctx->layer_limits[0], NULL) ||
+        pb_cl.clGetDeviceInfo(cl->device, CL_DEVICE_IMAGE2D_MAX_HEIGHT, sizeof(size_t), &ctx->layer_limits[1], NULL) ||
+        pb_cl.clGetDeviceInfo(cl->device, CL_DEVICE_IMAGE_MAX_ARRAY_SIZE, sizeof(size_t), &ctx->layer_limits[2], NULL))
         memset(ctx->layer_limits, 0, sizeof ctx->layer_limits); /* unknown: no layers */
 
     cl_int e;
     cl_context_properties props[] = {CL_CONTEXT_PLATFORM, (cl_context_properties)plats[index], 0};
-    cl->context = clCreateContext(props, 1, &cl->device, NULL, NULL, &e);
+    cl->context = pb_cl.clCreateContext(props, 1, &cl->device, NULL, NULL, &e);
     if (e != CL_SUCCESS)
         return pb_cl_fail(ctx, PB_ERR_DEVICE, "clCreateContext", e);
     if (ctx->device.image_support && !has_float_r_images(cl->context))
         ctx->device.image_support = 0;
     if (!ctx->device.image_support)
         return pb_device_check_volume(ctx, &ctx->device, &(pb_geometry){{1, 1, 1}, {1, 1, 1}});
-    cl->queue = clCreateCommandQueue(cl->context, cl->device, CL_QUEUE_PROFILING_ENABLE, &e);
+    cl->queue = pb_cl.clCreateCommandQueue(cl->context, cl->device, CL_QUEUE_PROFILING_ENABLE, &e);
     if (e != CL_SUCCESS)
         return pb_cl_fail(ctx, PB_ERR_DEVICE, "clCreateCommandQueue", e);
     return build_program(ctx, cl, build_options, nvidia);
@@ -225,14 +234,14 @@ void pb_ocl_context_release(pb_context *ctx)
         return;
     for (int k = 0; k < PB_KERNEL_COUNT; k++)
         if (cl->kernels[k])
-            clReleaseKernel(cl->kernels[k]);
+            pb_cl.clReleaseKernel(cl->kernels[k]);
     if (cl->program)
-        clReleaseProgram(cl->program);
+        pb_cl.clReleaseProgram(cl->program);
     free(cl->timed);
     if (cl->queue)
-        clReleaseCommandQueue(cl->queue);
+        pb_cl.clReleaseCommandQueue(cl->queue);
     if (cl->context)
-        clReleaseContext(cl->context);
+        pb_cl.clReleaseContext(cl->context);
     free(cl);
     ctx->impl = NULL;
 }

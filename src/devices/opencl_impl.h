@@ -9,6 +9,30 @@
 
 #include "backend.h"
 
+/* The OpenCL calls the backend makes, found at run time in the ICD loader
+ * (opencl_loader.c) so that one build runs where libOpenCL is missing, the
+ * backend then unavailable with the reason. Called as pb_cl.clName(...). */
+#define PB_CL_FUNCTIONS(X)                                                                                            \
+    X(clBuildProgram) X(clCreateBuffer) X(clCreateCommandQueue) X(clCreateContext) X(clCreateImage) X(clCreateKernel) \
+    X(clCreateProgramWithSource) X(clEnqueueCopyBufferToImage) X(clEnqueueFillBuffer) X(clEnqueueNDRangeKernel)       \
+    X(clEnqueueReadBuffer) X(clEnqueueWriteBuffer) X(clFinish) X(clGetDeviceIDs) X(clGetDeviceInfo)                    \
+    X(clGetEventProfilingInfo) X(clGetMemObjectInfo) X(clGetPlatformIDs) X(clGetPlatformInfo) X(clGetProgramBuildInfo) \
+    X(clGetSupportedImageFormats) X(clReleaseCommandQueue) X(clReleaseContext) X(clReleaseEvent) X(clReleaseKernel)    \
+    X(clReleaseMemObject) X(clReleaseProgram) X(clSetKernelArg) X(clWaitForEvents)
+
+typedef struct pb_cl_api {
+#define PB_CL_MEMBER(f) __typeof__(f) *f;
+    PB_CL_FUNCTIONS(PB_CL_MEMBER)
+#undef PB_CL_MEMBER
+} pb_cl_api;
+
+extern pb_cl_api pb_cl;
+
+/* Opens the ICD loader once per process (PETBLUR_OPENCL_LIBRARY, else
+ * libOpenCL.so.1); every later call gives the first call's answer. On failure
+ * the error (set on ctx) says what is missing and how to install it. */
+pb_status pb_cl_load(pb_context *ctx);
+
 /* A timed command's event, and whether it was queued before timer_mark. */
 typedef struct cl_timed {
     cl_event event;
