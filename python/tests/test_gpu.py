@@ -210,3 +210,32 @@ def test_dask_two_workers_share_one_gpu(rng):
     np.testing.assert_array_equal(Y, F.apply(x))
     ref = F.adjoint(y)
     assert float(np.abs(s - ref).max()) <= 1e-5 * float(np.abs(ref).max())
+
+
+def test_nvrtc_kernels_equal_nvcc(tmp_path, rng):
+    """The CUDA kernels compiled at run time by NVRTC (found through the
+    nvidia-cuda-nvrtc wheel where installed), cached under PETBLUR_CACHE_DIR,
+    give nvcc's results; a second process reads the cache."""
+    import json
+    import os
+    import subprocess
+    import sys
+    x = rng.random((40, 36, 30), dtype=np.float32)
+    np.save(tmp_path / "x.npy", x)
+    code = (f"import json, numpy as np, petblur, os; x = np.load({str(tmp_path / 'x.npy')!r}); "
+            "m = petblur.Motion.from_axis_angle(translation=(6, -4, 3), angle=12); "
+            "B = petblur.BlurOperator(x.shape, (2, 2, 2.5), m, device='cuda'); "
+            f"np.save({str(tmp_path)!r} + '/y-' + os.environ['PETBLUR_CUDA_KERNELS'] + '.npy', B(x)); "
+            f"np.save({str(tmp_path)!r} + '/z-' + os.environ['PETBLUR_CUDA_KERNELS'] + '.npy', B.adjoint(x)); "
+            "print(json.dumps(os.environ.get('PETBLUR_NVRTC_LIBRARY')))")
+    cache = tmp_path / "cache"
+    for kernels in ("builtin", "nvrtc", "nvrtc"):
+        env = dict(os.environ, PETBLUR_CUDA_KERNELS=kernels, PETBLUR_CACHE_DIR=str(cache))
+        r = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, timeout=300)
+        assert r.returncode == 0, r.stderr[-3000:]
+        print(kernels, json.loads(r.stdout.strip().splitlines()[-1]))
+    assert len(list(cache.iterdir())) == 1
+    y0, y1 = np.load(tmp_path / "y-builtin.npy"), np.load(tmp_path / "y-nvrtc.npy")
+    z0, z1 = np.load(tmp_path / "z-builtin.npy"), np.load(tmp_path / "z-nvrtc.npy")
+    assert float(np.abs(y1 - y0).max()) <= 1e-6 * float(y0.max())
+    assert float(np.abs(z1 - z0).max()) <= 1e-5 * float(z0.max())

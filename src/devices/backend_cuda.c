@@ -1,13 +1,13 @@
-/* The CUDA backend: the kernels of cl/pb_blur.cl compiled by nvcc
- * (cuda/pb_kernels.cu), run through the CUDA runtime. This file translates
- * src/backend.h's primitives (buffers, images, launches by kernel id, event
- * timing) into runtime calls, plain C, reaching the kernels through
- * cuda/pb_cuda_launch.h; the device side is cuda_device.c. Every call is
- * checked and its error text reaches the caller. */
+/* The CUDA backend: the kernels of cl/pb_blur.cl, compiled by nvcc
+ * (cuda/pb_kernels.cu) or at run time by NVRTC (cuda_rtc.c), run through the
+ * CUDA runtime. This file translates src/backend.h's primitives (buffers,
+ * images, launches by kernel id, event timing) into runtime calls, plain C,
+ * launching the context's kernel handles (cu_kernels); the device side is
+ * cuda_device.c. Every call is checked and its error text reaches the
+ * caller. */
 #include <stdlib.h>
 #include <string.h>
 
-#include "cuda/pb_cuda_launch.h"
 #include "cuda_impl.h"
 
 /* An image: a CUDA array and its texture objects, which carry the filter: a
@@ -213,7 +213,12 @@ static pb_status cuda_image_layout(pb_context *ctx, void *image, const void *buf
     pb_status st = pb_cu_use_device(ctx);
     if (st != PB_OK)
         return st;
-    cudaError_t e = pb_cuda_layout(buffer, dims, m, img->surface, cu->queue);
+    int d[3] = {(int)dims[0], (int)dims[1], (int)dims[2]};
+    const float *in = buffer;
+    void *args[] = {&in, &d[0], &d[1], &d[2], &m, &img->surface};
+    dim3 block = {32, 4, 2}; /* a warp along x: coalesced reads */
+    dim3 grid = {(unsigned)((dims[0] + 31) / 32), (unsigned)((dims[1] + 3) / 4), (unsigned)((dims[2] + 1) / 2)};
+    cudaError_t e = cudaLaunchKernel(cu->kernels.layout, grid, block, args, 0, cu->queue);
     return e == cudaSuccess ? PB_OK : pb_cu_fail(ctx, PB_ERR_LAUNCH, "the layout kernel's launch", e);
 }
 
@@ -226,22 +231,21 @@ static pb_status cuda_launch(pb_context *ctx, const pb_launch *l)
     pb_status st = pb_cu_use_device(ctx);
     if (st != PB_OK)
         return st;
-    pb_cuda_launch_args a;
-    memset(&a, 0, sizeof a);
-    for (int d = 0; d < 3; d++) {
-        a.block[d] = info->group[d];
-        a.grid[d] = (unsigned)((l->extent[d] + info->group[d] - 1) / info->group[d]);
-    }
+    unsigned n[3];
+    for (int d = 0; d < 3; d++)
+        n[d] = (unsigned)((l->extent[d] + info->group[d] - 1) / info->group[d]);
+    dim3 block = {info->group[0], info->group[1], info->group[2]}, grid = {n[0], n[1], n[2]};
+    /* Every kernel is (input, plan, parameters, output); the input a texture
+     * object or a buffer, as its row of kernel_table.h says. */
     const cu_image *img = l->input;
-    if (info->reads == PB_READS_BUFFER)
-        a.buffer = l->input;
-    else
-        a.texture = info->reads == PB_READS_NEAREST ? img->point : img->linear;
-    a.plan = l->plan;
-    a.prm = l->prm;
-    a.out = l->out;
-    a.stream = cu->queue;
-    cudaError_t e = pb_cuda_launch((int)l->kernel, &a);
+    cudaTextureObject_t texture = 0;
+    const void *buffer = l->input, *plan = l->plan;
+    if (info->reads != PB_READS_BUFFER)
+        texture = info->reads == PB_READS_NEAREST ? img->point : img->linear;
+    pb_kparams prm = l->prm;
+    float *out = l->out;
+    void *args[] = {info->reads == PB_READS_BUFFER ? (void *)&buffer : (void *)&texture, &plan, &prm, &out};
+    cudaError_t e = cudaLaunchKernel(cu->kernels.kernel[l->kernel], grid, block, args, 0, cu->queue);
     return e == cudaSuccess ? PB_OK : pb_cu_fail(ctx, PB_ERR_LAUNCH, "the kernel launch", e);
 }
 

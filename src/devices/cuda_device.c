@@ -81,6 +81,49 @@ pb_status pb_cu_use_device(pb_context *ctx)
     return e == cudaSuccess ? PB_OK : pb_cu_fail(ctx, PB_ERR_DEVICE, "cudaSetDevice", e);
 }
 
+/* cudaSuccess when the device can run every kernel of k; otherwise the error
+ * a launch would give (a fat binary without code for it). */
+static cudaError_t check_kernels(const cu_kernels *k)
+{
+    struct cudaFuncAttributes attr;
+    for (int i = 0; i < PB_KERNEL_COUNT; i++) {
+        cudaError_t e = cudaFuncGetAttributes(&attr, k->kernel[i]);
+        if (e != cudaSuccess)
+            return e;
+    }
+    return cudaFuncGetAttributes(&attr, k->layout);
+}
+
+/* The context's kernels (cuda_impl.h's cu_kernels says which): checked here,
+ * so that a GPU no kernel can serve fails at the context, not at a blur. */
+static pb_status choose_kernels(pb_context *ctx, cu_impl *cu)
+{
+    const char *want = getenv("PETBLUR_CUDA_KERNELS");
+    int builtin = !want || !*want || strcmp(want, "builtin") == 0, nvrtc = !want || !*want || !strcmp(want, "nvrtc");
+    if (!builtin && !nvrtc)
+        return pb_error(ctx, PB_ERR_INVALID_ARGUMENT,
+                        "PETBLUR_CUDA_KERNELS is '%s': set 'builtin' (nvcc's, in the library), 'nvrtc' (compiled at "
+                        "run time) or leave it unset (nvcc's where they serve this GPU, else NVRTC's)",
+                        want);
+    cudaError_t e = cudaSuccess;
+    if (builtin) {
+        pb_cuda_builtin_kernels(cu->kernels.kernel, &cu->kernels.layout);
+        if ((e = check_kernels(&cu->kernels)) == cudaSuccess)
+            return PB_OK;
+        (void)cudaGetLastError();
+        if (!nvrtc)
+            return pb_cu_fail(ctx, PB_ERR_BUILD, "cudaFuncGetAttributes (nvcc's kernels for this GPU)", e);
+    }
+    pb_status st = pb_cuda_rtc_load(ctx, cu->device, &cu->kernels);
+    if (st != PB_OK) {
+        if (builtin) /* neither serves: say both */
+            pb_error_append(ctx, e == cudaSuccess ? "" : "; nvcc's kernels hold no code for this GPU either");
+        return st;
+    }
+    e = check_kernels(&cu->kernels);
+    return e == cudaSuccess ? PB_OK : pb_cu_fail(ctx, PB_ERR_BUILD, "cudaFuncGetAttributes (NVRTC's kernels)", e);
+}
+
 pb_status pb_cuda_context_init(pb_context *ctx, int index, const char *build_options)
 {
     (void)build_options; /* the kernels were compiled with the library */
@@ -123,10 +166,7 @@ pb_status pb_cuda_context_init(pb_context *ctx, int index, const char *build_opt
     if ((e = cudaEventCreate(&cu->start)) != cudaSuccess || (e = cudaEventCreate(&cu->mark)) != cudaSuccess ||
         (e = cudaEventCreate(&cu->stop)) != cudaSuccess)
         return pb_cu_fail(ctx, PB_ERR_DEVICE, "cudaEventCreate", e);
-    /* A GPU the fat binary has no code for fails here, not at the first blur. */
-    if ((e = pb_cuda_check_kernels()) != cudaSuccess)
-        return pb_cu_fail(ctx, PB_ERR_BUILD, "cudaFuncGetAttributes", e);
-    return PB_OK;
+    return choose_kernels(ctx, cu);
 }
 
 void pb_cuda_context_release(pb_context *ctx)
@@ -145,6 +185,8 @@ void pb_cuda_context_release(pb_context *ctx)
         cudaEventDestroy(cu->stop);
     if (cu->stream)
         cudaStreamDestroy(cu->stream);
+    if (cu->kernels.library)
+        cudaLibraryUnload(cu->kernels.library);
     (void)cudaGetLastError();
     free(cu);
     ctx->impl = NULL;

@@ -8,8 +8,20 @@
 
 #include "backend.h"
 
+/* The kernels a context launches, as the handles cudaLaunchKernel takes:
+ * nvcc's, built into the library (cuda/pb_kernels.cu), or NVRTC's, compiled
+ * at run time for the device and cached on disk (cuda_rtc.c; library is then
+ * theirs). PETBLUR_CUDA_KERNELS picks: 'builtin', 'nvrtc', or unset (nvcc's
+ * where they hold code for the device, else NVRTC's). */
+typedef struct cu_kernels {
+    const void *kernel[PB_KERNEL_COUNT];
+    const void *layout;
+    cudaLibrary_t library;
+} cu_kernels;
+
 typedef struct cu_impl {
     int device;
+    cu_kernels kernels;
     /* Every copy and launch of the context, in order. A blocking stream: it
      * waits for work queued before on the legacy default stream, where CuPy
      * and PyTorch queue by default, so their arrays are ready. */
@@ -32,6 +44,12 @@ pb_status pb_cu_fail(pb_context *ctx, pb_status kind, const char *call, cudaErro
  * thread, so every entry point that allocates or launches selects its device
  * first. */
 pb_status pb_cu_use_device(pb_context *ctx);
+
+/* cuda_rtc.c: 1 where NVRTC can be opened, else 0 and why (a message with the
+ * fix). pb_cuda_rtc_load compiles (or reads from the cache) and loads the
+ * kernels for device. */
+int pb_cuda_rtc_available(char *why, size_t n);
+pb_status pb_cuda_rtc_load(pb_context *ctx, int device, cu_kernels *k);
 
 /* cuda_device.c: the device ops of pb_backend_cuda_ops. */
 pb_status pb_cuda_device_count(int *count);

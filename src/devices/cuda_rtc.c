@@ -1,0 +1,348 @@
+/* The CUDA kernels compiled at run time: NVRTC (opened with dlopen, from the
+ * nvidia-cuda-nvrtc wheel, a toolkit, or PETBLUR_NVRTC_LIBRARY) compiles the
+ * embedded source (cuda/pb_kernels_rtc.cu: the one kernel source, as OpenCL
+ * builds it) for the device's architecture; the image is cached on disk and
+ * loaded through the runtime's library API (cudaLibraryLoadData), whose
+ * kernel handles cudaLaunchKernel takes as it takes nvcc's.
+ *
+ * The cache: one file per (source, options, NVRTC version, driver version,
+ * architecture), under PETBLUR_CACHE_DIR, else $XDG_CACHE_HOME/petblur, else
+ * ~/.cache/petblur. A file holds a header (magic, key, size, checksum) and
+ * the image; one that does not match is compiled again and replaced. Files
+ * are written to a temporary name and renamed, so processes compiling at
+ * once each leave a whole file and readers never see a partial one. A folder
+ * that cannot be written leaves the image in memory, said once on stderr. */
+#include "cuda_impl.h"
+
+#include <dlfcn.h>
+#include <errno.h>
+#include <nvrtc.h>
+#include <pthread.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+extern const char pb_cuda_rtc_source[];
+
+#define PB_NVRTC_FUNCTIONS(X)                                                                                         \
+    X(nvrtcVersion) X(nvrtcGetErrorString) X(nvrtcCreateProgram) X(nvrtcDestroyProgram) X(nvrtcCompileProgram)       \
+    X(nvrtcGetProgramLogSize) X(nvrtcGetProgramLog) X(nvrtcGetCUBINSize) X(nvrtcGetCUBIN) X(nvrtcGetPTXSize)          \
+    X(nvrtcGetPTX) X(nvrtcGetNumSupportedArchs) X(nvrtcGetSupportedArchs)
+
+static struct {
+#define PB_NVRTC_MEMBER(f) __typeof__(f) *f;
+    PB_NVRTC_FUNCTIONS(PB_NVRTC_MEMBER)
+#undef PB_NVRTC_MEMBER
+} nv;
+
+static pthread_once_t nv_once = PTHREAD_ONCE_INIT;
+static char nv_error[768];
+static int nv_major, nv_minor;
+
+static void nv_load(void)
+{
+    const char *env = getenv("PETBLUR_NVRTC_LIBRARY");
+    /* The sonames NVRTC has had, newest first; a toolkit's folder where the
+     * loader's path does not reach it. */
+    static const char *const names[] = {"libnvrtc.so.13", "libnvrtc.so.12", "libnvrtc.so.11.2", "libnvrtc.so",
+                                        "/usr/local/cuda/lib64/libnvrtc.so"};
+    void *lib = NULL;
+    const char *name = NULL;
+    if (env && *env) {
+        name = env;
+        lib = dlopen(env, RTLD_NOW | RTLD_LOCAL);
+    } else {
+        for (size_t i = 0; i < sizeof names / sizeof *names && !lib; i++)
+            lib = dlopen(name = names[i], RTLD_NOW | RTLD_LOCAL);
+    }
+    if (!lib) {
+        snprintf(nv_error, sizeof nv_error,
+                 "NVRTC, which compiles the CUDA kernels at run time, could not be opened (%s: %s); install it "
+                 "(pip install nvidia-cuda-nvrtc, or a CUDA toolkit) or set PETBLUR_NVRTC_LIBRARY to libnvrtc.so's "
+                 "path",
+                 name, dlerror());
+        return;
+    }
+#define PB_NVRTC_RESOLVE(f)                                                                                           \
+    {                                                                                                                 \
+        void *sym = dlsym(lib, #f);                                                                                   \
+        if (!sym) {                                                                                                   \
+            snprintf(nv_error, sizeof nv_error, "%s lacks %s(): point PETBLUR_NVRTC_LIBRARY at NVRTC 11.2 or newer",  \
+                     name, #f);                                                                                       \
+            dlclose(lib);                                                                                             \
+            return;                                                                                                   \
+        }                                                                                                             \
+        memcpy(&nv.f, &sym, sizeof sym);                                                                              \
+    }
+    PB_NVRTC_FUNCTIONS(PB_NVRTC_RESOLVE)
+#undef PB_NVRTC_RESOLVE
+    if (nv.nvrtcVersion(&nv_major, &nv_minor) != NVRTC_SUCCESS) {
+        snprintf(nv_error, sizeof nv_error, "%s does not answer nvrtcVersion(); reinstall NVRTC", name);
+        memset(&nv, 0, sizeof nv);
+    }
+}
+
+int pb_cuda_rtc_available(char *why, size_t n)
+{
+    pthread_once(&nv_once, nv_load);
+    if (nv.nvrtcCompileProgram)
+        return 1;
+    snprintf(why, n, "%s", nv_error);
+    return 0;
+}
+
+/* ---- the cache ----------------------------------------------------------- */
+
+static uint64_t fnv1a(uint64_t h, const void *data, size_t n)
+{
+    const unsigned char *p = data;
+    for (size_t i = 0; i < n; i++)
+        h = (h ^ p[i]) * 0x100000001b3ull;
+    return h;
+}
+
+#define FNV_START 0xcbf29ce484222325ull
+
+typedef struct cache_header {
+    char magic[8];
+    uint64_t key, size, sum;
+} cache_header;
+
+static const char cache_magic[8] = {'P', 'B', 'K', 'C', 'U', 'B', '1', '\n'};
+
+/* The cache folder, made where missing; 0 where there is none to use. */
+static int cache_dir(char *dir, size_t n)
+{
+    const char *env = getenv("PETBLUR_CACHE_DIR"), *xdg = getenv("XDG_CACHE_HOME"), *home = getenv("HOME");
+    int w;
+    if (env && *env)
+        w = snprintf(dir, n, "%s", env);
+    else if (xdg && *xdg)
+        w = snprintf(dir, n, "%s/petblur", xdg);
+    else if (home && *home)
+        w = snprintf(dir, n, "%s/.cache/petblur", home);
+    else
+        return 0;
+    if (w <= 0 || (size_t)w >= n)
+        return 0;
+    /* mkdir -p */
+    for (char *p = dir + 1; *p; p++) {
+        if (*p != '/')
+            continue;
+        *p = '\0';
+        if (mkdir(dir, 0755) != 0 && errno != EEXIST) {
+            *p = '/';
+            return 0;
+        }
+        *p = '/';
+    }
+    return mkdir(dir, 0755) == 0 || errno == EEXIST;
+}
+
+static void *cache_read(const char *path, uint64_t key, size_t *size)
+{
+    FILE *f = fopen(path, "rb");
+    if (!f)
+        return NULL;
+    cache_header h;
+    void *image = NULL;
+    if (fread(&h, sizeof h, 1, f) == 1 && memcmp(h.magic, cache_magic, sizeof cache_magic) == 0 && h.key == key &&
+        h.size > 0 && h.size < ((uint64_t)1 << 30) && (image = malloc((size_t)h.size)) != NULL) {
+        if (fread(image, 1, (size_t)h.size, f) != (size_t)h.size || fgetc(f) != EOF ||
+            fnv1a(FNV_START, image, (size_t)h.size) != h.sum) {
+            free(image);
+            image = NULL;
+        }
+    }
+    fclose(f);
+    if (image)
+        *size = (size_t)h.size;
+    return image;
+}
+
+/* 0 on success, else errno's reason. */
+static int cache_write(const char *dir, const char *path, uint64_t key, const void *image, size_t size)
+{
+    char tmp[4200];
+    if (snprintf(tmp, sizeof tmp, "%s/.tmp-XXXXXX", dir) >= (int)sizeof tmp)
+        return ENAMETOOLONG;
+    int fd = mkstemp(tmp);
+    if (fd < 0)
+        return errno;
+    cache_header h;
+    memcpy(h.magic, cache_magic, sizeof h.magic);
+    h.key = key;
+    h.size = size;
+    h.sum = fnv1a(FNV_START, image, size);
+    FILE *f = fdopen(fd, "wb");
+    int err = 0;
+    if (!f) {
+        err = errno;
+        close(fd);
+    } else {
+        if (fwrite(&h, sizeof h, 1, f) != 1 || fwrite(image, 1, size, f) != size)
+            err = errno ? errno : EIO;
+        if (fclose(f) != 0 && !err)
+            err = errno ? errno : EIO;
+    }
+    if (!err && rename(tmp, path) != 0)
+        err = errno;
+    if (err)
+        unlink(tmp);
+    return err;
+}
+
+/* ---- compiling and loading ----------------------------------------------- */
+
+static pb_status compile(pb_context *ctx, const char *options[], int n_options, int cubin, void **image,
+                         size_t *size)
+{
+    nvrtcProgram prog;
+    nvrtcResult r = nv.nvrtcCreateProgram(&prog, pb_cuda_rtc_source, "pb_kernels_rtc.cu", 0, NULL, NULL);
+    if (r != NVRTC_SUCCESS)
+        return pb_error(ctx, PB_ERR_BUILD, "nvrtcCreateProgram() failed: %s", nv.nvrtcGetErrorString(r));
+    r = nv.nvrtcCompileProgram(prog, n_options, options);
+    if (r != NVRTC_SUCCESS) {
+        size_t len = 0;
+        nv.nvrtcGetProgramLogSize(prog, &len);
+        char *log = malloc(len + 1);
+        if (log) {
+            log[0] = '\0';
+            nv.nvrtcGetProgramLog(prog, log);
+            log[len] = '\0';
+        }
+        pb_error(ctx, PB_ERR_BUILD,
+                 "NVRTC %d.%d could not compile the CUDA kernels for %s (%s): %s; set PETBLUR_NVRTC_LIBRARY to "
+                 "another NVRTC or PETBLUR_CUDA_KERNELS=builtin. Log:\n",
+                 nv_major, nv_minor, options[0], ctx->device.name, nv.nvrtcGetErrorString(r));
+        pb_error_append(ctx, log ? log : "(no memory for the log)");
+        free(log);
+        nv.nvrtcDestroyProgram(&prog);
+        return PB_ERR_BUILD;
+    }
+    r = cubin ? nv.nvrtcGetCUBINSize(prog, size) : nv.nvrtcGetPTXSize(prog, size);
+    *image = r == NVRTC_SUCCESS ? malloc(*size) : NULL;
+    if (*image)
+        r = cubin ? nv.nvrtcGetCUBIN(prog, *image) : nv.nvrtcGetPTX(prog, *image);
+    nv.nvrtcDestroyProgram(&prog);
+    if (!*image)
+        return pb_error(ctx, PB_ERR_OUT_OF_MEMORY, "out of host memory for the compiled CUDA kernels");
+    if (r != NVRTC_SUCCESS) {
+        free(*image);
+        *image = NULL;
+        return pb_error(ctx, PB_ERR_BUILD, "NVRTC gave no image: %s", nv.nvrtcGetErrorString(r));
+    }
+    return PB_OK;
+}
+
+/* The target: the device's own architecture where this NVRTC knows it
+ * (machine code), else the newest it knows below it (PTX, which the driver
+ * compiles for the device). */
+static pb_status target(pb_context *ctx, int device, int *arch, int *cubin)
+{
+    int major = 0, minor = 0;
+    if (cudaDeviceGetAttribute(&major, cudaDevAttrComputeCapabilityMajor, device) != cudaSuccess ||
+        cudaDeviceGetAttribute(&minor, cudaDevAttrComputeCapabilityMinor, device) != cudaSuccess)
+        return pb_cu_fail(ctx, PB_ERR_DEVICE, "cudaDeviceGetAttribute", cudaGetLastError());
+    int want = 10 * major + minor, n = 0, best = 0;
+    int archs[128];
+    if (nv.nvrtcGetNumSupportedArchs(&n) != NVRTC_SUCCESS || n <= 0 || n > 128 ||
+        nv.nvrtcGetSupportedArchs(archs) != NVRTC_SUCCESS)
+        return pb_error(ctx, PB_ERR_BUILD, "NVRTC %d.%d does not list its architectures", nv_major, nv_minor);
+    for (int i = 0; i < n; i++)
+        if (archs[i] <= want && archs[i] > best)
+            best = archs[i];
+    if (!best)
+        return pb_error(ctx, PB_ERR_BUILD,
+                        "NVRTC %d.%d does not compile for compute capability %d.%d (%s), nor for any below it; use "
+                        "an older NVRTC (PETBLUR_NVRTC_LIBRARY) or PETBLUR_CUDA_KERNELS=builtin",
+                        nv_major, nv_minor, major, minor, ctx->device.name);
+    *arch = best;
+    *cubin = best == want;
+    return PB_OK;
+}
+
+static pthread_mutex_t notice_lock = PTHREAD_MUTEX_INITIALIZER;
+static int noticed;
+
+/* Said once a process: the kernels were compiled, but the cache folder
+ * could not keep them. */
+static void notice_unwritable(const char *dir, int err)
+{
+    pthread_mutex_lock(&notice_lock);
+    if (!noticed && !getenv("PETBLUR_QUIET"))
+        fprintf(stderr,
+                "petblur: the CUDA kernels compiled by NVRTC stay in memory: the cache folder %s cannot be written "
+                "(%s); set PETBLUR_CACHE_DIR to a writable folder to keep them between runs\n",
+                dir, strerror(err));
+    noticed = 1;
+    pthread_mutex_unlock(&notice_lock);
+}
+
+pb_status pb_cuda_rtc_load(pb_context *ctx, int device, cu_kernels *k)
+{
+    char why[768];
+    if (!pb_cuda_rtc_available(why, sizeof why))
+        return pb_error(ctx, PB_ERR_BACKEND_UNAVAILABLE, "%s", why);
+    int arch = 0, cubin = 0;
+    pb_status st = target(ctx, device, &arch, &cubin);
+    if (st != PB_OK)
+        return st;
+    char opt_arch[40];
+    snprintf(opt_arch, sizeof opt_arch, "--gpu-architecture=%s_%d", cubin ? "sm" : "compute", arch);
+    /* nvcc's -O3 is NVRTC's default; both keep IEEE divisions and FMA
+     * contraction as they are, so the two builds compute alike. */
+    const char *options[] = {opt_arch, "-std=c++17"};
+    int driver = 0;
+    cudaDriverGetVersion(&driver);
+    uint64_t key = fnv1a(FNV_START, pb_cuda_rtc_source, strlen(pb_cuda_rtc_source));
+    for (size_t i = 0; i < sizeof options / sizeof *options; i++)
+        key = fnv1a(key, options[i], strlen(options[i]) + 1);
+    int versions[3] = {nv_major, nv_minor, driver};
+    key = fnv1a(key, versions, sizeof versions);
+
+    char dir[4096], path[4200];
+    int have_dir = cache_dir(dir, sizeof dir);
+    if (have_dir)
+        snprintf(path, sizeof path, "%s/cuda-%s%d-%016llx.bin", dir, cubin ? "sm" : "compute", arch,
+                 (unsigned long long)key);
+    cudaError_t e = cudaSuccess;
+    /* A cached image the runtime refuses is compiled again, once. */
+    for (int attempt = 0; attempt < 2; attempt++) {
+        void *image = NULL;
+        size_t size = 0;
+        int cached = 0;
+        if (have_dir && attempt == 0)
+            cached = (image = cache_read(path, key, &size)) != NULL;
+        if (!image) {
+            st = compile(ctx, options, 2, cubin, &image, &size);
+            if (st != PB_OK)
+                return st;
+            int err = have_dir ? cache_write(dir, path, key, image, size) : ENOENT;
+            if (err)
+                notice_unwritable(have_dir ? dir : "(none: set HOME or PETBLUR_CACHE_DIR)", err);
+        }
+        e = cudaLibraryLoadData(&k->library, image, NULL, NULL, 0, NULL, NULL, 0);
+        free(image);
+        if (e == cudaSuccess)
+            break;
+        (void)cudaGetLastError();
+        k->library = NULL;
+        if (!cached)
+            return pb_cu_fail(ctx, PB_ERR_BUILD, "cudaLibraryLoadData (NVRTC's kernels)", e);
+    }
+    for (int i = 0; i < PB_KERNEL_COUNT; i++) {
+        cudaKernel_t h;
+        if ((e = cudaLibraryGetKernel(&h, k->library, pb_kernel_table[i].name)) != cudaSuccess)
+            return pb_cu_fail(ctx, PB_ERR_BUILD, pb_kernel_table[i].name, e);
+        k->kernel[i] = (const void *)h;
+    }
+    cudaKernel_t h;
+    if ((e = cudaLibraryGetKernel(&h, k->library, "pb_cuda_layout_kernel")) != cudaSuccess)
+        return pb_cu_fail(ctx, PB_ERR_BUILD, "pb_cuda_layout_kernel", e);
+    k->layout = (const void *)h;
+    return PB_OK;
+}
