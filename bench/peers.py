@@ -6,6 +6,8 @@ motions as `petblur bench` and compared with the same reference.
          poses, affine_grid + grid_sample (trilinear, zeros outside), summed
          and divided by S. Kernel time with CUDA events (warm-up, median),
          end-to-end time with the upload and download.
+  cupy:  the same with cupyx.scipy.ndimage.affine_transform (order 1,
+         grid-constant) on the GPU, CUDA events.
   scipy: the same on the CPU with scipy.ndimage.map_coordinates (order 1,
          grid-constant: zero outside, interpolated across the border).
 
@@ -116,6 +118,59 @@ class TorchPeer:
         return res, statistics.median(ms), statistics.median(e2e)
 
 
+class CupyPeer:
+    """cupyx.scipy.ndimage.affine_transform (order 1, zero outside) looped
+    over the S poses on the GPU, summed and divided by S: SciPy's resampling
+    as a CuPy user runs it."""
+    name = "cupy"
+
+    def __init__(self):
+        import cupy
+        import cupyx.scipy.ndimage
+        self.cupy, self.ndimage = cupy, cupyx.scipy.ndimage
+        if cupy.cuda.runtime.getDeviceCount() < 1:
+            raise ImportError("CuPy finds no CUDA GPU")
+        name = cupy.cuda.runtime.getDeviceProperties(0)["name"].decode()
+        self.label = "CuPy %s affine_transform on %s" % (cupy.__version__, name)
+
+    def maps(self, case, S):
+        """Each pose as affine_transform takes it on a (z, y, x) array: index
+        j = M i + off, from o = A u + b with u = i + 0.5, j = o - 0.5."""
+        out = []
+        for A, b in pose_maps(case, S):
+            M = A[::-1, ::-1]
+            off = (A @ np.full(3, 0.5) + b - 0.5)[::-1]
+            out.append((self.cupy.asarray(M), tuple(float(v) for v in off)))
+        return out
+
+    def blur(self, vol, maps):
+        acc = self.cupy.zeros_like(vol)
+        for M, off in maps:
+            acc += self.ndimage.affine_transform(vol, M, offset=off, order=1, mode="grid-constant", cval=0.0,
+                                                 prefilter=False)
+        return acc / len(maps)
+
+    def measure(self, host, case, S, runs):
+        cupy = self.cupy
+        maps = self.maps(case, S)
+        vol = cupy.asarray(host)
+        res = self.blur(vol, maps)  # warm-up (and the kernels' compile)
+        ms = []
+        for _ in range(runs):
+            a, b = cupy.cuda.Event(), cupy.cuda.Event()
+            a.record()
+            res = self.blur(vol, maps)
+            b.record()
+            b.synchronize()
+            ms.append(cupy.cuda.get_elapsed_time(a, b))
+        e2e = []
+        for _ in range(min(runs, 5)):
+            t0 = time.perf_counter()
+            out = cupy.asnumpy(self.blur(cupy.asarray(host), maps))
+            e2e.append(1e3 * (time.perf_counter() - t0))
+        return out, statistics.median(ms), statistics.median(e2e)
+
+
 class ScipyPeer:
     name = "scipy"
 
@@ -169,9 +224,9 @@ def main():
     base = os.path.dirname(os.path.abspath(a.cases))
     peers = []
     for name in a.peers.split(","):
-        cls = {"torch": TorchPeer, "scipy": ScipyPeer}.get(name)
+        cls = {"torch": TorchPeer, "cupy": CupyPeer, "scipy": ScipyPeer}.get(name)
         if cls is None:
-            sys.exit("peers.py: unknown peer %r; choose torch and/or scipy" % name)
+            sys.exit("peers.py: unknown peer %r; choose torch, cupy and/or scipy" % name)
         try:
             peers.append(cls())
             print("peer %s: %s" % (name, peers[-1].label), flush=True)
