@@ -694,6 +694,19 @@ PB_API pb_status pb_plan_adjoint(pb_plan *plan, size_t frame, const pb_volume *t
 PB_API pb_status pb_plan_forward_device(pb_plan *plan, size_t frame, const void *object, void *tomograph);
 PB_API pb_status pb_plan_adjoint_device(pb_plan *plan, size_t frame, const void *tomograph, void *object,
                                         int accumulate);
+/* Frames first to first + count - 1 of a plan in one call, on the caller's
+ * memory as above: the forward of one object into tomographs[0..count-1]
+ * (the object copied into the plan's texture once, not once a frame), and
+ * the adjoint of tomographs[0..count-1] summed into one object (accumulate:
+ * added to what it holds). The frames are queued back to back and waited for
+ * once; pb_context_last_kernel_ms gives their total (the forward's object
+ * copy included, and alone in pb_context_last_input_ms; the adjoint's copies
+ * of the tomographs a gather reads are counted with the kernels). No output
+ * may overlap an input or another output. Progress is reported at the end. */
+PB_API pb_status pb_plan_forward_frames_device(pb_plan *plan, size_t first, size_t count, const void *object,
+                                               void *const *tomographs);
+PB_API pb_status pb_plan_adjoint_frames_device(pb_plan *plan, size_t first, size_t count,
+                                               const void *const *tomographs, void *object, int accumulate);
 
 /* The runtime objects behind a context, for device memory in and out: on
  * OpenCL the cl_context, cl_command_queue and cl_device_id; on CUDA the

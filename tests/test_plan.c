@@ -276,6 +276,76 @@ done:
 }
 
 /* A plan of frames equals pb_blur_frames bit for bit. */
+/* pb_plan_forward_frames_device and pb_plan_adjoint_frames_device on the
+ * caller's memory: every frame, and a run of them, against one call a frame
+ * (the forward bit for bit: the same kernels; the adjoint's sum to float
+ * rounding, its scatter adding in another order), accumulate, refusals. */
+static void check_frames_device(pb_context *ctx, pb_plan *plan, const float *x, size_t n, const pb_blur_options *opt)
+{
+    enum { F = 3 };
+    size_t bytes = n * sizeof(float);
+    float *want = malloc(bytes), *got = malloc(bytes), *y[F];
+    void *xd = dev_alloc(ctx, bytes), *yd[F], *sd = dev_alloc(ctx, bytes), *one = dev_alloc(ctx, bytes);
+    dev_copy(ctx, xd, (float *)x, bytes, 1);
+    for (int f = 0; f < F; f++) {
+        yd[f] = dev_alloc(ctx, bytes);
+        poison(got, n);
+        dev_copy(ctx, yd[f], got, bytes, 1);
+        y[f] = pb_random_volume(n);
+    }
+    const char *m = method_names[opt->method];
+    for (size_t first = 0; first < 2; first++) {
+        size_t count = F - first;
+        pb_check(pb_plan_forward_frames_device(plan, first, count, xd, yd) == PB_OK, "%s forward frames %zu+%zu: %s",
+                 m, first, count, pb_last_error(ctx));
+        for (size_t i = 0; i < count; i++) {
+            pb_plan_forward_device(plan, first + i, xd, one);
+            dev_copy(ctx, one, want, bytes, 0);
+            dev_copy(ctx, yd[i], got, bytes, 0);
+            pb_check(memcmp(want, got, bytes) == 0, "%s frames in one call: frame %zu differs from its own call", m,
+                     first + i);
+        }
+    }
+    /* The adjoint of every frame, summed; then added onto that sum again. */
+    for (int f = 0; f < F; f++)
+        dev_copy(ctx, yd[f], y[f], bytes, 1);
+    for (int f = 0; f < F; f++)
+        pb_plan_adjoint_device(plan, (size_t)f, yd[f], one, f > 0);
+    dev_copy(ctx, one, want, bytes, 0);
+    poison(got, n);
+    dev_copy(ctx, sd, got, bytes, 1);
+    pb_check(pb_plan_adjoint_frames_device(plan, 0, F, (const void *const *)yd, sd, 0) == PB_OK,
+             "%s adjoint frames: %s", m, pb_last_error(ctx));
+    dev_copy(ctx, sd, got, bytes, 0);
+    pb_check(same(got, want, n, 0, 1e-5), "%s adjoint frames summed in one call: %.3g off", m,
+             pb_max_abs_diff(got, want, n));
+    pb_check(pb_plan_adjoint_frames_device(plan, 0, F, (const void *const *)yd, sd, 1) == PB_OK,
+             "%s adjoint frames, accumulate: %s", m, pb_last_error(ctx));
+    dev_copy(ctx, sd, got, bytes, 0);
+    for (size_t i = 0; i < n; i++)
+        want[i] *= 2.0f;
+    pb_check(same(got, want, n, 0, 1e-5), "%s adjoint frames added to what the object held: %.3g off", m,
+             pb_max_abs_diff(got, want, n));
+    /* Refusals: no frames, frames past the end, an output twice, NULL. */
+    void *twice[F] = {yd[0], yd[0], yd[2]};
+    pb_check(pb_plan_forward_frames_device(plan, 0, 0, xd, yd) == PB_ERR_INVALID_ARGUMENT, "no frames accepted");
+    pb_check(pb_plan_forward_frames_device(plan, 1, F, xd, yd) == PB_ERR_INVALID_ARGUMENT &&
+                 strstr(pb_last_error(ctx), "frames 1 to 3"), "frames past the end: %s", pb_last_error(ctx));
+    pb_check(pb_plan_forward_frames_device(plan, 0, F, xd, twice) == PB_ERR_INVALID_ARGUMENT &&
+                 strstr(pb_last_error(ctx), "overlaps"), "an output twice: %s", pb_last_error(ctx));
+    pb_check(pb_plan_adjoint_frames_device(plan, 0, F, (const void *const *)yd, yd[1], 0) == PB_ERR_INVALID_ARGUMENT,
+             "the sum into one of its tomographs accepted");
+    void *none[F] = {yd[0], NULL, yd[2]};
+    pb_check(pb_plan_forward_frames_device(plan, 0, F, xd, none) == PB_ERR_INVALID_ARGUMENT, "a NULL output accepted");
+    pb_backend b = pb_context_backend(ctx);
+    for (int f = 0; f < F; f++) {
+        dev_free(b, yd[f]);
+        free(y[f]);
+    }
+    dev_free(b, xd), dev_free(b, sd), dev_free(b, one);
+    free(want), free(got);
+}
+
 static void check_frames(pb_context *ctx, const pb_geometry *g, const pb_blur_options *opt)
 {
     enum { TRACK = 31, FRAMES = 3 };
@@ -320,6 +390,7 @@ static void check_frames(pb_context *ctx, const pb_geometry *g, const pb_blur_op
         }
         pb_check(pb_plan_forward(plan, FRAMES, obj, out) == PB_ERR_INVALID_ARGUMENT, "frame %d of %d accepted",
                  FRAMES, FRAMES);
+        check_frames_device(ctx, plan, x, n, opt);
         pb_plan_destroy(plan);
     }
     for (int f = 0; f < FRAMES; f++)

@@ -165,6 +165,8 @@ _signatures = {
     "pb_plan_adjoint": (_int, [_vp, _sz, _vp, _vp, _int]),
     "pb_plan_forward_device": (_int, [_vp, _sz, _vp, _vp]),
     "pb_plan_adjoint_device": (_int, [_vp, _sz, _vp, _vp, _int]),
+    "pb_plan_forward_frames_device": (_int, [_vp, _sz, _sz, _vp, _P(_vp)]),
+    "pb_plan_adjoint_frames_device": (_int, [_vp, _sz, _sz, _P(_vp), _vp, _int]),
     "pb_track_read": (_int, [ctypes.c_char_p, _P(TrackReadOptions), _P(_vp)]),
     "pb_track_free": (None, [_vp]),
     "pb_track_count": (_sz, [_vp]),

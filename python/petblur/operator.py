@@ -311,10 +311,34 @@ class _Operator:
         with ctx.use():
             ctx.set_stream(stream)
             try:
-                for frame, x, y, acc, order in jobs:
-                    self._call_device(plans[order], frame, pointer(x, arr.kind), pointer(y, arr.kind), acc, adjoint)
+                if not self._frames_in_one_call(plans, jobs, arr.kind, adjoint):
+                    for frame, x, y, acc, order in jobs:
+                        self._call_device(plans[order], frame, pointer(x, arr.kind), pointer(y, arr.kind), acc,
+                                          adjoint)
             finally:
                 ctx.set_stream(None)
+
+    def _frames_in_one_call(self, plans, jobs, kind, adjoint):
+        """A run of frames in one library call where the jobs are one: the
+        forward of one activity into consecutive frames (copied into the
+        texture once, not once a frame), or the adjoint of consecutive frames
+        summed into one volume. False where they are not (left to the loop)."""
+        if len(jobs) < 2 or len({j[4] for j in jobs}) != 1:
+            return False
+        frames = [j[0] for j in jobs]
+        if frames != list(range(frames[0], frames[0] + len(frames))):
+            return False
+        lib, plan, n = _lib.lib, plans[jobs[0][4]], len(jobs)
+        if not adjoint and all(j[1] is jobs[0][1] for j in jobs):
+            outs = (ctypes.c_void_p * n)(*[pointer(j[2], kind) for j in jobs])
+            st = lib.pb_plan_forward_frames_device(plan, frames[0], n, pointer(jobs[0][1], kind), outs)
+        elif adjoint and all(j[2] is jobs[0][2] for j in jobs) and all(j[3] for j in jobs[1:]):
+            ins = (ctypes.c_void_p * n)(*[pointer(j[1], kind) for j in jobs])
+            st = lib.pb_plan_adjoint_frames_device(plan, frames[0], n, ins, pointer(jobs[0][2], kind), jobs[0][3])
+        else:
+            return False
+        _lib.check(st, self._ctx.handle)
+        return True
 
     def _run_volumes(self, jobs, adjoint):
         """numpy on a device: through the plan's volumes, uploaded and

@@ -227,6 +227,90 @@ static pb_status apply_device(pb_plan *plan, size_t frame, const void *in, void 
     return st;
 }
 
+/* pb_plan_forward_frames_device and pb_plan_adjoint_frames_device: ins and
+ * outs as frames_apply takes them (backend.h). */
+static pb_status apply_frames_device_entered(pb_plan *plan, size_t first, size_t count, int adjoint,
+                                             const void *const *ins, void *const *outs, int accumulate)
+{
+    pb_context *ctx = plan->ctx;
+    const char *in_name = adjoint ? "tomograph" : "object", *out_name = adjoint ? "object" : "tomograph";
+    size_t bytes = plan->count * sizeof(float), n_in = adjoint ? count : 1, n_out = adjoint ? 1 : count;
+    if (count == 0 || first >= plan->frames || count > plan->frames - first)
+        return pb_error(ctx, PB_ERR_INVALID_ARGUMENT, "frames %zu to %zu: the plan has frames 0 to %zu; give first "
+                        "and count within them (count at least 1)", first, first + count - (count > 0),
+                        plan->frames - 1);
+    if (!ins || !outs)
+        return pb_error(ctx, PB_ERR_INVALID_ARGUMENT, "the %s and %s arrays must not be NULL", in_name, out_name);
+    pb_status st = PB_OK;
+    for (size_t i = 0; i < n_in + n_out && st == PB_OK; i++) {
+        const void *p = i < n_in ? ins[i] : outs[i - n_in];
+        if (!p)
+            st = pb_error(ctx, PB_ERR_INVALID_ARGUMENT, "%s %zu is NULL", i < n_in ? in_name : out_name,
+                          i < n_in ? i : i - n_in);
+        else
+            st = ctx->ops->buffer_check(ctx, p, bytes, i < n_in ? in_name : out_name, i >= n_in);
+    }
+    /* No output may overlap an input or another output: it would be read
+     * after it is written, or written twice. Where memory is a handle (a
+     * cl_mem), only the same handle twice can be seen. */
+    for (size_t o = 0; o < n_out && st == PB_OK; o++) {
+        uintptr_t b = (uintptr_t)outs[o];
+        for (size_t j = 0; j < n_in + n_out && st == PB_OK; j++) {
+            if (j == n_in + o)
+                continue;
+            uintptr_t a = (uintptr_t)(j < n_in ? ins[j] : outs[j - n_in]);
+            if (ctx->ops->addresses ? (a < b ? b - a : a - b) < bytes : a == b)
+                st = pb_error(ctx, PB_ERR_INVALID_ARGUMENT, "%s %zu overlaps %s %zu (%zu bytes apart, each %zu "
+                              "bytes); give every output memory of its own", out_name, o,
+                              j < n_in ? in_name : out_name, j < n_in ? j : j - n_in,
+                              (size_t)(a < b ? b - a : a - b), bytes);
+        }
+    }
+    if (st != PB_OK)
+        return st;
+    if (ctx->ops->frames_apply) {
+        st = ctx->ops->frames_apply(ctx, plan, first, count, adjoint, ins, &plan->input, outs, accumulate);
+    } else { /* the host: frame by frame, the times summed */
+        double kernel = 0.0, input = 0.0;
+        for (size_t i = 0; i < count && st == PB_OK; i++) {
+            st = ctx->ops->frame_apply(ctx, plan, first + i, adjoint, ins[adjoint ? i : 0], &plan->input,
+                                       outs[adjoint ? 0 : i], adjoint ? accumulate || i > 0 : 0, 1);
+            kernel += ctx->last_kernel_ms;
+            input += ctx->last_input_ms;
+        }
+        ctx->last_kernel_ms = kernel;
+        ctx->last_input_ms = input;
+    }
+    for (size_t o = 0; o < n_out; o++)
+        pb_volume_memory_written(ctx, outs[o]);
+    return finish(ctx, st);
+}
+
+static pb_status apply_frames_device(pb_plan *plan, size_t first, size_t count, int adjoint, const void *const *ins,
+                                     void *const *outs, int accumulate)
+{
+    if (!plan)
+        return pb_error(NULL, PB_ERR_INVALID_ARGUMENT, "plan must not be NULL");
+    pb_status st = pb_context_enter(plan->ctx);
+    if (st != PB_OK)
+        return st;
+    st = apply_frames_device_entered(plan, first, count, adjoint, ins, outs, accumulate);
+    pb_context_leave(plan->ctx);
+    return st;
+}
+
+pb_status pb_plan_forward_frames_device(pb_plan *plan, size_t first, size_t count, const void *object,
+                                        void *const *tomographs)
+{
+    return apply_frames_device(plan, first, count, 0, &object, tomographs, 0);
+}
+
+pb_status pb_plan_adjoint_frames_device(pb_plan *plan, size_t first, size_t count, const void *const *tomographs,
+                                        void *object, int accumulate)
+{
+    return apply_frames_device(plan, first, count, 1, tomographs, &object, accumulate);
+}
+
 pb_status pb_plan_forward_device(pb_plan *plan, size_t frame, const void *object, void *tomograph)
 {
     return apply_device(plan, frame, object, tomograph, 0, 0);

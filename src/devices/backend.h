@@ -101,6 +101,14 @@ typedef struct pb_backend_ops {
                              const void *in, pb_images *in_images, void *out, int accumulate, int fresh_input);
     pb_status (*frames_forward)(struct pb_context *ctx, const struct pb_plan *plan,
                                 const struct pb_volume *const *ins, struct pb_volume *const *outs);
+    /* Frames [first, first + count) in one call on memory of this backend
+     * (the caller's): forward, one object (ins[0], fresh) into outs[i]; or the
+     * adjoint of ins[i] summed into outs[0] (accumulate: added to it). One
+     * timer spans the call; the forward's object is made current once. NULL
+     * (the host): the caller loops frame_apply. */
+    pb_status (*frames_apply)(struct pb_context *ctx, const struct pb_plan *plan, size_t first, size_t count,
+                              int adjoint, const void *const *ins, pb_images *in_images, void *const *outs,
+                              int accumulate);
 
     /* Device primitives (host: NULL). Images are float, single channel,
      * filtered by the kernels' samplers: 3-D of extent, or layered (extent[2]
@@ -212,6 +220,9 @@ pb_status pb_launch_frame(struct pb_context *ctx, const struct pb_plan *plan, si
                           const void *in, pb_images *in_images, void *out, int accumulate, int fresh_input);
 pb_status pb_launch_frames(struct pb_context *ctx, const struct pb_plan *plan, const struct pb_volume *const *ins,
                            struct pb_volume *const *outs);
+pb_status pb_launch_frames_apply(struct pb_context *ctx, const struct pb_plan *plan, size_t first, size_t count,
+                                 int adjoint, const void *const *ins, pb_images *in_images, void *const *outs,
+                                 int accumulate);
 /* A buffer changed: what was made from it is out of date. */
 void pb_images_stale(pb_images *images);
 /* context.c: device memory at `memory` was written behind the volumes' back:

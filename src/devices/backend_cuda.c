@@ -355,6 +355,7 @@ const pb_backend_ops pb_backend_cuda_ops = {
     .frame_prepare = pb_launch_prepare,
     .frame_apply = pb_launch_frame,
     .frames_forward = pb_launch_frames,
+    .frames_apply = pb_launch_frames_apply,
     .timer_begin = cuda_timer_begin,
     .timer_mark = cuda_timer_mark,
     .timer_end = cuda_timer_end,

@@ -255,6 +255,7 @@ const pb_backend_ops pb_backend_opencl_ops = {
     .frame_prepare = pb_launch_prepare,
     .frame_apply = pb_launch_frame,
     .frames_forward = pb_launch_frames,
+    .frames_apply = pb_launch_frames_apply,
     .timer_begin = ocl_timer_begin,
     .timer_mark = ocl_timer_mark,
     .timer_end = ocl_timer_end,

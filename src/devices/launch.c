@@ -260,3 +260,60 @@ pb_status pb_launch_frames(pb_context *ctx, const pb_plan *plan, const pb_volume
     free(inputs);
     return st;
 }
+
+/* Frames on the caller's memory in one call (backend.h's frames_apply). The
+ * forward reads one object in every frame: each frame's fresh-input kernel
+ * (the 3-D image, not layers laid out for one frame), the image copied once,
+ * before timer_mark, then the frames queued back to back. The adjoint reads a
+ * tomograph per frame, each made current (a gather's image) just before its
+ * launch, in one timer with the launches; frames after the first add into
+ * the sum. Progress is not reported inside: one wait at the end. */
+pb_status pb_launch_frames_apply(pb_context *ctx, const pb_plan *plan, size_t first, size_t count, int adjoint,
+                                 const void *const *ins, pb_images *in_images, void *const *outs, int accumulate)
+{
+    const pb_backend_ops *ops = ctx->ops;
+    const size_t *dims = plan->geometry.dims;
+    ctx->last_kernel_ms = ctx->last_input_ms = 0.0;
+    pb_status st = PB_OK;
+    for (size_t i = first; i < first + count && st == PB_OK; i++) {
+        const pb_plan_frame *f = &plan->frame[i];
+        st = adjoint ? allocate_input(ctx, f->adjoint, &f->adjoint_prm, dims, in_images)
+                     : allocate_input(ctx, f->forward_fresh, &f->forward_prm, dims, in_images);
+    }
+    if (st != PB_OK || (st = ops->timer_begin(ctx)) != PB_OK)
+        return st;
+    pb_images_stale(in_images);
+    pb_status launched = PB_OK;
+    if (!adjoint) {
+        const void *input = NULL;
+        for (size_t i = first; i < first + count && launched == PB_OK; i++) /* copies only the first time */
+            launched = refresh_input(ctx, plan->frame[i].forward_fresh, &plan->frame[i].forward_prm, ins[0], dims,
+                                     in_images, &input);
+        if (launched == PB_OK)
+            launched = ops->timer_mark(ctx);
+        for (size_t i = first; i < first + count && launched == PB_OK; i++) {
+            const pb_plan_frame *f = &plan->frame[i];
+            refresh_input(ctx, f->forward_fresh, &f->forward_prm, ins[0], dims, in_images, &input); /* current */
+            launched = launch(ctx, f->forward_fresh, input, f->poses, &f->forward_prm, outs[i - first], dims);
+        }
+    } else {
+        size_t bytes = dims[0] * dims[1] * dims[2] * sizeof(float);
+        for (size_t i = first; i < first + count && launched == PB_OK; i++) {
+            const pb_plan_frame *f = &plan->frame[i];
+            pb_kparams prm = f->adjoint_prm;
+            prm.accumulate = accumulate || i > first;
+            const void *input = NULL;
+            if (i > first)
+                pb_images_stale(in_images); /* another tomograph */
+            launched = refresh_input(ctx, f->adjoint, &prm, ins[i - first], dims, in_images, &input);
+            if (launched == PB_OK && pb_kernel_table[f->adjoint].family == PB_FAMILY_SCATTER && !prm.accumulate)
+                launched = ops->buffer_zero(ctx, outs[0], bytes);
+            if (launched == PB_OK)
+                launched = launch(ctx, f->adjoint, input, f->poses, &prm, outs[0], dims);
+        }
+    }
+    double before = 0.0;
+    st = ops->timer_end(ctx, &ctx->last_kernel_ms, &before); /* waits for whatever was queued */
+    ctx->last_input_ms = adjoint ? 0.0 : before;
+    return launched != PB_OK ? launched : st;
+}
