@@ -8,7 +8,7 @@ copy_ of a volume of that size), on a torch CUDA tensor in C order.
   512^3 and 700^3: (1,1,1) voxels and 2 degrees;
   24 frames of 220x220x110 under a slow drift (FramesOperator): the forward of
   one activity into every frame, and the adjoint summed over the frames
-  (floor: 24 volume copies each).
+  (floor: one copy of the 24 volumes each).
 
 Columns: the Python call (CUDA events around it, median of --runs), the C
 library's own device time of the same call (its events: the kernels, plus the
@@ -108,9 +108,10 @@ def main():
     frames, shape = 24, (220, 220, 110)
     F = petblur.FramesOperator(shape, VS, drift(frames, 10.0), 10.0 * np.arange(frames + 1), device="cuda:0")
     x = torch.rand(shape, device=dev)
-    dst = torch.empty_like(x)
-    floor = frames * event_ms(lambda: dst.copy_(x), args.runs)
     y = F.apply(x)
+    dst = torch.empty_like(y)
+    floor = event_ms(lambda: dst.copy_(y), args.runs)  # the 24 volumes in one copy
+    del dst
     for name, call in (("24 frames: forward", lambda: F.apply(x)),
                        ("24 frames: adjoint summed", lambda: F.adjoint(y, sum=True))):
         call_ms = event_ms(call, args.runs)

@@ -270,9 +270,6 @@ def test_frames_on_cuda_tensors_in_one_call(rng, order):
         assert torch.equal(y[k], yk), k
         ref_s += B.adjoint(y[k].contiguous() if order == "C" else y[k])
     assert float((s - ref_s).abs().max()) <= 1e-5 * float(ref_s.abs().max())
-    Fp = petblur.FramesOperator(shape, (2.0, 2.2, 2.5), track, bounds, per_frame=True, device="cuda")
-    yp = Fp(torch.stack([x] * 5))  # C order whatever x's: the transposed grid's plan where x is F
-    if order == "C":
-        assert torch.equal(yp, y)
-    else:
-        assert float((yp - y).abs().max()) <= TEX * float(y.abs().max())
+    if order == "C":  # torch.stack gives C order, whose plan is the transposed grid's where x is F
+        Fp = petblur.FramesOperator(shape, (2.0, 2.2, 2.5), track, bounds, per_frame=True, device="cuda")
+        assert torch.equal(Fp(torch.stack([x] * 5)), y)
