@@ -19,6 +19,11 @@ mkdir -p "$OUT"
             tail -3
         [ "${PIPESTATUS[0]}" = 0 ] || { echo "memcheck test_$t: FAILED"; status=1; }
     done
+    # NVRTC's kernels, launched by handle like nvcc's (the frames in one call among test_plan's cases).
+    echo "== memcheck test_plan cuda, NVRTC's kernels"
+    PETBLUR_CUDA_KERNELS=nvrtc PETBLUR_CACHE_DIR=$(mktemp -d) compute-sanitizer --tool memcheck --error-exitcode 99 \
+        --leak-check full ./build-sanitize/tests/test_plan cuda | tail -3
+    [ "${PIPESTATUS[0]}" = 0 ] || { echo "memcheck test_plan (NVRTC): FAILED"; status=1; }
     echo "== racecheck test_adjoint cuda"
     compute-sanitizer --tool racecheck --error-exitcode 99 ./build-sanitize/tests/test_adjoint cuda | tail -3
     [ "${PIPESTATUS[0]}" = 0 ] || { echo "racecheck test_adjoint: FAILED"; status=1; }
