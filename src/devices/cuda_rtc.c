@@ -113,11 +113,14 @@ typedef struct cache_header {
 
 static const char cache_magic[8] = {'P', 'B', 'K', 'C', 'U', 'B', '1', '\n'};
 
-/* The cache folder, made where missing; 0 where there is none to use. */
+/* The cache folder, made where missing: 0, or errno's reason it cannot be
+ * used (dir then holds the path tried, or is empty where none could be
+ * formed). */
 static int cache_dir(char *dir, size_t n)
 {
     const char *env = getenv("PETBLUR_CACHE_DIR"), *xdg = getenv("XDG_CACHE_HOME"), *home = getenv("HOME");
     int w;
+    dir[0] = '\0';
     if (env && *env)
         w = snprintf(dir, n, "%s", env);
     else if (xdg && *xdg)
@@ -125,21 +128,25 @@ static int cache_dir(char *dir, size_t n)
     else if (home && *home)
         w = snprintf(dir, n, "%s/.cache/petblur", home);
     else
-        return 0;
-    if (w <= 0 || (size_t)w >= n)
-        return 0;
+        return ENOENT;
+    if (w <= 0 || (size_t)w >= n) {
+        dir[0] = '\0';
+        return ENAMETOOLONG;
+    }
     /* mkdir -p */
     for (char *p = dir + 1; *p; p++) {
         if (*p != '/')
             continue;
         *p = '\0';
-        if (mkdir(dir, 0755) != 0 && errno != EEXIST) {
-            *p = '/';
-            return 0;
-        }
+        int bad = mkdir(dir, 0755) != 0 && errno != EEXIST;
         *p = '/';
+        if (bad)
+            return errno;
     }
-    return mkdir(dir, 0755) == 0 || errno == EEXIST;
+    if (mkdir(dir, 0755) != 0 && errno != EEXIST)
+        return errno;
+    struct stat s;
+    return stat(dir, &s) == 0 && S_ISDIR(s.st_mode) ? 0 : ENOTDIR;
 }
 
 static void *cache_read(const char *path, uint64_t key, size_t *size)
@@ -305,7 +312,7 @@ pb_status pb_cuda_rtc_load(pb_context *ctx, int device, cu_kernels *k)
     key = fnv1a(key, versions, sizeof versions);
 
     char dir[4096], path[4200];
-    int have_dir = cache_dir(dir, sizeof dir);
+    int dir_err = cache_dir(dir, sizeof dir), have_dir = dir_err == 0;
     if (have_dir)
         snprintf(path, sizeof path, "%s/cuda-%s%d-%016llx.bin", dir, cubin ? "sm" : "compute", arch,
                  (unsigned long long)key);
@@ -321,9 +328,9 @@ pb_status pb_cuda_rtc_load(pb_context *ctx, int device, cu_kernels *k)
             st = compile(ctx, options, 2, cubin, &image, &size);
             if (st != PB_OK)
                 return st;
-            int err = have_dir ? cache_write(dir, path, key, image, size) : ENOENT;
+            int err = have_dir ? cache_write(dir, path, key, image, size) : dir_err;
             if (err)
-                notice_unwritable(have_dir ? dir : "(none: set HOME or PETBLUR_CACHE_DIR)", err);
+                notice_unwritable(dir[0] ? dir : "(none: set HOME or PETBLUR_CACHE_DIR)", err);
         }
         e = cudaLibraryLoadData(&k->library, image, NULL, NULL, 0, NULL, NULL, 0);
         free(image);
