@@ -34,23 +34,24 @@ def _nvrtc_from_wheel():
     """NVRTC from the nvidia-cuda-nvrtc wheel (``pip install 'petblur[cuda]'``)
     for the library's run-time compile of the CUDA kernels, where none is
     named (PETBLUR_NVRTC_LIBRARY) and the library would otherwise search the
-    loader's path and a toolkit's folder. NVIDIA's cuda-pathfinder finds it
-    where installed; else the wheel's own folder (CUDA 13's, then 12's)."""
+    loader's path and a toolkit's folder. The wheel's own folder first (CUDA
+    13's, then 12's), found without loading anything; else NVIDIA's
+    cuda-pathfinder, which looks further (conda, CUDA_HOME) but finds a
+    library only by loading it, so it comes second."""
     if os.environ.get("PETBLUR_NVRTC_LIBRARY"):
         return
-    try:
-        from cuda.pathfinder import load_nvidia_dynamic_lib
-        os.environ["PETBLUR_NVRTC_LIBRARY"] = load_nvidia_dynamic_lib("nvrtc").abs_path
-        return
-    except Exception:  # not installed, or no NVRTC wheel: the library searches itself
-        pass
     import glob
     for site in sys.path:
         for pattern in ("nvidia/cu13/lib/libnvrtc.so.13", "nvidia/cuda_nvrtc/lib/libnvrtc.so.12"):
-            found = glob.glob(os.path.join(site, pattern))
+            found = glob.glob(os.path.join(site or ".", pattern))
             if found:
-                os.environ["PETBLUR_NVRTC_LIBRARY"] = found[0]
+                os.environ["PETBLUR_NVRTC_LIBRARY"] = os.path.abspath(found[0])
                 return
+    try:
+        from cuda.pathfinder import load_nvidia_dynamic_lib
+        os.environ["PETBLUR_NVRTC_LIBRARY"] = load_nvidia_dynamic_lib("nvrtc").abs_path
+    except Exception:  # not installed, or no NVRTC: the library searches itself
+        pass
 
 
 _nvrtc_from_wheel()
