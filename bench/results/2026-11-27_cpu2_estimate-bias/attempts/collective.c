@@ -65,16 +65,23 @@ static pb_status residual(collective *cv, const double p[NG], double *out)
     if (getenv("PBE_OBJ") && atoi(getenv("PBE_OBJ")) == 3) {
         /* the principal images moved forward onto each frame, fitted there:
          * the data are never resampled */
-        memcpy(cv->a, cv->gram, sizeof(double) * m * m);
-        pbe_eigen(cv->a, m, cv->w, cv->v);
-        size_t r = cv->rank < m ? cv->rank : m, idx[8];
+        /* the principal images of the frames not left out */
+        size_t kept[256], mk = 0;
+        for (size_t k = 0; k < m; k++)
+            if (!g_skip[k] || getenv("PBE_PCAALL"))
+                kept[mk++] = k;
+        for (size_t i = 0; i < mk; i++)
+            for (size_t j = 0; j < mk; j++)
+                cv->a[i * mk + j] = cv->gram[kept[i] * m + kept[j]];
+        pbe_eigen(cv->a, mk, cv->w, cv->v);
+        size_t r = cv->rank < mk ? cv->rank : mk, idx[8];
         for (size_t q = 0; q < r; q++) {
-            size_t best = m;
-            for (size_t j = 0; j < m; j++) {
+            size_t best = mk;
+            for (size_t j = 0; j < mk; j++) {
                 int used = 0;
                 for (size_t u = 0; u < q; u++)
                     used |= idx[u] == j;
-                if (!used && (best == m || cv->w[j] > cv->w[best]))
+                if (!used && (best == mk || cv->w[j] > cv->w[best]))
                     best = j;
             }
             idx[q] = best;
@@ -84,8 +91,8 @@ static pb_status residual(collective *cv, const double p[NG], double *out)
             double norm = 1.0 / sqrt(fmax(cv->w[idx[q]], 1e-300));
             for (size_t v = 0; v < n; v++) {
                 double acc = 0.0;
-                for (size_t i = 0; i < m; i++)
-                    acc += cv->v[i * m + idx[q]] * (double)cv->moved[i * n + v];
+                for (size_t i = 0; i < mk; i++)
+                    acc += cv->v[i * mk + idx[q]] * (double)cv->moved[kept[i] * n + v];
                 U[q * n + v] = (float)(acc * norm);
             }
         }
@@ -301,6 +308,23 @@ static int contrast_weights(const double *gram, size_t m, size_t ref, double *a,
             if (getenv("PBE_VERBOSE"))
                 fprintf(stderr, "frame %zu: outside %.4f%s\n", k, frac[k], g_skip[k] ? " (left out)" : "");
         }
+    }
+    /* frames named in PBE_EXCLUDE (comma separated): left out as trimmed ones */
+    if (getenv("PBE_EXCLUDE")) {
+        const char *q = getenv("PBE_EXCLUDE");
+        while (*q) {
+            char *end;
+            long f = strtol(q, &end, 10);
+            if (end == q)
+                break;
+            if (f >= 0 && (size_t)f < m)
+                g_skip[f] = 1;
+            q = *end ? end + 1 : end;
+        }
+        if (getenv("PBE_VERBOSE"))
+            for (size_t k = 0; k < m; k++)
+                if (g_skip[k])
+                    fprintf(stderr, "frame %zu left out\n", k);
     }
     double at_ref = weight[ref];
     for (size_t k = 0; k < m; k++) {
