@@ -269,3 +269,12 @@ def test_frames_from_sidecar_is_the_library_reader(tmp_path, seed):
     path.write_bytes(b" " * (5 << 20))
     with pytest.raises(petblur.Error, match="not a JSON sidecar"):
         petblur.frames_from_sidecar(path)
+    # A raw control byte outside a string, which jansson let by (the random
+    # cases above found it: a NUL after a number in a nested object).
+    for raw in (b"\x00", b"\x01", b"\x1f"):
+        data = (b'{"Nested": {"FrameTimesStart": [999' + raw + b'], "FrameDuration": [1]}, '
+                b'"FrameTimesStart": [0, 60], "FrameDuration": [60, 60]}')
+        path.write_bytes(data)
+        assert reference(data) is None
+        with pytest.raises(petblur.Error, match="raw control character"):
+            petblur.frames_from_sidecar(path)

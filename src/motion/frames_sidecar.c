@@ -46,19 +46,37 @@ pb_status pb_frames_read_sidecar(const char *path, double *bounds, size_t capaci
     FILE *f = fopen(path, "rb");
     if (!f)
         return pb_error(NULL, PB_ERR_BAD_FILE, "%s: cannot open it (%s); check the path", path, strerror(errno));
-    /* A sidecar is small: a larger file is refused before it is parsed. */
-    if (fseek(f, 0, SEEK_END) == 0) {
-        long size = ftell(f);
-        rewind(f);
-        if (size > MAX_SIDECAR_BYTES) {
-            fclose(f);
-            return pb_error(NULL, PB_ERR_BAD_FILE, "%s: %ld bytes, not a JSON sidecar (those are a few kB)", path,
-                            size);
+    /* A sidecar is small: read whole, a larger file refused before it is parsed. */
+    char *text = malloc(MAX_SIDECAR_BYTES + 1);
+    size_t len = text ? fread(text, 1, MAX_SIDECAR_BYTES + 1, f) : 0;
+    int unread = ferror(f);
+    fclose(f);
+    if (!text)
+        return pb_error(NULL, PB_ERR_OUT_OF_MEMORY, "out of memory reading %s", path);
+    if (unread || len > MAX_SIDECAR_BYTES) {
+        free(text);
+        return unread ? pb_error(NULL, PB_ERR_BAD_FILE, "%s: cannot read it; check the file", path)
+                      : pb_error(NULL, PB_ERR_BAD_FILE, "%s: over %d bytes, not a JSON sidecar (those are a few kB)",
+                                 path, MAX_SIDECAR_BYTES);
+    }
+    /* JSON allows no raw control character anywhere (RFC 8259: in a string
+     * only escaped, outside one only tab, line feed and carriage return as
+     * white space); jansson passes some by, which Python's json refuses. */
+    for (size_t i = 0, line = 1, column = 1; i < len; i++, column++) {
+        unsigned char c = (unsigned char)text[i];
+        if (c == '\n') {
+            line++;
+            column = 0;
+        } else if (c < 0x20 && c != '\t' && c != '\r') {
+            free(text);
+            return pb_error(NULL, PB_ERR_BAD_FILE, "%s:%zu:%zu: a raw control character (byte 0x%02X), which JSON "
+                            "allows nowhere (in a string write it escaped, \\u%04X); not JSON", path, line, column,
+                            (unsigned)c, (unsigned)c);
         }
     }
     json_error_t err;
-    json_t *root = json_loadf(f, JSON_DECODE_INT_AS_REAL | JSON_ALLOW_NUL, &err);
-    fclose(f);
+    json_t *root = json_loadb(text, len, JSON_DECODE_INT_AS_REAL | JSON_ALLOW_NUL, &err);
+    free(text);
     if (!root)
         return pb_error(NULL, PB_ERR_BAD_FILE, "%s:%d:%d: not JSON: %s; a BIDS sidecar is a JSON object", path,
                         err.line, err.column, err.text);
