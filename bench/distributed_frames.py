@@ -34,25 +34,12 @@ def track(frames, frame_s, rate=10.0):
     return petblur.Motion(t, np.outer(u, [2.0, 3.0, 1.5]), q)
 
 
-def event_ms(torch, fn, runs):
-    fn()
-    torch.cuda.synchronize()
-    pairs = []
-    for _ in range(runs):
-        a, b = torch.cuda.Event(enable_timing=True), torch.cuda.Event(enable_timing=True)
-        a.record()
-        fn()
-        b.record()
-        pairs.append((a, b))
-    torch.cuda.synchronize()
-    return statistics.median(a.elapsed_time(b) for a, b in pairs)
-
-
 def run(args):
     import torch
     import torch.distributed as dist
 
     import petblur
+    from python_torch import event_ms  # imports torch and petblur: not for --table
     local = int(os.environ.get("LOCAL_RANK", 0))
     torch.cuda.set_device(local)
     dev = torch.device("cuda", local)
@@ -83,10 +70,10 @@ def run(args):
         return u
 
     # Each part alone, then the step as a whole, back to back.
-    fwd = event_ms(torch, forward, args.runs)
-    adj = event_ms(torch, adjoint, args.runs)
+    fwd = event_ms(forward, args.runs)
+    adj = event_ms(adjoint, args.runs)
     dist.barrier()
-    red = event_ms(torch, reduce, args.runs)
+    red = event_ms(reduce, args.runs)
     walls = []
     for _ in range(args.runs + 1):
         dist.barrier()

@@ -22,7 +22,6 @@ the single-volume cases CuPy's affine_transform loop at the same S
 import argparse
 import csv
 import os
-import statistics
 import sys
 
 import numpy as np
@@ -31,34 +30,15 @@ import torch
 import petblur
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from distributed_frames import track as drift  # noqa: E402
 from peers import CupyPeer  # noqa: E402
-from python_torch import ab_slices_at_corners, event_ms  # noqa: E402
+from python_torch import ab_slices_at_corners, device_ms, event_ms  # noqa: E402
 
 VS = 2.0
 # (name, grid, translation in voxels, degrees about z)
 CASES = [("identity", 256, (0, 0, 0), 0.0), ("shift (1,1,1)", 256, (1, 1, 1), 0.0),
          ("shift (2,2,2)", 256, (2, 2, 2), 0.0), ("3 degrees", 256, (0, 0, 0), 3.0),
          ("(1,1,1) + 2 degrees", 512, (1, 1, 1), 2.0), ("(1,1,1) + 2 degrees", 700, (1, 1, 1), 2.0)]
-
-
-def drift(frames, frame_s, rate=10.0):
-    """A slow drift over the frames: 3 degrees of yaw and (2, 3, 1.5) mm."""
-    t = np.arange(0.0, frames * frame_s + 0.5 / rate, 1.0 / rate)
-    u = t / t[-1]
-    half = np.radians(3.0) * u / 2
-    q = np.c_[np.cos(half), np.zeros_like(u), np.zeros_like(u), np.sin(half)]
-    return petblur.Motion(t, np.outer(u, [2.0, 3.0, 1.5]), q)
-
-
-def device_ms(op, call):
-    """The library's device time of the call (median of 5): kernels, input copy."""
-    k, i = [], []
-    for _ in range(5):
-        call()
-        total, inp = op.last_device_ms()
-        k.append(total - inp)
-        i.append(inp)
-    return statistics.median(k), statistics.median(i)
 
 
 def main():
