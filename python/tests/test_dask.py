@@ -13,6 +13,7 @@ from distributed import Client, LocalCluster
 
 import petblur
 import petblur.dask
+from random_tracks import random_track
 
 
 @pytest.fixture(scope="module")
@@ -24,12 +25,7 @@ def client():
 
 def _frames_operator(rng, device, per_frame=False, frames=5):
     shape = tuple(int(n) for n in rng.integers(12, 20, 3))
-    n = 60
-    axes = rng.normal(size=(n, 3))
-    axes /= np.linalg.norm(axes, axis=1)[:, None]
-    half = np.radians(rng.uniform(0, 8, n)) / 2
-    q = np.c_[np.cos(half), np.sin(half)[:, None] * axes]
-    track = petblur.Motion(np.linspace(0, 30, n), rng.uniform(-4, 4, (n, 3)), q)
+    track = random_track(rng, 60, 30, 8, 4)
     bounds = np.sort(rng.uniform(0, 30, frames + 1))
     return petblur.FramesOperator(shape, rng.uniform(1.5, 2.5, 3), track, bounds, per_frame=per_frame, device=device)
 

@@ -16,6 +16,7 @@ if not torch.cuda.is_available() or not any(s.startswith("cuda") for s, _ in pet
     pytest.skip("no CUDA device", allow_module_level=True)
 
 from petblur.torch import blur  # noqa: E402
+from random_tracks import random_track  # noqa: E402
 
 # AB HARDWARE reads a volume along x through layers from numpy (volumes) and
 # through the 3-D texture from device memory: the texture unit's 8-bit
@@ -192,12 +193,7 @@ def test_dask_two_workers_share_one_gpu(rng):
     plans), the adjoint's sum to float rounding (another order, atomics)."""
     distributed = pytest.importorskip("distributed")
     import petblur.dask
-    n = 60
-    axes = rng.normal(size=(n, 3))
-    axes /= np.linalg.norm(axes, axis=1)[:, None]
-    half = np.radians(rng.uniform(0, 8, n)) / 2
-    q = np.c_[np.cos(half), np.sin(half)[:, None] * axes]
-    track = petblur.Motion(np.linspace(0, 30, n), rng.uniform(-4, 4, (n, 3)), q)
+    track = random_track(rng, 60, 30, 8, 4)
     F = petblur.FramesOperator((64, 56, 48), (2.0, 2.0, 2.5), track, np.sort(rng.uniform(0, 30, 6)), device="cuda")
     x = rng.random(F.in_shape, dtype=np.float32)
     y = rng.random(F.out_shape, dtype=np.float32)
@@ -248,12 +244,7 @@ def test_frames_on_cuda_tensors_in_one_call(rng, order):
     call): each frame equal to its own BlurOperator on the same tensor, the
     summed adjoint to the sum of theirs, per-frame inputs (one call a frame)
     alike."""
-    n = 40
-    axes = rng.normal(size=(n, 3))
-    axes /= np.linalg.norm(axes, axis=1)[:, None]
-    half = np.radians(rng.uniform(0, 6, n)) / 2
-    q = np.c_[np.cos(half), np.sin(half)[:, None] * axes]
-    track = petblur.Motion(np.linspace(0, 20, n), rng.uniform(-3, 3, (n, 3)), q)
+    track = random_track(rng, 40, 20, 6, 3)
     bounds = np.sort(rng.uniform(0, 20, 6))
     shape = (44, 38, 30)
     F = petblur.FramesOperator(shape, (2.0, 2.2, 2.5), track, bounds, device="cuda")
