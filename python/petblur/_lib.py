@@ -37,9 +37,13 @@ def _nvrtc_from_wheel():
     loader's path and a toolkit's folder. The wheel's own folder first (CUDA
     13's, then 12's), found without loading anything; else NVIDIA's
     cuda-pathfinder, which looks further (conda, CUDA_HOME) but finds a
-    library only by loading it, so it comes second."""
-    if os.environ.get("PETBLUR_NVRTC_LIBRARY"):
+    library only by loading it, so it comes second. Asked before a CUDA
+    context is first made (the library opens NVRTC there, where nvcc's
+    kernels do not serve the GPU), not at import."""
+    global _nvrtc_sought
+    if _nvrtc_sought or os.environ.get("PETBLUR_NVRTC_LIBRARY"):
         return
+    _nvrtc_sought = True
     import glob
     for site in sys.path:
         for pattern in ("nvidia/cu13/lib/libnvrtc.so.13", "nvidia/cuda_nvrtc/lib/libnvrtc.so.12"):
@@ -54,7 +58,7 @@ def _nvrtc_from_wheel():
         pass
 
 
-_nvrtc_from_wheel()
+_nvrtc_sought = False
 lib = _load()
 
 c_size3 = ctypes.c_size_t * 3
@@ -357,6 +361,8 @@ def context(device):
     with _contexts_lock:
         ctx = _contexts.get(key)
         if ctx is None:
+            if key[0] in (BACKEND_AUTO, BACKEND_CUDA):
+                _nvrtc_from_wheel()
             # 'auto' and the device it picks share one context.
             with _device_guard():
                 new = Context(*key)
