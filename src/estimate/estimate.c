@@ -27,7 +27,7 @@
  * pose (relative residual) a dwell must explain a frame to be believed:
  * docs/motion.md, "Motion from the frames", gives the measurement. */
 enum { DWELL_POINTS = 9 };
-#define DWELL_GAIN 0.01
+#define DWELL_GAIN 0.05
 /* The shortest time a path's step takes, as a fraction of its frame. */
 #define STEP_FRACTION 0.01
 
