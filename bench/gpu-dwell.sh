@@ -3,12 +3,13 @@
 # DWELL_GAIN) changes where docs/motion.md cites the estimator: the motion
 # study's (e) and (g) at full size (bench/gpu-study.sh), then
 # bench/estimate_validation.py's axial series with the seed its table gives.
-#   PB_COMMIT=$(git rev-parse --short HEAD) bash bench/gpu-dwell.sh   (carry .device .whl .study)
+#   PB_COMMIT=$(git rev-parse --short HEAD) bash bench/gpu-dwell.sh [validation-only]   (carry .device .whl .study)
 set -uo pipefail
 cd "$(dirname "$0")/.."
 OUT=${OUT:-$PWD/gpu-out}
 mkdir -p "$OUT"
-OUT=$OUT/study bash bench/gpu-study.sh --methods eg || exit 1
+[[ " $* " == *" validation-only "* ]] || OUT=$OUT/study bash bench/gpu-study.sh --methods eg || exit 1
+. bench/device-env.sh
 site=$(mktemp -d)/site
 python3 -m pip install -q --no-deps --no-index --find-links .whl --target "$site" nibabel 2>&1 | tail -3
 export PYTHONPATH=$site
