@@ -278,3 +278,32 @@ def test_frames_from_sidecar_is_the_library_reader(tmp_path, seed):
         assert reference(data) is None
         with pytest.raises(petblur.Error, match="raw control character"):
             petblur.frames_from_sidecar(path)
+
+
+def test_sizes_across_the_read_buffer(tmp_path, seed):
+    """The reader grows its buffer while the file goes on (16 KiB, doubled, up
+    to the 4 MiB limit): sidecars whose length falls on, just before and just
+    after each doubling read as Python's json reads them; one of exactly
+    4 MiB is read, one byte more is refused."""
+    rng = random.Random(seed + 2)
+    path = tmp_path / "sub-01_pet.json"
+    counts = {"read": 0, "refused": 0}
+    starts, durations = _frames(rng)
+    body = json.dumps({"FrameTimesStart": starts, "FrameDuration": durations}).encode()
+    for size in [(1 << 14) << k for k in range(9)]:  # 16 KiB to 4 MiB
+        for delta in (-1, 0, 1):
+            n = size + delta
+            if n > 4 << 20:
+                continue
+            # the frames first and white space after (a pretty-printed tail),
+            # or a long string in front of them: both sides of the boundary
+            if rng.random() < 0.5:
+                data = body + b" " * (n - len(body))
+            else:
+                data = b'{"Note": "' + b"x" * (n - len(body) - 12) + b'", ' + body[1:]
+            assert len(data) == n
+            _agree(path, data, counts)
+    assert counts == {"read": 26, "refused": 0}, counts
+    path.write_bytes(body + b" " * ((4 << 20) + 1 - len(body)))
+    with pytest.raises(petblur.Error, match="not a JSON sidecar"):
+        petblur.frames_from_sidecar(path)

@@ -46,13 +46,28 @@ pb_status pb_frames_read_sidecar(const char *path, double *bounds, size_t capaci
     FILE *f = fopen(path, "rb");
     if (!f)
         return pb_error(NULL, PB_ERR_BAD_FILE, "%s: cannot open it (%s); check the path", path, strerror(errno));
-    /* A sidecar is small: read whole, a larger file refused before it is parsed. */
-    char *text = malloc(MAX_SIDECAR_BYTES + 1);
-    size_t len = text ? fread(text, 1, MAX_SIDECAR_BYTES + 1, f) : 0;
-    int unread = ferror(f);
+    /* A sidecar is small: read whole, into a buffer that grows as the file
+     * turns out longer (a few kB, not the limit, for the usual one), and a
+     * file over the limit refused before it is parsed. */
+    const size_t limit = (size_t)MAX_SIDECAR_BYTES + 1;
+    size_t cap = 1 << 14, len = 0;
+    char *text = NULL;
+    int unread = 0;
+    for (;;) {
+        char *grown = realloc(text, cap);
+        if (!grown) {
+            free(text);
+            fclose(f);
+            return pb_error(NULL, PB_ERR_OUT_OF_MEMORY, "out of memory reading %s", path);
+        }
+        text = grown;
+        len += fread(text + len, 1, cap - len, f);
+        unread = ferror(f);
+        if (len < cap || unread || cap == limit)
+            break;
+        cap = cap < limit / 2 ? 2 * cap : limit;
+    }
     fclose(f);
-    if (!text)
-        return pb_error(NULL, PB_ERR_OUT_OF_MEMORY, "out of memory reading %s", path);
     if (unread || len > MAX_SIDECAR_BYTES) {
         free(text);
         return unread ? pb_error(NULL, PB_ERR_BAD_FILE, "%s: cannot read it; check the file", path)
