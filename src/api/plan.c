@@ -4,6 +4,7 @@
  * caller's device memory; destroyed. pb_blur and pb_blur_adjoint are one-shot
  * plans. */
 #include <stdint.h>
+#include <stdio.h>
 #include <stdlib.h>
 
 #include "plan.h"
@@ -183,27 +184,65 @@ pb_status pb_plan_adjoint(pb_plan *plan, size_t frame, const pb_volume *tomograp
     return apply_volumes(plan, frame, tomograph, object, 1, accumulate);
 }
 
+/* "the object" where there is one, "object 3" among several. */
+static const char *memory_name(char *buf, size_t size, const char *kind, size_t i, size_t n)
+{
+    if (n == 1)
+        snprintf(buf, size, "the %s", kind);
+    else
+        snprintf(buf, size, "%s %zu", kind, i);
+    return buf;
+}
+
+/* The caller's device memory for one direction: n_in inputs and n_out
+ * outputs, each a volume of the plan's grid. None may be NULL or fail the
+ * backend's check, and no output may overlap an input or another output: it
+ * would be read after it is written, or written twice. Where memory is a
+ * handle (a cl_mem), only the same handle twice can be seen. */
+static pb_status check_device_memory(const pb_plan *plan, int adjoint, const void *const *ins, size_t n_in,
+                                     void *const *outs, size_t n_out)
+{
+    pb_context *ctx = plan->ctx;
+    const char *kind[2] = {adjoint ? "tomograph" : "object", adjoint ? "object" : "tomograph"};
+    const size_t bytes = plan->count * sizeof(float), n = n_in + n_out, count[2] = {n_in, n_out};
+    char a_name[48], b_name[48];
+#define MEMORY(i) ((i) < n_in ? ins[i] : (const void *)outs[(i) - n_in])
+#define NAMED(buf, i) memory_name(buf, sizeof buf, kind[(i) >= n_in], (i) < n_in ? (i) : (i) - n_in, count[(i) >= n_in])
+    pb_status st = PB_OK;
+    for (size_t i = 0; i < n && st == PB_OK; i++) {
+        if (!MEMORY(i))
+            st = pb_error(ctx, PB_ERR_INVALID_ARGUMENT, "%s memory is NULL; give device memory of the plan's grid",
+                          NAMED(a_name, i));
+        else
+            st = ctx->ops->buffer_check(ctx, MEMORY(i), bytes, kind[i >= n_in], i >= n_in);
+    }
+    for (size_t o = n_in; o < n && st == PB_OK; o++) {
+        uintptr_t b = (uintptr_t)MEMORY(o);
+        for (size_t j = 0; j < n && st == PB_OK; j++) {
+            uintptr_t a = (uintptr_t)MEMORY(j), gap = a < b ? b - a : a - b;
+            if (j == o)
+                continue;
+            if (a == b)
+                st = pb_error(ctx, PB_ERR_INVALID_ARGUMENT, "%s overlaps %s: they are the same memory; give every "
+                              "output memory of its own", NAMED(a_name, o), NAMED(b_name, j));
+            else if (ctx->ops->addresses && gap < bytes)
+                st = pb_error(ctx, PB_ERR_INVALID_ARGUMENT, "%s overlaps %s (%zu bytes apart, each %zu bytes); give "
+                              "every output memory of its own", NAMED(a_name, o), NAMED(b_name, j), (size_t)gap,
+                              bytes);
+        }
+    }
+#undef MEMORY
+#undef NAMED
+    return st;
+}
+
 static pb_status apply_device_entered(pb_plan *plan, size_t frame, const void *in, void *out, int adjoint,
                                       int accumulate)
 {
     pb_context *ctx = plan->ctx;
-    const char *in_name = adjoint ? "tomograph" : "object", *out_name = adjoint ? "object" : "tomograph";
-    size_t bytes = plan->count * sizeof(float);
     pb_status st = check_frame(plan, frame);
-    if (st == PB_OK && (!in || !out))
-        st = pb_error(ctx, PB_ERR_INVALID_ARGUMENT, "the %s and %s memory must not be NULL", in_name, out_name);
-    if (st == PB_OK && in == out)
-        st = pb_error(ctx, PB_ERR_INVALID_ARGUMENT, "the %s and %s are the same memory; blur into a second array",
-                      in_name, out_name);
-    /* A partial overlap would be read after it is written. */
-    uintptr_t a = (uintptr_t)in, b = (uintptr_t)out;
-    if (st == PB_OK && ctx->ops->addresses && (a < b ? b - a : a - b) < bytes)
-        st = pb_error(ctx, PB_ERR_INVALID_ARGUMENT, "the %s and %s memory overlap (%zu bytes apart, each %zu bytes); "
-                      "blur into an array of its own", in_name, out_name, (size_t)(a < b ? b - a : a - b), bytes);
     if (st == PB_OK)
-        st = ctx->ops->buffer_check(ctx, in, bytes, in_name, 0);
-    if (st == PB_OK)
-        st = ctx->ops->buffer_check(ctx, out, bytes, out_name, 1);
+        st = check_device_memory(plan, adjoint, &in, 1, &out, 1);
     if (st != PB_OK)
         return st;
     /* The caller's memory may have changed since the last call: its copy
@@ -233,39 +272,15 @@ static pb_status apply_frames_device_entered(pb_plan *plan, size_t first, size_t
                                              const void *const *ins, void *const *outs, int accumulate)
 {
     pb_context *ctx = plan->ctx;
-    const char *in_name = adjoint ? "tomograph" : "object", *out_name = adjoint ? "object" : "tomograph";
-    size_t bytes = plan->count * sizeof(float), n_in = adjoint ? count : 1, n_out = adjoint ? 1 : count;
+    size_t n_in = adjoint ? count : 1, n_out = adjoint ? 1 : count;
     if (count == 0 || first >= plan->frames || count > plan->frames - first)
         return pb_error(ctx, PB_ERR_INVALID_ARGUMENT, "frames %zu to %zu: the plan has frames 0 to %zu; give first "
                         "and count within them (count at least 1)", first, first + count - (count > 0),
                         plan->frames - 1);
     if (!ins || !outs)
-        return pb_error(ctx, PB_ERR_INVALID_ARGUMENT, "the %s and %s arrays must not be NULL", in_name, out_name);
-    pb_status st = PB_OK;
-    for (size_t i = 0; i < n_in + n_out && st == PB_OK; i++) {
-        const void *p = i < n_in ? ins[i] : outs[i - n_in];
-        if (!p)
-            st = pb_error(ctx, PB_ERR_INVALID_ARGUMENT, "%s %zu is NULL", i < n_in ? in_name : out_name,
-                          i < n_in ? i : i - n_in);
-        else
-            st = ctx->ops->buffer_check(ctx, p, bytes, i < n_in ? in_name : out_name, i >= n_in);
-    }
-    /* No output may overlap an input or another output: it would be read
-     * after it is written, or written twice. Where memory is a handle (a
-     * cl_mem), only the same handle twice can be seen. */
-    for (size_t o = 0; o < n_out && st == PB_OK; o++) {
-        uintptr_t b = (uintptr_t)outs[o];
-        for (size_t j = 0; j < n_in + n_out && st == PB_OK; j++) {
-            if (j == n_in + o)
-                continue;
-            uintptr_t a = (uintptr_t)(j < n_in ? ins[j] : outs[j - n_in]);
-            if (ctx->ops->addresses ? (a < b ? b - a : a - b) < bytes : a == b)
-                st = pb_error(ctx, PB_ERR_INVALID_ARGUMENT, "%s %zu overlaps %s %zu (%zu bytes apart, each %zu "
-                              "bytes); give every output memory of its own", out_name, o,
-                              j < n_in ? in_name : out_name, j < n_in ? j : j - n_in,
-                              (size_t)(a < b ? b - a : a - b), bytes);
-        }
-    }
+        return pb_error(ctx, PB_ERR_INVALID_ARGUMENT, "the %s and %s arrays must not be NULL",
+                        adjoint ? "tomograph" : "object", adjoint ? "object" : "tomograph");
+    pb_status st = check_device_memory(plan, adjoint, ins, n_in, outs, n_out);
     if (st != PB_OK)
         return st;
     if (ctx->ops->frames_apply) {
