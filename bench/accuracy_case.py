@@ -12,7 +12,7 @@ by scipy.ndimage.map_coordinates (order 1, zero outside), the track between
 its samples interpolated by scipy (LERP, SLERP). Errors: relative RMS and
 relative max in percent (100 ||d|| / ||ref||, 100 max |d| / max |ref|).
 
-  accuracy_case.py [--device D] [--bounds 0.25,0.1,0.05,0.02,0.01] [--out results.json]
+  accuracy_case.py [--device D] [--bounds 0.25,0.1,0.05,0.02,0.01] [--methods ab,ab-sweep,rm] [--out results.json]
   accuracy_case.py --small ...     (a 31 x 27 x 19 grid of twice the voxels: the tests' version)
 
 The tests (python/tests/test_accuracy.py) import Case, reference and
@@ -115,9 +115,12 @@ def errors(ref, x):
 
 
 def measure(case, ref, method, bound, device):
+    """method: 'ab', 'rm', ..., or 'ab-sweep' (AB reading two points a slice
+    where its path sweeps sideways)."""
     import petblur
-    op = petblur.BlurOperator(case.shape, case.voxel, case.motion(), method=method, max_path_error=bound,
-                              affine=case.affine, device=device)
+    name, _, sampling = method.partition("-")
+    op = petblur.BlurOperator(case.shape, case.voxel, case.motion(), method=name, max_path_error=bound,
+                              affine=case.affine, device=device, ab_sampling=sampling or None)
     x = np.asfortranarray(case.x)
     op(x)  # warm-up: the plan and, on OpenCL, the kernels' build
     t = time.perf_counter()
@@ -148,7 +151,7 @@ def main():
                 bound = None if b == "default" else ("paper" if b == "paper" else float(b))
                 r = dict(measure(case, ref, method, bound, a.device), phantom=kind, method=method, bound=b)
                 rows.append(r)
-                print(f"  {method.upper():3s} bound {b:>8s}: {r['rms_pct']:7.3f} % RMS  {r['max_pct']:7.3f} % max  "
+                print(f"  {method.upper():8s} bound {b:>8s}: {r['rms_pct']:7.3f} % RMS  {r['max_pct']:7.3f} % max  "
                       f"{1e3 * r['seconds']:9.2f} ms", flush=True)
     if a.out:
         with open(a.out, "w") as f:

@@ -85,17 +85,17 @@ PB_FN void pb_slice_scatter(PB_GLOBAL float *out, pb_kparams prm, int major, flo
 PB_FN void pb_ab_segment_adjoint(PB_GLOBAL float *out, pb_kparams prm, const float *a, const float *b, float v)
 {
     pb_ab_walk w;
-    if (pb_ab_walk_init(a, b, &w)) {
+    if (pb_ab_walk_init(a, b, prm.sweep, &w)) {
         float o[3];
         pb_midpoint(a, b, o);
         pb_trilinear_scatter(out, prm, o[0], o[1], o[2], v);
         return;
     }
     float wsum = (float)(w.f1 - w.f0 + 1);
-    PB_AB_PARTIAL_SLICES(w, (void)x; (void)y; (void)z; wsum += s);
+    PB_AB_PARTIAL_SLICES(w, (void)x; (void)y; (void)z; wsum += s * q);
     float vw = PB_DIV(v, wsum);
-    PB_AB_FULL_SLICES(w, pb_slice_scatter(out, prm, w.m, x, y, z, vw));
-    PB_AB_PARTIAL_SLICES(w, pb_slice_scatter(out, prm, w.m, x, y, z, s * vw));
+    PB_AB_FULL_SLICES(w, pb_slice_scatter(out, prm, w.m, x, y, z, q * vw));
+    PB_AB_PARTIAL_SLICES(w, pb_slice_scatter(out, prm, w.m, x, y, z, s * q * vw));
 }
 
 /* Transpose of pb_ab_sampled (ab) or pb_rm_sampled: v spread along a-b. */

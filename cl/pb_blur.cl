@@ -120,32 +120,53 @@ PB_FN int pb_ab_slices(const float *a, const float *b)
 /* Share of a slice in a path [r0, r1] (relative to the slice's centre, in
  * voxels along the major axis): the integral of the tent 1 - |r|, which is the
  * overlap of the moving voxel with the slice. *mean receives the tent-weighted
- * mean of r, where the slice is sampled. Summed piecewise over the tent's two
- * linear halves (midpoint rule plus the exact moment correction) so that short
- * pieces lose no precision to cancellation. */
-PB_FN float pb_tent_share(float r0, float r1, float *mean)
+ * mean of r, where the slice is sampled, and *spread its tent-weighted
+ * standard deviation (1 / sqrt 6 over the whole tent). Summed piecewise over
+ * the tent's two linear halves, each piece's moments taken about its own
+ * centre (midpoint rule plus the exact corrections), so that short pieces
+ * lose no precision to cancellation. */
+#define PB_TENT_SPREAD 0.40824829f
+PB_FN float pb_tent_share(float r0, float r1, float *mean, float *spread)
 {
     if (r0 <= -1.0f && r1 >= 1.0f) {
         *mean = 0.0f;
+        *spread = PB_TENT_SPREAD;
         return 1.0f;
     }
-    float w = 0.0f, mo = 0.0f;
-    float p0 = fmax(r0, -1.0f), p1 = fmin(r1, 0.0f);
-    if (p1 > p0) {
-        float l = p1 - p0, c = 0.5f * (p0 + p1), t = 1.0f + c;
-        w += l * t;
-        mo += l * (c * t + l * l * (1.0f / 12.0f));
-    }
-    p0 = fmax(r0, 0.0f);
-    p1 = fmin(r1, 1.0f);
-    if (p1 > p0) {
-        float l = p1 - p0, c = 0.5f * (p0 + p1), t = 1.0f - c;
-        w += l * t;
-        mo += l * (c * t - l * l * (1.0f / 12.0f));
+    /* piece i: length l, centre c, the tent t there, its slope (+1, -1) */
+    float l[2], c[2], t[2], w = 0.0f, mo = 0.0f;
+    for (int i = 0; i < 2; i++) {
+        float p0 = i ? fmax(r0, 0.0f) : fmax(r0, -1.0f), p1 = i ? fmin(r1, 1.0f) : fmin(r1, 0.0f);
+        l[i] = p1 > p0 ? p1 - p0 : 0.0f;
+        c[i] = 0.5f * (p0 + p1);
+        t[i] = i ? 1.0f - c[i] : 1.0f + c[i];
+        w += l[i] * t[i];
+        mo += l[i] * (c[i] * t[i] + (i ? -1.0f : 1.0f) * l[i] * l[i] * (1.0f / 12.0f));
     }
     *mean = w > 0.0f ? PB_DIV(mo, w) : 0.0f;
+    /* about the mean: each piece's own second moment, its first moment's
+     * cross term and its share times its centre's distance squared */
+    float m2 = 0.0f;
+    for (int i = 0; i < 2; i++) {
+        float d = c[i] - *mean, l3 = l[i] * l[i] * l[i] * (1.0f / 12.0f);
+        m2 += t[i] * l3 + 2.0f * d * (i ? -1.0f : 1.0f) * l3 + d * d * l[i] * t[i];
+    }
+    *spread = w > 0.0f && m2 > 0.0f ? sqrt(PB_DIV(m2, w)) : 0.0f;
     return w;
 }
+
+/* AB reads a slice at the point where the path crosses its centre plane
+ * (the paper's A_R = 0: the path's sideways sweep across the slice is not
+ * seen). Where a path sweeps sideways by more than PB_AB_SWEEP_FROM voxels a
+ * slice, and prm.sweep asks for it, the slice is read at two points of the
+ * path instead, half each, at its tent-weighted mean plus and minus its
+ * standard deviation: the two-point rule that keeps the tent's first three
+ * moments, exact for a sample that varies quadratically along the sweep.
+ * The points move apart from the mean as the sweep grows to
+ * PB_AB_SWEEP_FULL, so that the blur is continuous in the motion.
+ * docs/methods.md gives the measurement. */
+#define PB_AB_SWEEP_FROM 0.125f
+#define PB_AB_SWEEP_FULL 0.25f
 
 /* Antialiased Bresenham walk along a-b (texel coordinates): one slice at a
  * time along the major axis, one sample per slice. Slice k is sampled on its
@@ -162,11 +183,14 @@ typedef struct pb_ab_walk {
     float g[3], c[3], h[3];
     int k0, k1;            /* every slice with a share */
     int f0, f1;            /* the fully covered ones (f0 = k1 + 1, f1 = k1: none) */
+    int two;               /* two points a slice (PB_AB_SWEEP_FROM) */
+    float apart;           /* their distance from the mean, in standard deviations */
 } pb_ab_walk;
 
-/* Sets up the walk along axis m; returns 1 when a-b is a point there, which
- * has no walk. */
-PB_FN int pb_ab_walk_init_axis(const float *a, const float *b, int m, pb_ab_walk *w)
+/* Sets up the walk along axis m, with two points a slice where sweep asks
+ * for them and the path sweeps sideways enough; returns 1 when a-b is a
+ * point there, which has no walk. */
+PB_FN int pb_ab_walk_init_axis(const float *a, const float *b, int m, int sweep, pb_ab_walk *w)
 {
     float am = (m == 0 ? a[0] : (m == 1 ? a[1] : a[2])) - 0.5f;
     float bm = (m == 0 ? b[0] : (m == 1 ? b[1] : b[2])) - 0.5f;
@@ -183,6 +207,9 @@ PB_FN int pb_ab_walk_init_axis(const float *a, const float *b, int m, pb_ab_walk
         w->g[i] = i == m ? 1.0f : g;
         w->c[i] = i == m ? 0.5f : a[i] - am * g;
     }
+    float side = fmax(fabs(w->h[0]), fmax(fabs(w->h[1]), fabs(w->h[2])));
+    w->two = sweep && side > PB_AB_SWEEP_FROM;
+    w->apart = fmin(1.0f, (side - PB_AB_SWEEP_FROM) * (1.0f / (PB_AB_SWEEP_FULL - PB_AB_SWEEP_FROM)));
     w->k0 = (int)floor(w->lo);
     w->k1 = (int)ceil(w->hi);
     /* Fully covered slices: k - 1 >= lo and k + 1 <= hi. */
@@ -196,9 +223,9 @@ PB_FN int pb_ab_walk_init_axis(const float *a, const float *b, int m, pb_ab_walk
 }
 
 /* The walk along the segment's own major axis. */
-PB_FN int pb_ab_walk_init(const float *a, const float *b, pb_ab_walk *w)
+PB_FN int pb_ab_walk_init(const float *a, const float *b, int sweep, pb_ab_walk *w)
 {
-    return pb_ab_walk_init_axis(a, b, pb_major_axis(b[0] - a[0], b[1] - a[1], b[2] - a[2]), w);
+    return pb_ab_walk_init_axis(a, b, pb_major_axis(b[0] - a[0], b[1] - a[1], b[2] - a[2]), sweep, w);
 }
 
 /* The next partly covered slice after k: the loop over k0 .. f0 - 1 and
@@ -211,27 +238,47 @@ PB_FN int pb_ab_next_partial(const pb_ab_walk *w, int k)
 /* The AB walk, written once, in two loops: PB_AB_FULL_SLICES visits the
  * fully covered slices (share 1; a loop of their own, free of branches, so the
  * compiler keeps several fetches in flight), PB_AB_PARTIAL_SLICES the partly
- * covered ones, with their share s. BODY runs with the slice's sample point
- * (x, y, z) in scope. Its three callers supply what happens there: the forward
- * samples the 3-D image (pb_ab_segment) or the layers (cl/pb_shift.cl), the
- * adjoint scatters (cl/pb_adjoint.cl); so all three visit the same slices at
- * the same points with the same shares. */
+ * covered ones, with their share s. BODY runs with a sample point (x, y, z)
+ * and its weight q within the slice in scope: once a slice with q = 1, or
+ * twice with q = 1/2 where the walk takes two points. Its three callers
+ * supply what happens there: the forward samples the 3-D image
+ * (pb_ab_segment) or the layers (cl/pb_shift.cl), the adjoint scatters
+ * (cl/pb_adjoint.cl); so all three visit the same slices at the same points
+ * with the same shares. */
 #define PB_AB_FULL_SLICES(w, BODY)                                                                               \
-    for (int pb_k = (w).f0; pb_k <= (w).f1; pb_k++) {                                                         \
-        const float pb_kf = (float)pb_k;                                                                       \
-        const float x = pb_kf * (w).g[0] + (w).c[0], y = pb_kf * (w).g[1] + (w).c[1];                          \
-        const float z = pb_kf * (w).g[2] + (w).c[2];                                                           \
-        BODY;                                                                                                  \
+    if (!(w).two) {                                                                                            \
+        for (int pb_k = (w).f0; pb_k <= (w).f1; pb_k++) {                                                     \
+            const float pb_kf = (float)pb_k, q = 1.0f;                                                         \
+            const float x = pb_kf * (w).g[0] + (w).c[0], y = pb_kf * (w).g[1] + (w).c[1];                      \
+            const float z = pb_kf * (w).g[2] + (w).c[2];                                                       \
+            BODY;                                                                                              \
+        }                                                                                                      \
+    } else {                                                                                                   \
+        const float pb_d = (w).apart * PB_TENT_SPREAD;                                                         \
+        for (int pb_k = (w).f0; pb_k <= (w).f1; pb_k++) {                                                     \
+            const float pb_kf = (float)pb_k, q = 0.5f;                                                         \
+            for (int pb_s = -1; pb_s <= 1; pb_s += 2) {                                                        \
+                const float pb_r = (float)pb_s * pb_d;                                                         \
+                const float x = pb_kf * (w).g[0] + (w).c[0] + pb_r * (w).h[0];                                 \
+                const float y = pb_kf * (w).g[1] + (w).c[1] + pb_r * (w).h[1];                                 \
+                const float z = pb_kf * (w).g[2] + (w).c[2] + pb_r * (w).h[2];                                 \
+                BODY;                                                                                          \
+            }                                                                                                  \
+        }                                                                                                      \
     }
 
 #define PB_AB_PARTIAL_SLICES(w, BODY)                                                                            \
     for (int pb_k = (w).k0; pb_k <= (w).k1; pb_k = pb_ab_next_partial(&(w), pb_k)) {                          \
-        float pb_kf = (float)pb_k, pb_mean;                                                                    \
-        const float s = pb_tent_share((w).lo - pb_kf, (w).hi - pb_kf, &pb_mean);                              \
-        const float x = pb_kf * (w).g[0] + (w).c[0] + pb_mean * (w).h[0];                                      \
-        const float y = pb_kf * (w).g[1] + (w).c[1] + pb_mean * (w).h[1];                                      \
-        const float z = pb_kf * (w).g[2] + (w).c[2] + pb_mean * (w).h[2];                                      \
-        BODY;                                                                                                  \
+        float pb_kf = (float)pb_k, pb_mean, pb_spread;                                                         \
+        const float s = pb_tent_share((w).lo - pb_kf, (w).hi - pb_kf, &pb_mean, &pb_spread);                  \
+        const float q = (w).two ? 0.5f : 1.0f;                                                                 \
+        for (int pb_s = (w).two ? -1 : 0; pb_s <= ((w).two ? 1 : 0); pb_s += 2) {                             \
+            const float pb_r = pb_mean + (float)pb_s * (w).apart * pb_spread;                                  \
+            const float x = pb_kf * (w).g[0] + (w).c[0] + pb_r * (w).h[0];                                     \
+            const float y = pb_kf * (w).g[1] + (w).c[1] + pb_r * (w).h[1];                                     \
+            const float z = pb_kf * (w).g[2] + (w).c[2] + pb_r * (w).h[2];                                     \
+            BODY;                                                                                              \
+        }                                                                                                      \
     }
 
 /* The segments of the polyline of the voxel centred at u (texel coordinates)
@@ -283,18 +330,18 @@ PB_FN void pb_midpoint(const float *a, const float *b, float *o)
 /* AB over a-b through the 3-D image. The shares add up to the path length;
  * dividing by their float sum makes the weights sum to 1 exactly as the walk
  * computed them. */
-PB_FN float pb_ab_segment(pb_image img, int exact, const pb_place *pl, const float *a, const float *b)
+PB_FN float pb_ab_segment(pb_image img, int exact, int sweep, const pb_place *pl, const float *a, const float *b)
 {
     pb_ab_walk w;
-    if (pb_ab_walk_init(a, b, &w)) {
+    if (pb_ab_walk_init(a, b, sweep, &w)) {
         float o[3];
         pb_midpoint(a, b, o);
         return pb_placed_trilinear(img, exact, pl, o[0], o[1], o[2]);
     }
     float sum = 0.0f;
-    PB_AB_FULL_SLICES(w, sum += pb_placed_slice(img, exact, pl, w.m, x, y, z));
+    PB_AB_FULL_SLICES(w, sum += q * pb_placed_slice(img, exact, pl, w.m, x, y, z));
     float wsum = (float)(w.f1 - w.f0 + 1);
-    PB_AB_PARTIAL_SLICES(w, sum += s * pb_placed_slice(img, exact, pl, w.m, x, y, z); wsum += s);
+    PB_AB_PARTIAL_SLICES(w, sum += s * q * pb_placed_slice(img, exact, pl, w.m, x, y, z); wsum += s * q);
     return PB_DIV(sum, wsum);
 }
 
@@ -352,7 +399,7 @@ PB_FN float pb_ab_sampled(pb_image img, pb_kparams prm, int exact, const pb_plac
                           const float *b)
 {
     float sum = 0.0f, inv = 1.0f / (float)prm.steps;
-    PB_FOR_PIECES(prm.steps, inv, a, b, sum += pb_ab_segment(img, exact, pl, pa, pb));
+    PB_FOR_PIECES(prm.steps, inv, a, b, sum += pb_ab_segment(img, exact, prm.sweep, pl, pa, pb));
     return sum * inv;
 }
 

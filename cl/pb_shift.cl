@@ -146,15 +146,15 @@ PB_FN float pb_layer_trilinear(pb_layers img, pb_kparams prm, const pb_place *pl
 PB_FN float pb_ab_segment_layers(pb_layers img, pb_kparams prm, const pb_place *pl, const float *a, const float *b)
 {
     pb_ab_walk w;
-    if (pb_ab_walk_init_axis(a, b, prm.layer_axis, &w)) {
+    if (pb_ab_walk_init_axis(a, b, prm.layer_axis, prm.sweep, &w)) {
         float o[3];
         pb_midpoint(a, b, o);
         return pb_layer_trilinear(img, prm, pl, o[0], o[1], o[2]);
     }
     float sum = 0.0f;
-    PB_AB_FULL_SLICES(w, sum += pb_layer_slice(img, prm, pl, x, y, z));
+    PB_AB_FULL_SLICES(w, sum += q * pb_layer_slice(img, prm, pl, x, y, z));
     float wsum = (float)(w.f1 - w.f0 + 1);
-    PB_AB_PARTIAL_SLICES(w, sum += s * pb_layer_slice(img, prm, pl, x, y, z); wsum += s);
+    PB_AB_PARTIAL_SLICES(w, sum += s * q * pb_layer_slice(img, prm, pl, x, y, z); wsum += s * q);
     return PB_DIV(sum, wsum);
 }
 

@@ -472,6 +472,17 @@ typedef enum pb_path_model {
     PB_PATH_TRACKED = 2  /* one segment per tracked interval: the paper's polyline */
 } pb_path_model;
 
+/* How AB reads a slice its path crosses. The paper's AB reads it at one
+ * point, where the path crosses the slice's centre plane, and so does not see
+ * the path sweep sideways across the slice; SWEEP reads it at two points of
+ * the path where it sweeps sideways by more than an eighth of a voxel a
+ * slice (docs/methods.md, "AB's own sampling"). RM, CL and REF ignore it. */
+typedef enum pb_ab_sampling {
+    PB_AB_SAMPLING_DEFAULT = 0, /* PB_AB_SAMPLING_SLICE */
+    PB_AB_SAMPLING_SLICE = 1,   /* one point a slice: the paper's AB */
+    PB_AB_SAMPLING_SWEEP = 2    /* two points a slice where the path sweeps sideways */
+} pb_ab_sampling;
+
 /* Zero-initialised options are the defaults. pb_options_check states every
  * range once; the command line and the Python package pass its message on. */
 typedef struct pb_blur_options {
@@ -495,6 +506,7 @@ typedef struct pb_blur_options {
      * segments a motion gets. */
     pb_path_model path;
     double max_path_error;   /* PB_PATH_BOUNDED only: the bound, finite, in (0, 1000] voxels; else 0 */
+    pb_ab_sampling ab_sampling; /* AB only */
 } pb_blur_options;
 
 /* Checks options as every call that takes them does: the status and

@@ -113,12 +113,15 @@ int main(int argc, char **argv)
     float *x = pb_random_volume(n), *y = pb_random_volume(n);
     float *bx = malloc(n * sizeof *bx), *bty = malloc(n * sizeof *bty);
 
-    /* Options: the paper's defaults, and explicit sub-segments or steps. */
+    /* Options: the paper's defaults, explicit sub-segments or steps, and AB
+     * read at two points a slice where its path sweeps sideways. */
     struct {
         pb_method method;
         unsigned steps;
-    } runs[] = {{PB_METHOD_AB, 0}, {PB_METHOD_AB, 3}, {PB_METHOD_RM, 0}, {PB_METHOD_RM, 5}, {PB_METHOD_CL, 0},
-                {PB_METHOD_REF, 0}};
+        pb_ab_sampling sampling;
+    } runs[] = {{PB_METHOD_AB, 0, 0}, {PB_METHOD_AB, 3, 0}, {PB_METHOD_AB, 0, PB_AB_SAMPLING_SWEEP},
+                {PB_METHOD_AB, 2, PB_AB_SAMPLING_SWEEP}, {PB_METHOD_RM, 0, 0}, {PB_METHOD_RM, 5, 0},
+                {PB_METHOD_CL, 0, 0}, {PB_METHOD_REF, 0, 0}};
     double worst[2] = {0.0, 0.0};
     for (size_t r = 0; r < sizeof runs / sizeof runs[0]; r++)
         for (int filter = 0; filter < 2; filter++) {
@@ -126,11 +129,12 @@ int main(int argc, char **argv)
                 continue; /* REF reads nearest voxels with either */
             for (int c = 0; c < CASES; c++) {
                 pb_motion m = motion_of(&cases[c]);
-                pb_blur_options opt = {runs[r].method, (pb_filter)filter, runs[r].steps, 24, 0, 7, PB_PATH_DEFAULT, 0.0};
+                pb_blur_options opt = {runs[r].method, (pb_filter)filter, runs[r].steps, 24, 0, 7, PB_PATH_DEFAULT, 0.0,
+                                       runs[r].sampling};
                 if (!pb_check(pb_test_blur(ctx, &g, x, &m, &opt, bx) == PB_OK &&
                                   pb_test_adjoint(ctx, &g, y, &m, &opt, bty) == PB_OK,
-                              "%s steps %u %s: blur or adjoint failed", method_names[runs[r].method], runs[r].steps,
-                              cases[c].name))
+                              "%s steps %u%s %s: blur or adjoint failed", method_names[runs[r].method],
+                              runs[r].steps, runs[r].sampling ? " sweep" : "", cases[c].name))
                     continue;
                 double lhs = pb_dot(bx, y, n), rhs = pb_dot(x, bty, n);
                 double rel = fabs(lhs - rhs) / fabs(lhs);
@@ -138,9 +142,10 @@ int main(int argc, char **argv)
                              : nvidia                    ? hw_tolerance(x, y, n, c < GATHER_CASES, lhs)
                                                          : FLOAT_HW_TOL;
                 worst[filter] = fmax(worst[filter], rel);
-                pb_check(rel <= tol && isfinite(rel), "%s steps %u %s %s: <Bx,y> = %.9g, <x,B^T y> = %.9g, relative "
-                         "mismatch %.3g > %.3g", method_names[runs[r].method], runs[r].steps,
-                         filter ? "EXACT" : "HARDWARE", cases[c].name, lhs, rhs, rel, tol);
+                pb_check(rel <= tol && isfinite(rel), "%s steps %u%s %s %s: <Bx,y> = %.9g, <x,B^T y> = %.9g, "
+                         "relative mismatch %.3g > %.3g", method_names[runs[r].method], runs[r].steps,
+                         runs[r].sampling ? " sweep" : "", filter ? "EXACT" : "HARDWARE", cases[c].name, lhs, rhs,
+                         rel, tol);
             }
         }
     printf("largest relative mismatch: HARDWARE %.3g (tolerance %s), EXACT %.3g\n", worst[0],
@@ -150,7 +155,7 @@ int main(int argc, char **argv)
     motion_case off = cases[1];
     off.poses[1].translation[0] += 0.05 * g.voxel_size[0];
     pb_motion m = motion_of(&cases[1]), m_off = motion_of(&off);
-    pb_blur_options opt = {PB_METHOD_AB, PB_FILTER_EXACT, 0, 0, 0, 0, PB_PATH_DEFAULT, 0.0};
+    pb_blur_options opt = {PB_METHOD_AB, PB_FILTER_EXACT, 0, 0, 0, 0, PB_PATH_DEFAULT, 0.0, PB_AB_SAMPLING_DEFAULT};
     if (pb_check(pb_test_blur(ctx, &g, x, &m, &opt, bx) == PB_OK &&
                      pb_test_adjoint(ctx, &g, y, &m_off, &opt, bty) == PB_OK,
                  "check of the check: blur or adjoint failed")) {

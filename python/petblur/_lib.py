@@ -82,7 +82,7 @@ class CMotion(ctypes.Structure):
 class BlurOptions(ctypes.Structure):
     _fields_ = [("method", ctypes.c_int), ("filter", ctypes.c_int), ("steps", ctypes.c_uint),
                 ("ref_points", ctypes.c_uint), ("ref_time_steps", ctypes.c_uint), ("seed", ctypes.c_uint32),
-                ("path", ctypes.c_int), ("max_path_error", ctypes.c_double)]
+                ("path", ctypes.c_int), ("max_path_error", ctypes.c_double), ("ab_sampling", ctypes.c_int)]
 
 
 class ContextOptions(ctypes.Structure):
@@ -127,12 +127,15 @@ STRUCTS = {"pb_geometry": Geometry, "pb_pose": Pose, "pb_motion": CMotion, "pb_b
 BACKEND_AUTO, BACKEND_HOST, BACKEND_OPENCL, BACKEND_CUDA = 0, 1, 2, 3
 TRACK_CSV, TRACK_MATRIX_CSV, TRACK_POLARIS = 1, 2, 3
 PATH_DEFAULT, PATH_BOUNDED, PATH_TRACKED = 0, 1, 2
+AB_SAMPLING_DEFAULT, AB_SAMPLING_SLICE, AB_SAMPLING_SWEEP = 0, 1, 2
 ERR_OUT_OF_VIEW = -12
 ENUMS = {"PB_BACKEND_AUTO": BACKEND_AUTO, "PB_BACKEND_HOST": BACKEND_HOST, "PB_BACKEND_OPENCL": BACKEND_OPENCL,
          "PB_BACKEND_CUDA": BACKEND_CUDA, "PB_TRACK_AUTO": 0, "PB_TRACK_CSV": TRACK_CSV,
          "PB_TRACK_MATRIX_CSV": TRACK_MATRIX_CSV, "PB_TRACK_POLARIS": TRACK_POLARIS, "PB_METHOD_AB": 0,
          "PB_METHOD_RM": 1, "PB_METHOD_CL": 2, "PB_METHOD_REF": 3, "PB_FILTER_HARDWARE": 0, "PB_FILTER_EXACT": 1,
          "PB_PATH_DEFAULT": PATH_DEFAULT, "PB_PATH_BOUNDED": PATH_BOUNDED, "PB_PATH_TRACKED": PATH_TRACKED,
+         "PB_AB_SAMPLING_DEFAULT": AB_SAMPLING_DEFAULT, "PB_AB_SAMPLING_SLICE": AB_SAMPLING_SLICE,
+         "PB_AB_SAMPLING_SWEEP": AB_SAMPLING_SWEEP,
          "PB_ERR_OUT_OF_VIEW": ERR_OUT_OF_VIEW}
 BACKEND_NAMES = {BACKEND_HOST: "host", BACKEND_OPENCL: "opencl", BACKEND_CUDA: "cuda"}
 

@@ -34,6 +34,7 @@ from .motion import Motion
 
 _METHODS = {"ab": 0, "rm": 1, "cl": 2, "ref": 3}
 _FILTERS = {"hardware": 0, "exact": 1}
+_AB_SAMPLINGS = {None: 0, "slice": 1, "sweep": 2}
 # Index (k, j, i) of a C-ordered array's memory, read x fastest, to (i, j, k).
 _SWAP = np.array([[0, 0, 1, 0], [0, 1, 0, 0], [1, 0, 0, 0], [0, 0, 0, 1]], dtype=np.float64)
 
@@ -83,7 +84,7 @@ def _release(ctx, made):
 
 class _Operator:
     def __init__(self, shape, voxel_size, motion, bounds, method, filter, max_path_error, device, affine, steps,
-                 progress):
+                 progress, ab_sampling):
         self._shape = _shape3(shape)
         self.voxel_size = _voxel3(voxel_size)
         if not isinstance(motion, Motion):
@@ -110,10 +111,14 @@ class _Operator:
             raise ArgumentError(f"steps {steps!r}: give a whole number") from None
         if not 0 <= steps < 1 << 32:
             raise ArgumentError(f"steps {steps}: give 0 (the paper's choice) or a positive count")
+        if not (ab_sampling is None or isinstance(ab_sampling, str)) or ab_sampling not in _AB_SAMPLINGS:
+            raise ArgumentError(f"ab_sampling {ab_sampling!r}: choose None (the default), 'slice' (one point a slice, "
+                                "the paper's AB) or 'sweep' (two where the path sweeps sideways across a slice)")
         if progress is not None and not callable(progress):
             raise ArgumentError("progress must be a callable taking the fraction done, or None")
         self.method, self.filter = method, filter
-        self._options = _lib.BlurOptions(_METHODS[method], _FILTERS[filter], steps, 0, 0, 0, path, bound)
+        self._options = _lib.BlurOptions(_METHODS[method], _FILTERS[filter], steps, 0, 0, 0, path, bound,
+                                         _AB_SAMPLINGS[ab_sampling])
         try:  # every range stated once, by the library
             _lib.check(_lib.lib.pb_options_check(ctypes.byref(self._options)))
         except ArgumentError as e:
@@ -136,7 +141,7 @@ class _Operator:
         # resolved again where it is loaded).
         self._common = dict(method=method, filter=filter,
                             max_path_error=bound if path == _lib.PATH_BOUNDED else max_path_error,
-                            device=device, affine=self.affine, steps=steps)
+                            device=device, affine=self.affine, steps=steps, ab_sampling=ab_sampling)
         self._ctx = _lib.context(device)
         self._handles = _Handles(self._ctx)
         self._plan("F")  # every check now, not at the first call
@@ -394,6 +399,9 @@ class BlurOperator(_Operator):
     voxel-to-world 4x4 (the motion then in world mm). ``steps`` as the C
     library's options (0: the paper's). ``progress``: a callable given the
     fraction done of each call (REF on a CPU takes minutes), or None.
+    ``ab_sampling``: how AB reads a slice its path crosses: None (the
+    default, as 'slice'), 'slice' (one point, the paper's) or 'sweep' (two
+    points where the path sweeps sideways across the slice; docs/methods.md).
 
     Making the operator checks the motion on its grid as the command line
     does: a motion that takes the grid out of view for the whole frame, or
@@ -401,7 +409,7 @@ class BlurOperator(_Operator):
     a grid out of view at some poses raise warnings (UserWarning)."""
 
     def __init__(self, shape, voxel_size, motion, frame=None, method="ab", filter="hardware", max_path_error=None,
-                 device="auto", affine=None, steps=0, progress=None):
+                 device="auto", affine=None, steps=0, progress=None, ab_sampling=None):
         if frame is None:
             if not isinstance(motion, Motion):
                 raise ArgumentError(f"motion must be a petblur.Motion, not {type(motion).__name__}")
@@ -411,7 +419,7 @@ class BlurOperator(_Operator):
         except (TypeError, ValueError):
             raise ArgumentError(f"frame must be (t0, t1) in seconds, not {frame!r}") from None
         super().__init__(shape, voxel_size, motion, (t0, t1), method, filter, max_path_error, device, affine, steps,
-                         progress)
+                         progress, ab_sampling)
         self.frame = (t0, t1)
 
     def _description(self):
@@ -460,12 +468,13 @@ class FramesOperator(_Operator):
     arguments as BlurOperator's."""
 
     def __init__(self, shape, voxel_size, track, bounds, per_frame=False, method="ab", filter="hardware",
-                 max_path_error=None, device="auto", affine=None, steps=0, progress=None, frames_last=False):
+                 max_path_error=None, device="auto", affine=None, steps=0, progress=None, frames_last=False,
+                 ab_sampling=None):
         b = np.array(bounds, dtype=np.float64).reshape(-1)
         if b.size < 2:
             raise ArgumentError(f"bounds must hold at least two times (one frame), not {b.size}")
         super().__init__(shape, voxel_size, track, b, method, filter, max_path_error, device, affine, steps,
-                         progress)
+                         progress, ab_sampling)
         self.bounds = b
         self.frames = b.size - 1
         self.per_frame = bool(per_frame)

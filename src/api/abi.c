@@ -25,7 +25,7 @@ const char *pb_abi_layout(void)
     F(pb_motion, frame_end); F(pb_motion, has_center); F(pb_motion, center);
     S(pb_blur_options); F(pb_blur_options, method); F(pb_blur_options, filter); F(pb_blur_options, steps);
     F(pb_blur_options, ref_points); F(pb_blur_options, ref_time_steps); F(pb_blur_options, seed);
-    F(pb_blur_options, path); F(pb_blur_options, max_path_error);
+    F(pb_blur_options, path); F(pb_blur_options, max_path_error); F(pb_blur_options, ab_sampling);
     S(pb_context_options); F(pb_context_options, backend); F(pb_context_options, device_index);
     F(pb_context_options, build_options);
     S(pb_device_info); F(pb_device_info, name); F(pb_device_info, platform); F(pb_device_info, is_gpu);
@@ -48,6 +48,7 @@ const char *pb_abi_layout(void)
     E(PB_METHOD_AB); E(PB_METHOD_RM); E(PB_METHOD_CL); E(PB_METHOD_REF);
     E(PB_FILTER_HARDWARE); E(PB_FILTER_EXACT);
     E(PB_PATH_DEFAULT); E(PB_PATH_BOUNDED); E(PB_PATH_TRACKED);
+    E(PB_AB_SAMPLING_DEFAULT); E(PB_AB_SAMPLING_SLICE); E(PB_AB_SAMPLING_SWEEP);
     E(PB_ERR_OUT_OF_VIEW);
     (void)n;
     return layout;

@@ -25,6 +25,8 @@ static const pbc_option options[] = {
     {"--steps", NULL, "N", "RM, CL: samples per segment (default: as many slices as AB visits); AB: sub-segments"},
     {"--max-path-error", NULL, "E", "AB, RM: the most a voxel's path may leave its polyline, voxels (default 0.1; "
                                     "'paper': one segment per tracked interval)"},
+    {"--ab-sampling", NULL, "slice|sweep", "AB: read each slice at one point (default, the paper's), or at two "
+                                           "where the path sweeps sideways across it"},
     {"--points", NULL, "K", "REF: random points per voxel (default 200)"},
     {"--seed", NULL, "S", "REF: seed of the random points (default 1)"},
     {"--adjoint", NULL, NULL, "apply the transpose instead (back projection's blur): IN is tomograph-space, OUT "
@@ -56,6 +58,7 @@ static const pbc_command command = {
 
 static const char *const method_names[] = {"ab", "rm", "cl", "ref"};
 static const char *const filter_names[] = {"hardware", "exact"};
+static const char *const sampling_names[] = {"slice", "sweep"};
 
 static int blur_options(const pbc_args *args, pb_blur_options *opt)
 {
@@ -86,6 +89,11 @@ static int blur_options(const pbc_args *args, pb_blur_options *opt)
         return rc;
     else if (bound)
         opt->path = PB_PATH_BOUNDED;
+    if ((v = pbc_arg(&command, args, "--ab-sampling"))) {
+        if ((rc = pbc_parse_choice("--ab-sampling", v, sampling_names, 2, &idx)))
+            return rc;
+        opt->ab_sampling = idx ? PB_AB_SAMPLING_SWEEP : PB_AB_SAMPLING_SLICE;
+    }
     if ((v = pbc_arg(&command, args, "--points")) && (rc = pbc_parse_count("--points", v, 1, 0xffffffffUL, &n)) == 0)
         opt->ref_points = (unsigned)n;
     else if (v)
@@ -98,6 +106,8 @@ static int blur_options(const pbc_args *args, pb_blur_options *opt)
         const char *msg = pb_last_error(NULL);
         if (!strncmp(msg, "max_path_error ", 15))
             return pbc_fail(PBC_EXIT_USAGE, "--max-path-error %s", msg + 15);
+        if (!strncmp(msg, "ab_sampling ", 12))
+            return pbc_fail(PBC_EXIT_USAGE, "--ab-sampling %s", msg + 12);
         return pbc_fail(PBC_EXIT_USAGE, "%s", msg);
     }
     return 0;

@@ -120,11 +120,27 @@ static long ab_slice_count(const double a[3], const double b[3])
     return (long)ceil(hi) - (long)floor(lo) + 1;
 }
 
+/* Integral over [-1, u] of s^2 times the tent: the second moment. */
+static double tent_second(double u)
+{
+    u = fmax(-1.0, fmin(1.0, u));
+    return u <= 0.0 ? u * u * u / 3.0 + u * u * u * u / 4.0 + 1.0 / 12.0
+                    : 1.0 / 12.0 + u * u * u / 3.0 - u * u * u * u / 4.0;
+}
+
+/* Where AB reads slices at two points (cl/pb_blur.cl says why): from this
+ * sideways sweep a slice, in voxels, moving apart until the second. */
+#define AB_SWEEP_FROM 0.125
+#define AB_SWEEP_FULL 0.25
+
 /* Antialiased Bresenham along a-b (texel coordinates): slice k along the major
  * axis gets the share of the path that overlaps it, the time average of the
  * tent 1 - |x - k|; inside the slice, the four voxels around the path's
- * tent-weighted mean position get bilinear (the paper's A_S, A_T) weights. */
-static double ab_segment(const host_io *io, const double a[3], const double b[3], double scale)
+ * tent-weighted mean position get bilinear (the paper's A_S, A_T) weights.
+ * With sweep, where the path moves sideways across the slice, the slice is
+ * read at two points of the path instead, half each, at the mean plus and
+ * minus the tent-weighted standard deviation. */
+static double ab_segment(const host_io *io, const double a[3], const double b[3], int sweep, double scale)
 {
     int m = major_axis(a, b);
     double am = a[m] - 0.5, bm = b[m] - 0.5;
@@ -135,17 +151,27 @@ static double ab_segment(const host_io *io, const double a[3], const double b[3]
         double mid[3] = {0.5 * (a[0] + b[0]), 0.5 * (a[1] + b[1]), 0.5 * (a[2] + b[2])};
         return trilinear(io, mid, scale);
     }
+    double side = 0.0;
+    for (int d = 0; d < 3; d++)
+        if (d != m)
+            side = fmax(side, fabs((b[d] - a[d]) / (bm - am)));
+    int two = sweep && side > AB_SWEEP_FROM;
+    double apart = fmin(1.0, (side - AB_SWEEP_FROM) / (AB_SWEEP_FULL - AB_SWEEP_FROM));
     double sum = 0.0;
     for (long k = (long)floor(lo); k <= (long)ceil(hi); k++) {
         double w = tent_integral(hi - k) - tent_integral(lo - k);
         if (w <= 0.0)
             continue;
-        double mean = k + (tent_moment(hi - k) - tent_moment(lo - k)) / w;
-        double s = (mean - am) / (bm - am);
-        double p[3];
-        for (int d = 0; d < 3; d++)
-            p[d] = a[d] + s * (b[d] - a[d]);
-        sum += bilinear_in_slice(io, m, k, p, scale * w / len);
+        double mean = (tent_moment(hi - k) - tent_moment(lo - k)) / w;
+        double var = (tent_second(hi - k) - tent_second(lo - k)) / w - mean * mean;
+        double spread = two && var > 0.0 ? sqrt(var) : 0.0;
+        for (int i = two ? -1 : 0; i <= (two ? 1 : 0); i += 2) {
+            double s = (k + mean + i * apart * spread - am) / (bm - am);
+            double p[3];
+            for (int d = 0; d < 3; d++)
+                p[d] = a[d] + s * (b[d] - a[d]);
+            sum += bilinear_in_slice(io, m, k, p, scale * w / len * (two ? 0.5 : 1.0));
+        }
     }
     return sum;
 }
@@ -193,7 +219,7 @@ static double blur_voxel(const host_io *io, const pb_path *plan, const pb_blur_o
                     pa[d] = a[d] + (b[d] - a[d]) * r / parts;
                     pb[d] = a[d] + (b[d] - a[d]) * (r + 1) / parts;
                 }
-                total += ab_segment(io, pa, pb, seg_scale / parts);
+                total += ab_segment(io, pa, pb, opt->ab_sampling == PB_AB_SAMPLING_SWEEP, seg_scale / parts);
             }
         } else {
             long n = opt->steps ? (long)opt->steps : ab_slice_count(a, b);

@@ -25,6 +25,7 @@ void pb_kparams_from_path(const pb_path *path, const pb_blur_options *opt, pb_kp
     prm->ref_points = (int)opt->ref_points;
     prm->ref_steps = (int)path->ref_count;
     prm->seed = opt->seed;
+    prm->sweep = opt->method == PB_METHOD_AB && opt->ab_sampling == PB_AB_SAMPLING_SWEEP;
     if (pb_path_shift_invariant(path, opt))
         prm->layer_axis = pb_path_layer_axis(path);
 }
