@@ -5,7 +5,10 @@ tensor for the paper's eight scenarios and for issue 31's tracked seizure
 (bench/accuracy_case.py's 20 Hz track, 601 samples, on this grid), at the
 path bounds given, as a ratio to the default's.
 
-  bound_cost.py [--size 256] [--bounds 0.25,0.1,0.05,0.02,0.01] [--out bound_cost.json]"""
+  bound_cost.py [--size 256] [--bounds 0.25,0.1,0.05,0.02,0.01] [--methods ab,rm] [--out bound_cost.json]
+
+A method 'ab-sweep' is AB reading two points a slice where its path sweeps
+sideways (ab_sampling='sweep')."""
 
 import argparse
 import json
@@ -37,6 +40,7 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--size", type=int, default=256)
     ap.add_argument("--bounds", default="0.25,0.1,0.05,0.02,0.01")
+    ap.add_argument("--methods", default="ab,rm")
     ap.add_argument("--out", default="bound_cost.json")
     a = ap.parse_args()
     n, vs = a.size, 2.0
@@ -52,9 +56,10 @@ def main():
     print("| motion | method | " + " | ".join(f"{b:g}" for b in bounds) + " |")
     print("|---|---|" + "---|" * len(bounds))
     for name, m in motions:
-        for method in ("ab", "rm"):
-            ms = [kernel_ms(petblur.BlurOperator((n, n, n), vs, m, method=method, max_path_error=b,
-                                                device="cuda:0"), x) for b in bounds]
+        for method in a.methods.split(","):
+            name, _, sampling = method.partition("-")
+            ms = [kernel_ms(petblur.BlurOperator((n, n, n), vs, m, method=name, max_path_error=b, device="cuda:0",
+                                                 ab_sampling=sampling or None), x) for b in bounds]
             rows.append({"motion": name, "method": method, "bounds": bounds, "kernel_ms": ms})
             print(f"| {name} | {method.upper()} | " + " | ".join(f"{v:.3f} ({v / ms[0]:.2f}x)" for v in ms) + " |",
                   flush=True)
