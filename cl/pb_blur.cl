@@ -120,39 +120,53 @@ PB_FN int pb_ab_slices(const float *a, const float *b)
 /* Share of a slice in a path [r0, r1] (relative to the slice's centre, in
  * voxels along the major axis): the integral of the tent 1 - |r|, which is the
  * overlap of the moving voxel with the slice. *mean receives the tent-weighted
- * mean of r, where the slice is sampled, and *spread its tent-weighted
- * standard deviation (1 / sqrt 6 over the whole tent). Summed piecewise over
- * the tent's two linear halves, each piece's moments taken about its own
- * centre (midpoint rule plus the exact corrections), so that short pieces
- * lose no precision to cancellation. */
-#define PB_TENT_SPREAD 0.40824829f
-PB_FN float pb_tent_share(float r0, float r1, float *mean, float *spread)
+ * mean of r, where the slice is sampled. Summed piecewise over the tent's two
+ * linear halves (midpoint rule plus the exact moment correction) so that short
+ * pieces lose no precision to cancellation. */
+PB_FN float pb_tent_share(float r0, float r1, float *mean)
 {
     if (r0 <= -1.0f && r1 >= 1.0f) {
         *mean = 0.0f;
-        *spread = PB_TENT_SPREAD;
         return 1.0f;
     }
-    /* piece i: length l, centre c, the tent t there, its slope (+1, -1) */
-    float l[2], c[2], t[2], w = 0.0f, mo = 0.0f;
-    for (int i = 0; i < 2; i++) {
-        float p0 = i ? fmax(r0, 0.0f) : fmax(r0, -1.0f), p1 = i ? fmin(r1, 1.0f) : fmin(r1, 0.0f);
-        l[i] = p1 > p0 ? p1 - p0 : 0.0f;
-        c[i] = 0.5f * (p0 + p1);
-        t[i] = i ? 1.0f - c[i] : 1.0f + c[i];
-        w += l[i] * t[i];
-        mo += l[i] * (c[i] * t[i] + (i ? -1.0f : 1.0f) * l[i] * l[i] * (1.0f / 12.0f));
+    float w = 0.0f, mo = 0.0f;
+    float p0 = fmax(r0, -1.0f), p1 = fmin(r1, 0.0f);
+    if (p1 > p0) {
+        float l = p1 - p0, c = 0.5f * (p0 + p1), t = 1.0f + c;
+        w += l * t;
+        mo += l * (c * t + l * l * (1.0f / 12.0f));
+    }
+    p0 = fmax(r0, 0.0f);
+    p1 = fmin(r1, 1.0f);
+    if (p1 > p0) {
+        float l = p1 - p0, c = 0.5f * (p0 + p1), t = 1.0f - c;
+        w += l * t;
+        mo += l * (c * t - l * l * (1.0f / 12.0f));
     }
     *mean = w > 0.0f ? PB_DIV(mo, w) : 0.0f;
-    /* about the mean: each piece's own second moment, its first moment's
-     * cross term and its share times its centre's distance squared */
+    return w;
+}
+
+/* The tent-weighted standard deviation of r over the same piece, given its
+ * share w and mean (1 / sqrt 6 over the whole tent): about the mean, each
+ * half's second moment about its own centre, its first moment's cross term
+ * and its share times its centre's distance squared, so that short pieces
+ * lose nothing to cancellation either. */
+#define PB_TENT_SPREAD 0.40824829f
+PB_FN float pb_tent_spread(float r0, float r1, float w, float mean)
+{
+    if (r0 <= -1.0f && r1 >= 1.0f)
+        return PB_TENT_SPREAD;
     float m2 = 0.0f;
     for (int i = 0; i < 2; i++) {
-        float d = c[i] - *mean, l3 = l[i] * l[i] * l[i] * (1.0f / 12.0f);
-        m2 += t[i] * l3 + 2.0f * d * (i ? -1.0f : 1.0f) * l3 + d * d * l[i] * t[i];
+        float p0 = i ? fmax(r0, 0.0f) : fmax(r0, -1.0f), p1 = i ? fmin(r1, 1.0f) : fmin(r1, 0.0f);
+        if (p1 > p0) {
+            float l = p1 - p0, c = 0.5f * (p0 + p1), t = i ? 1.0f - c : 1.0f + c, d = c - mean;
+            float l3 = l * l * l * (1.0f / 12.0f);
+            m2 += t * l3 + 2.0f * d * (i ? -l3 : l3) + d * d * l * t;
+        }
     }
-    *spread = w > 0.0f && m2 > 0.0f ? sqrt(PB_DIV(m2, w)) : 0.0f;
-    return w;
+    return w > 0.0f && m2 > 0.0f ? sqrt(PB_DIV(m2, w)) : 0.0f;
 }
 
 /* AB reads a slice at the point where the path crosses its centre plane
@@ -268,16 +282,27 @@ PB_FN int pb_ab_next_partial(const pb_ab_walk *w, int k)
     }
 
 #define PB_AB_PARTIAL_SLICES(w, BODY)                                                                            \
-    for (int pb_k = (w).k0; pb_k <= (w).k1; pb_k = pb_ab_next_partial(&(w), pb_k)) {                          \
-        float pb_kf = (float)pb_k, pb_mean, pb_spread;                                                         \
-        const float s = pb_tent_share((w).lo - pb_kf, (w).hi - pb_kf, &pb_mean, &pb_spread);                  \
-        const float q = (w).two ? 0.5f : 1.0f;                                                                 \
-        for (int pb_s = (w).two ? -1 : 0; pb_s <= ((w).two ? 1 : 0); pb_s += 2) {                             \
-            const float pb_r = pb_mean + (float)pb_s * (w).apart * pb_spread;                                  \
-            const float x = pb_kf * (w).g[0] + (w).c[0] + pb_r * (w).h[0];                                     \
-            const float y = pb_kf * (w).g[1] + (w).c[1] + pb_r * (w).h[1];                                     \
-            const float z = pb_kf * (w).g[2] + (w).c[2] + pb_r * (w).h[2];                                     \
+    if (!(w).two) {                                                                                            \
+        for (int pb_k = (w).k0; pb_k <= (w).k1; pb_k = pb_ab_next_partial(&(w), pb_k)) {                      \
+            float pb_kf = (float)pb_k, pb_mean;                                                                \
+            const float s = pb_tent_share((w).lo - pb_kf, (w).hi - pb_kf, &pb_mean), q = 1.0f;                \
+            const float x = pb_kf * (w).g[0] + (w).c[0] + pb_mean * (w).h[0];                                  \
+            const float y = pb_kf * (w).g[1] + (w).c[1] + pb_mean * (w).h[1];                                  \
+            const float z = pb_kf * (w).g[2] + (w).c[2] + pb_mean * (w).h[2];                                  \
             BODY;                                                                                              \
+        }                                                                                                      \
+    } else {                                                                                                   \
+        for (int pb_k = (w).k0; pb_k <= (w).k1; pb_k = pb_ab_next_partial(&(w), pb_k)) {                      \
+            float pb_kf = (float)pb_k, pb_mean;                                                                \
+            const float s = pb_tent_share((w).lo - pb_kf, (w).hi - pb_kf, &pb_mean), q = 0.5f;                \
+            const float pb_d = (w).apart * pb_tent_spread((w).lo - pb_kf, (w).hi - pb_kf, s, pb_mean);         \
+            for (int pb_s = -1; pb_s <= 1; pb_s += 2) {                                                        \
+                const float pb_r = pb_mean + (float)pb_s * pb_d;                                               \
+                const float x = pb_kf * (w).g[0] + (w).c[0] + pb_r * (w).h[0];                                 \
+                const float y = pb_kf * (w).g[1] + (w).c[1] + pb_r * (w).h[1];                                 \
+                const float z = pb_kf * (w).g[2] + (w).c[2] + pb_r * (w).h[2];                                 \
+                BODY;                                                                                          \
+            }                                                                                                  \
         }                                                                                                      \
     }
 
