@@ -82,10 +82,11 @@ PB_FN void pb_slice_scatter(PB_GLOBAL float *out, pb_kparams prm, int major, flo
 /* Transpose of pb_ab_segment. The forward divides by the float sum of the
  * shares at the end; the scatter needs that sum before its first slice, so it
  * walks the shares once first (a few flops a slice, against four atomics). */
-PB_FN void pb_ab_segment_adjoint(PB_GLOBAL float *out, pb_kparams prm, const float *a, const float *b, float v)
+PB_FN void pb_ab_segment_adjoint(PB_GLOBAL float *out, pb_kparams prm, int sweep, const float *a, const float *b,
+                                  float v)
 {
     pb_ab_walk w;
-    if (pb_ab_walk_init(a, b, prm.sweep, &w)) {
+    if (pb_ab_walk_init(a, b, sweep, &w)) {
         float o[3];
         pb_midpoint(a, b, o);
         pb_trilinear_scatter(out, prm, o[0], o[1], o[2], v);
@@ -103,7 +104,7 @@ PB_FN void pb_segment_adjoint(PB_GLOBAL float *out, pb_kparams prm, const float 
 {
     if (ab) {
         float inv = 1.0f / (float)prm.steps;
-        PB_FOR_PIECES(prm.steps, inv, a, b, pb_ab_segment_adjoint(out, prm, pa, pb, v * inv));
+        PB_FOR_PIECES(prm.steps, inv, a, b, pb_ab_segment_adjoint(out, prm, ab == PB_AB_SWEEP, pa, pb, v * inv));
         return;
     }
     int n = prm.steps > 0 ? prm.steps : pb_ab_slices(a, b);
@@ -156,6 +157,15 @@ PB_KERNEL void pb_adjoint_ab(PB_GLOBAL_RO float *in, PB_GLOBAL_RO pb_kpose *pose
     float v = pb_adjoint_input(in, prm, ix, iy, iz);
     if (v != 0.0f)
         pb_polyline_adjoint(out, poses, prm, ix, iy, iz, 1, v);
+}
+
+PB_KERNEL void pb_adjoint_ab_sweep(PB_GLOBAL_RO float *in, PB_GLOBAL_RO pb_kpose *poses, pb_kparams prm,
+                                   PB_GLOBAL float *out)
+{
+    int ix = PB_GID_X, iy = PB_GID_Y, iz = PB_GID_Z + prm.z0;
+    float v = pb_adjoint_input(in, prm, ix, iy, iz);
+    if (v != 0.0f)
+        pb_polyline_adjoint(out, poses, prm, ix, iy, iz, PB_AB_SWEEP, v);
 }
 
 PB_KERNEL void pb_adjoint_rm(PB_GLOBAL_RO float *in, PB_GLOBAL_RO pb_kpose *poses, pb_kparams prm, PB_GLOBAL float *out)

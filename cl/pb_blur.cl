@@ -172,7 +172,7 @@ PB_FN float pb_tent_spread(float r0, float r1, float w, float mean)
 /* AB reads a slice at the point where the path crosses its centre plane
  * (the paper's A_R = 0: the path's sideways sweep across the slice is not
  * seen). Where a path sweeps sideways by more than PB_AB_SWEEP_FROM voxels a
- * slice, and prm.sweep asks for it, the slice is read at two points of the
+ * slice, the sweep kernels read the slice at two points of the
  * path instead, half each, at its tent-weighted mean plus and minus its
  * standard deviation: the two-point rule that keeps the tent's first three
  * moments, exact for a sample that varies quadratically along the sweep.
@@ -419,12 +419,13 @@ PB_FN float pb_step_fraction(int i, float inv_n)
     return ((float)i + 0.5f) * inv_n;
 }
 
-/* AB over one segment, split into prm.steps equal sub-segments. */
-PB_FN float pb_ab_sampled(pb_image img, pb_kparams prm, int exact, const pb_place *pl, const float *a,
+/* AB over one segment, split into prm.steps equal sub-segments; sweep: two
+ * points a slice where the path sweeps sideways (a literal in each kernel). */
+PB_FN float pb_ab_sampled(pb_image img, pb_kparams prm, int exact, int sweep, const pb_place *pl, const float *a,
                           const float *b)
 {
     float sum = 0.0f, inv = 1.0f / (float)prm.steps;
-    PB_FOR_PIECES(prm.steps, inv, a, b, sum += pb_ab_segment(img, exact, prm.sweep, pl, pa, pb));
+    PB_FOR_PIECES(prm.steps, inv, a, b, sum += pb_ab_segment(img, exact, sweep, pl, pa, pb));
     return sum * inv;
 }
 
@@ -444,13 +445,16 @@ PB_FN float pb_rm_sampled(pb_image img, pb_kparams prm, int exact, const pb_plac
 
 /* The polyline methods: the object-space path of the voxel centred at u (texel
  * coordinates) through the key poses, one straight segment per pair, each
- * weighed by its share of the frame. */
+ * weighed by its share of the frame. ab: 0 RM, 1 AB, PB_AB_SWEEP AB with two
+ * points a slice where the path sweeps sideways; a literal in each kernel, so
+ * that the paper's AB carries none of the sweep's code or registers. */
+#define PB_AB_SWEEP 2
 PB_FN float pb_polyline(pb_image img, PB_GLOBAL_RO pb_kpose *poses, pb_kparams prm, const float *u,
                         const pb_place *pl, int ab, int exact)
 {
     float total = 0.0f;
     PB_FOR_SEGMENTS(poses, prm, u,
-                    total += poses[j].weight * (ab ? pb_ab_sampled(img, prm, exact, pl, a, b)
+                    total += poses[j].weight * (ab ? pb_ab_sampled(img, prm, exact, ab == PB_AB_SWEEP, pl, a, b)
                                                    : pb_rm_sampled(img, prm, exact, pl, a, b)));
     return total;
 }
@@ -513,6 +517,25 @@ PB_KERNEL void pb_blur_ab_exact(pb_image img, PB_GLOBAL_RO pb_kpose *poses, pb_k
         return;
     PB_OWN_VOXEL;
     PB_OUT(ix, iy, iz) = pb_polyline(img, poses, prm, u, &pl, 1, 1);
+}
+
+PB_KERNEL void pb_blur_ab_sweep(pb_image img, PB_GLOBAL_RO pb_kpose *poses, pb_kparams prm, PB_GLOBAL float *out)
+{
+    int ix = PB_GID_X, iy = PB_GID_Y, iz = PB_GID_Z + prm.z0;
+    if (!PB_IN_GRID(ix, iy, iz))
+        return;
+    PB_OWN_VOXEL;
+    PB_OUT(ix, iy, iz) = pb_polyline(img, poses, prm, u, &pl, PB_AB_SWEEP, 0);
+}
+
+PB_KERNEL void pb_blur_ab_sweep_exact(pb_image img, PB_GLOBAL_RO pb_kpose *poses, pb_kparams prm,
+                                      PB_GLOBAL float *out)
+{
+    int ix = PB_GID_X, iy = PB_GID_Y, iz = PB_GID_Z + prm.z0;
+    if (!PB_IN_GRID(ix, iy, iz))
+        return;
+    PB_OWN_VOXEL;
+    PB_OUT(ix, iy, iz) = pb_polyline(img, poses, prm, u, &pl, PB_AB_SWEEP, 1);
 }
 
 PB_KERNEL void pb_blur_rm(pb_image img, PB_GLOBAL_RO pb_kpose *poses, pb_kparams prm, PB_GLOBAL float *out)

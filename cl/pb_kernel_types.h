@@ -32,9 +32,6 @@ typedef struct pb_kparams {
     /* The first z-slice of the launch: a launch covers a slab of slices when
      * the caller asks for progress (src/launch.c). */
     int z0;
-    /* AB: 1 to read a slice at two points where the path sweeps sideways
-     * across it (pb_blur.cl, PB_AB_SWEEP_FROM), 0 at one (the paper's). */
-    int sweep;
 } pb_kparams;
 
 /* Voxels along x per work item of pb_shift_ab_layers_x: 8 floats fill a

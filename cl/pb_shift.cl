@@ -65,6 +65,19 @@ PB_KERNEL void pb_shift_ab_exact(pb_image img, PB_GLOBAL_RO pb_kpose *poses, pb_
     PB_SHIFT_STORE(pb_polyline(img, poses, prm, u, &pl, 1, 1));
 }
 
+PB_KERNEL void pb_shift_ab_sweep(pb_image img, PB_GLOBAL_RO pb_kpose *poses, pb_kparams prm, PB_GLOBAL float *out)
+{
+    PB_SHIFT_VOXEL;
+    PB_SHIFT_STORE(pb_polyline(img, poses, prm, u, &pl, PB_AB_SWEEP, 0));
+}
+
+PB_KERNEL void pb_shift_ab_sweep_exact(pb_image img, PB_GLOBAL_RO pb_kpose *poses, pb_kparams prm,
+                                       PB_GLOBAL float *out)
+{
+    PB_SHIFT_VOXEL;
+    PB_SHIFT_STORE(pb_polyline(img, poses, prm, u, &pl, PB_AB_SWEEP, 1));
+}
+
 PB_KERNEL void pb_shift_rm(pb_image img, PB_GLOBAL_RO pb_kpose *poses, pb_kparams prm, PB_GLOBAL float *out)
 {
     PB_SHIFT_VOXEL;
@@ -143,10 +156,11 @@ PB_FN float pb_layer_trilinear(pb_layers img, pb_kparams prm, const pb_place *pl
 }
 
 /* pb_ab_segment's walk along the layers' axis, each sample through them. */
-PB_FN float pb_ab_segment_layers(pb_layers img, pb_kparams prm, const pb_place *pl, const float *a, const float *b)
+PB_FN float pb_ab_segment_layers(pb_layers img, pb_kparams prm, int sweep, const pb_place *pl, const float *a,
+                                  const float *b)
 {
     pb_ab_walk w;
-    if (pb_ab_walk_init_axis(a, b, prm.layer_axis, prm.sweep, &w)) {
+    if (pb_ab_walk_init_axis(a, b, prm.layer_axis, sweep, &w)) {
         float o[3];
         pb_midpoint(a, b, o);
         return pb_layer_trilinear(img, prm, pl, o[0], o[1], o[2]);
@@ -160,20 +174,23 @@ PB_FN float pb_ab_segment_layers(pb_layers img, pb_kparams prm, const pb_place *
 
 /* AB over one segment through the layers: the sum over its prm.steps
  * sub-segments (the caller scales it, weight first, as it always has). */
-PB_FN float pb_ab_pieces_layers(pb_layers img, pb_kparams prm, const pb_place *pl, const float *a, const float *b)
+PB_FN float pb_ab_pieces_layers(pb_layers img, pb_kparams prm, int sweep, const pb_place *pl, const float *a,
+                                 const float *b)
 {
     float sum = 0.0f, inv = 1.0f / (float)prm.steps;
-    PB_FOR_PIECES(prm.steps, inv, a, b, sum += pb_ab_segment_layers(img, prm, pl, pa, pb));
+    PB_FOR_PIECES(prm.steps, inv, a, b, sum += pb_ab_segment_layers(img, prm, sweep, pl, pa, pb));
     return sum;
 }
 
 /* Voxel 0's polyline through the layers, placed by pl. */
-PB_FN float pb_shift_layered(pb_layers img, PB_GLOBAL_RO pb_kpose *poses, pb_kparams prm, const pb_place *pl)
+PB_FN float pb_shift_layered(pb_layers img, PB_GLOBAL_RO pb_kpose *poses, pb_kparams prm, int sweep,
+                             const pb_place *pl)
 {
     const float u[3] = {0.5f, 0.5f, 0.5f};
     float total = 0.0f;
     PB_FOR_SEGMENTS(poses, prm, u,
-                    total += poses[j].weight * pb_ab_pieces_layers(img, prm, pl, a, b) * (1.0f / (float)prm.steps));
+                    total += poses[j].weight * pb_ab_pieces_layers(img, prm, sweep, pl, a, b) *
+                             (1.0f / (float)prm.steps));
     return total;
 }
 
@@ -182,7 +199,15 @@ PB_KERNEL void pb_shift_ab_layers(pb_layers img, PB_GLOBAL_RO pb_kpose *poses, p
 {
     PB_SHIFT_VOXEL;
     (void)u;
-    PB_SHIFT_STORE(pb_shift_layered(img, poses, prm, &pl));
+    PB_SHIFT_STORE(pb_shift_layered(img, poses, prm, 0, &pl));
+}
+
+PB_KERNEL void pb_shift_ab_sweep_layers(pb_layers img, PB_GLOBAL_RO pb_kpose *poses, pb_kparams prm,
+                                        PB_GLOBAL float *out)
+{
+    PB_SHIFT_VOXEL;
+    (void)u;
+    PB_SHIFT_STORE(pb_shift_layered(img, poses, prm, 1, &pl));
 }
 
 /* Layers along x. A warp whose work items lay along x would read 32 layers
@@ -191,16 +216,25 @@ PB_KERNEL void pb_shift_ab_layers(pb_layers img, PB_GLOBAL_RO pb_kpose *poses, p
  * x, one after the other, so that what a warp writes fills whole 32-byte
  * sectors of 8 floats instead of one float in each of 32. The host launches
  * pb_kernel_extent's work items: y first, then runs along x, then z. */
+#define PB_SHIFT_LAYERS_X(sweep)                                                                                 \
+    int iy = PB_GID_X, x0 = PB_GID_Y * PB_X_RUN, iz = PB_GID_Z + prm.z0;                                        \
+    if (iy >= prm.dims[1] || iz >= prm.dims[2])                                                                \
+        return;                                                                                                \
+    for (int ix = x0; ix < x0 + PB_X_RUN && ix < prm.dims[0]; ix++) {                                          \
+        pb_place pl;                                                                                           \
+        pb_shift_place(prm, ix, iy, iz, &pl);                                                                  \
+        PB_SHIFT_STORE(pb_shift_layered(img, poses, prm, sweep, &pl));                                         \
+    }
+
 PB_KERNEL void pb_shift_ab_layers_x(pb_layers img, PB_GLOBAL_RO pb_kpose *poses, pb_kparams prm, PB_GLOBAL float *out)
 {
-    int iy = PB_GID_X, x0 = PB_GID_Y * PB_X_RUN, iz = PB_GID_Z + prm.z0;
-    if (iy >= prm.dims[1] || iz >= prm.dims[2])
-        return;
-    for (int ix = x0; ix < x0 + PB_X_RUN && ix < prm.dims[0]; ix++) {
-        pb_place pl;
-        pb_shift_place(prm, ix, iy, iz, &pl);
-        PB_SHIFT_STORE(pb_shift_layered(img, poses, prm, &pl));
-    }
+    PB_SHIFT_LAYERS_X(0)
+}
+
+PB_KERNEL void pb_shift_ab_sweep_layers_x(pb_layers img, PB_GLOBAL_RO pb_kpose *poses, pb_kparams prm,
+                                          PB_GLOBAL float *out)
+{
+    PB_SHIFT_LAYERS_X(1)
 }
 
 /* A volume laid out in layers along m = prm.layer_axis, for the copy into a

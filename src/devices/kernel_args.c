@@ -25,7 +25,6 @@ void pb_kparams_from_path(const pb_path *path, const pb_blur_options *opt, pb_kp
     prm->ref_points = (int)opt->ref_points;
     prm->ref_steps = (int)path->ref_count;
     prm->seed = opt->seed;
-    prm->sweep = opt->method == PB_METHOD_AB && opt->ab_sampling == PB_AB_SAMPLING_SWEEP;
     if (pb_path_shift_invariant(path, opt))
         prm->layer_axis = pb_path_layer_axis(path);
 }
@@ -95,12 +94,16 @@ static double longest_walk(const pb_path *path, const pb_blur_options *opt, int 
  * (docs/performance.md, "Device memory in and out"). */
 #define PB_X_LAYERS_MIN_SLICES 8.0
 
-/* The kernel of a family that computes method under filter. */
-static pb_kernel_id find_kernel(pb_kernel_family family, pb_method method, pb_filter filter)
+/* The kernel of a family that computes the options' method under their
+ * filter: AB sweep has kernels of its own (PB_KT_AB_SWEEP). */
+static pb_kernel_id find_kernel(pb_kernel_family family, const pb_blur_options *opt)
 {
+    int method = opt->method == PB_METHOD_AB && opt->ab_sampling == PB_AB_SAMPLING_SWEEP ? PB_KT_AB_SWEEP
+                                                                                        : (int)opt->method;
+    pb_filter filter = opt->filter;
     for (int k = 0; k < PB_KERNEL_COUNT; k++) {
         const pb_kernel_info *info = &pb_kernel_table[k];
-        if (info->family == family && (info->method == PB_KT_ANY || info->method == (int)method) &&
+        if (info->family == family && (info->method == PB_KT_ANY || info->method == method) &&
             (info->filter == PB_KT_ANY || info->filter == (int)filter))
             return (pb_kernel_id)k;
     }
@@ -118,22 +121,22 @@ pb_kernel_id pb_forward_kernel(const pb_path *path, const pb_blur_options *opt, 
                                int fresh_input)
 {
     if (!pb_path_shift_invariant(path, opt))
-        return find_kernel(PB_FAMILY_GENERAL, opt->method, opt->filter);
+        return find_kernel(PB_FAMILY_GENERAL, opt);
     int m = -1;
     if (opt->method == PB_METHOD_AB && opt->filter == PB_FILTER_HARDWARE && layer_limits)
         m = pb_path_layer_axis(path);
     if (m == 0 && (fresh_input || longest_walk(path, opt, 0) < PB_X_LAYERS_MIN_SLICES))
         m = -1;
     if (m >= 0 && layers_fit(path->geometry.dims, m, layer_limits))
-        return find_kernel(m == 0 ? PB_FAMILY_LAYERS_X : PB_FAMILY_LAYERS, opt->method, opt->filter);
-    return find_kernel(PB_FAMILY_SHIFT, opt->method, opt->filter);
+        return find_kernel(m == 0 ? PB_FAMILY_LAYERS_X : PB_FAMILY_LAYERS, opt);
+    return find_kernel(PB_FAMILY_SHIFT, opt);
 }
 
 pb_kernel_id pb_adjoint_kernel(const pb_path *path, const pb_blur_options *opt, const size_t *layer_limits)
 {
     if (pb_path_shift_invariant(path, opt))
         return pb_forward_kernel(path, opt, layer_limits, 1);
-    return find_kernel(PB_FAMILY_SCATTER, opt->method, opt->filter);
+    return find_kernel(PB_FAMILY_SCATTER, opt);
 }
 
 void pb_kparams_permute(const size_t *dims, int m, pb_kparams *prm)

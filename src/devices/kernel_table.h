@@ -27,23 +27,30 @@
 #define PB_KERNELS(X)                                                                         \
     X(BLUR_AB,          pb_blur_ab,          GENERAL,  AB,    HARDWARE, LINEAR,  TILES)     \
     X(BLUR_AB_EXACT,    pb_blur_ab_exact,    GENERAL,  AB,    EXACT,    NEAREST, TILES)     \
+    X(BLUR_AB_SWEEP,    pb_blur_ab_sweep,    GENERAL,  AB_SWEEP, HARDWARE, LINEAR, TILES)   \
+    X(BLUR_AB_SWEEP_EXACT, pb_blur_ab_sweep_exact, GENERAL, AB_SWEEP, EXACT, NEAREST, TILES)  \
     X(BLUR_RM,          pb_blur_rm,          GENERAL,  RM,    HARDWARE, LINEAR,  TILES)     \
     X(BLUR_RM_EXACT,    pb_blur_rm_exact,    GENERAL,  RM,    EXACT,    NEAREST, TILES)     \
     X(BLUR_CL,          pb_blur_cl,          GENERAL,  CL,    HARDWARE, LINEAR,  TILES)     \
     X(BLUR_CL_EXACT,    pb_blur_cl_exact,    GENERAL,  CL,    EXACT,    NEAREST, TILES)     \
     X(BLUR_REF,         pb_blur_ref,         GENERAL,  REF,   ANY,      NEAREST, TILES)     \
     X(ADJOINT_AB,       pb_adjoint_ab,       SCATTER,  AB,    ANY,      BUFFER,  TILES)     \
+    X(ADJOINT_AB_SWEEP, pb_adjoint_ab_sweep, SCATTER,  AB_SWEEP, ANY,   BUFFER,  TILES)     \
     X(ADJOINT_RM,       pb_adjoint_rm,       SCATTER,  RM,    ANY,      BUFFER,  TILES)     \
     X(ADJOINT_CL,       pb_adjoint_cl,       SCATTER,  CL,    ANY,      BUFFER,  TILES)     \
     X(ADJOINT_REF,      pb_adjoint_ref,      SCATTER,  REF,   ANY,      BUFFER,  TILES)     \
     X(SHIFT_AB,         pb_shift_ab,         SHIFT,    AB,    HARDWARE, LINEAR,  ROWS)      \
     X(SHIFT_AB_EXACT,   pb_shift_ab_exact,   SHIFT,    AB,    EXACT,    NEAREST, ROWS)      \
+    X(SHIFT_AB_SWEEP,   pb_shift_ab_sweep,   SHIFT,    AB_SWEEP, HARDWARE, LINEAR, ROWS)    \
+    X(SHIFT_AB_SWEEP_EXACT, pb_shift_ab_sweep_exact, SHIFT, AB_SWEEP, EXACT, NEAREST, ROWS)   \
     X(SHIFT_RM,         pb_shift_rm,         SHIFT,    RM,    HARDWARE, LINEAR,  ROWS)      \
     X(SHIFT_RM_EXACT,   pb_shift_rm_exact,   SHIFT,    RM,    EXACT,    NEAREST, ROWS)      \
     X(SHIFT_CL,         pb_shift_cl,         SHIFT,    CL,    HARDWARE, LINEAR,  ROWS)      \
     X(SHIFT_CL_EXACT,   pb_shift_cl_exact,   SHIFT,    CL,    EXACT,    NEAREST, ROWS)      \
     X(SHIFT_AB_LAYERS,  pb_shift_ab_layers,  LAYERS,   AB,    HARDWARE, LAYERS,  ROWS)      \
     X(SHIFT_AB_LAYERS_X, pb_shift_ab_layers_x, LAYERS_X, AB,  HARDWARE, LAYERS,  ROWS)      \
+    X(SHIFT_AB_SWEEP_LAYERS, pb_shift_ab_sweep_layers, LAYERS, AB_SWEEP, HARDWARE, LAYERS, ROWS) \
+    X(SHIFT_AB_SWEEP_LAYERS_X, pb_shift_ab_sweep_layers_x, LAYERS_X, AB_SWEEP, HARDWARE, LAYERS, ROWS) \
     X(PERMUTE,          pb_permute,          PERMUTE,  ANY,   ANY,      BUFFER,  ROWS)
 
 typedef enum pb_kernel_id {
@@ -65,6 +72,7 @@ typedef enum pb_kernel_reads { PB_READS_LINEAR, PB_READS_NEAREST, PB_READS_LAYER
 #define PB_KT_RM 1
 #define PB_KT_CL 2
 #define PB_KT_REF 3
+#define PB_KT_AB_SWEEP 4 /* AB with ab_sampling SWEEP: kernels of its own */
 #define PB_KT_HARDWARE 0
 #define PB_KT_EXACT 1
 #define PB_KT_ANY (-1)
