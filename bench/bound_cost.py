@@ -57,8 +57,8 @@ def main():
     print("|---|---|" + "---|" * len(bounds))
     for name, m in motions:
         for method in a.methods.split(","):
-            name, _, sampling = method.partition("-")
-            ms = [kernel_ms(petblur.BlurOperator((n, n, n), vs, m, method=name, max_path_error=b, device="cuda:0",
+            kind, _, sampling = method.partition("-")
+            ms = [kernel_ms(petblur.BlurOperator((n, n, n), vs, m, method=kind, max_path_error=b, device="cuda:0",
                                                  ab_sampling=sampling or None), x) for b in bounds]
             rows.append({"motion": name, "method": method, "bounds": bounds, "kernel_ms": ms})
             print(f"| {name} | {method.upper()} | " + " | ".join(f"{v:.3f} ({v / ms[0]:.2f}x)" for v in ms) + " |",
