@@ -476,7 +476,8 @@ typedef enum pb_path_model {
  * point, where the path crosses the slice's centre plane, and so does not see
  * the path sweep sideways across the slice; SWEEP reads it at two points of
  * the path where it sweeps sideways by more than an eighth of a voxel a
- * slice (docs/methods.md, "AB's own sampling"). RM, CL and REF ignore it. */
+ * slice (docs/methods.md, "AB's own sampling"). Set with RM, CL or REF, it
+ * is refused. */
 typedef enum pb_ab_sampling {
     PB_AB_SAMPLING_DEFAULT = 0, /* PB_AB_SAMPLING_SLICE */
     PB_AB_SAMPLING_SLICE = 1,   /* one point a slice: the paper's AB */
