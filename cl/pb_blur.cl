@@ -259,6 +259,22 @@ PB_FN int pb_ab_next_partial(const pb_ab_walk *w, int k)
  * (pb_ab_segment) or the layers (cl/pb_shift.cl), the adjoint scatters
  * (cl/pb_adjoint.cl); so all three visit the same slices at the same points
  * with the same shares. */
+/* The point r voxels along the path from where it crosses slice kf's centre
+ * plane, whose major coordinate stays the slice's centre (H has no major
+ * component): x, y and z in scope. */
+#define PB_AB_POINT(w, kf, r)                                                                                    \
+    const float x = (kf) * (w).g[0] + (w).c[0] + (r) * (w).h[0];                                               \
+    const float y = (kf) * (w).g[1] + (w).c[1] + (r) * (w).h[1];                                               \
+    const float z = (kf) * (w).g[2] + (w).c[2] + (r) * (w).h[2]
+
+/* The sweep's two points of slice kf, at mean - d and mean + d: BODY at each. */
+#define PB_AB_TWO_POINTS(w, kf, mean, d, BODY)                                                                   \
+    for (int pb_s = -1; pb_s <= 1; pb_s += 2) {                                                                \
+        const float pb_r = (mean) + (float)pb_s * (d);                                                         \
+        PB_AB_POINT(w, kf, pb_r);                                                                              \
+        BODY;                                                                                                  \
+    }
+
 #define PB_AB_FULL_SLICES(w, BODY)                                                                               \
     if (!(w).two) {                                                                                            \
         for (int pb_k = (w).f0; pb_k <= (w).f1; pb_k++) {                                                     \
@@ -271,13 +287,7 @@ PB_FN int pb_ab_next_partial(const pb_ab_walk *w, int k)
         const float pb_d = (w).apart * PB_TENT_SPREAD;                                                         \
         for (int pb_k = (w).f0; pb_k <= (w).f1; pb_k++) {                                                     \
             const float pb_kf = (float)pb_k, q = 0.5f;                                                         \
-            for (int pb_s = -1; pb_s <= 1; pb_s += 2) {                                                        \
-                const float pb_r = (float)pb_s * pb_d;                                                         \
-                const float x = pb_kf * (w).g[0] + (w).c[0] + pb_r * (w).h[0];                                 \
-                const float y = pb_kf * (w).g[1] + (w).c[1] + pb_r * (w).h[1];                                 \
-                const float z = pb_kf * (w).g[2] + (w).c[2] + pb_r * (w).h[2];                                 \
-                BODY;                                                                                          \
-            }                                                                                                  \
+            PB_AB_TWO_POINTS(w, pb_kf, 0.0f, pb_d, BODY)                                                       \
         }                                                                                                      \
     }
 
@@ -286,9 +296,7 @@ PB_FN int pb_ab_next_partial(const pb_ab_walk *w, int k)
         for (int pb_k = (w).k0; pb_k <= (w).k1; pb_k = pb_ab_next_partial(&(w), pb_k)) {                      \
             float pb_kf = (float)pb_k, pb_mean;                                                                \
             const float s = pb_tent_share((w).lo - pb_kf, (w).hi - pb_kf, &pb_mean), q = 1.0f;                \
-            const float x = pb_kf * (w).g[0] + (w).c[0] + pb_mean * (w).h[0];                                  \
-            const float y = pb_kf * (w).g[1] + (w).c[1] + pb_mean * (w).h[1];                                  \
-            const float z = pb_kf * (w).g[2] + (w).c[2] + pb_mean * (w).h[2];                                  \
+            PB_AB_POINT(w, pb_kf, pb_mean);                                                                    \
             BODY;                                                                                              \
         }                                                                                                      \
     } else {                                                                                                   \
@@ -296,13 +304,7 @@ PB_FN int pb_ab_next_partial(const pb_ab_walk *w, int k)
             float pb_kf = (float)pb_k, pb_mean;                                                                \
             const float s = pb_tent_share((w).lo - pb_kf, (w).hi - pb_kf, &pb_mean), q = 0.5f;                \
             const float pb_d = (w).apart * pb_tent_spread((w).lo - pb_kf, (w).hi - pb_kf, s, pb_mean);         \
-            for (int pb_s = -1; pb_s <= 1; pb_s += 2) {                                                        \
-                const float pb_r = pb_mean + (float)pb_s * pb_d;                                               \
-                const float x = pb_kf * (w).g[0] + (w).c[0] + pb_r * (w).h[0];                                 \
-                const float y = pb_kf * (w).g[1] + (w).c[1] + pb_r * (w).h[1];                                 \
-                const float z = pb_kf * (w).g[2] + (w).c[2] + pb_r * (w).h[2];                                 \
-                BODY;                                                                                          \
-            }                                                                                                  \
+            PB_AB_TWO_POINTS(w, pb_kf, pb_mean, pb_d, BODY)                                                    \
         }                                                                                                      \
     }
 
