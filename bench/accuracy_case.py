@@ -114,13 +114,17 @@ def errors(ref, x):
             "max_pct": float(100 * np.abs(d).max() / np.abs(ref).max())}
 
 
+def method_options(method):
+    """'ab', 'rm', 'cl', 'ref', or 'ab-sweep' (AB reading two points a slice
+    where its path sweeps sideways) as BlurOperator's keywords."""
+    kind, _, sampling = method.partition("-")
+    return dict(method=kind, ab_sampling=sampling or None)
+
+
 def measure(case, ref, method, bound, device):
-    """method: 'ab', 'rm', ..., or 'ab-sweep' (AB reading two points a slice
-    where its path sweeps sideways)."""
     import petblur
-    name, _, sampling = method.partition("-")
-    op = petblur.BlurOperator(case.shape, case.voxel, case.motion(), method=name, max_path_error=bound,
-                              affine=case.affine, device=device, ab_sampling=sampling or None)
+    op = petblur.BlurOperator(case.shape, case.voxel, case.motion(), max_path_error=bound, affine=case.affine,
+                              device=device, **method_options(method))
     x = np.asfortranarray(case.x)
     op(x)  # warm-up: the plan and, on OpenCL, the kernels' build
     t = time.perf_counter()

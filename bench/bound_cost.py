@@ -22,7 +22,7 @@ import torch
 import petblur
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from accuracy_case import Case  # noqa: E402
+from accuracy_case import Case, method_options  # noqa: E402
 from python_torch import SCENARIOS  # noqa: E402
 
 
@@ -57,9 +57,8 @@ def main():
     print("|---|---|" + "---|" * len(bounds))
     for name, m in motions:
         for method in a.methods.split(","):
-            kind, _, sampling = method.partition("-")
-            ms = [kernel_ms(petblur.BlurOperator((n, n, n), vs, m, method=kind, max_path_error=b, device="cuda:0",
-                                                 ab_sampling=sampling or None), x) for b in bounds]
+            ms = [kernel_ms(petblur.BlurOperator((n, n, n), vs, m, max_path_error=b, device="cuda:0",
+                                                 **method_options(method)), x) for b in bounds]
             rows.append({"motion": name, "method": method, "bounds": bounds, "kernel_ms": ms})
             print(f"| {name} | {method.upper()} | " + " | ".join(f"{v:.3f} ({v / ms[0]:.2f}x)" for v in ms) + " |",
                   flush=True)
