@@ -32,6 +32,8 @@ typedef struct pb_kparams {
     /* The first z-slice of the launch: a launch covers a slab of slices when
      * the caller asks for progress (src/launch.c). */
     int z0;
+    /* pb_shift_taps: how many taps it reads (cl/pb_taps.cl). */
+    int taps;
 } pb_kparams;
 
 /* Voxels along x per work item of pb_shift_ab_layers_x: 8 floats fill a
@@ -57,6 +59,13 @@ typedef struct pb_kpose {
     float cos_angle;    /* its cosine and 1 / its sine (0 for angle 0), from the host in double, */
     float inv_sin_angle; /* so that CL's step needs one sincos and no division */
 } pb_kpose;
+
+/* One weight of the convolution that a motion of translations is
+ * (cl/pb_taps.cl): tomograph voxel W reads object voxel W + offset. */
+typedef struct pb_ktap {
+    int offset[3];
+    float weight;
+} pb_ktap;
 
 /* One REF time step. */
 typedef struct pb_kstep {

@@ -223,6 +223,10 @@ pb_status pb_launch_frames(struct pb_context *ctx, const struct pb_plan *plan, c
 pb_status pb_launch_frames_apply(struct pb_context *ctx, const struct pb_plan *plan, size_t first, size_t count,
                                  int adjoint, const void *const *ins, pb_images *in_images, void *const *outs,
                                  int accumulate);
+/* shift_taps.c: under a motion of translations whose path is short, the
+ * frame's kernels become the convolution's (cl/pb_taps.cl), its poses buffer
+ * their taps, measured on the device; otherwise the frame is left as it is. */
+pb_status pb_shift_taps_prepare(struct pb_context *ctx, const pb_blur_options *opt, pb_plan_frame *frame);
 /* A buffer changed: what was made from it is out of date. */
 void pb_images_stale(pb_images *images);
 /* context.c: device memory at `memory` was written behind the volumes' back:

@@ -10,6 +10,8 @@
  *                    or mirrored, the adjoint's gather (cl/pb_shift.cl)
  *           LAYERS   SHIFT for AB HARDWARE through 2-D layers along y or z
  *           LAYERS_X the same along x, one work item per run of PB_X_RUN voxels
+ *           TAPS     under translations with short paths, the convolution
+ *                    they are, from taps measured once (cl/pb_taps.cl)
  *           PERMUTE  lays a buffer out in layers for the copy into them
  *   method, filter   what it computes (ANY: either)
  *   reads   LINEAR / NEAREST  the 3-D image through a linear / point filter
@@ -51,6 +53,7 @@
     X(SHIFT_AB_LAYERS_X, pb_shift_ab_layers_x, LAYERS_X, AB,  HARDWARE, LAYERS,  ROWS)      \
     X(SHIFT_AB_SWEEP_LAYERS, pb_shift_ab_sweep_layers, LAYERS, AB_SWEEP, HARDWARE, LAYERS, ROWS) \
     X(SHIFT_AB_SWEEP_LAYERS_X, pb_shift_ab_sweep_layers_x, LAYERS_X, AB_SWEEP, HARDWARE, LAYERS, ROWS) \
+    X(SHIFT_TAPS,       pb_shift_taps,       TAPS,     ANY,   ANY,      BUFFER,  ROWS)      \
     X(PERMUTE,          pb_permute,          PERMUTE,  ANY,   ANY,      BUFFER,  ROWS)
 
 typedef enum pb_kernel_id {
@@ -61,7 +64,8 @@ typedef enum pb_kernel_id {
 } pb_kernel_id;
 
 typedef enum pb_kernel_family {
-    PB_FAMILY_GENERAL, PB_FAMILY_SCATTER, PB_FAMILY_SHIFT, PB_FAMILY_LAYERS, PB_FAMILY_LAYERS_X, PB_FAMILY_PERMUTE
+    PB_FAMILY_GENERAL, PB_FAMILY_SCATTER, PB_FAMILY_SHIFT, PB_FAMILY_LAYERS, PB_FAMILY_LAYERS_X, PB_FAMILY_TAPS,
+    PB_FAMILY_PERMUTE
 } pb_kernel_family;
 
 typedef enum pb_kernel_reads { PB_READS_LINEAR, PB_READS_NEAREST, PB_READS_LAYERS, PB_READS_BUFFER } pb_kernel_reads;

@@ -165,8 +165,9 @@ static pb_status launch_slabs(pb_context *ctx, pb_kernel_id kernel, const void *
 
 /* The kernels and parameters of both directions, and the key poses on the
  * device. Under translations only the adjoint is the forward kernel mirrored
- * (a gather); otherwise the scatter, whose weights are rounded as the
- * forward's texture unit rounds them (cl/pb_adjoint.cl). */
+ * (a gather), and where the path is short both become the convolution of its
+ * taps (shift_taps.c); otherwise the adjoint is the scatter, whose weights
+ * are rounded as the forward's texture unit rounds them (cl/pb_adjoint.cl). */
 pb_status pb_launch_prepare(pb_context *ctx, const pb_blur_options *opt, pb_plan_frame *f)
 {
     f->forward = pb_forward_kernel(&f->path, opt, ctx->layer_limits, 0);
@@ -187,7 +188,7 @@ pb_status pb_launch_prepare(pb_context *ctx, const pb_blur_options *opt, pb_plan
     if (st == PB_OK)
         st = ctx->ops->buffer_write(ctx, f->poses, data, bytes);
     free(data);
-    return st;
+    return st == PB_OK ? pb_shift_taps_prepare(ctx, opt, f) : st;
 }
 
 pb_status pb_launch_frame(pb_context *ctx, const pb_plan *plan, size_t index, int adjoint, const void *in,

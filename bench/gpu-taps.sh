@@ -1,0 +1,66 @@
+#!/usr/bin/env bash
+# On the GPU machine: short translations as taps (issue 33, item 2). Two calls,
+# each within the device's ten minutes (the build is kept between them):
+#   PB_COMMIT=... bash bench/gpu-taps.sh tests   build (CUDA and OpenCL); the host, cuda and opencl suites (NVIDIA's
+#                                                OpenCL; the walk's runs and test_shift_taps among them);
+#                                                memcheck on test_shift_taps and test_plan, racecheck on
+#                                                test_shift_taps
+#   PB_COMMIT=... bash bench/gpu-taps.sh bench   the package beside the machine's torch and CuPy;
+#                                                bench/shift_taps.py (taps against the walk by translation) and
+#                                                bench/memory_floor.py with the taps and with the walk
+#                                                (PETBLUR_SHIFT_TAPS=0), in one process each
+# (carry .device .whl). What comes back through $OUT: machine.txt, tests.txt, sanitize.log, shift_taps.md/.csv,
+# floor.md/.csv, floor-walk.md/.csv.
+set -uo pipefail
+cd "$(dirname "$0")/.."
+OUT=${OUT:-$PWD/gpu-out}
+mkdir -p "$OUT"
+. bench/device-env.sh
+write_machine "$OUT/machine.txt" </dev/null
+status=0
+case "${1:-}" in
+tests)
+    "${meson[@]}" setup build-gpu --buildtype=release -Dcuda=enabled -Dopencl=enabled -Dgpu_archs=90 \
+        >/tmp/setup.log 2>&1 && ninja -C build-gpu >/tmp/build.log 2>&1 || { tail -30 /tmp/setup.log /tmp/build.log; exit 1; }
+    nv=$(mktemp -d)
+    echo libnvidia-opencl.so.1 >"$nv/nvidia.icd"
+    for s in host cuda opencl; do
+        OCL_ICD_VENDORS=$nv "${meson[@]}" test -C build-gpu --no-rebuild --print-errorlogs --suite $s \
+            >/tmp/test-$s.log 2>&1 || status=1
+        {
+            echo "== $s"
+            grep -E '^ *[0-9]+/[0-9]+ |^(Ok|Fail|Skipped):' /tmp/test-$s.log
+            grep -h 'largest relative' build-gpu/meson-logs/testlog.txt | sed "s/^/$s: /"
+        } >>"$OUT/tests.txt"
+        [ $status = 0 ] || tail -n 60 /tmp/test-$s.log >>"$OUT/tests.txt"
+    done
+    cat "$OUT/tests.txt"
+    {
+        for t in shift_taps plan; do
+            echo "== memcheck test_$t cuda"
+            compute-sanitizer --tool memcheck --error-exitcode 99 --leak-check full ./build-gpu/tests/test_$t cuda |
+                tail -2
+            [ "${PIPESTATUS[0]}" = 0 ] || { echo "memcheck test_$t: FAILED"; status=1; }
+        done
+        echo "== racecheck test_shift_taps cuda"
+        compute-sanitizer --tool racecheck --error-exitcode 99 ./build-gpu/tests/test_shift_taps cuda | tail -2
+        [ "${PIPESTATUS[0]}" = 0 ] || { echo "racecheck test_shift_taps: FAILED"; status=1; }
+    } 2>&1 | tee "$OUT/sanitize.log"
+    grep -q FAILED "$OUT/sanitize.log" && status=1
+    ;;
+bench)
+    install_package -Dopencl=disabled || exit 1
+    (cd /tmp && python3 "$OLDPWD/bench/shift_taps.py" --out "$OUT/shift_taps.csv") 2>&1 | tee "$OUT/shift_taps.md"
+    [ "${PIPESTATUS[0]}" = 0 ] || status=1
+    (cd /tmp && python3 "$OLDPWD/bench/memory_floor.py" --out "$OUT/floor.csv") 2>&1 | tee "$OUT/floor.md"
+    [ "${PIPESTATUS[0]}" = 0 ] || status=1
+    (cd /tmp && PETBLUR_SHIFT_TAPS=0 python3 "$OLDPWD/bench/memory_floor.py" --out "$OUT/floor-walk.csv") 2>&1 |
+        tee "$OUT/floor-walk.md"
+    [ "${PIPESTATUS[0]}" = 0 ] || status=1
+    ;;
+*)
+    echo "gpu-taps.sh tests|bench" >&2
+    exit 2
+    ;;
+esac
+exit $status

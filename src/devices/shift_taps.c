@@ -1,0 +1,164 @@
+/* The taps of a short motion of translations (cl/pb_taps.cl), measured once
+ * per plan on the device itself: the shift kernel's blur of a unit impulse in
+ * a small grid. Under translations the blur is a convolution, so that blur is
+ * the kernel's weights themselves, c_d at offset d = impulse - W, whatever
+ * the kernel does to compute them (AB's slices, the sweep's two points, RM's
+ * and CL's samples, sub-segments, the clipped parts of a path, the texture
+ * unit's rounded weights). No second copy of the walk is written here. */
+#include <math.h>
+#include <stdlib.h>
+
+#include "backend.h"
+#include "kernel_args.h"
+
+/* Most taps read instead of walking: above it the walk's fetches, which
+ * the texture unit filters eight voxels at a time, cost less than reading
+ * every tap (docs/performance.md, "Short translations", measures it).
+ * PETBLUR_SHIFT_TAPS sets another limit, 0 none, for comparisons. */
+#define PB_SHIFT_TAPS_MAX 64
+
+/* The impulse grid's largest volume: a longer path has more taps than the
+ * limit anyway, and is not measured. */
+#define PB_SHIFT_TAPS_GRID_MAX 32768
+
+static long taps_limit(void)
+{
+    const char *env = getenv("PETBLUR_SHIFT_TAPS");
+    if (!env || !*env)
+        return PB_SHIFT_TAPS_MAX;
+    char *end;
+    long v = strtol(env, &end, 10);
+    return *end == '\0' && v >= 0 ? v : PB_SHIFT_TAPS_MAX;
+}
+
+/* The offsets d that voxel 0's path can reach, per axis [lo, hi], widened to
+ * hold 0: its points (voxel-centre coordinates) lie between the key poses'
+ * and a sample's reach is the trilinear tent's, one voxel; one more each side
+ * spares the rounding any thought. Returns 0 where the grid would be larger
+ * than is measured. */
+static int offset_box(const pb_path *path, long *lo, long *hi)
+{
+    double least[3] = {INFINITY, INFINITY, INFINITY}, most[3] = {-INFINITY, -INFINITY, -INFINITY};
+    for (size_t i = 0; i < path->count; i++) {
+        const double *m = path->poses[i].map;
+        for (int r = 0; r < 3; r++) {
+            double p = 0.5 * (m[4 * r] + m[4 * r + 1] + m[4 * r + 2]) + m[4 * r + 3] - 0.5;
+            least[r] = fmin(least[r], p);
+            most[r] = fmax(most[r], p);
+        }
+    }
+    double volume = 1.0;
+    for (int r = 0; r < 3; r++) {
+        if (!(most[r] - least[r] < 64.0)) /* also NaN */
+            return 0;
+        lo[r] = (long)floor(least[r]) - 2;
+        hi[r] = (long)floor(most[r]) + 3;
+        lo[r] = lo[r] < 0 ? lo[r] : 0;
+        hi[r] = hi[r] > 0 ? hi[r] : 0;
+        volume *= (double)(hi[r] - lo[r] + 1);
+    }
+    return volume <= PB_SHIFT_TAPS_GRID_MAX;
+}
+
+/* The shift kernel's blur, over a grid of n, of a unit impulse at voxel `at`,
+ * read back into *response (malloc'd). */
+static pb_status impulse_response(pb_context *ctx, const pb_plan_frame *f, pb_kernel_id kernel, const size_t *n,
+                                  const size_t *at, float **response)
+{
+    const pb_backend_ops *ops = ctx->ops;
+    size_t count = n[0] * n[1] * n[2], bytes = count * sizeof(float);
+    float *host = calloc(count, sizeof *host);
+    void *in = NULL, *out = NULL, *image = NULL;
+    if (!host)
+        return pb_error(ctx, PB_ERR_OUT_OF_MEMORY, "out of host memory for a translation's taps");
+    host[at[0] + n[0] * (at[1] + n[1] * at[2])] = 1.0f;
+    pb_status st = ops->buffer_create(ctx, bytes, &in);
+    if (st == PB_OK)
+        st = ops->buffer_create(ctx, bytes, &out);
+    if (st == PB_OK)
+        st = ops->buffer_write(ctx, in, host, bytes);
+    if (st == PB_OK)
+        st = ops->image_create(ctx, 0, n, &image);
+    if (st == PB_OK)
+        st = ops->image_copy(ctx, image, in);
+    if (st == PB_OK) {
+        pb_launch l = {kernel, image, f->poses, f->forward_prm, out, {0, 0, 0}};
+        for (int d = 0; d < 3; d++)
+            l.prm.dims[d] = (int)n[d];
+        l.prm.mirror = l.prm.accumulate = l.prm.z0 = 0;
+        pb_kernel_extent(kernel, n, l.extent);
+        st = ops->launch(ctx, &l);
+    }
+    if (st == PB_OK)
+        st = ops->buffer_read(ctx, out, host, bytes); /* returns with the queue's work done */
+    if (image)
+        ops->image_release(ctx, image);
+    if (out)
+        ops->buffer_release(ctx, out);
+    if (in)
+        ops->buffer_release(ctx, in);
+    if (st != PB_OK) {
+        free(host);
+        return st;
+    }
+    *response = host;
+    return PB_OK;
+}
+
+pb_status pb_shift_taps_prepare(pb_context *ctx, const pb_blur_options *opt, pb_plan_frame *f)
+{
+    long limit = taps_limit(), lo[3], hi[3];
+    if (limit == 0 || !pb_path_shift_invariant(&f->path, opt) || !offset_box(&f->path, lo, hi))
+        return PB_OK;
+    size_t n[3], at[3];
+    /* Tomograph voxel w of the grid reads the impulse at `at` through offset
+     * at - w: at = hi puts every offset of [lo, hi] inside, lo <= 0 <= hi. */
+    for (int r = 0; r < 3; r++) {
+        n[r] = (size_t)(hi[r] - lo[r] + 1);
+        at[r] = (size_t)hi[r];
+    }
+    float *response = NULL;
+    pb_status st = impulse_response(ctx, f, pb_shift_kernel(opt), n, at, &response);
+    if (st != PB_OK)
+        return st;
+    size_t count = n[0] * n[1] * n[2], k = 0;
+    for (size_t i = 0; i < count; i++)
+        k += response[i] != 0.0f;
+    if ((long)k > limit) {
+        free(response);
+        return PB_OK;
+    }
+    /* Zero taps (a path that never meets the object) still make a buffer. */
+    pb_ktap *taps = calloc(k ? k : 1, sizeof *taps);
+    if (!taps) {
+        free(response);
+        return pb_error(ctx, PB_ERR_OUT_OF_MEMORY, "out of host memory for a translation's taps");
+    }
+    k = 0;
+    for (size_t i = 0; i < count; i++) { /* in memory order, as the kernel's reads go best */
+        if (response[i] == 0.0f)
+            continue;
+        size_t w[3] = {i % n[0], i / n[0] % n[1], i / (n[0] * n[1])};
+        for (int r = 0; r < 3; r++)
+            taps[k].offset[r] = (int)at[r] - (int)w[r];
+        taps[k].weight = response[i];
+        k++;
+    }
+    free(response);
+    void *buffer = NULL;
+    size_t bytes = (k ? k : 1) * sizeof *taps;
+    st = ctx->ops->buffer_create(ctx, bytes, &buffer);
+    if (st == PB_OK)
+        st = ctx->ops->buffer_write(ctx, buffer, taps, bytes);
+    free(taps);
+    if (st != PB_OK) {
+        if (buffer)
+            ctx->ops->buffer_release(ctx, buffer);
+        return st;
+    }
+    ctx->ops->buffer_release(ctx, f->poses);
+    f->poses = buffer;
+    f->forward = f->forward_fresh = f->adjoint = PB_KERNEL_SHIFT_TAPS;
+    f->forward_prm.taps = f->adjoint_prm.taps = (int)k;
+    return PB_OK;
+}

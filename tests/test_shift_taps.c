@@ -1,0 +1,155 @@
+/* A short motion of translations runs as the convolution of its taps
+ * (cl/pb_taps.cl), measured once per plan from the walk's response to an
+ * impulse (src/devices/shift_taps.c). Against the walk itself
+ * (PETBLUR_SHIFT_TAPS=0) on fresh random volumes, grids, voxel sizes and
+ * translations, for every method, AB's sweep and sub-segments, and both
+ * filters, on the device backend named on the command line:
+ *   - the plan chose the taps (a check that the comparisons below compare two
+ *     different kernels), and the walk where the limit is set below the taps;
+ *   - forward: the same weights summed in another order, so within float
+ *     rounding, 2e-5 of the largest input (a tap outside its place, or one
+ *     lost, costs far more: a voxel weight is at least 1e-3 here);
+ *   - adjoint: the taps' own transpose, <B x, y> = <x, B^T y> to 1e-5; and
+ *     against the walk's mirrored gather, within float rounding where the
+ *     device filters in float, within the texture unit's rounding
+ *     (PB_TEX_TRILINEAR_ERROR) where it rounds its weights (NVIDIA);
+ *   - the identity: one tap of weight 1, the input back bit for bit (AB, RM;
+ *     CL builds each step's map from the pose in float, an ulp off the
+ *     voxel's centre, and reads its neighbours at weights of that size). */
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "backend.h" /* which kernel a plan chose */
+#include "testlib.h"
+
+static const char *method_names[] = {"AB", "RM", "CL", "REF"};
+
+/* The forward kernel a plan of one frame chose, under PETBLUR_SHIFT_TAPS=limit
+ * (NULL: the default). */
+static pb_kernel_id planned_kernel(pb_context *ctx, const pb_geometry *g, const pb_motion *m,
+                                   const pb_blur_options *opt, int *taps)
+{
+    pb_plan *plan = NULL;
+    pb_kernel_id k = PB_KERNEL_COUNT;
+    if (pb_check(pb_plan_create(ctx, g, m, opt, &plan) == PB_OK, "plan: %s", pb_last_error(ctx))) {
+        k = plan->frame[0].forward_fresh;
+        *taps = plan->frame[0].forward_prm.taps;
+        pb_plan_destroy(plan);
+    }
+    return k;
+}
+
+static void set_limit(const char *limit)
+{
+    if (limit)
+        setenv("PETBLUR_SHIFT_TAPS", limit, 1);
+    else
+        unsetenv("PETBLUR_SHIFT_TAPS");
+}
+
+int main(int argc, char **argv)
+{
+    pb_test_seed();
+    pb_context *ctx = pb_test_context(argc, argv);
+    if (pb_context_backend(ctx) == PB_BACKEND_HOST) {
+        printf("the host backend walks every path itself\n");
+        pb_context_destroy(ctx);
+        return PB_TEST_SKIP;
+    }
+    int rounds = ctx->texture_weight_steps > 0.0f;
+    struct {
+        pb_method method;
+        unsigned steps;
+        pb_ab_sampling sampling;
+    } runs[] = {{PB_METHOD_AB, 0, 0}, {PB_METHOD_AB, 2, 0}, {PB_METHOD_AB, 0, PB_AB_SAMPLING_SWEEP},
+                {PB_METHOD_RM, 0, 0}, {PB_METHOD_RM, 3, 0}, {PB_METHOD_CL, 0, 0}};
+    for (int draw = 0; draw < 2; draw++) {
+        pb_geometry g;
+        size_t n = 1;
+        for (int d = 0; d < 3; d++) {
+            g.dims[d] = (size_t)pb_rand_range(10, 23);
+            g.voxel_size[d] = pb_rand_range(1.5, 3.0);
+            n *= g.dims[d];
+        }
+        /* Up to 2.5 voxels along each axis, either way, and a track of three
+         * translations through the frame; then the identity. */
+        double t[3], s[3];
+        for (int d = 0; d < 3; d++) {
+            t[d] = pb_rand_range(-2.5, 2.5) * g.voxel_size[d];
+            s[d] = pb_rand_range(-1.5, 1.5) * g.voxel_size[d];
+        }
+        pb_pose still = pb_test_pose(0, 0, 0, NULL, 0);
+        pb_pose poses[3] = {still, pb_test_pose(t[0], t[1], t[2], NULL, 0), pb_test_pose(s[0], s[1], s[2], NULL, 0)};
+        double times[3] = {0.0, pb_rand_range(0.3, 0.7), 1.0}, unit[2] = {0.0, 1.0};
+        pb_motion motions[3] = {{times, poses, 2, 0.0, times[1], 0, {0, 0, 0}}, {times, poses, 3, 0.0, 1.0, 0, {0, 0, 0}},
+                                {unit, (pb_pose[]){still, still}, 2, 0.0, 1.0, 0, {0, 0, 0}}};
+        const char *motion_names[3] = {"a translation", "a track of translations", "the identity"};
+        for (int c = 0; c < 3; c++) {
+            pb_motion m = motions[c];
+            for (size_t r = 0; r < sizeof runs / sizeof runs[0]; r++)
+                for (int filter = 0; filter < 2; filter++) {
+                    pb_blur_options opt = {runs[r].method, (pb_filter)filter, runs[r].steps, 0, 0, 0,
+                                           PB_PATH_DEFAULT, 0.0, runs[r].sampling};
+                    char what[160];
+                    snprintf(what, sizeof what, "draw %d, %s, %s%s steps %u %s", draw, motion_names[c],
+                             method_names[runs[r].method], runs[r].sampling ? " sweep" : "", runs[r].steps,
+                             filter ? "EXACT" : "HARDWARE");
+                    int taps = 0, walk_taps = 0;
+                    set_limit(NULL);
+                    pb_kernel_id k = planned_kernel(ctx, &g, &m, &opt, &taps);
+                    set_limit("0");
+                    pb_kernel_id walk = planned_kernel(ctx, &g, &m, &opt, &walk_taps);
+                    if (!pb_check(k == PB_KERNEL_SHIFT_TAPS && walk != PB_KERNEL_SHIFT_TAPS,
+                                  "%s: kernels %s and %s, not the taps and the walk", what,
+                                  k < PB_KERNEL_COUNT ? pb_kernel_table[k].name : "none",
+                                  walk < PB_KERNEL_COUNT ? pb_kernel_table[walk].name : "none"))
+                        continue;
+                    char below[16];
+                    snprintf(below, sizeof below, "%d", taps - 1);
+                    set_limit(below);
+                    pb_check(planned_kernel(ctx, &g, &m, &opt, &walk_taps) != PB_KERNEL_SHIFT_TAPS,
+                             "%s: %d taps chosen under a limit of %s", what, taps, below);
+
+                    float *x = pb_random_volume(n), *y = pb_random_volume(n);
+                    float *bx = malloc(n * sizeof *bx), *bty = malloc(n * sizeof *bty);
+                    float *wx = malloc(n * sizeof *wx), *wty = malloc(n * sizeof *wty);
+                    set_limit(NULL);
+                    pb_status st = pb_test_blur(ctx, &g, x, &m, &opt, bx);
+                    if (st == PB_OK)
+                        st = pb_test_adjoint(ctx, &g, y, &m, &opt, bty);
+                    set_limit("0");
+                    if (st == PB_OK)
+                        st = pb_test_blur(ctx, &g, x, &m, &opt, wx);
+                    if (st == PB_OK)
+                        st = pb_test_adjoint(ctx, &g, y, &m, &opt, wty);
+                    set_limit(NULL);
+                    if (pb_check(st == PB_OK, "%s: %s", what, pb_last_error(ctx))) {
+                        double fwd = pb_max_abs_diff(bx, wx, n) / pb_max_abs(x, n);
+                        pb_check(fwd <= 2e-5, "%s: forward %g of the largest input from the walk's (%d taps)",
+                                 what, fwd, taps);
+                        double lhs = pb_dot(bx, y, n), rhs = pb_dot(x, bty, n);
+                        pb_check(fabs(lhs - rhs) <= 1e-5 * fabs(lhs), "%s: <Bx, y> %.9g, <x, B^T y> %.9g", what,
+                                 lhs, rhs);
+                        double adj = pb_max_abs_diff(bty, wty, n) / pb_max_abs(y, n);
+                        double tol = rounds && filter == PB_FILTER_HARDWARE ? 2.0 * PB_TEX_TRILINEAR_ERROR : 2e-5;
+                        pb_check(adj <= tol, "%s: adjoint %g of the largest input from the walk's gather (%g)",
+                                 what, adj, tol);
+                        if (c == 2 && runs[r].method != PB_METHOD_CL)
+                            pb_check(taps == 1 && memcmp(bx, x, n * sizeof *x) == 0 &&
+                                         memcmp(bty, y, n * sizeof *y) == 0,
+                                     "%s: %d taps, the input not returned bit for bit", what, taps);
+                    }
+                    free(x);
+                    free(y);
+                    free(bx);
+                    free(bty);
+                    free(wx);
+                    free(wty);
+                }
+        }
+    }
+    pb_context_destroy(ctx);
+    return pb_test_finish();
+}
