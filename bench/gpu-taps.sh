@@ -39,11 +39,12 @@ tests)
         for t in shift_taps plan; do
             echo "== memcheck test_$t cuda"
             compute-sanitizer --tool memcheck --error-exitcode 99 --leak-check full ./build-gpu/tests/test_$t cuda |
-                tail -2
+                grep -E 'FAIL|passed|SUMMARY|rror'
             [ "${PIPESTATUS[0]}" = 0 ] || { echo "memcheck test_$t: FAILED"; status=1; }
         done
         echo "== racecheck test_shift_taps cuda"
-        compute-sanitizer --tool racecheck --error-exitcode 99 ./build-gpu/tests/test_shift_taps cuda | tail -2
+        compute-sanitizer --tool racecheck --error-exitcode 99 ./build-gpu/tests/test_shift_taps cuda |
+            grep -E 'FAIL|passed|SUMMARY|rror' | head -20
         [ "${PIPESTATUS[0]}" = 0 ] || { echo "racecheck test_shift_taps: FAILED"; status=1; }
     } 2>&1 | tee "$OUT/sanitize.log"
     grep -q FAILED "$OUT/sanitize.log" && status=1

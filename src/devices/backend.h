@@ -223,6 +223,10 @@ pb_status pb_launch_frames(struct pb_context *ctx, const struct pb_plan *plan, c
 pb_status pb_launch_frames_apply(struct pb_context *ctx, const struct pb_plan *plan, size_t first, size_t count,
                                  int adjoint, const void *const *ins, pb_images *in_images, void *const *outs,
                                  int accumulate);
+/* One launch of kernel over a small grid of dims from buffer in, its input
+ * made for it and released after, the output read back into host. */
+pb_status pb_launch_read(struct pb_context *ctx, pb_kernel_id kernel, const pb_kparams *prm, const void *in,
+                         const size_t *dims, const void *plan, void *out, float *host);
 /* shift_taps.c: under a motion of translations whose path is short, the
  * frame's kernels become the convolution's (cl/pb_taps.cl), its poses buffer
  * their taps, measured on the device; otherwise the frame is left as it is. */

@@ -132,11 +132,6 @@ pb_kernel_id pb_forward_kernel(const pb_path *path, const pb_blur_options *opt, 
     return find_kernel(PB_FAMILY_SHIFT, opt);
 }
 
-pb_kernel_id pb_shift_kernel(const pb_blur_options *opt)
-{
-    return find_kernel(PB_FAMILY_SHIFT, opt);
-}
-
 pb_kernel_id pb_adjoint_kernel(const pb_path *path, const pb_blur_options *opt, const size_t *layer_limits)
 {
     if (pb_path_shift_invariant(path, opt))

@@ -35,10 +35,6 @@ pb_kernel_id pb_forward_kernel(const pb_path *path, const pb_blur_options *opt, 
  * input, mirrored (a gather, prm.mirror); otherwise the method's scatter. */
 pb_kernel_id pb_adjoint_kernel(const pb_path *path, const pb_blur_options *opt, const size_t *layer_limits);
 
-/* The shift-invariant kernel (family SHIFT, the 3-D image) of the options'
- * method and filter: what measures a translation's taps (shift_taps.c). */
-pb_kernel_id pb_shift_kernel(const pb_blur_options *opt);
-
 /* The work items of a launch over a grid of dims, per launch axis: one per
  * voxel, x first; the LAYERS_X family has them along y first, then one per
  * run of PB_X_RUN voxels along x. */

@@ -130,6 +130,22 @@ static pb_status refresh_input(pb_context *ctx, pb_kernel_id kernel, const pb_kp
     }
 }
 
+pb_status pb_launch_read(pb_context *ctx, pb_kernel_id kernel, const pb_kparams *prm, const void *in,
+                         const size_t *dims, const void *plan, void *out, float *host)
+{
+    pb_images images = {0};
+    const void *input = NULL;
+    pb_status st = allocate_input(ctx, kernel, prm, dims, &images);
+    if (st == PB_OK)
+        st = refresh_input(ctx, kernel, prm, in, dims, &images, &input);
+    if (st == PB_OK)
+        st = launch(ctx, kernel, input, plan, prm, out, dims);
+    if (st == PB_OK) /* returns with the queue's work done, before the images go */
+        st = ctx->ops->buffer_read(ctx, out, host, dims[0] * dims[1] * dims[2] * sizeof(float));
+    pb_images_release(ctx, &images);
+    return st;
+}
+
 /* Launches over the grid: whole, or with a progress report in slabs of
  * z-slices, each a whole number of work groups deep (a group that reached
  * past its slab would do the next slab's voxels twice, which the adjoint's

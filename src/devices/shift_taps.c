@@ -1,6 +1,6 @@
 /* The taps of a short motion of translations (cl/pb_taps.cl), measured once
- * per plan on the device itself: the shift kernel's blur of a unit impulse in
- * a small grid. Under translations the blur is a convolution, so that blur is
+ * per plan on the device itself: the walk's blur of a unit impulse in a
+ * small grid, by the kernel the frame would run on the caller's memory. Under translations the blur is a convolution, so that blur is
  * the kernel's weights themselves, c_d at offset d = impulse - W, whatever
  * the kernel does to compute them (AB's slices, the sweep's two points, RM's
  * and CL's samples, sub-segments, the clipped parts of a path, the texture
@@ -60,39 +60,30 @@ static int offset_box(const pb_path *path, long *lo, long *hi)
     return volume <= PB_SHIFT_TAPS_GRID_MAX;
 }
 
-/* The shift kernel's blur, over a grid of n, of a unit impulse at voxel `at`,
- * read back into *response (malloc'd). */
-static pb_status impulse_response(pb_context *ctx, const pb_plan_frame *f, pb_kernel_id kernel, const size_t *n,
-                                  const size_t *at, float **response)
+/* The frame's kernel for a fresh input (the one the walk would run on the
+ * caller's memory: the 3-D image, or layers along y or z), over a grid of n,
+ * on a unit impulse at voxel `at`, read back into *response (malloc'd). */
+static pb_status impulse_response(pb_context *ctx, const pb_plan_frame *f, const size_t *n, const size_t *at,
+                                  float **response)
 {
     const pb_backend_ops *ops = ctx->ops;
     size_t count = n[0] * n[1] * n[2], bytes = count * sizeof(float);
     float *host = calloc(count, sizeof *host);
-    void *in = NULL, *out = NULL, *image = NULL;
+    void *in = NULL, *out = NULL;
     if (!host)
         return pb_error(ctx, PB_ERR_OUT_OF_MEMORY, "out of host memory for a translation's taps");
     host[at[0] + n[0] * (at[1] + n[1] * at[2])] = 1.0f;
+    pb_kparams prm = f->forward_prm;
+    for (int d = 0; d < 3; d++)
+        prm.dims[d] = (int)n[d];
+    prm.mirror = prm.accumulate = prm.z0 = 0;
     pb_status st = ops->buffer_create(ctx, bytes, &in);
     if (st == PB_OK)
         st = ops->buffer_create(ctx, bytes, &out);
     if (st == PB_OK)
         st = ops->buffer_write(ctx, in, host, bytes);
     if (st == PB_OK)
-        st = ops->image_create(ctx, 0, n, &image);
-    if (st == PB_OK)
-        st = ops->image_copy(ctx, image, in);
-    if (st == PB_OK) {
-        pb_launch l = {kernel, image, f->poses, f->forward_prm, out, {0, 0, 0}};
-        for (int d = 0; d < 3; d++)
-            l.prm.dims[d] = (int)n[d];
-        l.prm.mirror = l.prm.accumulate = l.prm.z0 = 0;
-        pb_kernel_extent(kernel, n, l.extent);
-        st = ops->launch(ctx, &l);
-    }
-    if (st == PB_OK)
-        st = ops->buffer_read(ctx, out, host, bytes); /* returns with the queue's work done */
-    if (image)
-        ops->image_release(ctx, image);
+        st = pb_launch_read(ctx, f->forward_fresh, &prm, in, n, f->poses, out, host);
     if (out)
         ops->buffer_release(ctx, out);
     if (in)
@@ -118,7 +109,7 @@ pb_status pb_shift_taps_prepare(pb_context *ctx, const pb_blur_options *opt, pb_
         at[r] = (size_t)hi[r];
     }
     float *response = NULL;
-    pb_status st = impulse_response(ctx, f, pb_shift_kernel(opt), n, at, &response);
+    pb_status st = impulse_response(ctx, f, n, at, &response);
     if (st != PB_OK)
         return st;
     size_t count = n[0] * n[1] * n[2], k = 0;
