@@ -32,8 +32,10 @@ typedef struct pb_kparams {
     /* The first z-slice of the launch: a launch covers a slab of slices when
      * the caller asks for progress (src/launch.c). */
     int z0;
-    /* pb_shift_taps: how many taps it reads (cl/pb_taps.cl). */
+    /* pb_shift_taps (cl/pb_taps.cl): how many taps it reads, and their
+     * largest offset along each axis either way. */
     int taps;
+    int tap_reach[3];
 } pb_kparams;
 
 /* Voxels along x per work item of pb_shift_ab_layers_x: 8 floats fill a
@@ -61,9 +63,11 @@ typedef struct pb_kpose {
 } pb_kpose;
 
 /* One weight of the convolution that a motion of translations is
- * (cl/pb_taps.cl): tomograph voxel W reads object voxel W + offset. */
+ * (cl/pb_taps.cl): tomograph voxel W reads object voxel W + offset, `linear`
+ * places apart in the grid's memory. */
 typedef struct pb_ktap {
     int offset[3];
+    int linear;
     float weight;
 } pb_ktap;
 

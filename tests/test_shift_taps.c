@@ -4,8 +4,10 @@
  * (PETBLUR_SHIFT_TAPS=0) on fresh random volumes, grids, voxel sizes and
  * translations, for every method, AB's sweep and sub-segments, and both
  * filters, on the device backend named on the command line:
- *   - the plan chose the taps (a check that the comparisons below compare two
- *     different kernels), and the walk where the limit is set below the taps;
+ *   - the plan chose the taps where the limit allows them (PETBLUR_SHIFT_TAPS
+ *     set far above it: a check that the comparisons below compare two
+ *     different kernels), and the walk where it is set below their number;
+ *     by default, the taps exactly where they are at most PB_SHIFT_TAPS_MAX;
  *   - forward: the same weights summed in another order, so within float
  *     rounding, 2e-5 of the largest input (a tap outside its place, or one
  *     lost, costs far more: a voxel weight is at least 1e-3 here);
@@ -40,6 +42,9 @@ static pb_kernel_id planned_kernel(pb_context *ctx, const pb_geometry *g, const 
     }
     return k;
 }
+
+/* The taps whatever their number, past the default limit. */
+#define FORCED "100000"
 
 static void set_limit(const char *limit)
 {
@@ -96,8 +101,10 @@ int main(int argc, char **argv)
                     snprintf(what, sizeof what, "draw %d, %s, %s%s steps %u %s", draw, motion_names[c],
                              method_names[runs[r].method], runs[r].sampling ? " sweep" : "", runs[r].steps,
                              filter ? "EXACT" : "HARDWARE");
-                    int taps = 0, walk_taps = 0;
+                    int taps = 0, walk_taps = 0, default_taps = 0;
                     set_limit(NULL);
+                    pb_kernel_id chosen = planned_kernel(ctx, &g, &m, &opt, &default_taps);
+                    set_limit(FORCED);
                     pb_kernel_id k = planned_kernel(ctx, &g, &m, &opt, &taps);
                     set_limit("0");
                     pb_kernel_id walk = planned_kernel(ctx, &g, &m, &opt, &walk_taps);
@@ -106,6 +113,8 @@ int main(int argc, char **argv)
                                   k < PB_KERNEL_COUNT ? pb_kernel_table[k].name : "none",
                                   walk < PB_KERNEL_COUNT ? pb_kernel_table[walk].name : "none"))
                         continue;
+                    pb_check((chosen == PB_KERNEL_SHIFT_TAPS) == (taps <= PB_SHIFT_TAPS_MAX),
+                             "%s: %d taps, the default chose %s", what, taps, pb_kernel_table[chosen].name);
                     char below[16];
                     snprintf(below, sizeof below, "%d", taps - 1);
                     set_limit(below);
@@ -115,7 +124,7 @@ int main(int argc, char **argv)
                     float *x = pb_random_volume(n), *y = pb_random_volume(n);
                     float *bx = malloc(n * sizeof *bx), *bty = malloc(n * sizeof *bty);
                     float *wx = malloc(n * sizeof *wx), *wty = malloc(n * sizeof *wty);
-                    set_limit(NULL);
+                    set_limit(FORCED);
                     pb_status st = pb_test_blur(ctx, &g, x, &m, &opt, bx);
                     if (st == PB_OK)
                         st = pb_test_adjoint(ctx, &g, y, &m, &opt, bty);

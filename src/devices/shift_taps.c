@@ -11,12 +11,6 @@
 #include "backend.h"
 #include "kernel_args.h"
 
-/* Most taps read instead of walking: above it the walk's fetches, which
- * the texture unit filters eight voxels at a time, cost less than reading
- * every tap (docs/performance.md, "Short translations", measures it).
- * PETBLUR_SHIFT_TAPS sets another limit, 0 none, for comparisons. */
-#define PB_SHIFT_TAPS_MAX 64
-
 /* The impulse grid's largest volume: a longer path has more taps than the
  * limit anyway, and is not measured. */
 #define PB_SHIFT_TAPS_GRID_MAX 32768
@@ -126,12 +120,17 @@ pb_status pb_shift_taps_prepare(pb_context *ctx, const pb_blur_options *opt, pb_
         return pb_error(ctx, PB_ERR_OUT_OF_MEMORY, "out of host memory for a translation's taps");
     }
     k = 0;
+    int reach[3] = {0, 0, 0};
     for (size_t i = 0; i < count; i++) { /* in memory order, as the kernel's reads go best */
         if (response[i] == 0.0f)
             continue;
         size_t w[3] = {i % n[0], i / n[0] % n[1], i / (n[0] * n[1])};
-        for (int r = 0; r < 3; r++)
+        const size_t *dims = f->path.geometry.dims;
+        for (int r = 0; r < 3; r++) {
             taps[k].offset[r] = (int)at[r] - (int)w[r];
+            reach[r] = abs(taps[k].offset[r]) > reach[r] ? abs(taps[k].offset[r]) : reach[r];
+        }
+        taps[k].linear = taps[k].offset[0] + (int)dims[0] * (taps[k].offset[1] + (int)dims[1] * taps[k].offset[2]);
         taps[k].weight = response[i];
         k++;
     }
@@ -151,5 +150,7 @@ pb_status pb_shift_taps_prepare(pb_context *ctx, const pb_blur_options *opt, pb_
     f->poses = buffer;
     f->forward = f->forward_fresh = f->adjoint = PB_KERNEL_SHIFT_TAPS;
     f->forward_prm.taps = f->adjoint_prm.taps = (int)k;
+    for (int r = 0; r < 3; r++)
+        f->forward_prm.tap_reach[r] = f->adjoint_prm.tap_reach[r] = reach[r];
     return PB_OK;
 }
