@@ -234,7 +234,7 @@ pb_status pb_launch_read(struct pb_context *ctx, pb_kernel_id kernel, const pb_k
  * fetches filtered eight voxels at a time by the texture unit
  * (docs/performance.md, "Short translations", measures it);
  * PETBLUR_SHIFT_TAPS sets another limit, 0 none, for comparisons. */
-#define PB_SHIFT_TAPS_MAX 16
+#define PB_SHIFT_TAPS_MAX 24
 pb_status pb_shift_taps_prepare(struct pb_context *ctx, const pb_blur_options *opt, pb_plan_frame *frame);
 /* A buffer changed: what was made from it is out of date. */
 void pb_images_stale(pb_images *images);

@@ -194,5 +194,10 @@ void pb_kernel_extent(pb_kernel_id kernel, const size_t *dims, size_t *extent)
     int runs = pb_kernel_table[kernel].family == PB_FAMILY_LAYERS_X;
     extent[0] = runs ? dims[1] : dims[0];
     extent[1] = runs ? (dims[0] + PB_X_RUN - 1) / PB_X_RUN : dims[1];
-    extent[2] = dims[2];
+    extent[2] = (dims[2] + pb_kernel_run_z(kernel) - 1) / pb_kernel_run_z(kernel);
+}
+
+unsigned pb_kernel_run_z(pb_kernel_id kernel)
+{
+    return pb_kernel_table[kernel].family == PB_FAMILY_TAPS ? PB_TAP_RUN : 1;
 }

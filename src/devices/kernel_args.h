@@ -37,8 +37,11 @@ pb_kernel_id pb_adjoint_kernel(const pb_path *path, const pb_blur_options *opt, 
 
 /* The work items of a launch over a grid of dims, per launch axis: one per
  * voxel, x first; the LAYERS_X family has them along y first, then one per
- * run of PB_X_RUN voxels along x. */
+ * run of PB_X_RUN voxels along x; the TAPS family one per run of PB_TAP_RUN
+ * along z. */
 void pb_kernel_extent(pb_kernel_id kernel, const size_t *dims, size_t *extent);
+/* The z-slices one work item makes: PB_TAP_RUN for the TAPS family, else 1. */
+unsigned pb_kernel_run_z(pb_kernel_id kernel);
 
 /* pb_permute's parameters: a volume of dims laid out in layers along axis m. */
 void pb_kparams_permute(const size_t *dims, int m, pb_kparams *prm);

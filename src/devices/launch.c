@@ -147,7 +147,7 @@ pb_status pb_launch_read(pb_context *ctx, pb_kernel_id kernel, const pb_kparams 
 }
 
 /* Launches over the grid: whole, or with a progress report in slabs of
- * z-slices, each a whole number of work groups deep (a group that reached
+ * z-slices, each a whole number of work groups deep (of the slices they make) (a group that reached
  * past its slab would do the next slab's voxels twice, which the adjoint's
  * adds would count twice), waiting and reporting after each. The timer runs
  * from before the first slab; returns with it stopped and the times set. */
@@ -155,7 +155,7 @@ static pb_status launch_slabs(pb_context *ctx, pb_kernel_id kernel, const void *
                               pb_kparams prm, void *out, const size_t *dims)
 {
     size_t nz = dims[2], slab = ctx->progress ? pb_progress_slab(nz) : nz;
-    unsigned depth = pb_kernel_table[kernel].group[2];
+    unsigned depth = pb_kernel_table[kernel].group[2] * pb_kernel_run_z(kernel);
     slab = (slab + depth - 1) / depth * depth;
     double total = 0.0, input_ms = 0.0;
     pb_status st = PB_OK;
