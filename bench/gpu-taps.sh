@@ -5,12 +5,14 @@
 #                                                OpenCL; the walk's runs and test_shift_taps among them);
 #                                                memcheck on test_shift_taps and test_plan, racecheck on
 #                                                test_shift_taps
-#   PB_COMMIT=... bash bench/gpu-taps.sh bench   the package beside the machine's torch and CuPy;
+#   PB_COMMIT=... bash bench/gpu-taps.sh bench   bench/pb_bench on the paper's eight motions, with the taps and
+#                                                with the walk; the package beside the machine's torch and CuPy;
 #                                                bench/shift_taps.py (taps against the walk by translation) and
+#                                                bench/python_overhead.py (the Python call's host time);
 #                                                bench/memory_floor.py with the taps and with the walk
 #                                                (PETBLUR_SHIFT_TAPS=0), in one process each
 # (carry .device .whl). What comes back through $OUT: machine.txt, tests.txt, sanitize.log, shift_taps.md/.csv,
-# floor.md/.csv, floor-walk.md/.csv.
+# floor.md/.csv, floor-walk.md/.csv, python_overhead.txt, paper-taps/-walk.csv/.txt.
 set -uo pipefail
 cd "$(dirname "$0")/.."
 OUT=${OUT:-$PWD/gpu-out}
@@ -18,10 +20,14 @@ mkdir -p "$OUT"
 . bench/device-env.sh
 write_machine "$OUT/machine.txt" </dev/null
 status=0
+build() {
+    [ -f build-gpu/build.ninja ] || "${meson[@]}" setup build-gpu --buildtype=release -Dcuda=enabled \
+        -Dopencl=enabled -Dgpu_archs=90 >/tmp/setup.log 2>&1 || { tail -30 /tmp/setup.log; exit 1; }
+    ninja -C build-gpu >/tmp/build.log 2>&1 || { tail -30 /tmp/build.log; exit 1; }
+}
 case "${1:-}" in
 tests)
-    "${meson[@]}" setup build-gpu --buildtype=release -Dcuda=enabled -Dopencl=enabled -Dgpu_archs=90 \
-        >/tmp/setup.log 2>&1 && ninja -C build-gpu >/tmp/build.log 2>&1 || { tail -30 /tmp/setup.log /tmp/build.log; exit 1; }
+    build
     nv=$(mktemp -d)
     echo libnvidia-opencl.so.1 >"$nv/nvidia.icd"
     for s in host cuda opencl; do
@@ -50,9 +56,20 @@ tests)
     grep -q FAILED "$OUT/sanitize.log" && status=1
     ;;
 bench)
+    build
+    # The paper's eight motions on 256^3 through C (pb_bench, volumes), with the taps and with the walk.
+    for mode in taps walk; do
+        [ $mode = walk ] && export PETBLUR_SHIFT_TAPS=0
+        ./build-gpu/bench/pb_bench --device cuda --size 256 --runs 20 --ref-runs 0 --label $mode \
+            --csv "$OUT/paper-$mode.csv" >"$OUT/paper-$mode.txt" 2>&1 || status=1
+        unset PETBLUR_SHIFT_TAPS
+    done
+    tail -n 30 "$OUT/paper-taps.txt"
     install_package -Dopencl=disabled || exit 1
     (cd /tmp && python3 "$OLDPWD/bench/shift_taps.py" --out "$OUT/shift_taps.csv") 2>&1 | tee "$OUT/shift_taps.md"
     [ "${PIPESTATUS[0]}" = 0 ] || status=1
+    (cd /tmp && python3 "$OLDPWD/bench/python_overhead.py") >"$OUT/python_overhead.txt" 2>&1 || status=1
+    head -3 "$OUT/python_overhead.txt"
     (cd /tmp && python3 "$OLDPWD/bench/memory_floor.py" --out "$OUT/floor.csv") 2>&1 | tee "$OUT/floor.md"
     [ "${PIPESTATUS[0]}" = 0 ] || status=1
     (cd /tmp && PETBLUR_SHIFT_TAPS=0 python3 "$OLDPWD/bench/memory_floor.py" --out "$OUT/floor-walk.csv") 2>&1 |
