@@ -44,7 +44,7 @@ typedef struct pb_kparams {
 
 /* Voxels along z per work item of pb_shift_taps: each tap read once for
  * them, their reads of the input in flight together. */
-#define PB_TAP_RUN 4
+#define PB_TAP_RUN 8
 
 /* The two axes across the layers of axis m, in their own order: a layer's x
  * and y. Along y or z a layer's rows run along x, as a warp's work items do;
