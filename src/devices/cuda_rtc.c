@@ -13,6 +13,7 @@
  * once each leave a whole file and readers never see a partial one. A folder
  * that cannot be written leaves the image in memory, said once on stderr. */
 #include "cuda_impl.h"
+#include "dl_resolve.h"
 
 #include <dlfcn.h>
 #include <errno.h>
@@ -66,19 +67,20 @@ static void nv_load(void)
                  name, dlerror());
         return;
     }
-#define PB_NVRTC_RESOLVE(f)                                                                                           \
-    {                                                                                                                 \
-        void *sym = dlsym(lib, #f);                                                                                   \
-        if (!sym) {                                                                                                   \
-            snprintf(nv_error, sizeof nv_error, "%s lacks %s(): point PETBLUR_NVRTC_LIBRARY at NVRTC 11.2 or newer",  \
-                     name, #f);                                                                                       \
-            dlclose(lib);                                                                                             \
-            return;                                                                                                   \
-        }                                                                                                             \
-        memcpy(&nv.f, &sym, sizeof sym);                                                                              \
+#define PB_NVRTC_NAME(f) #f,
+#define PB_NVRTC_SLOT(f) (void *)&nv.f,
+    static const char *const names_of[] = {PB_NVRTC_FUNCTIONS(PB_NVRTC_NAME)};
+    void *const slots[] = {PB_NVRTC_FUNCTIONS(PB_NVRTC_SLOT)};
+#undef PB_NVRTC_NAME
+#undef PB_NVRTC_SLOT
+    const char *missing = pb_dl_resolve(lib, names_of, slots, sizeof names_of / sizeof *names_of);
+    if (missing) {
+        snprintf(nv_error, sizeof nv_error, "%s lacks %s(): point PETBLUR_NVRTC_LIBRARY at NVRTC 11.2 or newer", name,
+                 missing);
+        dlclose(lib);
+        memset(&nv, 0, sizeof nv);
+        return;
     }
-    PB_NVRTC_FUNCTIONS(PB_NVRTC_RESOLVE)
-#undef PB_NVRTC_RESOLVE
     if (nv.nvrtcVersion(&nv_major, &nv_minor) != NVRTC_SUCCESS) {
         snprintf(nv_error, sizeof nv_error, "%s does not answer nvrtcVersion(); reinstall NVRTC", name);
         memset(&nv, 0, sizeof nv);

@@ -6,6 +6,7 @@
  * that exists for this (clew) is not packaged by Debian, and the table is the
  * 29 calls the backend makes, typed from the Khronos headers themselves. */
 #include "opencl_impl.h"
+#include "dl_resolve.h"
 
 #include <dlfcn.h>
 #include <pthread.h>
@@ -36,25 +37,23 @@ static void load(void)
                  name, why ? why : "not found");
         return;
     }
-    /* dlsym gives void *; a function pointer is written through memcpy, as
-     * POSIX guarantees the two have one representation. */
-#define PB_CL_RESOLVE(f)                                                                                              \
-    {                                                                                                                 \
-        void *sym = dlsym(lib, #f);                                                                                   \
-        if (!sym) {                                                                                                   \
-            load_status = PB_ERR_BACKEND_UNAVAILABLE;                                                                 \
-            snprintf(load_error, sizeof load_error,                                                                   \
-                     "the OpenCL library %s lacks %s(), which OpenCL 1.2 defines; point PETBLUR_OPENCL_LIBRARY at an " \
-                     "OpenCL 1.2 (or newer) ICD loader such as ocl-icd's libOpenCL.so.1",                              \
-                     name, #f);                                                                                       \
-            dlclose(lib);                                                                                             \
-            memset(&pb_cl, 0, sizeof pb_cl);                                                                          \
-            return;                                                                                                   \
-        }                                                                                                             \
-        memcpy(&pb_cl.f, &sym, sizeof sym);                                                                           \
+#define PB_CL_NAME(f) #f,
+#define PB_CL_SLOT(f) (void *)&pb_cl.f,
+    static const char *const names[] = {PB_CL_FUNCTIONS(PB_CL_NAME)};
+    void *const slots[] = {PB_CL_FUNCTIONS(PB_CL_SLOT)};
+#undef PB_CL_NAME
+#undef PB_CL_SLOT
+    const char *missing = pb_dl_resolve(lib, names, slots, sizeof names / sizeof *names);
+    if (missing) {
+        load_status = PB_ERR_BACKEND_UNAVAILABLE;
+        snprintf(load_error, sizeof load_error,
+                 "the OpenCL library %s lacks %s(), which OpenCL 1.2 defines; point PETBLUR_OPENCL_LIBRARY at an "
+                 "OpenCL 1.2 (or newer) ICD loader such as ocl-icd's libOpenCL.so.1",
+                 name, missing);
+        dlclose(lib);
+        memset(&pb_cl, 0, sizeof pb_cl);
+        return;
     }
-    PB_CL_FUNCTIONS(PB_CL_RESOLVE)
-#undef PB_CL_RESOLVE
     /* Kept open for the process's life: contexts and their drivers live in it. */
 }
 
