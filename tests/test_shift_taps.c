@@ -10,7 +10,11 @@
  *     by default, the taps exactly where they are at most PB_SHIFT_TAPS_MAX;
  *   - forward: the same weights summed in another order, so within float
  *     rounding, 2e-5 of the largest input (a tap outside its place, or one
- *     lost, costs far more: a voxel weight is at least 1e-3 here);
+ *     lost, costs far more: a voxel weight is at least 1e-3 here); where the
+ *     texture unit rounds its weights (NVIDIA), within its rounding
+ *     (PB_TEX_TRILINEAR_ERROR): a sample whose fraction lies within a float
+ *     step of a rounding tie may round apart at the impulse's small voxel
+ *     coordinates and at a voxel's far out;
  *   - adjoint: the taps' own transpose, <B x, y> = <x, B^T y> to 1e-5; and
  *     against the walk's mirrored gather, within float rounding where the
  *     device filters in float, within the texture unit's rounding
@@ -79,19 +83,25 @@ int main(int argc, char **argv)
             n *= g.dims[d];
         }
         /* Up to 2.5 voxels along each axis, either way, and a track of three
-         * translations through the frame; then the identity. */
-        double t[3], s[3];
+         * translations through the frame; the identity; and a still pose far
+         * off, half the grid to beyond it along each axis (a short path far
+         * from the reference: taps that land partly outside, or nowhere). */
+        double t[3], s[3], far[3];
         for (int d = 0; d < 3; d++) {
             t[d] = pb_rand_range(-2.5, 2.5) * g.voxel_size[d];
             s[d] = pb_rand_range(-1.5, 1.5) * g.voxel_size[d];
+            far[d] = (pb_rand_uniform() < 0.5 ? -1.0 : 1.0) * pb_rand_range(0.5, 1.1) * (double)g.dims[d] *
+                     g.voxel_size[d];
         }
+        pb_pose away = pb_test_pose(far[0], far[1], far[2], NULL, 0);
         pb_pose still = pb_test_pose(0, 0, 0, NULL, 0);
         pb_pose poses[3] = {still, pb_test_pose(t[0], t[1], t[2], NULL, 0), pb_test_pose(s[0], s[1], s[2], NULL, 0)};
         double times[3] = {0.0, pb_rand_range(0.3, 0.7), 1.0}, unit[2] = {0.0, 1.0};
-        pb_motion motions[3] = {{times, poses, 2, 0.0, times[1], 0, {0, 0, 0}}, {times, poses, 3, 0.0, 1.0, 0, {0, 0, 0}},
-                                {unit, (pb_pose[]){still, still}, 2, 0.0, 1.0, 0, {0, 0, 0}}};
-        const char *motion_names[3] = {"a translation", "a track of translations", "the identity"};
-        for (int c = 0; c < 3; c++) {
+        pb_motion motions[4] = {{times, poses, 2, 0.0, times[1], 0, {0, 0, 0}}, {times, poses, 3, 0.0, 1.0, 0, {0, 0, 0}},
+                                {unit, (pb_pose[]){still, still}, 2, 0.0, 1.0, 0, {0, 0, 0}},
+                                {unit, (pb_pose[]){away, away}, 2, 0.0, 1.0, 0, {0, 0, 0}}};
+        const char *motion_names[4] = {"a translation", "a track of translations", "the identity", "a pose far off"};
+        for (int c = 0; c < 4; c++) {
             pb_motion m = motions[c];
             for (size_t r = 0; r < sizeof runs / sizeof runs[0]; r++)
                 for (int filter = 0; filter < 2; filter++) {
@@ -114,11 +124,12 @@ int main(int argc, char **argv)
                                   walk < PB_KERNEL_COUNT ? pb_kernel_table[walk].name : "none"))
                         continue;
                     pb_check((chosen == PB_KERNEL_SHIFT_TAPS) == (taps <= PB_SHIFT_TAPS_MAX),
-                             "%s: %d taps, the default chose %s", what, taps, pb_kernel_table[chosen].name);
+                             "%s: %d taps, the default chose %s", what, taps,
+                             chosen < PB_KERNEL_COUNT ? pb_kernel_table[chosen].name : "none");
                     char below[16];
                     snprintf(below, sizeof below, "%d", taps - 1);
                     set_limit(below);
-                    pb_check(planned_kernel(ctx, &g, &m, &opt, &walk_taps) != PB_KERNEL_SHIFT_TAPS,
+                    pb_check(taps == 0 || planned_kernel(ctx, &g, &m, &opt, &walk_taps) != PB_KERNEL_SHIFT_TAPS,
                              "%s: %d taps chosen under a limit of %s", what, taps, below);
 
                     float *x = pb_random_volume(n), *y = pb_random_volume(n);
@@ -135,14 +146,16 @@ int main(int argc, char **argv)
                         st = pb_test_adjoint(ctx, &g, y, &m, &opt, wty);
                     set_limit(NULL);
                     if (pb_check(st == PB_OK, "%s: %s", what, pb_last_error(ctx))) {
+                        /* Where the unit rounds, a sample's fraction within a float step of a rounding tie
+                         * may round one way for the impulse's small grid and the other at a voxel far out. */
+                        double tol = rounds && filter == PB_FILTER_HARDWARE ? 2.0 * PB_TEX_TRILINEAR_ERROR : 2e-5;
                         double fwd = pb_max_abs_diff(bx, wx, n) / pb_max_abs(x, n);
-                        pb_check(fwd <= 2e-5, "%s: forward %g of the largest input from the walk's (%d taps)",
-                                 what, fwd, taps);
+                        pb_check(fwd <= tol, "%s: forward %g of the largest input from the walk's (%d taps, %g)",
+                                 what, fwd, taps, tol);
                         double lhs = pb_dot(bx, y, n), rhs = pb_dot(x, bty, n);
                         pb_check(fabs(lhs - rhs) <= 1e-5 * fabs(lhs), "%s: <Bx, y> %.9g, <x, B^T y> %.9g", what,
                                  lhs, rhs);
                         double adj = pb_max_abs_diff(bty, wty, n) / pb_max_abs(y, n);
-                        double tol = rounds && filter == PB_FILTER_HARDWARE ? 2.0 * PB_TEX_TRILINEAR_ERROR : 2e-5;
                         pb_check(adj <= tol, "%s: adjoint %g of the largest input from the walk's gather (%g)",
                                  what, adj, tol);
                         if (c == 2 && runs[r].method != PB_METHOD_CL)

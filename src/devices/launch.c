@@ -303,10 +303,13 @@ pb_status pb_launch_frames_apply(pb_context *ctx, const pb_plan *plan, size_t fi
     pb_status launched = PB_OK;
     if (!adjoint) {
         const void *input = NULL;
-        for (size_t i = first; i < first + count && launched == PB_OK; i++) /* copies only the first time */
+        int copies = 0; /* whether any frame reads an image (the taps read the buffer itself) */
+        for (size_t i = first; i < first + count && launched == PB_OK; i++) { /* copies only the first time */
             launched = refresh_input(ctx, plan->frame[i].forward_fresh, &plan->frame[i].forward_prm, ins[0], dims,
                                      in_images, &input);
-        if (launched == PB_OK)
+            copies = copies || pb_kernel_table[plan->frame[i].forward_fresh].reads != PB_READS_BUFFER;
+        }
+        if (launched == PB_OK && copies)
             launched = ops->timer_mark(ctx);
         for (size_t i = first; i < first + count && launched == PB_OK; i++) {
             const pb_plan_frame *f = &plan->frame[i];

@@ -1,19 +1,23 @@
 /* The taps of a short motion of translations (cl/pb_taps.cl), measured once
- * per plan on the device itself: the walk's blur of a unit impulse in a
- * small grid, by the kernel the frame would run on the caller's memory. Under translations the blur is a convolution, so that blur is
- * the kernel's weights themselves, c_d at offset d = impulse - W, whatever
- * the kernel does to compute them (AB's slices, the sweep's two points, RM's
- * and CL's samples, sub-segments, the clipped parts of a path, the texture
- * unit's rounded weights). No second copy of the walk is written here. */
+ * per plan on the device itself: the walk's blur of a unit impulse in a small
+ * grid, by the kernel the frame would run on the caller's memory. Under
+ * translations the blur is a convolution, so that blur is the kernel's
+ * weights themselves, c_d at offset d = impulse - W, whatever the kernel does
+ * to compute them (AB's slices, the sweep's two points, RM's and CL's
+ * samples, sub-segments, the clipped parts of a path, the texture unit's
+ * rounded weights). No second copy of the walk is written here. */
 #include <math.h>
 #include <stdlib.h>
 
 #include "backend.h"
 #include "kernel_args.h"
 
-/* The impulse grid's largest volume: a longer path has more taps than the
- * limit anyway, and is not measured. */
-#define PB_SHIFT_TAPS_GRID_MAX 32768
+/* The impulse grid's largest volume. It holds the offsets from 0 to the
+ * path's, so a short path far from the frame's reference (up to about 60
+ * voxels along every axis) still fits; past it the walk stays. A path that
+ * spans 64 voxels or more along an axis is not measured: its taps would be
+ * far more than the limit. */
+#define PB_SHIFT_TAPS_GRID_MAX (64 * 64 * 64)
 
 static long taps_limit(void)
 {
@@ -126,11 +130,19 @@ pb_status pb_shift_taps_prepare(pb_context *ctx, const pb_blur_options *opt, pb_
             continue;
         size_t w[3] = {i % n[0], i / n[0] % n[1], i / (n[0] * n[1])};
         const size_t *dims = f->path.geometry.dims;
+        long d[3];
+        int lands = 1; /* a tap as long as the grid never reads inside it */
         for (int r = 0; r < 3; r++) {
-            taps[k].offset[r] = (int)at[r] - (int)w[r];
-            reach[r] = abs(taps[k].offset[r]) > reach[r] ? abs(taps[k].offset[r]) : reach[r];
+            d[r] = (long)at[r] - (long)w[r];
+            lands = lands && (size_t)labs(d[r]) < dims[r];
         }
-        taps[k].linear = taps[k].offset[0] + (int)dims[0] * (taps[k].offset[1] + (int)dims[1] * taps[k].offset[2]);
+        if (!lands)
+            continue;
+        for (int r = 0; r < 3; r++) {
+            taps[k].offset[r] = (int)d[r];
+            reach[r] = (int)labs(d[r]) > reach[r] ? (int)labs(d[r]) : reach[r];
+        }
+        taps[k].linear = (int)(d[0] + (long)dims[0] * (d[1] + (long)dims[1] * d[2]));
         taps[k].weight = response[i];
         k++;
     }
