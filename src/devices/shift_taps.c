@@ -36,7 +36,7 @@ static long taps_limit(void)
  * than is measured. */
 static int offset_box(const pb_path *path, long *lo, long *hi)
 {
-    double least[3] = {INFINITY, INFINITY, INFINITY}, most[3] = {-INFINITY, -INFINITY, -INFINITY};
+    double least[3] = {HUGE_VAL, HUGE_VAL, HUGE_VAL}, most[3] = {-HUGE_VAL, -HUGE_VAL, -HUGE_VAL};
     for (size_t i = 0; i < path->count; i++) {
         const double *m = path->poses[i].map;
         for (int r = 0; r < 3; r++) {
