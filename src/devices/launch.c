@@ -147,9 +147,9 @@ pb_status pb_launch_read(pb_context *ctx, pb_kernel_id kernel, const pb_kparams 
 }
 
 /* Launches over the grid: whole, or with a progress report in slabs of
- * z-slices, each a whole number of work groups deep (of the slices they make) (a group that reached
- * past its slab would do the next slab's voxels twice, which the adjoint's
- * adds would count twice), waiting and reporting after each. The timer runs
+ * z-slices, each as deep as a whole number of work groups reach (a group that
+ * reached past its slab would do the next slab's voxels twice, which the
+ * adjoint's adds would count twice), waiting and reporting after each. The timer runs
  * from before the first slab; returns with it stopped and the times set. */
 static pb_status launch_slabs(pb_context *ctx, pb_kernel_id kernel, const void *input, const void *plan,
                               pb_kparams prm, void *out, const size_t *dims)
