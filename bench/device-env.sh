@@ -41,3 +41,32 @@ write_machine() {
         [ -t 0 ] || cat
     } | tee "$1"
 }
+
+# The C tree in build-gpu (CUDA and OpenCL, release), configured once and
+# brought up to date; exits the script when it does not build.
+build_gpu() {
+    [ -f build-gpu/build.ninja ] || "${meson[@]}" setup build-gpu --buildtype=release -Dcuda=enabled \
+        -Dopencl=enabled -Dgpu_archs=90 >/tmp/setup.log 2>&1 || { tail -30 /tmp/setup.log; exit 1; }
+    ninja -C build-gpu >/tmp/build.log 2>&1 || { tail -30 /tmp/build.log; exit 1; }
+}
+
+# The host, cuda and opencl suites of build-gpu, OpenCL on NVIDIA's driver
+# alone; their lines and largest differences appended to $OUT/tests.txt (a
+# failed suite's log tail too) and shown. Returns 1 when a suite failed.
+run_suites() {
+    local nv s failed=0
+    nv=$(mktemp -d)
+    echo libnvidia-opencl.so.1 >"$nv/nvidia.icd"
+    for s in host cuda opencl; do
+        OCL_ICD_VENDORS=$nv "${meson[@]}" test -C build-gpu --no-rebuild --print-errorlogs --suite $s \
+            >/tmp/test-$s.log 2>&1 || failed=1
+        {
+            echo "== $s"
+            grep -E '^ *[0-9]+/[0-9]+ |^(Ok|Fail|Skipped):' /tmp/test-$s.log
+            grep -h 'largest relative' build-gpu/meson-logs/testlog.txt | sed "s/^/$s: /"
+        } >>"$OUT/tests.txt"
+        [ $failed = 0 ] || tail -n 60 /tmp/test-$s.log >>"$OUT/tests.txt"
+    done
+    cat "$OUT/tests.txt"
+    return $failed
+}

@@ -20,21 +20,8 @@ write_machine "$OUT/machine.txt" </dev/null
 status=0
 case "${1:-}" in
 tests)
-    "${meson[@]}" setup build-gpu --buildtype=release -Dcuda=enabled -Dopencl=enabled -Dgpu_archs=90 \
-        >/tmp/setup.log 2>&1 && ninja -C build-gpu >/tmp/build.log 2>&1 || { tail -30 /tmp/setup.log /tmp/build.log; exit 1; }
-    nv=$(mktemp -d)
-    echo libnvidia-opencl.so.1 >"$nv/nvidia.icd"
-    for s in host cuda opencl; do
-        OCL_ICD_VENDORS=$nv "${meson[@]}" test -C build-gpu --no-rebuild --print-errorlogs --suite $s \
-            >/tmp/test-$s.log 2>&1 || status=1
-        {
-            echo "== $s"
-            grep -E '^ *[0-9]+/[0-9]+ |^(Ok|Fail|Skipped):' /tmp/test-$s.log
-            grep -h 'largest relative' build-gpu/meson-logs/testlog.txt | sed "s/^/$s: /"
-        } >>"$OUT/tests.txt"
-        [ $status = 0 ] || tail -n 60 /tmp/test-$s.log >>"$OUT/tests.txt"
-    done
-    cat "$OUT/tests.txt"
+    build_gpu
+    run_suites || status=1
     ;;
 accuracy | cost)
     install_package -Dopencl=disabled || exit 1

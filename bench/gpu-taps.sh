@@ -20,27 +20,10 @@ mkdir -p "$OUT"
 . bench/device-env.sh
 write_machine "$OUT/machine.txt" </dev/null
 status=0
-build() {
-    [ -f build-gpu/build.ninja ] || "${meson[@]}" setup build-gpu --buildtype=release -Dcuda=enabled \
-        -Dopencl=enabled -Dgpu_archs=90 >/tmp/setup.log 2>&1 || { tail -30 /tmp/setup.log; exit 1; }
-    ninja -C build-gpu >/tmp/build.log 2>&1 || { tail -30 /tmp/build.log; exit 1; }
-}
 case "${1:-}" in
 tests)
-    build
-    nv=$(mktemp -d)
-    echo libnvidia-opencl.so.1 >"$nv/nvidia.icd"
-    for s in host cuda opencl; do
-        OCL_ICD_VENDORS=$nv "${meson[@]}" test -C build-gpu --no-rebuild --print-errorlogs --suite $s \
-            >/tmp/test-$s.log 2>&1 || status=1
-        {
-            echo "== $s"
-            grep -E '^ *[0-9]+/[0-9]+ |^(Ok|Fail|Skipped):' /tmp/test-$s.log
-            grep -h 'largest relative' build-gpu/meson-logs/testlog.txt | sed "s/^/$s: /"
-        } >>"$OUT/tests.txt"
-        [ $status = 0 ] || tail -n 60 /tmp/test-$s.log >>"$OUT/tests.txt"
-    done
-    cat "$OUT/tests.txt"
+    build_gpu
+    run_suites || status=1
     {
         for t in shift_taps plan; do
             echo "== memcheck test_$t cuda"
@@ -56,7 +39,7 @@ tests)
     grep -q FAILED "$OUT/sanitize.log" && status=1
     ;;
 bench)
-    build
+    build_gpu
     # The paper's eight motions on 256^3 through C (pb_bench, volumes), with the taps and with the walk.
     for mode in taps walk; do
         [ $mode = walk ] && export PETBLUR_SHIFT_TAPS=0
