@@ -33,8 +33,15 @@ def slices(shape, t0, deg0, t1, deg1):
     p = np.stack([x.ravel(), y.ravel(), np.full(x.size, 0.5)], 1)
     a = (p - c - np.array(t0, dtype=float)) @ turn(deg0) + c  # R^T (p - c - t) + c
     b = (p - c - np.array(t1, dtype=float)) @ turn(deg1) + c
+    return chord_slices(a, b)
+
+
+def chord_slices(a, b):
+    """The slices AB visits on each chord a[i]-b[i] (texel coordinates, rows
+    of points) along its major axis (bench_measure.c's ab_slices): 1 for a
+    chord too short to walk."""
     m = np.argmax(np.abs(b - a), 1)
-    i = np.arange(len(p))
+    i = np.arange(len(a))
     lo = np.minimum(a[i, m], b[i, m]) - 0.5
     hi = np.maximum(a[i, m], b[i, m]) - 0.5
     return np.where(hi - lo < 1e-4, 1, np.ceil(hi - 1e-6) - np.floor(lo + 1e-6) + 1)

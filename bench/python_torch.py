@@ -29,6 +29,7 @@ import torch
 import petblur
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from fetch_floor import chord_slices  # noqa: E402
 from peers import TorchPeer  # noqa: E402
 
 # bench/scenarios.h: translations in voxels, rotations in degrees about z.
@@ -43,15 +44,9 @@ def ab_slices_at_corners(n, t, deg):
     c = 0.5 * n
     a = math.radians(deg)
     R = np.array([[math.cos(a), -math.sin(a), 0], [math.sin(a), math.cos(a), 0], [0, 0, 1.0]])
-    best = 1
-    for corner in np.array(np.meshgrid(*[[0.5, m - 0.5] for m in n])).T.reshape(-1, 3):
-        b = R.T @ (corner - c - np.array(t)) + c  # the object point at the frame's end
-        d = np.abs(b - corner)
-        m = int(np.argmax(d))
-        lo, hi = min(corner[m], b[m]) - 0.5, max(corner[m], b[m]) - 0.5
-        s = 1 if hi - lo < 1e-4 else int(math.ceil(hi - 1e-6) - math.floor(lo + 1e-6) + 1)
-        best = max(best, s)
-    return best
+    corners = np.array(np.meshgrid(*[[0.5, m - 0.5] for m in n])).T.reshape(-1, 3)
+    ends = (corners - c - np.array(t)) @ R + c  # R^T (corner - c - t) + c: the object points at the frame's end
+    return int(chord_slices(corners, ends).max())
 
 
 def event_ms(fn, runs):
