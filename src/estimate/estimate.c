@@ -286,6 +286,36 @@ static pb_status inside_frames(estimate *e, const pbe_fit *fits, size_t referenc
     return st;
 }
 
+/* Pass 4 (collective.c): the poses of frames whose contrast is far from
+ * the reference frame's share a bias that frame-by-frame registration cannot
+ * see; one correction along the contrast, fitted to the series as a whole. */
+static pb_status correct_together(estimate *e, size_t ref, pbe_fit *fits, frame_path *paths, const int *moving)
+{
+    pbe_collective_pose *p = calloc(e->count, sizeof *p);
+    if (!p)
+        return PB_ERR_OUT_OF_MEMORY;
+    for (size_t k = 0; k < e->count; k++) {
+        p[k].pose = fits[k].pose;
+        p[k].moving = moving[k] != 0;
+        if (moving[k]) {
+            p[k].start = paths[k * PATHS + (size_t)(moving[k] - 1)].start;
+            p[k].end = paths[k * PATHS + (size_t)(moving[k] - 1)].end;
+        }
+    }
+    double moved_mm;
+    pb_status st = pbe_collective(&e->g, e->raw, e->count, ref, e->c, p, &moved_mm);
+    for (size_t k = 0; k < e->count && st == PB_OK; k++) {
+        fits[k].pose = p[k].pose;
+        if (moving[k]) {
+            paths[k * PATHS + (size_t)(moving[k] - 1)].start = p[k].start;
+            paths[k * PATHS + (size_t)(moving[k] - 1)].end = p[k].end;
+        }
+    }
+    report_progress(e, (double)e->count);
+    free(p);
+    return st;
+}
+
 typedef struct keys {
     double *t;
     pb_pose *p;
@@ -442,6 +472,9 @@ static pb_status estimate_run(estimate *e, const double *bounds, const pb_estima
     /* 3: inside frames, against the same references */
     if (st == PB_OK && !o->frame_poses_only)
         st = inside_frames(e, fits, ref, moved, gram, own, paths, moving, &moving_count);
+    /* 4: every pose corrected along the contrast, together */
+    if (st == PB_OK)
+        st = correct_together(e, ref, fits, paths, moving);
     if (st == PB_OK) {
         pb_pose back;
         pb_pose_invert(&fits[ref].pose, &back);
@@ -530,7 +563,7 @@ pb_status pb_motion_estimate(pb_context *ctx, const pb_geometry *geometry, const
     e.progress = ctx->progress;
     e.progress_user = ctx->progress_user;
     ctx->progress = NULL;
-    e.total = 4.0 * (double)count;
+    e.total = 5.0 * (double)count;
 
     g = *geometry;
     for (size_t l = 0; l < e.levels && st == PB_OK; l++) {

@@ -62,6 +62,9 @@ void pbe_fit_scale(const float *a, const float *f, size_t n, double *scale, doub
 
 /* ---- references.c: a reference per frame ---------------------------------- */
 
+/* Eigenvalues and vectors of a symmetric n x n matrix (row-major a, destroyed)
+ * by cyclic Jacobi rotations: vectors in the columns of v. */
+void pbe_eigen(double *a, size_t n, double *w, double *v);
 /* How many principal images a series of frames gives each frame's reference. */
 size_t pbe_reference_rank(size_t frames);
 /* The frames' inner products (frames x frames, row-major), frames moved back
@@ -85,5 +88,31 @@ pb_status pbe_dwell(pb_context *ctx, pbe_level *level, const float *frame, const
  * |A u - f|^2 given G = A^T A (n x n, row-major), h = A^T f, with u[j] >= 0
  * for j < n_nonneg and the rest free. */
 void pbe_nnls(const double *gram, const double *h, size_t n, size_t n_nonneg, double *u);
+
+/* ---- unitary.c: rigid moves that keep a volume's energy --------------------- */
+
+/* The padded grid a volume on g is moved in: odd sizes, a margin each side. */
+void pbe_unitary_dims(const pb_geometry *g, size_t pad[3]);
+/* out (pad[0] x pad[1] x pad[2], g's volume in its middle) = f(T x) for the
+ * pose T about c (mm from g's corner), by a shift and nine shears of
+ * trigonometric interpolation: the energy of f, to rounding. */
+pb_status pbe_move_unitary(const pb_geometry *g, const float *f, const size_t pad[3], const pb_pose *pose,
+                           const double c[3], float *out);
+
+/* ---- collective.c: the poses moved together along the contrast ------------- */
+
+/* A frame's poses: one, or a path's ends where it moves (pass 3). */
+typedef struct pbe_collective_pose {
+    pb_pose pose, start, end;
+    int moving;
+} pbe_collective_pose;
+
+/* One rigid correction for every pose, scaled by the frame's contrast
+ * against frame ref's, chosen to leave the least energy beyond the leading
+ * principal images of the still frames moved back (unitary.c) onto the
+ * reference; raw: the frames on the fine grid. *moved_mm: the correction's
+ * size (0: none taken). */
+pb_status pbe_collective(const pb_geometry *fine, const float *raw, size_t count, size_t ref, const double c[3],
+                         pbe_collective_pose *poses, double *moved_mm);
 
 #endif

@@ -12,9 +12,7 @@
 
 #include "estimate.h"
 
-/* Eigenvalues and vectors of a symmetric n x n matrix (row-major a, destroyed)
- * by cyclic Jacobi rotations: vectors in the columns of v. */
-static void jacobi(double *a, size_t n, double *w, double *v)
+void pbe_eigen(double *a, size_t n, double *w, double *v)
 {
     for (size_t i = 0; i < n; i++)
         for (size_t j = 0; j < n; j++)
@@ -92,7 +90,7 @@ pb_status pbe_frame_reference(const float *moved, size_t n, size_t frames, const
     for (size_t i = 0; i < m; i++)
         for (size_t j = 0; j < m; j++)
             a[i * m + j] = gram[other[i] * frames + other[j]];
-    jacobi(a, m, w, v);
+    pbe_eigen(a, m, w, v);
     /* The principal images are U_j = G v_j / sqrt(w_j); frame k's projection
      * onto them is sum_j U_j (U_j . g_k) = G (sum_j v_j (v_j . G^T g_k) / w_j),
      * a weight per other frame. */

@@ -1,0 +1,357 @@
+/* The frames' poses moved together along their contrast. Where tracer
+ * uptake changes fast (blood fading in the first minute), each frame's own
+ * reference (references.c) is built from frames whose misregistration
+ * follows the same contrast: the early frames shift together and confirm one
+ * another, a fixed point of frame-by-frame registration half a millimetre
+ * off. What tells them apart is the series as a whole: moved back onto the
+ * reference, aligned frames span as few images as there are tissue curves,
+ * and frames that are off add images of their edges. So every pose gets one
+ * more rigid correction, the same six numbers scaled by how far the frame's
+ * contrast lies from the reference frame's, chosen to leave the least energy
+ * beyond the moved-back frames' leading principal images.
+ *
+ * The frames are moved by a resampler that keeps their energy (unitary.c):
+ * under trilinear resampling the noise's energy falls with the pose and the
+ * minimum follows it (docs/motion.md gives the runs). Frames that follow a
+ * path (pass 3) are not one pose's view and stay out of the sum; they are
+ * corrected with the rest, by their neighbours' contrast. */
+#include <math.h>
+#include <pthread.h>
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+
+#include "estimate.h"
+#include "motion.h"
+
+enum { NG = 6 };
+
+/* The coarsest grid used: what the correction finds is six numbers for the
+ * whole series, and voxels of about 6 mm keep it, at a cost per evaluation
+ * that grows as the padded volume times its longest line. */
+#define LONGEST_SIDE 40
+enum { MAX_THREADS = 32 };
+
+typedef struct collective {
+    pb_geometry g;          /* the grid the frames are compared on */
+    size_t n, pad[3], padded, count, used, rank, threads;
+    double c[3], radius;
+    float *frames;          /* every frame on g */
+    float *moved;           /* the used frames moved back, padded */
+    size_t *use;            /* the frames in the sum */
+    const pbe_collective_pose *poses;
+    double *weight, *gram, *a, *w, *v;
+} collective;
+
+/* The correction p (mm, and mm at the radius for the turn) scaled by w as
+ * a pose about the centre, composed after (on the tomograph's side of) pose. */
+static void corrected(const collective *cv, double w, const double p[NG], const pb_pose *pose, pb_pose *out)
+{
+    pb_pose g;
+    double r[3], angle = 0.0;
+    for (int i = 0; i < 3; i++) {
+        g.translation[i] = w * p[i];
+        r[i] = w * p[3 + i] / cv->radius;
+        angle += r[i] * r[i];
+    }
+    angle = sqrt(angle);
+    g.rotation[0] = cos(0.5 * angle);
+    for (int i = 0; i < 3; i++)
+        g.rotation[1 + i] = angle > 0 ? sin(0.5 * angle) / angle * r[i] : 0.0;
+    pb_pose after;
+    pb_pose_compose(&g, pose, &after);
+    pb_pose_normalized(&after, out);
+}
+
+/* The top `rank` eigenvalues' sum and, with vectors, the trace; a and the
+ * rest are scratch. */
+static double energy_beyond(collective *cv)
+{
+    const size_t m = cv->used;
+    double trace = 0.0, top = 0.0;
+    memcpy(cv->a, cv->gram, sizeof(double) * m * m);
+    for (size_t k = 0; k < m; k++)
+        trace += cv->gram[k * m + k];
+    pbe_eigen(cv->a, m, cv->w, cv->v);
+    for (size_t r = 0; r < cv->rank && r < m; r++) {
+        size_t best = 0;
+        for (size_t j = 1; j < m; j++)
+            if (cv->w[j] > cv->w[best])
+                best = j;
+        top += cv->w[best];
+        cv->w[best] = -INFINITY;
+    }
+    return trace - top;
+}
+
+/* One thread's share of the frames to move: every stride-th from first. */
+typedef struct mover {
+    collective *cv;
+    const double *p;
+    size_t first, stride;
+    pb_status st;
+} mover;
+
+static void *move_frames(void *arg)
+{
+    mover *mv = arg;
+    collective *cv = mv->cv;
+    mv->st = PB_OK;
+    for (size_t i = mv->first; i < cv->used && mv->st == PB_OK; i += mv->stride) {
+        size_t k = cv->use[i];
+        /* frame k shows the object x at T x: moved back, it is f_k(T x) */
+        pb_pose pose;
+        corrected(cv, cv->weight[k], mv->p, &cv->poses[k].pose, &pose);
+        mv->st = pbe_move_unitary(&cv->g, cv->frames + k * cv->n, cv->pad, &pose, cv->c, cv->moved + i * cv->padded);
+    }
+    return NULL;
+}
+
+/* The energy the frames moved back under correction p hold beyond their
+ * leading principal images. The frames are moved on the host's cores, one
+ * thread a core (the caller's among them). */
+static pb_status residual(collective *cv, const double p[NG], double *out)
+{
+    mover mv[MAX_THREADS];
+    pthread_t thread[MAX_THREADS];
+    int started[MAX_THREADS] = {0};
+    size_t threads = cv->threads < cv->used ? cv->threads : cv->used;
+    for (size_t t = 0; t < threads; t++) {
+        mv[t] = (mover){cv, p, t, threads, PB_OK};
+        if (t > 0)
+            started[t] = pthread_create(&thread[t], NULL, move_frames, &mv[t]) == 0;
+    }
+    /* a thread that did not start leaves its frames to the caller */
+    for (size_t t = 0; t < threads; t++)
+        if (t == 0 || !started[t])
+            move_frames(&mv[t]);
+    pb_status st = PB_OK;
+    for (size_t t = 0; t < threads; t++) {
+        if (started[t])
+            pthread_join(thread[t], NULL);
+        if (mv[t].st != PB_OK)
+            st = mv[t].st;
+    }
+    if (st != PB_OK)
+        return st;
+    pbe_gram(cv->moved, cv->padded, cv->used, cv->gram);
+    *out = energy_beyond(cv);
+    return PB_OK;
+}
+
+/* Each frame's contrast against the reference frame's: the ratio of its
+ * second principal score to its first, as a share of the series' widest; a
+ * frame out of the sum takes its nearest neighbour's in the sum. 0 when
+ * the series shows no second image. */
+static int contrast_weights(collective *cv, size_t ref)
+{
+    const size_t m = cv->used;
+    memcpy(cv->a, cv->gram, sizeof(double) * m * m);
+    pbe_eigen(cv->a, m, cv->w, cv->v);
+    size_t first = 0, second = m;
+    for (size_t j = 1; j < m; j++)
+        if (cv->w[j] > cv->w[first])
+            first = j;
+    for (size_t j = 0; j < m; j++)
+        if (j != first && (second == m || cv->w[j] > cv->w[second]))
+            second = j;
+    if (second == m || !(cv->w[second] > 1e-12 * cv->w[first]))
+        return 0;
+    for (size_t k = 0; k < cv->count; k++) {
+        size_t near = 0;
+        for (size_t i = 1; i < m; i++)
+            if ((cv->use[i] > k ? cv->use[i] - k : k - cv->use[i]) <
+                (cv->use[near] > k ? cv->use[near] - k : k - cv->use[near]))
+                near = i;
+        double s1 = cv->v[near * m + first];
+        cv->weight[k] = fabs(s1) > 0 ? cv->v[near * m + second] / s1 : 0.0;
+    }
+    double at_ref = cv->weight[ref], widest = 0.0;
+    for (size_t k = 0; k < cv->count; k++) {
+        cv->weight[k] -= at_ref;
+        widest = fmax(widest, fabs(cv->weight[k]));
+    }
+    if (!(widest > 0))
+        return 0;
+    for (size_t k = 0; k < cv->count; k++)
+        cv->weight[k] /= widest;
+    return 1;
+}
+
+/* Solves h x = -g with h's eigenvalues held above a floor: the valley's flat
+ * or bent directions take no step to infinity. */
+static void newton_step(const double *h, const double *g, double *x)
+{
+    double a[NG * NG], w[NG], v[NG * NG], top = 0.0;
+    memcpy(a, h, sizeof a);
+    pbe_eigen(a, NG, w, v);
+    for (int i = 0; i < NG; i++)
+        top = fmax(top, fabs(w[i]));
+    for (int i = 0; i < NG; i++)
+        x[i] = 0.0;
+    for (int j = 0; j < NG; j++) {
+        double lam = fmax(fabs(w[j]), 1e-3 * top), d = 0.0;
+        if (!(lam > 0))
+            continue;
+        for (int i = 0; i < NG; i++)
+            d += v[i * NG + j] * g[i];
+        for (int i = 0; i < NG; i++)
+            x[i] -= v[i * NG + j] * d / lam;
+    }
+}
+
+/* A quadratic model of the residual from central differences, a Newton
+ * step on it, halved until the residual falls. */
+static pb_status minimise(collective *cv, double p[NG])
+{
+    const double h = 0.25 * fmin(cv->g.voxel_size[0], fmin(cv->g.voxel_size[1], cv->g.voxel_size[2]));
+    double e0;
+    pb_status st = residual(cv, p, &e0);
+    for (int round = 0; round < 2 && st == PB_OK; round++) {
+        double plus[NG], minus[NG], hess[NG * NG], grad[NG], q[NG], step[NG], len = 0.0;
+        for (int i = 0; i < NG && st == PB_OK; i++) {
+            memcpy(q, p, sizeof q);
+            q[i] += h;
+            st = residual(cv, q, &plus[i]);
+            q[i] -= 2 * h;
+            if (st == PB_OK)
+                st = residual(cv, q, &minus[i]);
+            grad[i] = (plus[i] - minus[i]) / (2 * h);
+            hess[i * NG + i] = (plus[i] - 2 * e0 + minus[i]) / (h * h);
+        }
+        for (int i = 0; i < NG && st == PB_OK; i++)
+            for (int j = i + 1; j < NG && st == PB_OK; j++) {
+                double both;
+                memcpy(q, p, sizeof q);
+                q[i] += h;
+                q[j] += h;
+                st = residual(cv, q, &both);
+                hess[i * NG + j] = hess[j * NG + i] = (both - plus[i] - plus[j] + e0) / (h * h);
+            }
+        if (st != PB_OK)
+            break;
+        newton_step(hess, grad, step);
+        for (int i = 0; i < NG; i++)
+            len += step[i] * step[i];
+        len = sqrt(len);
+        /* no more than two voxels a round: the model is local */
+        for (int i = 0; i < NG && len > 8.0 * h; i++)
+            step[i] *= 8.0 * h / len;
+        int taken = 0;
+        for (int halve = 0; halve < 4 && st == PB_OK && !taken; halve++) {
+            double e;
+            for (int i = 0; i < NG; i++)
+                q[i] = p[i] + step[i];
+            st = residual(cv, q, &e);
+            if (st == PB_OK && e < e0) {
+                memcpy(p, q, sizeof(double) * NG);
+                e0 = e;
+                taken = 1;
+            }
+            for (int i = 0; i < NG; i++)
+                step[i] *= 0.5;
+        }
+        if (!taken)
+            break;
+    }
+    return st;
+}
+
+pb_status pbe_collective(const pb_geometry *fine, const float *raw, size_t count, size_t ref, const double c[3],
+                         pbe_collective_pose *poses, double *moved_mm)
+{
+    collective cv;
+    memset(&cv, 0, sizeof cv);
+    *moved_mm = 0.0;
+    cv.g = *fine;
+    cv.count = count;
+    cv.poses = poses;
+    memcpy(cv.c, c, sizeof cv.c);
+    size_t levels = 0;
+    while (cv.g.dims[0] > LONGEST_SIDE || cv.g.dims[1] > LONGEST_SIDE || cv.g.dims[2] > LONGEST_SIDE) {
+        pb_geometry coarse;
+        pbe_coarser(&cv.g, &coarse);
+        if (coarse.dims[0] < 8 || coarse.dims[1] < 8 || coarse.dims[2] < 8)
+            break;
+        cv.g = coarse;
+        levels++;
+    }
+    cv.n = cv.g.dims[0] * cv.g.dims[1] * cv.g.dims[2];
+    pbe_unitary_dims(&cv.g, cv.pad);
+    cv.padded = cv.pad[0] * cv.pad[1] * cv.pad[2];
+    for (size_t k = 0; k < count; k++)
+        cv.used += !poses[k].moving;
+    cv.rank = pbe_reference_rank(count);
+    long cores = sysconf(_SC_NPROCESSORS_ONLN);
+    cv.threads = cores < 1 ? 1 : cores > MAX_THREADS ? MAX_THREADS : (size_t)cores;
+    /* Measured on series of 24 frames, whose references have three images:
+     * with fewer, the energy beyond them holds tissue curves the references
+     * cannot, and a correction along the contrast would trade one for the
+     * other. */
+    if (cv.rank < 3 || cv.used < cv.rank + 3 || poses[ref].moving)
+        return PB_OK;
+    /* PETBLUR_ESTIMATE_CONTRAST=0 leaves the poses as registered, for comparisons */
+    const char *env = getenv("PETBLUR_ESTIMATE_CONTRAST");
+    if (env && strcmp(env, "0") == 0)
+        return PB_OK;
+    const size_t m = cv.used;
+    cv.frames = malloc(sizeof(float) * cv.n * count);
+    cv.moved = malloc(sizeof(float) * cv.padded * m);
+    cv.use = malloc(sizeof(size_t) * m);
+    cv.weight = calloc(count, sizeof(double));
+    cv.gram = malloc(sizeof(double) * m * m);
+    cv.a = malloc(sizeof(double) * m * m);
+    cv.w = malloc(sizeof(double) * m);
+    cv.v = malloc(sizeof(double) * m * m);
+    size_t fine_n = fine->dims[0] * fine->dims[1] * fine->dims[2], most = fine_n;
+    float *x = malloc(sizeof(float) * most), *y = malloc(sizeof(float) * most);
+    pb_status st = cv.frames && cv.moved && cv.use && cv.weight && cv.gram && cv.a && cv.w && cv.v && x && y
+                       ? PB_OK
+                       : PB_ERR_OUT_OF_MEMORY;
+    /* the frames as block means, unsmoothed: smoothing is the same for every
+     * pose and tells nothing */
+    for (size_t k = 0; k < count && st == PB_OK; k++) {
+        pb_geometry g = *fine, coarse;
+        memcpy(x, raw + k * fine_n, sizeof(float) * fine_n);
+        for (size_t l = 0; l < levels; l++) {
+            pbe_coarser(&g, &coarse);
+            pbe_downsample(&g, x, &coarse, y);
+            float *t = x;
+            x = y;
+            y = t;
+            g = coarse;
+        }
+        memcpy(cv.frames + k * cv.n, x, sizeof(float) * cv.n);
+    }
+    for (size_t k = 0, i = 0; k < count; k++)
+        if (!poses[k].moving && cv.use)
+            cv.use[i++] = k;
+    for (int i = 0; i < 3; i++)
+        cv.radius = fmax(cv.radius, 0.5 * (double)cv.g.dims[i] * cv.g.voxel_size[i]);
+    double p[NG] = {0}, e0;
+    if (st == PB_OK)
+        st = residual(&cv, p, &e0);
+    if (st == PB_OK && contrast_weights(&cv, ref) && (st = minimise(&cv, p)) == PB_OK) {
+        for (size_t k = 0; k < count; k++) {
+            corrected(&cv, cv.weight[k], p, &poses[k].pose, &poses[k].pose);
+            if (poses[k].moving) {
+                corrected(&cv, cv.weight[k], p, &poses[k].start, &poses[k].start);
+                corrected(&cv, cv.weight[k], p, &poses[k].end, &poses[k].end);
+            }
+        }
+        for (int i = 0; i < NG; i++)
+            *moved_mm += p[i] * p[i];
+        *moved_mm = sqrt(*moved_mm);
+    }
+    free(cv.frames);
+    free(cv.moved);
+    free(cv.use);
+    free(cv.weight);
+    free(cv.gram);
+    free(cv.a);
+    free(cv.w);
+    free(cv.v);
+    free(x);
+    free(y);
+    return st;
+}

@@ -1,0 +1,133 @@
+/* Rigid moves that keep a volume's energy, its noise's included. A pose is
+ * applied as a shift and nine shears (three turns about the axes, each
+ * three shears), every shear a shift of lines by trigonometric (periodic
+ * sinc) interpolation on a grid padded to odd sizes: each line shift is an
+ * orthogonal matrix, so the moved volume has exactly the energy it had.
+ * Trilinear resampling smooths noise by an amount that depends on where the
+ * pose puts the samples between voxels; a comparison of many noisy frames
+ * moved by different poses then follows the smoothing, not the frames'
+ * agreement (collective.c).
+ *
+ * The lines are a few dozen samples, so each shift is a direct sum with the
+ * kernel in closed form (the Dirichlet kernel, O(n) sines a line) rather
+ * than an FFT: no library for the package and the device machine to carry. */
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "estimate.h"
+#include "motion.h"
+
+#define PB_PI 3.14159265358979323846
+
+static size_t odd_padded(size_t n)
+{
+    size_t margin = n / 4 > 4 ? n / 4 : 4;
+    size_t p = n + 2 * margin;
+    return p % 2 ? p : p + 1;
+}
+
+void pbe_unitary_dims(const pb_geometry *g, size_t pad[3])
+{
+    for (int a = 0; a < 3; a++)
+        pad[a] = odd_padded(g->dims[a]);
+}
+
+/* h's line of n samples (odd n), stride apart, read as a periodic
+ * trigonometric polynomial and sampled at i + s: out[i] = sum_j h[j] D(i + s
+ * - j), D(x) = sin(pi x) / (n sin(pi x / n)). buf holds 3 n doubles. */
+static void shift_line(float *h, size_t n, size_t stride, double s, double *buf)
+{
+    double *line = buf, *kern = buf + 2 * n;
+    double r = floor(s + 0.5), f = s - r;
+    long rs = (long)r % (long)n;
+    if (rs < 0)
+        rs += (long)n;
+    int empty = 1;
+    for (size_t j = 0; j < n; j++) {
+        line[j] = line[j + n] = (double)h[j * stride];
+        empty &= h[j * stride] == 0.0f;
+    }
+    /* the padding's lines, most of them, stay empty */
+    if (empty)
+        return;
+    if (fabs(f) < 1e-9) {
+        for (size_t i = 0; i < n; i++)
+            h[i * stride] = (float)line[i + (size_t)rs];
+        return;
+    }
+    /* kern[m] = D(f - m): sin(pi (f - m)) = (-1)^m sin(pi f) */
+    const double sf = sin(PB_PI * f), dn = (double)n;
+    for (size_t m = 0; m < n; m++)
+        kern[m] = (m % 2 ? -sf : sf) / (dn * sin(PB_PI * (f - (double)m) / dn));
+    for (size_t i = 0; i < n; i++) {
+        const double *src = line + (i + (size_t)rs) % n;
+        double acc = 0.0;
+        for (size_t m = 0; m < n; m++)
+            acc += src[m] * kern[m];
+        h[i * stride] = (float)acc;
+    }
+}
+
+/* Every line along axis u shifted by a + b (index along v less cv). */
+static void shift_lines(float *h, const size_t n[3], int u, int v, double a, double b, double cv, double *buf)
+{
+    const size_t stride[3] = {1, n[0], n[0] * n[1]};
+    const int w = 3 - u - v; /* the third axis when v is not u */
+    const int other[2] = {v == u ? (u + 1) % 3 : v, v == u ? (u + 2) % 3 : w};
+    for (size_t i = 0; i < n[other[0]]; i++)
+        for (size_t j = 0; j < n[other[1]]; j++) {
+            float *line = h + i * stride[other[0]] + j * stride[other[1]];
+            double at = other[0] == v ? (double)i : (double)j;
+            shift_line(line, n[u], stride[u], a + b * (at - cv), buf);
+        }
+}
+
+/* h(y) -> h(R y) for R turning the (u, v) plane by theta, y in mm about the
+ * centre: R = S_u(p) S_v(q) S_u(p), p = -tan(theta / 2), q = sin(theta),
+ * each shear h(y + p y_v e_u) a shift of the lines along u, in voxels of u,
+ * by p y_v. */
+static void turn_plane(float *h, const size_t n[3], const double vs[3], const double cidx[3], int u, int v,
+                       double theta, double *buf)
+{
+    if (fabs(theta) < 1e-12)
+        return;
+    const double p = -tan(0.5 * theta), q = sin(theta);
+    shift_lines(h, n, u, v, 0.0, p * vs[v] / vs[u], cidx[v], buf);
+    shift_lines(h, n, v, u, 0.0, q * vs[u] / vs[v], cidx[u], buf);
+    shift_lines(h, n, u, v, 0.0, p * vs[v] / vs[u], cidx[v], buf);
+}
+
+pb_status pbe_move_unitary(const pb_geometry *g, const float *f, const size_t pad[3], const pb_pose *pose,
+                           const double c[3], float *out)
+{
+    size_t lo[3], longest = 0;
+    double cidx[3], m[16];
+    for (int a = 0; a < 3; a++) {
+        lo[a] = (pad[a] - g->dims[a]) / 2;
+        /* the centre c (mm from the grid's corner) in padded voxel indices */
+        cidx[a] = c[a] / g->voxel_size[a] - 0.5 + (double)lo[a];
+        longest = pad[a] > longest ? pad[a] : longest;
+    }
+    double *buf = malloc(sizeof(double) * 3 * longest);
+    if (!buf)
+        return PB_ERR_OUT_OF_MEMORY;
+    memset(out, 0, sizeof(float) * pad[0] * pad[1] * pad[2]);
+    for (size_t z = 0; z < g->dims[2]; z++)
+        for (size_t y = 0; y < g->dims[1]; y++)
+            memcpy(out + ((z + lo[2]) * pad[1] + y + lo[1]) * pad[0] + lo[0],
+                   f + (z * g->dims[1] + y) * g->dims[0], sizeof(float) * g->dims[0]);
+    /* out(y) = f(c + t + R y), y in mm about c: first the shift by t, then
+     * the turn R = Rx(a) Ry(b) Rz(g), applied as h(Rx Ry Rz y) one axis at
+     * a time. */
+    pb_pose_to_matrix(pose, m);
+    for (int a = 0; a < 3; a++)
+        shift_lines(out, pad, a, a, pose->translation[a] / g->voxel_size[a], 0.0, 0.0, buf);
+    double r02 = fmax(-1.0, fmin(1.0, m[2]));
+    double ax = atan2(-m[6], m[10]), by = asin(r02), gz = atan2(-m[1], m[0]);
+    turn_plane(out, pad, g->voxel_size, cidx, 1, 2, ax, buf);
+    turn_plane(out, pad, g->voxel_size, cidx, 2, 0, by, buf);
+    turn_plane(out, pad, g->voxel_size, cidx, 0, 1, gz, buf);
+    free(buf);
+    return PB_OK;
+}
