@@ -1,8 +1,9 @@
 #!/usr/bin/env bash
-# On the GPU machine: what the dwell's threshold (src/estimate/estimate.c,
-# DWELL_GAIN) changes where docs/motion.md cites the estimator: the motion
-# study's (e) and (g) at full size (bench/gpu-study.sh), then
-# bench/estimate_validation.py's axial series with the seed its table gives.
+# On the GPU machine: what a change to the estimator (first the dwell's
+# threshold, src/estimate/estimate.c DWELL_GAIN; then pass 4, collective.c)
+# moves where docs/motion.md cites it: the motion study's (e) and (g) at full
+# size (bench/gpu-study.sh), then bench/estimate_validation.py's axial series
+# with the seed its table gives.
 #   PB_COMMIT=$(git rev-parse --short HEAD) bash bench/gpu-dwell.sh [validation-only]   (carry .device .whl .study)
 set -uo pipefail
 cd "$(dirname "$0")/.."

@@ -9,6 +9,7 @@
 # Two calls, each within the device's ten minutes (the build is kept between):
 #   PB_COMMIT=$(git rev-parse --short HEAD) bash bench/gpu-estimate.sh tests axial
 #   PB_COMMIT=$(git rev-parse --short HEAD) bash bench/gpu-estimate.sh fine
+# SEED=N draws the validation's series from seed N (default: a fresh one).
 set -uo pipefail
 cd "$(dirname "$0")/.."
 OUT=${OUT:-$PWD/gpu-out}
@@ -47,7 +48,7 @@ done | tee "$OUT/tests.txt"
 for setup in axial fine; do
     [[ $what == *" $setup "* ]] || continue
     python3 bench/estimate_validation.py --petblur build-gpu/src/cli/petblur --device cuda --setup $setup \
-        --out "/tmp/val-$setup" --no-sitk >"$OUT/validation-$setup.txt" 2>&1 || status=1
+        ${SEED:+--seed "$SEED"} --out "/tmp/val-$setup" --no-sitk >"$OUT/validation-$setup.txt" 2>&1 || status=1
     cp "/tmp/val-$setup/results.json" "$OUT/validation-$setup.json" 2>/dev/null
 done
 exit $status

@@ -201,14 +201,17 @@ static void newton_step(const double *h, const double *g, double *x)
 }
 
 /* A quadratic model of the residual from central differences, a Newton
- * step on it, halved until the residual falls. */
+ * step on it, halved until the residual falls. The second round keeps the
+ * first's cross terms (the residual is nearly quadratic over a voxel): 12
+ * evaluations instead of 27. */
 static pb_status minimise(collective *cv, double p[NG])
 {
     const double h = 0.25 * fmin(cv->g.voxel_size[0], fmin(cv->g.voxel_size[1], cv->g.voxel_size[2]));
     double e0;
     pb_status st = residual(cv, p, &e0);
+    double hess[NG * NG];
     for (int round = 0; round < 2 && st == PB_OK; round++) {
-        double plus[NG], minus[NG], hess[NG * NG], grad[NG], q[NG], step[NG], len = 0.0;
+        double plus[NG], minus[NG], grad[NG], q[NG], step[NG], len = 0.0;
         for (int i = 0; i < NG && st == PB_OK; i++) {
             memcpy(q, p, sizeof q);
             q[i] += h;
@@ -219,7 +222,7 @@ static pb_status minimise(collective *cv, double p[NG])
             grad[i] = (plus[i] - minus[i]) / (2 * h);
             hess[i * NG + i] = (plus[i] - 2 * e0 + minus[i]) / (h * h);
         }
-        for (int i = 0; i < NG && st == PB_OK; i++)
+        for (int i = 0; i < NG && st == PB_OK && round == 0; i++)
             for (int j = i + 1; j < NG && st == PB_OK; j++) {
                 double both;
                 memcpy(q, p, sizeof q);

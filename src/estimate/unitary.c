@@ -35,42 +35,51 @@ void pbe_unitary_dims(const pb_geometry *g, size_t pad[3])
 
 /* h's line of n samples (odd n), stride apart, read as a periodic
  * trigonometric polynomial and sampled at i + s: out[i] = sum_j h[j] D(i + s
- * - j), D(x) = sin(pi x) / (n sin(pi x / n)). buf holds 3 n doubles. */
-static void shift_line(float *h, size_t n, size_t stride, double s, double *buf)
+ * - j), D(x) = sin(pi x) / (n sin(pi x / n)). Only the line's support (its
+ * samples from the first to the last that is not 0) enters the sum. buf
+ * holds 3 n floats. */
+static void shift_line(float *h, size_t n, size_t stride, double s, float *buf)
 {
-    double *line = buf, *kern = buf + 2 * n;
+    float *line = buf, *kern = buf + n;
+    size_t j0 = n, j1 = 0;
+    for (size_t j = 0; j < n; j++) {
+        line[j] = h[j * stride];
+        if (line[j] != 0.0f) {
+            j0 = j < j0 ? j : j0;
+            j1 = j;
+        }
+    }
+    /* the padding's lines, most of them, stay empty */
+    if (j0 == n)
+        return;
     double r = floor(s + 0.5), f = s - r;
     long rs = (long)r % (long)n;
     if (rs < 0)
         rs += (long)n;
-    int empty = 1;
-    for (size_t j = 0; j < n; j++) {
-        line[j] = line[j + n] = (double)h[j * stride];
-        empty &= h[j * stride] == 0.0f;
-    }
-    /* the padding's lines, most of them, stay empty */
-    if (empty)
-        return;
     if (fabs(f) < 1e-9) {
         for (size_t i = 0; i < n; i++)
-            h[i * stride] = (float)line[i + (size_t)rs];
+            h[i * stride] = line[(i + (size_t)rs) % n];
         return;
     }
-    /* kern[m] = D(f - m): sin(pi (f - m)) = (-1)^m sin(pi f) */
+    /* kern[d] = D(f - d) for d = j - i - rs mod n: sin(pi (f - d)) =
+     * (-1)^d sin(pi f); twice over, so that a run of d needs no modulo */
     const double sf = sin(PB_PI * f), dn = (double)n;
-    for (size_t m = 0; m < n; m++)
-        kern[m] = (m % 2 ? -sf : sf) / (dn * sin(PB_PI * (f - (double)m) / dn));
+    for (size_t d = 0; d < n; d++)
+        kern[d] = kern[d + n] = (float)((d % 2 ? -sf : sf) / (dn * sin(PB_PI * (f - (double)d) / dn)));
+    const float *src = line + j0;
+    const size_t len = j1 - j0 + 1;
     for (size_t i = 0; i < n; i++) {
-        const double *src = line + (i + (size_t)rs) % n;
-        double acc = 0.0;
-        for (size_t m = 0; m < n; m++)
-            acc += src[m] * kern[m];
-        h[i * stride] = (float)acc;
+        /* d of j0: (j0 - i - rs) mod n, then d + 1 for each j after it */
+        const float *k = kern + (j0 + 2 * n - i - (size_t)rs) % n;
+        float acc = 0.0f;
+        for (size_t j = 0; j < len; j++)
+            acc += src[j] * k[j];
+        h[i * stride] = acc;
     }
 }
 
 /* Every line along axis u shifted by a + b (index along v less cv). */
-static void shift_lines(float *h, const size_t n[3], int u, int v, double a, double b, double cv, double *buf)
+static void shift_lines(float *h, const size_t n[3], int u, int v, double a, double b, double cv, float *buf)
 {
     const size_t stride[3] = {1, n[0], n[0] * n[1]};
     const int w = 3 - u - v; /* the third axis when v is not u */
@@ -88,7 +97,7 @@ static void shift_lines(float *h, const size_t n[3], int u, int v, double a, dou
  * each shear h(y + p y_v e_u) a shift of the lines along u, in voxels of u,
  * by p y_v. */
 static void turn_plane(float *h, const size_t n[3], const double vs[3], const double cidx[3], int u, int v,
-                       double theta, double *buf)
+                       double theta, float *buf)
 {
     if (fabs(theta) < 1e-12)
         return;
@@ -109,7 +118,7 @@ pb_status pbe_move_unitary(const pb_geometry *g, const float *f, const size_t pa
         cidx[a] = c[a] / g->voxel_size[a] - 0.5 + (double)lo[a];
         longest = pad[a] > longest ? pad[a] : longest;
     }
-    double *buf = malloc(sizeof(double) * 3 * longest);
+    float *buf = malloc(sizeof(float) * 3 * longest);
     if (!buf)
         return PB_ERR_OUT_OF_MEMORY;
     memset(out, 0, sizeof(float) * pad[0] * pad[1] * pad[2]);
