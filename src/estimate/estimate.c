@@ -1,6 +1,7 @@
 /* pb_motion_estimate: the patient's motion from the frames themselves.
  *
- * Three passes, each frame registered coarse to fine (register.c):
+ * Four passes, the first three registering each frame coarse to fine
+ * (register.c):
  *  1. every frame against its neighbour towards the reference frame, whose
  *     contrast is nearly its own, the poses chained;
  *  2. twice, every frame against its own reference (references.c): the
@@ -10,7 +11,10 @@
  *  3. inside frames (inside.c): a frame between two neighbours is fitted as
  *     a dwell along a path that starts or ends at a still neighbour's pose
  *     (between the two, or from one on through its own pose); where that
- *     explains it clearly better than one pose, the frame gets the path.
+ *     explains it clearly better than one pose, the frame gets the path;
+ *  4. together (collective.c): one rigid correction for every pose, scaled
+ *     by each frame's contrast against the reference frame's, which takes
+ *     out the bias that uptake changing leaves the frames of passes 2 and 3.
  * Poses live in the grid frame about the grid's centre until the track is
  * written, in the world of the affine. */
 #include <math.h>
