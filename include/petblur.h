@@ -625,14 +625,18 @@ typedef struct pb_estimate_report {
  * x fastest), placed in the world by affine (row-major voxel-to-world 4x4 as
  * pb_motion_world_to_grid takes; NULL: the grid frame, pb_geometry_grid_affine);
  * frame i spans [bounds[i], bounds[i+1]] seconds. Each frame is registered
- * rigidly to the reference frame (multi-resolution Gauss-Newton on
- * d(B x)/d(pose) with a per-frame scale and offset, which is normalised
- * cross-correlation: tracer uptake may change from frame to frame), then to
- * the mean of all frames moved back onto the reference. A frame whose blur
- * along the path between its neighbours' poses reproduces it better than any
- * one pose gets that path, timed by how long the frame dwells along it
- * (non-negative least squares): a jerk inside a frame lands between the right
- * poses at the right time. *track (pb_track_free) is a PB_TRACK_MATRIX_CSV
+ * rigidly (multi-resolution Levenberg-Marquardt on d(B x)/d(pose) with a
+ * per-frame scale and offset, which is normalised cross-correlation: tracer
+ * uptake may change from frame to frame) to its neighbour towards the
+ * reference frame, then to its own reference: its projection onto the
+ * principal images of the other frames moved back onto the reference frame.
+ * A frame whose blur along a path between its neighbours' poses reproduces
+ * it better than any one pose gets that path, timed by how long the frame
+ * dwells along it (non-negative least squares): a jerk inside a frame lands
+ * between the right poses at the right time. In a series of 12 frames or
+ * more whose contrast changes along a curve in time, every pose then gets
+ * one rigid correction scaled by its frame's contrast, which takes out the
+ * bias that changing uptake leaves (docs/motion.md). *track (pb_track_free) is a PB_TRACK_MATRIX_CSV
  * track in the world of affine: rigid maps about the world's origin that take
  * a point of the reference frame's object to where it is at each time, with
  * a pose at every frame's mid-time and at the first and last bound; the
