@@ -82,7 +82,7 @@ static double energy_beyond(collective *cv)
             if (cv->w[j] > cv->w[best])
                 best = j;
         top += cv->w[best];
-        cv->w[best] = -INFINITY;
+        cv->w[best] = -(double)INFINITY;
     }
     return trace - top;
 }
@@ -149,6 +149,8 @@ static pb_status residual(collective *cv, const double p[NG], double *out)
 static int contrast_weights(collective *cv, size_t ref)
 {
     const size_t m = cv->used;
+    if (m < cv->rank + 3)
+        return 0;
     memcpy(cv->a, cv->gram, sizeof(double) * m * m);
     pbe_eigen(cv->a, m, cv->w, cv->v);
     size_t first = 0, second = m;
@@ -253,6 +255,8 @@ static pb_status minimise(collective *cv, double p[NG])
             q[i] -= 2 * h;
             if (st == PB_OK)
                 st = residual(cv, q, &minus[i]);
+            if (st != PB_OK)
+                break;
             grad[i] = (plus[i] - minus[i]) / (2 * h);
             hess[i * NG + i] = (plus[i] - 2 * e0 + minus[i]) / (h * h);
         }
@@ -313,6 +317,10 @@ pb_status pbe_collective(const pb_geometry *fine, const float *raw, size_t count
         cv.g = coarse;
         levels++;
     }
+    /* a grid that cannot be coarsened far enough (a thin slab) would cost
+     * hours here: left as registered */
+    if (cv.g.dims[0] > LONGEST_SIDE || cv.g.dims[1] > LONGEST_SIDE || cv.g.dims[2] > LONGEST_SIDE)
+        return PB_OK;
     cv.n = cv.g.dims[0] * cv.g.dims[1] * cv.g.dims[2];
     pbe_unitary_dims(&cv.g, cv.pad);
     cv.padded = cv.pad[0] * cv.pad[1] * cv.pad[2];

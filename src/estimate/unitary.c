@@ -129,7 +129,14 @@ pb_status pbe_move_unitary(const pb_geometry *g, const float *f, const size_t pa
     /* out(y) = f(c + t + R y), y in mm about c: first the shift by t, then
      * the turn R = Rx(a) Ry(b) Rz(g), applied as h(Rx Ry Rz y) one axis at
      * a time. */
-    pb_pose_to_matrix(pose, m);
+    pb_status st = pb_pose_to_matrix(pose, m);
+    for (int a = 0; a < 3 && st == PB_OK; a++)
+        if (!isfinite(pose->translation[a]))
+            st = PB_ERR_INVALID_ARGUMENT;
+    if (st != PB_OK) {
+        free(buf);
+        return st;
+    }
     for (int a = 0; a < 3; a++)
         shift_lines(out, pad, a, a, pose->translation[a] / g->voxel_size[a], 0.0, 0.0, buf);
     double r02 = fmax(-1.0, fmin(1.0, m[2]));
