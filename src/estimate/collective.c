@@ -237,14 +237,13 @@ static void newton_step(const double *h, const double *g, double *x)
 }
 
 /* A quadratic model of the residual from central differences, a Newton
- * step on it, halved until the residual falls. The second round keeps the
- * first's cross terms (the residual is nearly quadratic over a voxel): 12
- * evaluations instead of 27. */
-static pb_status minimise(collective *cv, double p[NG])
+ * step on it, halved until the residual falls; e0 is the residual at p. The
+ * second round keeps the first's cross terms (the residual is nearly
+ * quadratic over a voxel): 12 evaluations instead of 27. */
+static pb_status minimise(collective *cv, double p[NG], double e0)
 {
     const double h = 0.25 * fmin(cv->g.voxel_size[0], fmin(cv->g.voxel_size[1], cv->g.voxel_size[2]));
-    double e0;
-    pb_status st = residual(cv, p, &e0);
+    pb_status st = PB_OK;
     double hess[NG * NG];
     for (int round = 0; round < 2 && st == PB_OK; round++) {
         double plus[NG], minus[NG], grad[NG], q[NG], step[NG], len = 0.0;
@@ -373,13 +372,15 @@ pb_status pbe_collective(const pb_geometry *fine, const float *raw, size_t count
             cv.use[i++] = k;
     for (int i = 0; i < 3; i++)
         cv.radius = fmax(cv.radius, 0.5 * (double)cv.g.dims[i] * cv.g.voxel_size[i]);
+    /* at p = 0 every weight moves nothing: this residual, which the
+     * contrast weights are read from, is also minimise's start */
     double p[NG] = {0}, e0;
     if (st == PB_OK)
         st = residual(&cv, p, &e0);
     /* the bias is a fraction of a voxel: a correction beyond one voxel of
      * the frames' grid (a turn measured at the radius) is not this bias */
     double voxel = fmax(fine->voxel_size[0], fmax(fine->voxel_size[1], fine->voxel_size[2]));
-    if (st == PB_OK && contrast_weights(&cv, ref) && (st = minimise(&cv, p)) == PB_OK &&
+    if (st == PB_OK && contrast_weights(&cv, ref) && (st = minimise(&cv, p, e0)) == PB_OK &&
         sqrt(p[0] * p[0] + p[1] * p[1] + p[2] * p[2]) <= voxel &&
         sqrt(p[3] * p[3] + p[4] * p[4] + p[5] * p[5]) <= voxel) {
         for (size_t k = 0; k < count; k++) {
