@@ -1,0 +1,44 @@
+#!/usr/bin/env bash
+# On the GPU machine: what bounds issue 33's slowest cases, read from Nsight
+# Compute's counters (bench/profile_floor.py: the drifting frames' forward and
+# summed adjoint, 3 degrees on 256^3), and the kernels' registers and SASS
+# instruction counts. PB_COMMIT=$(git rev-parse --short HEAD) bash bench/gpu-profile.sh
+# (carry .device .whl). What comes back through $OUT: machine.txt, profile.tar.gz (ncu-*.txt, sass-counts.txt,
+# resources.txt).
+set -uo pipefail
+cd "$(dirname "$0")/.."
+OUT=${OUT:-$PWD/gpu-out}
+mkdir -p "$OUT"
+. bench/device-env.sh
+write_machine "$OUT/machine.txt" </dev/null
+work=$(mktemp -d)
+status=0
+install_package -Dopencl=disabled || exit 1
+# The kernels as the library's nvcc build makes them, for their resources and SASS.
+nvcc -arch=sm_90 -O3 -std=c++17 -cubin -Xptxas -v -o "$work/k.cubin" cuda/pb_kernels.cu >"$work/ptxas.txt" 2>&1 ||
+    { cat "$work/ptxas.txt"; exit 1; }
+grep -A3 "entry function '\(pb_blur_ab\|pb_adjoint_ab\|pb_shift_taps\)'" "$work/ptxas.txt" >"$work/resources.txt"
+cuobjdump -sass "$work/k.cubin" >"$work/sass.txt"
+for k in pb_blur_ab pb_adjoint_ab pb_shift_taps; do
+    awk -v k="$k" '/Function : /{on = ($3 == k)} on && /\/\*[0-9a-f]{4}\*\//' "$work/sass.txt" >"$work/sass-$k.txt"
+    echo "$k: $(wc -l <"$work/sass-$k.txt") SASS instructions, $(grep -c 'TEX\|TLD' "$work/sass-$k.txt") texture," \
+        "$(grep -c 'LDG' "$work/sass-$k.txt") LDG, $(grep -c 'RED\|ATOM' "$work/sass-$k.txt") atomic"
+done | tee "$work/sass-counts.txt"
+cat "$work/resources.txt"
+sections=(--section SpeedOfLight --section ComputeWorkloadAnalysis --section MemoryWorkloadAnalysis
+    --section Occupancy --section LaunchStats --section SchedulerStats --section WarpStateStats
+    --section InstructionStats --section SourceCounters)
+for c in frames-forward frames-adjoint turn; do
+    skip=11
+    [ $c = turn ] && skip=0
+    (cd /tmp && ncu --clock-control none --kernel-name regex:'^pb_(blur|adjoint)_ab$' --launch-skip $skip \
+        --launch-count 1 "${sections[@]}" python3 "$OLDPWD/bench/profile_floor.py" $c) >"$work/ncu-$c.txt" 2>&1 ||
+        status=1
+    echo "== $c"
+    grep -E 'pb_|Duration|Throughput|Issue Slots Busy|Executed Ipc A|Achieved Occupancy|Registers Per|Theoretical Occ|No Eligible|Warp Cycles Per Issued|Branch Efficiency|Avg. Divergent|L1/TEX Hit|L2 Hit|Executed Instructions  |Block Limit' \
+        "$work/ncu-$c.txt" | head -40
+    grep -iE 'stall|bound|bottleneck' "$work/ncu-$c.txt" | head -12
+done
+tar -C "$work" -czf "$OUT/profile.tar.gz" ncu-frames-forward.txt ncu-frames-adjoint.txt ncu-turn.txt \
+    sass-counts.txt resources.txt sass-pb_blur_ab.txt ptxas.txt
+exit $status
