@@ -4,7 +4,7 @@
 # summed adjoint, 3 degrees on 256^3), and the kernels' registers and SASS
 # instruction counts. PB_COMMIT=$(git rev-parse --short HEAD) bash bench/gpu-profile.sh
 # (carry .device .whl). What comes back through $OUT: machine.txt, profile.tar.gz (ncu-*.txt, sass-counts.txt,
-# resources.txt).
+# resources.txt); with the argument source, source.tar.gz (each SASS instruction's executed count).
 set -uo pipefail
 cd "$(dirname "$0")/.."
 OUT=${OUT:-$PWD/gpu-out}
@@ -28,6 +28,18 @@ cat "$work/resources.txt"
 sections=(--section SpeedOfLight --section ComputeWorkloadAnalysis --section MemoryWorkloadAnalysis
     --section Occupancy --section LaunchStats --section SchedulerStats --section WarpStateStats
     --section InstructionStats --section SourceCounters)
+# With "source": the executed count of each SASS instruction instead (ncu's source page).
+if [ "${1:-}" = source ]; then
+    for c in frames-forward frames-adjoint; do
+        (cd /tmp && ncu --clock-control none --kernel-name regex:'^pb_(blur|adjoint)_ab$' --launch-skip 11 \
+            --launch-count 1 --section SourceCounters --section InstructionStats --import-source no --page source \
+            --print-source sass --csv python3 "$OLDPWD/bench/profile_floor.py" $c) >"$work/source-$c.csv" 2>&1 ||
+            status=1
+        head -c 600 "$work/source-$c.csv"
+    done
+    tar -C "$work" -czf "$OUT/source.tar.gz" source-frames-forward.csv source-frames-adjoint.csv
+    exit $status
+fi
 for c in frames-forward frames-adjoint turn; do
     skip=11
     [ $c = turn ] && skip=0
