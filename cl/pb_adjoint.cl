@@ -28,7 +28,7 @@
  * weight on the upper voxel either way. */
 PB_FN float pb_texture_weight(float f, pb_kparams prm)
 {
-    return prm.weight_steps > 0.0f ? floor(f * prm.weight_steps + 0.5f) / prm.weight_steps : f;
+    return prm.weight_steps > 0.0f ? floor(f * prm.weight_steps + 0.5f) * prm.weight_step : f;
 }
 
 /* A voxel index from a floored texel coordinate, clamped so that paths far
@@ -69,6 +69,28 @@ PB_FN void pb_slice_scatter(PB_GLOBAL float *out, pb_kparams prm, int major, flo
     float c2 = (major == 0 ? z : (major == 1 ? x : y)) - 0.5f;
     float i1 = floor(c1), i2 = floor(c2);
     float f1 = pb_texture_weight(c1 - i1, prm), f2 = pb_texture_weight(c2 - i2, prm);
+    /* The usual case, the four voxels inside the grid: one bounds check for
+     * them, not one each (the scatter is bound by its instructions: ncu,
+     * docs/performance.md). The same adds at the same addresses. */
+    int j1 = pb_voxel_index(i1), j2 = pb_voxel_index(i2);
+    int dm = major == 0 ? prm.dims[0] : (major == 1 ? prm.dims[1] : prm.dims[2]);
+    int d1 = major == 0 ? prm.dims[1] : (major == 1 ? prm.dims[2] : prm.dims[0]);
+    int d2 = major == 0 ? prm.dims[2] : (major == 1 ? prm.dims[0] : prm.dims[1]);
+    if (km >= 0 && km < dm && j1 >= 0 && j1 + 1 < d1 && j2 >= 0 && j2 + 1 < d2) {
+        int plane = prm.dims[0] * prm.dims[1];
+        int s1 = major == 0 ? prm.dims[0] : (major == 1 ? plane : 1);
+        int s2 = major == 0 ? plane : (major == 1 ? 1 : prm.dims[0]);
+        int px = major == 0 ? km : (major == 1 ? j2 : j1);
+        int py = major == 0 ? j1 : (major == 1 ? km : j2);
+        int pz = major == 0 ? j2 : (major == 1 ? j1 : km);
+        int base = px + prm.dims[0] * (py + prm.dims[1] * pz);
+        for (int c = 0; c < 4; c++) {
+            float w = ((c & 1) ? f1 : 1.0f - f1) * ((c >> 1) ? f2 : 1.0f - f2), vw = v * w;
+            if (vw != 0.0f)
+                PB_ATOMIC_ADD(&out[base + ((c & 1) ? s1 : 0) + ((c >> 1) ? s2 : 0)], vw);
+        }
+        return;
+    }
     for (int c = 0; c < 4; c++) {
         int t1 = pb_voxel_index(i1) + (c & 1), t2 = pb_voxel_index(i2) + (c >> 1);
         float w = ((c & 1) ? f1 : 1.0f - f1) * ((c >> 1) ? f2 : 1.0f - f2);
@@ -102,6 +124,10 @@ PB_FN void pb_ab_segment_adjoint(PB_GLOBAL float *out, pb_kparams prm, int sweep
 /* Transpose of pb_ab_sampled (ab) or pb_rm_sampled: v spread along a-b. */
 PB_FN void pb_segment_adjoint(PB_GLOBAL float *out, pb_kparams prm, const float *a, const float *b, int ab, float v)
 {
+    if (ab && prm.steps == 1) { /* the usual case: no pieces, no division */
+        pb_ab_segment_adjoint(out, prm, ab == PB_AB_SWEEP, a, b, v);
+        return;
+    }
     if (ab) {
         float inv = 1.0f / (float)prm.steps;
         PB_FOR_PIECES(prm.steps, inv, a, b, pb_ab_segment_adjoint(out, prm, ab == PB_AB_SWEEP, pa, pb, v * inv));

@@ -368,6 +368,31 @@ PB_FN float pb_ab_segment(pb_image img, int exact, int sweep, const pb_place *pl
     float sum = 0.0f;
     PB_AB_FULL_SLICES(w, sum += q * pb_placed_slice(img, exact, pl, w.m, x, y, z));
     float wsum = (float)(w.f1 - w.f0 + 1);
+    /* The partly covered slices, at most two at each end: with one point a
+     * slice their fetches are made first and summed after, in the walk's
+     * order, so that they are in flight together rather than one texture
+     * latency each (a short path is nothing but these: ncu,
+     * docs/performance.md). */
+    int n0 = w.f0 - w.k0, n = n0 + w.k1 - w.f1;
+    if (!w.two && n >= 0 && n <= 4) {
+        float share[4], v[4];
+        for (int i = 0; i < 4; i++) {
+            share[i] = 0.0f;
+            v[i] = 0.0f;
+            if (i < n) {
+                float kf = (float)(i < n0 ? w.k0 + i : w.f1 + 1 + i - n0), mean;
+                share[i] = pb_tent_share(w.lo - kf, w.hi - kf, &mean);
+                PB_AB_POINT(w, kf, mean);
+                v[i] = pb_placed_slice(img, exact, pl, w.m, x, y, z);
+            }
+        }
+        for (int i = 0; i < 4; i++)
+            if (i < n) {
+                sum += share[i] * v[i];
+                wsum += share[i];
+            }
+        return PB_DIV(sum, wsum);
+    }
     PB_AB_PARTIAL_SLICES(w, sum += s * q * pb_placed_slice(img, exact, pl, w.m, x, y, z); wsum += s * q);
     return PB_DIV(sum, wsum);
 }
@@ -426,6 +451,8 @@ PB_FN float pb_step_fraction(int i, float inv_n)
 PB_FN float pb_ab_sampled(pb_image img, pb_kparams prm, int exact, int sweep, const pb_place *pl, const float *a,
                           const float *b)
 {
+    if (prm.steps == 1) /* the usual case: no pieces, no division */
+        return pb_ab_segment(img, exact, sweep, pl, a, b);
     float sum = 0.0f, inv = 1.0f / (float)prm.steps;
     PB_FOR_PIECES(prm.steps, inv, a, b, sum += pb_ab_segment(img, exact, sweep, pl, pa, pb));
     return sum * inv;

@@ -22,6 +22,7 @@ typedef struct pb_kparams {
     /* Adjoint: the steps the forward's texture unit rounds its weights to (256
      * on NVIDIA: 8 fractional bits), or 0 for float weights. */
     float weight_steps;
+    float weight_step; /* 1 / weight_steps, exact for the unit's power of two: a multiply, not a division */
     /* The shift-invariant kernels (cl/pb_shift.cl): 0 the forward, 1 the
      * adjoint (the walk mirrored); with mirror, accumulate adds into out. */
     int mirror;

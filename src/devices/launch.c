@@ -193,8 +193,10 @@ pb_status pb_launch_prepare(pb_context *ctx, const pb_blur_options *opt, pb_plan
     f->adjoint_prm = f->forward_prm;
     int gather = pb_kernel_table[f->adjoint].family != PB_FAMILY_SCATTER;
     f->adjoint_prm.mirror = gather;
-    if (!gather && opt->filter == PB_FILTER_HARDWARE)
+    if (!gather && opt->filter == PB_FILTER_HARDWARE && ctx->texture_weight_steps > 0.0f) {
         f->adjoint_prm.weight_steps = ctx->texture_weight_steps;
+        f->adjoint_prm.weight_step = 1.0f / ctx->texture_weight_steps;
+    }
     size_t bytes = 0;
     void *data = pb_kernel_path_pack(&f->path, opt->method, &bytes);
     if (!data)

@@ -1,0 +1,77 @@
+#!/usr/bin/env bash
+# On the GPU machine: the walk's per-voxel set-up cut (issue 33, item 2), before
+# and after in one run. OLD is an older source tree (`git archive OLD | tar -x -C
+# .base`, carried along).
+#   PB_COMMIT=... PB_OLD=... bash bench/gpu-setup.sh bench .base
+#       the package of each tree beside the machine's torch and CuPy; bench/memory_floor.py
+#       alternately old, new, old, new; Nsight Compute's counters of the new kernels on
+#       bench/profile_floor.py's cases. $OUT: machine.txt, floor-old-1.md, floor-new-1.md, ...,
+#       counters.txt
+#   PB_COMMIT=... bash bench/gpu-setup.sh tests
+#       build-gpu (CUDA and NVIDIA's OpenCL); the host, cuda and opencl suites; memcheck on
+#       test_adjoint, test_plan and test_frames, racecheck on test_adjoint. $OUT: machine.txt,
+#       tests.txt, sanitize.log
+# (carry .device .whl, and .base for bench).
+set -uo pipefail
+cd "$(dirname "$0")/.."
+OUT=${OUT:-$PWD/gpu-out}
+mkdir -p "$OUT"
+. bench/device-env.sh
+echo "old: ${PB_OLD:-unknown}" | write_machine "$OUT/machine.txt"
+status=0
+# The package of source tree $1 into folder $2, beside the machine's torch.
+package() {
+    local whl=$PWD/.whl
+    python3 -m pip install -q --no-deps --no-index --find-links "$whl" --target "$2" meson meson-python \
+        pyproject-metadata packaging nibabel >/dev/null 2>&1
+    PATH="$2/bin:$PATH" PYTHONPATH=$2 python3 -m pip install -q --no-deps --no-index --no-build-isolation \
+        -Csetup-args=-Dgpu_archs=90 -Csetup-args=-Dopencl=disabled --target "$2" "$1" >/tmp/pip.log 2>&1 ||
+        { tail -30 /tmp/pip.log; exit 1; }
+}
+case "${1:-}" in
+bench)
+    old=$(realpath "${2:?the old source tree}")
+    sites=$(mktemp -d)
+    package "$old" "$sites/old"
+    package "$PWD" "$sites/new"
+    for round in 1 2; do
+        for which in old new; do
+            echo "== $which, round $round"
+            (cd /tmp && PYTHONPATH=$sites/$which python3 "$OLDPWD/bench/memory_floor.py" \
+                --out "$OUT/floor-$which-$round.csv") >"$OUT/floor-$which-$round.md" 2>&1 || status=1
+            grep -E 'frames|degrees|worst' "$OUT/floor-$which-$round.md"
+        done
+    done
+    for c in frames-forward frames-adjoint turn; do
+        skip=11
+        [ $c = turn ] && skip=0
+        echo "== $c (new)"
+        (cd /tmp && PYTHONPATH=$sites/new ncu --clock-control none --kernel-name regex:'^pb_(blur|adjoint)_ab$' \
+            --launch-skip $skip --launch-count 1 --section SpeedOfLight --section InstructionStats \
+            --section WarpStateStats --section Occupancy python3 "$OLDPWD/bench/profile_floor.py" $c) 2>&1 |
+            grep -E 'Duration|Issue Slots Busy|Executed Instructions  |Registers Per|Achieved Occ|Warp Cycles Per Issued'
+    done | tee "$OUT/counters.txt"
+    ;;
+tests)
+    build_gpu
+    run_suites || status=1
+    {
+        for t in adjoint plan frames; do
+            echo "== memcheck test_$t cuda"
+            compute-sanitizer --tool memcheck --error-exitcode 99 --leak-check full ./build-gpu/tests/test_$t cuda |
+                grep -E 'FAIL|passed|SUMMARY|rror' | tail -5
+            [ "${PIPESTATUS[0]}" = 0 ] || { echo "memcheck test_$t: FAILED"; status=1; }
+        done
+        echo "== racecheck test_adjoint cuda"
+        compute-sanitizer --tool racecheck --error-exitcode 99 ./build-gpu/tests/test_adjoint cuda |
+            grep -E 'FAIL|passed|SUMMARY|rror' | tail -5
+        [ "${PIPESTATUS[0]}" = 0 ] || { echo "racecheck test_adjoint: FAILED"; status=1; }
+    } 2>&1 | tee "$OUT/sanitize.log"
+    grep -q FAILED "$OUT/sanitize.log" && status=1
+    ;;
+*)
+    echo "gpu-setup.sh bench OLD | tests" >&2
+    exit 2
+    ;;
+esac
+exit $status
