@@ -2,11 +2,11 @@
 # On the GPU machine: the walk's per-voxel set-up cut (issue 33, item 2), before
 # and after in one run. OLD is an older source tree (`git archive OLD | tar -x -C
 # .base`, carried along).
-#   PB_COMMIT=... PB_OLD=... bash bench/gpu-setup.sh bench .base
-#       the package of each tree beside the machine's torch and CuPy; bench/memory_floor.py
-#       alternately old, new, old, new; Nsight Compute's counters of the new kernels on
-#       bench/profile_floor.py's cases. $OUT: machine.txt, floor-old-1.md, floor-new-1.md, ...,
-#       counters.txt
+#   PB_COMMIT=... PB_OLD=... bash bench/gpu-setup.sh bench .base [.variant ...]
+#       the package of each tree (old, any variants, this one: new) beside the machine's torch and
+#       CuPy; bench/memory_floor.py by each in turn, twice; Nsight Compute's counters of the new
+#       kernels on bench/profile_floor.py's cases. $OUT: bench.tar.gz (machine.txt,
+#       floor-old-1.md, floor-new-1.md, ..., counters.txt)
 #   PB_COMMIT=... bash bench/gpu-setup.sh tests
 #       build-gpu (CUDA and NVIDIA's OpenCL); the host, cuda and opencl suites; memcheck on
 #       test_adjoint, test_plan and test_frames, racecheck on test_adjoint. $OUT: machine.txt,
@@ -30,12 +30,23 @@ package() {
 }
 case "${1:-}" in
 bench)
-    old=$(realpath "${2:?the old source tree}")
+    # The trees by name: the first "old", this one "new", any other by its folder's name.
+    shift
+    trees=("$(realpath "${1:?the old source tree}")")
+    names=(old)
+    shift
+    for t in "$@"; do
+        trees+=("$(realpath "$t")")
+        names+=("$(basename "$t" | tr -d .)")
+    done
+    trees+=("$PWD")
+    names+=(new)
     sites=$(mktemp -d)
-    package "$old" "$sites/old"
-    package "$PWD" "$sites/new"
+    for i in "${!trees[@]}"; do
+        package "${trees[$i]}" "$sites/${names[$i]}"
+    done
     for round in 1 2; do
-        for which in old new; do
+        for which in "${names[@]}"; do
             echo "== $which, round $round"
             (cd /tmp && PYTHONPATH=$sites/$which python3 "$OLDPWD/bench/memory_floor.py" \
                 --out "$OUT/floor-$which-$round.csv") >"$OUT/floor-$which-$round.md" 2>&1 || status=1
@@ -51,6 +62,7 @@ bench)
             --section WarpStateStats --section Occupancy python3 "$OLDPWD/bench/profile_floor.py" $c) 2>&1 |
             grep -E 'Duration|Issue Slots Busy|Executed Instructions  |Registers Per|Achieved Occ|Warp Cycles Per Issued'
     done | tee "$OUT/counters.txt"
+    (cd "$OUT" && tar -czf bench.tar.gz machine.txt floor-*.md floor-*.csv counters.txt && rm -f floor-* counters.txt)
     ;;
 tests)
     build_gpu

@@ -122,29 +122,24 @@ PB_FN int pb_ab_slices(const float *a, const float *b)
  * overlap of the moving voxel with the slice. *mean receives the tent-weighted
  * mean of r, where the slice is sampled. Summed piecewise over the tent's two
  * linear halves (midpoint rule plus the exact moment correction) so that short
- * pieces lose no precision to cancellation. */
+ * pieces lose no precision to cancellation. Free of branches: a half the piece
+ * misses has length l = 0 and adds zero, so the sums are those that skipping
+ * it gives, and a short path's walk is mostly this (docs/performance.md). */
 PB_FN float pb_tent_share(float r0, float r1, float *mean)
 {
-    if (r0 <= -1.0f && r1 >= 1.0f) {
-        *mean = 0.0f;
-        return 1.0f;
-    }
-    float w = 0.0f, mo = 0.0f;
     float p0 = fmax(r0, -1.0f), p1 = fmin(r1, 0.0f);
-    if (p1 > p0) {
-        float l = p1 - p0, c = 0.5f * (p0 + p1), t = 1.0f + c;
-        w += l * t;
-        mo += l * (c * t + l * l * (1.0f / 12.0f));
-    }
+    float l = fmax(p1 - p0, 0.0f), c = 0.5f * (p0 + p1), t = 1.0f + c;
+    float w = l * t, mo = l * (c * t + l * l * (1.0f / 12.0f));
     p0 = fmax(r0, 0.0f);
     p1 = fmin(r1, 1.0f);
-    if (p1 > p0) {
-        float l = p1 - p0, c = 0.5f * (p0 + p1), t = 1.0f - c;
-        w += l * t;
-        mo += l * (c * t - l * l * (1.0f / 12.0f));
-    }
-    *mean = w > 0.0f ? PB_DIV(mo, w) : 0.0f;
-    return w;
+    l = fmax(p1 - p0, 0.0f);
+    c = 0.5f * (p0 + p1);
+    t = 1.0f - c;
+    w += l * t;
+    mo += l * (c * t - l * l * (1.0f / 12.0f));
+    int full = r0 <= -1.0f && r1 >= 1.0f;
+    *mean = full || !(w > 0.0f) ? 0.0f : PB_DIV(mo, w);
+    return full ? 1.0f : w;
 }
 
 /* The tent-weighted standard deviation of r over the same piece, given its
