@@ -8,6 +8,7 @@
  * centre at i + 0.5, border addressing (zero outside the volume), x fastest.
  *
  *   PB_KERNEL          an entry point with an unmangled name
+ *   PB_KERNEL_FULL     the same, kept to five groups' registers on CUDA
  *   PB_FN              a helper, inlined
  *   PB_GLOBAL(_RO)     device memory (read-only)
  *   PB_GID_X/Y/Z       the work item's (thread's) global id
@@ -24,6 +25,7 @@
 #if defined(__OPENCL_VERSION__) /* ---- OpenCL C ---------------------------- */
 
 #define PB_KERNEL __kernel
+#define PB_KERNEL_FULL __kernel
 #define PB_FN static inline
 #define PB_GLOBAL __global
 #define PB_GLOBAL_RO __global const
@@ -73,9 +75,12 @@ static inline void pb_atomic_add(volatile __global float *p, float v)
 
 #elif defined(__CUDACC__) /* ---- CUDA ------------------------------------- */
 
-/* No __launch_bounds__: the kernels are bound by texture fetches, and capping
- * AB's registers was no faster. */
 #define PB_KERNEL extern "C" __global__
+/* AB's forward with its registers capped for five groups of 256 a
+ * multiprocessor: it is bound by issuing instructions, and at 51 registers
+ * only four fit (ncu; docs/performance.md "What bounds the set-up"). Every
+ * group in src/kernel_table.h is 256 work items. */
+#define PB_KERNEL_FULL extern "C" __global__ __launch_bounds__(256, 5)
 #define PB_FN static __device__ __forceinline__
 #define PB_GLOBAL
 #define PB_GLOBAL_RO const
