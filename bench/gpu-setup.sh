@@ -6,7 +6,7 @@
 #       the package of each tree (old, any variants, this one: new) beside the machine's torch and
 #       CuPy; bench/memory_floor.py by each in turn, twice; Nsight Compute's counters of the new
 #       kernels on bench/profile_floor.py's cases. $OUT: bench.tar.gz (machine.txt,
-#       floor-old-1.md, floor-new-1.md, ..., counters.txt)
+#       floor-old-1.md, floor-new-1.md, ..., counters.txt, pytest-gpu.txt: python/tests/test_gpu.py on the new)
 #   PB_COMMIT=... bash bench/gpu-setup.sh tests
 #       build-gpu (CUDA and NVIDIA's OpenCL); the host, cuda and opencl suites; memcheck on
 #       test_adjoint, test_plan and test_frames, racecheck on test_adjoint. $OUT: machine.txt,
@@ -58,11 +58,17 @@ bench)
         [ $c = turn ] && skip=0
         echo "== $c (new)"
         (cd /tmp && PYTHONPATH=$sites/new ncu --clock-control none --kernel-name regex:'^pb_(blur|adjoint)_ab$' \
-            --launch-skip $skip --launch-count 1 --section SpeedOfLight --section InstructionStats \
-            --section WarpStateStats --section Occupancy python3 "$OLDPWD/bench/profile_floor.py" $c) 2>&1 |
-            grep -E 'Duration|Issue Slots Busy|Executed Instructions  |Registers Per|Achieved Occ|Warp Cycles Per Issued'
+            --launch-skip $skip --launch-count 1 --section SpeedOfLight --section ComputeWorkloadAnalysis \
+            --section InstructionStats --section WarpStateStats --section Occupancy \
+            python3 "$OLDPWD/bench/profile_floor.py" $c) 2>&1 |
+            grep -E 'Duration|Throughput|Issue Slots Busy|Executed Instructions  |Registers Per|Achieved Occ|Warp Cycles Per Issued'
     done | tee "$OUT/counters.txt"
-    (cd "$OUT" && tar -czf bench.tar.gz machine.txt floor-*.md floor-*.csv counters.txt && rm -f floor-* counters.txt)
+    echo "== pytest test_gpu.py (new)"
+    (cd /tmp && PYTHONPATH=$sites/new python3 -m pytest -q -p no:cacheprovider "$OLDPWD/python/tests/test_gpu.py") \
+        >"$OUT/pytest-gpu.txt" 2>&1 || status=1
+    tail -3 "$OUT/pytest-gpu.txt"
+    (cd "$OUT" && tar -czf bench.tar.gz machine.txt floor-*.md floor-*.csv counters.txt pytest-gpu.txt &&
+        rm -f floor-* counters.txt pytest-gpu.txt)
     ;;
 tests)
     build_gpu
