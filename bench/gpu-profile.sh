@@ -4,7 +4,7 @@
 # summed adjoint, 3 degrees on 256^3), and the kernels' registers and SASS
 # instruction counts. PB_COMMIT=$(git rev-parse --short HEAD) bash bench/gpu-profile.sh
 # (carry .device .whl). What comes back through $OUT: machine.txt, profile.tar.gz (ncu-*.txt, sass-counts.txt,
-# resources.txt); with the argument source, source.tar.gz (each SASS instruction's executed count).
+# resources.txt); with the argument grids, grids.tar.gz (the turns on 256^3, 512^3, 700^3); with source, source.tar.gz (each SASS instruction's executed count).
 set -uo pipefail
 cd "$(dirname "$0")/.."
 OUT=${OUT:-$PWD/gpu-out}
@@ -28,6 +28,18 @@ cat "$work/resources.txt"
 sections=(--section SpeedOfLight --section ComputeWorkloadAnalysis --section MemoryWorkloadAnalysis
     --section Occupancy --section LaunchStats --section SchedulerStats --section WarpStateStats
     --section InstructionStats --section SourceCounters)
+# With "grids": the turns on 512^3 and 700^3, their caches' hit rates and throughputs.
+if [ "${1:-}" = grids ]; then
+    for c in turn turn512 turn700; do
+        echo "== $c"
+        (cd /tmp && ncu --clock-control none --kernel-name regex:'^pb_blur_ab$' --launch-count 1 \
+            --section SpeedOfLight --section MemoryWorkloadAnalysis --section ComputeWorkloadAnalysis \
+            --section InstructionStats python3 "$OLDPWD/bench/profile_floor.py" $c) 2>&1 | tee "$work/ncu-$c.txt" |
+            grep -E 'pb_blur|Duration|Throughput|Hit Rate|Issue Slots Busy|Executed Instructions  |Mem Busy|Max Bandwidth'
+    done
+    tar -C "$work" -czf "$OUT/grids.tar.gz" ncu-turn.txt ncu-turn512.txt ncu-turn700.txt
+    exit $status
+fi
 # With "source": the executed count of each SASS instruction instead (ncu's source page).
 if [ "${1:-}" = source ]; then
     for c in frames-forward frames-adjoint; do

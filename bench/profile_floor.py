@@ -7,6 +7,7 @@ these kernels say it.
   frames-forward   the 24 drifting frames of 220x220x110, forward (24 launches)
   frames-adjoint   the same frames' adjoint, summed (24 launches)
   turn             3 degrees about z on 256^3, forward
+  turn512, turn700 (1,1,1) voxels and 2 degrees on 512^3 and 700^3, forward
 
   profile_floor.py CASE [--calls 1]"""
 
@@ -28,7 +29,7 @@ VS = 2.0  # mm, memory_floor.py's voxels
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("case", choices=["frames-forward", "frames-adjoint", "turn"])
+    ap.add_argument("case", choices=["frames-forward", "frames-adjoint", "turn", "turn512", "turn700"])
     ap.add_argument("--calls", type=int, default=1)
     args = ap.parse_args()
     dev = torch.device("cuda:0")
@@ -36,6 +37,12 @@ def main():
         n = 256
         x = torch.rand((n, n, n), device=dev)
         op = petblur.BlurOperator((n, n, n), VS, petblur.Motion.from_axis_angle(angle=3.0), device="cuda:0")
+        call = lambda: op(x)  # noqa: E731
+    elif args.case in ("turn512", "turn700"):
+        n = int(args.case[4:])
+        x = torch.rand((n, n, n), device=dev)
+        m = petblur.Motion.from_axis_angle(translation=(VS, VS, VS), angle=2.0)
+        op = petblur.BlurOperator((n, n, n), VS, m, device="cuda:0")
         call = lambda: op(x)  # noqa: E731
     else:
         frames, shape = 24, (220, 220, 110)
