@@ -528,8 +528,9 @@ PB_API pb_status pb_options_check(const pb_blur_options *options);
  * equal pieces, where D bounds the path's curvature |p''| over the interval in
  * voxels: D = (theta^2 (r + |t|max) + 2 theta |dt|) / vmin, with theta the
  * interval's rotation angle (radians), r the largest distance of a voxel
- * centre from the rotation centre, |t|max the larger translation of its two
- * poses, |dt| the translation's change (all in mm), vmin the smallest voxel
+ * centre from the interval's rotation axis through the rotation centre,
+ * |t|max the larger translation of its two poses and |dt| the translation's
+ * change, both across that axis (all in mm), vmin the smallest voxel
  * size and E the bound. A C2 curve leaves its chord over a piece of
  * parameter length h by at most h^2 max|p''| / 8. Then runs of consecutive
  * segments (a 30 Hz log gives one per sample) are merged into one chord while

@@ -223,7 +223,7 @@ class Motion(Case):
         def err(x):
             return float(np.sum((x - truth) ** 2.0) / np.sum(truth ** 2.0))
         errs = [err(self.blur(f"ab{i}.raw", "--rotate", "40", "--filter", "exact", *bound))
-                for i, bound in enumerate((("--max-path-error", "paper"), (), ("--max-path-error", "0.05")))]
+                for i, bound in enumerate((("--max-path-error", "paper"), (), ("--max-path-error", "0.01")))]
         self.assertLess(errs[1], errs[0] / 5, errs)
         self.assertLess(errs[2], errs[1], errs)
 

@@ -329,25 +329,111 @@ static void test_progress(pb_context *ctx)
     free(sliced);
 }
 
+/* |v| across the unit axis k. */
+static double across_axis(const double v[3], const double k[3])
+{
+    double along = v[0] * k[0] + v[1] * k[1] + v[2] * k[2], s = 0.0;
+    for (int i = 0; i < 3; i++)
+        s += (v[i] - along * k[i]) * (v[i] - along * k[i]);
+    return sqrt(s);
+}
+
 /* The segments pb_path_segments must give, from the derivation in
  * include/petblur.h, computed here on its own: one tracked interval from the
- * identity to pose b about the grid's centre. */
-static size_t expected_segments(const pb_geometry *g, const pb_pose *b, double e)
+ * identity to pose b (which turns, about a unit axis k) about the grid's
+ * centre; distances across k. */
+static size_t expected_segments(const pb_geometry *g, const pb_pose *b, const double k[3], double e)
 {
     double r = 0.0, vmin = fmin(g->voxel_size[0], fmin(g->voxel_size[1], g->voxel_size[2]));
     for (int c = 0; c < 8; c++) {
-        double d2 = 0.0;
-        for (int i = 0; i < 3; i++) {
-            double half = 0.5 * ((double)g->dims[i] - 1.0) * g->voxel_size[i]; /* corner voxel centre */
-            d2 += half * half;
-        }
-        r = fmax(r, sqrt(d2));
+        double d[3];
+        for (int i = 0; i < 3; i++) /* corner voxel centre */
+            d[i] = ((c >> i & 1) ? 0.5 : -0.5) * ((double)g->dims[i] - 1.0) * g->voxel_size[i];
+        r = fmax(r, across_axis(d, k));
     }
-    const double *t = b->translation, *q = b->rotation;
-    double tn = sqrt(t[0] * t[0] + t[1] * t[1] + t[2] * t[2]);
+    const double *q = b->rotation;
+    double tn = across_axis(b->translation, k);
     double theta = 2.0 * acos(fmin(1.0, fabs(q[0])));
     double d = (theta * theta * (r + tn) + 2.0 * theta * tn) / vmin;
     return (size_t)fmax(1.0, ceil(sqrt(d / (8.0 * e))));
+}
+
+/* p turned by angle a about the unit axis k (Rodrigues), written here on its
+ * own rather than through the library's quaternions. */
+static void turn_about(const double k[3], double a, const double p[3], double o[3])
+{
+    double c = cos(a), s = sin(a), kp = k[0] * p[0] + k[1] * p[1] + k[2] * p[2];
+    double x[3] = {k[1] * p[2] - k[2] * p[1], k[2] * p[0] - k[0] * p[2], k[0] * p[1] - k[1] * p[0]};
+    for (int i = 0; i < 3; i++)
+        o[i] = p[i] * c + x[i] * s + k[i] * kp * (1.0 - c);
+}
+
+/* The bound itself: under random turns (about any axis, the scanner's among
+ * them) and translations on random grids, every corner voxel centre (where a
+ * voxel strays furthest: its distance from the chord is convex in the voxel's
+ * position) stays within E of the chords of the segments pb_path_segments
+ * gives, sampled densely in time: the true path o(s) = R(s)^T (p - c - s t) + c
+ * against the chord between the pieces' ends. */
+static void test_path_bound(void)
+{
+    double worst = 0.0;
+    int trials = 300, failures = 0;
+    for (int trial = 0; trial < trials; trial++) {
+        pb_geometry g = {{(size_t)pb_rand_range(8, 400), (size_t)pb_rand_range(8, 400), (size_t)pb_rand_range(8, 300)},
+                         {pb_rand_range(0.8, 3), pb_rand_range(0.8, 3), pb_rand_range(0.8, 3)}};
+        double k[3] = {0.0, 0.0, 1.0};
+        if (trial % 3) {
+            for (int i = 0; i < 3; i++)
+                k[i] = pb_rand_range(-1, 1);
+            double kn = sqrt(k[0] * k[0] + k[1] * k[1] + k[2] * k[2]);
+            for (int i = 0; i < 3; i++)
+                k[i] /= kn;
+        }
+        double deg = pb_rand_range(0.5, 60) * (pb_rand_uniform() < 0.5 ? -1 : 1), e = pb_rand_range(0.05, 1.0);
+        double t[3] = {pb_rand_range(-20, 20), pb_rand_range(-20, 20), pb_rand_range(-20, 20)};
+        pb_pose still = pb_test_pose(0, 0, 0, NULL, 0), moved = pb_test_pose(t[0], t[1], t[2], k, deg);
+        pb_test_motion tm;
+        pb_test_motion_init(&tm, &still, &moved);
+        pb_blur_options ab = {PB_METHOD_AB, PB_FILTER_HARDWARE, 0, 0, 0, 0, PB_PATH_BOUNDED, e,
+                              PB_AB_SAMPLING_DEFAULT};
+        size_t n = 0;
+        if (!pb_check(pb_path_segments(&g, &tm.motion, &ab, &n) == PB_OK && n >= 1, "path bound: pb_path_segments"))
+            return;
+        double vmin = fmin(g.voxel_size[0], fmin(g.voxel_size[1], g.voxel_size[2])), a = deg * 3.14159265358979323846 / 180.0;
+        double trial_worst = 0.0;
+        for (int c = 0; c < 8; c++) {
+            double p[3]; /* the corner voxel centre from the grid's centre */
+            for (int i = 0; i < 3; i++)
+                p[i] = ((c >> i & 1) ? 0.5 : -0.5) * ((double)g.dims[i] - 1.0) * g.voxel_size[i];
+            for (size_t j = 0; j < n; j++) {
+                double ends[2][3];
+                for (int end = 0; end < 2; end++) {
+                    double s = (double)(j + (size_t)end) / (double)n, w[3];
+                    for (int i = 0; i < 3; i++)
+                        w[i] = p[i] - s * t[i];
+                    turn_about(k, -s * a, w, ends[end]); /* R(s)^T w */
+                }
+                for (int step = 1; step < 64; step++) {
+                    double u = step / 64.0, s = ((double)j + u) / (double)n, w[3], o[3], d2 = 0.0;
+                    for (int i = 0; i < 3; i++)
+                        w[i] = p[i] - s * t[i];
+                    turn_about(k, -s * a, w, o);
+                    for (int i = 0; i < 3; i++) {
+                        double chord = (1.0 - u) * ends[0][i] + u * ends[1][i];
+                        d2 += (o[i] - chord) * (o[i] - chord);
+                    }
+                    trial_worst = fmax(trial_worst, sqrt(d2) / vmin / e);
+                }
+            }
+        }
+        worst = fmax(worst, trial_worst);
+        if (trial_worst > 1.0 + 1e-9 && failures++ < 5)
+            pb_check(0, "path bound: %.1f deg about (%.2f, %.2f, %.2f) on %zux%zux%zu, bound %.3f voxels, %zu "
+                        "segments: a corner strays %.3f times the bound", deg, k[0], k[1], k[2], g.dims[0], g.dims[1],
+                     g.dims[2], e, n, trial_worst);
+    }
+    pb_check(failures == 0, "path bound: %d of %d turns stray beyond it", failures, trials);
+    printf("path bound: over %d random turns the corners stray at most %.3f times the bound\n", trials, worst);
 }
 
 /* Error-bounded paths under a large rotation: RM with many samples per
@@ -359,7 +445,8 @@ static void test_path_error(pb_context *ctx)
     pb_geometry g = {{20, 18, 12}, {1.2, 1.0, 1.5}};
     size_t n = 20 * 18 * 12;
     float *in = random_volume(&g, 0), *truth = malloc(n * sizeof *truth), *out = malloc(n * sizeof *out);
-    double axis[3] = {0.2, -0.3, 1.0};
+    double axis[3] = {0.2, -0.3, 1.0}, an = sqrt(0.04 + 0.09 + 1.0);
+    double axis_unit[3] = {axis[0] / an, axis[1] / an, axis[2] / an};
     double deg = pb_rand_range(35, 50) * (pb_rand_uniform() < 0.5 ? -1 : 1);
     pb_pose still = pb_test_pose(0, 0, 0, NULL, 0);
     pb_pose moved = pb_test_pose(pb_rand_range(-3, 3), pb_rand_range(-3, 3), pb_rand_range(-2, 2), axis, deg);
@@ -374,7 +461,7 @@ static void test_path_error(pb_context *ctx)
         pb_blur_options rm = {PB_METHOD_RM, PB_FILTER_EXACT, 64, 0, 0, 0, PB_PATH_BOUNDED, e, PB_AB_SAMPLING_DEFAULT};
         size_t segments = 0;
         pb_check(pb_path_segments(&g, &tm.motion, &rm, &segments) == PB_OK, "pb_path_segments");
-        size_t want = expected_segments(&g, &moved, e);
+        size_t want = expected_segments(&g, &moved, axis_unit, e);
         pb_check(segments == want, "%.1f deg, bound %g voxels: %zu segments, the derivation gives %zu", deg, e,
                  segments, want);
         pb_test_blur(ctx, &g, in, &tm.motion, &rm, out);
@@ -557,6 +644,7 @@ int main(int argc, char **argv)
     test_conservation(ctx);
     test_analytic_translation(ctx);
     test_path_error(ctx);
+    test_path_bound();
     test_progress(ctx);
     test_track_merge(ctx);
     pb_context_destroy(ctx);

@@ -8,9 +8,13 @@
  *     o(s) - c = Q(s) v(s),  v(s) = R_A^T (p - c - t(s)),
  * where Q(s) = exp(-s theta K) turns by -s theta about the interval's axis K
  * (SLERP) and t(s) is the LERP of the translations. v is linear in s, so
- *     o'' = theta^2 K^2 Q v - 2 theta K Q v',  |o''| <= theta^2 |v| + 2 theta |dt|
- * with |v| = |p - c - t(s)| <= r + max(|t_A|, |t_B|), r the largest distance of
- * a voxel centre from c (at a corner: the grid is a box) and dt = t_B - t_A.
+ *     o'' = theta^2 K^2 Q v - 2 theta K Q v',  |o''| <= theta^2 |v_x| + 2 theta |dt_x|
+ * where _x is the part across the turn's axis: K^2 w = -w_x and Q keeps it,
+ * and R_A takes the axis to the tomograph's (that of q_B q_A^*), across which
+ * |v_x| <= r + max(|t_A_x|, |t_B_x|), r the largest distance of a voxel centre
+ * from the axis through c (at a corner: distance from a line is convex and the
+ * grid is a box), and dt = t_B - t_A. A turn about the scanner's axis leaves
+ * the grid's extent along it out of r.
  * A C2 curve leaves its chord over a piece of length h by at most
  * h^2 max|o''| / 8, so n pieces (h = 1/n) keep every voxel within E when
  * n >= sqrt(D / (8 E)), D the bound above in voxels of the smallest size (a
@@ -40,23 +44,45 @@ static double norm3(const double v[3])
     return sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
 }
 
+/* The length of v across the unit axis k (all of it where k is NULL). */
+static double across(const double v[3], const double *k)
+{
+    if (!k)
+        return norm3(v);
+    double along = v[0] * k[0] + v[1] * k[1] + v[2] * k[2];
+    double w[3] = {v[0] - along * k[0], v[1] - along * k[1], v[2] - along * k[2]};
+    return norm3(w);
+}
+
 /* The curvature bound D of one interval, in voxels (see above). */
 static double path_curvature(const pb_geometry *g, const double center[3], const pb_pose *a, const pb_pose *b)
 {
     const double *v = g->voxel_size;
     double vmin = fmin(v[0], fmin(v[1], v[2]));
+    /* The turn's axis in tomograph space: that of q_B q_A^*, SLERP's rotation
+     * R(s) = exp(s theta K) R_A (none where the poses do not turn). */
+    double qa[4], rel[4], k[3];
+    pb_quat_conj(a->rotation, qa);
+    pb_quat_mul(b->rotation, qa, rel);
+    double kn = norm3(&rel[1]);
+    const double *axis = NULL;
+    if (kn > 1e-12) {
+        for (int i = 0; i < 3; i++)
+            k[i] = rel[i + 1] / kn;
+        axis = k;
+    }
     double r = 0.0;
     for (int c = 0; c < 8; c++) {
         double d[3];
         for (int i = 0; i < 3; i++)
             d[i] = ((c >> i & 1) ? ((double)g->dims[i] - 0.5) * v[i] : 0.5 * v[i]) - center[i];
-        r = fmax(r, norm3(d));
+        r = fmax(r, across(d, axis));
     }
     double dt[3] = {b->translation[0] - a->translation[0], b->translation[1] - a->translation[1],
                     b->translation[2] - a->translation[2]};
     double theta = 2.0 * pb_quat_angle(a->rotation, b->rotation); /* the turn: twice SLERP's angle */
-    double tmax = fmax(norm3(a->translation), norm3(b->translation));
-    return (theta * theta * (r + tmax) + 2.0 * theta * norm3(dt)) / vmin;
+    double tmax = fmax(across(a->translation, axis), across(b->translation, axis));
+    return (theta * theta * (r + tmax) + 2.0 * theta * across(dt, axis)) / vmin;
 }
 
 /* The equal pieces an interval of curvature bound D needs: n = ceil(sqrt(D / (8 E))). */
