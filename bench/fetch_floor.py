@@ -3,8 +3,9 @@
 makes one trilinear fetch per slice of a voxel's path, so a blur makes
 sum over voxels of S fetches, S the slices its chord crosses along its major
 axis (bench_measure.c's count; the default path bound leaves these small turns
-one chord, and each of the 24 drifting frames one chord from its start pose
-to its end pose). Counted here exactly, voxel by voxel, on the host, and
+one chord, 700^3's too now that it measures curvature across the turn's axis,
+and each of the 24 drifting frames one chord from its start pose to its end
+pose). Counted here exactly, voxel by voxel, on the host, and
 divided by the texture unit's trilinear rate that bench/fetch_rate.cu
 measured on the H100 (488 G fetches/s, docs/performance.md "What bounds AB").
 
