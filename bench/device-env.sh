@@ -1,6 +1,9 @@
-# Sourced by bench/gpu.sh and bench/gpu-quick.sh from the repository root on
-# the GPU machine: the build environment that .device/ (bench/gpu-prepare.sh)
+# Sourced by the bench/gpu-*.sh scripts from the repository root on the GPU
+# machine: the build environment that .device/ (bench/gpu-prepare.sh)
 # brings, and meson (or its module where no meson command is installed).
+# Where a script's results go: the run tool's $OUT, or gpu-out here.
+OUT=${OUT:-$PWD/gpu-out}
+mkdir -p "$OUT"
 dev=$PWD/.device
 export CFLAGS="-I$dev/include -I$dev/include/nifti" LDFLAGS="-L$dev/lib" LIBRARY_PATH="$dev/lib"
 # The program's libraries travel in .device too, with pkg-config files that
@@ -12,20 +15,41 @@ export PATH="$PATH:/usr/local/cuda/bin"
 meson=(meson)
 command -v meson >/dev/null || meson=(python3 -m mesonbuild.mesonmain)
 
-# The package installed by pip beside the machine's torch and CuPy, from the
-# wheels in .whl/ (nothing is downloaded there), into a folder put on
-# PYTHONPATH: the machine's python3 may itself be a venv, whose packages a
-# nested venv would not see. Arguments: extra meson setup options.
+# The package of source tree TREE installed by pip into folder SITE, from the
+# wheels in .whl/ (nothing is downloaded there): a folder to put on PYTHONPATH
+# beside the machine's torch and CuPy, as the machine's python3 may itself be
+# a venv, whose packages a nested venv would not see.
+#   package_into TREE SITE [meson setup options]
+package_into() {
+    local tree=$1 site=$2
+    shift 2
+    python3 -m pip install -q --no-deps --no-index --find-links "$PWD/.whl" --target "$site" meson meson-python \
+        pyproject-metadata packaging nibabel 2>&1 | tail -3
+    local args=(-Csetup-args=-Dgpu_archs=90)
+    for a in "$@"; do args+=("-Csetup-args=$a"); done
+    PATH="$site/bin:$PATH" PYTHONPATH=$site python3 -m pip install -q --no-deps --no-index --no-build-isolation \
+        "${args[@]}" --target "$site" "$tree" >/tmp/pip.log 2>&1 || { tail -40 /tmp/pip.log; return 1; }
+}
+
+# This tree's package, put on PYTHONPATH and PATH. Arguments: extra meson setup
+# options.
 install_package() {
     local site
     site=$(mktemp -d)/site
-    python3 -m pip install -q --no-deps --no-index --find-links .whl --target "$site" meson meson-python \
-        pyproject-metadata packaging nibabel 2>&1 | tail -3
+    package_into . "$site" "$@" || return 1
     export PYTHONPATH=$site PATH="$site/bin:$PATH"
-    local args=(-Csetup-args=-Dgpu_archs=90)
-    for a in "$@"; do args+=("-Csetup-args=$a"); done
-    python3 -m pip install -q --no-deps --no-index --no-build-isolation "${args[@]}" --target "$site" . \
-        >/tmp/pip.log 2>&1 || { tail -40 /tmp/pip.log; return 1; }
+}
+
+# Nsight Compute on one launch of bench/profile_floor.py's CASE (of the
+# frames, the 12th frame's), with the ncu options given; its report on
+# standard output. Runs the package on PYTHONPATH.
+#   profile_case CASE [ncu options]
+profile_case() {
+    local c=$1 root=$PWD skip=0
+    shift
+    case $c in frames-*) skip=11 ;; esac
+    (cd /tmp && ncu --clock-control none --kernel-name regex:'^pb_(blur|adjoint)_ab$' --launch-skip $skip \
+        --launch-count 1 "$@" python3 "$root/bench/profile_floor.py" "$c") 2>&1
 }
 
 # What machine.txt says of a run: when, which commit (PB_COMMIT: the copy
@@ -69,4 +93,25 @@ run_suites() {
     done
     cat "$OUT/tests.txt"
     return $failed
+}
+
+# compute-sanitizer on build-gpu's tests on CUDA: memcheck (leaks too) on each
+# test named before "--", racecheck on each after it, e.g.
+#   sanitize_tests test_adjoint test_plan -- test_adjoint
+# Their summaries go to $OUT/sanitize.log; returns 1 when one failed.
+sanitize_tests() {
+    local tool=memcheck t
+    {
+        for t in "$@"; do
+            [ "$t" = -- ] && { tool=racecheck; continue; }
+            echo "== $tool $t cuda"
+            if [ $tool = memcheck ]; then
+                compute-sanitizer --tool memcheck --error-exitcode 99 --leak-check full ./build-gpu/tests/$t cuda
+            else
+                compute-sanitizer --tool racecheck --error-exitcode 99 ./build-gpu/tests/$t cuda
+            fi | grep -E 'FAIL|passed|SUMMARY|rror' | tail -5
+            [ "${PIPESTATUS[0]}" = 0 ] || echo "$tool $t: FAILED"
+        done
+    } 2>&1 | tee "$OUT/sanitize.log"
+    ! grep -q FAILED "$OUT/sanitize.log"
 }

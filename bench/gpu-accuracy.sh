@@ -10,8 +10,6 @@
 #   PB_COMMIT=$(git rev-parse --short HEAD) bash bench/gpu-accuracy.sh   (carry .device .whl)
 set -uo pipefail
 cd "$(dirname "$0")/.."
-OUT=${OUT:-$PWD/gpu-out}
-mkdir -p "$OUT"
 . bench/device-env.sh
 write_machine "$OUT/machine.txt" </dev/null
 install_package -Dopencl=disabled || exit 1

@@ -12,8 +12,6 @@
 set -uo pipefail
 cd "$(dirname "$0")/.."
 OLD=$1
-OUT=${OUT:-$PWD/gpu-out}
-mkdir -p "$OUT"
 . bench/device-env.sh
 build() { # source dir, build dir
     (cd "$1" && "${meson[@]}" setup "$2" --buildtype=release -Dcuda=enabled -Dopencl=enabled >/dev/null &&

@@ -17,8 +17,6 @@
 #   PB_COMMIT=$(git rev-parse --short HEAD) bash bench/gpu-distributed.sh   (carry .device .whl .study)
 set -uo pipefail
 cd "$(dirname "$0")/.."
-OUT=${OUT:-$PWD/gpu-out}
-mkdir -p "$OUT"
 . bench/device-env.sh
 gpus=$(nvidia-smi -L | wc -l)
 write_machine "$OUT/machine.txt" <<<"gpus: $gpus; NCCL_NVLS_ENABLE=${NCCL_NVLS_ENABLE-unset}"

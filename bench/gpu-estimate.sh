@@ -12,8 +12,6 @@
 # SEED=N draws the validation's series from seed N (default: a fresh one).
 set -uo pipefail
 cd "$(dirname "$0")/.."
-OUT=${OUT:-$PWD/gpu-out}
-mkdir -p "$OUT"
 . bench/device-env.sh
 write_machine "$OUT/machine.txt" </dev/null
 status=0

@@ -7,8 +7,6 @@
 # (carry .device .whl)
 set -uo pipefail
 cd "$(dirname "$0")/.."
-OUT=${OUT:-$PWD/gpu-out}
-mkdir -p "$OUT"
 . bench/device-env.sh
 write_machine "$OUT/machine.txt" </dev/null
 install_package -Dopencl=disabled || exit 1

@@ -7,8 +7,6 @@
 # resources.txt); with the argument grids, grids.tar.gz (the turns on 256^3, 512^3, 700^3); with source, source.tar.gz (each SASS instruction's executed count).
 set -uo pipefail
 cd "$(dirname "$0")/.."
-OUT=${OUT:-$PWD/gpu-out}
-mkdir -p "$OUT"
 . bench/device-env.sh
 write_machine "$OUT/machine.txt" </dev/null
 work=$(mktemp -d)
@@ -32,9 +30,8 @@ sections=(--section SpeedOfLight --section ComputeWorkloadAnalysis --section Mem
 if [ "${1:-}" = grids ]; then
     for c in turn turn512 turn700; do
         echo "== $c"
-        (cd /tmp && ncu --clock-control none --kernel-name regex:'^pb_blur_ab$' --launch-count 1 \
-            --section SpeedOfLight --section MemoryWorkloadAnalysis --section ComputeWorkloadAnalysis \
-            --section InstructionStats python3 "$OLDPWD/bench/profile_floor.py" $c) 2>&1 | tee "$work/ncu-$c.txt" |
+        profile_case $c --section SpeedOfLight --section MemoryWorkloadAnalysis --section ComputeWorkloadAnalysis \
+            --section InstructionStats | tee "$work/ncu-$c.txt" |
             grep -E 'pb_blur|Duration|Throughput|Hit Rate|Issue Slots Busy|Executed Instructions  |Mem Busy|Max Bandwidth'
     done
     tar -C "$work" -czf "$OUT/grids.tar.gz" ncu-turn.txt ncu-turn512.txt ncu-turn700.txt
@@ -43,21 +40,15 @@ fi
 # With "source": the executed count of each SASS instruction instead (ncu's source page).
 if [ "${1:-}" = source ]; then
     for c in frames-forward frames-adjoint; do
-        (cd /tmp && ncu --clock-control none --kernel-name regex:'^pb_(blur|adjoint)_ab$' --launch-skip 11 \
-            --launch-count 1 --section SourceCounters --section InstructionStats --import-source no --page source \
-            --print-source sass --csv python3 "$OLDPWD/bench/profile_floor.py" $c) >"$work/source-$c.csv" 2>&1 ||
-            status=1
+        profile_case $c --section SourceCounters --section InstructionStats --import-source no --page source \
+            --print-source sass --csv >"$work/source-$c.csv" || status=1
         head -c 600 "$work/source-$c.csv"
     done
     tar -C "$work" -czf "$OUT/source.tar.gz" source-frames-forward.csv source-frames-adjoint.csv
     exit $status
 fi
 for c in frames-forward frames-adjoint turn; do
-    skip=11
-    [ $c = turn ] && skip=0
-    (cd /tmp && ncu --clock-control none --kernel-name regex:'^pb_(blur|adjoint)_ab$' --launch-skip $skip \
-        --launch-count 1 "${sections[@]}" python3 "$OLDPWD/bench/profile_floor.py" $c) >"$work/ncu-$c.txt" 2>&1 ||
-        status=1
+    profile_case $c "${sections[@]}" >"$work/ncu-$c.txt" || status=1
     echo "== $c"
     grep -E 'pb_|Duration|Throughput|Issue Slots Busy|Executed Ipc A|Achieved Occupancy|Registers Per|Theoretical Occ|No Eligible|Warp Cycles Per Issued|Branch Efficiency|Avg. Divergent|L1/TEX Hit|L2 Hit|Executed Instructions  |Block Limit' \
         "$work/ncu-$c.txt" | head -40

@@ -6,7 +6,6 @@
 #   bash bench/gpu-quick.sh [PHANTOMS [SCENARIOS]]   (tables under $OUT/quick)
 set -uo pipefail
 cd "$(dirname "$0")/.."
-OUT=${OUT:-$PWD/gpu-out}
 . bench/device-env.sh
 "${meson[@]}" setup build-quick --buildtype=release -Dcuda=enabled -Dopencl=disabled >/dev/null 2>&1 &&
     ninja -C build-quick >/dev/null 2>&1 || { echo "gpu-quick: the build failed" >&2; exit 1; }

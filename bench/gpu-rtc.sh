@@ -15,8 +15,6 @@
 # (carry .device .whl)
 set -uo pipefail
 cd "$(dirname "$0")/.."
-OUT=${OUT:-$PWD/gpu-out}
-mkdir -p "$OUT"
 LOG=$(mktemp -d)
 . bench/device-env.sh
 write_machine "$OUT/machine.txt" </dev/null

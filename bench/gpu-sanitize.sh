@@ -5,8 +5,6 @@
 # device tool's ten minutes.   bash bench/gpu-sanitize.sh   (the log under $OUT)
 set -uo pipefail
 cd "$(dirname "$0")/.."
-OUT=${OUT:-$PWD/gpu-out}
-mkdir -p "$OUT"
 . bench/device-env.sh
 {
     status=0

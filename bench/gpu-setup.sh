@@ -14,20 +14,9 @@
 # (carry .device .whl, and .base for bench).
 set -uo pipefail
 cd "$(dirname "$0")/.."
-OUT=${OUT:-$PWD/gpu-out}
-mkdir -p "$OUT"
 . bench/device-env.sh
 echo "old: ${PB_OLD:-unknown}" | write_machine "$OUT/machine.txt"
 status=0
-# The package of source tree $1 into folder $2, beside the machine's torch.
-package() {
-    local whl=$PWD/.whl
-    python3 -m pip install -q --no-deps --no-index --find-links "$whl" --target "$2" meson meson-python \
-        pyproject-metadata packaging nibabel >/dev/null 2>&1
-    PATH="$2/bin:$PATH" PYTHONPATH=$2 python3 -m pip install -q --no-deps --no-index --no-build-isolation \
-        -Csetup-args=-Dgpu_archs=90 -Csetup-args=-Dopencl=disabled --target "$2" "$1" >/tmp/pip.log 2>&1 ||
-        { tail -30 /tmp/pip.log; exit 1; }
-}
 case "${1:-}" in
 bench)
     # The trees by name: the first "old", this one "new", any other by its folder's name.
@@ -43,7 +32,7 @@ bench)
     names+=(new)
     sites=$(mktemp -d)
     for i in "${!trees[@]}"; do
-        package "${trees[$i]}" "$sites/${names[$i]}"
+        package_into "${trees[$i]}" "$sites/${names[$i]}" -Dopencl=disabled || exit 1
     done
     for round in 1 2; do
         for which in "${names[@]}"; do
@@ -54,13 +43,9 @@ bench)
         done
     done
     for c in frames-forward frames-adjoint turn; do
-        skip=11
-        [ $c = turn ] && skip=0
         echo "== $c (new)"
-        (cd /tmp && PYTHONPATH=$sites/new ncu --clock-control none --kernel-name regex:'^pb_(blur|adjoint)_ab$' \
-            --launch-skip $skip --launch-count 1 --section SpeedOfLight --section ComputeWorkloadAnalysis \
-            --section InstructionStats --section WarpStateStats --section Occupancy \
-            python3 "$OLDPWD/bench/profile_floor.py" $c) 2>&1 |
+        PYTHONPATH=$sites/new profile_case $c --section SpeedOfLight --section ComputeWorkloadAnalysis \
+            --section InstructionStats --section WarpStateStats --section Occupancy |
             grep -E 'Duration|Throughput|Issue Slots Busy|Executed Instructions  |Registers Per|Achieved Occ|Warp Cycles Per Issued'
     done | tee "$OUT/counters.txt"
     echo "== pytest test_gpu.py (new)"
@@ -73,19 +58,7 @@ bench)
 tests)
     build_gpu
     run_suites || status=1
-    {
-        for t in adjoint plan frames; do
-            echo "== memcheck test_$t cuda"
-            compute-sanitizer --tool memcheck --error-exitcode 99 --leak-check full ./build-gpu/tests/test_$t cuda |
-                grep -E 'FAIL|passed|SUMMARY|rror' | tail -5
-            [ "${PIPESTATUS[0]}" = 0 ] || { echo "memcheck test_$t: FAILED"; status=1; }
-        done
-        echo "== racecheck test_adjoint cuda"
-        compute-sanitizer --tool racecheck --error-exitcode 99 ./build-gpu/tests/test_adjoint cuda |
-            grep -E 'FAIL|passed|SUMMARY|rror' | tail -5
-        [ "${PIPESTATUS[0]}" = 0 ] || { echo "racecheck test_adjoint: FAILED"; status=1; }
-    } 2>&1 | tee "$OUT/sanitize.log"
-    grep -q FAILED "$OUT/sanitize.log" && status=1
+    sanitize_tests test_adjoint test_plan test_frames -- test_adjoint || status=1
     ;;
 *)
     echo "gpu-setup.sh bench OLD | tests" >&2

@@ -11,8 +11,6 @@
 #   PB_COMMIT=$(git rev-parse --short HEAD) bash bench/gpu-study.sh   (carry .device .whl .study)
 set -uo pipefail
 cd "$(dirname "$0")/.."
-OUT=${OUT:-$PWD/gpu-out}
-mkdir -p "$OUT"
 . bench/device-env.sh
 write_machine "$OUT/machine.txt" </dev/null
 "${meson[@]}" setup build-gpu --buildtype=release -Dcuda=enabled -Dopencl=disabled -Dgpu_archs=90 >/tmp/setup.log 2>&1 &&

@@ -13,8 +13,6 @@
 # machine.txt.
 set -uo pipefail
 cd "$(dirname "$0")/.."
-OUT=${OUT:-$PWD/gpu-out}
-mkdir -p "$OUT"
 . bench/device-env.sh
 write_machine "$OUT/machine.txt" </dev/null
 status=0

@@ -15,8 +15,6 @@
 # floor.md/.csv, floor-walk.md/.csv, python_overhead.txt, paper-taps/-walk.csv/.txt.
 set -uo pipefail
 cd "$(dirname "$0")/.."
-OUT=${OUT:-$PWD/gpu-out}
-mkdir -p "$OUT"
 . bench/device-env.sh
 write_machine "$OUT/machine.txt" </dev/null
 status=0
@@ -24,19 +22,7 @@ case "${1:-}" in
 tests)
     build_gpu
     run_suites || status=1
-    {
-        for t in shift_taps plan; do
-            echo "== memcheck test_$t cuda"
-            compute-sanitizer --tool memcheck --error-exitcode 99 --leak-check full ./build-gpu/tests/test_$t cuda |
-                grep -E 'FAIL|passed|SUMMARY|rror'
-            [ "${PIPESTATUS[0]}" = 0 ] || { echo "memcheck test_$t: FAILED"; status=1; }
-        done
-        echo "== racecheck test_shift_taps cuda"
-        compute-sanitizer --tool racecheck --error-exitcode 99 ./build-gpu/tests/test_shift_taps cuda |
-            grep -E 'FAIL|passed|SUMMARY|rror' | head -20
-        [ "${PIPESTATUS[0]}" = 0 ] || { echo "racecheck test_shift_taps: FAILED"; status=1; }
-    } 2>&1 | tee "$OUT/sanitize.log"
-    grep -q FAILED "$OUT/sanitize.log" && status=1
+    sanitize_tests test_shift_taps test_plan -- test_shift_taps || status=1
     ;;
 bench)
     build_gpu

@@ -10,8 +10,6 @@
 # torch-nvrtc.md.   PB_COMMIT=... bash bench/gpu-wheel.sh   (carry .whl)
 set -uo pipefail
 cd "$(dirname "$0")/.."
-OUT=${OUT:-$PWD/gpu-out}
-mkdir -p "$OUT"
 . bench/device-env.sh
 site=$(mktemp -d)/site
 python3 -m pip install -q --no-deps --no-index --target "$site" .whl/petblur-*-py3-none-manylinux*.whl \

@@ -6,8 +6,6 @@
 # the wheel).   bash bench/gpu-world.sh   (the log under $OUT)
 set -uo pipefail
 cd "$(dirname "$0")/.."
-OUT=${OUT:-$PWD/gpu-out}
-mkdir -p "$OUT"
 . bench/device-env.sh
 python3 -m pip install --no-deps --no-index -q .whl/nibabel-*.whl 2>&1 | tail -1
 {

@@ -19,8 +19,6 @@
 #   PB_COMMIT=$(git rev-parse --short HEAD) bash bench/gpu.sh
 set -uo pipefail
 cd "$(dirname "$0")/.."
-OUT=${OUT:-$PWD/gpu-out}
-mkdir -p "$OUT"
 LOG=$(mktemp -d)/logs
 mkdir -p "$LOG"
 . bench/device-env.sh
