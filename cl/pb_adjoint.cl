@@ -117,14 +117,14 @@ PB_FN void pb_ab_segment_adjoint(PB_GLOBAL float *out, pb_kparams prm, int sweep
     float wsum = (float)(w.f1 - w.f0 + 1);
     /* With one point a slice, the at most four partly covered slices' shares
      * once, kept for the scatter (pb_ab_segment's order). */
-    int n0 = w.f0 - w.k0, n = n0 + w.k1 - w.f1;
+    int n = pb_ab_partial_count(&w);
     if (!w.two && n >= 0 && n <= 4) {
         float share[4], mean[4];
         for (int i = 0; i < 4; i++) {
             share[i] = 0.0f;
             mean[i] = 0.0f;
             if (i < n) {
-                float kf = (float)(i < n0 ? w.k0 + i : w.f1 + 1 + i - n0);
+                float kf = pb_ab_partial_slice(&w, i);
                 share[i] = pb_tent_share(w.lo - kf, w.hi - kf, &mean[i]);
                 wsum += share[i];
             }
@@ -133,7 +133,7 @@ PB_FN void pb_ab_segment_adjoint(PB_GLOBAL float *out, pb_kparams prm, int sweep
         PB_AB_FULL_SLICES(w, pb_slice_scatter(out, prm, w.m, x, y, z, q * vw));
         for (int i = 0; i < 4; i++)
             if (i < n) {
-                float kf = (float)(i < n0 ? w.k0 + i : w.f1 + 1 + i - n0);
+                float kf = pb_ab_partial_slice(&w, i);
                 PB_AB_POINT(w, kf, mean[i]);
                 pb_slice_scatter(out, prm, w.m, x, y, z, share[i] * vw);
             }

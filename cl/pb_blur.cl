@@ -237,6 +237,21 @@ PB_FN int pb_ab_walk_init(const float *a, const float *b, int sweep, pb_ab_walk 
     return pb_ab_walk_init_axis(a, b, pb_major_axis(b[0] - a[0], b[1] - a[1], b[2] - a[2]), sweep, w);
 }
 
+/* The partly covered slices, k0 .. f0 - 1 and f1 + 1 .. k1 (at most two at
+ * each end): how many, and the i-th of them in the walk's order, for the
+ * loops of a fixed four that keep a short path's slices in registers
+ * (pb_ab_segment, pb_ab_segment_adjoint). */
+PB_FN int pb_ab_partial_count(const pb_ab_walk *w)
+{
+    return w->f0 - w->k0 + w->k1 - w->f1;
+}
+
+PB_FN float pb_ab_partial_slice(const pb_ab_walk *w, int i)
+{
+    int n0 = w->f0 - w->k0;
+    return (float)(i < n0 ? w->k0 + i : w->f1 + 1 + i - n0);
+}
+
 /* The next partly covered slice after k: the loop over k0 .. f0 - 1 and
  * f1 + 1 .. k1 steps over the fully covered ones. */
 PB_FN int pb_ab_next_partial(const pb_ab_walk *w, int k)
@@ -368,14 +383,14 @@ PB_FN float pb_ab_segment(pb_image img, int exact, int sweep, const pb_place *pl
      * order, so that they are in flight together rather than one texture
      * latency each (a short path is nothing but these: ncu,
      * docs/performance.md). */
-    int n0 = w.f0 - w.k0, n = n0 + w.k1 - w.f1;
+    int n = pb_ab_partial_count(&w);
     if (!w.two && n >= 0 && n <= 4) {
         float share[4], v[4];
         for (int i = 0; i < 4; i++) {
             share[i] = 0.0f;
             v[i] = 0.0f;
             if (i < n) {
-                float kf = (float)(i < n0 ? w.k0 + i : w.f1 + 1 + i - n0), mean;
+                float kf = pb_ab_partial_slice(&w, i), mean;
                 share[i] = pb_tent_share(w.lo - kf, w.hi - kf, &mean);
                 PB_AB_POINT(w, kf, mean);
                 v[i] = pb_placed_slice(img, exact, pl, w.m, x, y, z);

@@ -80,7 +80,12 @@ static inline void pb_atomic_add(volatile __global float *p, float v)
  * multiprocessor: it is bound by issuing instructions, and at 51 registers
  * only four fit (ncu; docs/performance.md "What bounds the set-up"). Every
  * group in src/kernel_table.h is 256 work items. */
+#if defined(__CUDA_ARCH__) && __CUDA_ARCH__ < 800
+/* Turing holds 1024 threads a multiprocessor: five groups never fit there. */
+#define PB_KERNEL_FULL extern "C" __global__
+#else
 #define PB_KERNEL_FULL extern "C" __global__ __launch_bounds__(256, 5)
+#endif
 #define PB_FN static __device__ __forceinline__
 #define PB_GLOBAL
 #define PB_GLOBAL_RO const
