@@ -158,8 +158,11 @@ PB_API pb_status pb_context_last_kernel_ms(const pb_context *ctx, double *ms);
 
 typedef struct pb_geometry {
     size_t dims[3];        /* nx, ny, nz; any size, not only cubes */
-    double voxel_size[3];  /* mm */
+    double voxel_size[3];  /* mm, from PB_MIN_VOXEL_MM to PB_MAX_VOXEL_MM */
 } pb_geometry;
+/* Voxel sizes petblur takes: a micrometre to ten metres. */
+#define PB_MIN_VOXEL_MM 1e-3
+#define PB_MAX_VOXEL_MM 1e4
 
 typedef struct pb_volume pb_volume;
 
@@ -506,7 +509,7 @@ typedef struct pb_blur_options {
      * voxels of the smallest voxel size. pb_path_segments says how many
      * segments a motion gets. */
     pb_path_model path;
-    double max_path_error;   /* PB_PATH_BOUNDED only: the bound, finite, in (0, 1000] voxels; else 0 */
+    double max_path_error;   /* PB_PATH_BOUNDED only: the bound, in [PB_MIN_MAX_PATH_ERROR, 1000] voxels; else 0 */
     pb_ab_sampling ab_sampling; /* AB only */
 } pb_blur_options;
 
@@ -521,6 +524,11 @@ PB_API pb_status pb_options_check(const pb_blur_options *options);
  * 1.3x the time of 0.25 on the paper's motions (docs/methods.md,
  * "Error-bounded paths", gives the runs). */
 #define PB_DEFAULT_MAX_PATH_ERROR 0.1
+/* The tightest bound: a 1/1000 voxel is below what the walk resolves (the
+ * texture unit's weights step by 1/256 voxel, float32 positions by 1e-5 of a
+ * 512-voxel grid), while every halving of the bound costs 1.4x the segments,
+ * so a tighter one would only buy time without bound (docs/cli.md). */
+#define PB_MIN_MAX_PATH_ERROR 0.001
 
 /* The segments AB and RM walk for a motion on a grid under options (NULL:
  * defaults): each tracked interval inside the frame gets

@@ -28,6 +28,21 @@ static void test_volumes(pb_context *ctx)
     expect(pb_volume_create(ctx, &neg, &v), PB_ERR_BAD_VOXEL_SIZE, "negative voxel", pb_last_error(ctx), "voxel size y");
     pb_geometry nan_vox = {{8, 8, 8}, {(double)NAN, 1, 1}};
     expect(pb_volume_create(ctx, &nan_vox, &v), PB_ERR_BAD_VOXEL_SIZE, "NaN voxel", pb_last_error(ctx), NULL);
+    /* Sizes beyond a micrometre and ten metres, quoted as given; the ends are taken. */
+    const double sizes[] = {1e-30, 9.99e-4, 10000.000001, 1e12, 1e300};
+    const char *quoted[] = {"is 1e-30 mm", "is 0.000999 mm", "is 10000.000001 mm", "is 1000000000000 mm",
+                            "is 1e+300 mm"};
+    for (int i = 0; i < 5; i++) {
+        pb_geometry odd = {{8, 8, 8}, {2, 2, 2}};
+        odd.voxel_size[i % 3] = sizes[i];
+        expect(pb_volume_create(ctx, &odd, &v), PB_ERR_BAD_VOXEL_SIZE, "voxel size out of range",
+               pb_last_error(ctx), quoted[i]);
+        pb_check(strstr(pb_last_error(ctx), "from 0.001 to 10000 mm") != NULL, "the range: %s", pb_last_error(ctx));
+    }
+    pb_geometry ends = {{2, 2, 2}, {0.001, 10000, 1}};
+    pb_check(pb_volume_create(ctx, &ends, &v) == PB_OK, "0.001 and 10000 mm taken: %s", pb_last_error(ctx));
+    pb_volume_destroy(v);
+    v = NULL;
     pb_geometry huge = {{4096, 4096, 4096}, {1, 1, 1}};
     expect(pb_volume_create(ctx, &huge, &v), PB_ERR_VOLUME_TOO_LARGE, "2^36 voxels", pb_last_error(ctx), "2^31");
     expect(pb_volume_create(ctx, NULL, &v), PB_ERR_INVALID_ARGUMENT, "NULL geometry", pb_last_error(ctx), NULL);
@@ -195,17 +210,21 @@ static void test_motions(pb_context *ctx)
            "max_path_error");
     bound.max_path_error = 1e-12;
     expect(pb_blur(ctx, in, &mu, &bound, out), PB_ERR_INVALID_ARGUMENT, "tiny max_path_error", pb_last_error(ctx),
-           "raise it");
+           "max_path_error 1e-12: give a bound in voxels from 0.001 to 1000");
     pb_geometry g6 = {{6, 6, 6}, {1, 1, 1}};
     size_t segments = 0;
     expect(pb_path_segments(&g6, &mu, &bound, &segments), PB_ERR_INVALID_ARGUMENT, "pb_path_segments, tiny bound",
-           pb_last_error(NULL), "raise it");
+           pb_last_error(NULL), "from 0.001");
+    /* The value as given, not %g's six digits of it. */
+    bound.max_path_error = 1000.0000001;
+    expect(pb_options_check(&bound), PB_ERR_INVALID_ARGUMENT, "a bound just above 1000", pb_last_error(NULL),
+           "max_path_error 1000.0000001:");
     expect(pb_path_segments(&g6, NULL, NULL, &segments), PB_ERR_INVALID_ARGUMENT, "pb_path_segments, NULL motion",
            pb_last_error(NULL), "NULL");
     /* Sign-coded bounds of old are refused, not read as a model. */
     bound.max_path_error = -1.0;
     expect(pb_path_segments(&g6, &mu, &bound, &segments), PB_ERR_INVALID_ARGUMENT, "negative bound",
-           pb_last_error(NULL), "above 0");
+           pb_last_error(NULL), "from 0.001");
     bound.path = PB_PATH_DEFAULT;
     expect(pb_path_segments(&g6, &mu, &bound, &segments), PB_ERR_INVALID_ARGUMENT, "a bound without its model",
            pb_last_error(NULL), "PB_PATH_BOUNDED");

@@ -125,7 +125,8 @@ def test_a_wrong_binding_layout_is_caught():
 
 def test_options_checked_by_the_library():
     m = petblur.Motion.from_axis_angle(angle=10)
-    for bad, words in ((-1, "above 0"), (float("nan"), "above 0"), (5000, "at most 1000"), ("fine", "bound in voxels")):
+    for bad, words in ((-1, "from 0.001"), (float("nan"), "from 0.001"), (5000, "to 1000"), (1e-9, "1e-09: .*from 0.001"),
+                       ("fine", "bound in voxels")):
         with pytest.raises(petblur.ArgumentError, match=words):
             petblur.BlurOperator((8, 8, 8), 1.0, m, max_path_error=bad, device="host")
     with pytest.raises(petblur.ArgumentError, match="steps 200000 is above 100000"):

@@ -1,6 +1,7 @@
 /* Blur options: every range stated once (pb_options_check), the defaults
  * filled in, and how many segments a path of these options needs. */
 #include "backend.h"
+#include "numbers.h"
 
 static pb_status check_options(pb_context *ctx, const pb_blur_options *o)
 {
@@ -19,13 +20,16 @@ static pb_status check_options(pb_context *ctx, const pb_blur_options *o)
     if ((unsigned)o->path > PB_PATH_TRACKED)
         return pb_error(ctx, PB_ERR_INVALID_ARGUMENT, "unknown path model %d; use PB_PATH_DEFAULT, PB_PATH_BOUNDED "
                         "or PB_PATH_TRACKED", (int)o->path);
-    if (o->path == PB_PATH_BOUNDED && !(o->max_path_error > 0.0 && o->max_path_error <= 1000.0))
-        return pb_error(ctx, PB_ERR_INVALID_ARGUMENT, "max_path_error %g: give a bound in voxels above 0 and at most "
-                        "1000 (e.g. 0.25), or the paper's polyline (one segment per tracked interval)",
-                        o->max_path_error);
+    if (o->path == PB_PATH_BOUNDED &&
+        !(o->max_path_error >= PB_MIN_MAX_PATH_ERROR && o->max_path_error <= 1000.0))
+        return pb_error(ctx, PB_ERR_INVALID_ARGUMENT, "max_path_error %s: give a bound in voxels from %s to 1000 "
+                        "(default %s; below %s voxels the walk's own rounding decides the path), or the paper's "
+                        "polyline (one segment per tracked interval)", PB_NUM(o->max_path_error),
+                        PB_NUM(PB_MIN_MAX_PATH_ERROR), PB_NUM(PB_DEFAULT_MAX_PATH_ERROR),
+                        PB_NUM(PB_MIN_MAX_PATH_ERROR));
     if (o->path != PB_PATH_BOUNDED && o->max_path_error != 0.0)
-        return pb_error(ctx, PB_ERR_INVALID_ARGUMENT, "max_path_error %g is set, but the path model is %s; set the "
-                        "model to PB_PATH_BOUNDED for a bound", o->max_path_error,
+        return pb_error(ctx, PB_ERR_INVALID_ARGUMENT, "max_path_error %s is set, but the path model is %s; set the "
+                        "model to PB_PATH_BOUNDED for a bound", PB_NUM(o->max_path_error),
                         o->path == PB_PATH_TRACKED ? "the paper's polyline" : "the default bound");
     if ((unsigned)o->ab_sampling > PB_AB_SAMPLING_SWEEP)
         return pb_error(ctx, PB_ERR_INVALID_ARGUMENT, "unknown AB sampling %d; use PB_AB_SAMPLING_DEFAULT, SLICE or "

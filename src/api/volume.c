@@ -5,6 +5,7 @@
 #include <stdlib.h>
 
 #include "backend.h"
+#include "numbers.h"
 
 pb_status pb_geometry_check(pb_context *ctx, const pb_geometry *g, size_t *count)
 {
@@ -12,9 +13,13 @@ pb_status pb_geometry_check(pb_context *ctx, const pb_geometry *g, size_t *count
         if (g->dims[i] == 0)
             return pb_error(ctx, PB_ERR_ZERO_DIMS, "volume dimension %c is 0 (dims %zu x %zu x %zu); every dimension needs at least one voxel",
                             "xyz"[i], g->dims[0], g->dims[1], g->dims[2]);
-        if (!isfinite(g->voxel_size[i]) || !(g->voxel_size[i] > 0.0))
-            return pb_error(ctx, PB_ERR_BAD_VOXEL_SIZE, "voxel size %c is %g mm; give a positive, finite size in mm",
-                            "xyz"[i], g->voxel_size[i]);
+        /* From a micrometre to ten metres: outside, sizes are a unit's
+         * mistake (metres read as mm, a header's garbage), and the sums over
+         * voxels in mm (centres, motions, filter widths) leave double's
+         * useful range or take without bound. */
+        if (!(g->voxel_size[i] >= PB_MIN_VOXEL_MM && g->voxel_size[i] <= PB_MAX_VOXEL_MM))
+            return pb_error(ctx, PB_ERR_BAD_VOXEL_SIZE, "voxel size %c is %s mm; give a size from %s to %s mm",
+                            "xyz"[i], PB_NUM(g->voxel_size[i]), PB_NUM(PB_MIN_VOXEL_MM), PB_NUM(PB_MAX_VOXEL_MM));
     }
     /* Kernels index voxels with 32-bit ints and bytes with size_t. */
     if (g->dims[0] > INT32_MAX / g->dims[1] || g->dims[0] * g->dims[1] > INT32_MAX / g->dims[2])

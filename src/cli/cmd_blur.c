@@ -238,9 +238,10 @@ static int run(const pbc_args *args, const char *in_path, const char *out_path, 
     }
     size_t frames = bounds ? nb - 1 : 1;
     const char *label = method_names[opt.method];
+    size_t out_frames = bounds && !sum ? frames : 1;
     if (!(rc = read_input(args, in_path, bounds != NULL, &in)) && !(rc = bounds ? check_frames(in_path, &in, frames) : 0) &&
-        !(rc = pbc_motion_place(&motion, &in, in_path)) && !(rc = pbc_motion_check_frames(&motion, bounds, frames, 1)) &&
-        !(rc = pbc_image_alloc_frames(&out, in.dims, in.voxel_size, bounds && !sum ? frames : 1)) &&
+        !(rc = pbc_image_check_output(out_path, in.dims, out_frames)) && !(rc = pbc_motion_place(&motion, &in, in_path)) && !(rc = pbc_motion_check_frames(&motion, bounds, frames, 1)) &&
+        !(rc = pbc_image_alloc_frames(&out, in.dims, in.voxel_size, out_frames)) &&
         !(rc = pbc_open_device(pbc_arg(&command, args, "--device"), &ctx))) {
         out.orientation = in.orientation;
         if (bounds) {

@@ -92,7 +92,8 @@ int pbc_cmd_phantom(int argc, char **argv)
     size_t dims[3];
     double vs[3];
     pbc_image img = {0};
-    if ((rc = geometry(&args, kind, dims, vs)) || (rc = pbc_image_alloc(&img, dims, vs)))
+    if ((rc = geometry(&args, kind, dims, vs)) || (rc = pbc_image_check_output(out, dims, 1)) ||
+        (rc = pbc_image_alloc(&img, dims, vs)))
         return rc;
     if (!(rc = pbc_phantom_make(kind, dims, vs, img.data))) {
         place(&img);

@@ -77,6 +77,8 @@ int pbc_nifti_orientation(const char *path, const pbc_nifti_facts *facts, double
 
 int pbc_nifti_read(const char *path, const pbc_read_hints *hints, pbc_image *img);
 int pbc_nifti_write(const char *path, const pbc_image *img);
+/* Whether NIfTI-1 holds the grid and frames: 0 or an exit status. */
+int pbc_nifti_check_output(const char *path, const size_t dims[3], size_t frames);
 int pbc_interfile_read(const char *path, const pbc_read_hints *hints, pbc_image *img);
 int pbc_interfile_write(const char *path, const pbc_image *img);
 /* The data file that writing the header path (OUT.hv) also writes (OUT.v). */

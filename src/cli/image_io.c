@@ -222,16 +222,24 @@ int pbc_image_read(const char *path, const pbc_read_hints *hints, pbc_image *img
     return rc;
 }
 
-int pbc_image_write(const char *path, const pbc_image *img)
+int pbc_image_check_output(const char *path, const size_t dims[3], size_t frames)
 {
     const image_format *format = find_format(path);
     if (!format)
         return unknown_extension(path);
-    int rc = pbc_image_check_grid(path, img->dims);
-    if (!rc && img->frames > 1 && format->write != pbc_nifti_write)
+    int rc = pbc_image_check_grid(path, dims);
+    if (!rc && frames > 1 && format->write != pbc_nifti_write)
         rc = pbc_fail(PBC_EXIT_USAGE, "%s: %zu frames make a 4-D image, which only NIfTI holds; name the output "
-                      ".nii or .nii.gz", path, img->frames);
-    return rc ? rc : format->write(path, img);
+                      ".nii or .nii.gz", path, frames);
+    if (!rc && format->write == pbc_nifti_write)
+        rc = pbc_nifti_check_output(path, dims, frames);
+    return rc;
+}
+
+int pbc_image_write(const char *path, const pbc_image *img)
+{
+    int rc = pbc_image_check_output(path, img->dims, pbc_image_frame_count(img));
+    return rc ? rc : find_format(path)->write(path, img);
 }
 
 size_t pbc_sample_size(pbc_sample_type type)

@@ -55,6 +55,11 @@ int pbc_image_format_known(const char *path);
  * fix it" (img->data is then NULL). */
 int pbc_image_read(const char *path, const pbc_read_hints *hints, pbc_image *img);
 
+/* Whether path's format can hold a grid of dims with frames frames (1: a 3-D
+ * volume), so that a command refuses before any work what pbc_image_write
+ * would refuse after it. Returns 0 or an exit status after the message. */
+int pbc_image_check_output(const char *path, const size_t dims[3], size_t frames);
+
 /* Writes img as float32 in the format of path's extension, atomically (OUT.hv
  * also writes its data file OUT.v, before the header). Returns 0 or an exit
  * status after printing the message. */

@@ -238,17 +238,27 @@ static int write_file(int fd, int compress, const nifti_1_header *hdr, const pbc
     return e;
 }
 
+int pbc_nifti_check_output(const char *path, const size_t dims[3], size_t frames)
+{
+    const size_t *d = dims;
+    if (d[0] > NIFTI1_MAX_DIM || d[1] > NIFTI1_MAX_DIM || d[2] > NIFTI1_MAX_DIM)
+        return pbc_fail(PBC_EXIT_USAGE, "%s: NIfTI-1 holds at most %d entries along an axis and the grid is "
+                        "%zux%zux%zu; write .hv or .raw instead", path, NIFTI1_MAX_DIM, d[0], d[1], d[2]);
+    if (frames > NIFTI1_MAX_DIM)
+        return pbc_fail(PBC_EXIT_USAGE, "%s: NIfTI-1 holds at most %d frames and there are %zu; blur the frames in "
+                        "parts of at most %d (--frames with fewer boundaries), one output each", path,
+                        NIFTI1_MAX_DIM, frames, NIFTI1_MAX_DIM);
+    return 0;
+}
+
 int pbc_nifti_write(const char *path, const pbc_image *img)
 {
-    const size_t *d = img->dims;
-    if (d[0] > NIFTI1_MAX_DIM || d[1] > NIFTI1_MAX_DIM || d[2] > NIFTI1_MAX_DIM || img->frames > NIFTI1_MAX_DIM)
-        return pbc_fail(PBC_EXIT_USAGE, "%s: NIfTI-1 holds at most %d entries along an axis and the grid is "
-                        "%zux%zux%zu (%zu frames); write .hv or .raw instead", path, NIFTI1_MAX_DIM, d[0], d[1], d[2],
-                        pbc_image_frame_count(img));
+    int rc = pbc_nifti_check_output(path, img->dims, pbc_image_frame_count(img));
+    if (rc)
+        return rc;
     quiet_library();
     nifti_1_header hdr;
-    int rc = make_header(path, img, &hdr);
-    if (rc)
+    if ((rc = make_header(path, img, &hdr)))
         return rc;
     pbc_temp t;
     rc = pbc_temp_create(&t, path);
