@@ -74,6 +74,13 @@ typedef enum pb_status {
 /* A short fixed description of a status ("out of memory"). Never NULL. */
 PB_API const char *pb_status_string(pb_status status);
 
+/* A double as the shortest decimal that reads back to the same double ("0.1",
+ * "10000", "1000.0000001", "1e+300"), in the C locale whatever the program's:
+ * how petblur writes every number in its files and quotes values in its
+ * messages. out holds PB_NUMBER_TEXT_SIZE bytes; returns out. */
+#define PB_NUMBER_TEXT_SIZE 32
+PB_API const char *pb_number_text(double v, char *out);
+
 typedef enum pb_backend {
     PB_BACKEND_AUTO = 0, /* CUDA if a GPU is there, else an OpenCL GPU, else OpenCL on the CPU */
     PB_BACKEND_HOST = 1, /* plain C, double precision: the reference, slow */

@@ -22,6 +22,12 @@ enum {
  * write `return pbc_fail(PBC_EXIT_USAGE, "...")`. */
 int pbc_fail(int code, const char *fmt, ...) PBC_PRINTF(2, 3);
 
+/* pb_number_text as a value, for messages and files: PBC_NUM(v) is the text,
+ * alive until the end of the full expression that holds it. */
+typedef struct pbc_number { char text[32]; } pbc_number;
+pbc_number pbc_number_of(double v);
+#define PBC_NUM(v) (pbc_number_of(v).text)
+
 /* 1 when stderr is a terminal and not --quiet: progress lines are shown then. */
 extern int pbc_show_progress;
 

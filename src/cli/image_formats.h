@@ -66,6 +66,8 @@ typedef struct pbc_nifti_facts {
     /* The orientation as written: nifti_clib turns NaN and infinity into 0. */
     int qform_code, sform_code;
     double qfac, quatern[3], qoffset[3], srow[12];
+    /* The scaling as written: nifti_clib turns NaN and infinity into 0. */
+    double scl_slope, scl_inter;
 } pbc_nifti_facts;
 int pbc_nifti_check_header(const char *path, pbc_nifti_facts *facts);
 /* The grid's place in the world as nibabel chooses it (image_nifti_orientation.c):

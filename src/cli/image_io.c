@@ -282,7 +282,7 @@ static double sample_value(pbc_sample_type type, const unsigned char *p)
 }
 
 /* Converting an out-of-range double to float is undefined in C; an infinity
- * is what check_finite then reports. */
+ * is what check_finite then reports for a value that was one. */
 static float to_float(double v)
 {
     if (fabs(v) <= (double)FLT_MAX)
@@ -290,7 +290,10 @@ static float to_float(double v)
     return v > 0 ? INFINITY : -INFINITY;
 }
 
-static void convert(const pbc_sample_format *format, unsigned char *buf, size_t count, float *out)
+/* Converts count samples at buf into out; returns the index of the first
+ * value that is finite but beyond float32's range (its value in *beyond), or
+ * count when there is none. */
+static size_t convert(const pbc_sample_format *format, unsigned char *buf, size_t count, float *out, double *beyond)
 {
     size_t size = pbc_sample_size(format->type);
     if (format->swap)
@@ -299,12 +302,33 @@ static void convert(const pbc_sample_format *format, unsigned char *buf, size_t 
     /* Copied, not computed: 1 * -0.0 + 0 would turn -0.0 into +0.0. */
     if (format->type == PBC_SAMPLE_F32 && unscaled) {
         memcpy(out, buf, count * size);
-        return;
+        return count;
     }
     for (size_t i = 0; i < count; i++) {
         double v = sample_value(format->type, buf + i * size);
-        out[i] = to_float(unscaled ? v : format->slope * v + format->inter);
+        v = unscaled ? v : format->slope * v + format->inter;
+        if (isfinite(v) && fabs(v) > (double)FLT_MAX) {
+            *beyond = v;
+            return i;
+        }
+        out[i] = to_float(v);
     }
+    return count;
+}
+
+/* petblur blurs in float32: a value beyond its range would become an
+ * infinity, which is not what the file holds. */
+static int beyond_float32(const char *data_path, const pbc_image *img, size_t index, double v)
+{
+    size_t nx = img->dims[0], ny = img->dims[1], fv = pbc_image_frame_voxels(img), frame = index / fv;
+    char where[48] = "";
+    if (img->frames > 1)
+        snprintf(where, sizeof where, " of frame %zu", frame);
+    index %= fv;
+    return pbc_fail(PBC_EXIT_USAGE, "%s: the value %s at x,y,z = %zu,%zu,%zu%s is beyond float32's range (magnitude "
+                    "at most 3.4e38), in which petblur blurs; rescale the image first (its scl_slope or rescale "
+                    "slope, or the data's unit)", data_path, PBC_NUM(v), index % nx, index / nx % ny,
+                    index / nx / ny, where);
 }
 
 int pbc_samples_read(const char *data_path, pbc_read_fn read, void *source, const pbc_sample_format *format,
@@ -318,7 +342,10 @@ int pbc_samples_read(const char *data_path, pbc_read_fn read, void *source, cons
         if (got != want * size)
             return pbc_fail(PBC_EXIT_USAGE, "%s: the data ends after %zu of its %zu bytes; the file is truncated or "
                             "damaged; copy or write it again", data_path, done * size + got, total * size);
-        convert(format, buf, want, img->data + done);
+        double v = 0.0;
+        size_t bad = convert(format, buf, want, img->data + done, &v);
+        if (bad < want)
+            return beyond_float32(data_path, img, done + bad, v);
         done += want;
     }
     return 0;

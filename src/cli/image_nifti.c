@@ -53,6 +53,20 @@ static int check_layout(const char *path, const nifti_image *nim, int allow_fram
     return 0;
 }
 
+/* nibabel's rule: a slope of 0 or not finite means no scaling, and a finite
+ * slope with an intercept that is not is refused, since no value can be made
+ * of it (nifti_clib would read the intercept as 0). */
+static int check_scaling(const char *path, const pbc_nifti_facts *facts)
+{
+    double slope = facts->scl_slope, inter = facts->scl_inter;
+    if (slope == 0.0 || !isfinite(slope) || isfinite(inter))
+        return 0;
+    return pbc_fail(PBC_EXIT_USAGE, "%s: scl_inter is %s while scl_slope is %s, so no voxel has a value; set "
+                    "scl_inter to 0 in the header (e.g. nibabel: img.header['scl_inter'] = 0) or scl_slope to 0 "
+                    "for unscaled data", path, isnan(inter) ? "NaN" : inter > 0 ? "infinite" : "-infinite",
+                    PBC_NUM(slope));
+}
+
 static int sample_format(const char *path, const nifti_image *nim, pbc_sample_format *format)
 {
     static const struct { int datatype; pbc_sample_type type; } types[] = {
@@ -132,6 +146,8 @@ int pbc_nifti_read(const char *path, const pbc_read_hints *hints, pbc_image *img
     pbc_sample_format format;
     double *pixdim = facts.pixdim;
     rc = check_layout(path, nim, hints && hints->allow_frames);
+    if (!rc)
+        rc = check_scaling(path, &facts);
     if (!rc)
         rc = sample_format(path, nim, &format);
     if (!rc) {

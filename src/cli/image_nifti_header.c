@@ -215,5 +215,7 @@ int pbc_nifti_check_header(const char *path, pbc_nifti_facts *facts)
         facts->pixdim[i] = real_at(b, v2, swap, v2 ? offsetof(nifti_2_header, pixdim) : offsetof(nifti_1_header, pixdim),
                                    i + 1);
     orientation_facts(b, v2, swap, facts);
+    facts->scl_slope = real_at(b, v2, swap, FIELD(scl_slope), 0);
+    facts->scl_inter = real_at(b, v2, swap, FIELD(scl_inter), 0);
     return 0;
 }

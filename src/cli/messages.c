@@ -3,6 +3,7 @@
 #include <stdio.h>
 
 #include "cli.h"
+#include "petblur.h"
 
 int pbc_show_progress;
 
@@ -15,4 +16,11 @@ int pbc_fail(int code, const char *fmt, ...)
     fputc('\n', stderr);
     va_end(ap);
     return code;
+}
+
+pbc_number pbc_number_of(double v)
+{
+    pbc_number n;
+    pb_number_text(v, n.text);
+    return n;
 }

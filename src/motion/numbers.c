@@ -81,20 +81,26 @@ pb_number_kind pb_number_scan(const char *token, double *v)
     return PB_NUMBER_OK;
 }
 
-pb_number_text pb_number_text_of(double v)
+const char *pb_number_text(double v, char *out)
 {
-    pb_number_text t;
     pthread_once(&c_numeric_once, make_c_numeric);
     locale_t previous = c_numeric ? uselocale(c_numeric) : (locale_t)0;
     /* Whole parts up to 17 digits in full: "10000", not "1e+04". */
     int first = isfinite(v) && fabs(v) >= 1.0 && fabs(v) < 1e17 ? (int)floor(log10(fabs(v))) + 1 : 1;
     for (int digits = first; digits <= 17; digits++) {
-        snprintf(t.text, sizeof t.text, "%.*g", digits, v);
-        if (!isfinite(v) || strtod(t.text, NULL) == v)
+        snprintf(out, PB_NUMBER_TEXT_SIZE, "%.*g", digits, v);
+        if (!isfinite(v) || strtod(out, NULL) == v)
             break;
     }
     if (previous)
         uselocale(previous);
+    return out;
+}
+
+pb_number_text_buf pb_number_text_of(double v)
+{
+    pb_number_text_buf t;
+    pb_number_text(v, t.text);
     return t;
 }
 

@@ -38,13 +38,10 @@ pb_status pb_number_read(const char *path, size_t line, const char *what, const 
 pb_status pb_whole_read(const char *path, size_t line, const char *what, const char *token, int sign, long long max,
                         long long *v);
 
-/* A double as the shortest decimal that reads back to the same double
- * ("0.1", "1000.0000001", "1e+300"), in the C locale: messages quote a value
- * as the caller gave it, where %g's six digits can make 1000.0000001 read as
- * the 1000 it was refused for exceeding. PB_NUM(v) is the text, alive until
- * the end of the full expression that holds it (a message's arguments). */
-typedef struct pb_number_text { char text[32]; } pb_number_text;
-pb_number_text pb_number_text_of(double v);
+/* pb_number_text as a value: PB_NUM(v) is the text, alive until the end of
+ * the full expression that holds it (a message's arguments). */
+typedef struct pb_number_text_buf { char text[PB_NUMBER_TEXT_SIZE]; } pb_number_text_buf;
+pb_number_text_buf pb_number_text_of(double v);
 #define PB_NUM(v) (pb_number_text_of(v).text)
 
 #endif
