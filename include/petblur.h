@@ -140,6 +140,12 @@ PB_API void pb_context_destroy(pb_context *ctx);
 PB_API pb_backend pb_context_backend(const pb_context *ctx);
 PB_API pb_status pb_context_device_info(const pb_context *ctx, pb_device_info *info);
 
+/* What the context did that works but that its user may want to change, one
+ * line each: "NVRTC: the cache folder ... cannot be used (...); set
+ * PETBLUR_CACHE_DIR ..." where compiled kernels could not be kept. "" when
+ * there is nothing. The library never prints: a front end shows these. */
+PB_API const char *pb_context_notes(const pb_context *ctx);
+
 /* The message of a failure. pb_last_error(NULL): the calling thread's last
  * failed call, whatever it was given (every failing call writes it, so it
  * always matches the status just returned on this thread). pb_last_error(ctx):

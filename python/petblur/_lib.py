@@ -13,6 +13,7 @@ import ctypes
 import os
 import sys
 import threading
+import warnings
 
 from .errors import error_class
 
@@ -144,6 +145,7 @@ _P = ctypes.POINTER
 _signatures = {
     "pb_status_string": (ctypes.c_char_p, [_int]),
     "pb_last_error": (ctypes.c_char_p, [_vp]),
+    "pb_context_notes": (ctypes.c_char_p, [_vp]),
     "pb_device_parse": (_int, [ctypes.c_char_p, _P(_int), _P(_int)]),
     "pb_backend_compiled": (_int, [_int]),
     "pb_device_count": (_int, [_int, _P(_int)]),
@@ -280,6 +282,9 @@ class Context:
         info = DeviceInfo()
         check(lib.pb_context_device_info(handle, ctypes.byref(info)), handle)
         self.name = info.name.decode("utf-8", "replace")
+        notes = lib.pb_context_notes(handle).decode("utf-8", "replace")
+        if notes:  # the library never prints: what works but could be better
+            warnings.warn(f"petblur: {notes}", UserWarning, stacklevel=3)
         native = Native()
         check(lib.pb_context_native(handle, ctypes.byref(native)), handle)
         self.index = native.device_index if self.backend == BACKEND_CUDA else index

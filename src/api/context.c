@@ -122,6 +122,11 @@ pb_status pb_context_device_info(const pb_context *ctx, pb_device_info *info)
     return PB_OK;
 }
 
+const char *pb_context_notes(const pb_context *ctx)
+{
+    return ctx ? ctx->notes : "";
+}
+
 /* The last call's times; for a call queued on a caller's stream, once it is
  * done. */
 static pb_status last_times(const pb_context *ctx, double *kernel_ms, double *input_ms)

@@ -23,6 +23,9 @@ int pbc_open_device(const char *spec, pb_context **ctx)
         return pbc_fail(st == PB_ERR_INVALID_ARGUMENT ? PBC_EXIT_USAGE : PBC_EXIT_RUNTIME,
                         "cannot open device '%s': %s: %s", spec ? spec : "auto", pb_status_string(st),
                         pb_last_error(NULL));
+    const char *notes = pb_context_notes(*ctx);
+    if (notes[0] && !getenv("PETBLUR_QUIET"))
+        fprintf(stderr, "petblur: note: %s\n", notes);
     return 0;
 }
 

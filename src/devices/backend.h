@@ -149,6 +149,7 @@ struct pb_context {
     pb_progress_fn progress;
     void *progress_user;
     char last_error[PB_ERROR_TEXT_MAX];
+    char notes[1600]; /* pb_context_notes */
     /* Volumes and plans keep their context alive: pb_context_destroy before
      * them only marks it, and the last of them releases it, so bindings whose
      * garbage collector frees in any order stay safe. */

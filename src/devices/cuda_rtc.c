@@ -5,15 +5,12 @@
  * loaded through the runtime's library API (cudaLibraryLoadData), whose
  * kernel handles cudaLaunchKernel takes as it takes nvcc's.
  *
- * The cache: one file per (source, options, NVRTC version, driver version,
- * architecture), under PETBLUR_CACHE_DIR, else $XDG_CACHE_HOME/petblur, else
- * ~/.cache/petblur. A file holds a header (magic, key, size, checksum) and
- * the image; one that does not match is compiled again and replaced. Files
- * are written to a temporary name and renamed, so processes compiling at
- * once each leave a whole file and readers never see a partial one. A folder
- * that cannot be written leaves the image in memory, said once on stderr. */
+ * The cache (kernel_cache.c) keeps one file per source, options, NVRTC
+ * version, driver version and architecture; why it was not used is the
+ * context's note (pb_context_notes). */
 #include "cuda_impl.h"
 #include "dl_resolve.h"
+#include "kernel_cache.h"
 
 #include <dlfcn.h>
 #include <errno.h>
@@ -96,114 +93,6 @@ int pb_cuda_rtc_available(char *why, size_t n)
     return 0;
 }
 
-/* ---- the cache ----------------------------------------------------------- */
-
-static uint64_t fnv1a(uint64_t h, const void *data, size_t n)
-{
-    const unsigned char *p = data;
-    for (size_t i = 0; i < n; i++)
-        h = (h ^ p[i]) * 0x100000001b3ull;
-    return h;
-}
-
-#define FNV_START 0xcbf29ce484222325ull
-
-typedef struct cache_header {
-    char magic[8];
-    uint64_t key, size, sum;
-} cache_header;
-
-static const char cache_magic[8] = {'P', 'B', 'K', 'C', 'U', 'B', '1', '\n'};
-
-/* The cache folder, made where missing: 0, or errno's reason it cannot be
- * used (dir then holds the path tried, or is empty where none could be
- * formed). */
-static int cache_dir(char *dir, size_t n)
-{
-    const char *env = getenv("PETBLUR_CACHE_DIR"), *xdg = getenv("XDG_CACHE_HOME"), *home = getenv("HOME");
-    int w;
-    dir[0] = '\0';
-    if (env && *env)
-        w = snprintf(dir, n, "%s", env);
-    else if (xdg && *xdg)
-        w = snprintf(dir, n, "%s/petblur", xdg);
-    else if (home && *home)
-        w = snprintf(dir, n, "%s/.cache/petblur", home);
-    else
-        return ENOENT;
-    if (w <= 0 || (size_t)w >= n) {
-        dir[0] = '\0';
-        return ENAMETOOLONG;
-    }
-    /* mkdir -p */
-    for (char *p = dir + 1; *p; p++) {
-        if (*p != '/')
-            continue;
-        *p = '\0';
-        int bad = mkdir(dir, 0755) != 0 && errno != EEXIST;
-        *p = '/';
-        if (bad)
-            return errno;
-    }
-    if (mkdir(dir, 0755) != 0 && errno != EEXIST)
-        return errno;
-    struct stat s;
-    return stat(dir, &s) == 0 && S_ISDIR(s.st_mode) ? 0 : ENOTDIR;
-}
-
-static void *cache_read(const char *path, uint64_t key, size_t *size)
-{
-    FILE *f = fopen(path, "rb");
-    if (!f)
-        return NULL;
-    cache_header h;
-    void *image = NULL;
-    if (fread(&h, sizeof h, 1, f) == 1 && memcmp(h.magic, cache_magic, sizeof cache_magic) == 0 && h.key == key &&
-        h.size > 0 && h.size < ((uint64_t)1 << 30) && (image = malloc((size_t)h.size)) != NULL) {
-        if (fread(image, 1, (size_t)h.size, f) != (size_t)h.size || fgetc(f) != EOF ||
-            fnv1a(FNV_START, image, (size_t)h.size) != h.sum) {
-            free(image);
-            image = NULL;
-        }
-    }
-    fclose(f);
-    if (image)
-        *size = (size_t)h.size;
-    return image;
-}
-
-/* 0 on success, else errno's reason. */
-static int cache_write(const char *dir, const char *path, uint64_t key, const void *image, size_t size)
-{
-    char tmp[4200];
-    if (snprintf(tmp, sizeof tmp, "%s/.tmp-XXXXXX", dir) >= (int)sizeof tmp)
-        return ENAMETOOLONG;
-    int fd = mkstemp(tmp);
-    if (fd < 0)
-        return errno;
-    cache_header h;
-    memcpy(h.magic, cache_magic, sizeof h.magic);
-    h.key = key;
-    h.size = size;
-    h.sum = fnv1a(FNV_START, image, size);
-    FILE *f = fdopen(fd, "wb");
-    int err = 0;
-    if (!f) {
-        err = errno;
-        close(fd);
-    } else {
-        if (fwrite(&h, sizeof h, 1, f) != 1 || fwrite(image, 1, size, f) != size)
-            err = errno ? errno : EIO;
-        if (fclose(f) != 0 && !err)
-            err = errno ? errno : EIO;
-    }
-    if (!err && rename(tmp, path) != 0)
-        err = errno;
-    if (err)
-        unlink(tmp);
-    return err;
-}
-
 /* ---- compiling and loading ----------------------------------------------- */
 
 static pb_status compile(pb_context *ctx, const char *options[], int n_options, int cubin, void **image,
@@ -274,23 +163,6 @@ static pb_status target(pb_context *ctx, int device, int *arch, int *cubin)
     return PB_OK;
 }
 
-static pthread_mutex_t notice_lock = PTHREAD_MUTEX_INITIALIZER;
-static int noticed;
-
-/* Said once a process: the kernels were compiled, but the cache folder
- * could not keep them. */
-static void notice_unwritable(const char *dir, int err)
-{
-    pthread_mutex_lock(&notice_lock);
-    if (!noticed && !getenv("PETBLUR_QUIET"))
-        fprintf(stderr,
-                "petblur: the CUDA kernels compiled by NVRTC stay in memory: the cache folder %s cannot be written "
-                "(%s); set PETBLUR_CACHE_DIR to a writable folder to keep them between runs\n",
-                dir, strerror(err));
-    noticed = 1;
-    pthread_mutex_unlock(&notice_lock);
-}
-
 pb_status pb_cuda_rtc_load(pb_context *ctx, int device, cu_kernels *k)
 {
     char why[768];
@@ -307,32 +179,29 @@ pb_status pb_cuda_rtc_load(pb_context *ctx, int device, cu_kernels *k)
     const char *options[] = {opt_arch, "-std=c++17"};
     int driver = 0;
     cudaDriverGetVersion(&driver);
-    uint64_t key = fnv1a(FNV_START, pb_cuda_rtc_source, strlen(pb_cuda_rtc_source));
+    uint64_t key = pb_kernel_cache_hash(PB_KERNEL_CACHE_HASH_START, pb_cuda_rtc_source, strlen(pb_cuda_rtc_source));
     for (size_t i = 0; i < sizeof options / sizeof *options; i++)
-        key = fnv1a(key, options[i], strlen(options[i]) + 1);
+        key = pb_kernel_cache_hash(key, options[i], strlen(options[i]) + 1);
     int versions[3] = {nv_major, nv_minor, driver};
-    key = fnv1a(key, versions, sizeof versions);
+    key = pb_kernel_cache_hash(key, versions, sizeof versions);
 
-    char dir[4096], path[4200];
-    int dir_err = cache_dir(dir, sizeof dir), have_dir = dir_err == 0;
-    if (have_dir)
-        snprintf(path, sizeof path, "%s/cuda-%s%d-%016llx.bin", dir, cubin ? "sm" : "compute", arch,
-                 (unsigned long long)key);
+    char name[32];
+    snprintf(name, sizeof name, "cuda-%s%d", cubin ? "sm" : "compute", arch);
+    pb_kernel_cache cache;
+    pb_kernel_cache_open(&cache, name, key);
     cudaError_t e = cudaSuccess;
     /* A cached image the runtime refuses is compiled again, once. */
     for (int attempt = 0; attempt < 2; attempt++) {
         void *image = NULL;
         size_t size = 0;
         int cached = 0;
-        if (have_dir && attempt == 0)
-            cached = (image = cache_read(path, key, &size)) != NULL;
+        if (attempt == 0)
+            cached = (image = pb_kernel_cache_load(&cache, &size)) != NULL;
         if (!image) {
             st = compile(ctx, options, 2, cubin, &image, &size);
             if (st != PB_OK)
                 return st;
-            int err = have_dir ? cache_write(dir, path, key, image, size) : dir_err;
-            if (err)
-                notice_unwritable(dir[0] ? dir : "(none: set HOME or PETBLUR_CACHE_DIR)", err);
+            pb_kernel_cache_store(&cache, image, size);
         }
         e = cudaLibraryLoadData(&k->library, image, NULL, NULL, 0, NULL, NULL, 0);
         free(image);
@@ -353,5 +222,7 @@ pb_status pb_cuda_rtc_load(pb_context *ctx, int device, cu_kernels *k)
     if ((e = cudaLibraryGetKernel(&h, k->library, "pb_cuda_layout_kernel")) != cudaSuccess)
         return pb_cu_fail(ctx, PB_ERR_BUILD, "pb_cuda_layout_kernel", e);
     k->layout = (const void *)h;
+    if (cache.note[0])
+        snprintf(ctx->notes, sizeof ctx->notes, "NVRTC: %s", cache.note);
     return PB_OK;
 }
