@@ -183,6 +183,39 @@ class ValuesAsGiven(Case):
             self.assertEqual(quoted, value, err)
 
 
+class NewUsersTrial(Case):
+    def test_motion_takes_the_4d_image_the_docs_show(self):
+        frames = int(RNG.integers(3, 9))
+        shape = (*(int(n) for n in RNG.integers(6, 12, 3)), frames)
+        nib.save(nib.Nifti1Image(RNG.uniform(0, 1, shape).astype(np.float32), np.diag([2.0, 2.0, 2.5, 1.0])),
+                 self.p("dynamic.nii.gz"))
+        length = float(RNG.uniform(5, 60))
+        with open(self.p("pet.json"), "w") as f:
+            json.dump({"FrameTimesStart": [i * length for i in range(frames)], "FrameDuration": [length] * frames}, f)
+        with open(self.p("track.csv"), "w") as f:
+            f.write(f"t,tx,ty,tz,qw,qx,qy,qz\n0,0,0,0,1,0,0,0\n{frames * length},1,2,-1,0.9998,0,0.02,0\n")
+        out, _, _ = run("motion", self.p("track.csv"), "-i", self.p("dynamic.nii.gz"), "--frames-from",
+                        self.p("pet.json"), "--png", self.p("motion.png"))
+        rows = [line for line in out.splitlines() if line.split() and line.split()[0].isdigit()]
+        self.assertEqual(len(rows), frames, out)
+        self.assertTrue(os.path.getsize(self.p("motion.png")) > 0)
+
+    def test_render_shows_the_frames_asked_for(self):
+        frames = int(RNG.integers(8, 30))
+        nib.save(nib.Nifti1Image(RNG.uniform(0, 1, (10, 10, 8, frames)).astype(np.float32), np.eye(4)),
+                 self.p("sub-01_ses-baseline_task-rest_pet.nii.gz"))
+        heights = {}
+        for rows in (4, int(RNG.integers(5, 13))):
+            run("render", self.p("sub-01_ses-baseline_task-rest_pet.nii.gz"), "-o", self.p(f"r{rows}.png"),
+                "--rows", rows)
+            with open(self.p(f"r{rows}.png"), "rb") as f:
+                heights[rows] = struct.unpack(">II", f.read(24)[16:24])[1]
+        (a, ha), (b, hb) = sorted(heights.items())
+        self.assertGreater(hb, ha * (b - 0.5) / a, heights)
+        run("render", self.p("sub-01_ses-baseline_task-rest_pet.nii.gz"), "-o", self.p("x.png"), "--rows", "13",
+            expect=2)
+
+
 if __name__ == "__main__":
     PETBLUR = os.path.abspath(sys.argv.pop(1))
     unittest.main(verbosity=2)

@@ -39,6 +39,9 @@ static int grid_image(const pbc_args *args, pbc_image *img)
     const char *in = pbc_arg(&command, args, "--input");
     if (rc)
         return rc;
+    /* Only the grid and its placement are used: a dynamic series' 4-D image
+     * (the one --frames blurs) gives them as well as a 3-D one. */
+    hints.allow_frames = 1;
     if (in)
         return pbc_image_read(in, &hints, img);
     if (!pbc_arg(&command, args, "--dims"))

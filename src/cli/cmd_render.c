@@ -13,12 +13,15 @@ static const pbc_option options[] = {
     {"--dims", NULL, "NX,NY,NZ", "grid of a .raw input"},
     {"--voxel-size", NULL, "DX,DY,DZ", "voxel size in mm of a .raw input (default 1,1,1)"},
     {"--title", NULL, "TEXT", "the row's title (default the file's name)"},
+    {"--rows", NULL, "N", "of a 4-D image, how many frames to show, evenly spread, first and last among them "
+                          "(default 4, at most 12)"},
 };
 
 static const pbc_command command = {
     "render", "IN -o PICTURE.png [options]",
     "Draws the axial, coronal and sagittal central slices of a volume side by side, with a colour bar; of a\n"
-    "4-D NIfTI (petblur blur --frames writes one), up to four frames, first and last among them, a row each.",
+    "4-D NIfTI (petblur blur --frames writes one), up to --rows frames, first and last among them, a row each,\n"
+    "each labelled with its frame's number before the title.",
     options, (int)(sizeof options / sizeof options[0]), 1, 1,
     "example:\n  petblur render blurred.nii.gz -o blurred.png"};
 
@@ -56,13 +59,22 @@ int pbc_cmd_render(int argc, char **argv)
         const char *slash = strrchr(in, '/');
         title = slash ? slash + 1 : in;
     }
-    /* A 4-D image: up to four frames, the first and last among them, one row each. */
-    size_t frames = pbc_image_frame_count(&img), shown = frames < 4 ? frames : 4;
-    pbc_picture_row rows[4];
-    char labels[4][64];
+    /* A 4-D image: up to --rows frames, the first and last among them, one
+     * row each; the frame's number leads its label, so that a long title is
+     * what gets shortened. */
+    size_t frames = pbc_image_frame_count(&img);
+    unsigned long rows_wanted = 4;
+    const char *v = pbc_arg(&command, &args, "--rows");
+    if (v && (rc = pbc_parse_count("--rows", v, 1, 12, &rows_wanted))) {
+        pbc_image_free(&img);
+        return rc;
+    }
+    size_t shown = frames < rows_wanted ? frames : rows_wanted;
+    pbc_picture_row rows[12];
+    char labels[12][96];
     for (size_t r = 0; r < shown; r++) {
         size_t f = shown > 1 ? r * (frames - 1) / (shown - 1) : 0;
-        snprintf(labels[r], sizeof labels[r], "%s, frame %zu", title, f);
+        snprintf(labels[r], sizeof labels[r], "frame %zu/%zu %s", f, frames, title);
         rows[r] = (pbc_picture_row){frames > 1 ? labels[r] : title, img.data + f * pbc_image_frame_voxels(&img), 0};
     }
     pbc_picture pic = {{img.dims[0], img.dims[1], img.dims[2]},

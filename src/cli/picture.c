@@ -84,8 +84,8 @@ static int max_int(int a, int b)
 
 static int validate(const char *path, const pbc_picture *p)
 {
-    if (!p->rows || p->row_count < 1 || p->row_count > 4)
-        return pbc_fail(PBC_EXIT_USAGE, "%s: a picture shows 1 to 4 volumes, not %d", path, p->row_count);
+    if (!p->rows || p->row_count < 1 || p->row_count > 12)
+        return pbc_fail(PBC_EXIT_USAGE, "%s: a picture shows 1 to 12 volumes, not %d", path, p->row_count);
     const size_t *d = p->dims;
     if (!d[0] || !d[1] || !d[2] || d[1] > SIZE_MAX / d[0] || d[2] > SIZE_MAX / (d[0] * d[1]))
         return pbc_fail(PBC_EXIT_USAGE, "%s: cannot draw a volume of %zu x %zu x %zu voxels; check its dimensions",
