@@ -176,8 +176,28 @@ static int cache_case(void)
         pb_context_destroy(rtc);
     }
 
+    /* A FIFO at the entry's path: not waited on (opening it to read would
+     * block until a writer came), said in the context's note, replaced. */
+    unlink(entry);
+    pb_check(mkfifo(entry, 0644) == 0, "mkfifo %s", entry);
+    alarm(120);
+    rtc = context("nvrtc", &st);
+    alarm(0);
+    pb_check(st == PB_OK && strstr(pb_context_notes(rtc), "not a regular file"), "a FIFO at the entry: %s; note: %s",
+             pb_last_error(NULL), rtc ? pb_context_notes(rtc) : "");
+    stat(entry, &after);
+    pb_check(S_ISREG(after.st_mode) && file_size(entry) == whole, "the FIFO replaced by a whole entry");
+    if (st == PB_OK) {
+        compare(rtc, nvcc, "after a FIFO at the entry");
+        pb_context_destroy(rtc);
+    }
+    rtc = context("nvrtc", &st);
+    pb_check(st == PB_OK && !pb_context_notes(rtc)[0], "the replaced entry read with no note: %s",
+             rtc ? pb_context_notes(rtc) : pb_last_error(NULL));
+    pb_context_destroy(rtc);
+
     /* A cache folder that cannot be made (under a plain file): served from
-     * memory. */
+     * memory, and the note says why. */
     char blocked[64];
     snprintf(blocked, sizeof blocked, "%s/file", dir);
     FILE *f = fopen(blocked, "w");
@@ -186,7 +206,8 @@ static int cache_case(void)
     snprintf(below, sizeof below, "%s/sub", blocked);
     setenv("PETBLUR_CACHE_DIR", below, 1);
     rtc = context("nvrtc", &st);
-    pb_check(st == PB_OK, "an unusable cache folder: %s", pb_last_error(NULL));
+    pb_check(st == PB_OK && strstr(pb_context_notes(rtc), "cannot be used") && strstr(pb_context_notes(rtc), below),
+             "an unusable cache folder: %s; note: %s", pb_last_error(NULL), rtc ? pb_context_notes(rtc) : "");
     if (st == PB_OK) {
         compare(rtc, nvcc, "compiled in memory");
         pb_context_destroy(rtc);
