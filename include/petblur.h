@@ -173,8 +173,8 @@ typedef struct pb_geometry {
     size_t dims[3];        /* nx, ny, nz; any size, not only cubes */
     double voxel_size[3];  /* mm, from PB_MIN_VOXEL_MM to PB_MAX_VOXEL_MM */
 } pb_geometry;
-/* Voxel sizes petblur takes: a micrometre to ten metres. */
-#define PB_MIN_VOXEL_MM 1e-3
+/* Voxel sizes petblur takes: a tenth of a micrometre to ten metres. */
+#define PB_MIN_VOXEL_MM 1e-4
 #define PB_MAX_VOXEL_MM 1e4
 
 typedef struct pb_volume pb_volume;

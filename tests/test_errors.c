@@ -28,19 +28,19 @@ static void test_volumes(pb_context *ctx)
     expect(pb_volume_create(ctx, &neg, &v), PB_ERR_BAD_VOXEL_SIZE, "negative voxel", pb_last_error(ctx), "voxel size y");
     pb_geometry nan_vox = {{8, 8, 8}, {(double)NAN, 1, 1}};
     expect(pb_volume_create(ctx, &nan_vox, &v), PB_ERR_BAD_VOXEL_SIZE, "NaN voxel", pb_last_error(ctx), NULL);
-    /* Sizes beyond a micrometre and ten metres, quoted as given; the ends are taken. */
-    const double sizes[] = {1e-30, 9.99e-4, 10000.000001, 1e12, 1e300};
-    const char *quoted[] = {"is 1e-30 mm", "is 0.000999 mm", "is 10000.000001 mm", "is 1000000000000 mm",
+    /* Sizes beyond a tenth of a micrometre and ten metres, quoted as given; the ends are taken. */
+    const double sizes[] = {1e-30, 9.99e-5, 10000.000001, 1e12, 1e300};
+    const char *quoted[] = {"is 1e-30 mm", "is 9.99e-05 mm", "is 10000.000001 mm", "is 1000000000000 mm",
                             "is 1e+300 mm"};
     for (int i = 0; i < 5; i++) {
         pb_geometry odd = {{8, 8, 8}, {2, 2, 2}};
         odd.voxel_size[i % 3] = sizes[i];
         expect(pb_volume_create(ctx, &odd, &v), PB_ERR_BAD_VOXEL_SIZE, "voxel size out of range",
                pb_last_error(ctx), quoted[i]);
-        pb_check(strstr(pb_last_error(ctx), "from 0.001 to 10000 mm") != NULL, "the range: %s", pb_last_error(ctx));
+        pb_check(strstr(pb_last_error(ctx), "from 0.0001 to 10000 mm") != NULL, "the range: %s", pb_last_error(ctx));
     }
-    pb_geometry ends = {{2, 2, 2}, {0.001, 10000, 1}};
-    pb_check(pb_volume_create(ctx, &ends, &v) == PB_OK, "0.001 and 10000 mm taken: %s", pb_last_error(ctx));
+    pb_geometry ends = {{2, 2, 2}, {0.0001, 10000, 1}};
+    pb_check(pb_volume_create(ctx, &ends, &v) == PB_OK, "0.0001 and 10000 mm taken: %s", pb_last_error(ctx));
     pb_volume_destroy(v);
     v = NULL;
     pb_geometry huge = {{4096, 4096, 4096}, {1, 1, 1}};

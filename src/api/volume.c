@@ -13,7 +13,7 @@ pb_status pb_geometry_check(pb_context *ctx, const pb_geometry *g, size_t *count
         if (g->dims[i] == 0)
             return pb_error(ctx, PB_ERR_ZERO_DIMS, "volume dimension %c is 0 (dims %zu x %zu x %zu); every dimension needs at least one voxel",
                             "xyz"[i], g->dims[0], g->dims[1], g->dims[2]);
-        /* From a micrometre to ten metres: outside, sizes are a unit's
+        /* From a tenth of a micrometre to ten metres: outside, sizes are a unit's
          * mistake (metres read as mm, a header's garbage), and the sums over
          * voxels in mm (centres, motions, filter widths) leave double's
          * useful range or take without bound. */
