@@ -37,6 +37,12 @@ class FileError(Error, OSError):
     """A file could not be read, or its content is malformed (-600 .. -699)."""
 
 
+class LibraryError(Error, ImportError):
+    """The C library cannot serve the package: it does not load, it is not
+    petblur's (PETBLUR_LIBRARY naming another library) or it lacks a call,
+    or its structs differ from the package's. Raised by ``import petblur``."""
+
+
 class FileContentError(FileError, ArgumentError):
     """A file that breaks a rule on its values: a zero quaternion, times that
     do not increase, a matrix that is no rotation, frames with a gap. A

@@ -22,9 +22,8 @@ class EstimateReport(ctypes.Structure):
 
 _lib.check_layout({"pb_estimate_options": EstimateOptions, "pb_estimate_report": EstimateReport}, {})
 _P, _vp, _dbl = ctypes.POINTER, ctypes.c_void_p, ctypes.c_double
-_lib.lib.pb_motion_estimate.restype = ctypes.c_int
-_lib.lib.pb_motion_estimate.argtypes = [_vp, _P(_lib.Geometry), _P(_dbl), _vp, ctypes.c_size_t, _P(_dbl),
-                                        _P(EstimateOptions), _P(_vp), _P(EstimateReport)]
+_lib.bind({"pb_motion_estimate": (ctypes.c_int, [_vp, _P(_lib.Geometry), _P(_dbl), _vp, ctypes.c_size_t, _P(_dbl),
+                                                  _P(EstimateOptions), _P(_vp), _P(EstimateReport)])})
 
 
 def _host_frames(frames):

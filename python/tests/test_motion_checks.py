@@ -123,6 +123,42 @@ def test_a_wrong_binding_layout_is_caught():
         _lib.check_layout(structs={}, enums={"PB_PATH_TRACKED": 3})
 
 
+def test_another_library_is_refused_by_name(tmp_path, rng):
+    """PETBLUR_LIBRARY naming a library that loads but is not petblur's (the C
+    library, zlib, libm, any of them under another name): the import fails
+    with petblur's LibraryError naming the path, a call it lacks and the fix,
+    not ctypes' AttributeError."""
+    import ctypes.util
+    import os
+    import shutil
+    import sys
+    found = [ctypes.util.find_library(n) for n in ("c", "m", "z", "dl", "pthread")]
+    names = [n for n in found if n]
+    assert names, "no system library to load in petblur's place"
+    path = _loaded_path(str(rng.choice(names)))
+    if rng.integers(2):  # under a name of its own, as a mistaken build's would be
+        copy = tmp_path / f"libpetblur-{int(rng.integers(1 << 30))}.so"
+        shutil.copy(path, copy)
+        path = str(copy)
+    env = dict(os.environ, PETBLUR_LIBRARY=path)
+    r = subprocess.run([sys.executable, "-c", "import petblur"], env=env, capture_output=True, text=True)
+    assert r.returncode != 0
+    last = r.stderr.strip().splitlines()[-1]
+    assert last.startswith("petblur.errors.LibraryError: "), r.stderr
+    assert f"{path} (PETBLUR_LIBRARY) is not petblur's C library: it has no pb_" in last, last
+    assert "point PETBLUR_LIBRARY at libpetblur.so" in last and "or unset it" in last, last
+
+
+def _loaded_path(name):
+    """The file a loaded library's name resolves to, from /proc/self/maps."""
+    ctypes.CDLL(name)
+    with open("/proc/self/maps") as f:
+        for line in f:
+            if line.split()[-1].rsplit("/", 1)[-1].startswith(name):  # libz.so.1 maps as libz.so.1.2.13
+                return line.split()[-1]
+    raise AssertionError(f"{name} is not mapped")
+
+
 def test_options_checked_by_the_library():
     m = petblur.Motion.from_axis_angle(angle=10)
     for bad, words in ((-1, "above 0"), (float("nan"), "above 0"), (5000, "at most 1000"), ("fine", "bound in voxels")):
