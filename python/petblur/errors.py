@@ -2,6 +2,14 @@
 of the C library (include/petblur.h), carrying the library's message, which
 says what went wrong and how to fix it."""
 
+import reprlib
+
+
+def shown(value):
+    """A value as given, for a message: its repr, shortened (reprlib's
+    limits), on one line."""
+    return " ".join(reprlib.repr(value).split())
+
 
 class Error(Exception):
     """A petblur failure. ``status`` is the C library's pb_status (negative),

@@ -16,13 +16,14 @@ affine= (voxel to world, 4x4, as nibabel's img.affine) in the scanner's world
 mm, where tracker logs live (--coords world)."""
 
 import ctypes
+import numbers
 import os
 import warnings
 
 import numpy as np
 
 from . import _lib
-from .errors import ArgumentError, Error
+from .errors import ArgumentError, Error, shown
 
 _FORMATS = {None: 0, "auto": 0, "csv": 1, "matrix-csv": 2, "polaris": 3}
 
@@ -66,6 +67,13 @@ def _vector(name, value, n):
     return v
 
 
+def _numbers(name, value):
+    try:
+        return np.array(value, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise ArgumentError(f"{name} must be numbers, not {shown(value)}") from None
+
+
 def _pose(translation, quaternion):
     return _lib.Pose((ctypes.c_double * 3)(*translation), (ctypes.c_double * 4)(*quaternion))
 
@@ -100,9 +108,9 @@ class Motion:
     translation is interpolated linearly and the rotation spherically."""
 
     def __init__(self, times, translations, quaternions, center=None):
-        self.times = np.array(times, dtype=np.float64).reshape(-1)
-        self.translations = np.array(translations, dtype=np.float64)
-        self.quaternions = np.array(quaternions, dtype=np.float64)
+        self.times = _numbers("times", times).reshape(-1)
+        self.translations = _numbers("translations", translations)
+        self.quaternions = _numbers("quaternions", quaternions)
         n = self.times.size
         if self.translations.shape != (n, 3):
             raise ArgumentError(f"translations must have shape ({n}, 3), one row per time, not "
@@ -110,6 +118,11 @@ class Motion:
         if self.quaternions.shape != (n, 4):
             raise ArgumentError(f"quaternions must have shape ({n}, 4), w,x,y,z per time, not "
                                 f"{self.quaternions.shape}")
+        for name, rows in (("translations", self.translations), ("quaternions", self.quaternions)):
+            bad = np.flatnonzero(~np.isfinite(rows).all(axis=1))
+            if bad.size:  # the library says "sample i holds NaN", not which array
+                raise ArgumentError(f"{name}[{bad[0]}] is {rows[bad[0]].tolist()}; give finite "
+                                    f"{'mm' if name == 'translations' else 'unit quaternions'}")
         self.center = None if center is None else _vector("center", center, 3)
         # What a file gives beyond the arrays: its format (csv poses turn about
         # a centre, tracker matrices about the world's origin), each sample's
@@ -120,6 +133,11 @@ class Motion:
         self._calibration = None
         self._reference_time = None
         self._inverse = False
+        # The coordinates the poses are in where they are known: "world" (a
+        # tracker's log, an estimate placed by an affine: the operators need
+        # affine=), "grid" (an estimate given voxel_size=), None (arrays,
+        # csv: either, as the operator's affine= says).
+        self._coords = None
         _Track(self)  # the library's checks (finite, increasing, unit quaternions), now
 
     def __len__(self):
@@ -187,6 +205,8 @@ class Motion:
         fmt, times, tr, q, lines, missing = track_arrays(handle)
         m = cls(times, tr, q)
         m._format, m._lines, m._missing, m._source = fmt, lines, missing, os.fsdecode(path)
+        if fmt != _lib.TRACK_CSV:  # tracker matrices: the scanner's world
+            m._coords = "world"
         if center is not None:
             m.center = _vector("center", center, 3)
         if calibration is not None:
@@ -245,6 +265,7 @@ class Motion:
         fmt, times, tr, q, _, _ = track_arrays(handle)
         m = cls(times, tr, q)
         m._format, m._source = fmt, "the motion estimated from the frames"
+        m._coords = "grid" if affine is None else "world"
         m.estimate_seconds, m.moving_frames = report.seconds, int(report.moving_frames)
         return m
 
@@ -326,8 +347,84 @@ class Motion:
         return dict(self.__dict__)
 
     def __setstate__(self, state):
-        self.__dict__.update(state)
-        _Track(self)  # a pickle is checked as the arrays were: finite, increasing, unit quaternions
+        """A loaded motion checked as a new one is: the constructor's checks
+        on its arrays, then each field a file or an estimate adds, then the
+        library's track and conventions, as from_file checks them."""
+        try:
+            self._load(state)
+        except Error as e:
+            raise type(e)(f"the pickled petblur.Motion is not one petblur made: {e.message}; pickle the Motion "
+                          "again from its source", e.status) from None
+
+    def _load(self, state):
+        if not isinstance(state, dict):
+            raise ArgumentError(f"its state is a {type(state).__name__}, not the dict of fields a Motion pickles")
+        missing = [k for k in _STATE if k not in state]
+        if missing:
+            raise ArgumentError(f"its state lacks {', '.join(missing)}")
+        extra = sorted(repr(k) for k in state if k not in _STATE and k not in _REPORT)
+        if extra:
+            raise ArgumentError(f"its state holds {', '.join(extra)}, which no Motion has")
+        self.__init__(state["times"], state["translations"], state["quaternions"], state["center"])
+        n = len(self)
+        fmt = state["_format"]
+        if not _whole(fmt) or fmt not in (_lib.TRACK_CSV, _lib.TRACK_MATRIX_CSV, _lib.TRACK_POLARIS):
+            raise ArgumentError(f"_format is {shown(fmt)}; a track's format is {_lib.TRACK_CSV} (csv), "
+                                f"{_lib.TRACK_MATRIX_CSV} (matrix-csv) or {_lib.TRACK_POLARIS} (polaris)")
+        self._format = int(fmt)
+        for name in ("_lines", "_missing"):
+            v = state[name]
+            if v is not None:
+                a = np.asarray(v) if isinstance(v, (list, tuple, np.ndarray)) else None
+                if a is None or a.dtype.kind not in "iu" or a.shape != (n,) or np.any(a < 0):
+                    raise ArgumentError(f"{name} is {shown(v)}; give None or {n} whole numbers, one per "
+                                        "sample, at least 0")
+                v = a.astype(np.uint64)
+            setattr(self, name, v)
+        if not isinstance(state["_source"], str):
+            raise ArgumentError(f"_source is {shown(state['_source'])}; give the track's name as text")
+        self._source = state["_source"]
+        cal = state["_calibration"]
+        if cal is not None:
+            c = _numbers("_calibration", cal)
+            if c.shape != (4, 4) or not np.all(np.isfinite(c)):
+                raise ArgumentError(f"_calibration is {shown(cal)}; give None or a finite 4x4 matrix")
+            cal = c
+        self._calibration = cal
+        ref = state["_reference_time"]
+        if ref is not None and (not isinstance(ref, numbers.Real) or isinstance(ref, bool) or
+                                not np.isfinite(ref)):
+            raise ArgumentError(f"_reference_time is {shown(ref)}; give None or finite seconds")
+        self._reference_time = None if ref is None else float(ref)
+        if not isinstance(state["_inverse"], (bool, np.bool_)):
+            raise ArgumentError(f"_inverse is {shown(state['_inverse'])}; give True or False")
+        self._inverse = bool(state["_inverse"])
+        if state["_coords"] not in _COORDS:
+            raise ArgumentError(f"_coords is {shown(state['_coords'])}; give None, 'world' or 'grid'")
+        self._coords = state["_coords"]
+        for name in _REPORT:
+            if name in state:
+                v = state[name]
+                good = (_whole(v) if name == "moving_frames" else isinstance(v, numbers.Real) and
+                        not isinstance(v, bool) and np.isfinite(v))
+                if not good or v < 0:
+                    raise ArgumentError(f"{name} is {shown(v)}; give a finite number, at least 0")
+                setattr(self, name, int(v) if name == "moving_frames" else float(v))
+        _Track(self)
+        self._world(_grid((1, 1, 1), (1.0, 1.0, 1.0)), None, warn=False)  # the conventions' refusals
+
+
+# The state a Motion pickles: the constructor's arguments, what a file or an
+# estimate adds to them (format, lines, missing samples, name, conventions,
+# coordinates), and an estimate's report.
+_STATE = ("times", "translations", "quaternions", "center", "_format", "_lines", "_missing", "_source",
+          "_calibration", "_reference_time", "_inverse", "_coords")
+_REPORT = ("estimate_seconds", "moving_frames")
+_COORDS = (None, "world", "grid")
+
+
+def _whole(v):
+    return isinstance(v, (int, np.integer)) and not isinstance(v, bool)
 
 
 def track_arrays(handle):

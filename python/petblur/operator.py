@@ -22,6 +22,7 @@ and Dask")."""
 import contextlib
 import copy
 import ctypes
+import inspect
 import pickle
 import weakref
 
@@ -29,7 +30,7 @@ import numpy as np
 
 from . import _lib
 from ._arrays import Array, pointer
-from .errors import ArgumentError
+from .errors import ArgumentError, Error, shown
 from .motion import Motion
 
 _METHODS = {"ab": 0, "rm": 1, "cl": 2, "ref": 3}
@@ -50,7 +51,11 @@ def _shape3(shape):
 
 
 def _voxel3(voxel_size):
-    v = np.array(voxel_size, dtype=np.float64).reshape(-1)
+    try:
+        v = np.array(voxel_size, dtype=np.float64).reshape(-1)
+    except (TypeError, ValueError):
+        raise ArgumentError(f"voxel_size must be three positive sizes in mm (or one for cubes), not "
+                            f"{shown(voxel_size)}") from None
     if v.size == 1:
         v = np.repeat(v, 3)
     if v.size != 3 or not np.all(np.isfinite(v)) or np.any(v <= 0):
@@ -90,10 +95,10 @@ class _Operator:
         if not isinstance(motion, Motion):
             raise ArgumentError(f"motion must be a petblur.Motion, not {type(motion).__name__}")
         self.motion = motion
-        if method not in _METHODS:
+        if not isinstance(method, str) or method not in _METHODS:
             raise ArgumentError(f"method {method!r}: choose 'ab' (the paper's antialiased Bresenham), 'rm', 'cl' or "
                                 "'ref'")
-        if filter not in _FILTERS:
+        if not isinstance(filter, str) or filter not in _FILTERS:
             raise ArgumentError(f"filter {filter!r}: choose 'hardware' (one filtered fetch per slice) or 'exact'")
         if max_path_error is None:
             path, bound = _lib.PATH_DEFAULT, 0.0
@@ -106,9 +111,12 @@ class _Operator:
                 raise ArgumentError(f"max_path_error {max_path_error!r}: give a bound in voxels, None for the "
                                     "default, or 'paper' for one segment per tracked interval") from None
         try:
-            steps = int(steps)
-        except (TypeError, ValueError):
-            raise ArgumentError(f"steps {steps!r}: give a whole number") from None
+            whole = int(steps)
+        except (TypeError, ValueError, OverflowError):
+            whole = None
+        if whole is None or whole != steps:  # 2.7 is no count of steps, nor is NaN
+            raise ArgumentError(f"steps {shown(steps)}: give a whole number") from None
+        steps = whole
         if not 0 <= steps < 1 << 32:
             raise ArgumentError(f"steps {steps}: give 0 (the paper's choice) or a positive count")
         if not (ab_sampling is None or isinstance(ab_sampling, str)) or ab_sampling not in _AB_SAMPLINGS:
@@ -131,9 +139,13 @@ class _Operator:
             self.affine = None
             self._affine = a
         else:
-            a = np.array(affine, dtype=np.float64)
-            if a.shape != (4, 4) or not np.all(np.isfinite(a)):
-                raise ArgumentError("affine must be a finite 4x4 voxel-to-world matrix (nibabel's img.affine)")
+            try:
+                a = np.array(affine, dtype=np.float64)
+            except (TypeError, ValueError):
+                a = None
+            if a is None or a.shape != (4, 4) or not np.all(np.isfinite(a)):
+                raise ArgumentError(f"affine must be a finite 4x4 voxel-to-world matrix (nibabel's img.affine), not "
+                                    f"{shown(affine)}")
             self.affine = self._affine = a
         self._bounds = np.array(bounds, dtype=np.float64)
         device = device if isinstance(device, str) else str(device)  # a torch.device, a CuPy Device's id
@@ -470,7 +482,13 @@ class FramesOperator(_Operator):
     def __init__(self, shape, voxel_size, track, bounds, per_frame=False, method="ab", filter="hardware",
                  max_path_error=None, device="auto", affine=None, steps=0, progress=None, frames_last=False,
                  ab_sampling=None):
-        b = np.array(bounds, dtype=np.float64).reshape(-1)
+        if not isinstance(track, Motion):
+            raise ArgumentError(f"track must be a petblur.Motion, not {type(track).__name__}")
+        try:
+            b = np.array(bounds, dtype=np.float64).reshape(-1)
+        except (TypeError, ValueError):
+            raise ArgumentError(f"bounds must be the frames' n + 1 times in seconds, not {shown(bounds)}") \
+                from None
         if b.size < 2:
             raise ArgumentError(f"bounds must hold at least two times (one frame), not {b.size}")
         super().__init__(shape, voxel_size, track, b, method, filter, max_path_error, device, affine, steps,
@@ -535,10 +553,29 @@ class FramesOperator(_Operator):
 
 
 def _rebuild(cls, description, progress):
-    """An operator made again from its description (deepcopy, pickle.load)."""
-    op = cls.__new__(cls)
-    op._quiet = True
-    op.__init__(progress=progress, **description)
+    """An operator made again from its description (deepcopy, pickle.load),
+    checked as a new one is: its fields are the constructor's arguments, and
+    the constructor checks them."""
+    if not (isinstance(cls, type) and issubclass(cls, _Operator) and cls is not _Operator):
+        raise ArgumentError(f"the pickled operator's class is {shown(cls)}, not a petblur operator; pickle "
+                            "the operator again")
+    name = f"the pickled petblur.{cls.__name__}"
+    try:
+        if not isinstance(description, dict):
+            raise ArgumentError(f"its description is a {type(description).__name__}, not the dict of arguments an "
+                                "operator pickles")
+        fields = [k for k in inspect.signature(cls.__init__).parameters if k not in ("self", "progress")]
+        missing = [k for k in fields if k not in description]
+        if missing:
+            raise ArgumentError(f"its description lacks {', '.join(missing)}")
+        extra = sorted(repr(k) for k in description if k not in fields)
+        if extra:
+            raise ArgumentError(f"its description holds {', '.join(extra)}, which {cls.__name__} does not take")
+        op = cls.__new__(cls)
+        op._quiet = True
+        op.__init__(progress=progress, **description)
+    except Error as e:
+        raise type(e)(f"{name} is not one petblur made: {e.message}; pickle the operator again", e.status) from None
     return op
 
 
