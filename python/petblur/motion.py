@@ -121,7 +121,7 @@ class Motion:
         for name, rows in (("translations", self.translations), ("quaternions", self.quaternions)):
             bad = np.flatnonzero(~np.isfinite(rows).all(axis=1))
             if bad.size:  # the library says "sample i holds NaN", not which array
-                raise ArgumentError(f"{name}[{bad[0]}] is {rows[bad[0]].tolist()}; give finite "
+                raise ArgumentError(f"{name}[{bad[0]}] is {rows[bad[0]].tolist()}, NaN or infinity; give finite "
                                     f"{'mm' if name == 'translations' else 'unit quaternions'}")
         self.center = None if center is None else _vector("center", center, 3)
         # What a file gives beyond the arrays: its format (csv poses turn about

@@ -136,6 +136,8 @@ class _Operator:
             a = np.eye(4)
             a[:3, :3] = np.diag(self.voxel_size)
             a[:3, 3] = 0.5 * self.voxel_size
+            if motion._coords == "world":
+                raise _needs_affine(motion, a)
             self.affine = None
             self._affine = a
         else:
@@ -376,6 +378,20 @@ class _Operator:
                     _lib.check(lib.pb_volume_download(vout, pointer(y, "numpy")), ctx.handle)
 
 
+def _needs_affine(motion, grid):
+    """The refusal of a motion in the scanner's world given no affine: its
+    poses would be taken along the array's axes about the grid's corner, a
+    blur silently other than the one meant. The program never does this: it
+    places such a track by the image's affine, and refuses --coords world
+    where the image has none."""
+    literal = "[" + ", ".join("[" + ", ".join(repr(float(v)) for v in row) + "]" for row in grid) + "]"
+    return ArgumentError(
+        f"the motion ({motion._source}) holds poses in the scanner's world mm, about the world's origin, and the "
+        "operator has no affine= to place its grid in that world; give affine= the image's voxel-to-world 4x4 "
+        "(nibabel's img.affine; for Motion.from_frames, the affine it was given), or, to take the poses along the "
+        f"array's axes from the grid's corner (the program's --coords grid), affine={literal}")
+
+
 def _check_shape(arr, shapes, what):
     if arr.shape not in shapes:
         want = " or ".join(str(s) for s in shapes)
@@ -571,11 +587,17 @@ def _rebuild(cls, description, progress):
         extra = sorted(repr(k) for k in description if k not in fields)
         if extra:
             raise ArgumentError(f"its description holds {', '.join(extra)}, which {cls.__name__} does not take")
-        op = cls.__new__(cls)
-        op._quiet = True
-        op.__init__(progress=progress, **description)
+        return _quiet(cls, description, progress)
     except Error as e:
         raise type(e)(f"{name} is not one petblur made: {e.message}; pickle the operator again", e.status) from None
+
+
+def _quiet(cls, arguments, progress):
+    """An operator of cls made from arguments, without the checks' warnings
+    (they were raised when the operator it derives from was made)."""
+    op = cls.__new__(cls)
+    op._quiet = True
+    op.__init__(progress=progress, **arguments)
     return op
 
 

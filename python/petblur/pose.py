@@ -32,7 +32,7 @@ from . import _lib
 from ._arrays import Array
 from .errors import ArgumentError
 from .motion import Motion
-from .operator import BlurOperator, FramesOperator, _rebuild
+from .operator import BlurOperator, FramesOperator, _quiet
 
 
 # ---- rotations (quaternions w, x, y, z) ----
@@ -142,8 +142,8 @@ class _Placed:
         options and device; the checks' warnings not raised again."""
         common = dict(self.op._common)
         common.update(affine=None, device=self.op.device)
-        return _rebuild(cls, dict(shape=self.op.in_shape, voxel_size=self.op.voxel_size, **common, **description),
-                        None)
+        return _quiet(cls, dict(shape=self.op.in_shape, voxel_size=self.op.voxel_size, **common, **description),
+                      None)
 
     def chain(self, xi_grid):
         """(K, 6, 6): A_k with grad_k = A_k d_k, grad the gradient in xi_k (the
