@@ -67,6 +67,15 @@ def _vector(name, value, n):
     return v
 
 
+def _finite(value):
+    """value as a finite float, or None (not a number, NaN, infinite)."""
+    try:
+        v = float(value)
+    except (TypeError, ValueError, OverflowError):
+        return None
+    return v if np.isfinite(v) else None
+
+
 def _numbers(name, value):
     try:
         return np.array(value, dtype=np.float64)
@@ -161,14 +170,16 @@ class Motion:
         tracked in pieces, so that the arc asked for is followed."""
         t = _vector("translation", translation, 3)
         a = _vector("axis", axis, 3)
-        angle = float(angle)
-        if not np.isfinite(angle) or abs(angle) > 3600.0:
-            raise ArgumentError(f"angle {angle}: give at most ten turns within one frame, in degrees")
+        given = angle
+        angle = _finite(angle)
+        if angle is None or abs(angle) > 3600.0:
+            raise ArgumentError(f"angle {shown(given)}: give at most ten turns within one frame, in degrees")
         if not np.any(a):
             raise ArgumentError("axis must not be zero; e.g. (0, 0, 1), the scanner axis")
-        duration = float(duration)
-        if not duration > 0 or not np.isfinite(duration):
-            raise ArgumentError(f"duration {duration}: give a positive number of seconds")
+        given = duration
+        duration = _finite(duration)
+        if duration is None or not duration > 0:
+            raise ArgumentError(f"duration {shown(given)}: give a positive number of seconds")
         pieces = max(1, int(np.ceil(abs(angle) / 90.0 - 1e-12)))
         s = np.linspace(0.0, 1.0, pieces + 1)
         q = np.empty((pieces + 1, 4))
@@ -219,7 +230,9 @@ class Motion:
                 raise ArgumentError("calibration must be a 4x4 tracker-to-scanner matrix, or the path of its file")
             m._calibration = c
         if reference_time is not None:
-            m._reference_time = float(reference_time)
+            m._reference_time = _finite(reference_time)
+            if m._reference_time is None:
+                raise ArgumentError(f"reference_time {shown(reference_time)}: give finite seconds")
         m._inverse = bool(inverse)
         m._world(_grid((1, 1, 1), (1.0, 1.0, 1.0)), None, warn=False)  # the conventions' refusals, now
         return m

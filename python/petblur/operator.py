@@ -50,6 +50,12 @@ def _shape3(shape):
     return s
 
 
+# Voxel sizes, mm (the messages say 1e-6 and 1e6): beyond these a grid is no
+# image, and the motion's and the path's arithmetic leaves the range it is
+# checked for.
+VOXEL_MIN, VOXEL_MAX = 1e-6, 1e6
+
+
 def _voxel3(voxel_size):
     try:
         v = np.array(voxel_size, dtype=np.float64).reshape(-1)
@@ -59,9 +65,10 @@ def _voxel3(voxel_size):
     if v.size == 1:
         v = np.repeat(v, 3)
     if v.size != 3 or not np.all(np.isfinite(v)) or np.any(v <= 0):
-        raise ArgumentError(f"voxel_size must be three positive sizes in mm (or one for cubes), not {voxel_size!r}")
-    if np.any(v < 1e-6) or np.any(v > 1e6):
-        raise ArgumentError(f"voxel_size {voxel_size!r}: give sizes in mm, between 1e-6 and 1e6")
+        raise ArgumentError(f"voxel_size must be three positive sizes in mm (or one for cubes), not "
+                            f"{shown(voxel_size)}")
+    if np.any(v < VOXEL_MIN) or np.any(v > VOXEL_MAX):
+        raise ArgumentError(f"voxel_size {shown(voxel_size)}: give sizes in mm, between 1e-6 and 1e6")
     return v
 
 
@@ -130,7 +137,10 @@ class _Operator:
         try:  # every range stated once, by the library
             _lib.check(_lib.lib.pb_options_check(ctypes.byref(self._options)))
         except ArgumentError as e:
-            raise ArgumentError(e.message.replace("PB_PATH_BOUNDED", "a number"), e.status) from None
+            text = e.message.replace("PB_PATH_BOUNDED", "a number")
+            if text.startswith("max_path_error ") and ":" in text:  # the library's %g rounds 1000.0000001 to 1000
+                text = f"max_path_error {shown(max_path_error)}:" + text.split(":", 1)[1]
+            raise ArgumentError(text, e.status) from None
         self._progress = progress
         if affine is None:
             a = np.eye(4)
@@ -146,8 +156,8 @@ class _Operator:
             except (TypeError, ValueError):
                 a = None
             if a is None or a.shape != (4, 4) or not np.all(np.isfinite(a)):
-                raise ArgumentError(f"affine must be a finite 4x4 voxel-to-world matrix (nibabel's img.affine), not "
-                                    f"{shown(affine)}")
+                raise ArgumentError("affine must be a finite 4x4 voxel-to-world matrix (nibabel's img.affine), not " +
+                                    (shown(affine) if a is None or a.shape == (4, 4) else f"of shape {a.shape}"))
             self.affine = self._affine = a
         self._bounds = np.array(bounds, dtype=np.float64)
         device = device if isinstance(device, str) else str(device)  # a torch.device, a CuPy Device's id
@@ -540,7 +550,7 @@ class FramesOperator(_Operator):
         """Every frame's blur of x: one activity (shape) or one per frame."""
         arr = Array(x, "activity")
         _check_shape(arr, [self._shape, self._frames_shape()], "activity")
-        arr.data = self._first(arr.data)
+        arr.move(self._first)
         vols = _one_order(arr.volumes(self._shape))
         order = vols[0][1]
         out = arr.empty((self.frames,) + self._shape, order)
@@ -555,7 +565,7 @@ class FramesOperator(_Operator):
             sum = not self.per_frame
         arr = Array(y, "frames")
         _check_shape(arr, [self._frames_shape()], "frames")
-        arr.data = self._first(arr.data)
+        arr.move(self._first)
         vols = _one_order(arr.volumes(self._shape))
         order = vols[0][1]
         if sum:

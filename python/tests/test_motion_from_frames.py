@@ -486,7 +486,7 @@ BAD = {
                           ("frame 1", "increase")),
     "NaN bound": (None, {"starts": None, "durations": None, "bounds": [0.0, 10, np.nan, 20, 30]},
                   ("bound 2", "nan", "finite")),
-    "singular affine": (None, {"affine": _singular}, ("voxel size 2", "0 mm")),
+    "singular affine": (None, {"affine": _singular}, ("affine's column 2 is 0.0 mm long", "between 1e-6 and 1e6")),
     "sheared affine": (None, {"affine": _sheared}, ("perpendicular", "shear")),
     "affine not finite": (None, {"affine": _not_finite}, ("finite 4x4",)),
     "affine 3x3": (None, {"affine": lambda a: a[:3, :3]}, ("4x4", "(3, 3)")),
@@ -502,7 +502,8 @@ BAD = {
     "reference True": (None, {"reference": True}, ("reference True",)),
     "neither affine nor voxel size": (None, {"affine": lambda a: None}, ("affine=", "voxel_size=", "voxels, not mm")),
     "affine and voxel size": (None, {"voxel_size": (4.0, 4.0, 4.0)}, ("not both",)),
-    "voxel size of two": (None, {"affine": lambda a: None, "voxel_size": (4.0, 4.0)}, ("voxel_size", "one or three")),
+    "voxel size of two": (None, {"affine": lambda a: None, "voxel_size": (4.0, 4.0)},
+                          ("voxel_size", "(or one for cubes), not (4.0, 4.0)")),
     "voxel size zero": (None, {"affine": lambda a: None, "voxel_size": (4.0, 0.0, 4.0)}, ("voxel_size", "positive")),
 }
 

@@ -363,7 +363,6 @@ def _tamper_motion(state, rng):
     of the wrong length, a field of the wrong type, a NaN; the state and the
     words its refusal must hold."""
     n = len(state["times"])
-    fields = [k for k in state if state[k] is not None or k == "center"]
     edit = str(rng.choice(["missing", "extra", "length", "type", "nan", "not a dict"]))
     if edit == "missing":
         key = str(rng.choice(list(petblur.motion._STATE)))
@@ -531,6 +530,72 @@ def _refuses_nonfinite(op, x, y, rng):
                     where = (where[3],) + where[:3]  # named as (frame, x, y, z)
                 with pytest.raises(petblur.ArgumentError, match=rf"is {bad} at \[{', '.join(map(str, where))}\]"):
                     call(b)
+
+
+def _beyond(rng, low, high):
+    """A random finite float64 of magnitude 10^low to 10^high, either sign."""
+    return float(rng.choice([-1.0, 1.0]) * 10.0 ** rng.uniform(low, high))
+
+
+def test_values_are_named_as_given(rng):
+    """A value that does not survive its conversion is named as it was given,
+    with what is allowed: finite float64 values beyond float32's range in an
+    array an operator or from_frames reads (not "NaN or infinite"), voxel
+    sizes beyond 1e-6 to 1e6 mm given as voxel_size= or as an affine's
+    columns (not "inf mm"), a max_path_error or an angle just past its limit
+    (not rounded onto it)."""
+    for _ in range(6):
+        op = _operator(str(rng.choice(["blur", "frames"])), "host", rng, shape=(6, 5, 4))
+        x, y = _inputs(op, rng, str(rng.choice(["C", "F"])))
+        call, a = (op.apply, x) if rng.integers(2) else (op.adjoint, y)
+        a = a.astype(np.float64, order="K")
+        where = tuple(int(rng.integers(n)) for n in a.shape)
+        value = _beyond(rng, 38.6, 308)
+        a[where] = value
+        if a.ndim == 4 and getattr(op, "frames_last", False):
+            where = (where[3],) + where[:3]  # named as (frame, x, y, z)
+        with pytest.raises(petblur.ArgumentError) as e:
+            call(a)
+        assert f"is {value!r} at [{', '.join(map(str, where))}]" in str(e.value), str(e.value)
+        assert "beyond float32's range" in str(e.value) and "NaN" not in str(e.value), str(e.value)
+    frames = rng.random((6, 5, 4, 3)) + 1.0
+    k, where = int(rng.integers(3)), tuple(int(rng.integers(n)) for n in (6, 5, 4))
+    value = _beyond(rng, 38.6, 308)
+    frames[where + (k,)] = value
+    with pytest.raises(petblur.ArgumentError, match=re.escape(f"the frame {k} is {value!r} at {list(where)}") +
+                       ".*beyond float32's range"):
+        petblur.Motion.from_frames(frames, None, [0, 1, 2], [1, 1, 1], voxel_size=2.0, device="host")
+    m = petblur.Motion.from_axis_angle(angle=5)
+    frames = rng.random((6, 5, 4, 3)).astype(np.float32) + 1
+    for _ in range(4):
+        size = 10.0 ** (rng.uniform(6.1, 308) if rng.integers(2) else -rng.uniform(6.1, 300))
+        sizes = [size, 2.0, 2.0]
+        rng.shuffle(sizes)
+        given = size if rng.integers(2) else tuple(sizes)
+        words = rf"voxel_size {re.escape(repr(given))}: give sizes in mm, between 1e-6 and 1e6"
+        with pytest.raises(petblur.ArgumentError, match=words):
+            petblur.BlurOperator((6, 5, 4), given, m, device="host")
+        with pytest.raises(petblur.ArgumentError, match=words):
+            petblur.Motion.from_frames(frames, None, [0, 1, 2], [1, 1, 1], voxel_size=given, device="host")
+        affine = np.diag([2.0, 2.0, 2.0, 1.0])
+        axis = int(rng.integers(3))
+        affine[:3, axis] = size * _unit_vector(rng)
+        with pytest.raises(petblur.ArgumentError, match=rf"affine's column {axis} is ([0-9.e+-]+) mm long, the "
+                           r"voxels' size along axis .*between 1e-6 and 1e6 mm") as e:
+            petblur.Motion.from_frames(frames, affine, [0, 1, 2], [1, 1, 1], device="host")
+        length = float(re.search(r"is ([0-9.e+-]+) mm long", str(e.value)).group(1))
+        assert length == pytest.approx(size, rel=1e-12), (length, size)  # the column's length, not inf nor 0
+    bound = 1000.0 + 10.0 ** -rng.uniform(1, 10)
+    with pytest.raises(petblur.ArgumentError, match=rf"max_path_error {re.escape(repr(bound))}: .*at most 1000"):
+        petblur.BlurOperator((6, 5, 4), 2.0, m, max_path_error=bound, device="host")
+    angle = float(rng.choice([-1.0, 1.0])) * (3600.0 + 10.0 ** -rng.uniform(1, 10))
+    with pytest.raises(petblur.ArgumentError, match=rf"angle {re.escape(repr(angle))}: give at most ten turns"):
+        petblur.Motion.from_axis_angle(angle=angle)
+
+
+def _unit_vector(rng):
+    v = rng.normal(size=3)
+    return v / np.linalg.norm(v)
 
 
 @pytest.mark.parametrize("fmt", ["csv", "csv-xyzw", "polaris-mt", "polaris-toolviewer", "matrix-csv"])
