@@ -212,6 +212,7 @@ _signatures = {
     "pb_track_place": (_int, [_vp, _P(TrackConventions), _P(Geometry), _P(_dbl), _P(Pose), _P(CMotion),
                               _P(Warnings)]),
     "pb_track_check_frames": (_int, [_vp, _P(CMotion), _P(Geometry), _P(_dbl), _sz, _P(Warnings)]),
+    "pb_frames_check": (_int, [_P(_dbl), _sz, _P(Warnings)]),
     "pb_frames_from_starts": (_int, [_P(_dbl), _P(_dbl), _sz, _P(_dbl)]),
     "pb_frames_read_sidecar": (_int, [ctypes.c_char_p, _P(_dbl), _sz, _P(_sz)]),
     "pb_motion_mean_pose": (_int, [_P(CMotion), _P(Pose)]),

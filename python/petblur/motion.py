@@ -55,6 +55,16 @@ def _warn(w, stacklevel):
         warnings.warn(python_words(line), stacklevel=stacklevel + 1)
 
 
+def _frames_warn(bounds):
+    """Frame bounds where a public call is given them: the library's rules on
+    bounds alone and its warning (a frame over 6 h: milliseconds), raised at
+    that call's caller rather than when an operator is first made."""
+    b = (ctypes.c_double * len(bounds))(*bounds)
+    w = _lib.Warnings()
+    _check(_lib.lib.pb_frames_check(b, len(bounds) - 1, ctypes.byref(w)))
+    _warn(w, 3)
+
+
 def _vector(name, value, n):
     try:
         v = np.array(value, dtype=np.float64).reshape(-1)
@@ -270,6 +280,11 @@ class Motion:
             bounds = np.array(out[:])
         elif starts is not None or durations is not None:
             raise ArgumentError("give starts= and durations=, or bounds=, not both")
+        else:
+            bounds = _numbers("bounds", bounds).reshape(-1)
+            if bounds.size < 2:
+                raise ArgumentError(f"bounds must hold at least two times (one frame), not {bounds.size}")
+        _frames_warn(bounds)
         try:
             handle, report = estimate.estimate(frames, affine, voxel_size, bounds, reference, device,
                                                frame_poses_only, levels, iterations, fwhm)
@@ -346,8 +361,10 @@ class Motion:
         """The time-weighted mean pose over the frame [t0, t1], as pose_at
         gives poses: the mean translation, and the normalised mean of the
         rotation's quaternions. What a model of one pose per frame takes."""
+        frame = _numbers("the frame (t0, t1)", (t0, t1))
+        _frames_warn(frame)
         world, keep = self._world(None, None, warn=False)
-        world.frame_start, world.frame_end = float(t0), float(t1)
+        world.frame_start, world.frame_end = frame
         p = _lib.Pose()
         _check(_lib.lib.pb_motion_mean_pose(ctypes.byref(world), ctypes.byref(p)))
         return np.array(p.translation[:]), np.array(p.rotation[:])
@@ -467,4 +484,6 @@ def frames_from_sidecar(path):
     _check(_lib.lib.pb_frames_read_sidecar(name, None, 0, ctypes.byref(frames)))
     bounds = (ctypes.c_double * (frames.value + 1))()
     _check(_lib.lib.pb_frames_read_sidecar(name, bounds, frames.value + 1, ctypes.byref(frames)))
-    return np.array(bounds[:])
+    bounds = np.array(bounds[:])
+    _frames_warn(bounds)
+    return bounds
