@@ -143,9 +143,7 @@ class _Operator:
             raise ArgumentError(text, e.status) from None
         self._progress = progress
         if affine is None:
-            a = np.eye(4)
-            a[:3, :3] = np.diag(self.voxel_size)
-            a[:3, 3] = 0.5 * self.voxel_size
+            a = _grid_affine(self.voxel_size)
             if motion._coords == "world":
                 raise _needs_affine(motion, a)
             self.affine = None
@@ -158,6 +156,13 @@ class _Operator:
             if a is None or a.shape != (4, 4) or not np.all(np.isfinite(a)):
                 raise ArgumentError("affine must be a finite 4x4 voxel-to-world matrix (nibabel's img.affine), not " +
                                     (shown(affine) if a is None or a.shape == (4, 4) else f"of shape {a.shape}"))
+            grid = _grid_affine(self.voxel_size)
+            if motion._coords == "grid" and not np.allclose(a, grid, rtol=1e-12, atol=1e-9 * self.voxel_size.max()):
+                raise ArgumentError(
+                    f"the motion ({motion._source}) was estimated in the grid's frame (from_frames given voxel_size=), "
+                    "along the array's axes from the grid's corner, and affine= places the grid elsewhere in the "
+                    "world, where its poses would turn about another point; give no affine=, or estimate the motion "
+                    "with from_frames(affine=) the same affine")
             self.affine = self._affine = a
         self._bounds = np.array(bounds, dtype=np.float64)
         device = device if isinstance(device, str) else str(device)  # a torch.device, a CuPy Device's id
@@ -386,6 +391,15 @@ class _Operator:
                 last = i + 1 == len(jobs) or jobs[i + 1][2] is not y
                 if last:
                     _lib.check(lib.pb_volume_download(vout, pointer(y, "numpy")), ctx.handle)
+
+
+def _grid_affine(voxel_size):
+    """The grid frame's affine: mm along the array's axes, the grid's corner
+    at the origin (index at voxel centres)."""
+    a = np.eye(4)
+    a[:3, :3] = np.diag(voxel_size)
+    a[:3, 3] = 0.5 * voxel_size
+    return a
 
 
 def _needs_affine(motion, grid):

@@ -307,7 +307,13 @@ def test_world_motion_needs_the_affine(tmp_path, rng):
                 assert np.isfinite(make(affine=grid)(x)).all()
     in_grid = petblur.Motion.from_frames(s.frames, None, s.starts, s.durations, device="host", levels=1,
                                          voxel_size=vox)
-    assert np.isfinite(petblur.FramesOperator(shape, vox, in_grid, bounds, device="host")(x)).all()
+    y = petblur.FramesOperator(shape, vox, in_grid, bounds, device="host")(x)
+    assert np.isfinite(y).all()
+    np.testing.assert_array_equal(petblur.FramesOperator(shape, vox, in_grid, bounds, device="host", affine=want)(x), y)
+    # ... and refused with an affine that places the grid elsewhere.
+    with pytest.raises(petblur.ArgumentError, match=r"estimated in the grid's frame \(from_frames given voxel_size=\)"
+                       r".*give no affine=, or estimate the motion with from_frames\(affine=\)"):
+        petblur.FramesOperator(shape, vox, in_grid, bounds, device="host", affine=s.affine)
 
 
 # ---- a known motion -------------------------------------------------------
