@@ -31,7 +31,7 @@ _lib.bind({"pb_motion_estimate": (ctypes.c_int, [_vp, _P(_lib.Geometry), _P(_dbl
 def _host_frames(frames):
     """[x, y, z, t] float32 on the host, x fastest then frame after frame."""
     a = Array(frames, "frames")
-    if a.on_gpu and a.original.dtype.itemsize == 8:  # narrowed on the host, where a value lost is named
+    if a.on_gpu and str(a.dtype).endswith("float64"):  # narrowed on the host, where a value lost is named
         a = Array(a.original.get() if a.kind == "cupy" else a.original.detach().cpu().numpy(), "frames")
     x = a.data
     if a.kind == "torch":

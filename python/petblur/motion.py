@@ -429,7 +429,7 @@ class Motion:
         if not isinstance(state["_inverse"], (bool, np.bool_)):
             raise ArgumentError(f"_inverse is {shown(state['_inverse'])}; give True or False")
         self._inverse = bool(state["_inverse"])
-        if state["_coords"] not in _COORDS:
+        if not (state["_coords"] is None or isinstance(state["_coords"], str) and state["_coords"] in _COORDS):
             raise ArgumentError(f"_coords is {shown(state['_coords'])}; give None, 'world' or 'grid'")
         self._coords = state["_coords"]
         for name in _REPORT:

@@ -29,7 +29,7 @@ import ctypes
 import numpy as np
 
 from . import _lib
-from ._arrays import Array
+from ._arrays import Array, _check_finite
 from .errors import ArgumentError
 from .motion import Motion
 from .operator import BlurOperator, FramesOperator, _quiet
@@ -279,6 +279,7 @@ def derivatives(op, x, xi=None, nodes=2):
         raise ArgumentError("derivatives takes host arrays; vjp takes CUDA arrays too")
     if arr.shape != op.in_shape:
         raise ArgumentError(f"the object has shape {arr.shape}; the operator takes {op.in_shape}")
+    _check_finite(arr.data, "object (the activity)", arr.wide)  # as the operators check what they read
     xf = np.asfortranarray(arr.data, dtype=np.float32)
     shape = op.in_shape
     out = np.zeros((len(placed), 6) + shape, dtype=np.float64)

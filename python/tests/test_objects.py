@@ -24,7 +24,7 @@ import numpy as np
 import pytest
 
 import petblur
-from petblur import _lib
+from petblur import _lib, pose
 
 SHAPE = (32, 32, 32)  # of the pickle whose size is bounded
 
@@ -558,6 +558,13 @@ def test_values_are_named_as_given(rng):
             call(a)
         assert f"is {value!r} at [{', '.join(map(str, where))}]" in str(e.value), str(e.value)
         assert "beyond float32's range" in str(e.value) and "NaN" not in str(e.value), str(e.value)
+    op = _operator("blur", "host", rng, shape=(6, 5, 4))
+    x = rng.random((6, 5, 4))
+    where, value = tuple(int(rng.integers(n)) for n in x.shape), _beyond(rng, 38.6, 308)
+    x[where] = value
+    with pytest.raises(petblur.ArgumentError, match=re.escape(f"is {value!r} at {list(where)}") +
+                       ".*beyond float32's range"):
+        pose.derivatives(op, x)
     frames = rng.random((6, 5, 4, 3)) + 1.0
     k, where = int(rng.integers(3)), tuple(int(rng.integers(n)) for n in (6, 5, 4))
     value = _beyond(rng, 38.6, 308)
