@@ -71,7 +71,10 @@ class Array:
                 self.wide = None if gpu else x
                 x = x.astype(np.float32, order="K") if gpu else _narrow(x)
         else:
-            raise ArgumentError(f"the {what} is a {type(x).__name__}; give a numpy or CuPy array or a torch tensor")
+            kind = type(x).__name__ if type(x).__module__ == "builtins" else f"{type(x).__module__}.{type(x).__name__}"
+            hint = ("; petblur.dask spreads an operator's frames over a dask array's chunks, or give x.compute()"
+                    if type(x).__module__.startswith("dask") else "")
+            raise ArgumentError(f"the {what} is a {kind}; give a numpy or CuPy array or a torch tensor{hint}")
         self.data = x
         self.shape = tuple(x.shape)
         self.what = what

@@ -29,7 +29,13 @@ _lib.bind({"pb_motion_estimate": (ctypes.c_int, [_vp, _P(_lib.Geometry), _P(_dbl
 
 
 def _host_frames(frames):
-    """[x, y, z, t] float32 on the host, x fastest then frame after frame."""
+    """[x, y, z, t] float32 on the host, x fastest then frame after frame.
+    The frames are read on the host whatever holds them, so an array that
+    numpy can read (a dask array, nibabel's img.dataobj) is read through
+    numpy."""
+    if not isinstance(frames, (list, tuple)) and hasattr(frames, "__array__") and \
+            type(frames).__module__.split(".")[0] not in ("numpy", "cupy", "torch"):
+        frames = np.asarray(frames)
     a = Array(frames, "frames")
     if a.on_gpu and str(a.dtype).endswith("float64"):  # narrowed on the host, where a value lost is named
         a = Array(a.original.get() if a.kind == "cupy" else a.original.detach().cpu().numpy(), "frames")

@@ -316,6 +316,28 @@ def test_world_motion_needs_the_affine(tmp_path, rng):
         petblur.FramesOperator(shape, vox, in_grid, bounds, device="host", affine=s.affine)
 
 
+def test_frames_numpy_can_read(tmp_path, rng):
+    """The frames are read on the host, so what numpy reads is taken: a dask
+    array in chunks of frames, nibabel's img.dataobj; the same track as
+    the numpy array's. An operator, which reads its input in place, names a
+    dask array's type and the way to give it."""
+    import dask.array as da
+    s = Series(rng, (16, 16, 16), (4.0, 4.0, 4.0), 4, jerk=2)
+    want = petblur.Motion.from_frames(s.frames, s.affine, s.starts, s.durations, device="host", levels=1)
+    nib.save(nib.Nifti1Image(s.frames, s.affine), str(tmp_path / "f.nii"))
+    chunks = (16, 16, 16, int(rng.integers(1, 4)))
+    for frames in (da.from_array(s.frames, chunks=chunks), nib.load(str(tmp_path / "f.nii")).dataobj):
+        got = petblur.Motion.from_frames(frames, s.affine, s.starts, s.durations, device="host", levels=1)
+        np.testing.assert_array_equal(got.times, want.times)
+        np.testing.assert_array_equal(got.translations, want.translations)
+        np.testing.assert_array_equal(got.quaternions, want.quaternions)
+    op = petblur.BlurOperator(s.frames.shape[:3], (4.0, 4.0, 4.0), petblur.Motion.from_axis_angle(angle=3),
+                              device="host")
+    with pytest.raises(petblur.ArgumentError, match=r"the object \(the activity\) is a dask\.array\.core\.Array; give "
+                       r"a numpy or CuPy array or a torch tensor; petblur\.dask .* or give x\.compute\(\)"):
+        op(da.from_array(s.frames[..., 0]))
+
+
 # ---- a known motion -------------------------------------------------------
 
 
