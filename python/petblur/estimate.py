@@ -78,10 +78,14 @@ def estimate(frames, affine, voxel_size, bounds, reference, device, frame_poses_
     if a is None or a.shape != (4, 4) or not np.all(np.isfinite(a)):
         raise ArgumentError("affine must be a finite 4x4 voxel-to-world matrix (nibabel's img.affine), not " +
                             (shown(affine) if a is None or a.shape == (4, 4) else f"of shape {a.shape}"))
-    # The columns' lengths, the voxel sizes, without squaring (1e300 would
-    # overflow to inf), held to the operators' range.
+    # The columns' lengths, the voxel sizes, as the program computes them;
+    # where squaring leaves float64 (1e300 to inf, 1e-300 to 0) scaled first,
+    # to name the length as given. Held to the operators' range.
+    with np.errstate(over="ignore", under="ignore"):
+        lengths = np.linalg.norm(a[:3, :3], axis=0)
     scale = np.abs(a[:3, :3]).max(axis=0)
-    lengths = scale * np.linalg.norm(a[:3, :3] / np.where(scale > 0, scale, 1.0), axis=0)
+    lost = ~np.isfinite(lengths) | (lengths < 1e-150)
+    lengths[lost] = (scale * np.linalg.norm(a[:3, :3] / np.where(scale > 0, scale, 1.0), axis=0))[lost]
     for i, v in enumerate(lengths):
         if not VOXEL_MIN <= v <= VOXEL_MAX:
             raise ArgumentError(f"affine's column {i} is {float(v)!r} mm long, the voxels' size along axis {i}; give "
