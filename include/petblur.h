@@ -425,6 +425,12 @@ PB_API pb_status pb_track_place(const pb_track *track, const pb_track_convention
 PB_API pb_status pb_track_check_frames(const pb_track *track, const pb_motion *grid, const pb_geometry *geometry,
                                        const double *bounds, size_t frames, pb_warnings *warnings);
 
+/* Frame bounds on their own, where they are given and before any track is at
+ * hand: pb_track_check_frames' rules on the bounds (finite, increasing) and
+ * its warning on them, PB_WARN_TIME_UNIT where a frame lasts over 6 h (bounds
+ * in milliseconds). */
+PB_API pb_status pb_frames_check(const double *bounds, size_t frames, pb_warnings *warnings);
+
 /* Frames from BIDS-PET's FrameTimesStart and FrameDuration (n of each, s):
  * n + 1 bounds. Durations positive, each frame starting where the one before
  * ends (to 1e-6 s relative). */

@@ -377,6 +377,15 @@ static void test_frames(void)
              "a frame lost to rounding: %s", pb_last_error(NULL));
     pb_check(pb_frames_from_starts(far_start, far_duration, 2, bounds) == PB_ERR_BAD_FRAME,
              "two frames at one double: %s", pb_last_error(NULL));
+    /* Bounds on their own: seconds pass quietly, milliseconds are warned of, NaN refused. */
+    double seconds[4] = {0, 60, 120, 300}, ms[4] = {0, 60000, 120000, 300000};
+    pb_warnings w = {0, ""};
+    pb_check(pb_frames_check(seconds, 3, &w) == PB_OK && w.flags == 0, "frames in seconds: %s", w.text);
+    pb_check(pb_frames_check(ms, 3, &w) == PB_OK && w.flags == PB_WARN_TIME_UNIT &&
+                 strstr(w.text, "frame 2 (120000 to 300000 s) lasts 50 h: are the times in milliseconds?"),
+             "frames in milliseconds: %s", w.text);
+    ms[2] = NAN;
+    pb_check(pb_frames_check(ms, 3, NULL) == PB_ERR_NOT_FINITE, "a NaN bound: %s", pb_last_error(NULL));
 }
 
 /* A track written x,y,z,w and read as w,x,y,z: every pose near 180 degrees

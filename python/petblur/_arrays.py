@@ -32,6 +32,9 @@ class Array:
     def __init__(self, x, what):
         torch, cupy = _torch(), _cupy()
         self.original = x
+        # A float64 host array as given, beside its float32 copy: a value that
+        # does not survive the narrowing is named as it was given.
+        self.wide = None
         if torch is not None and isinstance(x, torch.Tensor):
             self.kind = "torch"
             x = x.detach()
@@ -42,11 +45,14 @@ class Array:
                 raise ArgumentError(f"the {what} is a {x.dtype} tensor; give float32 (or float64, computed in "
                                     "float32): x.float()")
             self.dtype = x.dtype
-            if x.dtype == torch.float64:
-                x = x.float()
             if x.device.type == "cpu":  # the numpy path, on the tensor's own memory
                 self.kind = "torch-cpu"
                 x = x.numpy()
+                if x.dtype == np.float64:
+                    self.wide = x
+                    x = _narrow(x)
+            elif x.dtype == torch.float64:
+                x = x.float()
         elif isinstance(x, np.ma.MaskedArray):
             # The library reads every voxel, masked or not: a NaN under the
             # mask would be blurred into its neighbours.
@@ -62,12 +68,23 @@ class Array:
                 raise ArgumentError(f"the {what} is a {x.dtype} {'CuPy ' if gpu else ''}array; give float32 (or "
                                     f"float64, computed in float32): x.astype({module}.float32)")
             if x.dtype == np.float64:
-                x = x.astype(np.float32, order="K")
+                self.wide = None if gpu else x
+                x = x.astype(np.float32, order="K") if gpu else _narrow(x)
         else:
-            raise ArgumentError(f"the {what} is a {type(x).__name__}; give a numpy or CuPy array or a torch tensor")
+            kind = type(x).__name__ if type(x).__module__ == "builtins" else f"{type(x).__module__}.{type(x).__name__}"
+            hint = ("; petblur.dask spreads an operator's frames over a dask array's chunks, or give x.compute()"
+                    if type(x).__module__.startswith("dask") else "")
+            raise ArgumentError(f"the {what} is a {kind}; give a numpy or CuPy array or a torch tensor{hint}")
         self.data = x
         self.shape = tuple(x.shape)
         self.what = what
+
+    def move(self, fn):
+        """The data (and the float64 array it came from) through fn, a view
+        that moves axes, so that a voxel is named in the moved axes."""
+        self.data = fn(self.data)
+        if self.wide is not None:
+            self.wide = fn(self.wide)
 
     @property
     def on_gpu(self):
@@ -79,7 +96,7 @@ class Array:
         (C order)."""
         x = self.data
         if not self.on_gpu:
-            _check_finite(x, self.what)
+            _check_finite(x, self.what, self.wide)
         parts = [x] if x.ndim == 3 else [x[f] for f in range(x.shape[0])]
         out = []
         for v in parts:
@@ -121,16 +138,31 @@ class Array:
         return out.astype(np.float64) if self.dtype == np.float64 else out
 
 
-def _check_finite(x, what):
+def _narrow(x):
+    """A float64 host array in float32, the precision petblur computes in;
+    values beyond float32's range become infinite here and are refused, by
+    their float64 value, when the array is read (_check_finite)."""
+    with np.errstate(over="ignore"):
+        return x.astype(np.float32, order="K")
+
+
+def _check_finite(x, what, wide=None):
     """Host arrays: one NaN would spread through every blur that reads it;
-    refused here, where the voxel can be named in the array's own axes. (CUDA
-    arrays are not read on the host for this, as the C library's device-memory
-    calls do not check them.)"""
+    refused here, where the voxel can be named in the array's own axes. wide:
+    the float64 array x was narrowed from, whose finite values beyond
+    float32's range x holds as infinite. (CUDA arrays are not read on the host
+    for this, as the C library's device-memory calls do not check them.)"""
     finite = np.isfinite(x)
     if not finite.all():
         where = tuple(int(i) for i in np.argwhere(~finite)[0])
-        raise ArgumentError(f"the {what} is {x[where]} at {list(where)} (axes {'frame, ' if x.ndim == 4 else ''}x, y, "
-                            "z); replace NaN and infinite values first, for example with numpy.nan_to_num", -4)
+        axes = f"(axes {'frame, ' if x.ndim == 4 else ''}x, y, z)"
+        given = x[where] if wide is None else wide[where]
+        if np.isfinite(given):
+            raise ArgumentError(f"the {what} is {float(given)!r} at {list(where)} {axes}, beyond float32's range "
+                                f"(magnitudes up to {float(np.finfo(np.float32).max):.4g}), in which petblur "
+                                "computes; scale the values into it first, e.g. x / abs(x).max()", -4)
+        raise ArgumentError(f"the {what} is {given} at {list(where)} {axes}; replace NaN and infinite values first, "
+                            "for example with numpy.nan_to_num", -4)
 
 
 def pointer(v, kind):

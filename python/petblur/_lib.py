@@ -15,20 +15,42 @@ import sys
 import threading
 import warnings
 
-from .errors import error_class
+from .errors import LibraryError, error_class
 
 _here = os.path.dirname(os.path.abspath(__file__))
+# PETBLUR_LIBRARY: a build tree's library (development, the GPU machine).
+_chosen = os.environ.get("PETBLUR_LIBRARY")
+_path = _chosen or os.path.join(_here, "libpetblur.so")
+_FIX = ("point PETBLUR_LIBRARY at libpetblur.so in a petblur build folder (build/src/libpetblur.so), or unset it "
+        "to load the package's own library" if _chosen else
+        "reinstall the package from one source tree with 'pip install .' at the repository root")
+
+
+def _named():
+    return f"{_path} (PETBLUR_LIBRARY)" if _chosen else _path
 
 
 def _load():
-    # PETBLUR_LIBRARY: a build tree's library (development, the GPU machine).
-    path = os.environ.get("PETBLUR_LIBRARY") or os.path.join(_here, "libpetblur.so")
     try:
-        return ctypes.CDLL(path)
+        return ctypes.CDLL(_path)
     except OSError as e:
-        raise ImportError(
-            f"petblur: cannot load its C library {path} ({e}); reinstall with 'pip install .' at the repository "
-            "root, or point PETBLUR_LIBRARY at a built libpetblur.so") from e
+        raise LibraryError(f"petblur: cannot load its C library {_named()} ({e}); {_FIX}") from None
+
+
+def bind(signatures):
+    """Gives each of the library's functions {name: (restype, argtypes)} its
+    signature. A library without one of them is not petblur's, or is of
+    another version: refused by name here, at import, rather than as ctypes'
+    AttributeError at the first call."""
+    missing = [name for name in signatures if not hasattr(lib, name)]
+    if missing:
+        more = f" and {len(missing) - 1} other of its calls" if len(missing) > 1 else ""
+        what = ("is not petblur's C library" if len(missing) == len(signatures) else
+                "is a petblur library of another version")
+        raise LibraryError(f"petblur: {_named()} {what}: it has no {missing[0]}{more}; {_FIX}")
+    for name, (res, args) in signatures.items():
+        f = getattr(lib, name)
+        f.restype, f.argtypes = res, args
 
 
 def _nvrtc_from_wheel():
@@ -192,6 +214,7 @@ _signatures = {
     "pb_track_place": (_int, [_vp, _P(TrackConventions), _P(Geometry), _P(_dbl), _P(Pose), _P(CMotion),
                               _P(Warnings)]),
     "pb_track_check_frames": (_int, [_vp, _P(CMotion), _P(Geometry), _P(_dbl), _sz, _P(Warnings)]),
+    "pb_frames_check": (_int, [_P(_dbl), _sz, _P(Warnings)]),
     "pb_frames_from_starts": (_int, [_P(_dbl), _P(_dbl), _sz, _P(_dbl)]),
     "pb_frames_read_sidecar": (_int, [ctypes.c_char_p, _P(_dbl), _sz, _P(_sz)]),
     "pb_motion_mean_pose": (_int, [_P(CMotion), _P(Pose)]),
@@ -200,9 +223,7 @@ _signatures = {
     "pb_context_set_progress": (_int, [_vp, ProgressFn, _vp]),
     "pb_abi_layout": (ctypes.c_char_p, []),
 }
-for _name, (_res, _args) in _signatures.items():
-    _f = getattr(lib, _name)
-    _f.restype, _f.argtypes = _res, _args
+bind(_signatures)
 
 
 class FileStatus(int):
@@ -247,8 +268,8 @@ def check_layout(structs=None, enums=None):
                 problems.append(f"{name} is {enums[name]} here, {v[0]} in the library")
     problems += [f"{n} is not described by the library" for n in list(structs) + list(enums) if n not in seen]
     if problems:
-        raise ImportError("petblur: the Python binding does not match its C library: " + "; ".join(problems) +
-                          "; rebuild the package from one source tree ('pip install .')")
+        raise LibraryError(f"petblur: the Python binding does not match its C library {_named()}: " +
+                           "; ".join(problems) + f"; {_FIX}")
 
 
 def message(ctx=None):

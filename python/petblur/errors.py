@@ -2,6 +2,14 @@
 of the C library (include/petblur.h), carrying the library's message, which
 says what went wrong and how to fix it."""
 
+import reprlib
+
+
+def shown(value):
+    """A value as given, for a message: its repr, shortened (reprlib's
+    limits), on one line."""
+    return " ".join(reprlib.repr(value).split())
+
 
 class Error(Exception):
     """A petblur failure. ``status`` is the C library's pb_status (negative),
@@ -35,6 +43,12 @@ class OutOfMemoryError(Error, MemoryError):
 
 class FileError(Error, OSError):
     """A file could not be read, or its content is malformed (-600 .. -699)."""
+
+
+class LibraryError(Error, ImportError):
+    """The C library cannot serve the package: it does not load, it is not
+    petblur's (PETBLUR_LIBRARY naming another library) or it lacks a call,
+    or its structs differ from the package's. Raised by ``import petblur``."""
 
 
 class FileContentError(FileError, ArgumentError):

@@ -8,7 +8,9 @@ import numpy as np
 
 from . import _lib
 from ._arrays import Array, _check_finite
-from .errors import ArgumentError
+from .errors import ArgumentError, shown
+from .motion import _finite
+from .operator import VOXEL_MAX, VOXEL_MIN, _voxel3
 
 
 class EstimateOptions(ctypes.Structure):
@@ -22,14 +24,21 @@ class EstimateReport(ctypes.Structure):
 
 _lib.check_layout({"pb_estimate_options": EstimateOptions, "pb_estimate_report": EstimateReport}, {})
 _P, _vp, _dbl = ctypes.POINTER, ctypes.c_void_p, ctypes.c_double
-_lib.lib.pb_motion_estimate.restype = ctypes.c_int
-_lib.lib.pb_motion_estimate.argtypes = [_vp, _P(_lib.Geometry), _P(_dbl), _vp, ctypes.c_size_t, _P(_dbl),
-                                        _P(EstimateOptions), _P(_vp), _P(EstimateReport)]
+_lib.bind({"pb_motion_estimate": (ctypes.c_int, [_vp, _P(_lib.Geometry), _P(_dbl), _vp, ctypes.c_size_t, _P(_dbl),
+                                                  _P(EstimateOptions), _P(_vp), _P(EstimateReport)])})
 
 
 def _host_frames(frames):
-    """[x, y, z, t] float32 on the host, x fastest then frame after frame."""
+    """[x, y, z, t] float32 on the host, x fastest then frame after frame.
+    The frames are read on the host whatever holds them, so an array that
+    numpy can read (a dask array, nibabel's img.dataobj) is read through
+    numpy."""
+    if not isinstance(frames, (list, tuple)) and hasattr(frames, "__array__") and \
+            type(frames).__module__.split(".")[0] not in ("numpy", "cupy", "torch"):
+        frames = np.asarray(frames)
     a = Array(frames, "frames")
+    if a.on_gpu and str(a.dtype).endswith("float64"):  # narrowed on the host, where a value lost is named
+        a = Array(a.original.get() if a.kind == "cupy" else a.original.detach().cpu().numpy(), "frames")
     x = a.data
     if a.kind == "torch":
         x = x.cpu().numpy()
@@ -41,7 +50,7 @@ def _host_frames(frames):
                             "frame has nothing to register")
     x = np.asfortranarray(x, dtype=np.float32)
     for k in range(x.shape[3]):
-        _check_finite(x[..., k], f"frame {k}")
+        _check_finite(x[..., k], f"frame {k}", None if a.wide is None else a.wide[..., k])
     return x
 
 
@@ -56,20 +65,32 @@ def estimate(frames, affine, voxel_size, bounds, reference, device, frame_poses_
         if voxel_size is None:
             raise ArgumentError("give affine= (the series' voxel-to-world 4x4, nibabel's img.affine) or voxel_size= "
                                 "(mm): without either the motion's translations would be in voxels, not mm")
-        d = np.asarray(voxel_size, dtype=np.float64).reshape(-1)
-        if d.size == 1:  # one size for the three axes, as the operators take it
-            d = np.repeat(d, 3)
-        if d.size != 3 or not np.all(np.isfinite(d)) or not np.all(d > 0):
-            raise ArgumentError(f"voxel_size {voxel_size!r}: give one or three positive, finite sizes in mm")
+        d = _voxel3(voxel_size)  # the operators' rule: the same grid frame
         affine = np.eye(4)
         affine[:3, :3] = np.diag(d)
         affine[:3, 3] = 0.5 * d
     elif voxel_size is not None:
         raise ArgumentError("give affine= or voxel_size=, not both: the affine holds the voxel size")
-    a = np.asarray(affine, dtype=np.float64)
-    if a.shape != (4, 4) or not np.all(np.isfinite(a)):
-        raise ArgumentError(f"affine must be a finite 4x4 voxel-to-world matrix (nibabel's img.affine), not {a.shape}")
-    geometry_voxel = tuple(float(v) for v in np.linalg.norm(a[:3, :3], axis=0))
+    try:
+        a = np.asarray(affine, dtype=np.float64)
+    except (TypeError, ValueError):
+        a = None
+    if a is None or a.shape != (4, 4) or not np.all(np.isfinite(a)):
+        raise ArgumentError("affine must be a finite 4x4 voxel-to-world matrix (nibabel's img.affine), not " +
+                            (shown(affine) if a is None or a.shape == (4, 4) else f"of shape {a.shape}"))
+    # The columns' lengths, the voxel sizes, as the program computes them;
+    # where squaring leaves float64 (1e300 to inf, 1e-300 to 0) scaled first,
+    # to name the length as given. Held to the operators' range.
+    with np.errstate(over="ignore", under="ignore"):
+        lengths = np.linalg.norm(a[:3, :3], axis=0)
+    scale = np.abs(a[:3, :3]).max(axis=0)
+    lost = ~np.isfinite(lengths) | (lengths < 1e-150)
+    lengths[lost] = (scale * np.linalg.norm(a[:3, :3] / np.where(scale > 0, scale, 1.0), axis=0))[lost]
+    for i, v in enumerate(lengths):
+        if not VOXEL_MIN <= v <= VOXEL_MAX:
+            raise ArgumentError(f"affine's column {i} is {float(v)!r} mm long, the voxels' size along axis {i}; give "
+                                "an affine of voxels between 1e-6 and 1e6 mm (nibabel's img.affine, in mm)")
+    geometry_voxel = tuple(float(v) for v in lengths)
     flat = (ctypes.c_double * 16)(*a.reshape(-1))
     b = np.asarray(bounds, dtype=np.float64).reshape(-1)
     if b.size != nt + 1:
@@ -80,9 +101,10 @@ def estimate(frames, affine, voxel_size, bounds, reference, device, frame_poses_
             raise ArgumentError(f"{name} {v!r}: give a whole number from {lo} (the default) to {hi}")
     if isinstance(reference, bool) or not isinstance(reference, (int, np.integer)) or not 0 <= reference < nt:
         raise ArgumentError(f"reference {reference!r}: the series has frames 0 to {nt - 1}")
-    fwhm = float(fwhm)
-    if not np.isfinite(fwhm) or not 0.0 <= fwhm <= 1000.0:
-        raise ArgumentError(f"fwhm {fwhm}: give 0 (two voxels of each level) to 1000 mm")
+    given = fwhm
+    fwhm = _finite(fwhm)
+    if fwhm is None or not 0.0 <= fwhm <= 1000.0:
+        raise ArgumentError(f"fwhm {shown(given)}: give 0 (two voxels of each level) to 1000 mm")
     g = _lib.Geometry((ctypes.c_size_t * 3)(nx, ny, nz), (ctypes.c_double * 3)(*geometry_voxel))
     opts = EstimateOptions(int(reference), int(levels), int(iterations), int(bool(frame_poses_only)), fwhm)
     cb = (ctypes.c_double * b.size)(*b)

@@ -16,13 +16,14 @@ affine= (voxel to world, 4x4, as nibabel's img.affine) in the scanner's world
 mm, where tracker logs live (--coords world)."""
 
 import ctypes
+import numbers
 import os
 import warnings
 
 import numpy as np
 
 from . import _lib
-from .errors import ArgumentError, Error
+from .errors import ArgumentError, Error, shown
 
 _FORMATS = {None: 0, "auto": 0, "csv": 1, "matrix-csv": 2, "polaris": 3}
 
@@ -54,6 +55,16 @@ def _warn(w, stacklevel):
         warnings.warn(python_words(line), stacklevel=stacklevel + 1)
 
 
+def _frames_warn(bounds):
+    """Frame bounds where a public call is given them: the library's rules on
+    bounds alone and its warning (a frame over 6 h: milliseconds), raised at
+    that call's caller rather than when an operator is first made."""
+    b = (ctypes.c_double * len(bounds))(*bounds)
+    w = _lib.Warnings()
+    _check(_lib.lib.pb_frames_check(b, len(bounds) - 1, ctypes.byref(w)))
+    _warn(w, 3)
+
+
 def _vector(name, value, n):
     try:
         v = np.array(value, dtype=np.float64).reshape(-1)
@@ -64,6 +75,22 @@ def _vector(name, value, n):
     if not np.all(np.isfinite(v)):
         raise ArgumentError(f"{name} holds NaN or infinity: {value.tolist() if hasattr(value, 'tolist') else value}")
     return v
+
+
+def _finite(value):
+    """value as a finite float, or None (not a number, NaN, infinite)."""
+    try:
+        v = float(value)
+    except (TypeError, ValueError, OverflowError):
+        return None
+    return v if np.isfinite(v) else None
+
+
+def _numbers(name, value):
+    try:
+        return np.array(value, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise ArgumentError(f"{name} must be numbers, not {shown(value)}") from None
 
 
 def _pose(translation, quaternion):
@@ -100,9 +127,9 @@ class Motion:
     translation is interpolated linearly and the rotation spherically."""
 
     def __init__(self, times, translations, quaternions, center=None):
-        self.times = np.array(times, dtype=np.float64).reshape(-1)
-        self.translations = np.array(translations, dtype=np.float64)
-        self.quaternions = np.array(quaternions, dtype=np.float64)
+        self.times = _numbers("times", times).reshape(-1)
+        self.translations = _numbers("translations", translations)
+        self.quaternions = _numbers("quaternions", quaternions)
         n = self.times.size
         if self.translations.shape != (n, 3):
             raise ArgumentError(f"translations must have shape ({n}, 3), one row per time, not "
@@ -110,6 +137,11 @@ class Motion:
         if self.quaternions.shape != (n, 4):
             raise ArgumentError(f"quaternions must have shape ({n}, 4), w,x,y,z per time, not "
                                 f"{self.quaternions.shape}")
+        for name, rows in (("translations", self.translations), ("quaternions", self.quaternions)):
+            bad = np.flatnonzero(~np.isfinite(rows).all(axis=1))
+            if bad.size:  # the library says "sample i holds NaN", not which array
+                raise ArgumentError(f"{name}[{bad[0]}] is {rows[bad[0]].tolist()}, NaN or infinity; give finite "
+                                    f"{'mm' if name == 'translations' else 'unit quaternions'}")
         self.center = None if center is None else _vector("center", center, 3)
         # What a file gives beyond the arrays: its format (csv poses turn about
         # a centre, tracker matrices about the world's origin), each sample's
@@ -120,6 +152,11 @@ class Motion:
         self._calibration = None
         self._reference_time = None
         self._inverse = False
+        # The coordinates the poses are in where they are known: "world" (a
+        # tracker's log, an estimate placed by an affine: the operators need
+        # affine=), "grid" (an estimate given voxel_size=), None (arrays,
+        # csv: either, as the operator's affine= says).
+        self._coords = None
         _Track(self)  # the library's checks (finite, increasing, unit quaternions), now
 
     def __len__(self):
@@ -143,14 +180,16 @@ class Motion:
         tracked in pieces, so that the arc asked for is followed."""
         t = _vector("translation", translation, 3)
         a = _vector("axis", axis, 3)
-        angle = float(angle)
-        if not np.isfinite(angle) or abs(angle) > 3600.0:
-            raise ArgumentError(f"angle {angle}: give at most ten turns within one frame, in degrees")
+        given = angle
+        angle = _finite(angle)
+        if angle is None or abs(angle) > 3600.0:
+            raise ArgumentError(f"angle {shown(given)}: give at most ten turns within one frame, in degrees")
         if not np.any(a):
             raise ArgumentError("axis must not be zero; e.g. (0, 0, 1), the scanner axis")
-        duration = float(duration)
-        if not duration > 0 or not np.isfinite(duration):
-            raise ArgumentError(f"duration {duration}: give a positive number of seconds")
+        given = duration
+        duration = _finite(duration)
+        if duration is None or not duration > 0:
+            raise ArgumentError(f"duration {shown(given)}: give a positive number of seconds")
         pieces = max(1, int(np.ceil(abs(angle) / 90.0 - 1e-12)))
         s = np.linspace(0.0, 1.0, pieces + 1)
         q = np.empty((pieces + 1, 4))
@@ -187,6 +226,8 @@ class Motion:
         fmt, times, tr, q, lines, missing = track_arrays(handle)
         m = cls(times, tr, q)
         m._format, m._lines, m._missing, m._source = fmt, lines, missing, os.fsdecode(path)
+        if fmt != _lib.TRACK_CSV:  # tracker matrices: the scanner's world
+            m._coords = "world"
         if center is not None:
             m.center = _vector("center", center, 3)
         if calibration is not None:
@@ -199,7 +240,9 @@ class Motion:
                 raise ArgumentError("calibration must be a 4x4 tracker-to-scanner matrix, or the path of its file")
             m._calibration = c
         if reference_time is not None:
-            m._reference_time = float(reference_time)
+            m._reference_time = _finite(reference_time)
+            if m._reference_time is None:
+                raise ArgumentError(f"reference_time {shown(reference_time)}: give finite seconds")
         m._inverse = bool(inverse)
         m._world(_grid((1, 1, 1), (1.0, 1.0, 1.0)), None, warn=False)  # the conventions' refusals, now
         return m
@@ -237,6 +280,11 @@ class Motion:
             bounds = np.array(out[:])
         elif starts is not None or durations is not None:
             raise ArgumentError("give starts= and durations=, or bounds=, not both")
+        else:
+            bounds = _numbers("bounds", bounds).reshape(-1)
+            if bounds.size < 2:
+                raise ArgumentError(f"bounds must hold at least two times (one frame), not {bounds.size}")
+        _frames_warn(bounds)
         try:
             handle, report = estimate.estimate(frames, affine, voxel_size, bounds, reference, device,
                                                frame_poses_only, levels, iterations, fwhm)
@@ -245,6 +293,7 @@ class Motion:
         fmt, times, tr, q, _, _ = track_arrays(handle)
         m = cls(times, tr, q)
         m._format, m._source = fmt, "the motion estimated from the frames"
+        m._coords = "grid" if affine is None else "world"
         m.estimate_seconds, m.moving_frames = report.seconds, int(report.moving_frames)
         return m
 
@@ -312,8 +361,10 @@ class Motion:
         """The time-weighted mean pose over the frame [t0, t1], as pose_at
         gives poses: the mean translation, and the normalised mean of the
         rotation's quaternions. What a model of one pose per frame takes."""
+        frame = _numbers("the frame (t0, t1)", (t0, t1))
+        _frames_warn(frame)
         world, keep = self._world(None, None, warn=False)
-        world.frame_start, world.frame_end = float(t0), float(t1)
+        world.frame_start, world.frame_end = frame
         p = _lib.Pose()
         _check(_lib.lib.pb_motion_mean_pose(ctypes.byref(world), ctypes.byref(p)))
         return np.array(p.translation[:]), np.array(p.rotation[:])
@@ -326,8 +377,84 @@ class Motion:
         return dict(self.__dict__)
 
     def __setstate__(self, state):
-        self.__dict__.update(state)
-        _Track(self)  # a pickle is checked as the arrays were: finite, increasing, unit quaternions
+        """A loaded motion checked as a new one is: the constructor's checks
+        on its arrays, then each field a file or an estimate adds, then the
+        library's track and conventions, as from_file checks them."""
+        try:
+            self._load(state)
+        except Error as e:
+            raise type(e)(f"the pickled petblur.Motion is not one petblur made: {e.message}; pickle the Motion "
+                          "again from its source", e.status) from None
+
+    def _load(self, state):
+        if not isinstance(state, dict):
+            raise ArgumentError(f"its state is a {type(state).__name__}, not the dict of fields a Motion pickles")
+        missing = [k for k in _STATE if k not in state]
+        if missing:
+            raise ArgumentError(f"its state lacks {', '.join(missing)}")
+        extra = sorted(repr(k) for k in state if k not in _STATE and k not in _REPORT)
+        if extra:
+            raise ArgumentError(f"its state holds {', '.join(extra)}, which no Motion has")
+        self.__init__(state["times"], state["translations"], state["quaternions"], state["center"])
+        n = len(self)
+        fmt = state["_format"]
+        if not _whole(fmt) or fmt not in (_lib.TRACK_CSV, _lib.TRACK_MATRIX_CSV, _lib.TRACK_POLARIS):
+            raise ArgumentError(f"_format is {shown(fmt)}; a track's format is {_lib.TRACK_CSV} (csv), "
+                                f"{_lib.TRACK_MATRIX_CSV} (matrix-csv) or {_lib.TRACK_POLARIS} (polaris)")
+        self._format = int(fmt)
+        for name in ("_lines", "_missing"):
+            v = state[name]
+            if v is not None:
+                a = np.asarray(v) if isinstance(v, (list, tuple, np.ndarray)) else None
+                if a is None or a.dtype.kind not in "iu" or a.shape != (n,) or np.any(a < 0):
+                    raise ArgumentError(f"{name} is {shown(v)}; give None or {n} whole numbers, one per "
+                                        "sample, at least 0")
+                v = a.astype(np.uint64)
+            setattr(self, name, v)
+        if not isinstance(state["_source"], str):
+            raise ArgumentError(f"_source is {shown(state['_source'])}; give the track's name as text")
+        self._source = state["_source"]
+        cal = state["_calibration"]
+        if cal is not None:
+            c = _numbers("_calibration", cal)
+            if c.shape != (4, 4) or not np.all(np.isfinite(c)):
+                raise ArgumentError(f"_calibration is {shown(cal)}; give None or a finite 4x4 matrix")
+            cal = c
+        self._calibration = cal
+        ref = state["_reference_time"]
+        if ref is not None and (not isinstance(ref, numbers.Real) or isinstance(ref, bool) or
+                                not np.isfinite(ref)):
+            raise ArgumentError(f"_reference_time is {shown(ref)}; give None or finite seconds")
+        self._reference_time = None if ref is None else float(ref)
+        if not isinstance(state["_inverse"], (bool, np.bool_)):
+            raise ArgumentError(f"_inverse is {shown(state['_inverse'])}; give True or False")
+        self._inverse = bool(state["_inverse"])
+        if not (state["_coords"] is None or isinstance(state["_coords"], str) and state["_coords"] in _COORDS):
+            raise ArgumentError(f"_coords is {shown(state['_coords'])}; give None, 'world' or 'grid'")
+        self._coords = state["_coords"]
+        for name in _REPORT:
+            if name in state:
+                v = state[name]
+                good = (_whole(v) if name == "moving_frames" else isinstance(v, numbers.Real) and
+                        not isinstance(v, bool) and np.isfinite(v))
+                if not good or v < 0:
+                    raise ArgumentError(f"{name} is {shown(v)}; give a finite number, at least 0")
+                setattr(self, name, int(v) if name == "moving_frames" else float(v))
+        _Track(self)
+        self._world(_grid((1, 1, 1), (1.0, 1.0, 1.0)), None, warn=False)  # the conventions' refusals
+
+
+# The state a Motion pickles: the constructor's arguments, what a file or an
+# estimate adds to them (format, lines, missing samples, name, conventions,
+# coordinates), and an estimate's report.
+_STATE = ("times", "translations", "quaternions", "center", "_format", "_lines", "_missing", "_source",
+          "_calibration", "_reference_time", "_inverse", "_coords")
+_REPORT = ("estimate_seconds", "moving_frames")
+_COORDS = (None, "world", "grid")
+
+
+def _whole(v):
+    return isinstance(v, (int, np.integer)) and not isinstance(v, bool)
 
 
 def track_arrays(handle):
@@ -357,4 +484,6 @@ def frames_from_sidecar(path):
     _check(_lib.lib.pb_frames_read_sidecar(name, None, 0, ctypes.byref(frames)))
     bounds = (ctypes.c_double * (frames.value + 1))()
     _check(_lib.lib.pb_frames_read_sidecar(name, bounds, frames.value + 1, ctypes.byref(frames)))
-    return np.array(bounds[:])
+    bounds = np.array(bounds[:])
+    _frames_warn(bounds)
+    return bounds

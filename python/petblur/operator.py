@@ -22,6 +22,7 @@ and Dask")."""
 import contextlib
 import copy
 import ctypes
+import inspect
 import pickle
 import weakref
 
@@ -29,7 +30,7 @@ import numpy as np
 
 from . import _lib
 from ._arrays import Array, pointer
-from .errors import ArgumentError
+from .errors import ArgumentError, Error, shown
 from .motion import Motion
 
 _METHODS = {"ab": 0, "rm": 1, "cl": 2, "ref": 3}
@@ -49,14 +50,25 @@ def _shape3(shape):
     return s
 
 
+# Voxel sizes, mm (the messages say 1e-6 and 1e6): beyond these a grid is no
+# image, and the motion's and the path's arithmetic leaves the range it is
+# checked for.
+VOXEL_MIN, VOXEL_MAX = 1e-6, 1e6
+
+
 def _voxel3(voxel_size):
-    v = np.array(voxel_size, dtype=np.float64).reshape(-1)
+    try:
+        v = np.array(voxel_size, dtype=np.float64).reshape(-1)
+    except (TypeError, ValueError):
+        raise ArgumentError(f"voxel_size must be three positive sizes in mm (or one for cubes), not "
+                            f"{shown(voxel_size)}") from None
     if v.size == 1:
         v = np.repeat(v, 3)
     if v.size != 3 or not np.all(np.isfinite(v)) or np.any(v <= 0):
-        raise ArgumentError(f"voxel_size must be three positive sizes in mm (or one for cubes), not {voxel_size!r}")
-    if np.any(v < 1e-6) or np.any(v > 1e6):
-        raise ArgumentError(f"voxel_size {voxel_size!r}: give sizes in mm, between 1e-6 and 1e6")
+        raise ArgumentError(f"voxel_size must be three positive sizes in mm (or one for cubes), not "
+                            f"{shown(voxel_size)}")
+    if np.any(v < VOXEL_MIN) or np.any(v > VOXEL_MAX):
+        raise ArgumentError(f"voxel_size {shown(voxel_size)}: give sizes in mm, between 1e-6 and 1e6")
     return v
 
 
@@ -90,10 +102,10 @@ class _Operator:
         if not isinstance(motion, Motion):
             raise ArgumentError(f"motion must be a petblur.Motion, not {type(motion).__name__}")
         self.motion = motion
-        if method not in _METHODS:
+        if not isinstance(method, str) or method not in _METHODS:
             raise ArgumentError(f"method {method!r}: choose 'ab' (the paper's antialiased Bresenham), 'rm', 'cl' or "
                                 "'ref'")
-        if filter not in _FILTERS:
+        if not isinstance(filter, str) or filter not in _FILTERS:
             raise ArgumentError(f"filter {filter!r}: choose 'hardware' (one filtered fetch per slice) or 'exact'")
         if max_path_error is None:
             path, bound = _lib.PATH_DEFAULT, 0.0
@@ -106,9 +118,12 @@ class _Operator:
                 raise ArgumentError(f"max_path_error {max_path_error!r}: give a bound in voxels, None for the "
                                     "default, or 'paper' for one segment per tracked interval") from None
         try:
-            steps = int(steps)
-        except (TypeError, ValueError):
-            raise ArgumentError(f"steps {steps!r}: give a whole number") from None
+            whole = int(steps)
+        except (TypeError, ValueError, OverflowError):
+            whole = None
+        if whole is None or whole != steps:  # 2.7 is no count of steps, nor is NaN
+            raise ArgumentError(f"steps {shown(steps)}: give a whole number") from None
+        steps = whole
         if not 0 <= steps < 1 << 32:
             raise ArgumentError(f"steps {steps}: give 0 (the paper's choice) or a positive count")
         if not (ab_sampling is None or isinstance(ab_sampling, str)) or ab_sampling not in _AB_SAMPLINGS:
@@ -122,18 +137,32 @@ class _Operator:
         try:  # every range stated once, by the library
             _lib.check(_lib.lib.pb_options_check(ctypes.byref(self._options)))
         except ArgumentError as e:
-            raise ArgumentError(e.message.replace("PB_PATH_BOUNDED", "a number"), e.status) from None
+            text = e.message.replace("PB_PATH_BOUNDED", "a number")
+            if text.startswith("max_path_error ") and ":" in text:  # the library's %g rounds 1000.0000001 to 1000
+                text = f"max_path_error {shown(max_path_error)}:" + text.split(":", 1)[1]
+            raise ArgumentError(text, e.status) from None
         self._progress = progress
         if affine is None:
-            a = np.eye(4)
-            a[:3, :3] = np.diag(self.voxel_size)
-            a[:3, 3] = 0.5 * self.voxel_size
+            a = _grid_affine(self.voxel_size)
+            if motion._coords == "world":
+                raise _needs_affine(motion, a)
             self.affine = None
             self._affine = a
         else:
-            a = np.array(affine, dtype=np.float64)
-            if a.shape != (4, 4) or not np.all(np.isfinite(a)):
-                raise ArgumentError("affine must be a finite 4x4 voxel-to-world matrix (nibabel's img.affine)")
+            try:
+                a = np.array(affine, dtype=np.float64)
+            except (TypeError, ValueError):
+                a = None
+            if a is None or a.shape != (4, 4) or not np.all(np.isfinite(a)):
+                raise ArgumentError("affine must be a finite 4x4 voxel-to-world matrix (nibabel's img.affine), not " +
+                                    (shown(affine) if a is None or a.shape == (4, 4) else f"of shape {a.shape}"))
+            grid = _grid_affine(self.voxel_size)
+            if motion._coords == "grid" and not np.allclose(a, grid, rtol=1e-12, atol=1e-9 * self.voxel_size.max()):
+                raise ArgumentError(
+                    f"the motion ({motion._source}) was estimated in the grid's frame (from_frames given voxel_size=), "
+                    "along the array's axes from the grid's corner, and affine= places the grid elsewhere in the "
+                    "world, where its poses would turn about another point; give no affine=, or estimate the motion "
+                    "with from_frames(affine=) the same affine")
             self.affine = self._affine = a
         self._bounds = np.array(bounds, dtype=np.float64)
         device = device if isinstance(device, str) else str(device)  # a torch.device, a CuPy Device's id
@@ -364,6 +393,29 @@ class _Operator:
                     _lib.check(lib.pb_volume_download(vout, pointer(y, "numpy")), ctx.handle)
 
 
+def _grid_affine(voxel_size):
+    """The grid frame's affine: mm along the array's axes, the grid's corner
+    at the origin (index at voxel centres)."""
+    a = np.eye(4)
+    a[:3, :3] = np.diag(voxel_size)
+    a[:3, 3] = 0.5 * voxel_size
+    return a
+
+
+def _needs_affine(motion, grid):
+    """The refusal of a motion in the scanner's world given no affine: its
+    poses would be taken along the array's axes about the grid's corner, a
+    blur silently other than the one meant. The program never does this: it
+    places such a track by the image's affine, and refuses --coords world
+    where the image has none."""
+    literal = "[" + ", ".join("[" + ", ".join(repr(float(v)) for v in row) + "]" for row in grid) + "]"
+    return ArgumentError(
+        f"the motion ({motion._source}) holds poses in the scanner's world mm, about the world's origin, and the "
+        "operator has no affine= to place its grid in that world; give affine= the image's voxel-to-world 4x4 "
+        "(nibabel's img.affine; for Motion.from_frames, the affine it was given), or, to take the poses along the "
+        f"array's axes from the grid's corner (the program's --coords grid), affine={literal}")
+
+
 def _check_shape(arr, shapes, what):
     if arr.shape not in shapes:
         want = " or ".join(str(s) for s in shapes)
@@ -470,7 +522,13 @@ class FramesOperator(_Operator):
     def __init__(self, shape, voxel_size, track, bounds, per_frame=False, method="ab", filter="hardware",
                  max_path_error=None, device="auto", affine=None, steps=0, progress=None, frames_last=False,
                  ab_sampling=None):
-        b = np.array(bounds, dtype=np.float64).reshape(-1)
+        if not isinstance(track, Motion):
+            raise ArgumentError(f"track must be a petblur.Motion, not {type(track).__name__}")
+        try:
+            b = np.array(bounds, dtype=np.float64).reshape(-1)
+        except (TypeError, ValueError):
+            raise ArgumentError(f"bounds must be the frames' n + 1 times in seconds, not {shown(bounds)}") \
+                from None
         if b.size < 2:
             raise ArgumentError(f"bounds must hold at least two times (one frame), not {b.size}")
         super().__init__(shape, voxel_size, track, b, method, filter, max_path_error, device, affine, steps,
@@ -506,7 +564,7 @@ class FramesOperator(_Operator):
         """Every frame's blur of x: one activity (shape) or one per frame."""
         arr = Array(x, "activity")
         _check_shape(arr, [self._shape, self._frames_shape()], "activity")
-        arr.data = self._first(arr.data)
+        arr.move(self._first)
         vols = _one_order(arr.volumes(self._shape))
         order = vols[0][1]
         out = arr.empty((self.frames,) + self._shape, order)
@@ -521,7 +579,7 @@ class FramesOperator(_Operator):
             sum = not self.per_frame
         arr = Array(y, "frames")
         _check_shape(arr, [self._frames_shape()], "frames")
-        arr.data = self._first(arr.data)
+        arr.move(self._first)
         vols = _one_order(arr.volumes(self._shape))
         order = vols[0][1]
         if sum:
@@ -535,10 +593,35 @@ class FramesOperator(_Operator):
 
 
 def _rebuild(cls, description, progress):
-    """An operator made again from its description (deepcopy, pickle.load)."""
+    """An operator made again from its description (deepcopy, pickle.load),
+    checked as a new one is: its fields are the constructor's arguments, and
+    the constructor checks them."""
+    if not (isinstance(cls, type) and issubclass(cls, _Operator) and cls is not _Operator):
+        raise ArgumentError(f"the pickled operator's class is {shown(cls)}, not a petblur operator; pickle "
+                            "the operator again")
+    name = f"the pickled petblur.{cls.__name__}"
+    try:
+        if not isinstance(description, dict):
+            raise ArgumentError(f"its description is a {type(description).__name__}, not the dict of arguments an "
+                                "operator pickles")
+        fields = [k for k in inspect.signature(cls.__init__).parameters if k not in ("self", "progress")]
+        missing = [k for k in fields if k not in description]
+        if missing:
+            raise ArgumentError(f"its description lacks {', '.join(missing)}")
+        extra = sorted(repr(k) for k in description if k not in fields)
+        if extra:
+            raise ArgumentError(f"its description holds {', '.join(extra)}, which {cls.__name__} does not take")
+        return _quiet(cls, description, progress)
+    except Error as e:
+        raise type(e)(f"{name} is not one petblur made: {e.message}; pickle the operator again", e.status) from None
+
+
+def _quiet(cls, arguments, progress):
+    """An operator of cls made from arguments, without the checks' warnings
+    (they were raised when the operator it derives from was made)."""
     op = cls.__new__(cls)
     op._quiet = True
-    op.__init__(progress=progress, **description)
+    op.__init__(progress=progress, **arguments)
     return op
 
 

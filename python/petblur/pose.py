@@ -29,10 +29,10 @@ import ctypes
 import numpy as np
 
 from . import _lib
-from ._arrays import Array
+from ._arrays import Array, _check_finite
 from .errors import ArgumentError
 from .motion import Motion
-from .operator import BlurOperator, FramesOperator, _rebuild
+from .operator import BlurOperator, FramesOperator, _quiet
 
 
 # ---- rotations (quaternions w, x, y, z) ----
@@ -142,8 +142,8 @@ class _Placed:
         options and device; the checks' warnings not raised again."""
         common = dict(self.op._common)
         common.update(affine=None, device=self.op.device)
-        return _rebuild(cls, dict(shape=self.op.in_shape, voxel_size=self.op.voxel_size, **common, **description),
-                        None)
+        return _quiet(cls, dict(shape=self.op.in_shape, voxel_size=self.op.voxel_size, **common, **description),
+                      None)
 
     def chain(self, xi_grid):
         """(K, 6, 6): A_k with grad_k = A_k d_k, grad the gradient in xi_k (the
@@ -279,6 +279,7 @@ def derivatives(op, x, xi=None, nodes=2):
         raise ArgumentError("derivatives takes host arrays; vjp takes CUDA arrays too")
     if arr.shape != op.in_shape:
         raise ArgumentError(f"the object has shape {arr.shape}; the operator takes {op.in_shape}")
+    _check_finite(arr.data, "object (the activity)", arr.wide)  # as the operators check what they read
     xf = np.asfortranarray(arr.data, dtype=np.float32)
     shape = op.in_shape
     out = np.zeros((len(placed), 6) + shape, dtype=np.float64)

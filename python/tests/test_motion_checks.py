@@ -6,6 +6,7 @@ written x,y,z,w but read as w,x,y,z. Also the binding's layout check, made to
 fail on purpose."""
 
 import ctypes
+import json
 import re
 import subprocess
 import warnings
@@ -111,6 +112,44 @@ def test_frames_from_a_sidecar_and_mean_pose(tmp_path):
     np.testing.assert_allclose(q, [np.cos(np.radians(5)), 0, 0, np.sin(np.radians(5))], atol=1e-12)
 
 
+def test_bounds_in_milliseconds_are_warned_of_where_given(tmp_path, rng):
+    """Frames in milliseconds (a frame of hours) are warned of by the first
+    call given the bounds: frames_from_sidecar, from_frames, mean_pose, not
+    first when an operator is made; the same frames in seconds pass quietly."""
+    n = int(rng.integers(2, 6))
+    durations = rng.uniform(10, 600, n).round(3)
+    starts = np.concatenate([[0.0], np.cumsum(durations)[:-1]]).round(3) + float(rng.integers(0, 100))
+    longest = int(np.argmax(durations))
+
+    def words(frame):
+        return (rf"frame {frame} \([0-9.e+]+ to [0-9.e+]+ s\) lasts [0-9.e+]+ h: are the times in milliseconds\? "
+                r".*time_unit='ms'")
+
+    for scale in (1.0, 1000.0):
+        side = tmp_path / f"sub-01_pet_{scale:g}.json"
+        side.write_text(json.dumps({"FrameTimesStart": (starts * scale).tolist(),
+                                    "FrameDuration": (durations * scale).tolist()}))
+        frames = (rng.random((8, 8, 8, n)) + 1.0).astype(np.float32)
+        with warnings.catch_warnings(record=True) as seen:
+            warnings.simplefilter("always")
+            bounds = petblur.frames_from_sidecar(side)
+            from_sidecar = list(seen)
+            petblur.Motion.from_frames(frames, None, starts * scale, durations * scale, voxel_size=2.0,
+                                       device="host", levels=1)
+            from_frames = seen[len(from_sidecar):]
+            m = petblur.Motion(bounds[[0, -1]], np.zeros((2, 3)), [[1.0, 0, 0, 0]] * 2)
+            before = len(seen)
+            m.mean_pose(bounds[longest], bounds[longest + 1])
+            from_mean = seen[before:]
+        for got, frame in ((from_sidecar, longest), (from_frames, longest), (from_mean, 0)):
+            texts = [str(w.message) for w in got if re.search("milliseconds", str(w.message))]
+            if scale == 1.0:
+                assert texts == [], texts
+            else:
+                assert len(texts) == 1 and re.search(words(frame), texts[0]), texts
+                assert all(w.filename == __file__ for w in got if "milliseconds" in str(w.message))
+
+
 def test_a_wrong_binding_layout_is_caught():
     _lib.check_layout()  # the real one passes
 
@@ -121,6 +160,42 @@ def test_a_wrong_binding_layout_is_caught():
         _lib.check_layout(structs={"pb_pose": Pose}, enums={})
     with pytest.raises(ImportError, match="PB_PATH_TRACKED is 3 here, 2 in the library"):
         _lib.check_layout(structs={}, enums={"PB_PATH_TRACKED": 3})
+
+
+def test_another_library_is_refused_by_name(tmp_path, rng):
+    """PETBLUR_LIBRARY naming a library that loads but is not petblur's (the C
+    library, zlib, libm, any of them under another name): the import fails
+    with petblur's LibraryError naming the path, a call it lacks and the fix,
+    not ctypes' AttributeError."""
+    import ctypes.util
+    import os
+    import shutil
+    import sys
+    found = [ctypes.util.find_library(n) for n in ("c", "m", "z", "dl", "pthread")]
+    names = [n for n in found if n]
+    assert names, "no system library to load in petblur's place"
+    path = _loaded_path(str(rng.choice(names)))
+    if rng.integers(2):  # under a name of its own, as a mistaken build's would be
+        copy = tmp_path / f"libpetblur-{int(rng.integers(1 << 30))}.so"
+        shutil.copy(path, copy)
+        path = str(copy)
+    env = dict(os.environ, PETBLUR_LIBRARY=path)
+    r = subprocess.run([sys.executable, "-c", "import petblur"], env=env, capture_output=True, text=True)
+    assert r.returncode != 0
+    last = r.stderr.strip().splitlines()[-1]
+    assert last.startswith("petblur.errors.LibraryError: "), r.stderr
+    assert f"{path} (PETBLUR_LIBRARY) is not petblur's C library: it has no pb_" in last, last
+    assert "point PETBLUR_LIBRARY at libpetblur.so" in last and "or unset it" in last, last
+
+
+def _loaded_path(name):
+    """The file a loaded library's name resolves to, from /proc/self/maps."""
+    ctypes.CDLL(name)
+    with open("/proc/self/maps") as f:
+        for line in f:
+            if line.split()[-1].rsplit("/", 1)[-1].startswith(name):  # libz.so.1 maps as libz.so.1.2.13
+                return line.split()[-1]
+    raise AssertionError(f"{name} is not mapped")
 
 
 def test_options_checked_by_the_library():

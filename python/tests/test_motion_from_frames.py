@@ -11,7 +11,9 @@ known rigid map per frame, the tracer's uptake drifting from frame to frame,
 Poisson counts; one frame holds a jerk: its first part shows the pose of the
 frame before, the rest that of the frame after, 8 mm and 8 degrees on."""
 
+import ast
 import json
+import re
 import subprocess
 import time
 
@@ -264,6 +266,78 @@ def test_voxel_size_is_the_grid_frame(rng):
     np.testing.assert_allclose(c.translations, 2 * a.translations, rtol=0, atol=1e-3 * moved)
 
 
+def test_world_motion_needs_the_affine(tmp_path, rng):
+    """A motion about the world's origin, an estimate placed by the frames'
+    affine or a tracker's matrix-csv log, given to an operator without
+    affine= is refused, naming affine= and what to give it (the program places
+    such a track by the image's affine, and refuses --coords world without
+    one); with the affine it blurs, and so it does with the grid's own affine
+    the message spells out. An estimate given voxel_size= is in the grid frame
+    the operators take without an affine, and is taken so."""
+    vox = rng.uniform(2.5, 4.0, 3)
+    s = Series(rng, (16, 16, 16), tuple(vox), 4, jerk=2)
+    shape, vox = s.frames.shape[:3], np.linalg.norm(s.affine[:3, :3], axis=0)
+    estimated = petblur.Motion.from_frames(s.frames, s.affine, s.starts, s.durations, device="host", levels=1)
+    bounds = np.append(s.starts, s.starts[-1] + s.durations[-1])
+    n = int(rng.integers(2, 9))
+    times = np.concatenate([[bounds[0]], np.sort(rng.uniform(bounds[0], bounds[-1], n - 2)), [bounds[-1]]])
+    rows = ["t,r00,r01,r02,tx,r10,r11,r12,ty,r20,r21,r22,tz"]
+    rows += [",".join(f"{v:.17g}" for v in [t, *_rigid(rng, 3.0, 3.0)[:3].reshape(-1)]) for t in times]
+    path = tmp_path / f"log{int(rng.integers(1 << 30))}.csv"
+    path.write_text("\n".join(rows) + "\n")
+    logged = petblur.Motion.from_file(path, format="matrix-csv")
+    x = np.asfortranarray(s.frames[..., int(rng.integers(4))])
+    k = int(rng.integers(4))
+    for m in (estimated, logged):
+        makers = (lambda **kw: petblur.BlurOperator(shape, vox, m, frame=bounds[k:k + 2], device="host", **kw),
+                  lambda **kw: petblur.FramesOperator(shape, vox, m, bounds, device="host", **kw))
+        for make in makers:
+            with pytest.raises(petblur.ArgumentError) as e:
+                make()
+            text = str(e.value)
+            assert f"the motion ({m._source}) holds poses in the scanner's world mm" in text, text
+            assert "give affine= the image's voxel-to-world 4x4 (nibabel's img.affine" in text, text
+            grid = np.array(ast.literal_eval(re.search(r"--coords grid\), affine=(\[\[.*\]\])$", text).group(1)))
+            want = np.diag([*vox, 1.0])
+            want[:3, 3] = 0.5 * vox
+            np.testing.assert_array_equal(grid, want)
+            y = make(affine=s.affine)(x)
+            assert np.isfinite(y).all() and np.abs(y).max() > 0
+            if m is logged:  # small moves: in view about the grid's corner too
+                assert np.isfinite(make(affine=grid)(x)).all()
+    in_grid = petblur.Motion.from_frames(s.frames, None, s.starts, s.durations, device="host", levels=1,
+                                         voxel_size=vox)
+    y = petblur.FramesOperator(shape, vox, in_grid, bounds, device="host")(x)
+    assert np.isfinite(y).all()
+    np.testing.assert_array_equal(petblur.FramesOperator(shape, vox, in_grid, bounds, device="host", affine=want)(x), y)
+    # ... and refused with an affine that places the grid elsewhere.
+    with pytest.raises(petblur.ArgumentError, match=r"estimated in the grid's frame \(from_frames given voxel_size=\)"
+                       r".*give no affine=, or estimate the motion with from_frames\(affine=\)"):
+        petblur.FramesOperator(shape, vox, in_grid, bounds, device="host", affine=s.affine)
+
+
+def test_frames_numpy_can_read(tmp_path, rng):
+    """The frames are read on the host, so what numpy reads is taken: a dask
+    array in chunks of frames, nibabel's img.dataobj; the same track as
+    the numpy array's. An operator, which reads its input in place, names a
+    dask array's type and the way to give it."""
+    import dask.array as da
+    s = Series(rng, (16, 16, 16), (4.0, 4.0, 4.0), 4, jerk=2)
+    want = petblur.Motion.from_frames(s.frames, s.affine, s.starts, s.durations, device="host", levels=1)
+    nib.save(nib.Nifti1Image(s.frames, s.affine), str(tmp_path / "f.nii"))
+    chunks = (16, 16, 16, int(rng.integers(1, 4)))
+    for frames in (da.from_array(s.frames, chunks=chunks), nib.load(str(tmp_path / "f.nii")).dataobj):
+        got = petblur.Motion.from_frames(frames, s.affine, s.starts, s.durations, device="host", levels=1)
+        np.testing.assert_array_equal(got.times, want.times)
+        np.testing.assert_array_equal(got.translations, want.translations)
+        np.testing.assert_array_equal(got.quaternions, want.quaternions)
+    op = petblur.BlurOperator(s.frames.shape[:3], (4.0, 4.0, 4.0), petblur.Motion.from_axis_angle(angle=3),
+                              device="host")
+    with pytest.raises(petblur.ArgumentError, match=r"the object \(the activity\) is a dask\.array\.core\.Array; give "
+                       r"a numpy or CuPy array or a torch tensor; petblur\.dask .* or give x\.compute\(\)"):
+        op(da.from_array(s.frames[..., 0]))
+
+
 # ---- a known motion -------------------------------------------------------
 
 
@@ -440,7 +514,7 @@ BAD = {
                           ("frame 1", "increase")),
     "NaN bound": (None, {"starts": None, "durations": None, "bounds": [0.0, 10, np.nan, 20, 30]},
                   ("bound 2", "nan", "finite")),
-    "singular affine": (None, {"affine": _singular}, ("voxel size 2", "0 mm")),
+    "singular affine": (None, {"affine": _singular}, ("affine's column 2 is 0.0 mm long", "between 1e-6 and 1e6")),
     "sheared affine": (None, {"affine": _sheared}, ("perpendicular", "shear")),
     "affine not finite": (None, {"affine": _not_finite}, ("finite 4x4",)),
     "affine 3x3": (None, {"affine": lambda a: a[:3, :3]}, ("4x4", "(3, 3)")),
@@ -456,7 +530,8 @@ BAD = {
     "reference True": (None, {"reference": True}, ("reference True",)),
     "neither affine nor voxel size": (None, {"affine": lambda a: None}, ("affine=", "voxel_size=", "voxels, not mm")),
     "affine and voxel size": (None, {"voxel_size": (4.0, 4.0, 4.0)}, ("not both",)),
-    "voxel size of two": (None, {"affine": lambda a: None, "voxel_size": (4.0, 4.0)}, ("voxel_size", "one or three")),
+    "voxel size of two": (None, {"affine": lambda a: None, "voxel_size": (4.0, 4.0)},
+                          ("voxel_size", "(or one for cubes), not (4.0, 4.0)")),
     "voxel size zero": (None, {"affine": lambda a: None, "voxel_size": (4.0, 0.0, 4.0)}, ("voxel_size", "positive")),
 }
 

@@ -13,6 +13,7 @@ import gc
 import os
 import pathlib
 import pickle
+import re
 import subprocess
 import sys
 import threading
@@ -23,7 +24,7 @@ import numpy as np
 import pytest
 
 import petblur
-from petblur import _lib
+from petblur import _lib, pose
 
 SHAPE = (32, 32, 32)  # of the pickle whose size is bounded
 
@@ -317,6 +318,179 @@ def test_motion_copies(tmp_path, rng):
         petblur.Motion.__new__(petblur.Motion).__setstate__(state)
 
 
+def _loads(reduced):
+    """What pickle.loads makes of a pickle whose load calls reduced,
+    (callable, args[, state]): a pickle tampered with, or cut short, as it
+    would arrive from a file or another process."""
+
+    class Tampered:
+        def __reduce__(self):
+            return reduced
+
+    # Protocol 1: 2 and later refuse to write copyreg.__newobj__ of a class
+    # not the object's own; loading calls the same __new__ and __setstate__.
+    return pickle.loads(pickle.dumps(Tampered(), protocol=1))
+
+
+def _any_motion(tmp_path, rng):
+    """A motion of arrays, of a csv file with conventions, or of tracker
+    matrices; at random with an estimate's report and coordinates."""
+    m = _motion(rng, int(rng.integers(2, 30)))
+    kind = int(rng.integers(3))
+    if kind:
+        path = tmp_path / f"track{int(rng.integers(1 << 30))}.csv"
+        if kind == 1:
+            rows = ["t,tx,ty,tz,qw,qx,qy,qz"] + [",".join(f"{v:.17g}" for v in (t, *tr, *q))
+                                                 for t, tr, q in zip(m.times, m.translations, m.quaternions)]
+        else:
+            rows = ["t,r00,r01,r02,tx,r10,r11,r12,ty,r20,r21,r22,tz"]
+            for t, tr in zip(m.times, m.translations):
+                rows.append(",".join(f"{v:.17g}" for v in (t, 1, 0, 0, tr[0], 0, 1, 0, tr[1], 0, 0, 1, tr[2])))
+        path.write_text("\n".join(rows) + "\n")
+        cal = np.eye(4)
+        cal[:3, 3] = rng.uniform(-50, 50, 3)
+        m = petblur.Motion.from_file(path, calibration=cal, reference_time=rng.uniform(0, 10),
+                                     inverse=bool(rng.integers(2)),
+                                     center=rng.uniform(-20, 20, 3) if kind == 1 else None)
+    if rng.integers(2):
+        m.estimate_seconds, m.moving_frames = float(rng.uniform(0, 9)), int(rng.integers(0, 9))
+        m._coords = str(rng.choice(["world", "grid"]))
+    return m
+
+
+def _tamper_motion(state, rng):
+    """One random edit of a Motion's state: a key dropped or added, an array
+    of the wrong length, a field of the wrong type, a NaN; the state and the
+    words its refusal must hold."""
+    n = len(state["times"])
+    edit = str(rng.choice(["missing", "extra", "length", "type", "nan", "not a dict"]))
+    if edit == "missing":
+        key = str(rng.choice(list(petblur.motion._STATE)))
+        del state[key]
+        return state, rf"its state lacks {key}"
+    if edit == "extra":
+        key = "_" + "".join(rng.choice(list("abcdefgh"), int(rng.integers(1, 8))))
+        state[key] = rng.random()
+        return state, rf"its state holds '{key}', which no Motion has"
+    if edit == "not a dict":
+        return list(state.items()), "its state is a list"
+    if edit == "length":
+        key = str(rng.choice(["times", "translations", "quaternions", "center", "_lines", "_missing",
+                              "_calibration"]))
+        other = int(rng.choice([k for k in range(1, n + 4) if k != n]))
+        if key == "times":
+            state[key] = np.arange(other, dtype=float)
+            return state, rf"translations must have shape \({other}, 3\), one row per time, not \({n}, 3\)"
+        if key in ("translations", "quaternions"):
+            width = 3 if key == "translations" else 4
+            state[key] = rng.random((other, width)) if rng.integers(2) else rng.random((n, width - 1))
+            return state, rf"{key} must have shape \({n}, {width}\)"
+        if key == "center":
+            state[key] = rng.random(int(rng.choice([1, 2, 4, 6])))
+            return state, r"center must be 3 numbers"
+        if key == "_calibration":
+            state[key] = np.eye(int(rng.choice([2, 3, 5])))
+            return state, r"_calibration is .*give None or a finite 4x4 matrix"
+        state[key] = np.arange(other)
+        return state, rf"{key} is .*give None or {n} whole numbers, one per sample"
+    if edit == "type":
+        key = str(rng.choice([k for k in petblur.motion._STATE] + [k for k in petblur.motion._REPORT if k in state]))
+        bad = [f"x{int(rng.integers(100))}", {"a": 1}, object()]
+        if key in ("_source", "_coords"):
+            bad = [int(rng.integers(100)), b"bytes", [1.0]]
+        state[key] = bad[int(rng.integers(len(bad)))]
+        return state, rf"{key} (must be|is)"
+    key = str(rng.choice([k for k in ("times", "translations", "quaternions", "center", "_calibration",
+                                      "_reference_time", "estimate_seconds") if state.get(k) is not None]))
+    v = np.array(state[key], dtype=float)
+    i = tuple(int(rng.integers(d)) for d in v.shape)
+    v[i] = rng.choice([np.nan, np.inf, -np.inf])
+    state[key] = v if v.ndim else float(v)
+    words = {"times": rf"sample {i[0] if i else 0}'s time is", "center": "center holds NaN or infinity"}
+    return state, words.get(key, rf"{key}(\[{i[0] if i else 0}\])? is")
+
+
+def test_tampered_motion_pickles_are_refused(tmp_path, rng):
+    """A Motion's pickle is checked when loaded as a new Motion is: a state
+    with a field missing or added, an array of the wrong length, a field of
+    the wrong type or a NaN raises petblur's ArgumentError naming the field,
+    never IndexError or AttributeError, and never loads."""
+    m = _any_motion(tmp_path, rng)
+    reduced = m.__reduce_ex__(2)
+    back = _loads(reduced)
+    for a, b in zip(back.pose_at(m.times[0] + 0.3 * (m.times[-1] - m.times[0])),
+                    m.pose_at(m.times[0] + 0.3 * (m.times[-1] - m.times[0]))):
+        np.testing.assert_array_equal(a, b)
+    # The two the campaign found: 2 times with 5 translations loaded, 3 with 2
+    # were called a zero quaternion.
+    state = copy.deepcopy(_motion(rng, 2).__getstate__())
+    state["translations"] = rng.random((5, 3))
+    with pytest.raises(petblur.ArgumentError, match=r"translations must have shape \(2, 3\)"):
+        _loads(reduced[:2] + (state,) + reduced[3:])
+    state = copy.deepcopy(_motion(rng, 3).__getstate__())
+    state["translations"] = rng.random((2, 3))
+    with pytest.raises(petblur.ArgumentError, match=r"translations must have shape \(3, 3\)"):
+        _loads(reduced[:2] + (state,) + reduced[3:])
+    for _ in range(60):
+        m = _any_motion(tmp_path, rng)
+        reduced = m.__reduce_ex__(2)
+        state, words = _tamper_motion(copy.deepcopy(reduced[2]), rng)
+        with pytest.raises(petblur.ArgumentError) as e:
+            _loads(reduced[:2] + (state,) + reduced[3:])
+        text = str(e.value)
+        assert re.search(words, text), (words, text)
+        assert text.startswith("the pickled petblur.Motion is not one petblur made: "), text
+        assert text.endswith("; pickle the Motion again from its source"), text
+
+
+# Each field of an operator's description, and values of the wrong type for it.
+_WRONG = {"shape": ["x", [4, 4], {"a": 1}], "voxel_size": ["x", {"a": 1}, [1, 2]], "motion": ["x", {"a": 1}],
+          "track": ["x", np.eye(4)], "frame": ["x", 5], "bounds": ["x", {"a": 1}, [3.0]],
+          "method": [["ab"], 5, "x"], "filter": [{"a": 1}, 5, "x"], "max_path_error": [{"a": 1}, "x", -1],
+          "device": [5, "x"], "affine": ["x", np.eye(3)], "steps": ["x", 2.5, -1],
+          "ab_sampling": [5, ["slice"], "x"]}
+_NAN = ("voxel_size", "frame", "bounds", "affine", "max_path_error", "steps")
+
+
+def test_tampered_operator_pickles_are_refused(rng):
+    """An operator's pickle is its constructor's arguments, checked as a new
+    operator's are: a missing or added argument, a wrong type or a NaN raises
+    petblur's error naming the argument."""
+    for _ in range(30):
+        kind = str(rng.choice(["blur", "frames"]))
+        op = _operator(kind, "host", rng, shape=tuple(int(n) for n in rng.integers(4, 8, 3)))
+        fn, (cls, description, progress) = op.__reduce__()
+        if rng.integers(2):
+            description = dict(description, affine=np.diag([*op.voxel_size, 1.0]))
+        _loads((fn, (cls, description, progress)))  # untouched, it loads
+        d = dict(description)
+        edit = str(rng.choice(["missing", "extra", "type", "nan"]))
+        if edit == "missing":
+            key = str(rng.choice(list(d)))
+            del d[key]
+            words = rf"its description lacks {key}"
+        elif edit == "extra":
+            key = "".join(rng.choice(list("abcdefgh"), int(rng.integers(1, 8))))
+            d[key] = 1
+            words = rf"its description holds '{key}', which {cls.__name__} does not take"
+        elif edit == "type":
+            key = str(rng.choice([k for k in d if k in _WRONG]))
+            d[key] = _WRONG[key][int(rng.integers(len(_WRONG[key])))]
+            words = {"frame": "frame", "bounds": "bounds|frame", "device": "device|backend"}.get(key, key)
+        else:
+            key = str(rng.choice([k for k in _NAN if k in d]))
+            v = np.array(1.0 if d[key] is None else d[key], dtype=float)
+            v[tuple(int(rng.integers(n)) for n in v.shape)] = np.nan
+            d[key] = v if v.ndim else float(v)
+            words = {"frame": "frame", "bounds": "frame bound"}.get(key, key)
+        with pytest.raises(petblur.Error) as e:
+            _loads((fn, (cls, d, progress)))
+        text = str(e.value)
+        assert re.search(words, text), (key, d[key] if key in d else None, words, text)
+        assert text.startswith(f"the pickled petblur.{cls.__name__} is not one petblur made: "), text
+        assert text.endswith("; pickle the operator again"), text
+
+
 def _masked(a, rng):
     """a as a masked array with NaN under its mask."""
     mask = rng.random(a.shape) < 0.1
@@ -356,6 +530,79 @@ def _refuses_nonfinite(op, x, y, rng):
                     where = (where[3],) + where[:3]  # named as (frame, x, y, z)
                 with pytest.raises(petblur.ArgumentError, match=rf"is {bad} at \[{', '.join(map(str, where))}\]"):
                     call(b)
+
+
+def _beyond(rng, low, high):
+    """A random finite float64 of magnitude 10^low to 10^high, either sign."""
+    return float(rng.choice([-1.0, 1.0]) * 10.0 ** rng.uniform(low, high))
+
+
+def test_values_are_named_as_given(rng):
+    """A value that does not survive its conversion is named as it was given,
+    with what is allowed: finite float64 values beyond float32's range in an
+    array an operator or from_frames reads (not "NaN or infinite"), voxel
+    sizes beyond 1e-6 to 1e6 mm given as voxel_size= or as an affine's
+    columns (not "inf mm"), a max_path_error or an angle just past its limit
+    (not rounded onto it)."""
+    for _ in range(6):
+        op = _operator(str(rng.choice(["blur", "frames"])), "host", rng, shape=(6, 5, 4))
+        x, y = _inputs(op, rng, str(rng.choice(["C", "F"])))
+        call, a = (op.apply, x) if rng.integers(2) else (op.adjoint, y)
+        a = a.astype(np.float64, order="K")
+        where = tuple(int(rng.integers(n)) for n in a.shape)
+        value = _beyond(rng, 38.6, 308)
+        a[where] = value
+        if a.ndim == 4 and getattr(op, "frames_last", False):
+            where = (where[3],) + where[:3]  # named as (frame, x, y, z)
+        with pytest.raises(petblur.ArgumentError) as e:
+            call(a)
+        assert f"is {value!r} at [{', '.join(map(str, where))}]" in str(e.value), str(e.value)
+        assert "beyond float32's range" in str(e.value) and "NaN" not in str(e.value), str(e.value)
+    op = _operator("blur", "host", rng, shape=(6, 5, 4))
+    x = rng.random((6, 5, 4))
+    where, value = tuple(int(rng.integers(n)) for n in x.shape), _beyond(rng, 38.6, 308)
+    x[where] = value
+    with pytest.raises(petblur.ArgumentError, match=re.escape(f"is {value!r} at {list(where)}") +
+                       ".*beyond float32's range"):
+        pose.derivatives(op, x)
+    frames = rng.random((6, 5, 4, 3)) + 1.0
+    k, where = int(rng.integers(3)), tuple(int(rng.integers(n)) for n in (6, 5, 4))
+    value = _beyond(rng, 38.6, 308)
+    frames[where + (k,)] = value
+    with pytest.raises(petblur.ArgumentError, match=re.escape(f"the frame {k} is {value!r} at {list(where)}") +
+                       ".*beyond float32's range"):
+        petblur.Motion.from_frames(frames, None, [0, 1, 2], [1, 1, 1], voxel_size=2.0, device="host")
+    m = petblur.Motion.from_axis_angle(angle=5)
+    frames = rng.random((6, 5, 4, 3)).astype(np.float32) + 1
+    for _ in range(4):
+        size = 10.0 ** (rng.uniform(6.1, 308) if rng.integers(2) else -rng.uniform(6.1, 300))
+        sizes = [size, 2.0, 2.0]
+        rng.shuffle(sizes)
+        given = size if rng.integers(2) else tuple(sizes)
+        words = rf"voxel_size {re.escape(repr(given))}: give sizes in mm, between 1e-6 and 1e6"
+        with pytest.raises(petblur.ArgumentError, match=words):
+            petblur.BlurOperator((6, 5, 4), given, m, device="host")
+        with pytest.raises(petblur.ArgumentError, match=words):
+            petblur.Motion.from_frames(frames, None, [0, 1, 2], [1, 1, 1], voxel_size=given, device="host")
+        affine = np.diag([2.0, 2.0, 2.0, 1.0])
+        axis = int(rng.integers(3))
+        affine[:3, axis] = size * _unit_vector(rng)
+        with pytest.raises(petblur.ArgumentError, match=rf"affine's column {axis} is ([0-9.e+-]+) mm long, the "
+                           r"voxels' size along axis .*between 1e-6 and 1e6 mm") as e:
+            petblur.Motion.from_frames(frames, affine, [0, 1, 2], [1, 1, 1], device="host")
+        length = float(re.search(r"is ([0-9.e+-]+) mm long", str(e.value)).group(1))
+        assert length == pytest.approx(size, rel=1e-12), (length, size)  # the column's length, not inf nor 0
+    bound = 1000.0 + 10.0 ** -rng.uniform(1, 10)
+    with pytest.raises(petblur.ArgumentError, match=rf"max_path_error {re.escape(repr(bound))}: .*at most 1000"):
+        petblur.BlurOperator((6, 5, 4), 2.0, m, max_path_error=bound, device="host")
+    angle = float(rng.choice([-1.0, 1.0])) * (3600.0 + 10.0 ** -rng.uniform(1, 10))
+    with pytest.raises(petblur.ArgumentError, match=rf"angle {re.escape(repr(angle))}: give at most ten turns"):
+        petblur.Motion.from_axis_angle(angle=angle)
+
+
+def _unit_vector(rng):
+    v = rng.normal(size=3)
+    return v / np.linalg.norm(v)
 
 
 @pytest.mark.parametrize("fmt", ["csv", "csv-xyzw", "polaris-mt", "polaris-toolviewer", "matrix-csv"])

@@ -190,15 +190,30 @@ static pb_status check_view(const pb_track *t, const pb_motion *grid, const pb_g
     return PB_OK;
 }
 
+/* The bounds' own warning: a frame longer than a scan. Returns whether it warned. */
+static int warn_long_frame(const double *bounds, size_t frames, pb_warnings *w)
+{
+    double longest = 0.0;
+    size_t at = 0;
+    for (size_t i = 0; i < frames; i++)
+        if (bounds[i + 1] - bounds[i] > longest) {
+            longest = bounds[i + 1] - bounds[i];
+            at = i;
+        }
+    if (!(longest > MS_SUSPECT_S))
+        return 0;
+    pb_warn(w, PB_WARN_TIME_UNIT, "frame %zu (%.9g to %.9g s) lasts %.3g h: are the times in milliseconds? frames "
+            "and tracks are in seconds (--time-unit ms reads a track in ms)", at, bounds[at], bounds[at + 1],
+            longest / 3600.0);
+    return 1;
+}
+
 static void warn_frames(const pb_track *t, const double *bounds, size_t frames, pb_warnings *w)
 {
-    double span = t->times[t->count - 1] - t->times[0], all = bounds[frames] - bounds[0], longest = 0.0;
-    for (size_t i = 0; i < frames; i++)
-        longest = fmax(longest, bounds[i + 1] - bounds[i]);
-    if (longest > MS_SUSPECT_S)
-        pb_warn(w, PB_WARN_TIME_UNIT, "a frame lasts %.3g h: are the times in milliseconds? frames and tracks are in "
-                "seconds (--time-unit ms reads a track in ms)", longest / 3600.0);
-    else if (all < 1e-3 * span)
+    double span = t->times[t->count - 1] - t->times[0], all = bounds[frames] - bounds[0];
+    if (warn_long_frame(bounds, frames, w))
+        return;
+    if (all < 1e-3 * span)
         pb_warn(w, PB_WARN_FRAMES_SPAN, "the frame%s %.9g to %.9g s span%s %.2g %% of the track %s (%.9g to %.9g s); "
                 "are the frames and the track in the same time unit?", frames > 1 ? "s" : "", bounds[0],
                 bounds[frames], frames > 1 ? "" : "s", 100.0 * all / span, t->source, t->times[0],
@@ -234,6 +249,16 @@ pb_status pb_track_check_frames(const pb_track *track, const pb_motion *grid, co
             return st;
     }
     return PB_OK;
+}
+
+pb_status pb_frames_check(const double *bounds, size_t frames, pb_warnings *warnings)
+{
+    if (!bounds)
+        return pb_error(NULL, PB_ERR_INVALID_ARGUMENT, "bounds must not be NULL");
+    pb_status st = pb_frame_bounds_check(NULL, bounds, frames);
+    if (st == PB_OK)
+        warn_long_frame(bounds, frames, warnings);
+    return st;
 }
 
 pb_status pb_frames_from_starts(const double *starts, const double *durations, size_t n, double *bounds)
