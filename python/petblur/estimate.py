@@ -89,7 +89,7 @@ def estimate(frames, affine, voxel_size, bounds, reference, device, frame_poses_
     for i, v in enumerate(lengths):
         if not VOXEL_MIN <= v <= VOXEL_MAX:
             raise ArgumentError(f"affine's column {i} is {float(v)!r} mm long, the voxels' size along axis {i}; give "
-                                "an affine of voxels between 1e-6 and 1e6 mm (nibabel's img.affine, in mm)")
+                                "an affine of voxels between 0.0001 and 10000 mm (nibabel's img.affine, in mm)")
     geometry_voxel = tuple(float(v) for v in lengths)
     flat = (ctypes.c_double * 16)(*a.reshape(-1))
     b = np.asarray(bounds, dtype=np.float64).reshape(-1)

@@ -50,10 +50,10 @@ def _shape3(shape):
     return s
 
 
-# Voxel sizes, mm (the messages say 1e-6 and 1e6): beyond these a grid is no
-# image, and the motion's and the path's arithmetic leaves the range it is
-# checked for.
-VOXEL_MIN, VOXEL_MAX = 1e-6, 1e6
+# Voxel sizes, mm: the library's PB_MIN_VOXEL_MM and PB_MAX_VOXEL_MM (the
+# messages say 0.0001 and 10000), checked here first so that a size float32 or
+# a squared norm would not survive is named as given.
+VOXEL_MIN, VOXEL_MAX = 1e-4, 1e4
 
 
 def _voxel3(voxel_size):
@@ -68,7 +68,7 @@ def _voxel3(voxel_size):
         raise ArgumentError(f"voxel_size must be three positive sizes in mm (or one for cubes), not "
                             f"{shown(voxel_size)}")
     if np.any(v < VOXEL_MIN) or np.any(v > VOXEL_MAX):
-        raise ArgumentError(f"voxel_size {shown(voxel_size)}: give sizes in mm, between 1e-6 and 1e6")
+        raise ArgumentError(f"voxel_size {shown(voxel_size)}: give sizes in mm, between 0.0001 and 10000")
     return v
 
 
@@ -137,10 +137,7 @@ class _Operator:
         try:  # every range stated once, by the library
             _lib.check(_lib.lib.pb_options_check(ctypes.byref(self._options)))
         except ArgumentError as e:
-            text = e.message.replace("PB_PATH_BOUNDED", "a number")
-            if text.startswith("max_path_error ") and ":" in text:  # the library's %g rounds 1000.0000001 to 1000
-                text = f"max_path_error {shown(max_path_error)}:" + text.split(":", 1)[1]
-            raise ArgumentError(text, e.status) from None
+            raise ArgumentError(e.message.replace("PB_PATH_BOUNDED", "a number"), e.status) from None
         self._progress = progress
         if affine is None:
             a = _grid_affine(self.voxel_size)

@@ -514,7 +514,7 @@ BAD = {
                           ("frame 1", "increase")),
     "NaN bound": (None, {"starts": None, "durations": None, "bounds": [0.0, 10, np.nan, 20, 30]},
                   ("bound 2", "nan", "finite")),
-    "singular affine": (None, {"affine": _singular}, ("affine's column 2 is 0.0 mm long", "between 1e-6 and 1e6")),
+    "singular affine": (None, {"affine": _singular}, ("affine's column 2 is 0.0 mm long", "between 0.0001 and 10000")),
     "sheared affine": (None, {"affine": _sheared}, ("perpendicular", "shear")),
     "affine not finite": (None, {"affine": _not_finite}, ("finite 4x4",)),
     "affine 3x3": (None, {"affine": lambda a: a[:3, :3]}, ("4x4", "(3, 3)")),
