@@ -93,9 +93,16 @@ BLOCK_TOL = {"v": 0.10, "w": 0.18}
 COMPONENT_TOL = {"v": 0.25, "w": 0.5}
 
 
-def check(errors, request):
+# One sample's blocks alone (test_world_coordinates), measured over 400 fresh
+# draws of that test (seeds 0-399, the host backend): translations at most
+# 7.6 %; rotations median 10.3 %, 99th percentile 18.4 %, largest 20.2 % (and
+# 22.4 % once in CI). A wrong sign, centre or mirror is 50 % and more.
+ONE_SAMPLE_BLOCK_TOL = {"v": 0.15, "w": 0.32}
+
+
+def check(errors, request, block_tol=BLOCK_TOL):
     """Each component within COMPONENT_TOL, and each of the blocks (all the
-    samples' translations together, their rotations) within BLOCK_TOL."""
+    samples' translations together, their rotations) within block_tol."""
     for (k, j), (num, den) in sorted(errors.items()):
         request.node.user_properties.append((f"sample {k} {'vw'[j // 3]}{'xyz'[j % 3]}", np.sqrt(num / den)))
     print(" ".join(f"{k}{'vw'[j // 3]}{'xyz'[j % 3]} {100 * np.sqrt(n / d):.1f}%"
@@ -104,7 +111,7 @@ def check(errors, request):
         part = [(n, d) for (k, j), (n, d) in errors.items() if "vw"[j // 3] == block]
         total = np.sqrt(sum(n for n, _ in part) / sum(d for _, d in part))
         print(f"{block}: {100 * total:.1f} % RMS")
-        assert total < BLOCK_TOL[block], f"{block}: {100 * total:.1f} % RMS from finite differences"
+        assert total < block_tol[block], f"{block}: {100 * total:.1f} % RMS from finite differences"
     for (k, j), (n, d) in errors.items():
         e = np.sqrt(n / d)
         assert e < COMPONENT_TOL["vw"[j // 3]], f"sample {k}, component {j}: {100 * e:.1f} % RMS"
@@ -229,7 +236,7 @@ def test_world_coordinates(rng, request):
     want = want_op(x)
     np.testing.assert_allclose(pose.posed_operator(op, xi)(x), want, rtol=0, atol=1e-4 * want.max())
     # One sample's derivative in world coordinates against finite differences of the world perturbation.
-    check(fd_errors(op, x, pose.derivatives(op, x), samples=[1]), request)
+    check(fd_errors(op, x, pose.derivatives(op, x), samples=[1]), request, ONE_SAMPLE_BLOCK_TOL)
 
 
 def test_refusals():
