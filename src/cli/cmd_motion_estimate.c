@@ -22,6 +22,7 @@ static const pbc_option options[] = {
     {"--levels", NULL, "N", "resolution levels, each halving the grid (default: up to 3)"},
     {"--iterations", NULL, "N", "Gauss-Newton steps at most per level and frame (default 12)"},
     {"--fwhm", NULL, "MM", "smoothing before registration, mm (default two voxels of each level)"},
+    {"--voxel-size", NULL, "DX,DY,DZ", "voxel size in mm, for a header that gives none (pixdim 0)"},
     PBC_OPTION_DEVICE,
     {"--quiet", "-q", NULL, "print nothing but errors"},
 };
@@ -140,6 +141,10 @@ static int run(const pbc_args *args, const char *in_path, const char *out_path)
     pb_context *ctx = NULL;
     pb_track *track = NULL;
     pbc_read_hints hints = {0};
+    size_t dims[3];
+    double voxel_size[3];
+    if ((rc = pbc_hints_from_args(&command, args, dims, voxel_size, &hints)))
+        return rc;
     hints.allow_frames = 1;
     if ((rc = fv ? pbc_parse_bounds("--frames", fv, &bounds, &nb) : pbc_bids_frames(json, &bounds, &nb)))
         return rc;
@@ -174,7 +179,9 @@ static int run(const pbc_args *args, const char *in_path, const char *out_path)
         if (st != PB_OK) {
             if (pbc_show_progress && !quiet)
                 pbc_progress_line(1.0, NULL);
-            rc = pbc_fail(pbc_exit_for(st), "%s: %s", in_path, pb_last_error(ctx));
+            rc = pbc_fail(pbc_exit_for(st), "%s: %s%s", in_path, pb_last_error(ctx),
+                          st == PB_ERR_BAD_VOXEL_SIZE ? " (this file's header gives it: correct its pixdim, or set "
+                                                        "it to 0 and give --voxel-size DX,DY,DZ)" : "");
         } else if (!(rc = write_track(out_path, track, csv, center)) && !quiet) {
             char dev[600];
             pbc_describe_device(ctx, dev, sizeof dev);

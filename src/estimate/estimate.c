@@ -393,6 +393,25 @@ static pb_status world_pose(const double d[9], const double o[3], const double c
     return pb_pose_from_matrix(w, world);
 }
 
+/* The voxel sizes the estimate takes, mm: the smoothing's width, the
+ * pyramid's levels and the turns' centre are sized from them, and sizes
+ * beyond these put the centre past what a pose may hold or the smoothing
+ * past any line of the grid. */
+#define VOXEL_MIN_MM 1e-3
+#define VOXEL_MAX_MM 1e3
+
+static pb_status check_voxel_sizes(const pb_geometry *g)
+{
+    for (int a = 0; a < 3; a++) {
+        double v = g->voxel_size[a];
+        if (!(v >= VOXEL_MIN_MM && v <= VOXEL_MAX_MM))
+            return pb_error(NULL, PB_ERR_BAD_VOXEL_SIZE, "voxel size %c is %.17g mm, outside the %g to %g mm the "
+                            "estimate takes; give the series' voxel size in mm", "xyz"[a], v, VOXEL_MIN_MM,
+                            VOXEL_MAX_MM);
+    }
+    return PB_OK;
+}
+
 static pb_status check_input(const pb_geometry *g, const float *frames, size_t count, const double *bounds,
                              const pb_estimate_options *o)
 {
@@ -409,15 +428,16 @@ static pb_status check_input(const pb_geometry *g, const float *frames, size_t c
         return pb_error(NULL, PB_ERR_INVALID_ARGUMENT, "levels is %u; give 1 to 6 (0: the default)", o->levels);
     if (!isfinite(o->fwhm_mm) || o->fwhm_mm < 0 || o->fwhm_mm > 1000)
         return pb_error(NULL, PB_ERR_INVALID_ARGUMENT, "fwhm_mm is %g; give 0 (the default) to 1000 mm", o->fwhm_mm);
-    for (int a = 0; a < 3; a++) {
+    for (int a = 0; a < 3; a++)
         if (g->dims[a] < 8)
             return pb_error(NULL, PB_ERR_ZERO_DIMS, "the grid is %zu x %zu x %zu voxels: registration needs at "
                             "least 8 a side", g->dims[0], g->dims[1], g->dims[2]);
-        if (!(g->voxel_size[a] > 0) || !isfinite(g->voxel_size[a]))
-            return pb_error(NULL, PB_ERR_BAD_VOXEL_SIZE, "voxel size %d is %g mm; give a positive finite size", a,
-                            g->voxel_size[a]);
-    }
-    pb_status st = pb_frame_bounds_check(NULL, bounds, count);
+    size_t n_voxels;
+    pb_status st = check_voxel_sizes(g);
+    if (st == PB_OK)
+        st = pb_geometry_check(NULL, g, &n_voxels);
+    if (st == PB_OK)
+        st = pb_frame_bounds_check(NULL, bounds, count);
     if (st != PB_OK)
         return st;
     const size_t n = voxels(g);
