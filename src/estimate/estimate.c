@@ -320,6 +320,13 @@ static pb_status correct_together(estimate *e, size_t ref, pbe_fit *fits, frame_
     return st;
 }
 
+/* A frame's mid-time: the same double as (a + b) / 2, without the sum's
+ * overflow for frames near the largest doubles. */
+static double mid_time(double a, double b)
+{
+    return 0.5 * a + 0.5 * b;
+}
+
 typedef struct keys {
     double *t;
     pb_pose *p;
@@ -460,6 +467,14 @@ static pb_status check_input(const pb_geometry *g, const float *frames, size_t c
     return PB_OK;
 }
 
+/* The call's failure in ctx, from this call's text only: a part that failed
+ * without one (cleared on entry) is named by its status. */
+static void failed(pb_context *ctx, pb_status st)
+{
+    const char *why = pb_last_error(NULL);
+    pb_error(ctx, st, "estimating motion from the frames: %s", why[0] ? why : pb_status_string(st));
+}
+
 static double now_seconds(void)
 {
     struct timespec ts;
@@ -509,7 +524,7 @@ static pb_status estimate_run(estimate *e, const double *bounds, const pb_estima
                 path_keys(&k, bounds[f], bounds[f + 1], &p->start, &p->end, p->dwell);
             }
             else
-                key(&k, 0.5 * (bounds[f] + bounds[f + 1]), &fits[f].pose);
+                key(&k, mid_time(bounds[f], bounds[f + 1]), &fits[f].pose);
         }
         key(&k, bounds[count], &fits[count - 1].pose);
         for (size_t i = 0; i < k.n && st == PB_OK; i++) {
@@ -547,6 +562,7 @@ pb_status pb_motion_estimate(pb_context *ctx, const pb_geometry *geometry, const
     pb_estimate_options o = {0};
     if (options)
         o = *options;
+    pb_error_clear();
     double grid_affine[16], d[9], corner[3];
     pb_status st = check_input(geometry, frames, count, bounds, &o);
     if (st == PB_OK && !affine) {
@@ -627,7 +643,7 @@ pb_status pb_motion_estimate(pb_context *ctx, const pb_geometry *geometry, const
         pb_error(ctx, st, "out of host memory estimating motion from %zu frames of %zu x %zu x %zu voxels", count,
                  geometry->dims[0], geometry->dims[1], geometry->dims[2]);
     else if (st != PB_OK)
-        pb_error(ctx, st, "estimating motion from the frames: %s", pb_last_error(ctx));
+        failed(ctx, st);
     if (report)
         report->seconds = now_seconds() - started;
     pb_context_leave(ctx);
