@@ -630,7 +630,8 @@ typedef struct pb_estimate_report {
  * per-frame scale and offset, which is normalised cross-correlation: tracer
  * uptake may change from frame to frame) to its neighbour towards the
  * reference frame, then to its own reference: its projection onto the
- * principal images of the other frames moved back onto the reference frame.
+ * principal images of its 32 nearest frames moved back onto the reference
+ * frame, so that the time grows linearly with the frames.
  * A frame whose blur along a path between its neighbours' poses reproduces
  * it better than any one pose gets that path, timed by how long the frame
  * dwells along it (non-negative least squares): a jerk inside a frame lands
@@ -644,7 +645,7 @@ typedef struct pb_estimate_report {
  * reference frame's pose is the identity. Refused: fewer than two frames, a
  * reference out of range, bounds that are not finite and increasing, frames
  * with NaN or infinite voxels, frames with no counts (all zero or negative),
- * grids under 8 voxels a side. ctx's progress report, if any, hears the
+ * grids under 8 voxels a side, voxel sizes outside 0.001 to 1000 mm. ctx's progress report, if any, hears the
  * whole call's progress. */
 PB_API pb_status pb_motion_estimate(pb_context *ctx, const pb_geometry *geometry, const double affine[16],
                                     const float *frames, size_t count, const double *bounds,

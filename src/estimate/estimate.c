@@ -5,9 +5,9 @@
  *  1. every frame against its neighbour towards the reference frame, whose
  *     contrast is nearly its own, the poses chained;
  *  2. twice, every frame against its own reference (references.c): the
- *     frame's projection onto the principal images of the other frames moved
+ *     frame's projection onto the principal images of its nearest frames moved
  *     back onto the reference, which has the frame's contrast (uptake changes
- *     from frame to frame) and the noise of all the others' counts;
+ *     from frame to frame) and the noise of its window's counts;
  *  3. inside frames (inside.c): a frame between two neighbours is fitted as
  *     a dwell along a path that starts or ends at a still neighbour's pose
  *     (between the two, or from one on through its own pose); where that
@@ -163,7 +163,7 @@ static pb_status register_own(estimate *e, pbe_fit *fits, float *moved, double *
     pb_status st = move_back(e, fits, moved);
     if (st != PB_OK)
         return st;
-    pbe_gram(moved, e->level[0].n, e->count, gram);
+    pbe_gram_band(moved, e->level[0].n, e->count, gram);
     for (size_t k = 0; k < e->count && st == PB_OK; k++) {
         st = frame_reference(e, moved, gram, k, reference);
         if (st == PB_OK)
@@ -490,7 +490,7 @@ static pb_status estimate_run(estimate *e, const double *bounds, const pb_estima
     int *moving = calloc(count, sizeof(int));
     frame_path *paths = calloc(count * PATHS, sizeof *paths);
     float *moved = malloc(sizeof(float) * e->level[0].n * count), *own = malloc(sizeof(float) * e->level[0].n);
-    double *gram = malloc(sizeof(double) * count * count);
+    double *gram = malloc(sizeof(double) * count * (PBE_REFERENCE_OTHERS + 1));
     keys k = {malloc(sizeof(double) * (count * 2 * DWELL_POINTS + 4)),
               malloc(sizeof(pb_pose) * (count * 2 * DWELL_POINTS + 4)), 0};
     size_t moving_count = 0;

@@ -1,0 +1,59 @@
+"""Motion.from_frames and `petblur motion estimate` at the edges of their
+input (issue 43), on fresh random series: the estimate's work against the
+number of frames, voxel sizes and values far outside a scanner's, frame times
+that must survive the track's file, what the frames may be given as, and
+series that carry a background or no structure at all."""
+
+import subprocess
+import time
+import warnings
+
+import numpy as np
+import pytest
+from scipy.ndimage import shift as nd_shift
+
+import petblur
+from petblur.errors import ArgumentError
+
+SIDE = 8
+
+
+def _series(rng, frames, side=SIDE, noise=1.0, uptake=0.0):
+    """A blob and a smaller one, each frame moved by a random fraction of a
+    voxel, the second's uptake changing by `uptake` over the series, over
+    Gaussian noise (clipped at 0, as counts are)."""
+    x, y, z = np.meshgrid(*[np.arange(side) - (side - 1) / 2.0] * 3, indexing="ij")
+    c = rng.uniform(-0.5, 0.5, (2, 3))
+    a = np.exp(-((x - c[0, 0]) ** 2 + ((y - c[0, 1]) / 1.3) ** 2 + ((z - c[0, 2]) / 0.8) ** 2) / 4.0)
+    b = np.exp(-((x - c[1, 0] - 1.5) ** 2 + (y - c[1, 1] + 1) ** 2 + (z - c[1, 2]) ** 2) / 2.0)
+    out = np.empty((side, side, side, frames), np.float32)
+    for k in range(frames):
+        u = k / max(frames - 1, 1)
+        img = a + b * (1.0 + uptake * u)
+        out[..., k] = 100.0 * nd_shift(img, rng.uniform(-0.3, 0.3, 3), order=1) + rng.normal(0, noise, img.shape)
+    return np.clip(out, 0, None)
+
+
+def _estimate_seconds(frames):
+    """The process's CPU time for one estimate on the host: the other
+    processes of a shared machine do not count in it."""
+    start = time.process_time()
+    petblur.Motion.from_frames(frames, voxel_size=2.0, bounds=np.arange(frames.shape[3] + 1) * 10.0, device="host")
+    return time.process_time() - start
+
+
+# ---- the estimate's work grows as its frames ----------------------------------
+
+
+def test_time_grows_as_the_frames(rng):
+    """Five times the frames may cost at most ten times the time. Each
+    frame's reference was built from the eigenvectors of every other frame's
+    (the frames' square, per frame), and pass 4 summed every still frame's:
+    8^3 voxels took 4.7 s at 100 frames, 33 s at 200 and over 300 s at 300
+    (a ratio near 25 here). Each reference now comes from its 32 nearest
+    frames and pass 4 from 24 frames spread over the series (docs/motion.md,
+    'What bounds its time'): 5-6 here."""
+    _estimate_seconds(_series(rng, 4))  # the library loaded, the host context made
+    few = _estimate_seconds(_series(rng, 30))
+    many = _estimate_seconds(_series(rng, 150))
+    assert many < 10.0 * few, f"150 frames took {many:.2f} s of CPU, 30 frames {few:.2f} s: {many / few:.1f} times"
