@@ -57,3 +57,46 @@ def test_time_grows_as_the_frames(rng):
     few = _estimate_seconds(_series(rng, 30))
     many = _estimate_seconds(_series(rng, 150))
     assert many < 10.0 * few, f"150 frames took {many:.2f} s of CPU, 30 frames {few:.2f} s: {many / few:.1f} times"
+
+
+# ---- numbers that survive the track's file --------------------------------------
+
+
+def _edge_bounds(rng, kind, frames):
+    """Frame bounds at an edge of the doubles a track holds: near 1e15 s (12
+    digits read every row back as 1e+15), full 53-bit fractions of a second,
+    and tiny frames after a long time."""
+    if kind == "1e15":
+        return rng.uniform(1e15, 9e15) + np.arange(frames + 1) * 10.0
+    if kind == "fractions":
+        return rng.uniform(0, 100) + np.concatenate([[0.0], np.cumsum(rng.uniform(0.1, 60.0, frames))])
+    return rng.uniform(1e8, 1e9) + np.concatenate([[0.0], np.cumsum(rng.uniform(1e-5, 1e-3, frames))])
+
+
+@pytest.mark.parametrize("kind", ["1e15", "fractions", "tiny"])
+def test_track_reads_back_to_the_same_doubles(tmp_path, rng, cli, kind):
+    """The program's track, read by its own reader (pb_track_read), holds
+    the very doubles the estimate computed: the frames' bounds and mid-times,
+    and the same poses as from_frames computes from the same series."""
+    import nibabel as nib
+    frames = _series(rng, 5)
+    bounds = _edge_bounds(rng, kind, 5)
+    affine = np.diag([2.0, 2.0, 2.0, 1.0])
+    affine[:3, 3] = np.round(rng.uniform(-50, 50, 3) * 64) / 64
+    nii, track = tmp_path / "frames.nii", tmp_path / "motion.csv"
+    nib.save(nib.Nifti1Image(frames, affine), nii)
+    text = ",".join(repr(float(b)) for b in bounds)
+    subprocess.run([cli, "motion", "estimate", nii, "--frames", text, "-o", track, "--frame-poses-only", "-q",
+                    "--device", "host"], check=True, capture_output=True)
+    back = petblur.Motion.from_file(track)
+    want = np.concatenate([[bounds[0]], 0.5 * bounds[:-1] + 0.5 * bounds[1:], [bounds[-1]]])
+    assert back.times.tolist() == want.tolist(), f"times written {back.times.tolist()}, computed {want.tolist()}"
+    mine = petblur.Motion.from_frames(frames, affine, bounds=bounds, frame_poses_only=True, device="host")
+    assert mine.times.tolist() == want.tolist()
+    assert back.translations.tolist() == mine.translations.tolist(), \
+        f"translations read back {back.translations.tolist()}, computed {mine.translations.tolist()}"
+    # and the program reads its own track over the same frames, on the series' grid
+    one = tmp_path / "frame.nii"
+    nib.save(nib.Nifti1Image(frames[..., 0], affine), one)
+    p = subprocess.run([cli, "motion", track, "-i", one, "--frames", text], capture_output=True, text=True)
+    assert p.returncode == 0, p.stderr

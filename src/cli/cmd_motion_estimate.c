@@ -70,18 +70,18 @@ static int write_track(const char *path, const pb_track *track, int csv, const d
     for (size_t i = 0; i < pb_track_count(track); i++) {
         double m[16];
         pb_pose_to_matrix(&poses[i], m);
-        fprintf(f, "%.12g", times[i]);
+        fprintf(f, "%.17g", times[i]);
         if (csv) {
             /* about the centre: t_c = t + R c - c */
             double tc[3];
             for (int r = 0; r < 3; r++)
                 tc[r] = m[4 * r + 3] + m[4 * r] * center[0] + m[4 * r + 1] * center[1] + m[4 * r + 2] * center[2] -
                         center[r];
-            fprintf(f, ",%.12g,%.12g,%.12g,%.12g,%.12g,%.12g,%.12g\n", tc[0], tc[1], tc[2], poses[i].rotation[0],
+            fprintf(f, ",%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g\n", tc[0], tc[1], tc[2], poses[i].rotation[0],
                     poses[i].rotation[1], poses[i].rotation[2], poses[i].rotation[3]);
         } else {
             for (int r = 0; r < 3; r++)
-                fprintf(f, ",%.12g,%.12g,%.12g,%.12g", m[4 * r], m[4 * r + 1], m[4 * r + 2], m[4 * r + 3]);
+                fprintf(f, ",%.17g,%.17g,%.17g,%.17g", m[4 * r], m[4 * r + 1], m[4 * r + 2], m[4 * r + 3]);
             fputc('\n', f);
         }
     }
