@@ -27,22 +27,55 @@ _lib.lib.pb_motion_estimate.argtypes = [_vp, _P(_lib.Geometry), _P(_dbl), _vp, c
                                         _P(EstimateOptions), _P(_vp), _P(EstimateReport)]
 
 
+_FLOAT32_MAX = float(np.finfo(np.float32).max)
+
+
+def _computed(frames):
+    """A Dask array as numpy: the estimate reads every frame at once, on the host."""
+    if type(frames).__module__.split(".")[0] == "dask" and hasattr(frames, "compute"):
+        return np.asarray(frames.compute())
+    return frames
+
+
+def _check_float32_range(x, k):
+    """The estimate computes in float32: a finite value beyond its range would become an infinity."""
+    big = np.abs(x) > _FLOAT32_MAX
+    if big.any():
+        where = tuple(int(i) for i in np.argwhere(big)[0])
+        raise ArgumentError(f"frame {k} holds {x[where]!r} at {list(where)} (axes x, y, z), finite but beyond "
+                            f"float32's range (magnitudes up to {_FLOAT32_MAX:.7g}), in which the estimate computes; "
+                            "scale the frames down (the estimate fits each frame's own scale, so their unit does not "
+                            "matter)", -4)
+
+
 def _host_frames(frames):
     """[x, y, z, t] float32 on the host, x fastest then frame after frame."""
-    a = Array(frames, "frames")
-    x = a.data
-    if a.kind == "torch":
-        x = x.cpu().numpy()
+    frames = _computed(frames)
+    with np.errstate(over="ignore"):  # values beyond float32 are refused below, by name
+        a = Array(frames, "frames")
+    x = a.original
+    if a.kind in ("torch", "torch-cpu"):
+        x = x.detach().cpu().numpy()
     elif a.kind == "cupy":
         x = x.get()
     x = np.asarray(x)
     if x.ndim != 4:
         raise ArgumentError(f"frames must be 4-D, [x, y, z, t], not of shape {x.shape}: a 3-D image or a single "
                             "frame has nothing to register")
-    x = np.asfortranarray(x, dtype=np.float32)
     for k in range(x.shape[3]):
         _check_finite(x[..., k], f"frame {k}")
-    return x
+        _check_float32_range(x[..., k], k)
+    return np.asfortranarray(x, dtype=np.float32)
+
+
+def _voxel_sizes(a):
+    """The lengths of the affine's columns, scaled first so that sizes near
+    the doubles' range do not overflow to infinity."""
+    out = []
+    for col in a[:3, :3].T:
+        top = float(np.max(np.abs(col)))
+        out.append(top * float(np.linalg.norm(col / top)) if top > 0 else 0.0)
+    return tuple(out)
 
 
 def estimate(frames, affine, voxel_size, bounds, reference, device, frame_poses_only, levels, iterations, fwhm):
@@ -69,7 +102,7 @@ def estimate(frames, affine, voxel_size, bounds, reference, device, frame_poses_
     a = np.asarray(affine, dtype=np.float64)
     if a.shape != (4, 4) or not np.all(np.isfinite(a)):
         raise ArgumentError(f"affine must be a finite 4x4 voxel-to-world matrix (nibabel's img.affine), not {a.shape}")
-    geometry_voxel = tuple(float(v) for v in np.linalg.norm(a[:3, :3], axis=0))
+    geometry_voxel = _voxel_sizes(a)
     flat = (ctypes.c_double * 16)(*a.reshape(-1))
     b = np.asarray(bounds, dtype=np.float64).reshape(-1)
     if b.size != nt + 1:

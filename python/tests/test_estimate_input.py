@@ -100,3 +100,61 @@ def test_track_reads_back_to_the_same_doubles(tmp_path, rng, cli, kind):
     nib.save(nib.Nifti1Image(frames[..., 0], affine), one)
     p = subprocess.run([cli, "motion", track, "-i", one, "--frames", text], capture_output=True, text=True)
     assert p.returncode == 0, p.stderr
+
+
+# ---- values far outside a scanner's, and messages of their own ----------------------
+
+
+def test_voxel_sizes_far_outside_are_refused_by_name_and_value(rng):
+    """Tiny voxels crashed the library (the smoothing radius overflowed an
+    int); huge ones were reported as 'inf mm' or as a rotation centre."""
+    frames = _series(rng, 3)
+    bounds = np.arange(4) * 10.0
+    for size in (10.0 ** rng.uniform(-300, -3.5), 10.0 ** rng.uniform(3.5, 300)):
+        axis = int(rng.integers(3))
+        voxel = [2.0, 2.0, 2.0]
+        voxel[axis] = size
+        with pytest.raises(ArgumentError) as e:
+            petblur.Motion.from_frames(frames, voxel_size=voxel, bounds=bounds, device="host")
+        text = str(e.value)
+        given = text.split(f"voxel size {'xyz'[axis]} is ")[-1].split(" mm")[0]
+        assert float(given) == size and "0.001 to 1000 mm" in text, text
+
+
+def test_frames_beyond_float32_are_named_so(rng):
+    frames = _series(rng, 3).astype(np.float64)
+    at = tuple(int(i) for i in rng.integers(0, SIDE, 3))
+    frames[at + (1,)] = 10.0 ** rng.uniform(39, 308)
+    with pytest.raises(ArgumentError) as e:
+        petblur.Motion.from_frames(frames, voxel_size=2.0, bounds=np.arange(4) * 10.0, device="host")
+    text = str(e.value)
+    assert "frame 1" in text and "beyond float32's range" in text and repr(frames[at + (1,)]) in text, text
+    assert "NaN" not in text, text
+
+
+def test_a_call_after_a_failure_tells_its_own_outcome(rng):
+    """A series whose frames lie near the largest doubles failed with the
+    previous call's message ('frame bound 2 is nan'); its mid-times
+    overflowed. It is now estimated."""
+    frames = _series(rng, 3)
+    with pytest.raises(ArgumentError, match="frame bound 2 is nan"):
+        petblur.Motion.from_frames(frames, voxel_size=2.0, bounds=[0.0, 10.0, np.nan, 30.0], device="host")
+    top = np.finfo(np.float64).max * rng.uniform(0.5, 1.0)
+    bounds = top * (1.0 - 0.05 * np.arange(3, -1, -1))
+    m = petblur.Motion.from_frames(frames, voxel_size=2.0, bounds=bounds, device="host")
+    assert np.all(np.isfinite(m.times)) and m.times[0] == bounds[0] and m.times[-1] == bounds[-1]
+
+
+# ---- what the frames may be given as ---------------------------------------------------
+
+
+def test_dask_frames_are_computed(rng):
+    """A Dask array was refused as 'the frames is a Array'."""
+    da = pytest.importorskip("dask.array")
+    frames = _series(rng, 4)
+    bounds = np.arange(5) * 10.0
+    lazy = da.from_array(frames, chunks=(SIDE, SIDE, SIDE, 1))
+    got = petblur.Motion.from_frames(lazy, voxel_size=2.0, bounds=bounds, device="host")
+    want = petblur.Motion.from_frames(frames, voxel_size=2.0, bounds=bounds, device="host")
+    assert got.times.tolist() == want.times.tolist()
+    assert got.translations.tolist() == want.translations.tolist()
