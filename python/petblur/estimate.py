@@ -78,6 +78,18 @@ def _voxel_sizes(a):
     return tuple(out)
 
 
+def _estimate_device(device):
+    """'auto' as the library resolves it for the estimate (a GPU, else the
+    host backend rather than an OpenCL CPU device); any other spec as given."""
+    if device != "auto":
+        return device
+    backend, index = ctypes.c_int(), ctypes.c_int()
+    _lib.check(_lib.lib.pb_device_auto_estimate(ctypes.byref(backend), ctypes.byref(index)))
+    if backend.value == _lib.BACKEND_HOST:
+        return "host"
+    return f"{_lib.BACKEND_NAMES[backend.value]}:{index.value}"
+
+
 def estimate(frames, affine, voxel_size, bounds, reference, device, frame_poses_only, levels, iterations, fwhm):
     """The motion's C track (matrix-csv: world maps about the world's origin; the caller frees it) and the
     report."""
@@ -120,7 +132,7 @@ def estimate(frames, affine, voxel_size, bounds, reference, device, frame_poses_
     opts = EstimateOptions(int(reference), int(levels), int(iterations), int(bool(frame_poses_only)), fwhm)
     cb = (ctypes.c_double * b.size)(*b)
     track, report = ctypes.c_void_p(), EstimateReport()
-    ctx = _lib.context(device)
+    ctx = _lib.context(_estimate_device(device))
     with ctx.use():
         status = _lib.lib.pb_motion_estimate(ctx.handle, ctypes.byref(g), flat, x.ctypes.data, nt, cb,
                                              ctypes.byref(opts), ctypes.byref(track), ctypes.byref(report))

@@ -88,6 +88,22 @@ static int write_track(const char *path, const pb_track *track, int csv, const d
     return pbc_temp_commit(&t, f);
 }
 
+/* --device auto (the default) as the library resolves it for the estimate:
+ * a GPU, else the host backend rather than an OpenCL CPU device. */
+static int open_device(const char *spec, pb_context **ctx)
+{
+    pb_backend backend;
+    int index;
+    char resolved[32];
+    if ((spec && strcmp(spec, "auto") != 0) || pb_device_auto_estimate(&backend, &index) != PB_OK)
+        return pbc_open_device(spec, ctx);
+    if (backend == PB_BACKEND_HOST)
+        snprintf(resolved, sizeof resolved, "host");
+    else
+        snprintf(resolved, sizeof resolved, "%s:%d", pb_backend_name(backend), index);
+    return pbc_open_device(resolved, ctx);
+}
+
 static int options_from_args(const pbc_args *args, pb_estimate_options *o, int *csv)
 {
     const char *v;
@@ -167,7 +183,7 @@ static int run(const pbc_args *args, const char *in_path, const char *out_path)
             pb_geometry_grid_affine(&g, affine);
         }
         grid_center(&img, affine, center);
-        rc = pbc_open_device(pbc_arg(&command, args, "--device"), &ctx);
+        rc = open_device(pbc_arg(&command, args, "--device"), &ctx);
     }
     if (!rc) {
         pb_geometry g = {{img.dims[0], img.dims[1], img.dims[2]},
