@@ -69,12 +69,17 @@ def _host_frames(frames):
 
 
 def _voxel_sizes(a):
-    """The lengths of the affine's columns, scaled first so that sizes near
-    the doubles' range do not overflow to infinity."""
+    """The lengths of the affine's columns, as numpy gives them; a column
+    whose squares overflow or underflow (sizes beyond 1e150 or under 1e-150)
+    is scaled first, so that its size is refused as given, not as inf or 0."""
     out = []
     for col in a[:3, :3].T:
+        with np.errstate(over="ignore", under="ignore"):
+            v = float(np.linalg.norm(col))
         top = float(np.max(np.abs(col)))
-        out.append(top * float(np.linalg.norm(col / top)) if top > 0 else 0.0)
+        if top > 0 and not 1e-150 < v < 1e150:
+            v = top * float(np.linalg.norm(col / top))
+        out.append(v)
     return tuple(out)
 
 
