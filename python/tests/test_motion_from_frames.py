@@ -440,7 +440,7 @@ BAD = {
                           ("frame 1", "increase")),
     "NaN bound": (None, {"starts": None, "durations": None, "bounds": [0.0, 10, np.nan, 20, 30]},
                   ("bound 2", "nan", "finite")),
-    "singular affine": (None, {"affine": _singular}, ("voxel size 2", "0 mm")),
+    "singular affine": (None, {"affine": _singular}, ("voxel size z", "0 mm")),
     "sheared affine": (None, {"affine": _sheared}, ("perpendicular", "shear")),
     "affine not finite": (None, {"affine": _not_finite}, ("finite 4x4",)),
     "affine 3x3": (None, {"affine": lambda a: a[:3, :3]}, ("4x4", "(3, 3)")),
