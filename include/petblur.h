@@ -377,7 +377,9 @@ enum {
     PB_WARN_FAR_FROM_REST = 4,  /* every pose turns over 90 degrees from rest, or from the first */
     PB_WARN_TIME_UNIT = 8,      /* times that look like milliseconds */
     PB_WARN_FRAMES_SPAN = 16,   /* frames that cover almost none of the track */
-    PB_WARN_OUT_OF_VIEW = 32    /* the grid wholly out of view at some poses of a frame */
+    PB_WARN_OUT_OF_VIEW = 32,   /* the grid wholly out of view at some poses of a frame */
+    PB_WARN_BACKGROUND = 64,    /* pb_motion_estimate: frames on a uniform background to the grid's faces */
+    PB_WARN_NO_STRUCTURE = 128  /* pb_motion_estimate: frames that show nothing but noise */
 };
 typedef struct pb_warnings {
     unsigned flags;
@@ -627,6 +629,7 @@ typedef struct pb_estimate_options {
 typedef struct pb_estimate_report {
     double seconds;        /* the whole call's wall time */
     size_t moving_frames;  /* frames given motion inside them */
+    pb_warnings warnings;  /* PB_WARN_BACKGROUND, PB_WARN_NO_STRUCTURE: what was found and what was done */
 } pb_estimate_report;
 
 /* The patient's rigid motion estimated from the frames themselves. frames
@@ -653,7 +656,12 @@ typedef struct pb_estimate_report {
  * reference frame's pose is the identity. Refused: fewer than two frames, a
  * reference out of range, bounds that are not finite and increasing, frames
  * with NaN or infinite voxels, frames with no counts (all zero or negative),
- * grids under 8 voxels a side, voxel sizes outside 0.001 to 1000 mm. ctx's progress report, if any, hears the
+ * grids under 8 voxels a side, voxel sizes outside 0.001 to 1000 mm.
+ * Warned (report->warnings): a uniform background that reaches the grid's
+ * faces, which is subtracted from each frame before registration (it would
+ * pull every pose towards the grid's), and frames that show no structure
+ * above their noise, which take their nearest structured frame's pose (the
+ * identity where none has any). ctx's progress report, if any, hears the
  * whole call's progress. */
 PB_API pb_status pb_motion_estimate(pb_context *ctx, const pb_geometry *geometry, const double affine[16],
                                     const float *frames, size_t count, const double *bounds,

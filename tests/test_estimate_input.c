@@ -1,7 +1,8 @@
 /* pb_motion_estimate at the edges of its input, on fresh random series: voxel
  * sizes far outside a scanner's (refused before any work, by name and value,
  * never a crash), smoothing far wider than the grid, frame times near the
- * largest doubles, and a failure's message its own, not an earlier call's. */
+ * largest doubles, a failure's message its own, not an earlier call's, and
+ * the report's warnings of a background and of frames of noise alone. */
 #include <float.h>
 #include <math.h>
 #include <stdio.h>
@@ -83,7 +84,9 @@ static void test_own_message(pb_context *ctx)
     double top = DBL_MAX * pb_rand_range(0.5, 1.0), b[FRAMES + 1];
     for (int k = 0; k <= FRAMES; k++)
         b[k] = top * (1.0 - 0.05 * (double)(FRAMES - k));
-    st = pb_motion_estimate(ctx, &g, NULL, f, FRAMES, b, NULL, &t, NULL);
+    pb_estimate_options o = {0};
+    o.frame_poses_only = 1; /* a key at every mid-time */
+    st = pb_motion_estimate(ctx, &g, NULL, f, FRAMES, b, &o, &t, NULL);
     pb_check(st == PB_OK && t, "frames from %.17g s: status %d, '%s'", b[0], st, pb_last_error(ctx));
     if (st == PB_OK && t) {
         const double *times = pb_track_times(t);
@@ -101,12 +104,43 @@ static void test_own_message(pb_context *ctx)
     free(f);
 }
 
+/* What the report warns about: a series on a uniform background (subtracted)
+ * and one of noise alone (its poses left at the identity). */
+static void test_warnings(pb_context *ctx)
+{
+    const size_t n = SIDE * SIDE * SIDE;
+    float *f = random_series(FRAMES);
+    double b[FRAMES + 1] = {0, 10, 20, 30}, level = pb_rand_range(20.0, 60.0);
+    pb_geometry g = {{SIDE, SIDE, SIDE}, {2, 2, 2}};
+    for (size_t i = 0; i < n * FRAMES; i++)
+        f[i] += (float)level;
+    pb_estimate_report report;
+    pb_track *t = NULL;
+    pb_status st = pb_motion_estimate(ctx, &g, NULL, f, FRAMES, b, NULL, &t, &report);
+    pb_check(st == PB_OK && report.warnings.flags == PB_WARN_BACKGROUND && strstr(report.warnings.text, "subtracted"),
+             "a background of %g: status %d, flags %u, '%s'", level, st, report.warnings.flags, report.warnings.text);
+    pb_track_free(t);
+    for (size_t i = 0; i < n * FRAMES; i++)
+        f[i] = (float)pb_rand_range(0.0, 10.0);
+    st = pb_motion_estimate(ctx, &g, NULL, f, FRAMES, b, NULL, &t, &report);
+    int still = st == PB_OK;
+    for (size_t i = 0; still && i < pb_track_count(t); i++)
+        still = pb_track_poses(t)[i].rotation[0] == 1.0 && pb_track_poses(t)[i].translation[0] == 0.0;
+    pb_check(st == PB_OK && (report.warnings.flags & PB_WARN_NO_STRUCTURE) && still &&
+                 strstr(report.warnings.text, "3 of 3 frames (0, 1, 2) show no structure"),
+             "frames of noise: status %d, still %d, flags %u, '%s'", st, still, report.warnings.flags,
+             report.warnings.text);
+    pb_track_free(t);
+    free(f);
+}
+
 int main(int argc, char **argv)
 {
     pb_test_seed();
     pb_context *ctx = pb_test_context(argc, argv);
     test_voxel_sizes(ctx);
     test_own_message(ctx);
+    test_warnings(ctx);
     pb_context_destroy(ctx);
     return pb_test_finish();
 }

@@ -17,7 +17,7 @@ class EstimateOptions(ctypes.Structure):
 
 
 class EstimateReport(ctypes.Structure):
-    _fields_ = [("seconds", ctypes.c_double), ("moving_frames", ctypes.c_size_t)]
+    _fields_ = [("seconds", ctypes.c_double), ("moving_frames", ctypes.c_size_t), ("warnings", _lib.Warnings)]
 
 
 _lib.check_layout({"pb_estimate_options": EstimateOptions, "pb_estimate_report": EstimateReport}, {})

@@ -242,6 +242,7 @@ class Motion:
                                                frame_poses_only, levels, iterations, fwhm)
         except Error as e:
             raise type(e)(python_words(e.message), e.status) from None
+        _warn(report.warnings, 2)
         fmt, times, tr, q, _, _ = track_arrays(handle)
         m = cls(times, tr, q)
         m._format, m._source = fmt, "the motion estimated from the frames"

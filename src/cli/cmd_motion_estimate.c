@@ -10,6 +10,7 @@
 #include "blur_run.h"
 #include "cli.h"
 #include "commands.h"
+#include "motion_args.h"
 
 static const pbc_option options[] = {
     {"--output", "-o", "TRACK.csv", "the track (required)"},
@@ -141,6 +142,15 @@ static int options_from_args(const pbc_args *args, pb_estimate_options *o, int *
     return 0;
 }
 
+static void print_summary(pb_context *ctx, const char *out_path, const pb_track *track, size_t frames, int csv,
+                          const pb_estimate_report *report)
+{
+    char dev[600];
+    pbc_describe_device(ctx, dev, sizeof dev);
+    printf("%s: %zu poses from %zu frames (%zu with motion inside), %s, on %s in %.1f s\n", out_path,
+           pb_track_count(track), frames, report->moving_frames, csv ? "csv" : "matrix-csv", dev, report->seconds);
+}
+
 static int run(const pbc_args *args, const char *in_path, const char *out_path)
 {
     pb_estimate_options o;
@@ -198,12 +208,10 @@ static int run(const pbc_args *args, const char *in_path, const char *out_path)
             rc = pbc_fail(pbc_exit_for(st), "%s: %s%s", in_path, pb_last_error(ctx),
                           st == PB_ERR_BAD_VOXEL_SIZE ? " (this file's header gives it: correct its pixdim, or set "
                                                         "it to 0 and give --voxel-size DX,DY,DZ)" : "");
-        } else if (!(rc = write_track(out_path, track, csv, center)) && !quiet) {
-            char dev[600];
-            pbc_describe_device(ctx, dev, sizeof dev);
-            printf("%s: %zu poses from %zu frames (%zu with motion inside), %s, on %s in %.1f s\n", out_path,
-                   pb_track_count(track), frames, report.moving_frames, csv ? "csv" : "matrix-csv", dev,
-                   report.seconds);
+        } else {
+            pbc_print_warnings(&report.warnings);
+            if (!(rc = write_track(out_path, track, csv, center)) && !quiet)
+                print_summary(ctx, out_path, track, frames, csv, &report);
         }
     }
     pb_track_free(track);

@@ -111,6 +111,13 @@ void pbe_unitary_dims(const pb_geometry *g, size_t pad[3]);
 pb_status pbe_move_unitary(const pb_geometry *g, const float *f, const size_t pad[3], const pb_pose *pose,
                            const double c[3], float *out);
 
+/* ---- background.c: what the frames hold besides the object ---------------- */
+
+/* Each frame's background, the median of its faces' voxels, and its peak. */
+pb_status pbe_backgrounds(const pb_geometry *g, const float *frames, size_t count, double *level, double *peak);
+/* The share of a frame's variance about its mean that a fit leaving sse explains. */
+double pbe_explained(const float *frame, size_t n, double sse);
+
 /* ---- collective.c: the poses moved together along the contrast ------------- */
 
 /* A frame's poses: one, or a path's ends where it moves (pass 3). */
