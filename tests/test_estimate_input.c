@@ -76,7 +76,7 @@ static void test_own_message(pb_context *ctx)
 {
     float *f = random_series(FRAMES);
     pb_geometry g = {{SIDE, SIDE, SIDE}, {2, 2, 2}};
-    double nan_bounds[FRAMES + 1] = {0, 10, NAN, 30};
+    double nan_bounds[FRAMES + 1] = {0, 10, (double)NAN, 30};
     pb_track *t = NULL;
     pb_status st = pb_motion_estimate(ctx, &g, NULL, f, FRAMES, nan_bounds, NULL, &t, NULL);
     pb_check(st != PB_OK && strstr(pb_last_error(ctx), "nan"), "a NaN bound: status %d, '%s'", st,

@@ -331,10 +331,12 @@ static pb_status inside_frames(estimate *e, const pbe_fit *fits, size_t referenc
 static pb_status remove_background(estimate *e)
 {
     const size_t n = voxels(&e->g);
-    double *level = malloc(sizeof(double) * 2 * e->count), *peak = level + e->count;
-    pb_status st = level ? pbe_backgrounds(&e->g, e->raw, e->count, level, peak) : PB_ERR_OUT_OF_MEMORY;
+    double *level = malloc(sizeof(double) * 2 * e->count);
+    if (!level)
+        return PB_ERR_OUT_OF_MEMORY;
+    double *peak = level + e->count, low = (double)INFINITY, high = 0.0;
+    pb_status st = pbe_backgrounds(&e->g, e->raw, e->count, level, peak);
     size_t any = 0, warned = 0;
-    double low = INFINITY, high = 0.0;
     for (size_t k = 0; k < e->count && st == PB_OK; k++) {
         double share = fabs(level[k]) / peak[k];
         any += level[k] != 0;
