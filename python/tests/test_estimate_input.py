@@ -122,6 +122,38 @@ def test_voxel_sizes_far_outside_are_refused_by_name_and_value(rng):
         assert float(given) == size and "0.001 to 1000 mm" in text, text
 
 
+def _header_only_nifti(path, frames, pixdim):
+    """A NIfTI without sform or qform: its voxel sizes are pixdim's alone."""
+    import nibabel as nib
+    img = nib.Nifti1Image(frames, None)
+    img.header.set_sform(None, code=0)
+    img.header.set_qform(None, code=0)
+    img.header["pixdim"][1:4] = pixdim
+    nib.save(img, path)
+
+
+def test_the_program_refuses_a_headers_voxel_size_with_a_fix_it_takes(tmp_path, rng, cli):
+    """pixdim (1e-30, 2, 2) crashed the program (SIGSEGV); pixdim 0 suggested
+    --voxel-size, which motion estimate refused as an unknown option; 1e12 mm
+    voxels were refused as a rotation centre."""
+    frames = _series(rng, 3)
+    nii, track = tmp_path / "frames.nii", tmp_path / "motion.csv"
+    args = [cli, "motion", "estimate", nii, "--frames", "0,10,20,30", "-o", track, "-q", "--device", "host"]
+    for size in (10.0 ** rng.uniform(-30, -4), 10.0 ** rng.uniform(4, 30)):
+        axis = int(rng.integers(3))
+        pixdim = [2.0, 2.0, 2.0]
+        pixdim[axis] = size
+        _header_only_nifti(nii, frames, pixdim)
+        p = subprocess.run(args, capture_output=True, text=True)
+        assert p.returncode == 2 and f"voxel size {'xyz'[axis]} is " in p.stderr and "0.001 to 1000 mm" in p.stderr \
+            and "pixdim" in p.stderr and not track.exists(), (p.returncode, p.stderr)
+    _header_only_nifti(nii, frames, [0.0, 2.0, 2.0])
+    p = subprocess.run(args, capture_output=True, text=True)
+    assert p.returncode == 2 and "--voxel-size" in p.stderr, p.stderr
+    p = subprocess.run(args + ["--voxel-size", "2,2,2"], capture_output=True, text=True)
+    assert p.returncode == 0 and track.exists(), p.stderr
+
+
 def test_frames_beyond_float32_are_named_so(rng):
     frames = _series(rng, 3).astype(np.float64)
     at = tuple(int(i) for i in rng.integers(0, SIDE, 3))
