@@ -108,7 +108,7 @@ pb_status pbe_frame_reference(const float *moved, size_t n, size_t frames, const
     pbe_reference_window(frames, k, &first, &end);
     const size_t m = end - first - 1, r = pbe_reference_rank(m + 1);
     double *a = malloc(sizeof(double) * m * m), *v = malloc(sizeof(double) * m * m), *w = malloc(sizeof(double) * m);
-    double *coef = calloc(frames, sizeof(double));
+    double *coef = calloc(m, sizeof(double)); /* a weight per other frame of the window */
     size_t *other = malloc(sizeof(size_t) * m);
     if (!a || !v || !w || !coef || !other) {
         free(a), free(v), free(w), free(coef), free(other);
@@ -144,12 +144,12 @@ pb_status pbe_frame_reference(const float *moved, size_t n, size_t frames, const
         for (size_t i = 0; i < m; i++)
             dot += v[i * m + best] * band_at(band, other[i], k);
         for (size_t i = 0; i < m; i++)
-            coef[other[i]] += v[i * m + best] * dot / w[best];
+            coef[i] += v[i * m + best] * dot / w[best];
     }
     memset(out, 0, sizeof(float) * n);
     for (size_t i = 0; i < m; i++) {
         const float *g = moved + other[i] * n;
-        float c = (float)coef[other[i]];
+        float c = (float)coef[i];
         for (size_t p = 0; p < n; p++)
             out[p] += c * g[p];
     }
