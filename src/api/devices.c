@@ -135,6 +135,7 @@ static pb_status choose_auto(pb_backend *backend, int *index)
                     "pocl-opencl-icd) or choose the host backend",
                     why);
 }
+
 pb_status pb_device_auto_estimate(pb_backend *backend, int *index)
 {
     if (!backend || !index)
