@@ -169,6 +169,7 @@ _signatures = {
     "pb_last_error": (ctypes.c_char_p, [_vp]),
     "pb_context_notes": (ctypes.c_char_p, [_vp]),
     "pb_device_parse": (_int, [ctypes.c_char_p, _P(_int), _P(_int)]),
+    "pb_device_auto_estimate": (_int, [_P(_int), _P(_int)]),
     "pb_backend_compiled": (_int, [_int]),
     "pb_device_count": (_int, [_int, _P(_int)]),
     "pb_device_get_info": (_int, [_int, _int, _P(DeviceInfo)]),

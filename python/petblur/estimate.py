@@ -19,13 +19,16 @@ class EstimateOptions(ctypes.Structure):
 
 
 class EstimateReport(ctypes.Structure):
-    _fields_ = [("seconds", ctypes.c_double), ("moving_frames", ctypes.c_size_t)]
+    _fields_ = [("seconds", ctypes.c_double), ("moving_frames", ctypes.c_size_t), ("warnings", _lib.Warnings)]
 
 
 _lib.check_layout({"pb_estimate_options": EstimateOptions, "pb_estimate_report": EstimateReport}, {})
 _P, _vp, _dbl = ctypes.POINTER, ctypes.c_void_p, ctypes.c_double
 _lib.bind({"pb_motion_estimate": (ctypes.c_int, [_vp, _P(_lib.Geometry), _P(_dbl), _vp, ctypes.c_size_t, _P(_dbl),
                                                   _P(EstimateOptions), _P(_vp), _P(EstimateReport)])})
+
+
+_FLOAT32_MAX = float(np.finfo(np.float32).max)
 
 
 def _host_frames(frames):
@@ -48,10 +51,21 @@ def _host_frames(frames):
     if x.ndim != 4:
         raise ArgumentError(f"frames must be 4-D, [x, y, z, t], not of shape {x.shape}: a 3-D image or a single "
                             "frame has nothing to register")
-    x = np.asfortranarray(x, dtype=np.float32)
     for k in range(x.shape[3]):
         _check_finite(x[..., k], f"frame {k}", None if a.wide is None else a.wide[..., k])
     return x
+
+
+def _estimate_device(device):
+    """'auto' as the library resolves it for the estimate (a GPU, else the
+    host backend rather than an OpenCL CPU device); any other spec as given."""
+    if device != "auto":
+        return device
+    backend, index = ctypes.c_int(), ctypes.c_int()
+    _lib.check(_lib.lib.pb_device_auto_estimate(ctypes.byref(backend), ctypes.byref(index)))
+    if backend.value == _lib.BACKEND_HOST:
+        return "host"
+    return f"{_lib.BACKEND_NAMES[backend.value]}:{index.value}"
 
 
 def estimate(frames, affine, voxel_size, bounds, reference, device, frame_poses_only, levels, iterations, fwhm):
@@ -109,7 +123,7 @@ def estimate(frames, affine, voxel_size, bounds, reference, device, frame_poses_
     opts = EstimateOptions(int(reference), int(levels), int(iterations), int(bool(frame_poses_only)), fwhm)
     cb = (ctypes.c_double * b.size)(*b)
     track, report = ctypes.c_void_p(), EstimateReport()
-    ctx = _lib.context(device)
+    ctx = _lib.context(_estimate_device(device))
     with ctx.use():
         status = _lib.lib.pb_motion_estimate(ctx.handle, ctypes.byref(g), flat, x.ctypes.data, nt, cb,
                                              ctypes.byref(opts), ctypes.byref(track), ctypes.byref(report))

@@ -252,7 +252,7 @@ class Motion:
                     frame_poses_only=False, levels=0, iterations=0, fwhm=0.0, voxel_size=None):
         """The head's rigid motion estimated from a dynamic series itself, as
         `petblur motion estimate` does (the C library's pb_motion_estimate):
-        ``frames`` [x, y, z, t] (numpy, CuPy or torch; read on the host),
+        ``frames`` [x, y, z, t] (numpy, CuPy, torch or Dask, computed; read on the host),
         placed in the world by ``affine`` (voxel to world, nibabel's
         img.affine), or, without one, given ``voxel_size`` (mm) in the grid
         frame the operators take without an affine; frame k spanning ``starts[k]`` for
@@ -290,6 +290,7 @@ class Motion:
                                                frame_poses_only, levels, iterations, fwhm)
         except Error as e:
             raise type(e)(python_words(e.message), e.status) from None
+        _warn(report.warnings, 2)
         fmt, times, tr, q, _, _ = track_arrays(handle)
         m = cls(times, tr, q)
         m._format, m._source = fmt, "the motion estimated from the frames"

@@ -41,6 +41,7 @@ const char *pb_abi_layout(void)
     S(pb_estimate_options); F(pb_estimate_options, reference); F(pb_estimate_options, levels);
     F(pb_estimate_options, iterations); F(pb_estimate_options, frame_poses_only); F(pb_estimate_options, fwhm_mm);
     S(pb_estimate_report); F(pb_estimate_report, seconds); F(pb_estimate_report, moving_frames);
+    F(pb_estimate_report, warnings);
     S(pb_comparison); F(pb_comparison, rms_percent); F(pb_comparison, max_percent);
     F(pb_comparison, max_difference); F(pb_comparison, worst); F(pb_comparison, eq5_percent);
     E(PB_BACKEND_AUTO); E(PB_BACKEND_HOST); E(PB_BACKEND_OPENCL); E(PB_BACKEND_CUDA);

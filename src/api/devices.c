@@ -135,6 +135,21 @@ static pb_status choose_auto(pb_backend *backend, int *index)
                     "pocl-opencl-icd) or choose the host backend",
                     why);
 }
+
+pb_status pb_device_auto_estimate(pb_backend *backend, int *index)
+{
+    if (!backend || !index)
+        return pb_error(NULL, PB_ERR_INVALID_ARGUMENT, "backend and index must not be NULL");
+    pb_device_info info;
+    if (choose_auto(backend, index) == PB_OK &&
+        (*backend == PB_BACKEND_CUDA ||
+         (pb_device_get_info(*backend, *index, &info) == PB_OK && info.is_gpu)))
+        return PB_OK;
+    *backend = PB_BACKEND_HOST;
+    *index = 0;
+    return PB_OK;
+}
+
 pb_status pb_backend_select(pb_context_options *opt, const pb_backend_ops **ops)
 {
     pb_status st = PB_OK;

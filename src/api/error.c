@@ -42,6 +42,11 @@ pb_status pb_error_prefix(pb_status status, const char *fmt, ...)
     return status;
 }
 
+void pb_error_clear(void)
+{
+    thread_error[0] = '\0';
+}
+
 void pb_error_append(struct pb_context *ctx, const char *text)
 {
     size_t used = strlen(thread_error);

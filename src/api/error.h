@@ -30,6 +30,10 @@ pb_status pb_error_prefix(pb_status status, const char *fmt, ...)
 #endif
     ;
 
+/* Empties the calling thread's last-error text, so that a call whose parts
+ * may fail without a text of their own tells its failure from an earlier one. */
+void pb_error_clear(void);
+
 /* Appends text (a build log, say) to the last-error text of ctx. */
 void pb_error_append(struct pb_context *ctx, const char *text);
 

@@ -10,6 +10,7 @@
 #include "blur_run.h"
 #include "cli.h"
 #include "commands.h"
+#include "motion_args.h"
 
 static const pbc_option options[] = {
     {"--output", "-o", "TRACK.csv", "the track (required)"},
@@ -22,6 +23,7 @@ static const pbc_option options[] = {
     {"--levels", NULL, "N", "resolution levels, each halving the grid (default: up to 3)"},
     {"--iterations", NULL, "N", "Gauss-Newton steps at most per level and frame (default 12)"},
     {"--fwhm", NULL, "MM", "smoothing before registration, mm (default two voxels of each level)"},
+    {"--voxel-size", NULL, "DX,DY,DZ", "voxel size in mm, for a header that gives none (pixdim 0)"},
     PBC_OPTION_DEVICE,
     {"--quiet", "-q", NULL, "print nothing but errors"},
 };
@@ -69,22 +71,38 @@ static int write_track(const char *path, const pb_track *track, int csv, const d
     for (size_t i = 0; i < pb_track_count(track); i++) {
         double m[16];
         pb_pose_to_matrix(&poses[i], m);
-        fprintf(f, "%.12g", times[i]);
+        fprintf(f, "%.17g", times[i]);
         if (csv) {
             /* about the centre: t_c = t + R c - c */
             double tc[3];
             for (int r = 0; r < 3; r++)
                 tc[r] = m[4 * r + 3] + m[4 * r] * center[0] + m[4 * r + 1] * center[1] + m[4 * r + 2] * center[2] -
                         center[r];
-            fprintf(f, ",%.12g,%.12g,%.12g,%.12g,%.12g,%.12g,%.12g\n", tc[0], tc[1], tc[2], poses[i].rotation[0],
+            fprintf(f, ",%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g\n", tc[0], tc[1], tc[2], poses[i].rotation[0],
                     poses[i].rotation[1], poses[i].rotation[2], poses[i].rotation[3]);
         } else {
             for (int r = 0; r < 3; r++)
-                fprintf(f, ",%.12g,%.12g,%.12g,%.12g", m[4 * r], m[4 * r + 1], m[4 * r + 2], m[4 * r + 3]);
+                fprintf(f, ",%.17g,%.17g,%.17g,%.17g", m[4 * r], m[4 * r + 1], m[4 * r + 2], m[4 * r + 3]);
             fputc('\n', f);
         }
     }
     return pbc_temp_commit(&t, f);
+}
+
+/* --device auto (the default) as the library resolves it for the estimate:
+ * a GPU, else the host backend rather than an OpenCL CPU device. */
+static int open_device(const char *spec, pb_context **ctx)
+{
+    pb_backend backend;
+    int index;
+    char resolved[32];
+    if ((spec && strcmp(spec, "auto") != 0) || pb_device_auto_estimate(&backend, &index) != PB_OK)
+        return pbc_open_device(spec, ctx);
+    if (backend == PB_BACKEND_HOST)
+        snprintf(resolved, sizeof resolved, "host");
+    else
+        snprintf(resolved, sizeof resolved, "%s:%d", pb_backend_name(backend), index);
+    return pbc_open_device(resolved, ctx);
 }
 
 static int options_from_args(const pbc_args *args, pb_estimate_options *o, int *csv)
@@ -124,6 +142,15 @@ static int options_from_args(const pbc_args *args, pb_estimate_options *o, int *
     return 0;
 }
 
+static void print_summary(pb_context *ctx, const char *out_path, const pb_track *track, size_t frames, int csv,
+                          const pb_estimate_report *report)
+{
+    char dev[600];
+    pbc_describe_device(ctx, dev, sizeof dev);
+    printf("%s: %zu poses from %zu frames (%zu with motion inside), %s, on %s in %.1f s\n", out_path,
+           pb_track_count(track), frames, report->moving_frames, csv ? "csv" : "matrix-csv", dev, report->seconds);
+}
+
 static int run(const pbc_args *args, const char *in_path, const char *out_path)
 {
     pb_estimate_options o;
@@ -140,6 +167,10 @@ static int run(const pbc_args *args, const char *in_path, const char *out_path)
     pb_context *ctx = NULL;
     pb_track *track = NULL;
     pbc_read_hints hints = {0};
+    size_t dims[3];
+    double voxel_size[3];
+    if ((rc = pbc_hints_from_args(&command, args, dims, voxel_size, &hints)))
+        return rc;
     hints.allow_frames = 1;
     if ((rc = fv ? pbc_parse_bounds("--frames", fv, &bounds, &nb) : pbc_bids_frames(json, &bounds, &nb)))
         return rc;
@@ -162,7 +193,7 @@ static int run(const pbc_args *args, const char *in_path, const char *out_path)
             pb_geometry_grid_affine(&g, affine);
         }
         grid_center(&img, affine, center);
-        rc = pbc_open_device(pbc_arg(&command, args, "--device"), &ctx);
+        rc = open_device(pbc_arg(&command, args, "--device"), &ctx);
     }
     if (!rc) {
         pb_geometry g = {{img.dims[0], img.dims[1], img.dims[2]},
@@ -174,13 +205,13 @@ static int run(const pbc_args *args, const char *in_path, const char *out_path)
         if (st != PB_OK) {
             if (pbc_show_progress && !quiet)
                 pbc_progress_line(1.0, NULL);
-            rc = pbc_fail(pbc_exit_for(st), "%s: %s", in_path, pb_last_error(ctx));
-        } else if (!(rc = write_track(out_path, track, csv, center)) && !quiet) {
-            char dev[600];
-            pbc_describe_device(ctx, dev, sizeof dev);
-            printf("%s: %zu poses from %zu frames (%zu with motion inside), %s, on %s in %.1f s\n", out_path,
-                   pb_track_count(track), frames, report.moving_frames, csv ? "csv" : "matrix-csv", dev,
-                   report.seconds);
+            rc = pbc_fail(pbc_exit_for(st), "%s: %s%s", in_path, pb_last_error(ctx),
+                          st == PB_ERR_BAD_VOXEL_SIZE ? " (this file's header gives it: correct its pixdim, or set "
+                                                        "it to 0 and give --voxel-size DX,DY,DZ)" : "");
+        } else {
+            pbc_print_warnings(&report.warnings);
+            if (!(rc = write_track(out_path, track, csv, center)) && !quiet)
+                print_summary(ctx, out_path, track, frames, csv, &report);
         }
     }
     pb_track_free(track);

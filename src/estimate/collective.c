@@ -31,6 +31,11 @@ enum { NG = 6 };
  * that grows as the padded volume times its longest line. */
 #define LONGEST_SIDE 40
 enum { MAX_THREADS = 32 };
+/* The still frames in the sum at most, spread evenly over the series: each
+ * evaluation's cost grows as their square (and its eigenvalues as their
+ * cube), and six numbers for the whole series are found from a few dozen
+ * frames; frames out of the sum take their nearest's contrast. */
+enum { MAX_SUM_FRAMES = 24 };
 /* When a series shows a contrast to correct along (contrast_weights). */
 #define CONTRAST_OVER_NOISE 10.0
 #define CONTRAST_ROUGHNESS 0.5
@@ -297,6 +302,21 @@ static pb_status minimise(collective *cv, double p[NG], double e0)
     return st;
 }
 
+/* m of the still frames (of `still`), spread evenly from the first to the
+ * last, in order. */
+static void pick_still(const pbe_collective_pose *poses, size_t count, size_t still, size_t *use, size_t m)
+{
+    for (size_t k = 0, s = 0, i = 0; k < count && i < m; k++) {
+        if (poses[k].moving)
+            continue;
+        /* the i-th pick is still frame round(i (still - 1) / (m - 1)) */
+        size_t want = m > 1 ? (i * (still - 1) + (m - 1) / 2) / (m - 1) : 0;
+        if (s == want)
+            use[i++] = k;
+        s++;
+    }
+}
+
 pb_status pbe_collective(const pb_geometry *fine, const float *raw, size_t count, size_t ref, const double c[3],
                          pbe_collective_pose *poses, double *moved_mm)
 {
@@ -323,8 +343,10 @@ pb_status pbe_collective(const pb_geometry *fine, const float *raw, size_t count
     cv.n = cv.g.dims[0] * cv.g.dims[1] * cv.g.dims[2];
     pbe_unitary_dims(&cv.g, cv.pad);
     cv.padded = cv.pad[0] * cv.pad[1] * cv.pad[2];
+    size_t still = 0;
     for (size_t k = 0; k < count; k++)
-        cv.used += !poses[k].moving;
+        still += !poses[k].moving;
+    cv.used = still < MAX_SUM_FRAMES ? still : MAX_SUM_FRAMES;
     cv.rank = pbe_reference_rank(count);
     long cores = sysconf(_SC_NPROCESSORS_ONLN);
     cv.threads = cores < 1 ? 1 : cores > MAX_THREADS ? MAX_THREADS : (size_t)cores;
@@ -367,9 +389,8 @@ pb_status pbe_collective(const pb_geometry *fine, const float *raw, size_t count
         }
         memcpy(cv.frames + k * cv.n, x, sizeof(float) * cv.n);
     }
-    for (size_t k = 0, i = 0; k < count; k++)
-        if (!poses[k].moving && cv.use)
-            cv.use[i++] = k;
+    if (cv.use)
+        pick_still(poses, count, still, cv.use, m);
     for (int i = 0; i < 3; i++)
         cv.radius = fmax(cv.radius, 0.5 * (double)cv.g.dims[i] * cv.g.voxel_size[i]);
     /* at p = 0 every weight moves nothing: this residual, which the

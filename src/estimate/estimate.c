@@ -5,9 +5,9 @@
  *  1. every frame against its neighbour towards the reference frame, whose
  *     contrast is nearly its own, the poses chained;
  *  2. twice, every frame against its own reference (references.c): the
- *     frame's projection onto the principal images of the other frames moved
+ *     frame's projection onto the principal images of its nearest frames moved
  *     back onto the reference, which has the frame's contrast (uptake changes
- *     from frame to frame) and the noise of all the others' counts;
+ *     from frame to frame) and the noise of its window's counts;
  *  3. inside frames (inside.c): a frame between two neighbours is fitted as
  *     a dwell along a path that starts or ends at a still neighbour's pose
  *     (between the two, or from one on through its own pose); where that
@@ -18,6 +18,7 @@
  * Poses live in the grid frame about the grid's centre until the track is
  * written, in the world of the affine. */
 #include <math.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include <time.h>
@@ -25,6 +26,7 @@
 #include "backend.h"
 #include "error.h"
 #include "estimate.h"
+#include "numbers.h"
 #include "motion.h"
 
 /* The points of a path a frame may dwell at, and how much better than one
@@ -34,6 +36,15 @@ enum { DWELL_POINTS = 9 };
 #define DWELL_GAIN 0.05
 /* The shortest time a path's step takes, as a fraction of its frame. */
 #define STEP_FRACTION 0.01
+/* A background at least this share of a frame's peak is warned about (it is
+ * subtracted whatever its level). */
+#define BACKGROUND_WARNED 0.05
+/* The share of a frame's variance its registration must explain for the
+ * frame to show structure: frames of noise alone gave at most 0.24 (8^3
+ * voxels, where a rigid fit of a smoothed frame has the most room) and 0.07
+ * from 16^3 up; the test series (heads at 2e4 to 1e6 counts a frame, blobs
+ * under noise a third of their peak) at least 0.64. */
+#define STRUCTURE_EXPLAINED 0.4
 
 typedef struct estimate {
     pb_context *ctx;
@@ -41,7 +52,10 @@ typedef struct estimate {
     size_t count, levels;
     unsigned iterations;
     double fwhm, c[3];
-    const float *raw;       /* the frames as given */
+    const float *raw;       /* the frames as given, or less their background (owned) */
+    float *owned;
+    int *flat;              /* per frame: shows no structure above its noise */
+    pb_warnings *warnings;
     float *frames[8];       /* per level: every frame, smoothed */
     pbe_level level[8];
     float *scratch, *tmp;   /* six volumes of level 0; one line */
@@ -105,26 +119,43 @@ static pb_status register_frame(estimate *e, size_t k, pbe_fit *fit)
     return PB_OK;
 }
 
+/* Whether frame k shows structure above its noise: its registration,
+ * leaving sse on level 0, explains STRUCTURE_EXPLAINED of its variance. */
+static int shows_structure(const estimate *e, size_t k, double sse)
+{
+    const size_t n = e->level[0].n;
+    return pbe_explained(e->frames[0] + k * n, n, sse) >= STRUCTURE_EXPLAINED;
+}
+
 /* Pass 1: each frame against its neighbour towards the reference frame,
  * whose contrast is nearly its own, and the poses chained: f_k = B(D) f_j
- * for the neighbour j makes T_k = D T_j. */
+ * for the neighbour j makes T_k = D T_j. A frame of noise alone would pass
+ * its noise's pose on down the chain: the frames beyond it register to the
+ * last frame that showed structure, and it holds that frame's pose. */
 static pb_status register_chain(estimate *e, size_t ref, pbe_fit *fits)
 {
     pb_status st = PB_OK;
-    for (int side = 0; side < 2 && st == PB_OK; side++)
+    for (int side = 0; side < 2 && st == PB_OK; side++) {
+        size_t j = ref;
         for (size_t k = side ? ref : ref + 1; (side ? k-- > 0 : k < e->count) && st == PB_OK; k += side ? 0 : 1) {
-            size_t j = side ? k + 1 : k - 1;
             pbe_fit step = fits[k];
             memset(&step.pose, 0, sizeof step.pose);
             step.pose.rotation[0] = 1.0;
             st = set_reference(e, e->raw + j * e->level[0].n);
             if (st == PB_OK)
                 st = register_frame(e, k, &step);
-            if (st == PB_OK) {
-                pb_pose_compose(&step.pose, &fits[j].pose, &fits[k].pose);
-                pb_pose_normalized(&fits[k].pose, &fits[k].pose);
+            if (st != PB_OK)
+                break;
+            e->flat[k] = !shows_structure(e, k, step.sse);
+            if (e->flat[k]) {
+                fits[k].pose = fits[j].pose;
+                continue;
             }
+            pb_pose_compose(&step.pose, &fits[j].pose, &fits[k].pose);
+            pb_pose_normalized(&fits[k].pose, &fits[k].pose);
+            j = k;
         }
+    }
     return st;
 }
 
@@ -163,7 +194,12 @@ static pb_status register_own(estimate *e, pbe_fit *fits, float *moved, double *
     pb_status st = move_back(e, fits, moved);
     if (st != PB_OK)
         return st;
-    pbe_gram(moved, e->level[0].n, e->count, gram);
+    /* a frame of noise alone adds only noise to the others' references, and
+     * at a higher level than theirs it would be their leading image */
+    for (size_t k = 0; k < e->count; k++)
+        if (e->flat[k])
+            memset(moved + k * e->level[0].n, 0, sizeof(float) * e->level[0].n);
+    pbe_gram_band(moved, e->level[0].n, e->count, gram);
     for (size_t k = 0; k < e->count && st == PB_OK; k++) {
         st = frame_reference(e, moved, gram, k, reference);
         if (st == PB_OK)
@@ -235,7 +271,7 @@ static pb_status inside_frames(estimate *e, const pbe_fit *fits, size_t referenc
         far[i] = e->c[i] + 0.5 * ext;
     for (size_t k = 1; k + 1 < e->count && st == PB_OK; k++) {
         int referenced = 0;
-        for (int kind = 0; kind < PATHS && st == PB_OK && k != reference; kind++) {
+        for (int kind = 0; kind < PATHS && st == PB_OK && k != reference && !e->flat[k]; kind++) {
             frame_path *p = &paths[k * PATHS + (size_t)kind];
             path_ends(fits, k, kind, &p->start, &p->end);
             /* a path shorter than a tenth of a voxel at the far corner holds nothing to find */
@@ -290,6 +326,113 @@ static pb_status inside_frames(estimate *e, const pbe_fit *fits, size_t referenc
     return st;
 }
 
+/* The frames as given, each less its background where it has one
+ * (background.c), warned about where it is over BACKGROUND_WARNED of the
+ * frame's peak. */
+static pb_status remove_background(estimate *e)
+{
+    const size_t n = voxels(&e->g);
+    double *level = malloc(sizeof(double) * 2 * e->count);
+    if (!level)
+        return PB_ERR_OUT_OF_MEMORY;
+    double *peak = level + e->count, low = (double)INFINITY, high = 0.0;
+    pb_status st = pbe_backgrounds(&e->g, e->raw, e->count, level, peak);
+    size_t any = 0, warned = 0;
+    for (size_t k = 0; k < e->count && st == PB_OK; k++) {
+        double share = fabs(level[k]) / peak[k];
+        any += level[k] != 0;
+        if (share > BACKGROUND_WARNED) {
+            warned++;
+            low = fmin(low, share);
+            high = fmax(high, share);
+        }
+    }
+    if (st == PB_OK && any && !(e->owned = malloc(sizeof(float) * n * e->count)))
+        st = PB_ERR_OUT_OF_MEMORY;
+    for (size_t k = 0; k < e->count && st == PB_OK && any; k++)
+        for (size_t i = 0; i < n; i++)
+            e->owned[k * n + i] = (float)((double)e->raw[k * n + i] - level[k]);
+    if (st == PB_OK && any)
+        e->raw = e->owned;
+    if (st == PB_OK && warned)
+        pb_warn(e->warnings, PB_WARN_BACKGROUND, "motion estimate: %zu of %zu frames sit on a uniform background "
+                "that reaches the grid's faces, %.3g to %.3g %% of their peak (the median of the faces' voxels); "
+                "it was subtracted from each frame before registration, where it would have held the poses near "
+                "the grid's. Where the background is not uniform, subtract it before estimating", warned, e->count,
+                100.0 * low, 100.0 * high);
+    free(level);
+    return st;
+}
+
+/* "3, 7, 9" for the frames marked, the first eight of them. */
+static void frame_list(const int *mark, size_t count, char *out, size_t size)
+{
+    size_t listed = 0, used = 0;
+    out[0] = '\0';
+    for (size_t k = 0; k < count && used + 24 < size; k++) {
+        if (!mark[k])
+            continue;
+        if (listed < 8)
+            used += (size_t)snprintf(out + used, size - used, "%s%zu", listed ? ", " : "", k);
+        else if (listed == 8)
+            used += (size_t)snprintf(out + used, size - used, ", ...");
+        listed++;
+    }
+}
+
+/* The frame nearest k that is not flat, the earlier of two as near; count
+ * where every frame is flat. */
+static size_t nearest_structured(const int *flat, size_t count, size_t k)
+{
+    for (size_t d = 1; d < count; d++) {
+        if (k >= d && !flat[k - d])
+            return k - d;
+        if (k + d < count && !flat[k + d])
+            return k + d;
+    }
+    return count;
+}
+
+/* Frames whose registration explains less than STRUCTURE_EXPLAINED of their
+ * variance show nothing but noise: each takes its nearest structured
+ * frame's pose (the identity where no frame has structure), and is warned
+ * about. */
+static pb_status hold_flat_frames(estimate *e, pbe_fit *fits)
+{
+    const size_t n = e->level[0].n;
+    size_t flat = 0;
+    double low = 1.0, high = 0.0;
+    for (size_t k = 0; k < e->count; k++) {
+        double explained = pbe_explained(e->frames[0] + k * n, n, fits[k].sse);
+        e->flat[k] = !shows_structure(e, k, fits[k].sse);
+        if (e->flat[k]) {
+            flat++;
+            low = fmin(low, explained);
+            high = fmax(high, explained);
+        }
+    }
+    if (!flat)
+        return PB_OK;
+    for (size_t k = 0; k < e->count; k++) {
+        if (!e->flat[k])
+            continue;
+        size_t near = nearest_structured(e->flat, e->count, k);
+        memset(&fits[k].pose, 0, sizeof fits[k].pose);
+        fits[k].pose.rotation[0] = 1.0;
+        if (near < e->count)
+            fits[k].pose = fits[near].pose;
+    }
+    char list[256];
+    frame_list(e->flat, e->count, list, sizeof list);
+    pb_warn(e->warnings, PB_WARN_NO_STRUCTURE, "motion estimate: %zu of %zu frames (%s) show no structure above "
+            "their noise (registration explains %.0f to %.0f %% of their variance, frames with structure over "
+            "%.0f %%): %s", flat, e->count, list, fmax(0.0, 100.0 * low), fmax(0.0, 100.0 * high),
+            100.0 * STRUCTURE_EXPLAINED,
+            flat < e->count ? "each was given its nearest structured frame's pose" :
+                              "every pose was left at the identity; check that these are the series' frames");
+    return PB_OK;
+}
+
 /* Pass 4 (collective.c): the poses of frames whose contrast is far from
  * the reference frame's share a bias that frame-by-frame registration cannot
  * see; one correction along the contrast, fitted to the series as a whole. */
@@ -318,6 +461,13 @@ static pb_status correct_together(estimate *e, size_t ref, pbe_fit *fits, frame_
     report_progress(e, (double)e->count);
     free(p);
     return st;
+}
+
+/* A frame's mid-time: the same double as (a + b) / 2, without the sum's
+ * overflow for frames near the largest doubles. */
+static double mid_time(double a, double b)
+{
+    return 0.5 * a + 0.5 * b;
 }
 
 typedef struct keys {
@@ -393,6 +543,21 @@ static pb_status world_pose(const double d[9], const double o[3], const double c
     return pb_pose_from_matrix(w, world);
 }
 
+/* The voxel sizes the estimate takes are the library's (PB_MIN_VOXEL_MM to
+ * PB_MAX_VOXEL_MM), checked before anything is sized from them: the
+ * smoothing's width, the pyramid's levels and the turns' centre. */
+static pb_status check_voxel_sizes(const pb_geometry *g)
+{
+    for (int a = 0; a < 3; a++) {
+        double v = g->voxel_size[a];
+        if (!(v >= PB_MIN_VOXEL_MM && v <= PB_MAX_VOXEL_MM))
+            return pb_error(NULL, PB_ERR_BAD_VOXEL_SIZE, "voxel size %c is %s mm, outside the %s to %s mm petblur "
+                            "takes; give the series' voxel size in mm", "xyz"[a], PB_NUM(v),
+                            PB_NUM(PB_MIN_VOXEL_MM), PB_NUM(PB_MAX_VOXEL_MM));
+    }
+    return PB_OK;
+}
+
 static pb_status check_input(const pb_geometry *g, const float *frames, size_t count, const double *bounds,
                              const pb_estimate_options *o)
 {
@@ -409,15 +574,16 @@ static pb_status check_input(const pb_geometry *g, const float *frames, size_t c
         return pb_error(NULL, PB_ERR_INVALID_ARGUMENT, "levels is %u; give 1 to 6 (0: the default)", o->levels);
     if (!isfinite(o->fwhm_mm) || o->fwhm_mm < 0 || o->fwhm_mm > 1000)
         return pb_error(NULL, PB_ERR_INVALID_ARGUMENT, "fwhm_mm is %g; give 0 (the default) to 1000 mm", o->fwhm_mm);
-    for (int a = 0; a < 3; a++) {
+    for (int a = 0; a < 3; a++)
         if (g->dims[a] < 8)
             return pb_error(NULL, PB_ERR_ZERO_DIMS, "the grid is %zu x %zu x %zu voxels: registration needs at "
                             "least 8 a side", g->dims[0], g->dims[1], g->dims[2]);
-        if (!(g->voxel_size[a] > 0) || !isfinite(g->voxel_size[a]))
-            return pb_error(NULL, PB_ERR_BAD_VOXEL_SIZE, "voxel size %d is %g mm; give a positive finite size", a,
-                            g->voxel_size[a]);
-    }
-    pb_status st = pb_frame_bounds_check(NULL, bounds, count);
+    size_t n_voxels;
+    pb_status st = check_voxel_sizes(g);
+    if (st == PB_OK)
+        st = pb_geometry_check(NULL, g, &n_voxels);
+    if (st == PB_OK)
+        st = pb_frame_bounds_check(NULL, bounds, count);
     if (st != PB_OK)
         return st;
     const size_t n = voxels(g);
@@ -440,6 +606,14 @@ static pb_status check_input(const pb_geometry *g, const float *frames, size_t c
     return PB_OK;
 }
 
+/* The call's failure in ctx, from this call's text only: a part that failed
+ * without one (cleared on entry) is named by its status. */
+static void failed(pb_context *ctx, pb_status st)
+{
+    const char *why = pb_last_error(NULL);
+    pb_error(ctx, st, "estimating motion from the frames: %s", why[0] ? why : pb_status_string(st));
+}
+
 static double now_seconds(void)
 {
     struct timespec ts;
@@ -455,7 +629,7 @@ static pb_status estimate_run(estimate *e, const double *bounds, const pb_estima
     int *moving = calloc(count, sizeof(int));
     frame_path *paths = calloc(count * PATHS, sizeof *paths);
     float *moved = malloc(sizeof(float) * e->level[0].n * count), *own = malloc(sizeof(float) * e->level[0].n);
-    double *gram = malloc(sizeof(double) * count * count);
+    double *gram = malloc(sizeof(double) * count * (PBE_REFERENCE_OTHERS + 1));
     keys k = {malloc(sizeof(double) * (count * 2 * DWELL_POINTS + 4)),
               malloc(sizeof(pb_pose) * (count * 2 * DWELL_POINTS + 4)), 0};
     size_t moving_count = 0;
@@ -473,6 +647,9 @@ static pb_status estimate_run(estimate *e, const double *bounds, const pb_estima
      * pose too, which is then taken out */
     for (int round = 0; round < 2 && st == PB_OK; round++)
         st = register_own(e, fits, moved, gram, own);
+    /* frames of noise alone: their poses are noise's, and their neighbours' paths are not to be built on them */
+    if (st == PB_OK)
+        st = hold_flat_frames(e, fits);
     /* 3: inside frames, against the same references */
     if (st == PB_OK && !o->frame_poses_only)
         st = inside_frames(e, fits, ref, moved, gram, own, paths, moving, &moving_count);
@@ -489,7 +666,7 @@ static pb_status estimate_run(estimate *e, const double *bounds, const pb_estima
                 path_keys(&k, bounds[f], bounds[f + 1], &p->start, &p->end, p->dwell);
             }
             else
-                key(&k, 0.5 * (bounds[f] + bounds[f + 1]), &fits[f].pose);
+                key(&k, mid_time(bounds[f], bounds[f + 1]), &fits[f].pose);
         }
         key(&k, bounds[count], &fits[count - 1].pose);
         for (size_t i = 0; i < k.n && st == PB_OK; i++) {
@@ -527,6 +704,7 @@ pb_status pb_motion_estimate(pb_context *ctx, const pb_geometry *geometry, const
     pb_estimate_options o = {0};
     if (options)
         o = *options;
+    pb_error_clear();
     double grid_affine[16], d[9], corner[3];
     pb_status st = check_input(geometry, frames, count, bounds, &o);
     if (st == PB_OK && !affine) {
@@ -546,6 +724,13 @@ pb_status pb_motion_estimate(pb_context *ctx, const pb_geometry *geometry, const
     e.g = *geometry;
     e.count = count;
     e.raw = frames;
+    e.warnings = report ? &report->warnings : NULL;
+    if (report)
+        memset(&report->warnings, 0, sizeof report->warnings);
+    if (!(e.flat = calloc(count, sizeof(int))))
+        st = PB_ERR_OUT_OF_MEMORY;
+    if (st == PB_OK)
+        st = remove_background(&e);
     e.iterations = o.iterations ? o.iterations : 12;
     e.fwhm = o.fwhm_mm;
     for (int a = 0; a < 3; a++)
@@ -589,7 +774,7 @@ pb_status pb_motion_estimate(pb_context *ctx, const pb_geometry *geometry, const
         float *levels[8];
         for (size_t l = 0; l < e.levels; l++)
             levels[l] = e.frames[l] + k * e.level[l].n;
-        pyramid(&e, frames + k * e.level[0].n, levels);
+        pyramid(&e, e.raw + k * e.level[0].n, levels);
     }
     if (st == PB_OK)
         st = estimate_run(&e, bounds, &o, d, corner, track, report);
@@ -598,6 +783,8 @@ pb_status pb_motion_estimate(pb_context *ctx, const pb_geometry *geometry, const
         free(e.frames[l]);
     }
     free(e.scratch);
+    free(e.owned);
+    free(e.flat);
     free(e.tmp);
     ctx->progress = e.progress;
     ctx->progress_user = e.progress_user;
@@ -607,7 +794,7 @@ pb_status pb_motion_estimate(pb_context *ctx, const pb_geometry *geometry, const
         pb_error(ctx, st, "out of host memory estimating motion from %zu frames of %zu x %zu x %zu voxels", count,
                  geometry->dims[0], geometry->dims[1], geometry->dims[2]);
     else if (st != PB_OK)
-        pb_error(ctx, st, "estimating motion from the frames: %s", pb_last_error(ctx));
+        failed(ctx, st);
     if (report)
         report->seconds = now_seconds() - started;
     pb_context_leave(ctx);

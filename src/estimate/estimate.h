@@ -65,14 +65,26 @@ void pbe_fit_scale(const float *a, const float *f, size_t n, double *scale, doub
 /* Eigenvalues and vectors of a symmetric n x n matrix (row-major a, destroyed)
  * by cyclic Jacobi rotations: vectors in the columns of v. */
 void pbe_eigen(double *a, size_t n, double *w, double *v);
-/* How many principal images a series of frames gives each frame's reference. */
+/* The frames a frame's reference is built from: at most this many, the
+ * nearest in time. Uptake changes slowly against a frame, so the nearest
+ * frames hold the frame's contrast; the window bounds each frame's work, and
+ * the series' work grows as its frames, not as their square. */
+enum { PBE_REFERENCE_OTHERS = 32 };
+/* How many principal images a window of frames gives each frame's reference. */
 size_t pbe_reference_rank(size_t frames);
+/* Frame k's window, [*first, *end): it and its nearest frames, at most
+ * PBE_REFERENCE_OTHERS + 1 in all. */
+void pbe_reference_window(size_t frames, size_t k, size_t *first, size_t *end);
+double pbe_dot(const float *a, const float *b, size_t n);
 /* The frames' inner products (frames x frames, row-major), frames moved back
  * onto the reference, n voxels each, frame after frame. */
 void pbe_gram(const float *moved, size_t n, size_t frames, double *gram);
+/* The inner products of frames within a window of one another: band[i (B +
+ * 1) + d] = g_i . g_(i+d) for d <= B = PBE_REFERENCE_OTHERS. */
+void pbe_gram_band(const float *moved, size_t n, size_t frames, double *band);
 /* Frame k's reference: its projection onto the leading principal images of
- * the other frames. */
-pb_status pbe_frame_reference(const float *moved, size_t n, size_t frames, const double *gram, size_t k,
+ * the other frames of its window. */
+pb_status pbe_frame_reference(const float *moved, size_t n, size_t frames, const double *band, size_t k,
                               float *out);
 
 /* ---- inside.c: motion inside a frame ---------------------------------------- */
@@ -98,6 +110,13 @@ void pbe_unitary_dims(const pb_geometry *g, size_t pad[3]);
  * trigonometric interpolation: the energy of f, to rounding. */
 pb_status pbe_move_unitary(const pb_geometry *g, const float *f, const size_t pad[3], const pb_pose *pose,
                            const double c[3], float *out);
+
+/* ---- background.c: what the frames hold besides the object ---------------- */
+
+/* Each frame's background, the median of its faces' voxels, and its peak. */
+pb_status pbe_backgrounds(const pb_geometry *g, const float *frames, size_t count, double *level, double *peak);
+/* The share of a frame's variance about its mean that a fit leaving sse explains. */
+double pbe_explained(const float *frame, size_t n, double sse);
 
 /* ---- collective.c: the poses moved together along the contrast ------------- */
 

@@ -68,7 +68,10 @@ void pbe_smooth(const pb_geometry *g, float *v, double fwhm_mm, float *tmp)
         double sigma = fwhm_mm / (2.0 * sqrt(2.0 * log(2.0))) / g->voxel_size[a];
         if (sigma < 0.2)
             continue;
-        int radius = (int)ceil(3.0 * sigma);
+        /* a weight beyond the line's length meets no voxel: the radius
+         * stops there however wide the Gaussian (and fits an int) */
+        const size_t n = g->dims[a];
+        int radius = 3.0 * sigma < (double)(n - 1) ? (int)ceil(3.0 * sigma) : (int)(n - 1);
         double *w = malloc(sizeof(double) * (size_t)(2 * radius + 1));
         if (!w)
             return;

@@ -5,7 +5,9 @@
  * frames, moved back onto the reference, span few dimensions (one per tissue
  * curve), so frame k's reference is its projection onto the leading
  * principal images of the other frames: its own contrast, the others'
- * counts, none of its own noise. */
+ * counts, none of its own noise. The others are its nearest in time, at most
+ * PBE_REFERENCE_OTHERS: uptake changes slowly against a frame, and a window
+ * keeps each frame's work fixed however long the series. */
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -61,35 +63,63 @@ size_t pbe_reference_rank(size_t frames)
     return r < 1 ? 1 : r > 3 ? 3 : r;
 }
 
+void pbe_reference_window(size_t frames, size_t k, size_t *first, size_t *end)
+{
+    size_t width = frames < PBE_REFERENCE_OTHERS + 1 ? frames : PBE_REFERENCE_OTHERS + 1;
+    size_t lo = k > width / 2 ? k - width / 2 : 0;
+    if (lo + width > frames)
+        lo = frames - width;
+    *first = lo;
+    *end = lo + width;
+}
+
+/* g_i . g_j from the band, |i - j| <= PBE_REFERENCE_OTHERS. */
+static double band_at(const double *band, size_t i, size_t j)
+{
+    return i <= j ? band[i * (PBE_REFERENCE_OTHERS + 1) + (j - i)] : band[j * (PBE_REFERENCE_OTHERS + 1) + (i - j)];
+}
+
+void pbe_gram_band(const float *moved, size_t n, size_t frames, double *band)
+{
+    for (size_t i = 0; i < frames; i++)
+        for (size_t d = 0; d <= PBE_REFERENCE_OTHERS && i + d < frames; d++)
+            band[i * (PBE_REFERENCE_OTHERS + 1) + d] = pbe_dot(moved + i * n, moved + (i + d) * n, n);
+}
+
+double pbe_dot(const float *a, const float *b, size_t n)
+{
+    double s = 0.0;
+    for (size_t v = 0; v < n; v++)
+        s += (double)a[v] * (double)b[v];
+    return s;
+}
+
 void pbe_gram(const float *moved, size_t n, size_t frames, double *gram)
 {
     for (size_t i = 0; i < frames; i++)
-        for (size_t j = i; j < frames; j++) {
-            const float *a = moved + i * n, *b = moved + j * n;
-            double s = 0.0;
-            for (size_t v = 0; v < n; v++)
-                s += (double)a[v] * (double)b[v];
-            gram[i * frames + j] = gram[j * frames + i] = s;
-        }
+        for (size_t j = i; j < frames; j++)
+            gram[i * frames + j] = gram[j * frames + i] = pbe_dot(moved + i * n, moved + j * n, n);
 }
 
-pb_status pbe_frame_reference(const float *moved, size_t n, size_t frames, const double *gram, size_t k,
+pb_status pbe_frame_reference(const float *moved, size_t n, size_t frames, const double *band, size_t k,
                               float *out)
 {
-    const size_t m = frames - 1, r = pbe_reference_rank(frames);
+    size_t first, end;
+    pbe_reference_window(frames, k, &first, &end);
+    const size_t m = end - first - 1, r = pbe_reference_rank(m + 1);
     double *a = malloc(sizeof(double) * m * m), *v = malloc(sizeof(double) * m * m), *w = malloc(sizeof(double) * m);
-    double *coef = calloc(frames, sizeof(double));
+    double *coef = calloc(m, sizeof(double)); /* a weight per other frame of the window */
     size_t *other = malloc(sizeof(size_t) * m);
     if (!a || !v || !w || !coef || !other) {
         free(a), free(v), free(w), free(coef), free(other);
         return PB_ERR_OUT_OF_MEMORY;
     }
-    for (size_t i = 0, j = 0; i < frames; i++)
+    for (size_t i = first, j = 0; i < end; i++)
         if (i != k)
             other[j++] = i;
     for (size_t i = 0; i < m; i++)
         for (size_t j = 0; j < m; j++)
-            a[i * m + j] = gram[other[i] * frames + other[j]];
+            a[i * m + j] = band_at(band, other[i], other[j]);
     pbe_eigen(a, m, w, v);
     /* The principal images are U_j = G v_j / sqrt(w_j); frame k's projection
      * onto them is sum_j U_j (U_j . g_k) = G (sum_j v_j (v_j . G^T g_k) / w_j),
@@ -112,14 +142,14 @@ pb_status pbe_frame_reference(const float *moved, size_t n, size_t frames, const
             continue;
         double dot = 0.0; /* v_j . G^T g_k */
         for (size_t i = 0; i < m; i++)
-            dot += v[i * m + best] * gram[other[i] * frames + k];
+            dot += v[i * m + best] * band_at(band, other[i], k);
         for (size_t i = 0; i < m; i++)
-            coef[other[i]] += v[i * m + best] * dot / w[best];
+            coef[i] += v[i * m + best] * dot / w[best];
     }
     memset(out, 0, sizeof(float) * n);
     for (size_t i = 0; i < m; i++) {
         const float *g = moved + other[i] * n;
-        float c = (float)coef[other[i]];
+        float c = (float)coef[i];
         for (size_t p = 0; p < n; p++)
             out[p] += c * g[p];
     }

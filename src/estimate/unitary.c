@@ -64,8 +64,16 @@ static void shift_line(float *h, size_t n, size_t stride, double s, float *buf)
     /* kern[d] = D(f - d) for d = j - i - rs mod n: sin(pi (f - d)) =
      * (-1)^d sin(pi f); twice over, so that a run of d needs no modulo */
     const double sf = sin(PB_PI * f), dn = (double)n;
-    for (size_t d = 0; d < n; d++)
-        kern[d] = kern[d + n] = (float)((d % 2 ? -sf : sf) / (dn * sin(PB_PI * (f - (double)d) / dn)));
+    /* sin(pi (f - d) / n) by turning one step of pi / n at a time: two sines a
+     * line instead of n, the sum's rounding far below the kernel's float */
+    const double sb = sin(PB_PI / dn), cb = cos(PB_PI / dn);
+    double s_d = sin(PB_PI * f / dn), c_d = cos(PB_PI * f / dn);
+    for (size_t d = 0; d < n; d++) {
+        kern[d] = kern[d + n] = (float)((d % 2 ? -sf : sf) / (dn * s_d));
+        double s_next = s_d * cb - c_d * sb;
+        c_d = c_d * cb + s_d * sb;
+        s_d = s_next;
+    }
     const float *src = line + j0;
     const size_t len = j1 - j0 + 1;
     for (size_t i = 0; i < n; i++) {
