@@ -28,8 +28,6 @@ _lib.bind({"pb_motion_estimate": (ctypes.c_int, [_vp, _P(_lib.Geometry), _P(_dbl
                                                   _P(EstimateOptions), _P(_vp), _P(EstimateReport)])})
 
 
-_FLOAT32_MAX = float(np.finfo(np.float32).max)
-
 
 def _host_frames(frames):
     """[x, y, z, t] float32 on the host, x fastest then frame after frame.
@@ -51,6 +49,7 @@ def _host_frames(frames):
     if x.ndim != 4:
         raise ArgumentError(f"frames must be 4-D, [x, y, z, t], not of shape {x.shape}: a 3-D image or a single "
                             "frame has nothing to register")
+    x = np.asfortranarray(x, dtype=np.float32)
     for k in range(x.shape[3]):
         _check_finite(x[..., k], f"frame {k}", None if a.wide is None else a.wide[..., k])
     return x
