@@ -683,7 +683,8 @@ typedef struct pb_estimate_report {
  * reference frame's pose is the identity. Refused: fewer than two frames, a
  * reference out of range, bounds that are not finite and increasing, frames
  * with NaN or infinite voxels, frames with no counts (all zero or negative),
- * grids under 8 voxels a side, voxel sizes outside 0.001 to 1000 mm.
+ * grids under 8 voxels a side, voxel sizes outside PB_MIN_VOXEL_MM to
+ * PB_MAX_VOXEL_MM.
  * Warned (report->warnings): a uniform background that reaches the grid's
  * faces, which is subtracted from each frame before registration (it would
  * pull every pose towards the grid's), and frames that show no structure

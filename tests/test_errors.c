@@ -413,6 +413,40 @@ static void test_segment_cap(pb_context *ctx)
     free(p);
 }
 
+/* pb_number_text, which messages and files quote numbers by: every finite
+ * double (random bit patterns, and the doubles just below 1e17 where log10
+ * rounds up to 17) reads back to itself, in at most 24 characters. */
+static void test_number_text(void)
+{
+    int bad = 0;
+    for (int i = 0; i < 20000; i++) {
+        double v;
+        if (i < 64) {
+            v = nextafter(1e17, 0.0);
+            for (int k = 0; k < i; k++)
+                v = nextafter(v, 0.0);
+        } else {
+            uint64_t bits = 0;
+            for (int k = 0; k < 4; k++)
+                bits = bits << 16 | (uint64_t)pb_rand_range(0, 65536);
+            memcpy(&v, &bits, sizeof v);
+            if (!isfinite(v))
+                continue;
+        }
+        char text[PB_NUMBER_TEXT_SIZE];
+        pb_number_text(v, text);
+        if (strtod(text, NULL) != v || strlen(text) > 24) {
+            if (bad++ < 5)
+                pb_check(0, "pb_number_text(%.17g) is '%s'", v, text);
+        }
+    }
+    pb_check(bad == 0, "%d doubles of 20000 do not read back from pb_number_text", bad);
+    char text[PB_NUMBER_TEXT_SIZE];
+    pb_check(!strcmp(pb_number_text(0.1, text), "0.1") && !strcmp(pb_number_text(10000, text), "10000") &&
+                 !strcmp(pb_number_text(1000.0000001, text), "1000.0000001"),
+             "the shortest forms: 0.1, 10000, 1000.0000001");
+}
+
 int main(int argc, char **argv)
 {
     pb_test_seed();
@@ -425,6 +459,7 @@ int main(int argc, char **argv)
     test_null_pointers(ctx);
     test_binding_misuse(argc, argv);
     test_compare();
+    test_number_text();
     pb_context_destroy(ctx);
     return pb_test_finish();
 }

@@ -120,7 +120,7 @@ static void test_unusable_folders(void)
     longer[5000] = '\0';
     setenv("PETBLUR_CACHE_DIR", longer, 1);
     pb_kernel_cache_open(&c, "x", 1);
-    pb_check(!c.path[0] && strstr(c.note, "PETBLUR_CACHE_DIR is 5000 characters") && strstr(c.note, "shorter"),
+    pb_check(!c.path[0] && strstr(c.note, "the one PETBLUR_CACHE_DIR names is 5000 characters") && strstr(c.note, "shorter"),
              "a 5000-character PETBLUR_CACHE_DIR: %s", c.note);
     free(longer);
     /* A file where the folder should be. */

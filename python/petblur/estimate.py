@@ -37,6 +37,8 @@ def _host_frames(frames):
     if not isinstance(frames, (list, tuple)) and hasattr(frames, "__array__") and \
             type(frames).__module__.split(".")[0] not in ("numpy", "cupy", "torch"):
         frames = np.asarray(frames)
+    if isinstance(frames, np.ndarray) and frames.dtype.kind in "iub":  # counts, an unscaled NIfTI's dataobj
+        frames = frames.astype(np.float32)
     a = Array(frames, "frames")
     if a.on_gpu and str(a.dtype).endswith("float64"):  # narrowed on the host, where a value lost is named
         a = Array(a.original.get() if a.kind == "cupy" else a.original.detach().cpu().numpy(), "frames")

@@ -390,6 +390,8 @@ class Motion:
     def _load(self, state):
         if not isinstance(state, dict):
             raise ArgumentError(f"its state is a {type(state).__name__}, not the dict of fields a Motion pickles")
+        if "_coords" not in state:  # a Motion pickled before it recorded its coordinates: unknown, as arrays are
+            state = dict(state, _coords=None)
         missing = [k for k in _STATE if k not in state]
         if missing:
             raise ArgumentError(f"its state lacks {', '.join(missing)}")

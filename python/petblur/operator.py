@@ -114,7 +114,7 @@ class _Operator:
         else:
             try:
                 path, bound = _lib.PATH_BOUNDED, float(max_path_error)
-            except (TypeError, ValueError):
+            except (TypeError, ValueError, OverflowError):
                 raise ArgumentError(f"max_path_error {max_path_error!r}: give a bound in voxels, None for the "
                                     "default, or 'paper' for one segment per tracked interval") from None
         try:

@@ -192,6 +192,16 @@ def test_dask_frames_are_computed(rng):
     assert got.translations.tolist() == want.translations.tolist()
 
 
+def test_integer_frames_are_read_as_counts(rng):
+    """An unscaled int16 NIfTI's img.dataobj reads as integers: taken as the
+    counts they are, as the same frames in float32."""
+    frames = np.round(_series(rng, 4)).astype(str(rng.choice(["int16", "uint16", "int32", "uint8"])))
+    bounds = np.arange(5) * 10.0
+    got = petblur.Motion.from_frames(frames, voxel_size=2.0, bounds=bounds, device="host")
+    want = petblur.Motion.from_frames(frames.astype(np.float32), voxel_size=2.0, bounds=bounds, device="host")
+    assert got.translations.tolist() == want.translations.tolist()
+
+
 # ---- the device 'auto' picks for the estimate --------------------------------------------
 
 

@@ -118,6 +118,7 @@ def test_bounds_in_milliseconds_are_warned_of_where_given(tmp_path, rng):
     first when an operator is made; the same frames in seconds pass quietly."""
     n = int(rng.integers(2, 6))
     durations = rng.uniform(10, 600, n).round(3)
+    durations[rng.integers(n)] = round(float(rng.uniform(30, 600)), 3)  # over 21.6 s: hours as milliseconds
     starts = np.concatenate([[0.0], np.cumsum(durations)[:-1]]).round(3) + float(rng.integers(0, 100))
     longest = int(np.argmax(durations))
 

@@ -12,6 +12,7 @@
 static _Thread_local char thread_error[PB_ERROR_TEXT_MAX];
 /* Formatted here first: a message may quote the text it replaces. */
 static _Thread_local char scratch[PB_ERROR_TEXT_MAX];
+static _Thread_local unsigned long thread_serial;
 
 pb_status pb_error(struct pb_context *ctx, pb_status status, const char *fmt, ...)
 {
@@ -21,6 +22,7 @@ pb_status pb_error(struct pb_context *ctx, pb_status status, const char *fmt, ..
     va_end(ap);
     size_t n = strlen(scratch) + 1;
     memcpy(thread_error, scratch, n);
+    thread_serial++;
     if (ctx)
         memcpy(ctx->last_error, scratch, n);
     return status;
@@ -42,9 +44,9 @@ pb_status pb_error_prefix(pb_status status, const char *fmt, ...)
     return status;
 }
 
-void pb_error_clear(void)
+unsigned long pb_error_serial(void)
 {
-    thread_error[0] = '\0';
+    return thread_serial;
 }
 
 void pb_error_append(struct pb_context *ctx, const char *text)

@@ -30,9 +30,11 @@ pb_status pb_error_prefix(pb_status status, const char *fmt, ...)
 #endif
     ;
 
-/* Empties the calling thread's last-error text, so that a call whose parts
- * may fail without a text of their own tells its failure from an earlier one. */
-void pb_error_clear(void);
+/* How many failures the calling thread has written: a call whose parts may
+ * fail without a text of their own compares it with its value on entry to
+ * tell its own failure's text from an earlier call's, while a successful call
+ * leaves the text as it was. */
+unsigned long pb_error_serial(void);
 
 /* Appends text (a build log, say) to the last-error text of ctx. */
 void pb_error_append(struct pb_context *ctx, const char *text);

@@ -205,9 +205,11 @@ static int run(const pbc_args *args, const char *in_path, const char *out_path)
         if (st != PB_OK) {
             if (pbc_show_progress && !quiet)
                 pbc_progress_line(1.0, NULL);
-            rc = pbc_fail(pbc_exit_for(st), "%s: %s%s", in_path, pb_last_error(ctx),
-                          st == PB_ERR_BAD_VOXEL_SIZE ? " (this file's header gives it: correct its pixdim, or set "
-                                                        "it to 0 and give --voxel-size DX,DY,DZ)" : "");
+            const char *whence = st != PB_ERR_BAD_VOXEL_SIZE ? ""
+                                 : pbc_arg(&command, args, "--voxel-size") ? " (from --voxel-size: fix it)"
+                                 : " (this file's header gives it: correct its pixdim, or set it to 0 and give "
+                                   "--voxel-size DX,DY,DZ)";
+            rc = pbc_fail(pbc_exit_for(st), "%s: %s%s", in_path, pb_last_error(ctx), whence);
         } else {
             pbc_print_warnings(&report.warnings);
             if (!(rc = write_track(out_path, track, csv, center)) && !quiet)

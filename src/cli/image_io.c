@@ -305,9 +305,10 @@ static size_t convert(const pbc_sample_format *format, unsigned char *buf, size_
         return count;
     }
     for (size_t i = 0; i < count; i++) {
-        double v = sample_value(format->type, buf + i * size);
-        v = unscaled ? v : format->slope * v + format->inter;
-        if (isfinite(v) && fabs(v) > (double)FLT_MAX) {
+        double stored = sample_value(format->type, buf + i * size);
+        double v = unscaled ? stored : format->slope * stored + format->inter;
+        /* finite in the file: beyond float32 even where the scaling overflows a double */
+        if (isfinite(stored) && fabs(v) > (double)FLT_MAX) {
             *beyond = v;
             return i;
         }

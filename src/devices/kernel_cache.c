@@ -36,8 +36,8 @@ static int make_dir(pb_kernel_cache *c, const char **var, size_t *length)
     if (!value || !*value)
         return ENOENT;
     *var = vars[i - 1];
-    *length = strlen(value);
     int w = snprintf(c->dir, sizeof c->dir, "%s%s", value, below[i - 1]);
+    *length = w > 0 ? (size_t)w : 0;
     if (w <= 0 || (size_t)w >= sizeof c->dir - 64) /* room for the entry's name */
         return ENAMETOOLONG;
     for (char *p = c->dir + 1; *p; p++) { /* mkdir -p */
@@ -70,8 +70,9 @@ void pb_kernel_cache_open(pb_kernel_cache *c, const char *name, uint64_t key)
         snprintf(c->note, sizeof c->note, "no cache folder: none of PETBLUR_CACHE_DIR, XDG_CACHE_HOME and HOME is "
                  "set; set PETBLUR_CACHE_DIR to a writable folder");
     else if (err == ENAMETOOLONG)
-        snprintf(c->note, sizeof c->note, "no cache folder: %s is %zu characters, beyond the %zu a cache folder's "
-                 "path may have here; set PETBLUR_CACHE_DIR to a shorter one", var, length, sizeof c->dir - 65);
+        snprintf(c->note, sizeof c->note, "no cache folder: the one %s names is %zu characters long, beyond the "
+                 "%zu a cache folder's path may have here; set PETBLUR_CACHE_DIR to a shorter one", var, length,
+                 sizeof c->dir - 65);
     else
         snprintf(c->note, sizeof c->note, "the cache folder %.900s (from %s) cannot be used (%s); set "
                  "PETBLUR_CACHE_DIR to a writable folder", c->dir, var, strerror(err));
@@ -107,7 +108,8 @@ void *pb_kernel_cache_load(pb_kernel_cache *c, size_t *size)
     if (fd >= 0 && !f)
         close(fd);
     if (why[0])
-        snprintf(c->note, sizeof c->note, "the cache entry %.900s was not read: %s; remove it", c->path, why);
+        snprintf(c->note, sizeof c->note, "the cache entry %.900s was not read (%s); the kernels were compiled "
+                 "anew, to be written in its place", c->path, why);
     if (!f)
         return NULL;
     cache_header h;

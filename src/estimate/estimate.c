@@ -573,7 +573,8 @@ static pb_status check_input(const pb_geometry *g, const float *frames, size_t c
     if (o->levels > 6)
         return pb_error(NULL, PB_ERR_INVALID_ARGUMENT, "levels is %u; give 1 to 6 (0: the default)", o->levels);
     if (!isfinite(o->fwhm_mm) || o->fwhm_mm < 0 || o->fwhm_mm > 1000)
-        return pb_error(NULL, PB_ERR_INVALID_ARGUMENT, "fwhm_mm is %g; give 0 (the default) to 1000 mm", o->fwhm_mm);
+        return pb_error(NULL, PB_ERR_INVALID_ARGUMENT, "fwhm_mm is %s; give 0 (the default) to 1000 mm",
+                        PB_NUM(o->fwhm_mm));
     for (int a = 0; a < 3; a++)
         if (g->dims[a] < 8)
             return pb_error(NULL, PB_ERR_ZERO_DIMS, "the grid is %zu x %zu x %zu voxels: registration needs at "
@@ -607,10 +608,10 @@ static pb_status check_input(const pb_geometry *g, const float *frames, size_t c
 }
 
 /* The call's failure in ctx, from this call's text only: a part that failed
- * without one (cleared on entry) is named by its status. */
-static void failed(pb_context *ctx, pb_status st)
+ * without one (no failure written since entry, serial) is named by its status. */
+static void failed(pb_context *ctx, pb_status st, unsigned long serial)
 {
-    const char *why = pb_last_error(NULL);
+    const char *why = pb_error_serial() != serial ? pb_last_error(NULL) : "";
     pb_error(ctx, st, "estimating motion from the frames: %s", why[0] ? why : pb_status_string(st));
 }
 
@@ -701,10 +702,12 @@ pb_status pb_motion_estimate(pb_context *ctx, const pb_geometry *geometry, const
         *track = NULL;
     if (!ctx || !geometry || !frames || !bounds || !track)
         return pb_error(ctx, PB_ERR_INVALID_ARGUMENT, "context, geometry, frames, bounds and track must not be NULL");
+    if (report)
+        memset(report, 0, sizeof *report);
     pb_estimate_options o = {0};
     if (options)
         o = *options;
-    pb_error_clear();
+    unsigned long serial = pb_error_serial();
     double grid_affine[16], d[9], corner[3];
     pb_status st = check_input(geometry, frames, count, bounds, &o);
     if (st == PB_OK && !affine) {
@@ -714,7 +717,7 @@ pb_status pb_motion_estimate(pb_context *ctx, const pb_geometry *geometry, const
     if (st == PB_OK)
         st = pb_affine_frame(geometry, affine, d, corner);
     if (st != PB_OK)
-        return pb_error(ctx, st, "%s", pb_last_error(NULL));
+        return pb_error(ctx, st, "%s", pb_error_serial() != serial ? pb_last_error(NULL) : pb_status_string(st));
     if ((st = pb_context_enter(ctx)) != PB_OK)
         return st;
 
@@ -794,7 +797,7 @@ pb_status pb_motion_estimate(pb_context *ctx, const pb_geometry *geometry, const
         pb_error(ctx, st, "out of host memory estimating motion from %zu frames of %zu x %zu x %zu voxels", count,
                  geometry->dims[0], geometry->dims[1], geometry->dims[2]);
     else if (st != PB_OK)
-        failed(ctx, st);
+        failed(ctx, st, serial);
     if (report)
         report->seconds = now_seconds() - started;
     pb_context_leave(ctx);

@@ -87,6 +87,8 @@ const char *pb_number_text(double v, char *out)
     locale_t previous = c_numeric ? uselocale(c_numeric) : (locale_t)0;
     /* Whole parts up to 17 digits in full: "10000", not "1e+04". */
     int first = isfinite(v) && fabs(v) >= 1.0 && fabs(v) < 1e17 ? (int)floor(log10(fabs(v))) + 1 : 1;
+    if (first > 17) /* log10 rounds up to 17 just below 1e17 */
+        first = 17;
     for (int digits = first; digits <= 17; digits++) {
         snprintf(out, PB_NUMBER_TEXT_SIZE, "%.*g", digits, v);
         if (!isfinite(v) || strtod(out, NULL) == v)
