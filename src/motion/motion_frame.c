@@ -4,6 +4,7 @@
 
 #include "error.h"
 #include "motion.h"
+#include "numbers.h"
 
 pb_status pb_frame_bounds_check(struct pb_context *ctx, const double *bounds, size_t frames)
 {
@@ -15,8 +16,8 @@ pb_status pb_frame_bounds_check(struct pb_context *ctx, const double *bounds, si
                             bounds[i]);
     for (size_t i = 0; i < frames; i++)
         if (!(bounds[i + 1] > bounds[i]))
-            return pb_error(ctx, PB_ERR_BAD_FRAME, "frame %zu ends at %.9g s, not after its start %.9g s; frame "
-                            "bounds must increase", i, bounds[i + 1], bounds[i]);
+            return pb_error(ctx, PB_ERR_BAD_FRAME, "frame %zu ends at %s s, not after its start %s s; frame "
+                            "bounds must increase", i, PB_NUM(bounds[i + 1]), PB_NUM(bounds[i]));
     return PB_OK;
 }
 

@@ -8,6 +8,7 @@
 
 #include "error.h"
 #include "motion.h"
+#include "numbers.h"
 #include "track.h"
 
 /* A turn of more than this between two samples is taken the short way round by
@@ -233,9 +234,9 @@ pb_status pb_track_check_frames(const pb_track *track, const pb_motion *grid, co
     const pb_track *t = track;
     for (size_t i = 0; i < frames; i++) {
         if (bounds[i] < t->times[0] || bounds[i + 1] > t->times[t->count - 1])
-            return pb_error(NULL, PB_ERR_TRACK_GAP, "frame %zu (%.9g to %.9g s) lies outside the track %s, which "
-                            "covers %.9g to %.9g s; choose frames inside it", i, bounds[i], bounds[i + 1], t->source,
-                            t->times[0], t->times[t->count - 1]);
+            return pb_error(NULL, PB_ERR_TRACK_GAP, "frame %zu (%s to %s s) lies outside the track %s, which "
+                            "covers %s to %s s; choose frames inside it", i, PB_NUM(bounds[i]), PB_NUM(bounds[i + 1]),
+                            t->source, PB_NUM(t->times[0]), PB_NUM(t->times[t->count - 1]));
     }
     warn_frames(t, bounds, frames, warnings);
     for (size_t i = 0; i < frames; i++) {
@@ -274,9 +275,9 @@ pb_status pb_frames_from_starts(const double *starts, const double *durations, s
             return pb_error(NULL, PB_ERR_BAD_FRAME, "frame %zu lasts %g s; durations must be positive", i,
                             durations[i]);
         if (i + 1 < n && fabs(starts[i] + durations[i] - starts[i + 1]) > 1e-6 * fmax(1.0, fabs(starts[i + 1])))
-            return pb_error(NULL, PB_ERR_BAD_FRAME, "frame %zu ends at %.9g s but frame %zu starts at %.9g s; "
+            return pb_error(NULL, PB_ERR_BAD_FRAME, "frame %zu ends at %s s but frame %zu starts at %s s; "
                             "petblur's frames follow each other without gaps (give --frames for other frames)", i,
-                            starts[i] + durations[i], i + 1, starts[i + 1]);
+                            PB_NUM(starts[i] + durations[i]), i + 1, PB_NUM(starts[i + 1]));
     }
     memcpy(bounds, starts, n * sizeof *bounds);
     bounds[n] = starts[n - 1] + durations[n - 1];
