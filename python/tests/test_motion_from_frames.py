@@ -519,7 +519,6 @@ BAD = {
     "affine not finite": (None, {"affine": _not_finite}, ("finite 4x4",)),
     "affine 3x3": (None, {"affine": lambda a: a[:3, :3]}, ("4x4", "(3, 3)")),
     "affine's last row": (None, {"affine": _last_row}, ("last row", "0 0 0 1")),
-    "integer voxels": (lambda f: f.astype(np.int32), {}, ("int32", "float32")),
     "float16 voxels": (lambda f: f.astype(np.float16), {}, ("float16", "float32")),
     "a list": (lambda f: f.tolist(), {}, ("list",)),
     "grid under 8": (lambda f: f[:7], {}, ("7 x 16 x 16", "at least 8")),
