@@ -384,7 +384,7 @@ static void test_frames(void)
     pb_check(pb_frames_check(ms, 3, &w) == PB_OK && w.flags == PB_WARN_TIME_UNIT &&
                  strstr(w.text, "frame 2 (120000 to 300000 s) lasts 50 h: are the times in milliseconds?"),
              "frames in milliseconds: %s", w.text);
-    ms[2] = NAN;
+    ms[2] = (double)NAN;
     pb_check(pb_frames_check(ms, 3, NULL) == PB_ERR_NOT_FINITE, "a NaN bound: %s", pb_last_error(NULL));
 }
 
