@@ -9,7 +9,6 @@
  *   missing  NVRTC absent (PETBLUR_NVRTC_LIBRARY names no file): nvrtc asked
  *            for fails with the fix, the default still runs nvcc's. */
 #include <dirent.h>
-#include <signal.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -108,15 +107,6 @@ static void corrupt(const char *path, int cut)
     fclose(f);
 }
 
-static void hung(int sig)
-{
-    (void)sig;
-    static const char msg[] = "FAIL: a context waited on the FIFO at the cache entry (killed after 120 s)\n";
-    ssize_t w = write(STDOUT_FILENO, msg, sizeof msg - 1);
-    (void)w;
-    _exit(1);
-}
-
 static int cache_case(void)
 {
     char dir[] = "/tmp/pb_rtc_cache_XXXXXX";
@@ -190,10 +180,9 @@ static int cache_case(void)
      * block until a writer came), said in the context's note, replaced. */
     unlink(entry);
     pb_check(mkfifo(entry, 0644) == 0, "mkfifo %s", entry);
-    signal(SIGALRM, hung);
-    alarm(120);
+    pb_test_deadline(120, "a context waited on the FIFO at the cache entry");
     rtc = context("nvrtc", &st);
-    alarm(0);
+    pb_test_deadline(0, NULL);
     pb_check(st == PB_OK && strstr(pb_context_notes(rtc), "not a regular file"), "a FIFO at the entry: %s; note: %s",
              pb_last_error(NULL), rtc ? pb_context_notes(rtc) : "");
     stat(entry, &after);

@@ -1,11 +1,13 @@
 #include "testlib.h"
 
 #include <math.h>
+#include <signal.h>
 #include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include <time.h>
+#include <unistd.h>
 
 int pb_test_failed, pb_test_passed;
 static uint64_t rng_state;
@@ -210,4 +212,25 @@ float *pb_random_volume(size_t n)
     for (size_t i = 0; v && i < n; i++)
         v[i] = (float)pb_rand_uniform();
     return v;
+}
+
+static char deadline_text[256];
+static size_t deadline_length;
+
+static void deadline_passed(int sig)
+{
+    (void)sig;
+    ssize_t w = write(STDOUT_FILENO, deadline_text, deadline_length);
+    (void)w;
+    _exit(1);
+}
+
+void pb_test_deadline(unsigned seconds, const char *what)
+{
+    if (seconds) {
+        int n = snprintf(deadline_text, sizeof deadline_text, "FAIL: %s (killed after %u s)\n", what, seconds);
+        deadline_length = n < 0 ? 0 : (size_t)n < sizeof deadline_text ? (size_t)n : sizeof deadline_text - 1;
+        signal(SIGALRM, deadline_passed);
+    }
+    alarm(seconds);
 }

@@ -52,6 +52,11 @@ int pb_check(int cond, const char *fmt, ...)
 /* Prints "N passed, N failed" and returns the exit status. */
 int pb_test_finish(void);
 
+/* A call that must not block: from now on, if seconds pass before
+ * pb_test_deadline(0, NULL), the test fails with "FAIL: <what> (killed after
+ * N s)" instead of hanging. */
+void pb_test_deadline(unsigned seconds, const char *what);
+
 /* Seeds the generator from PB_TEST_SEED or the clock and prints the seed, so
  * every run draws fresh inputs and any failure can be replayed. */
 void pb_test_seed(void);

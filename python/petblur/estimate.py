@@ -10,7 +10,7 @@ from . import _lib
 from ._arrays import Array, _check_finite
 from .errors import ArgumentError, shown
 from .motion import _finite
-from .operator import VOXEL_MAX, VOXEL_MIN, _voxel3
+from .operator import VOXEL_MAX, VOXEL_MIN, _affine4, _voxel3
 
 
 class EstimateOptions(ctypes.Structure):
@@ -86,13 +86,7 @@ def estimate(frames, affine, voxel_size, bounds, reference, device, frame_poses_
         affine[:3, 3] = 0.5 * d
     elif voxel_size is not None:
         raise ArgumentError("give affine= or voxel_size=, not both: the affine holds the voxel size")
-    try:
-        a = np.asarray(affine, dtype=np.float64)
-    except (TypeError, ValueError):
-        a = None
-    if a is None or a.shape != (4, 4) or not np.all(np.isfinite(a)):
-        raise ArgumentError("affine must be a finite 4x4 voxel-to-world matrix (nibabel's img.affine), not " +
-                            (shown(affine) if a is None or a.shape == (4, 4) else f"of shape {a.shape}"))
+    a = _affine4(affine)
     # The columns' lengths, the voxel sizes, as the program computes them;
     # where squaring leaves float64 (1e300 to inf, 1e-300 to 0) scaled first,
     # to name the length as given. Held to the operators' range.

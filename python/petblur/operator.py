@@ -72,6 +72,19 @@ def _voxel3(voxel_size):
     return v
 
 
+def _affine4(affine):
+    """affine as a finite 4x4 float64 voxel-to-world matrix, or ArgumentError
+    naming what was given."""
+    try:
+        a = np.array(affine, dtype=np.float64)
+    except (TypeError, ValueError):
+        a = None
+    if a is None or a.shape != (4, 4) or not np.all(np.isfinite(a)):
+        raise ArgumentError("affine must be a finite 4x4 voxel-to-world matrix (nibabel's img.affine), not " +
+                            (shown(affine) if a is None or a.shape == (4, 4) else f"of shape {a.shape}"))
+    return a
+
+
 class _Handles:
     """An operator's C objects: its plans and volumes by memory order, on the
     shared context. Shallow copies of the operator hold this one object, so
@@ -146,13 +159,7 @@ class _Operator:
             self.affine = None
             self._affine = a
         else:
-            try:
-                a = np.array(affine, dtype=np.float64)
-            except (TypeError, ValueError):
-                a = None
-            if a is None or a.shape != (4, 4) or not np.all(np.isfinite(a)):
-                raise ArgumentError("affine must be a finite 4x4 voxel-to-world matrix (nibabel's img.affine), not " +
-                                    (shown(affine) if a is None or a.shape == (4, 4) else f"of shape {a.shape}"))
+            a = _affine4(affine)
             grid = _grid_affine(self.voxel_size)
             if motion._coords == "grid" and not np.allclose(a, grid, rtol=1e-12, atol=1e-9 * self.voxel_size.max()):
                 raise ArgumentError(

@@ -171,6 +171,16 @@ int pbc_image_prepare(const char *path, const pbc_read_hints *hints, pbc_image *
     return rc ? rc : allocate(path, img);
 }
 
+/* Voxel index of img as a message names it: "x,y,z = 1,2,3" and, in a 4-D
+ * image, " of frame 4". */
+static void voxel_place(const pbc_image *img, size_t index, char *out, size_t size)
+{
+    size_t nx = img->dims[0], ny = img->dims[1], fv = pbc_image_frame_voxels(img), at = index % fv;
+    int n = snprintf(out, size, "x,y,z = %zu,%zu,%zu", at % nx, at / nx % ny, at / nx / ny);
+    if (img->frames > 1 && n > 0 && (size_t)n < size)
+        snprintf(out + n, size - (size_t)n, " of frame %zu", index / fv);
+}
+
 /* The blur would smear a NaN or an infinity over its neighbours. */
 static int check_finite(const char *path, const pbc_image *img)
 {
@@ -184,14 +194,10 @@ static int check_finite(const char *path, const pbc_image *img)
     }
     if (!bad)
         return 0;
-    size_t nx = img->dims[0], ny = img->dims[1], fv = pbc_image_frame_voxels(img), frame = first / fv;
-    char where[48] = "";
-    if (img->frames > 1)
-        snprintf(where, sizeof where, " of frame %zu", frame);
-    first %= fv;
-    return pbc_fail(PBC_EXIT_USAGE, "%s: %zu voxel%s not finite (NaN or infinite), the first at x,y,z = %zu,%zu,%zu%s; "
-                    "the blur would spread them; replace them (e.g. by 0) first", path, bad,
-                    bad == 1 ? " is" : "s are", first % nx, first / nx % ny, first / nx / ny, where);
+    char where[96];
+    voxel_place(img, first, where, sizeof where);
+    return pbc_fail(PBC_EXIT_USAGE, "%s: %zu voxel%s not finite (NaN or infinite), the first at %s; the blur would "
+                    "spread them; replace them (e.g. by 0) first", path, bad, bad == 1 ? " is" : "s are", where);
 }
 
 static int check_input_file(const char *path)
@@ -321,15 +327,11 @@ static size_t convert(const pbc_sample_format *format, unsigned char *buf, size_
  * infinity, which is not what the file holds. */
 static int beyond_float32(const char *data_path, const pbc_image *img, size_t index, double v)
 {
-    size_t nx = img->dims[0], ny = img->dims[1], fv = pbc_image_frame_voxels(img), frame = index / fv;
-    char where[48] = "";
-    if (img->frames > 1)
-        snprintf(where, sizeof where, " of frame %zu", frame);
-    index %= fv;
-    return pbc_fail(PBC_EXIT_USAGE, "%s: the value %s at x,y,z = %zu,%zu,%zu%s is beyond float32's range (magnitude "
-                    "at most 3.4e38), in which petblur blurs; rescale the image first (its scl_slope or rescale "
-                    "slope, or the data's unit)", data_path, PBC_NUM(v), index % nx, index / nx % ny,
-                    index / nx / ny, where);
+    char where[96];
+    voxel_place(img, index, where, sizeof where);
+    return pbc_fail(PBC_EXIT_USAGE, "%s: the value %s at %s is beyond float32's range (magnitude at most 3.4e38), in "
+                    "which petblur blurs; rescale the image first (its scl_slope or rescale slope, or the data's "
+                    "unit)", data_path, PBC_NUM(v), where);
 }
 
 int pbc_samples_read(const char *data_path, pbc_read_fn read, void *source, const pbc_sample_format *format,

@@ -543,21 +543,6 @@ static pb_status world_pose(const double d[9], const double o[3], const double c
     return pb_pose_from_matrix(w, world);
 }
 
-/* The voxel sizes the estimate takes are the library's (PB_MIN_VOXEL_MM to
- * PB_MAX_VOXEL_MM), checked before anything is sized from them: the
- * smoothing's width, the pyramid's levels and the turns' centre. */
-static pb_status check_voxel_sizes(const pb_geometry *g)
-{
-    for (int a = 0; a < 3; a++) {
-        double v = g->voxel_size[a];
-        if (!(v >= PB_MIN_VOXEL_MM && v <= PB_MAX_VOXEL_MM))
-            return pb_error(NULL, PB_ERR_BAD_VOXEL_SIZE, "voxel size %c is %s mm, outside the %s to %s mm petblur "
-                            "takes; give the series' voxel size in mm", "xyz"[a], PB_NUM(v),
-                            PB_NUM(PB_MIN_VOXEL_MM), PB_NUM(PB_MAX_VOXEL_MM));
-    }
-    return PB_OK;
-}
-
 static pb_status check_input(const pb_geometry *g, const float *frames, size_t count, const double *bounds,
                              const pb_estimate_options *o)
 {
@@ -579,10 +564,10 @@ static pb_status check_input(const pb_geometry *g, const float *frames, size_t c
         if (g->dims[a] < 8)
             return pb_error(NULL, PB_ERR_ZERO_DIMS, "the grid is %zu x %zu x %zu voxels: registration needs at "
                             "least 8 a side", g->dims[0], g->dims[1], g->dims[2]);
+    /* The library's voxel-size range, checked before anything is sized from
+     * it: the smoothing's width, the pyramid's levels, the turns' centre. */
     size_t n_voxels;
-    pb_status st = check_voxel_sizes(g);
-    if (st == PB_OK)
-        st = pb_geometry_check(NULL, g, &n_voxels);
+    pb_status st = pb_geometry_check(NULL, g, &n_voxels);
     if (st == PB_OK)
         st = pb_frame_bounds_check(NULL, bounds, count);
     if (st != PB_OK)
