@@ -194,7 +194,8 @@ class NewUsersTrial(Case):
         with open(self.p("pet.json"), "w") as f:
             json.dump({"FrameTimesStart": [i * length for i in range(frames)], "FrameDuration": [length] * frames}, f)
         with open(self.p("track.csv"), "w") as f:
-            f.write(f"t,tx,ty,tz,qw,qx,qy,qz\n0,0,0,0,1,0,0,0\n{frames * length},1,2,-1,0.9998,0,0.02,0\n")
+            # ends a second after the last frame: the sidecar's starts plus durations may round past frames * length
+            f.write(f"t,tx,ty,tz,qw,qx,qy,qz\n0,0,0,0,1,0,0,0\n{frames * length + 1},1,2,-1,0.9998,0,0.02,0\n")
         out, _, _ = run("motion", self.p("track.csv"), "-i", self.p("dynamic.nii.gz"), "--frames-from",
                         self.p("pet.json"), "--png", self.p("motion.png"))
         rows = [line for line in out.splitlines() if line.split() and line.split()[0].isdigit()]
