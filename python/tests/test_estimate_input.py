@@ -328,4 +328,7 @@ def test_a_frame_of_noise_takes_its_neighbours_pose(rng):
     near = bad - 1
     assert got[bad].tolist() == got[near].tolist()
     error = _displacement_error(m, bounds, truth, skip=(bad,))
-    assert error < 0.5, f"off by {error:.2f} mm: {got.tolist()} for {truth.tolist()}"
+    # Over 300 draws (seeds 0-299, host): median 0.12 mm, 95th percentile 0.26 mm, largest 0.98 mm (a frame beside
+    # the noise registered across two steps); a noise frame's pose passed down the chain turned the frames after it
+    # by over 100 degrees, tens of mm.
+    assert error < 1.5, f"off by {error:.2f} mm: {got.tolist()} for {truth.tolist()}"
