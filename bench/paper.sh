@@ -11,23 +11,28 @@
 #   5. bench/paper_report.py: paper.md, paper.csv and the plots.
 #
 #   bench/paper.sh BUILD_DIR RUN_DIR [--device DEV] [--cpu-device DEV] [--quick]
+#                  [--size N] [--points K] [--runs N]
 #
 # DEV defaults to auto (CUDA where there is a GPU); CPU_DEVICE to none (step 2
-# left out). --quick is the small version CI runs on PoCL. PYTHON picks the
+# left out). --quick is the small version (48-voxel grids); --size, --points
+# and --runs go to both benches (the tests run the pipeline's plumbing on
+# 16-voxel grids; the whole one runs on the GPU machine, bench/gpu.sh paper). PYTHON picks the
 # interpreter for the peers and the report (default python3). The volumes
 # (2 GB at full size) are deleted at the end; RUN_DIR keeps the tables.
 set -uo pipefail
 status=0
 here=$(cd "$(dirname "$0")" && pwd)
-build=${1:?usage: bench/paper.sh BUILD_DIR RUN_DIR [--device DEV] [--cpu-device DEV] [--quick]}
-run=${2:?usage: bench/paper.sh BUILD_DIR RUN_DIR [--device DEV] [--cpu-device DEV] [--quick]}
+build=${1:?usage: bench/paper.sh BUILD_DIR RUN_DIR [--device DEV] [--cpu-device DEV] [--quick] [--size N] [--points K] [--runs N]}
+run=${2:?usage: bench/paper.sh BUILD_DIR RUN_DIR [--device DEV] [--cpu-device DEV] [--quick] [--size N] [--points K] [--runs N]}
 shift 2
-device=auto cpu_device= quick=()
+device=auto cpu_device= quick=() sizes=() cpu_runs=(--runs 5)
 while [ $# -gt 0 ]; do
     case $1 in
     --device) device=$2; shift 2 ;;
     --cpu-device) cpu_device=$2; shift 2 ;;
     --quick) quick=(--quick); shift ;;
+    --size | --points) sizes+=("$1" "$2"); shift 2 ;;
+    --runs) sizes+=("$1" "$2"); cpu_runs=(); shift 2 ;;
     *) echo "paper.sh: unknown option $1" >&2; exit 2 ;;
     esac
 done
@@ -39,11 +44,11 @@ stamp() { echo "== $* ($(($(date +%s) - start)) s)"; }
 
 stamp "petblur bench on $device"
 # Everything after needs this run's references: stop here if it failed.
-"$petblur" bench "${quick[@]}" --device "$device" --out-dir "$run" --keep-volumes -q | tee "$run/bench.txt" || exit 1
+"$petblur" bench "${quick[@]}" "${sizes[@]}" --device "$device" --out-dir "$run" --keep-volumes -q | tee "$run/bench.txt" || exit 1
 
 if [ -n "$cpu_device" ]; then
     stamp "petblur bench on $cpu_device (the brain phantom, the same references)"
-    "$petblur" bench "${quick[@]}" --device "$cpu_device" --phantoms brain --runs 5 --reference "$run" \
+    "$petblur" bench "${quick[@]}" "${sizes[@]}" "${cpu_runs[@]}" --device "$cpu_device" --phantoms brain --reference "$run" \
         --out-dir "$run/cpu" -q | tee "$run/bench-cpu.txt" && mv "$run/cpu/results.csv" "$run/results-pocl.csv" ||
         status=1
     rm -rf "$run/cpu"

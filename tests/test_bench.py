@@ -207,7 +207,8 @@ class Pipeline(unittest.TestCase):
             d = os.path.join(tmp, "paper")
             env = dict(os.environ, PYTHON=sys.executable)
             p = subprocess.run(["bash", os.path.join(BENCH, "paper.sh"), os.path.dirname(os.path.dirname(
-                os.path.dirname(PETBLUR))), d, "--quick", "--device", "opencl", "--cpu-device", "opencl"],
+                os.path.dirname(PETBLUR))), d, "--quick", "--size", "16", "--points", "8", "--runs", "1",
+                "--device", "opencl", "--cpu-device", "opencl"],
                 capture_output=True, text=True, env=env, timeout=1200)
             self.assertEqual(p.returncode, 0, p.stdout[-3000:] + p.stderr[-3000:])
             res = rows(os.path.join(d, "results.csv"))
