@@ -10,19 +10,8 @@
 #include <unistd.h>
 
 #include "petblur.h"
+#include "bench_stats.h"
 #include "scenarios.h"
-
-static int cmp_double(const void *a, const void *b)
-{
-    double x = *(const double *)a, y = *(const double *)b;
-    return (x > y) - (x < y);
-}
-
-/* The median of n sorted values. */
-static double median(const double *v, int n)
-{
-    return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
-}
 
 static void usage(void)
 {
@@ -173,8 +162,7 @@ int main(int argc, char **argv)
                 fprintf(stderr, "pb_bench: %s: %s: %s\n", methods[m].name, pb_status_string(st), pb_last_error(ctx));
                 return 3;
             }
-            qsort(ms, (size_t)n_runs, sizeof *ms, cmp_double);
-            double med = median(ms, n_runs), min_ms = ms[0];
+            double med = pbc_median(ms, n_runs), min_ms = ms[0]; /* sorted by the median */
             pb_plan *plan = NULL;
             st = pb_plan_create(ctx, &g, &motion, &opt, &plan);
             if (st == PB_OK)
@@ -192,9 +180,7 @@ int main(int argc, char **argv)
             }
             if (tty)
                 fprintf(stderr, "\r%50s\r", "");
-            qsort(ms, (size_t)n_runs, sizeof *ms, cmp_double);
-            qsort(copy_ms, (size_t)n_runs, sizeof *copy_ms, cmp_double);
-            double dev_med = median(ms, n_runs), copy_med = median(copy_ms, n_runs);
+            double dev_med = pbc_median(ms, n_runs), copy_med = pbc_median(copy_ms, n_runs);
             printf("%-3d (%6.1f, %6.1f, %6.1f)   %-3.0f %-8s %10.3f %10.3f %10.3f %10.3f\n", s, sc.t[0], sc.t[1],
                    sc.t[2], sc.deg, methods[m].name, med, min_ms, dev_med, copy_med);
             if (fcsv)

@@ -532,7 +532,7 @@ PB_FN float pb_classical(pb_image img, PB_GLOBAL_RO pb_kpose *poses, pb_kparams 
 
 /* One kernel per method and filter: the filter is a compile-time constant in
  * each, so a HARDWARE kernel carries none of EXACT's code or registers (more
- * threads in flight to hide texture latency). Each has its row in src/kernel_table.h. */
+ * threads in flight to hide texture latency). Each has its row in cl/pb_kernel_table.h. */
 #define PB_IN_GRID(ix, iy, iz) ((ix) < prm.dims[0] && (iy) < prm.dims[1] && (iz) < prm.dims[2])
 #define PB_OUT(ix, iy, iz) out[(ix) + prm.dims[0] * ((iy) + prm.dims[1] * (iz))]
 /* W's own centre, and reads where its walk lands. */

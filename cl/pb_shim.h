@@ -79,7 +79,7 @@ static inline void pb_atomic_add(volatile __global float *p, float v)
 /* AB's forward with its registers capped for five groups of 256 a
  * multiprocessor: it is bound by issuing instructions, and at 51 registers
  * only four fit (ncu; docs/performance.md "What bounds the set-up"). Every
- * group in src/kernel_table.h is 256 work items. */
+ * group in cl/pb_kernel_table.h is 256 work items. */
 #if defined(__CUDA_ARCH__) && __CUDA_ARCH__ < 800
 /* Turing holds 1024 threads a multiprocessor: five groups never fit there. */
 #define PB_KERNEL_FULL extern "C" __global__
@@ -94,7 +94,7 @@ static inline void pb_atomic_add(volatile __global float *p, float v)
 #define PB_GID_Z ((int)(blockIdx.z * blockDim.z + threadIdx.z))
 /* A texture object carries its filter mode, where OpenCL passes a sampler per
  * read: the backend binds a linear and a point texture object to the volume's
- * array and passes the one the kernel's row of src/kernel_table.h names. */
+ * array and passes the one the kernel's row of cl/pb_kernel_table.h names. */
 typedef cudaTextureObject_t pb_image;
 typedef cudaTextureObject_t pb_layers;
 

@@ -8,7 +8,7 @@
 extern "C" {
 #endif
 
-/* kernels[PB_KERNEL_COUNT] in src/devices/kernel_table.h's order, and the
+/* kernels[PB_KERNEL_COUNT] in cl/pb_kernel_table.h's order, and the
  * layout kernel (cuda/pb_layout.cuh). */
 void pb_cuda_builtin_kernels(const void **kernels, const void **layout);
 

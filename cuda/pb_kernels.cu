@@ -6,7 +6,7 @@
 #include <cuda_runtime.h>
 
 #include "../cl/pb_blur.cl"
-#include "../src/devices/kernel_table.h"
+#include "../cl/pb_kernel_table.h"
 #include "pb_cuda_launch.h"
 #include "pb_layout.cuh"
 

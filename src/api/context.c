@@ -4,8 +4,19 @@
 
 #include "backend.h"
 
+static char *context_error_text(pb_context *ctx)
+{
+    return ctx->last_error;
+}
+
+const char *pb_last_error(const pb_context *ctx)
+{
+    return ctx ? ctx->last_error : pb_thread_error();
+}
+
 pb_status pb_context_create(const pb_context_options *options, pb_context **out)
 {
+    pb_error_context_text(context_error_text); /* before any failure can name this context */
     if (!out)
         return pb_error(NULL, PB_ERR_INVALID_ARGUMENT, "the context pointer must not be NULL");
     *out = NULL;

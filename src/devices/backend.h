@@ -14,17 +14,17 @@
 #include <stdatomic.h>
 
 #include "error.h"
-#include "kernel_table.h"
+#include "pb_kernel_table.h"
 #include "path.h"
 #include "petblur.h"
-#include "cl/pb_kernel_types.h"
+#include "pb_kernel_types.h"
 
 /* NVIDIA's texture unit keeps each linear-filter weight in 9-bit fixed point
  * with 8 fractional bits (CUDA C Programming Guide, "Linear Filtering"); the
  * device test test_hardware_weights checks the rounding to the nearest step. */
 #define PB_NVIDIA_WEIGHT_STEPS 256.0f
 
-/* One kernel launch (launch.c fills it from src/kernel_table.h). */
+/* One kernel launch (launch.c fills it from cl/pb_kernel_table.h). */
 typedef struct pb_launch {
     pb_kernel_id kernel;
     const void *input; /* an image made by image_create, or a buffer: the kernel's `reads` */

@@ -236,7 +236,7 @@ static pb_status cuda_launch(pb_context *ctx, const pb_launch *l)
         n[d] = (unsigned)((l->extent[d] + info->group[d] - 1) / info->group[d]);
     dim3 block = {info->group[0], info->group[1], info->group[2]}, grid = {n[0], n[1], n[2]};
     /* Every kernel is (input, plan, parameters, output); the input a texture
-     * object or a buffer, as its row of kernel_table.h says. */
+     * object or a buffer, as its row of cl/pb_kernel_table.h says. */
     const cu_image *img = l->input;
     cudaTextureObject_t texture = 0;
     const void *buffer = l->input, *plan = l->plan;

@@ -9,7 +9,7 @@
 #include <time.h>
 
 #include "backend.h"
-#include "cl/pb_kernel_types.h"
+#include "pb_kernel_types.h"
 
 /* The operator's two directions share every weight: the forward reads
  * weight times an object voxel, the adjoint adds weight times the tomograph

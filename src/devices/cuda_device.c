@@ -5,7 +5,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "cuda/pb_cuda_launch.h"
+#include "pb_cuda_launch.h"
 #include "cuda_impl.h"
 
 /* Maps a failed CUDA call to a status; allocation failures are memory errors.

@@ -1,13 +1,13 @@
 /* What a device launch is made of, from a frame's key poses (pb_path): the
- * kernel of each direction, chosen from src/kernel_table.h by what it
+ * kernel of each direction, chosen from cl/pb_kernel_table.h by what it
  * computes, its parameters, and the key poses in the float layout every
  * kernel reads (cl/pb_kernel_types.h). */
 #ifndef PB_KERNEL_ARGS_H
 #define PB_KERNEL_ARGS_H
 
-#include "kernel_table.h"
+#include "pb_kernel_table.h"
 #include "path.h"
-#include "cl/pb_kernel_types.h"
+#include "pb_kernel_types.h"
 
 void pb_kparams_from_path(const pb_path *path, const pb_blur_options *opt, pb_kparams *prm);
 

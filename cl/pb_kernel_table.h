@@ -1,6 +1,6 @@
 /* Every device kernel, once. The enum, the OpenCL kernel names, CUDA's launch
  * switch and check (cuda/pb_kernels.cu), what each launch reads and its work
- * group all come from this table; src/kernel_args.c picks a launch's kernel by
+ * group all come from this table; src/devices/kernel_args.c picks a launch's kernel by
  * what it is (family, method, filter), never by its position.
  *
  * Columns:

@@ -14,7 +14,7 @@
 #include <unistd.h>
 
 #include "atomic_file.h"
-#include "bench/scenarios.h"
+#include "scenarios.h"
 #include "bench_measure.h"
 #include "blur_run.h"
 #include "cli.h"

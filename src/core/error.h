@@ -39,6 +39,14 @@ unsigned long pb_error_serial(void);
 /* Appends text (a build log, say) to the last-error text of ctx. */
 void pb_error_append(struct pb_context *ctx, const char *text);
 
+/* The calling thread's last-error text (pb_last_error(NULL)). */
+const char *pb_thread_error(void);
+
+/* A context's copy of its last-error text, PB_ERROR_TEXT_MAX bytes: the API
+ * layer, which owns contexts, registers this before it makes the first one. */
+typedef char *(*pb_context_text_fn)(struct pb_context *ctx);
+void pb_error_context_text(pb_context_text_fn text_of);
+
 #define PB_ERROR_TEXT_MAX 65536
 
 #endif

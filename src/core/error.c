@@ -4,7 +4,7 @@
 #include <stdio.h>
 #include <string.h>
 
-#include "backend.h"
+#include <stdatomic.h>
 
 /* Every failure writes the calling thread's text, so that pb_last_error(NULL)
  * always tells the last failure of this thread, with or without a context;
@@ -13,6 +13,20 @@ static _Thread_local char thread_error[PB_ERROR_TEXT_MAX];
 /* Formatted here first: a message may quote the text it replaces. */
 static _Thread_local char scratch[PB_ERROR_TEXT_MAX];
 static _Thread_local unsigned long thread_serial;
+/* Where a context keeps its copy: the context is the API layer's object, so it
+ * says (pb_error_context_text) and this layer never sees inside one. */
+static _Atomic(pb_context_text_fn) context_text;
+
+void pb_error_context_text(pb_context_text_fn text_of)
+{
+    atomic_store(&context_text, text_of);
+}
+
+static char *text_of(struct pb_context *ctx)
+{
+    pb_context_text_fn f = ctx ? atomic_load(&context_text) : NULL;
+    return f ? f(ctx) : NULL;
+}
 
 pb_status pb_error(struct pb_context *ctx, pb_status status, const char *fmt, ...)
 {
@@ -23,8 +37,9 @@ pb_status pb_error(struct pb_context *ctx, pb_status status, const char *fmt, ..
     size_t n = strlen(scratch) + 1;
     memcpy(thread_error, scratch, n);
     thread_serial++;
-    if (ctx)
-        memcpy(ctx->last_error, scratch, n);
+    char *copy = text_of(ctx);
+    if (copy)
+        memcpy(copy, scratch, n);
     return status;
 }
 
@@ -53,8 +68,9 @@ void pb_error_append(struct pb_context *ctx, const char *text)
 {
     size_t used = strlen(thread_error);
     snprintf(thread_error + used, PB_ERROR_TEXT_MAX - used, "%s", text);
-    if (ctx)
-        memcpy(ctx->last_error, thread_error, strlen(thread_error) + 1);
+    char *copy = text_of(ctx);
+    if (copy)
+        memcpy(copy, thread_error, strlen(thread_error) + 1);
 }
 
 void pb_warn(pb_warnings *w, unsigned flag, const char *fmt, ...)
@@ -74,9 +90,9 @@ void pb_warn(pb_warnings *w, unsigned flag, const char *fmt, ...)
     w->text[used + 1] = '\0';
 }
 
-const char *pb_last_error(const pb_context *ctx)
+const char *pb_thread_error(void)
 {
-    return ctx ? ctx->last_error : thread_error;
+    return thread_error;
 }
 
 const char *pb_status_string(pb_status status)
