@@ -7,7 +7,7 @@
 #include <string.h>
 #include <time.h>
 
-#include "backend.h"
+#include "objects.h"
 #include "testlib.h"
 
 static void expect(pb_status got, pb_status want, const char *what, const char *text, const char *needle)

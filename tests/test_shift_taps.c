@@ -27,7 +27,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "backend.h" /* which kernel a plan chose */
+#include "objects.h" /* which kernel a plan chose */
 #include "testlib.h"
 
 static const char *method_names[] = {"AB", "RM", "CL", "REF"};
@@ -40,8 +40,8 @@ static pb_kernel_id planned_kernel(pb_context *ctx, const pb_geometry *g, const 
     pb_plan *plan = NULL;
     pb_kernel_id k = PB_KERNEL_COUNT;
     if (pb_check(pb_plan_create(ctx, g, m, opt, &plan) == PB_OK, "plan: %s", pb_last_error(ctx))) {
-        k = plan->frame[0].forward_fresh;
-        *taps = plan->frame[0].forward_prm.taps;
+        k = plan->set.frame[0].forward_fresh;
+        *taps = plan->set.frame[0].forward_prm.taps;
         pb_plan_destroy(plan);
     }
     return k;
@@ -67,7 +67,7 @@ int main(int argc, char **argv)
         pb_context_destroy(ctx);
         return PB_TEST_SKIP;
     }
-    int rounds = ctx->texture_weight_steps > 0.0f;
+    int rounds = ctx->dev.texture_weight_steps > 0.0f;
     struct {
         pb_method method;
         unsigned steps;

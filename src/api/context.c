@@ -2,7 +2,7 @@
  * stream and progress report, and the holders that keep it alive. */
 #include <stdlib.h>
 
-#include "backend.h"
+#include "objects.h"
 
 static char *context_error_text(pb_context *ctx)
 {
@@ -31,10 +31,11 @@ pb_status pb_context_create(const pb_context_options *options, pb_context **out)
     pb_context *ctx = calloc(1, sizeof *ctx);
     if (!ctx)
         return pb_error(NULL, PB_ERR_OUT_OF_MEMORY, "out of host memory for a context");
-    ctx->ops = ops;
-    st = ops->context_init(ctx, opt.device_index, opt.build_options);
+    ctx->dev.ops = ops;
+    ctx->dev.owner = ctx;
+    st = ops->context_init(&ctx->dev, opt.device_index, opt.build_options);
     if (st != PB_OK) {
-        ops->context_release(ctx);
+        ops->context_release(&ctx->dev);
         free(ctx);
         return st;
     }
@@ -44,9 +45,9 @@ pb_status pb_context_create(const pb_context_options *options, pb_context **out)
 
 static void context_release(pb_context *ctx)
 {
-    if (ctx->scratch)
-        ctx->ops->buffer_release(ctx, ctx->scratch);
-    ctx->ops->context_release(ctx);
+    if (ctx->dev.scratch)
+        ctx->dev.ops->buffer_release(&ctx->dev, ctx->dev.scratch);
+    ctx->dev.ops->context_release(&ctx->dev);
     free(ctx);
 }
 
@@ -84,7 +85,7 @@ pb_status pb_context_enter(pb_context *ctx)
     if (atomic_exchange(&ctx->busy, 1))
         return pb_error(NULL, PB_ERR_INVALID_ARGUMENT, "the context (%s) is in use by another thread; a context, its "
                         "volumes and its plans take one thread at a time: take turns with a lock, or give each "
-                        "thread its own context", ctx->device.name);
+                        "thread its own context", ctx->dev.info.name);
     inside[entered] = ctx;
     depth[entered++] = 1;
     return PB_OK;
@@ -115,27 +116,27 @@ pb_status pb_context_native(const pb_context *ctx, pb_native *native)
     if (!ctx || !native)
         return pb_error(NULL, PB_ERR_INVALID_ARGUMENT, "ctx and native must not be NULL");
     *native = (pb_native){NULL, NULL, NULL, 0};
-    if (ctx->ops->native)
-        ctx->ops->native(ctx, native);
+    if (ctx->dev.ops->native)
+        ctx->dev.ops->native(&ctx->dev, native);
     return PB_OK;
 }
 
 pb_backend pb_context_backend(const pb_context *ctx)
 {
-    return ctx ? ctx->ops->id : PB_BACKEND_AUTO;
+    return ctx ? ctx->dev.ops->id : PB_BACKEND_AUTO;
 }
 
 pb_status pb_context_device_info(const pb_context *ctx, pb_device_info *info)
 {
     if (!ctx || !info)
         return pb_error(NULL, PB_ERR_INVALID_ARGUMENT, "ctx and info must not be NULL");
-    *info = ctx->device;
+    *info = ctx->dev.info;
     return PB_OK;
 }
 
 const char *pb_context_notes(const pb_context *ctx)
 {
-    return ctx ? ctx->notes : "";
+    return ctx ? ctx->dev.notes : "";
 }
 
 /* The last call's times; for a call queued on a caller's stream, once it is
@@ -143,9 +144,9 @@ const char *pb_context_notes(const pb_context *ctx)
 static pb_status last_times(const pb_context *ctx, double *kernel_ms, double *input_ms)
 {
     pb_status st = PB_OK;
-    if (!ctx->ops->timer_wait || !ctx->ops->timer_wait(ctx, &st, kernel_ms, input_ms)) {
-        *kernel_ms = ctx->last_kernel_ms;
-        *input_ms = ctx->last_input_ms;
+    if (!ctx->dev.ops->timer_wait || !ctx->dev.ops->timer_wait(&ctx->dev, &st, kernel_ms, input_ms)) {
+        *kernel_ms = ctx->dev.last_kernel_ms;
+        *input_ms = ctx->dev.last_input_ms;
     }
     return st;
 }
@@ -170,13 +171,13 @@ pb_status pb_context_set_stream(pb_context *ctx, void *stream)
 {
     if (!ctx)
         return pb_error(NULL, PB_ERR_INVALID_ARGUMENT, "ctx must not be NULL");
-    if (ctx->ops->set_stream)
-        return ctx->ops->set_stream(ctx, stream);
+    if (ctx->dev.ops->set_stream)
+        return ctx->dev.ops->set_stream(&ctx->dev, stream);
     if (stream)
         return pb_error(ctx, PB_ERR_INVALID_ARGUMENT,
                         "pb_context_set_stream takes a CUDA stream, and this context runs on the %s backend, which "
                         "queues on its own queue (pb_context_native); pass NULL or use a CUDA context",
-                        pb_backend_name(ctx->ops->id));
+                        pb_backend_name(ctx->dev.ops->id));
     return PB_OK;
 }
 
@@ -184,7 +185,7 @@ pb_status pb_context_set_progress(pb_context *ctx, pb_progress_fn fn, void *user
 {
     if (!ctx)
         return pb_error(NULL, PB_ERR_INVALID_ARGUMENT, "ctx must not be NULL");
-    ctx->progress = fn;
-    ctx->progress_user = user;
+    ctx->dev.progress = fn;
+    ctx->dev.progress_user = user;
     return PB_OK;
 }

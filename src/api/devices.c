@@ -5,7 +5,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "backend.h"
+#include "objects.h"
 
 static const pb_backend_ops *backend_ops(pb_backend backend)
 {

@@ -124,17 +124,26 @@ static pb_status run_frames_entered(pb_context *ctx, const pb_volume *const *ins
         pb_error_append(ctx, adjoint ? "; no frame was back projected" : "; no frame was blurred");
         return st;
     }
-    frames_progress prog = {ctx->progress, ctx->progress_user, 0, frames};
+    frames_progress prog = {ctx->dev.progress, ctx->dev.progress_user, 0, frames};
     double total = 0.0, input = 0.0;
-    if (!adjoint && !ctx->progress) {
+    if (!adjoint && !ctx->dev.progress) {
         /* Queued back to back: progress would need a wait per frame. */
-        st = ctx->ops->frames_forward(ctx, plan, ins, outs);
+        const pb_memory **in_mem = malloc(frames * sizeof *in_mem);
+        pb_memory **out_mem = malloc(frames * sizeof *out_mem);
+        for (size_t i = 0; in_mem && out_mem && i < frames; i++) {
+            in_mem[i] = &ins[i]->mem;
+            out_mem[i] = &outs[i]->mem;
+        }
+        st = in_mem && out_mem ? ctx->dev.ops->frames_forward(&ctx->dev, &plan->set, in_mem, out_mem)
+                               : pb_error(ctx, PB_ERR_OUT_OF_MEMORY, "out of host memory for %zu frames", frames);
+        free(in_mem);
+        free(out_mem);
         for (size_t i = 0; i < frames; i++)
-            pb_images_stale(&outs[i]->images);
-        total = ctx->last_kernel_ms;
+            pb_images_stale(&outs[i]->mem.images);
+        total = ctx->dev.last_kernel_ms;
     } else {
-        if (ctx->progress)
-            ctx->progress = frame_progress, ctx->progress_user = &prog;
+        if (ctx->dev.progress)
+            ctx->dev.progress = frame_progress, ctx->dev.progress_user = &prog;
         for (size_t i = 0; i < frames && st == PB_OK; i++) {
             prog.done = i;
             if (adjoint) {
@@ -146,19 +155,19 @@ static pb_status run_frames_entered(pb_context *ctx, const pb_volume *const *ins
             } else {
                 st = pb_plan_forward(plan, i, ins[i], outs[i]);
             }
-            total += ctx->last_kernel_ms;
-            input += ctx->last_input_ms;
+            total += ctx->dev.last_kernel_ms;
+            input += ctx->dev.last_input_ms;
         }
     }
     if (prog.fn) {
-        ctx->progress = prog.fn;
-        ctx->progress_user = prog.user;
+        ctx->dev.progress = prog.fn;
+        ctx->dev.progress_user = prog.user;
     }
     pb_plan_destroy(plan);
-    ctx->last_kernel_ms = total;
-    ctx->last_input_ms = input;
-    if (st == PB_OK && ctx->progress)
-        ctx->progress(1.0, ctx->progress_user);
+    ctx->dev.last_kernel_ms = total;
+    ctx->dev.last_input_ms = input;
+    if (st == PB_OK && ctx->dev.progress)
+        ctx->dev.progress(1.0, ctx->dev.progress_user);
     return st;
 }
 

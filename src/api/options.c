@@ -1,6 +1,6 @@
 /* Blur options: every range stated once (pb_options_check), the defaults
  * filled in, and how many segments a path of these options needs. */
-#include "backend.h"
+#include "objects.h"
 #include "numbers.h"
 
 static pb_status check_options(pb_context *ctx, const pb_blur_options *o)

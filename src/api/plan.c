@@ -17,7 +17,7 @@ pb_status pb_plan_new(pb_context *ctx, const pb_geometry *geometry, const pb_blu
     pb_blur_options opt;
     pb_status st = pb_geometry_check(ctx, geometry, &count);
     if (st == PB_OK)
-        st = pb_device_check_volume(ctx, &ctx->device, geometry);
+        st = pb_device_check_volume(&ctx->dev, &ctx->dev.info, geometry);
     if (st == PB_OK)
         st = pb_options_prepare(ctx, options, &opt);
     if (st != PB_OK)
@@ -30,11 +30,11 @@ pb_status pb_plan_new(pb_context *ctx, const pb_geometry *geometry, const pb_blu
         return pb_error(ctx, PB_ERR_OUT_OF_MEMORY, "out of host memory for a plan of %zu frames", frames);
     }
     plan->ctx = ctx;
-    plan->geometry = *geometry;
-    plan->count = count;
-    plan->options = opt;
-    plan->frames = frames;
-    plan->frame = frame;
+    plan->set.geometry = *geometry;
+    plan->set.count = count;
+    plan->set.options = opt;
+    plan->set.frames = frames;
+    plan->set.frame = frame;
     pb_context_hold(ctx);
     *out = plan;
     return PB_OK;
@@ -42,10 +42,10 @@ pb_status pb_plan_new(pb_context *ctx, const pb_geometry *geometry, const pb_blu
 
 pb_status pb_plan_set_frame(pb_plan *plan, size_t i, const pb_motion *motion)
 {
-    pb_plan_frame *f = &plan->frame[i];
-    pb_status st = pb_path_create(plan->ctx, &plan->geometry, motion, &plan->options, &f->path);
+    pb_plan_frame *f = &plan->set.frame[i];
+    pb_status st = pb_path_create(plan->ctx, &plan->set.geometry, motion, &plan->set.options, &f->path);
     if (st == PB_OK)
-        st = plan->ctx->ops->frame_prepare(plan->ctx, &plan->options, f);
+        st = plan->ctx->dev.ops->frame_prepare(&plan->ctx->dev, &plan->set.options, f);
     return st;
 }
 
@@ -78,27 +78,27 @@ void pb_plan_destroy(pb_plan *plan)
     if (!plan)
         return;
     pb_context *ctx = plan->ctx;
-    for (size_t i = 0; i < plan->frames; i++) {
-        pb_path_destroy(&plan->frame[i].path);
-        if (plan->frame[i].poses)
-            ctx->ops->buffer_release(ctx, plan->frame[i].poses);
+    for (size_t i = 0; i < plan->set.frames; i++) {
+        pb_path_destroy(&plan->set.frame[i].path);
+        if (plan->set.frame[i].poses)
+            ctx->dev.ops->buffer_release(&ctx->dev, plan->set.frame[i].poses);
     }
-    pb_images_release(ctx, &plan->input);
-    free(plan->frame);
+    pb_images_release(&ctx->dev, &plan->set.input);
+    free(plan->set.frame);
     free(plan);
     pb_context_release_hold(ctx);
 }
 
 size_t pb_plan_frame_count(const pb_plan *plan)
 {
-    return plan ? plan->frames : 0;
+    return plan ? plan->set.frames : 0;
 }
 
 pb_status pb_plan_get_geometry(const pb_plan *plan, pb_geometry *geometry)
 {
     if (!plan || !geometry)
         return pb_error(NULL, PB_ERR_INVALID_ARGUMENT, "plan and geometry must not be NULL");
-    *geometry = plan->geometry;
+    *geometry = plan->set.geometry;
     return PB_OK;
 }
 
@@ -129,17 +129,17 @@ pb_status pb_check_volumes(pb_context *ctx, const pb_geometry *p, const pb_volum
 
 static pb_status check_frame(const pb_plan *plan, size_t frame)
 {
-    if (frame >= plan->frames)
+    if (frame >= plan->set.frames)
         return pb_error(plan->ctx, PB_ERR_INVALID_ARGUMENT, "frame %zu does not exist: the plan has %zu (0 to %zu)",
-                        frame, plan->frames, plan->frames - 1);
+                        frame, plan->set.frames, plan->set.frames - 1);
     return PB_OK;
 }
 
 /* One direction of one frame, then the progress report's end. */
 static pb_status finish(pb_context *ctx, pb_status st)
 {
-    if (st == PB_OK && ctx->progress)
-        ctx->progress(1.0, ctx->progress_user);
+    if (st == PB_OK && ctx->dev.progress)
+        ctx->dev.progress(1.0, ctx->dev.progress_user);
     return st;
 }
 
@@ -149,15 +149,15 @@ static pb_status apply_volumes_entered(pb_plan *plan, size_t frame, const pb_vol
     pb_context *ctx = plan->ctx;
     pb_status st = check_frame(plan, frame);
     if (st == PB_OK)
-        st = pb_check_volumes(ctx, &plan->geometry, in, out, adjoint);
+        st = pb_check_volumes(ctx, &plan->set.geometry, in, out, adjoint);
     if (st != PB_OK)
         return st;
     /* The forward's object is made current once and blurred many times: that
      * copy is not the kernel's. The adjoint's gather lays out every tomograph
      * it reads: a fresh input, which counts with the kernel. */
-    st = ctx->ops->frame_apply(ctx, plan, frame, adjoint, in->buffer, (pb_images *)&in->images, out->buffer,
+    st = ctx->dev.ops->frame_apply(&ctx->dev, &plan->set, frame, adjoint, in->mem.buffer, (pb_images *)&in->mem.images, out->mem.buffer,
                                accumulate, adjoint);
-    pb_images_stale(&out->images);
+    pb_images_stale(&out->mem.images);
     return finish(ctx, st);
 }
 
@@ -204,7 +204,7 @@ static pb_status check_device_memory(const pb_plan *plan, int adjoint, const voi
 {
     pb_context *ctx = plan->ctx;
     const char *kind[2] = {adjoint ? "tomograph" : "object", adjoint ? "object" : "tomograph"};
-    const size_t bytes = plan->count * sizeof(float), n = n_in + n_out, count[2] = {n_in, n_out};
+    const size_t bytes = plan->set.count * sizeof(float), n = n_in + n_out, count[2] = {n_in, n_out};
     char a_name[48], b_name[48];
 #define MEMORY(i) ((i) < n_in ? ins[i] : (const void *)outs[(i) - n_in])
 #define NAMED(buf, i) memory_name(buf, sizeof buf, kind[(i) >= n_in], (i) < n_in ? (i) : (i) - n_in, count[(i) >= n_in])
@@ -214,7 +214,7 @@ static pb_status check_device_memory(const pb_plan *plan, int adjoint, const voi
             st = pb_error(ctx, PB_ERR_INVALID_ARGUMENT, "%s memory is NULL; give device memory of the plan's grid",
                           NAMED(a_name, i));
         else
-            st = ctx->ops->buffer_check(ctx, MEMORY(i), bytes, kind[i >= n_in], i >= n_in);
+            st = ctx->dev.ops->buffer_check(&ctx->dev, MEMORY(i), bytes, kind[i >= n_in], i >= n_in);
     }
     for (size_t o = n_in; o < n && st == PB_OK; o++) {
         uintptr_t b = (uintptr_t)MEMORY(o);
@@ -225,7 +225,7 @@ static pb_status check_device_memory(const pb_plan *plan, int adjoint, const voi
             if (a == b)
                 st = pb_error(ctx, PB_ERR_INVALID_ARGUMENT, "%s overlaps %s: they are the same memory; give every "
                               "output memory of its own", NAMED(a_name, o), NAMED(b_name, j));
-            else if (ctx->ops->addresses && gap < bytes)
+            else if (ctx->dev.ops->addresses && gap < bytes)
                 st = pb_error(ctx, PB_ERR_INVALID_ARGUMENT, "%s overlaps %s (%zu bytes apart, each %zu bytes); give "
                               "every output memory of its own", NAMED(a_name, o), NAMED(b_name, j), (size_t)gap,
                               bytes);
@@ -247,8 +247,8 @@ static pb_status apply_device_entered(pb_plan *plan, size_t frame, const void *i
         return st;
     /* The caller's memory may have changed since the last call: its copy
      * into the plan's image (on a device) is made every time, and timed. */
-    pb_images_stale(&plan->input);
-    st = ctx->ops->frame_apply(ctx, plan, frame, adjoint, in, &plan->input, out, accumulate, 1);
+    pb_images_stale(&plan->set.input);
+    st = ctx->dev.ops->frame_apply(&ctx->dev, &plan->set, frame, adjoint, in, &plan->set.input, out, accumulate, 1);
     /* The output may be a volume's own memory. */
     pb_volume_memory_written(ctx, out);
     return finish(ctx, st);
@@ -273,28 +273,28 @@ static pb_status apply_frames_device_entered(pb_plan *plan, size_t first, size_t
 {
     pb_context *ctx = plan->ctx;
     size_t n_in = adjoint ? count : 1, n_out = adjoint ? 1 : count;
-    if (count == 0 || first >= plan->frames || count > plan->frames - first)
+    if (count == 0 || first >= plan->set.frames || count > plan->set.frames - first)
         return pb_error(ctx, PB_ERR_INVALID_ARGUMENT, "frames %zu to %zu: the plan has frames 0 to %zu; give first "
                         "and count within them (count at least 1)", first, first + count - (count > 0),
-                        plan->frames - 1);
+                        plan->set.frames - 1);
     if (!ins || !outs)
         return pb_error(ctx, PB_ERR_INVALID_ARGUMENT, "the %s and %s arrays must not be NULL",
                         adjoint ? "tomograph" : "object", adjoint ? "object" : "tomograph");
     pb_status st = check_device_memory(plan, adjoint, ins, n_in, outs, n_out);
     if (st != PB_OK)
         return st;
-    if (ctx->ops->frames_apply) {
-        st = ctx->ops->frames_apply(ctx, plan, first, count, adjoint, ins, &plan->input, outs, accumulate);
+    if (ctx->dev.ops->frames_apply) {
+        st = ctx->dev.ops->frames_apply(&ctx->dev, &plan->set, first, count, adjoint, ins, &plan->set.input, outs, accumulate);
     } else { /* the host: frame by frame, the times summed */
         double kernel = 0.0, input = 0.0;
         for (size_t i = 0; i < count && st == PB_OK; i++) {
-            st = ctx->ops->frame_apply(ctx, plan, first + i, adjoint, ins[adjoint ? i : 0], &plan->input,
+            st = ctx->dev.ops->frame_apply(&ctx->dev, &plan->set, first + i, adjoint, ins[adjoint ? i : 0], &plan->set.input,
                                        outs[adjoint ? 0 : i], adjoint ? accumulate || i > 0 : 0, 1);
-            kernel += ctx->last_kernel_ms;
-            input += ctx->last_input_ms;
+            kernel += ctx->dev.last_kernel_ms;
+            input += ctx->dev.last_input_ms;
         }
-        ctx->last_kernel_ms = kernel;
-        ctx->last_input_ms = input;
+        ctx->dev.last_kernel_ms = kernel;
+        ctx->dev.last_input_ms = input;
     }
     for (size_t o = 0; o < n_out; o++)
         pb_volume_memory_written(ctx, outs[o]);
@@ -346,7 +346,7 @@ static pb_status one_shot_entered(pb_context *ctx, const pb_volume *in, const pb
     if (st != PB_OK)
         return st;
     /* The volumes first: a mismatch costs no planning. */
-    if ((st = pb_check_volumes(ctx, &plan->geometry, in, out, adjoint)) == PB_OK &&
+    if ((st = pb_check_volumes(ctx, &plan->set.geometry, in, out, adjoint)) == PB_OK &&
         (st = pb_plan_set_frame(plan, 0, motion)) == PB_OK)
         st = adjoint ? pb_plan_adjoint(plan, 0, in, out, 0) : pb_plan_forward(plan, 0, in, out);
     pb_plan_destroy(plan);

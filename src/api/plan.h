@@ -2,7 +2,7 @@
 #ifndef PB_PLAN_H
 #define PB_PLAN_H
 
-#include "backend.h"
+#include "objects.h"
 
 /* An empty plan of `frames` frames for geometry under options (checked, with
  * their defaults filled in); each frame is then added with

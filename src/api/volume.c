@@ -4,7 +4,7 @@
 #include <stdint.h>
 #include <stdlib.h>
 
-#include "backend.h"
+#include "objects.h"
 #include "numbers.h"
 
 pb_status pb_geometry_check(pb_context *ctx, const pb_geometry *g, size_t *count)
@@ -36,7 +36,7 @@ static pb_status volume_create_entered(pb_context *ctx, const pb_geometry *g, pb
     size_t count = 0;
     pb_status st = pb_geometry_check(ctx, g, &count);
     if (st == PB_OK)
-        st = pb_device_check_volume(ctx, &ctx->device, g);
+        st = pb_device_check_volume(&ctx->dev, &ctx->dev.info, g);
     if (st != PB_OK)
         return st;
     pb_volume *vol = calloc(1, sizeof *vol);
@@ -45,12 +45,12 @@ static pb_status volume_create_entered(pb_context *ctx, const pb_geometry *g, pb
     vol->ctx = ctx;
     vol->geometry = *g;
     vol->count = count;
-    st = ctx->ops->buffer_create(ctx, count * sizeof(float), &vol->buffer);
+    st = ctx->dev.ops->buffer_create(&ctx->dev, count * sizeof(float), &vol->mem.buffer);
     if (st != PB_OK) {
         free(vol);
         return st;
     }
-    pb_images_stale(&vol->images);
+    pb_images_stale(&vol->mem.images);
     vol->next = ctx->volumes;
     if (ctx->volumes)
         ctx->volumes->prev = vol;
@@ -83,8 +83,8 @@ void pb_volume_destroy(pb_volume *vol)
         ctx->volumes = vol->next;
     if (vol->next)
         vol->next->prev = vol->prev;
-    pb_images_release(ctx, &vol->images);
-    ctx->ops->buffer_release(ctx, vol->buffer);
+    pb_images_release(&ctx->dev, &vol->mem.images);
+    ctx->dev.ops->buffer_release(&ctx->dev, vol->mem.buffer);
     free(vol);
     pb_context_release_hold(ctx);
 }
@@ -108,8 +108,8 @@ static pb_status volume_upload_entered(pb_volume *vol, const float *host)
                             "activity at voxel (%zu, %zu, %zu) is %g; replace NaN and infinite values (for "
                             "example by 0) before uploading",
                             i % n[0], i / n[0] % n[1], i / (n[0] * n[1]), (double)host[i]);
-    pb_status st = vol->ctx->ops->buffer_write(vol->ctx, vol->buffer, host, vol->count * sizeof(float));
-    pb_images_stale(&vol->images);
+    pb_status st = vol->ctx->dev.ops->buffer_write(&vol->ctx->dev, vol->mem.buffer, host, vol->count * sizeof(float));
+    pb_images_stale(&vol->mem.images);
     return st;
 }
 
@@ -127,7 +127,7 @@ pb_status pb_volume_upload(pb_volume *vol, const float *host)
 
 static pb_status volume_download_entered(const pb_volume *vol, float *host)
 {
-    return vol->ctx->ops->buffer_read(vol->ctx, vol->buffer, host, vol->count * sizeof(float));
+    return vol->ctx->dev.ops->buffer_read(&vol->ctx->dev, vol->mem.buffer, host, vol->count * sizeof(float));
 }
 
 pb_status pb_volume_download(const pb_volume *vol, float *host)
@@ -145,14 +145,14 @@ pb_status pb_volume_download(const pb_volume *vol, float *host)
 void pb_volume_memory_written(pb_context *ctx, const void *memory)
 {
     for (pb_volume *v = ctx->volumes; v; v = v->next)
-        if (v->buffer == memory)
-            pb_images_stale(&v->images);
+        if (v->mem.buffer == memory)
+            pb_images_stale(&v->mem.images);
 }
 
 pb_status pb_volume_memory(const pb_volume *vol, void **memory)
 {
     if (!vol || !memory)
         return pb_error(NULL, PB_ERR_INVALID_ARGUMENT, "volume and memory must not be NULL");
-    *memory = vol->buffer;
+    *memory = vol->mem.buffer;
     return PB_OK;
 }

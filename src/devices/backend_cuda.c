@@ -20,9 +20,9 @@ typedef struct cu_image {
     size_t extent[3];
 } cu_image;
 
-static void cuda_native(const pb_context *ctx, pb_native *out)
+static void cuda_native(const pb_device *dev, pb_native *out)
 {
-    const cu_impl *cu = ctx->impl;
+    const cu_impl *cu = dev->impl;
     out->queue = cu->queue;
     out->device_index = cu->device;
 }
@@ -32,78 +32,78 @@ static void cuda_native(const pb_context *ctx, pb_native *out)
 /* Calls on a caller's stream return unfinished: before memory is freed, the
  * end of the last call's work (stop; at once when it is done, or was never
  * recorded). */
-static void wait_last_call(pb_context *ctx)
+static void wait_last_call(pb_device *dev)
 {
-    cudaEventSynchronize(((cu_impl *)ctx->impl)->stop);
+    cudaEventSynchronize(((cu_impl *)dev->impl)->stop);
 }
 
-static pb_status cuda_buffer_create(pb_context *ctx, size_t bytes, void **buffer)
+static pb_status cuda_buffer_create(pb_device *dev, size_t bytes, void **buffer)
 {
-    pb_status st = pb_cu_use_device(ctx);
+    pb_status st = pb_cu_use_device(dev);
     cudaError_t e = st == PB_OK ? cudaMalloc(buffer, bytes) : cudaSuccess;
     if (e != cudaSuccess)
-        return pb_cu_fail(ctx, PB_ERR_DEVICE, "cudaMalloc", e);
+        return pb_cu_fail(dev, PB_ERR_DEVICE, "cudaMalloc", e);
     return st;
 }
 
-static void cuda_buffer_release(pb_context *ctx, void *buffer)
+static void cuda_buffer_release(pb_device *dev, void *buffer)
 {
-    pb_cu_use_device(ctx);
-    wait_last_call(ctx);
+    pb_cu_use_device(dev);
+    wait_last_call(dev);
     cudaFree(buffer);
     (void)cudaGetLastError();
 }
 
 /* Copies through the stream, then waits: from pageable memory the runtime
  * stages the data anyway. */
-static pb_status copy_sync(pb_context *ctx, void *dst, const void *src, size_t bytes, enum cudaMemcpyKind kind,
+static pb_status copy_sync(pb_device *dev, void *dst, const void *src, size_t bytes, enum cudaMemcpyKind kind,
                            const char *what)
 {
-    cu_impl *cu = ctx->impl;
-    pb_status st = pb_cu_use_device(ctx);
+    cu_impl *cu = dev->impl;
+    pb_status st = pb_cu_use_device(dev);
     if (st != PB_OK)
         return st;
     cudaError_t e = cudaMemcpyAsync(dst, src, bytes, kind, cu->queue);
     if (e == cudaSuccess)
         e = cudaStreamSynchronize(cu->queue);
-    return e == cudaSuccess ? PB_OK : pb_cu_fail(ctx, PB_ERR_DEVICE, what, e);
+    return e == cudaSuccess ? PB_OK : pb_cu_fail(dev, PB_ERR_DEVICE, what, e);
 }
 
-static pb_status cuda_buffer_write(pb_context *ctx, void *buffer, const void *host, size_t bytes)
+static pb_status cuda_buffer_write(pb_device *dev, void *buffer, const void *host, size_t bytes)
 {
-    return copy_sync(ctx, buffer, host, bytes, cudaMemcpyHostToDevice, "cudaMemcpyAsync (upload)");
+    return copy_sync(dev, buffer, host, bytes, cudaMemcpyHostToDevice, "cudaMemcpyAsync (upload)");
 }
 
-static pb_status cuda_buffer_read(pb_context *ctx, const void *buffer, void *host, size_t bytes)
+static pb_status cuda_buffer_read(pb_device *dev, const void *buffer, void *host, size_t bytes)
 {
-    return copy_sync(ctx, host, buffer, bytes, cudaMemcpyDeviceToHost, "cudaMemcpyAsync (download)");
+    return copy_sync(dev, host, buffer, bytes, cudaMemcpyDeviceToHost, "cudaMemcpyAsync (download)");
 }
 
-static pb_status cuda_buffer_zero(pb_context *ctx, void *buffer, size_t bytes)
+static pb_status cuda_buffer_zero(pb_device *dev, void *buffer, size_t bytes)
 {
-    cu_impl *cu = ctx->impl;
-    pb_status st = pb_cu_use_device(ctx);
+    cu_impl *cu = dev->impl;
+    pb_status st = pb_cu_use_device(dev);
     if (st != PB_OK)
         return st;
     cudaError_t e = cudaMemsetAsync(buffer, 0, bytes, cu->queue);
-    return e == cudaSuccess ? PB_OK : pb_cu_fail(ctx, PB_ERR_DEVICE, "cudaMemsetAsync", e);
+    return e == cudaSuccess ? PB_OK : pb_cu_fail(dev, PB_ERR_DEVICE, "cudaMemsetAsync", e);
 }
 
 /* Device (or managed) memory of the context's GPU. The runtime API cannot
  * tell an allocation's size: the caller's binding checks it. */
-static pb_status cuda_buffer_check(pb_context *ctx, const void *buffer, size_t bytes, const char *what, int written)
+static pb_status cuda_buffer_check(pb_device *dev, const void *buffer, size_t bytes, const char *what, int written)
 {
     (void)bytes;
     (void)written;
-    cu_impl *cu = ctx->impl;
+    cu_impl *cu = dev->impl;
     struct cudaPointerAttributes a;
     cudaError_t e = cudaPointerGetAttributes(&a, buffer);
     (void)cudaGetLastError();
     if (e != cudaSuccess || (a.type != cudaMemoryTypeDevice && a.type != cudaMemoryTypeManaged))
-        return pb_error(ctx, PB_ERR_INVALID_ARGUMENT, "the %s is not CUDA device memory; pass a device pointer "
+        return pb_error(pb_owner(dev), PB_ERR_INVALID_ARGUMENT, "the %s is not CUDA device memory; pass a device pointer "
                         "(cudaMalloc, a CuPy or PyTorch CUDA array's data pointer)", what);
     if (a.type == cudaMemoryTypeDevice && a.device != cu->device)
-        return pb_error(ctx, PB_ERR_INVALID_ARGUMENT, "the %s is on CUDA device %d, the context on device %d; "
+        return pb_error(pb_owner(dev), PB_ERR_INVALID_ARGUMENT, "the %s is on CUDA device %d, the context on device %d; "
                         "copy it there or make the context on device %d", what, a.device, cu->device, a.device);
     return PB_OK;
 }
@@ -128,11 +128,11 @@ static cudaError_t make_texture(cudaArray_t array, enum cudaTextureFilterMode fi
     return cudaCreateTextureObject(tex, &res, &td, NULL);
 }
 
-static void cuda_image_release(pb_context *ctx, void *image)
+static void cuda_image_release(pb_device *dev, void *image)
 {
     cu_image *img = image;
-    pb_cu_use_device(ctx);
-    wait_last_call(ctx);
+    pb_cu_use_device(dev);
+    wait_last_call(dev);
     if (img->linear)
         cudaDestroyTextureObject(img->linear);
     if (img->point)
@@ -146,14 +146,14 @@ static void cuda_image_release(pb_context *ctx, void *image)
 }
 
 /* Layers are read only through the linear filter (AB HARDWARE). */
-static pb_status cuda_image_create(pb_context *ctx, int layered, const size_t extent[3], void **image)
+static pb_status cuda_image_create(pb_device *dev, int layered, const size_t extent[3], void **image)
 {
-    pb_status st = pb_cu_use_device(ctx);
+    pb_status st = pb_cu_use_device(dev);
     if (st != PB_OK)
         return st;
     cu_image *img = calloc(1, sizeof *img);
     if (!img)
-        return pb_error(ctx, PB_ERR_OUT_OF_MEMORY, "out of host memory for an image");
+        return pb_error(pb_owner(dev), PB_ERR_OUT_OF_MEMORY, "out of host memory for an image");
     memcpy(img->extent, extent, sizeof img->extent);
     struct cudaChannelFormatDesc fmt = cudaCreateChannelDesc(32, 0, 0, 0, cudaChannelFormatKindFloat);
     struct cudaExtent ext = {extent[0], extent[1], extent[2]}; /* in elements, for arrays */
@@ -161,13 +161,13 @@ static pb_status cuda_image_create(pb_context *ctx, int layered, const size_t ex
     cudaError_t e = cudaMalloc3DArray(&img->array, &fmt, ext, flags);
     if (e != cudaSuccess) {
         img->array = NULL;
-        cuda_image_release(ctx, img);
-        return pb_cu_fail(ctx, PB_ERR_DEVICE, layered ? "cudaMalloc3DArray (layers)" : "cudaMalloc3DArray", e);
+        cuda_image_release(dev, img);
+        return pb_cu_fail(dev, PB_ERR_DEVICE, layered ? "cudaMalloc3DArray (layers)" : "cudaMalloc3DArray", e);
     }
     if ((e = make_texture(img->array, cudaFilterModeLinear, &img->linear)) != cudaSuccess ||
         (!layered && (e = make_texture(img->array, cudaFilterModePoint, &img->point)) != cudaSuccess)) {
-        cuda_image_release(ctx, img);
-        return pb_cu_fail(ctx, PB_ERR_DEVICE, "cudaCreateTextureObject", e);
+        cuda_image_release(dev, img);
+        return pb_cu_fail(dev, PB_ERR_DEVICE, "cudaCreateTextureObject", e);
     }
     if (layered) {
         struct cudaResourceDesc res;
@@ -175,17 +175,17 @@ static pb_status cuda_image_create(pb_context *ctx, int layered, const size_t ex
         res.resType = cudaResourceTypeArray;
         res.res.array.array = img->array;
         if ((e = cudaCreateSurfaceObject(&img->surface, &res)) != cudaSuccess) {
-            cuda_image_release(ctx, img);
-            return pb_cu_fail(ctx, PB_ERR_DEVICE, "cudaCreateSurfaceObject", e);
+            cuda_image_release(dev, img);
+            return pb_cu_fail(dev, PB_ERR_DEVICE, "cudaCreateSurfaceObject", e);
         }
     }
     *image = img;
     return PB_OK;
 }
 
-static pb_status cuda_image_copy(pb_context *ctx, void *image, const void *buffer)
+static pb_status cuda_image_copy(pb_device *dev, void *image, const void *buffer)
 {
-    cu_impl *cu = ctx->impl;
+    cu_impl *cu = dev->impl;
     cu_image *img = image;
     struct cudaMemcpy3DParms cp;
     memset(&cp, 0, sizeof cp);
@@ -196,21 +196,21 @@ static pb_status cuda_image_copy(pb_context *ctx, void *image, const void *buffe
     cp.dstArray = img->array;
     cp.extent = (struct cudaExtent){img->extent[0], img->extent[1], img->extent[2]};
     cp.kind = cudaMemcpyDeviceToDevice;
-    pb_status st = pb_cu_use_device(ctx);
+    pb_status st = pb_cu_use_device(dev);
     if (st != PB_OK)
         return st;
     cudaError_t e = cudaMemcpy3DAsync(&cp, cu->queue);
-    return e == cudaSuccess ? PB_OK : pb_cu_fail(ctx, PB_ERR_DEVICE, "cudaMemcpy3DAsync (buffer to array)", e);
+    return e == cudaSuccess ? PB_OK : pb_cu_fail(dev, PB_ERR_DEVICE, "cudaMemcpy3DAsync (buffer to array)", e);
 }
 
 /* The runtime's copy into a layered array is several times slower than into a
  * 3-D one; a kernel writing through the surface lays a volume out in one pass
  * (cuda/pb_kernels.cu). */
-static pb_status cuda_image_layout(pb_context *ctx, void *image, const void *buffer, const size_t dims[3], int m)
+static pb_status cuda_image_layout(pb_device *dev, void *image, const void *buffer, const size_t dims[3], int m)
 {
-    cu_impl *cu = ctx->impl;
+    cu_impl *cu = dev->impl;
     cu_image *img = image;
-    pb_status st = pb_cu_use_device(ctx);
+    pb_status st = pb_cu_use_device(dev);
     if (st != PB_OK)
         return st;
     int d[3] = {(int)dims[0], (int)dims[1], (int)dims[2]};
@@ -219,16 +219,16 @@ static pb_status cuda_image_layout(pb_context *ctx, void *image, const void *buf
     dim3 block = {32, 4, 2}; /* a warp along x: coalesced reads */
     dim3 grid = {(unsigned)((dims[0] + 31) / 32), (unsigned)((dims[1] + 3) / 4), (unsigned)((dims[2] + 1) / 2)};
     cudaError_t e = cudaLaunchKernel(cu->kernels.layout, grid, block, args, 0, cu->queue);
-    return e == cudaSuccess ? PB_OK : pb_cu_fail(ctx, PB_ERR_LAUNCH, "the layout kernel's launch", e);
+    return e == cudaSuccess ? PB_OK : pb_cu_fail(dev, PB_ERR_LAUNCH, "the layout kernel's launch", e);
 }
 
 /* ---- launches and timing ----------------------------------------------- */
 
-static pb_status cuda_launch(pb_context *ctx, const pb_launch *l)
+static pb_status cuda_launch(pb_device *dev, const pb_launch *l)
 {
-    cu_impl *cu = ctx->impl;
+    cu_impl *cu = dev->impl;
     const pb_kernel_info *info = &pb_kernel_table[l->kernel];
-    pb_status st = pb_cu_use_device(ctx);
+    pb_status st = pb_cu_use_device(dev);
     if (st != PB_OK)
         return st;
     unsigned n[3];
@@ -246,43 +246,43 @@ static pb_status cuda_launch(pb_context *ctx, const pb_launch *l)
     float *out = l->out;
     void *args[] = {info->reads == PB_READS_BUFFER ? (void *)&buffer : (void *)&texture, &plan, &prm, &out};
     cudaError_t e = cudaLaunchKernel(cu->kernels.kernel[l->kernel], grid, block, args, 0, cu->queue);
-    return e == cudaSuccess ? PB_OK : pb_cu_fail(ctx, PB_ERR_LAUNCH, "the kernel launch", e);
+    return e == cudaSuccess ? PB_OK : pb_cu_fail(dev, PB_ERR_LAUNCH, "the kernel launch", e);
 }
 
-static pb_status record(pb_context *ctx, cudaEvent_t ev)
+static pb_status record(pb_device *dev, cudaEvent_t ev)
 {
-    cu_impl *cu = ctx->impl;
+    cu_impl *cu = dev->impl;
     cudaError_t e = cudaEventRecord(ev, cu->queue);
-    return e == cudaSuccess ? PB_OK : pb_cu_fail(ctx, PB_ERR_LAUNCH, "cudaEventRecord", e);
+    return e == cudaSuccess ? PB_OK : pb_cu_fail(dev, PB_ERR_LAUNCH, "cudaEventRecord", e);
 }
 
-static pb_status cuda_timer_begin(pb_context *ctx)
+static pb_status cuda_timer_begin(pb_device *dev)
 {
-    cu_impl *cu = ctx->impl;
+    cu_impl *cu = dev->impl;
     cu->marked = cu->pending = 0;
-    pb_status st = pb_cu_use_device(ctx);
-    return st == PB_OK ? record(ctx, cu->start) : st;
+    pb_status st = pb_cu_use_device(dev);
+    return st == PB_OK ? record(dev, cu->start) : st;
 }
 
-static pb_status cuda_timer_mark(pb_context *ctx)
+static pb_status cuda_timer_mark(pb_device *dev)
 {
-    cu_impl *cu = ctx->impl;
+    cu_impl *cu = dev->impl;
     cu->marked = 1;
-    return record(ctx, cu->mark);
+    return record(dev, cu->mark);
 }
 
 /* Waits for the work timed and gives its times; a kernel that faulted
  * reports here. */
-static pb_status timer_result(pb_context *ctx, double *total_ms, double *before_mark_ms)
+static pb_status timer_result(pb_device *dev, double *total_ms, double *before_mark_ms)
 {
-    cu_impl *cu = ctx->impl;
+    cu_impl *cu = dev->impl;
     cudaError_t e = cudaEventSynchronize(cu->stop);
     if (e != cudaSuccess)
-        return pb_cu_fail(ctx, PB_ERR_LAUNCH, "cudaEventSynchronize (the kernel failed)", e);
+        return pb_cu_fail(dev, PB_ERR_LAUNCH, "cudaEventSynchronize (the kernel failed)", e);
     float ms = 0.0f, before = 0.0f;
     if ((e = cudaEventElapsedTime(&ms, cu->start, cu->stop)) != cudaSuccess ||
         (cu->marked && (e = cudaEventElapsedTime(&before, cu->start, cu->mark)) != cudaSuccess))
-        return pb_cu_fail(ctx, PB_ERR_LAUNCH, "cudaEventElapsedTime", e);
+        return pb_cu_fail(dev, PB_ERR_LAUNCH, "cudaEventElapsedTime", e);
     *total_ms = (double)ms;
     *before_mark_ms = (double)before;
     return PB_OK;
@@ -290,43 +290,43 @@ static pb_status timer_result(pb_context *ctx, double *total_ms, double *before_
 
 /* On a caller's stream the call returns once queued (a progress report still
  * waits for each slab); the times wait for pb_context_last_kernel_ms. */
-static pb_status cuda_timer_end(pb_context *ctx, double *total_ms, double *before_mark_ms)
+static pb_status cuda_timer_end(pb_device *dev, double *total_ms, double *before_mark_ms)
 {
-    cu_impl *cu = ctx->impl;
+    cu_impl *cu = dev->impl;
     *total_ms = *before_mark_ms = 0.0;
-    pb_status st = record(ctx, cu->stop);
+    pb_status st = record(dev, cu->stop);
     if (st != PB_OK)
         return st;
-    if (cu->caller && !ctx->progress) {
+    if (cu->caller && !dev->progress) {
         cu->pending = 1;
         return PB_OK;
     }
-    return timer_result(ctx, total_ms, before_mark_ms);
+    return timer_result(dev, total_ms, before_mark_ms);
 }
 
-static int cuda_timer_wait(const pb_context *ctx, pb_status *status, double *total_ms, double *before_mark_ms)
+static int cuda_timer_wait(const pb_device *dev, pb_status *status, double *total_ms, double *before_mark_ms)
 {
-    const cu_impl *cu = ctx->impl;
+    const cu_impl *cu = dev->impl;
     if (!cu->pending)
         return 0;
     /* The context is the caller's to change (the last error's text). */
-    *status = timer_result((pb_context *)ctx, total_ms, before_mark_ms);
+    *status = timer_result((pb_device *)dev, total_ms, before_mark_ms);
     return 1;
 }
 
 /* The new queue waits for the end of the context's last call (stop), so
  * that calls stay in order; the old queue, which the caller may have
  * destroyed since, is not touched. */
-static pb_status cuda_set_stream(pb_context *ctx, void *stream)
+static pb_status cuda_set_stream(pb_device *dev, void *stream)
 {
-    cu_impl *cu = ctx->impl;
+    cu_impl *cu = dev->impl;
     cudaStream_t next = stream ? (cudaStream_t)stream : cu->stream;
-    pb_status st = pb_cu_use_device(ctx);
+    pb_status st = pb_cu_use_device(dev);
     if (st != PB_OK)
         return st;
     cudaError_t e = next == cu->queue ? cudaSuccess : cudaStreamWaitEvent(next, cu->stop, 0);
     if (e != cudaSuccess)
-        return pb_cu_fail(ctx, PB_ERR_INVALID_ARGUMENT,
+        return pb_cu_fail(dev, PB_ERR_INVALID_ARGUMENT,
                           "pb_context_set_stream (pass a live stream of the context's device)", e);
     cu->queue = next;
     cu->caller = stream != NULL;

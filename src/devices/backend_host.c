@@ -262,61 +262,61 @@ static pb_status host_device_info(int index, pb_device_info *info)
     return PB_OK;
 }
 
-static pb_status host_context_init(pb_context *ctx, int index, const char *build_options)
+static pb_status host_context_init(pb_device *dev, int index, const char *build_options)
 {
     (void)build_options;
     if (index != 0)
-        return pb_error(ctx, PB_ERR_NO_DEVICE, "the host backend has one device, 0; device %d does not exist", index);
-    return host_device_info(0, &ctx->device);
+        return pb_error(pb_owner(dev), PB_ERR_NO_DEVICE, "the host backend has one device, 0; device %d does not exist", index);
+    return host_device_info(0, &dev->info);
 }
 
-static void host_context_release(pb_context *ctx)
+static void host_context_release(pb_device *dev)
 {
-    (void)ctx;
+    (void)dev;
 }
 
 /* Buffers are host memory: the reference reads and writes them directly. */
-static pb_status host_buffer_create(pb_context *ctx, size_t bytes, void **buffer)
+static pb_status host_buffer_create(pb_device *dev, size_t bytes, void **buffer)
 {
     *buffer = malloc(bytes);
     if (!*buffer)
-        return pb_error(ctx, PB_ERR_OUT_OF_MEMORY, "out of host memory for %.1f MiB", bytes / 1048576.0);
+        return pb_error(pb_owner(dev), PB_ERR_OUT_OF_MEMORY, "out of host memory for %.1f MiB", bytes / 1048576.0);
     return PB_OK;
 }
 
-static void host_buffer_release(pb_context *ctx, void *buffer)
+static void host_buffer_release(pb_device *dev, void *buffer)
 {
-    (void)ctx;
+    (void)dev;
     free(buffer);
 }
 
-static pb_status host_buffer_write(pb_context *ctx, void *buffer, const void *host, size_t bytes)
+static pb_status host_buffer_write(pb_device *dev, void *buffer, const void *host, size_t bytes)
 {
-    (void)ctx;
+    (void)dev;
     memmove(buffer, host, bytes); /* host may be the volume's own memory (pb_volume_memory) */
     return PB_OK;
 }
 
-static pb_status host_buffer_read(pb_context *ctx, const void *buffer, void *host, size_t bytes)
+static pb_status host_buffer_read(pb_device *dev, const void *buffer, void *host, size_t bytes)
 {
-    (void)ctx;
+    (void)dev;
     memmove(host, buffer, bytes);
     return PB_OK;
 }
 
-static pb_status host_buffer_zero(pb_context *ctx, void *buffer, size_t bytes)
+static pb_status host_buffer_zero(pb_device *dev, void *buffer, size_t bytes)
 {
-    (void)ctx;
+    (void)dev;
     memset(buffer, 0, bytes);
     return PB_OK;
 }
 
 /* The caller's host memory: its size cannot be known here. */
-static pb_status host_buffer_check(pb_context *ctx, const void *buffer, size_t bytes, const char *what, int written)
+static pb_status host_buffer_check(pb_device *dev, const void *buffer, size_t bytes, const char *what, int written)
 {
     (void)bytes;
     (void)written;
-    return buffer ? PB_OK : pb_error(ctx, PB_ERR_INVALID_ARGUMENT, "the %s memory is NULL", what);
+    return buffer ? PB_OK : pb_error(pb_owner(dev), PB_ERR_INVALID_ARGUMENT, "the %s memory is NULL", what);
 }
 
 static double elapsed_ms(const struct timespec *t0)
@@ -326,7 +326,7 @@ static double elapsed_ms(const struct timespec *t0)
     return (t1.tv_sec - t0->tv_sec) * 1e3 + (t1.tv_nsec - t0->tv_nsec) * 1e-6;
 }
 
-static pb_status host_forward(pb_context *ctx, const float *in, const pb_path *plan, const pb_blur_options *opt,
+static pb_status host_forward(pb_device *dev, const float *in, const pb_path *plan, const pb_blur_options *opt,
                               const size_t *d, float *out)
 {
     struct timespec t0;
@@ -336,16 +336,16 @@ static pb_status host_forward(pb_context *ctx, const float *in, const pb_path *p
         for (long iy = 0; iy < io.n[1]; iy++)
             for (long ix = 0; ix < io.n[0]; ix++)
                 out[ix + io.n[0] * (iy + io.n[1] * iz)] = (float)blur_voxel(&io, plan, opt, ix, iy, iz, 1.0);
-        if (ctx->progress && iz + 1 < io.n[2])
-            ctx->progress((double)(iz + 1) / (double)io.n[2], ctx->progress_user);
+        if (dev->progress && iz + 1 < io.n[2])
+            dev->progress((double)(iz + 1) / (double)io.n[2], dev->progress_user);
     }
-    ctx->last_kernel_ms = elapsed_ms(&t0);
+    dev->last_kernel_ms = elapsed_ms(&t0);
     return PB_OK;
 }
 
 /* The transpose, summed in double and rounded once (onto the object's own
  * values with accumulate). */
-static pb_status host_adjoint(pb_context *ctx, const float *in, const pb_path *plan, const pb_blur_options *opt,
+static pb_status host_adjoint(pb_device *dev, const float *in, const pb_path *plan, const pb_blur_options *opt,
                               const size_t *d, float *out, int accumulate)
 {
     struct timespec t0;
@@ -353,7 +353,7 @@ static pb_status host_adjoint(pb_context *ctx, const float *in, const pb_path *p
     size_t count = d[0] * d[1] * d[2];
     double *acc = calloc(count, sizeof *acc);
     if (!acc)
-        return pb_error(ctx, PB_ERR_OUT_OF_MEMORY, "out of host memory for the adjoint's %.1f MiB sum",
+        return pb_error(pb_owner(dev), PB_ERR_OUT_OF_MEMORY, "out of host memory for the adjoint's %.1f MiB sum",
                         count * 8.0 / 1048576.0);
     host_io io = {NULL, acc, {(long)d[0], (long)d[1], (long)d[2]}};
     for (size_t i = 0; accumulate && i < count; i++)
@@ -365,43 +365,43 @@ static pb_status host_adjoint(pb_context *ctx, const float *in, const pb_path *p
                 if (v != 0.0)
                     blur_voxel(&io, plan, opt, ix, iy, iz, v);
             }
-        if (ctx->progress && iz + 1 < io.n[2])
-            ctx->progress((double)(iz + 1) / (double)io.n[2], ctx->progress_user);
+        if (dev->progress && iz + 1 < io.n[2])
+            dev->progress((double)(iz + 1) / (double)io.n[2], dev->progress_user);
     }
     for (size_t i = 0; i < count; i++)
         out[i] = (float)acc[i];
     free(acc);
-    ctx->last_kernel_ms = elapsed_ms(&t0);
+    dev->last_kernel_ms = elapsed_ms(&t0);
     return PB_OK;
 }
 
 /* The per-frame operation: the path is all a frame needs here. */
-static pb_status host_frame_prepare(pb_context *ctx, const pb_blur_options *opt, pb_plan_frame *frame)
+static pb_status host_frame_prepare(pb_device *dev, const pb_blur_options *opt, pb_plan_frame *frame)
 {
-    (void)ctx, (void)opt, (void)frame;
+    (void)dev, (void)opt, (void)frame;
     return PB_OK;
 }
 
-static pb_status host_frame_apply(pb_context *ctx, const pb_plan *plan, size_t index, int adjoint, const void *in,
+static pb_status host_frame_apply(pb_device *dev, const pb_frame_set *plan, size_t index, int adjoint, const void *in,
                                   pb_images *in_images, void *out, int accumulate, int fresh_input)
 {
     (void)in_images, (void)fresh_input;
     const pb_path *path = &plan->frame[index].path;
-    ctx->last_input_ms = 0.0;
-    return adjoint ? host_adjoint(ctx, in, path, &plan->options, plan->geometry.dims, out, accumulate)
-                   : host_forward(ctx, in, path, &plan->options, plan->geometry.dims, out);
+    dev->last_input_ms = 0.0;
+    return adjoint ? host_adjoint(dev, in, path, &plan->options, plan->geometry.dims, out, accumulate)
+                   : host_forward(dev, in, path, &plan->options, plan->geometry.dims, out);
 }
 
-static pb_status host_frames_forward(pb_context *ctx, const pb_plan *plan, const pb_volume *const *ins,
-                                     pb_volume *const *outs)
+static pb_status host_frames_forward(pb_device *dev, const pb_frame_set *plan, const pb_memory *const *ins,
+                                     pb_memory *const *outs)
 {
     double total = 0.0;
     pb_status st = PB_OK;
     for (size_t i = 0; i < plan->frames && st == PB_OK; i++) {
-        st = host_frame_apply(ctx, plan, i, 0, ins[i]->buffer, NULL, outs[i]->buffer, 0, 0);
-        total += ctx->last_kernel_ms;
+        st = host_frame_apply(dev, plan, i, 0, ins[i]->buffer, NULL, outs[i]->buffer, 0, 0);
+        total += dev->last_kernel_ms;
     }
-    ctx->last_kernel_ms = total;
+    dev->last_kernel_ms = total;
     return st;
 }
 

@@ -6,9 +6,9 @@
 
 #include "opencl_impl.h"
 
-static void ocl_native(const pb_context *ctx, pb_native *out)
+static void ocl_native(const pb_device *dev, pb_native *out)
 {
-    const cl_impl *cl = ctx->impl;
+    const cl_impl *cl = dev->impl;
     out->context = cl->context;
     out->queue = cl->queue;
     out->device = cl->device;
@@ -16,41 +16,41 @@ static void ocl_native(const pb_context *ctx, pb_native *out)
 
 /* ---- buffers ----------------------------------------------------------- */
 
-static pb_status ocl_buffer_create(pb_context *ctx, size_t bytes, void **buffer)
+static pb_status ocl_buffer_create(pb_device *dev, size_t bytes, void **buffer)
 {
-    cl_impl *cl = ctx->impl;
+    cl_impl *cl = dev->impl;
     cl_int e;
     cl_mem mem = pb_cl.clCreateBuffer(cl->context, CL_MEM_READ_WRITE, bytes, NULL, &e);
     if (e != CL_SUCCESS)
-        return pb_cl_fail(ctx, PB_ERR_DEVICE, "clCreateBuffer", e);
+        return pb_cl_fail(dev, PB_ERR_DEVICE, "clCreateBuffer", e);
     *buffer = mem;
     return PB_OK;
 }
 
-static void ocl_buffer_release(pb_context *ctx, void *buffer)
+static void ocl_buffer_release(pb_device *dev, void *buffer)
 {
-    (void)ctx;
+    (void)dev;
     pb_cl.clReleaseMemObject((cl_mem)buffer);
 }
 
-static pb_status ocl_buffer_write(pb_context *ctx, void *buffer, const void *host, size_t bytes)
+static pb_status ocl_buffer_write(pb_device *dev, void *buffer, const void *host, size_t bytes)
 {
-    cl_impl *cl = ctx->impl;
+    cl_impl *cl = dev->impl;
     cl_int e = pb_cl.clEnqueueWriteBuffer(cl->queue, (cl_mem)buffer, CL_TRUE, 0, bytes, host, 0, NULL, NULL);
-    return e == CL_SUCCESS ? PB_OK : pb_cl_fail(ctx, PB_ERR_DEVICE, "clEnqueueWriteBuffer", e);
+    return e == CL_SUCCESS ? PB_OK : pb_cl_fail(dev, PB_ERR_DEVICE, "clEnqueueWriteBuffer", e);
 }
 
-static pb_status ocl_buffer_read(pb_context *ctx, const void *buffer, void *host, size_t bytes)
+static pb_status ocl_buffer_read(pb_device *dev, const void *buffer, void *host, size_t bytes)
 {
-    cl_impl *cl = ctx->impl;
+    cl_impl *cl = dev->impl;
     cl_int e = pb_cl.clEnqueueReadBuffer(cl->queue, (cl_mem)buffer, CL_TRUE, 0, bytes, host, 0, NULL, NULL);
-    return e == CL_SUCCESS ? PB_OK : pb_cl_fail(ctx, PB_ERR_DEVICE, "clEnqueueReadBuffer", e);
+    return e == CL_SUCCESS ? PB_OK : pb_cl_fail(dev, PB_ERR_DEVICE, "clEnqueueReadBuffer", e);
 }
 
 /* The event slot of the next command: one of the timer's, or NULL. */
-static cl_event *timed_slot(pb_context *ctx)
+static cl_event *timed_slot(pb_device *dev)
 {
-    cl_impl *cl = ctx->impl;
+    cl_impl *cl = dev->impl;
     if (!cl->timing)
         return NULL;
     if (cl->timed_count == cl->timed_cap) {
@@ -67,30 +67,30 @@ static cl_event *timed_slot(pb_context *ctx)
 }
 
 /* A command was queued with the slot from timed_slot: keep its event. */
-static void timed_queued(pb_context *ctx, cl_event *slot)
+static void timed_queued(pb_device *dev, cl_event *slot)
 {
-    cl_impl *cl = ctx->impl;
+    cl_impl *cl = dev->impl;
     if (slot && *slot)
         cl->timed_count++;
 }
 
-static pb_status ocl_buffer_zero(pb_context *ctx, void *buffer, size_t bytes)
+static pb_status ocl_buffer_zero(pb_device *dev, void *buffer, size_t bytes)
 {
-    cl_impl *cl = ctx->impl;
+    cl_impl *cl = dev->impl;
     const float zero = 0.0f;
-    cl_event *ev = timed_slot(ctx);
+    cl_event *ev = timed_slot(dev);
     cl_int e = pb_cl.clEnqueueFillBuffer(cl->queue, (cl_mem)buffer, &zero, sizeof zero, 0, bytes, 0, NULL, ev);
     if (e != CL_SUCCESS)
-        return pb_cl_fail(ctx, PB_ERR_DEVICE, "clEnqueueFillBuffer", e);
-    timed_queued(ctx, ev);
+        return pb_cl_fail(dev, PB_ERR_DEVICE, "clEnqueueFillBuffer", e);
+    timed_queued(dev, ev);
     return PB_OK;
 }
 
 /* A valid cl_mem is all it can check: OpenCL has no way to ask whether a
  * pointer is one, and the ICD loader reads through what it is given. */
-static pb_status ocl_buffer_check(pb_context *ctx, const void *buffer, size_t bytes, const char *what, int written)
+static pb_status ocl_buffer_check(pb_device *dev, const void *buffer, size_t bytes, const char *what, int written)
 {
-    cl_impl *cl = ctx->impl;
+    cl_impl *cl = dev->impl;
     cl_mem mem = (cl_mem)buffer;
     cl_mem_object_type type = 0;
     cl_mem_flags flags = 0;
@@ -98,29 +98,29 @@ static pb_status ocl_buffer_check(pb_context *ctx, const void *buffer, size_t by
     size_t size = 0;
     if (pb_cl.clGetMemObjectInfo(mem, CL_MEM_TYPE, sizeof type, &type, NULL) != CL_SUCCESS ||
         type != CL_MEM_OBJECT_BUFFER)
-        return pb_error(ctx, PB_ERR_INVALID_ARGUMENT, "the %s is not an OpenCL buffer; pass a cl_mem made by "
+        return pb_error(pb_owner(dev), PB_ERR_INVALID_ARGUMENT, "the %s is not an OpenCL buffer; pass a cl_mem made by "
                         "clCreateBuffer", what);
     if (pb_cl.clGetMemObjectInfo(mem, CL_MEM_CONTEXT, sizeof owner, &owner, NULL) != CL_SUCCESS || owner != cl->context)
-        return pb_error(ctx, PB_ERR_INVALID_ARGUMENT, "the %s buffer belongs to another OpenCL context; make it in "
+        return pb_error(pb_owner(dev), PB_ERR_INVALID_ARGUMENT, "the %s buffer belongs to another OpenCL context; make it in "
                         "the context's own (pb_context_native)", what);
     if (pb_cl.clGetMemObjectInfo(mem, CL_MEM_SIZE, sizeof size, &size, NULL) != CL_SUCCESS || size < bytes)
-        return pb_error(ctx, PB_ERR_SIZE_MISMATCH, "the %s buffer holds %zu bytes, the plan's volume %zu; pass a "
+        return pb_error(pb_owner(dev), PB_ERR_SIZE_MISMATCH, "the %s buffer holds %zu bytes, the plan's volume %zu; pass a "
                         "buffer of the plan's geometry", what, size, bytes);
     if (pb_cl.clGetMemObjectInfo(mem, CL_MEM_FLAGS, sizeof flags, &flags, NULL) == CL_SUCCESS &&
         (flags & (written ? CL_MEM_READ_ONLY : CL_MEM_WRITE_ONLY)))
-        return pb_error(ctx, PB_ERR_INVALID_ARGUMENT, "the %s buffer is %s; make it CL_MEM_READ_WRITE", what,
+        return pb_error(pb_owner(dev), PB_ERR_INVALID_ARGUMENT, "the %s buffer is %s; make it CL_MEM_READ_WRITE", what,
                         written ? "CL_MEM_READ_ONLY, and petblur writes it" : "CL_MEM_WRITE_ONLY, and petblur reads it");
     return PB_OK;
 }
 
 /* ---- images ------------------------------------------------------------ */
 
-static pb_status ocl_image_create(pb_context *ctx, int layered, const size_t extent[3], void **image)
+static pb_status ocl_image_create(pb_device *dev, int layered, const size_t extent[3], void **image)
 {
-    cl_impl *cl = ctx->impl;
+    cl_impl *cl = dev->impl;
     cl_image *img = calloc(1, sizeof *img);
     if (!img)
-        return pb_error(ctx, PB_ERR_OUT_OF_MEMORY, "out of host memory for an image");
+        return pb_error(pb_owner(dev), PB_ERR_OUT_OF_MEMORY, "out of host memory for an image");
     cl_image_format fmt = {CL_R, CL_FLOAT};
     cl_image_desc desc;
     memset(&desc, 0, sizeof desc);
@@ -135,31 +135,31 @@ static pb_status ocl_image_create(pb_context *ctx, int layered, const size_t ext
     img->mem = pb_cl.clCreateImage(cl->context, CL_MEM_READ_ONLY, &fmt, &desc, NULL, &e);
     if (e != CL_SUCCESS) {
         free(img);
-        return pb_cl_fail(ctx, PB_ERR_DEVICE, layered ? "clCreateImage (layers)" : "clCreateImage", e);
+        return pb_cl_fail(dev, PB_ERR_DEVICE, layered ? "clCreateImage (layers)" : "clCreateImage", e);
     }
     memcpy(img->region, extent, sizeof img->region);
     *image = img;
     return PB_OK;
 }
 
-static void ocl_image_release(pb_context *ctx, void *image)
+static void ocl_image_release(pb_device *dev, void *image)
 {
-    (void)ctx;
+    (void)dev;
     cl_image *img = image;
     pb_cl.clReleaseMemObject(img->mem);
     free(img);
 }
 
-static pb_status ocl_image_copy(pb_context *ctx, void *image, const void *buffer)
+static pb_status ocl_image_copy(pb_device *dev, void *image, const void *buffer)
 {
-    cl_impl *cl = ctx->impl;
+    cl_impl *cl = dev->impl;
     cl_image *img = image;
     size_t origin[3] = {0, 0, 0};
-    cl_event *ev = timed_slot(ctx);
+    cl_event *ev = timed_slot(dev);
     cl_int e = pb_cl.clEnqueueCopyBufferToImage(cl->queue, (cl_mem)buffer, img->mem, 0, origin, img->region, 0, NULL, ev);
     if (e != CL_SUCCESS)
-        return pb_cl_fail(ctx, PB_ERR_DEVICE, "clEnqueueCopyBufferToImage", e);
-    timed_queued(ctx, ev);
+        return pb_cl_fail(dev, PB_ERR_DEVICE, "clEnqueueCopyBufferToImage", e);
+    timed_queued(dev, ev);
     return PB_OK;
 }
 
@@ -167,9 +167,9 @@ static pb_status ocl_image_copy(pb_context *ctx, void *image, const void *buffer
 
 /* GPUs get the table's work groups, as CUDA's blocks; CPUs let the runtime
  * split the exact grid. The kernels check bounds. */
-static pb_status ocl_launch(pb_context *ctx, const pb_launch *l)
+static pb_status ocl_launch(pb_device *dev, const pb_launch *l)
 {
-    cl_impl *cl = ctx->impl;
+    cl_impl *cl = dev->impl;
     const pb_kernel_info *info = &pb_kernel_table[l->kernel];
     cl_kernel k = cl->kernels[l->kernel];
     cl_mem in = info->reads == PB_READS_BUFFER ? (cl_mem)l->input : ((const cl_image *)l->input)->mem;
@@ -179,32 +179,32 @@ static pb_status ocl_launch(pb_context *ctx, const pb_launch *l)
     e |= pb_cl.clSetKernelArg(k, 2, sizeof l->prm, &l->prm);
     e |= pb_cl.clSetKernelArg(k, 3, sizeof(cl_mem), &out);
     if (e != CL_SUCCESS)
-        return pb_cl_fail(ctx, PB_ERR_LAUNCH, "clSetKernelArg", e);
+        return pb_cl_fail(dev, PB_ERR_LAUNCH, "clSetKernelArg", e);
     size_t local[3], global[3];
     for (int d = 0; d < 3; d++) {
         local[d] = info->group[d];
         global[d] = cl->is_gpu ? (l->extent[d] + local[d] - 1) / local[d] * local[d] : l->extent[d];
     }
-    cl_event *ev = timed_slot(ctx);
+    cl_event *ev = timed_slot(dev);
     e = pb_cl.clEnqueueNDRangeKernel(cl->queue, k, 3, NULL, global, cl->is_gpu ? local : NULL, 0, NULL, ev);
     if (e != CL_SUCCESS)
-        return pb_cl_fail(ctx, PB_ERR_LAUNCH, "clEnqueueNDRangeKernel", e);
-    timed_queued(ctx, ev);
+        return pb_cl_fail(dev, PB_ERR_LAUNCH, "clEnqueueNDRangeKernel", e);
+    timed_queued(dev, ev);
     return PB_OK;
 }
 
-static pb_status ocl_timer_begin(pb_context *ctx)
+static pb_status ocl_timer_begin(pb_device *dev)
 {
-    cl_impl *cl = ctx->impl;
+    cl_impl *cl = dev->impl;
     cl->timing = 1;
     cl->timed_count = 0;
     return PB_OK;
 }
 
 /* What was timed so far made the input current. */
-static pb_status ocl_timer_mark(pb_context *ctx)
+static pb_status ocl_timer_mark(pb_device *dev)
 {
-    cl_impl *cl = ctx->impl;
+    cl_impl *cl = dev->impl;
     for (size_t i = 0; i < cl->timed_count; i++)
         cl->timed[i].before_mark = 1;
     return PB_OK;
@@ -212,9 +212,9 @@ static pb_status ocl_timer_mark(pb_context *ctx)
 
 /* Waits for the queue, then sums the timed commands' profiled times: the
  * kernels' own, without the gaps between launches. */
-static pb_status ocl_timer_end(pb_context *ctx, double *total_ms, double *before_mark_ms)
+static pb_status ocl_timer_end(pb_device *dev, double *total_ms, double *before_mark_ms)
 {
-    cl_impl *cl = ctx->impl;
+    cl_impl *cl = dev->impl;
     cl_int e = pb_cl.clFinish(cl->queue);
     if (e == CL_SUCCESS)
         for (size_t i = 0; i < cl->timed_count && e == CL_SUCCESS; i++)
@@ -232,7 +232,7 @@ static pb_status ocl_timer_end(pb_context *ctx, double *total_ms, double *before
     }
     cl->timing = 0;
     cl->timed_count = 0;
-    return e == CL_SUCCESS ? PB_OK : pb_cl_fail(ctx, PB_ERR_LAUNCH, "the kernel (clWaitForEvents)", e);
+    return e == CL_SUCCESS ? PB_OK : pb_cl_fail(dev, PB_ERR_LAUNCH, "the kernel (clWaitForEvents)", e);
 }
 
 const pb_backend_ops pb_backend_opencl_ops = {

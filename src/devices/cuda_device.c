@@ -10,7 +10,7 @@
 
 /* Maps a failed CUDA call to a status; allocation failures are memory errors.
  * Clears the runtime's last error, so that one failure is reported once. */
-pb_status pb_cu_fail(pb_context *ctx, pb_status kind, const char *call, cudaError_t e)
+pb_status pb_cu_fail(pb_device *dev, pb_status kind, const char *call, cudaError_t e)
 {
     (void)cudaGetLastError();
     const char *hint = "";
@@ -24,7 +24,7 @@ pb_status pb_cu_fail(pb_context *ctx, pb_status kind, const char *call, cudaErro
     } else if (e == cudaErrorInsufficientDriver) {
         hint = "; the NVIDIA driver is older than this CUDA toolkit: update the driver or use --device opencl";
     }
-    return pb_error(ctx, kind, "%s() failed: %s (%s, %d)%s", call, cudaGetErrorString(e), cudaGetErrorName(e),
+    return pb_error(pb_owner(dev), kind, "%s() failed: %s (%s, %d)%s", call, cudaGetErrorString(e), cudaGetErrorName(e),
                     (int)e, hint);
 }
 
@@ -46,12 +46,12 @@ pb_status pb_cuda_device_count(int *count)
     return e == cudaSuccess ? PB_OK : pb_cu_fail(NULL, PB_ERR_DEVICE, "cudaGetDeviceCount", e);
 }
 
-static pb_status fill_info(pb_context *ctx, int index, pb_device_info *info)
+static pb_status fill_info(pb_device *dev, int index, pb_device_info *info)
 {
     struct cudaDeviceProp p;
     cudaError_t e = cudaGetDeviceProperties(&p, index);
     if (e != cudaSuccess)
-        return pb_cu_fail(ctx, PB_ERR_DEVICE, "cudaGetDeviceProperties", e);
+        return pb_cu_fail(dev, PB_ERR_DEVICE, "cudaGetDeviceProperties", e);
     int runtime = 0, driver = 0;
     cudaRuntimeGetVersion(&runtime);
     cudaDriverGetVersion(&driver);
@@ -74,11 +74,11 @@ pb_status pb_cuda_device_info(int index, pb_device_info *info)
     return fill_info(NULL, index, info);
 }
 
-pb_status pb_cu_use_device(pb_context *ctx)
+pb_status pb_cu_use_device(pb_device *dev)
 {
-    cu_impl *cu = ctx->impl;
+    cu_impl *cu = dev->impl;
     cudaError_t e = cudaSetDevice(cu->device);
-    return e == cudaSuccess ? PB_OK : pb_cu_fail(ctx, PB_ERR_DEVICE, "cudaSetDevice", e);
+    return e == cudaSuccess ? PB_OK : pb_cu_fail(dev, PB_ERR_DEVICE, "cudaSetDevice", e);
 }
 
 /* cudaSuccess when the device can run every kernel of k; otherwise the error
@@ -96,12 +96,12 @@ static cudaError_t check_kernels(const cu_kernels *k)
 
 /* The context's kernels (cuda_impl.h's cu_kernels says which): checked here,
  * so that a GPU no kernel can serve fails at the context, not at a blur. */
-static pb_status choose_kernels(pb_context *ctx, cu_impl *cu)
+static pb_status choose_kernels(pb_device *dev, cu_impl *cu)
 {
     const char *want = getenv("PETBLUR_CUDA_KERNELS");
     int builtin = !want || !*want || strcmp(want, "builtin") == 0, nvrtc = !want || !*want || !strcmp(want, "nvrtc");
     if (!builtin && !nvrtc)
-        return pb_error(ctx, PB_ERR_INVALID_ARGUMENT,
+        return pb_error(pb_owner(dev), PB_ERR_INVALID_ARGUMENT,
                         "PETBLUR_CUDA_KERNELS is '%s': set 'builtin' (nvcc's, in the library), 'nvrtc' (compiled at "
                         "run time) or leave it unset (nvcc's where they serve this GPU, else NVRTC's)",
                         want);
@@ -112,47 +112,47 @@ static pb_status choose_kernels(pb_context *ctx, cu_impl *cu)
             return PB_OK;
         (void)cudaGetLastError();
         if (!nvrtc)
-            return pb_cu_fail(ctx, PB_ERR_BUILD, "cudaFuncGetAttributes (nvcc's kernels for this GPU)", e);
+            return pb_cu_fail(dev, PB_ERR_BUILD, "cudaFuncGetAttributes (nvcc's kernels for this GPU)", e);
     }
-    pb_status st = pb_cuda_rtc_load(ctx, cu->device, &cu->kernels);
+    pb_status st = pb_cuda_rtc_load(dev, cu->device, &cu->kernels);
     if (st != PB_OK) {
         if (builtin) /* neither serves: say both */
-            pb_error_append(ctx, e == cudaSuccess ? "" : "; nvcc's kernels hold no code for this GPU either");
+            pb_error_append(pb_owner(dev), e == cudaSuccess ? "" : "; nvcc's kernels hold no code for this GPU either");
         return st;
     }
     e = check_kernels(&cu->kernels);
-    return e == cudaSuccess ? PB_OK : pb_cu_fail(ctx, PB_ERR_BUILD, "cudaFuncGetAttributes (NVRTC's kernels)", e);
+    return e == cudaSuccess ? PB_OK : pb_cu_fail(dev, PB_ERR_BUILD, "cudaFuncGetAttributes (NVRTC's kernels)", e);
 }
 
-pb_status pb_cuda_context_init(pb_context *ctx, int index, const char *build_options)
+pb_status pb_cuda_context_init(pb_device *dev, int index, const char *build_options)
 {
     (void)build_options; /* the kernels were compiled with the library */
     int n = 0;
     cudaError_t e = cudaGetDeviceCount(&n);
     if (e != cudaSuccess && !means_no_device(e))
-        return pb_cu_fail(ctx, PB_ERR_DEVICE, "cudaGetDeviceCount", e);
+        return pb_cu_fail(dev, PB_ERR_DEVICE, "cudaGetDeviceCount", e);
     if (e != cudaSuccess || n == 0) {
         (void)cudaGetLastError();
-        return pb_error(ctx, PB_ERR_NO_DEVICE,
+        return pb_error(pb_owner(dev), PB_ERR_NO_DEVICE,
                         "no CUDA device found (%s); check the NVIDIA driver with nvidia-smi, or use --device opencl "
                         "or --device host",
                         e != cudaSuccess ? cudaGetErrorString(e) : "the driver lists none");
     }
     if (index >= n)
-        return pb_error(ctx, PB_ERR_NO_DEVICE, "CUDA device %d does not exist (%d found); pick 0 to %d", index, n,
+        return pb_error(pb_owner(dev), PB_ERR_NO_DEVICE, "CUDA device %d does not exist (%d found); pick 0 to %d", index, n,
                         n - 1);
     cu_impl *cu = calloc(1, sizeof *cu);
     if (!cu)
-        return pb_error(ctx, PB_ERR_OUT_OF_MEMORY, "out of host memory for a CUDA context");
-    ctx->impl = cu;
+        return pb_error(pb_owner(dev), PB_ERR_OUT_OF_MEMORY, "out of host memory for a CUDA context");
+    dev->impl = cu;
     cu->device = index;
-    pb_status st = pb_cu_use_device(ctx);
+    pb_status st = pb_cu_use_device(dev);
     if (st == PB_OK)
-        st = fill_info(ctx, index, &ctx->device);
+        st = fill_info(dev, index, &dev->info);
     if (st != PB_OK)
         return st;
     if ((e = cudaStreamCreateWithFlags(&cu->stream, cudaStreamDefault)) != cudaSuccess)
-        return pb_cu_fail(ctx, PB_ERR_DEVICE, "cudaStreamCreateWithFlags", e);
+        return pb_cu_fail(dev, PB_ERR_DEVICE, "cudaStreamCreateWithFlags", e);
     int lim[3] = {0, 0, 0};
     if (cudaDeviceGetAttribute(&lim[0], cudaDevAttrMaxTexture2DLayeredWidth, index) != cudaSuccess ||
         cudaDeviceGetAttribute(&lim[1], cudaDevAttrMaxTexture2DLayeredHeight, index) != cudaSuccess ||
@@ -160,18 +160,18 @@ pb_status pb_cuda_context_init(pb_context *ctx, int index, const char *build_opt
         lim[0] = lim[1] = lim[2] = 0; /* unknown: no layers */
     (void)cudaGetLastError();
     for (int d = 0; d < 3; d++)
-        ctx->layer_limits[d] = (size_t)lim[d];
-    ctx->texture_weight_steps = PB_NVIDIA_WEIGHT_STEPS;
+        dev->layer_limits[d] = (size_t)lim[d];
+    dev->texture_weight_steps = PB_NVIDIA_WEIGHT_STEPS;
     cu->queue = cu->stream;
     if ((e = cudaEventCreate(&cu->start)) != cudaSuccess || (e = cudaEventCreate(&cu->mark)) != cudaSuccess ||
         (e = cudaEventCreate(&cu->stop)) != cudaSuccess)
-        return pb_cu_fail(ctx, PB_ERR_DEVICE, "cudaEventCreate", e);
-    return choose_kernels(ctx, cu);
+        return pb_cu_fail(dev, PB_ERR_DEVICE, "cudaEventCreate", e);
+    return choose_kernels(dev, cu);
 }
 
-void pb_cuda_context_release(pb_context *ctx)
+void pb_cuda_context_release(pb_device *dev)
 {
-    cu_impl *cu = ctx->impl;
+    cu_impl *cu = dev->impl;
     if (!cu)
         return;
     cudaSetDevice(cu->device);
@@ -189,6 +189,6 @@ void pb_cuda_context_release(pb_context *ctx)
         cudaLibraryUnload(cu->kernels.library);
     (void)cudaGetLastError();
     free(cu);
-    ctx->impl = NULL;
+    dev->impl = NULL;
 }
 

@@ -39,22 +39,22 @@ typedef struct cu_impl {
 /* Maps a failed CUDA call to a status and message (allocation failures are
  * memory errors) and clears the runtime's last error, so that one failure is
  * reported once. */
-pb_status pb_cu_fail(pb_context *ctx, pb_status kind, const char *call, cudaError_t e);
+pb_status pb_cu_fail(pb_device *dev, pb_status kind, const char *call, cudaError_t e);
 /* The runtime's current device is per thread; a context may be used from any
  * thread, so every entry point that allocates or launches selects its device
  * first. */
-pb_status pb_cu_use_device(pb_context *ctx);
+pb_status pb_cu_use_device(pb_device *dev);
 
 /* cuda_rtc.c: 1 where NVRTC can be opened, else 0 and why (a message with the
  * fix). pb_cuda_rtc_load compiles (or reads from the cache) and loads the
  * kernels for device. */
 int pb_cuda_rtc_available(char *why, size_t n);
-pb_status pb_cuda_rtc_load(pb_context *ctx, int device, cu_kernels *k);
+pb_status pb_cuda_rtc_load(pb_device *dev, int device, cu_kernels *k);
 
 /* cuda_device.c: the device ops of pb_backend_cuda_ops. */
 pb_status pb_cuda_device_count(int *count);
 pb_status pb_cuda_device_info(int index, pb_device_info *info);
-pb_status pb_cuda_context_init(pb_context *ctx, int index, const char *build_options);
-void pb_cuda_context_release(pb_context *ctx);
+pb_status pb_cuda_context_init(pb_device *dev, int index, const char *build_options);
+void pb_cuda_context_release(pb_device *dev);
 
 #endif

@@ -95,13 +95,13 @@ int pb_cuda_rtc_available(char *why, size_t n)
 
 /* ---- compiling and loading ----------------------------------------------- */
 
-static pb_status compile(pb_context *ctx, const char *options[], int n_options, int cubin, void **image,
+static pb_status compile(pb_device *dev, const char *options[], int n_options, int cubin, void **image,
                          size_t *size)
 {
     nvrtcProgram prog;
     nvrtcResult r = nv.nvrtcCreateProgram(&prog, pb_cuda_rtc_source, "pb_kernels_rtc.cu", 0, NULL, NULL);
     if (r != NVRTC_SUCCESS)
-        return pb_error(ctx, PB_ERR_BUILD, "nvrtcCreateProgram() failed: %s", nv.nvrtcGetErrorString(r));
+        return pb_error(pb_owner(dev), PB_ERR_BUILD, "nvrtcCreateProgram() failed: %s", nv.nvrtcGetErrorString(r));
     r = nv.nvrtcCompileProgram(prog, n_options, options);
     if (r != NVRTC_SUCCESS) {
         size_t len = 0;
@@ -112,11 +112,11 @@ static pb_status compile(pb_context *ctx, const char *options[], int n_options, 
             nv.nvrtcGetProgramLog(prog, log);
             log[len] = '\0';
         }
-        pb_error(ctx, PB_ERR_BUILD,
+        pb_error(pb_owner(dev), PB_ERR_BUILD,
                  "NVRTC %d.%d could not compile the CUDA kernels for %s (%s): %s; set PETBLUR_NVRTC_LIBRARY to "
                  "another NVRTC or PETBLUR_CUDA_KERNELS=builtin. Log:\n",
-                 nv_major, nv_minor, options[0], ctx->device.name, nv.nvrtcGetErrorString(r));
-        pb_error_append(ctx, log ? log : "(no memory for the log)");
+                 nv_major, nv_minor, options[0], dev->info.name, nv.nvrtcGetErrorString(r));
+        pb_error_append(pb_owner(dev), log ? log : "(no memory for the log)");
         free(log);
         nv.nvrtcDestroyProgram(&prog);
         return PB_ERR_BUILD;
@@ -127,11 +127,11 @@ static pb_status compile(pb_context *ctx, const char *options[], int n_options, 
         r = cubin ? nv.nvrtcGetCUBIN(prog, *image) : nv.nvrtcGetPTX(prog, *image);
     nv.nvrtcDestroyProgram(&prog);
     if (!*image)
-        return pb_error(ctx, PB_ERR_OUT_OF_MEMORY, "out of host memory for the compiled CUDA kernels");
+        return pb_error(pb_owner(dev), PB_ERR_OUT_OF_MEMORY, "out of host memory for the compiled CUDA kernels");
     if (r != NVRTC_SUCCESS) {
         free(*image);
         *image = NULL;
-        return pb_error(ctx, PB_ERR_BUILD, "NVRTC gave no image: %s", nv.nvrtcGetErrorString(r));
+        return pb_error(pb_owner(dev), PB_ERR_BUILD, "NVRTC gave no image: %s", nv.nvrtcGetErrorString(r));
     }
     return PB_OK;
 }
@@ -139,37 +139,37 @@ static pb_status compile(pb_context *ctx, const char *options[], int n_options, 
 /* The target: the device's own architecture where this NVRTC knows it
  * (machine code), else the newest it knows below it (PTX, which the driver
  * compiles for the device). */
-static pb_status target(pb_context *ctx, int device, int *arch, int *cubin)
+static pb_status target(pb_device *dev, int device, int *arch, int *cubin)
 {
     int major = 0, minor = 0;
     if (cudaDeviceGetAttribute(&major, cudaDevAttrComputeCapabilityMajor, device) != cudaSuccess ||
         cudaDeviceGetAttribute(&minor, cudaDevAttrComputeCapabilityMinor, device) != cudaSuccess)
-        return pb_cu_fail(ctx, PB_ERR_DEVICE, "cudaDeviceGetAttribute", cudaGetLastError());
+        return pb_cu_fail(dev, PB_ERR_DEVICE, "cudaDeviceGetAttribute", cudaGetLastError());
     int want = 10 * major + minor, n = 0, best = 0;
     int archs[128];
     if (nv.nvrtcGetNumSupportedArchs(&n) != NVRTC_SUCCESS || n <= 0 || n > 128 ||
         nv.nvrtcGetSupportedArchs(archs) != NVRTC_SUCCESS)
-        return pb_error(ctx, PB_ERR_BUILD, "NVRTC %d.%d does not list its architectures", nv_major, nv_minor);
+        return pb_error(pb_owner(dev), PB_ERR_BUILD, "NVRTC %d.%d does not list its architectures", nv_major, nv_minor);
     for (int i = 0; i < n; i++)
         if (archs[i] <= want && archs[i] > best)
             best = archs[i];
     if (!best)
-        return pb_error(ctx, PB_ERR_BUILD,
+        return pb_error(pb_owner(dev), PB_ERR_BUILD,
                         "NVRTC %d.%d does not compile for compute capability %d.%d (%s), nor for any below it; use "
                         "an older NVRTC (PETBLUR_NVRTC_LIBRARY) or PETBLUR_CUDA_KERNELS=builtin",
-                        nv_major, nv_minor, major, minor, ctx->device.name);
+                        nv_major, nv_minor, major, minor, dev->info.name);
     *arch = best;
     *cubin = best == want;
     return PB_OK;
 }
 
-pb_status pb_cuda_rtc_load(pb_context *ctx, int device, cu_kernels *k)
+pb_status pb_cuda_rtc_load(pb_device *dev, int device, cu_kernels *k)
 {
     char why[768];
     if (!pb_cuda_rtc_available(why, sizeof why))
-        return pb_error(ctx, PB_ERR_BACKEND_UNAVAILABLE, "%s", why);
+        return pb_error(pb_owner(dev), PB_ERR_BACKEND_UNAVAILABLE, "%s", why);
     int arch = 0, cubin = 0;
-    pb_status st = target(ctx, device, &arch, &cubin);
+    pb_status st = target(dev, device, &arch, &cubin);
     if (st != PB_OK)
         return st;
     char opt_arch[40];
@@ -198,7 +198,7 @@ pb_status pb_cuda_rtc_load(pb_context *ctx, int device, cu_kernels *k)
         if (attempt == 0)
             cached = (image = pb_kernel_cache_load(&cache, &size)) != NULL;
         if (!image) {
-            st = compile(ctx, options, 2, cubin, &image, &size);
+            st = compile(dev, options, 2, cubin, &image, &size);
             if (st != PB_OK)
                 return st;
             pb_kernel_cache_store(&cache, image, size);
@@ -210,19 +210,19 @@ pb_status pb_cuda_rtc_load(pb_context *ctx, int device, cu_kernels *k)
         (void)cudaGetLastError();
         k->library = NULL;
         if (!cached)
-            return pb_cu_fail(ctx, PB_ERR_BUILD, "cudaLibraryLoadData (NVRTC's kernels)", e);
+            return pb_cu_fail(dev, PB_ERR_BUILD, "cudaLibraryLoadData (NVRTC's kernels)", e);
     }
     for (int i = 0; i < PB_KERNEL_COUNT; i++) {
         cudaKernel_t h;
         if ((e = cudaLibraryGetKernel(&h, k->library, pb_kernel_table[i].name)) != cudaSuccess)
-            return pb_cu_fail(ctx, PB_ERR_BUILD, pb_kernel_table[i].name, e);
+            return pb_cu_fail(dev, PB_ERR_BUILD, pb_kernel_table[i].name, e);
         k->kernel[i] = (const void *)h;
     }
     cudaKernel_t h;
     if ((e = cudaLibraryGetKernel(&h, k->library, "pb_cuda_layout_kernel")) != cudaSuccess)
-        return pb_cu_fail(ctx, PB_ERR_BUILD, "pb_cuda_layout_kernel", e);
+        return pb_cu_fail(dev, PB_ERR_BUILD, "pb_cuda_layout_kernel", e);
     k->layout = (const void *)h;
     if (cache.note[0])
-        snprintf(ctx->notes, sizeof ctx->notes, "NVRTC: %s", cache.note);
+        snprintf(dev->notes, sizeof dev->notes, "NVRTC: %s", cache.note);
     return PB_OK;
 }

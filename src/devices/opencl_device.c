@@ -39,11 +39,11 @@ static const char *cl_error_name(cl_int e)
 }
 
 /* Maps a failed OpenCL call to a status; allocation failures are memory errors. */
-pb_status pb_cl_fail(pb_context *ctx, pb_status kind, const char *call, cl_int e)
+pb_status pb_cl_fail(pb_device *dev, pb_status kind, const char *call, cl_int e)
 {
     if (e == CL_MEM_OBJECT_ALLOCATION_FAILURE || e == CL_OUT_OF_HOST_MEMORY || e == CL_OUT_OF_RESOURCES)
         kind = PB_ERR_OUT_OF_MEMORY;
-    return pb_error(ctx, kind, "%s() failed: %s (%d)%s", call, cl_error_name(e), (int)e,
+    return pb_error(pb_owner(dev), kind, "%s() failed: %s (%d)%s", call, cl_error_name(e), (int)e,
                     kind == PB_ERR_OUT_OF_MEMORY ? "; free device memory or use a smaller volume" : "");
 }
 
@@ -141,13 +141,13 @@ static int has_float_r_images(cl_context context)
     return 0;
 }
 
-static pb_status build_program(pb_context *ctx, cl_impl *cl, const char *extra, int nvidia)
+static pb_status build_program(pb_device *dev, cl_impl *cl, const char *extra, int nvidia)
 {
     cl_int e;
     const char *src = pb_kernel_source;
     cl->program = pb_cl.clCreateProgramWithSource(cl->context, 1, &src, NULL, &e);
     if (e != CL_SUCCESS)
-        return pb_cl_fail(ctx, PB_ERR_BUILD, "clCreateProgramWithSource", e);
+        return pb_cl_fail(dev, PB_ERR_BUILD, "clCreateProgramWithSource", e);
     /* NVIDIA's compiler takes inline PTX, which gives the adjoint a native
      * float atomic add (cl/pb_shim.h). */
     const char *vendor = nvidia ? "-DPB_OPENCL_NVIDIA " : "";
@@ -163,73 +163,73 @@ static pb_status build_program(pb_context *ctx, cl_impl *cl, const char *extra, 
             pb_cl.clGetProgramBuildInfo(cl->program, cl->device, CL_PROGRAM_BUILD_LOG, len, log, NULL);
             log[len] = '\0';
         }
-        pb_error(ctx, PB_ERR_BUILD,
+        pb_error(pb_owner(dev), PB_ERR_BUILD,
                  "clBuildProgram() failed: %s (%d) with options \"%s\" on '%s'; check the build options or the "
                  "device's OpenCL compiler. Build log:\n",
-                 cl_error_name(e), (int)e, options, ctx->device.name);
-        pb_error_append(ctx, log ? log : "(no memory for the log)");
+                 cl_error_name(e), (int)e, options, dev->info.name);
+        pb_error_append(pb_owner(dev), log ? log : "(no memory for the log)");
         free(log);
         return PB_ERR_BUILD;
     }
     for (int k = 0; k < PB_KERNEL_COUNT; k++) {
         cl->kernels[k] = pb_cl.clCreateKernel(cl->program, pb_kernel_table[k].name, &e);
         if (e != CL_SUCCESS)
-            return pb_cl_fail(ctx, PB_ERR_BUILD, "clCreateKernel", e);
+            return pb_cl_fail(dev, PB_ERR_BUILD, "clCreateKernel", e);
     }
     return PB_OK;
 }
 
-pb_status pb_ocl_context_init(pb_context *ctx, int index, const char *build_options)
+pb_status pb_ocl_context_init(pb_device *dev, int index, const char *build_options)
 {
     cl_device_id devs[1024];
     cl_platform_id plats[1024];
     cl_uint n = 0;
-    pb_status st = pb_cl_load(ctx);
+    pb_status st = pb_cl_load(dev);
     if (st != PB_OK)
         return st;
     st = list_devices(devs, plats, 1024, &n);
     if (st != PB_OK)
-        return pb_error(ctx, st, "%s", pb_last_error(NULL));
+        return pb_error(pb_owner(dev), st, "%s", pb_last_error(NULL));
     if (n == 0)
-        return pb_error(ctx, PB_ERR_NO_DEVICE,
+        return pb_error(pb_owner(dev), PB_ERR_NO_DEVICE,
                         "no OpenCL device found; install an OpenCL driver (on Debian: apt-get install "
                         "pocl-opencl-icd ocl-icd-libopencl1) or check OCL_ICD_VENDORS");
     if ((cl_uint)index >= n)
-        return pb_error(ctx, PB_ERR_NO_DEVICE, "OpenCL device %d does not exist (%u found); pick 0 to %u", index, n,
+        return pb_error(pb_owner(dev), PB_ERR_NO_DEVICE, "OpenCL device %d does not exist (%u found); pick 0 to %u", index, n,
                         n - 1);
     cl_impl *cl = calloc(1, sizeof *cl);
     if (!cl)
-        return pb_error(ctx, PB_ERR_OUT_OF_MEMORY, "out of host memory for an OpenCL context");
-    ctx->impl = cl;
+        return pb_error(pb_owner(dev), PB_ERR_OUT_OF_MEMORY, "out of host memory for an OpenCL context");
+    dev->impl = cl;
     cl->device = devs[index];
-    fill_info(cl->device, plats[index], &ctx->device);
-    cl->is_gpu = ctx->device.is_gpu;
-    int nvidia = strstr(ctx->device.platform, "NVIDIA") != NULL;
+    fill_info(cl->device, plats[index], &dev->info);
+    cl->is_gpu = dev->info.is_gpu;
+    int nvidia = strstr(dev->info.platform, "NVIDIA") != NULL;
     /* NVIDIA's texture unit rounds filter weights (cl/pb_adjoint.cl); PoCL's are float. */
-    ctx->texture_weight_steps = nvidia ? PB_NVIDIA_WEIGHT_STEPS : 0.0f;
-    if (pb_cl.clGetDeviceInfo(cl->device, CL_DEVICE_IMAGE2D_MAX_WIDTH, sizeof(size_t), &ctx->layer_limits[0], NULL) ||
-        pb_cl.clGetDeviceInfo(cl->device, CL_DEVICE_IMAGE2D_MAX_HEIGHT, sizeof(size_t), &ctx->layer_limits[1], NULL) ||
-        pb_cl.clGetDeviceInfo(cl->device, CL_DEVICE_IMAGE_MAX_ARRAY_SIZE, sizeof(size_t), &ctx->layer_limits[2], NULL))
-        memset(ctx->layer_limits, 0, sizeof ctx->layer_limits); /* unknown: no layers */
+    dev->texture_weight_steps = nvidia ? PB_NVIDIA_WEIGHT_STEPS : 0.0f;
+    if (pb_cl.clGetDeviceInfo(cl->device, CL_DEVICE_IMAGE2D_MAX_WIDTH, sizeof(size_t), &dev->layer_limits[0], NULL) ||
+        pb_cl.clGetDeviceInfo(cl->device, CL_DEVICE_IMAGE2D_MAX_HEIGHT, sizeof(size_t), &dev->layer_limits[1], NULL) ||
+        pb_cl.clGetDeviceInfo(cl->device, CL_DEVICE_IMAGE_MAX_ARRAY_SIZE, sizeof(size_t), &dev->layer_limits[2], NULL))
+        memset(dev->layer_limits, 0, sizeof dev->layer_limits); /* unknown: no layers */
 
     cl_int e;
     cl_context_properties props[] = {CL_CONTEXT_PLATFORM, (cl_context_properties)plats[index], 0};
     cl->context = pb_cl.clCreateContext(props, 1, &cl->device, NULL, NULL, &e);
     if (e != CL_SUCCESS)
-        return pb_cl_fail(ctx, PB_ERR_DEVICE, "clCreateContext", e);
-    if (ctx->device.image_support && !has_float_r_images(cl->context))
-        ctx->device.image_support = 0;
-    if (!ctx->device.image_support)
-        return pb_device_check_volume(ctx, &ctx->device, &(pb_geometry){{1, 1, 1}, {1, 1, 1}});
+        return pb_cl_fail(dev, PB_ERR_DEVICE, "clCreateContext", e);
+    if (dev->info.image_support && !has_float_r_images(cl->context))
+        dev->info.image_support = 0;
+    if (!dev->info.image_support)
+        return pb_device_check_volume(dev, &dev->info, &(pb_geometry){{1, 1, 1}, {1, 1, 1}});
     cl->queue = pb_cl.clCreateCommandQueue(cl->context, cl->device, CL_QUEUE_PROFILING_ENABLE, &e);
     if (e != CL_SUCCESS)
-        return pb_cl_fail(ctx, PB_ERR_DEVICE, "clCreateCommandQueue", e);
-    return build_program(ctx, cl, build_options, nvidia);
+        return pb_cl_fail(dev, PB_ERR_DEVICE, "clCreateCommandQueue", e);
+    return build_program(dev, cl, build_options, nvidia);
 }
 
-void pb_ocl_context_release(pb_context *ctx)
+void pb_ocl_context_release(pb_device *dev)
 {
-    cl_impl *cl = ctx->impl;
+    cl_impl *cl = dev->impl;
     if (!cl)
         return;
     for (int k = 0; k < PB_KERNEL_COUNT; k++)
@@ -243,6 +243,6 @@ void pb_ocl_context_release(pb_context *ctx)
     if (cl->context)
         pb_cl.clReleaseContext(cl->context);
     free(cl);
-    ctx->impl = NULL;
+    dev->impl = NULL;
 }
 

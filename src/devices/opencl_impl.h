@@ -30,8 +30,8 @@ extern pb_cl_api pb_cl;
 
 /* Opens the ICD loader once per process (PETBLUR_OPENCL_LIBRARY, else
  * libOpenCL.so.1); every later call gives the first call's answer. On failure
- * the error (set on ctx) says what is missing and how to install it. */
-pb_status pb_cl_load(pb_context *ctx);
+ * the error (set on dev) says what is missing and how to install it. */
+pb_status pb_cl_load(pb_device *dev);
 
 /* A timed command's event, and whether it was queued before timer_mark. */
 typedef struct cl_timed {
@@ -60,12 +60,12 @@ typedef struct cl_image {
 
 /* Maps a failed OpenCL call to a status and message; allocation failures are
  * memory errors. */
-pb_status pb_cl_fail(pb_context *ctx, pb_status kind, const char *call, cl_int e);
+pb_status pb_cl_fail(pb_device *dev, pb_status kind, const char *call, cl_int e);
 
 /* opencl_device.c: the device ops of pb_backend_opencl_ops. */
 pb_status pb_ocl_device_count(int *count);
 pb_status pb_ocl_device_info(int index, pb_device_info *info);
-pb_status pb_ocl_context_init(pb_context *ctx, int index, const char *build_options);
-void pb_ocl_context_release(pb_context *ctx);
+pb_status pb_ocl_context_init(pb_device *dev, int index, const char *build_options);
+void pb_ocl_context_release(pb_device *dev);
 
 #endif

@@ -57,10 +57,10 @@ static void load(void)
     /* Kept open for the process's life: contexts and their drivers live in it. */
 }
 
-pb_status pb_cl_load(pb_context *ctx)
+pb_status pb_cl_load(pb_device *dev)
 {
     pthread_once(&once, load);
     if (load_status != PB_OK)
-        return pb_error(ctx, load_status, "%s", load_error);
+        return pb_error(pb_owner(dev), load_status, "%s", load_error);
     return PB_OK;
 }

@@ -61,31 +61,31 @@ static int offset_box(const pb_path *path, long *lo, long *hi)
 /* The frame's kernel for a fresh input (the one the walk would run on the
  * caller's memory: the 3-D image, or layers along y or z), over a grid of n,
  * on a unit impulse at voxel `at`, read back into *response (malloc'd). */
-static pb_status impulse_response(pb_context *ctx, const pb_plan_frame *f, const size_t *n, const size_t *at,
+static pb_status impulse_response(pb_device *dev, const pb_plan_frame *f, const size_t *n, const size_t *at,
                                   float **response)
 {
-    const pb_backend_ops *ops = ctx->ops;
+    const pb_backend_ops *ops = dev->ops;
     size_t count = n[0] * n[1] * n[2], bytes = count * sizeof(float);
     float *host = calloc(count, sizeof *host);
     void *in = NULL, *out = NULL;
     if (!host)
-        return pb_error(ctx, PB_ERR_OUT_OF_MEMORY, "out of host memory for a translation's taps");
+        return pb_error(pb_owner(dev), PB_ERR_OUT_OF_MEMORY, "out of host memory for a translation's taps");
     host[at[0] + n[0] * (at[1] + n[1] * at[2])] = 1.0f;
     pb_kparams prm = f->forward_prm;
     for (int d = 0; d < 3; d++)
         prm.dims[d] = (int)n[d];
     prm.mirror = prm.accumulate = prm.z0 = 0;
-    pb_status st = ops->buffer_create(ctx, bytes, &in);
+    pb_status st = ops->buffer_create(dev, bytes, &in);
     if (st == PB_OK)
-        st = ops->buffer_create(ctx, bytes, &out);
+        st = ops->buffer_create(dev, bytes, &out);
     if (st == PB_OK)
-        st = ops->buffer_write(ctx, in, host, bytes);
+        st = ops->buffer_write(dev, in, host, bytes);
     if (st == PB_OK)
-        st = pb_launch_read(ctx, f->forward_fresh, &prm, in, n, f->poses, out, host);
+        st = pb_launch_read(dev, f->forward_fresh, &prm, in, n, f->poses, out, host);
     if (out)
-        ops->buffer_release(ctx, out);
+        ops->buffer_release(dev, out);
     if (in)
-        ops->buffer_release(ctx, in);
+        ops->buffer_release(dev, in);
     if (st != PB_OK) {
         free(host);
         return st;
@@ -94,7 +94,7 @@ static pb_status impulse_response(pb_context *ctx, const pb_plan_frame *f, const
     return PB_OK;
 }
 
-pb_status pb_shift_taps_prepare(pb_context *ctx, const pb_blur_options *opt, pb_plan_frame *f)
+pb_status pb_shift_taps_prepare(pb_device *dev, const pb_blur_options *opt, pb_plan_frame *f)
 {
     long limit = taps_limit(), lo[3], hi[3];
     if (limit == 0 || !pb_path_shift_invariant(&f->path, opt) || !offset_box(&f->path, lo, hi))
@@ -107,7 +107,7 @@ pb_status pb_shift_taps_prepare(pb_context *ctx, const pb_blur_options *opt, pb_
         at[r] = (size_t)hi[r];
     }
     float *response = NULL;
-    pb_status st = impulse_response(ctx, f, n, at, &response);
+    pb_status st = impulse_response(dev, f, n, at, &response);
     if (st != PB_OK)
         return st;
     size_t count = n[0] * n[1] * n[2], k = 0;
@@ -121,7 +121,7 @@ pb_status pb_shift_taps_prepare(pb_context *ctx, const pb_blur_options *opt, pb_
     pb_ktap *taps = calloc(k ? k : 1, sizeof *taps);
     if (!taps) {
         free(response);
-        return pb_error(ctx, PB_ERR_OUT_OF_MEMORY, "out of host memory for a translation's taps");
+        return pb_error(pb_owner(dev), PB_ERR_OUT_OF_MEMORY, "out of host memory for a translation's taps");
     }
     k = 0;
     int reach[3] = {0, 0, 0};
@@ -149,16 +149,16 @@ pb_status pb_shift_taps_prepare(pb_context *ctx, const pb_blur_options *opt, pb_
     free(response);
     void *buffer = NULL;
     size_t bytes = (k ? k : 1) * sizeof *taps;
-    st = ctx->ops->buffer_create(ctx, bytes, &buffer);
+    st = dev->ops->buffer_create(dev, bytes, &buffer);
     if (st == PB_OK)
-        st = ctx->ops->buffer_write(ctx, buffer, taps, bytes);
+        st = dev->ops->buffer_write(dev, buffer, taps, bytes);
     free(taps);
     if (st != PB_OK) {
         if (buffer)
-            ctx->ops->buffer_release(ctx, buffer);
+            dev->ops->buffer_release(dev, buffer);
         return st;
     }
-    ctx->ops->buffer_release(ctx, f->poses);
+    dev->ops->buffer_release(dev, f->poses);
     f->poses = buffer;
     f->forward = f->forward_fresh = f->adjoint = PB_KERNEL_SHIFT_TAPS;
     f->forward_prm.taps = f->adjoint_prm.taps = (int)k;

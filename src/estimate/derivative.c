@@ -4,7 +4,7 @@
  * derivative is B of d(x o G)/dxi, an image in object space. */
 #include <stdlib.h>
 
-#include "backend.h"
+#include "objects.h"
 #include "error.h"
 #include "estimate.h"
 

@@ -23,7 +23,7 @@
 #include <string.h>
 #include <time.h>
 
-#include "backend.h"
+#include "objects.h"
 #include "error.h"
 #include "estimate.h"
 #include "numbers.h"
@@ -737,9 +737,9 @@ pb_status pb_motion_estimate(pb_context *ctx, const pb_geometry *geometry, const
         e.levels++;
     }
     /* the progress report hears this call's progress, not each blur's */
-    e.progress = ctx->progress;
-    e.progress_user = ctx->progress_user;
-    ctx->progress = NULL;
+    e.progress = ctx->dev.progress;
+    e.progress_user = ctx->dev.progress_user;
+    ctx->dev.progress = NULL;
     e.total = 5.0 * (double)count;
 
     g = *geometry;
@@ -774,8 +774,8 @@ pb_status pb_motion_estimate(pb_context *ctx, const pb_geometry *geometry, const
     free(e.owned);
     free(e.flat);
     free(e.tmp);
-    ctx->progress = e.progress;
-    ctx->progress_user = e.progress_user;
+    ctx->dev.progress = e.progress;
+    ctx->dev.progress_user = e.progress_user;
     if (st == PB_OK && e.progress)
         e.progress(1.0, e.progress_user);
     if (st == PB_ERR_OUT_OF_MEMORY)
