@@ -1,7 +1,7 @@
-#: tests [--cli T,..] [MEMCHECK.. [-- RACECHECK..]]  build; host, cuda, opencl (NVIDIA) suites; tests/test_T.py; compute-sanitizer on tests named
+#: tests [--cli T,..] [MEMCHECK.. [-- RACECHECK..]]  build; host, cuda, opencl (NVIDIA) suites; tests/test_<T>.py; compute-sanitizer on tests named
 # build-gpu (CUDA and OpenCL); the host, cuda and opencl suites, OpenCL on
-# NVIDIA's driver. With --cli, the command line's tests named (test_T.py of
-# tests/) with CUDA as the auto device, under the machine's python3: meson's
+# NVIDIA's driver. With --cli, the command line's tests named (tests/test_<T>.py
+# for each T) with CUDA as the auto device, under the machine's python3: meson's
 # cli suite names /usr/bin/python3, which there lacks numpy; nibabel comes
 # from .whl/. Tests named after the options run under compute-sanitizer:
 # memcheck (with leaks) on those before "--", racecheck on those after, e.g.
