@@ -12,7 +12,7 @@ cp "$loader" .device/lib/libOpenCL.so.1
 
 # The program's libraries (nifti_clib, libpng, zlib) and the library's
 # (jansson): headers, shared objects and pkg-config files, whose prefix is
-# rewritten by gpu.sh on arrival.
+# rewritten by bench/gpu/lib.sh on arrival.
 mkdir -p .device/include/nifti .device/lib/pkgconfig
 cp /usr/include/nifti/*.h .device/include/nifti/
 cp /usr/include/png.h /usr/include/pngconf.h /usr/include/pnglibconf.h /usr/include/zlib.h /usr/include/zconf.h \

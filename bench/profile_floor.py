@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""One call of a memory_floor.py case, for Nsight Compute (bench/gpu-profile.sh):
+"""One call of a memory_floor.py case, for Nsight Compute (bench/gpu.sh profile):
 the kernels a case launches, with nothing else on the GPU. Issue 33 asks what
 bounds the cases that stand furthest from their floor; ncu's counters of
 these kernels say it.

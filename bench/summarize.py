@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
-"""Markdown tables from the CSVs bench/gpu.sh writes: kernel time per method and
-scenario for each backend, the NVIDIA OpenCL / CUDA ratio, and the issue's
-targets. Usage: summarize.py OUT_DIR"""
+"""Markdown tables from the CSVs bench/gpu.sh kernels writes: kernel time per
+method and scenario for each backend, the NVIDIA OpenCL / CUDA ratio, and the
+issue's targets. Usage: summarize.py OUT_DIR"""
 import csv
 import os
 import sys

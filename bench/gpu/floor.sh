@@ -1,26 +1,35 @@
-#!/usr/bin/env bash
-# On the GPU machine: the walk's per-voxel set-up cut (issue 33, item 2), before
-# and after in one run. OLD is an older source tree (`git archive OLD | tar -x -C
-# .base`, carried along).
-#   PB_COMMIT=... PB_OLD=... bash bench/gpu-setup.sh bench .base [.variant ...]
-#       the package of each tree (old, any variants, this one: new) beside the machine's torch and
-#       CuPy; bench/memory_floor.py by each in turn, twice; Nsight Compute's counters of the new
-#       kernels on bench/profile_floor.py's cases. $OUT: bench.tar.gz (machine.txt,
-#       floor-old-1.md, floor-new-1.md, ..., counters.txt, pytest-gpu.txt: python/tests/test_gpu.py on the new)
-#   PB_COMMIT=... bash bench/gpu-setup.sh tests
-#       build-gpu (CUDA and NVIDIA's OpenCL); the host, cuda and opencl suites; memcheck on
-#       test_adjoint, test_plan and test_frames, racecheck on test_adjoint. $OUT: machine.txt,
-#       tests.txt, sanitize.log
-# (carry .device .whl, and .base for bench).
-set -uo pipefail
-cd "$(dirname "$0")/.."
-. bench/device-env.sh
-echo "old: ${PB_OLD:-unknown}" | write_machine "$OUT/machine.txt"
-status=0
-case "${1:-}" in
-bench)
+#: floor [compare OLD [VARIANT..] | memory_floor.py options]  issue 33's memory floor table; with compare, old trees against this one
+# Through the package installed beside the machine's torch and CuPy:
+#  - no word: bench/memory_floor.py (each common case beside its memory floor
+#    measured in the same process, and CuPy's affine_transform loop), options
+#    going to it. Back through $OUT: machine.txt, floor.md, floor.csv.
+#  - compare OLD [VARIANT...]: before and after (issue 33's per-voxel set-up
+#    cut). OLD is an older source tree (`git archive OLD | tar -x -C .base`,
+#    carried along), VARIANTs other trees; the package of each tree (old, any
+#    variants by folder name, this one: new); bench/memory_floor.py by each in
+#    turn, twice; Nsight Compute's counters of the new kernels on
+#    bench/profile_floor.py's cases; python/tests/test_gpu.py on the new. Back
+#    through $OUT: bench.tar.gz (machine.txt, floor-old-1.md, floor-new-1.md,
+#    ..., counters.txt, pytest-gpu.txt).
+#   PB_COMMIT=... PB_OLD=... bash bench/gpu.sh floor compare .base [.variant ...]
+# (carry .device .whl, and the trees for compare)
+# shellcheck shell=bash
+mode_floor() (
+    if [ "${1:-}" = compare ]; then
+        shift
+        floor_compare "$@"
+        exit
+    fi
+    write_machine "$OUT/machine.txt" </dev/null
+    install_package -Dopencl=disabled || exit 1
+    (cd /tmp && python3 "$OLDPWD/bench/memory_floor.py" --out "$OUT/floor.csv" "$@") 2>&1 | tee "$OUT/floor.md"
+    exit "${PIPESTATUS[0]}"
+)
+
+floor_compare() (
+    echo "old: ${PB_OLD:-unknown}" | write_machine "$OUT/machine.txt"
+    status=0
     # The trees by name: the first "old", this one "new", any other by its folder's name.
-    shift
     trees=("$(realpath "${1:?the old source tree}")")
     names=(old)
     shift
@@ -54,15 +63,5 @@ bench)
     tail -3 "$OUT/pytest-gpu.txt"
     (cd "$OUT" && tar -czf bench.tar.gz machine.txt floor-*.md floor-*.csv counters.txt pytest-gpu.txt &&
         rm -f floor-* counters.txt pytest-gpu.txt)
-    ;;
-tests)
-    build_gpu
-    run_suites || status=1
-    sanitize_tests test_adjoint test_plan test_frames -- test_adjoint || status=1
-    ;;
-*)
-    echo "gpu-setup.sh bench OLD | tests" >&2
-    exit 2
-    ;;
-esac
-exit $status
+    exit $status
+)

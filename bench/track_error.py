@@ -1,9 +1,11 @@
 """A track's error against the simulated truth, as bench/estimate_validation.py states it.
 
-    python3 err.py DIR TRACK.csv            mean and worst over frames, then each frame (mm)
-    python3 err.py DIR TRACK.csv ANCHOR     each frame with track and truth both re-anchored on frame ANCHOR, and
-                                            the mean displacement vector of a few frames (mm, world axes)
-DIR holds gen.py's meta.json and points.npy."""
+    python3 bench/track_error.py DIR TRACK.csv
+        mean and worst over frames, then each frame (mm)
+    python3 bench/track_error.py DIR TRACK.csv ANCHOR
+        each frame with track and truth both re-anchored on frame ANCHOR, and the mean displacement vector of a
+        few frames (mm, world axes)
+DIR holds bench/head_series.py's meta.json and points.npy."""
 import dataclasses
 import json
 import os
@@ -11,7 +13,7 @@ import sys
 
 import numpy as np
 
-sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", ".."))
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import estimate_validation as ev  # noqa: E402
 import head_frames as hf  # noqa: E402
 

@@ -1,19 +1,34 @@
-# Sourced by the bench/gpu-*.sh scripts from the repository root on the GPU
-# machine: the build environment that .device/ (bench/gpu-prepare.sh)
-# brings, and meson (or its module where no meson command is installed).
-# Where a script's results go: the run tool's $OUT, or gpu-out here.
+# shellcheck shell=bash
+# Sourced by bench/gpu.sh from the repository root on the GPU machine, before
+# a mode: the build environment that .device/ (bench/gpu-prepare.sh) brings,
+# meson (or its module where no meson command is installed), and the steps
+# the modes share.
+# Where a mode's results go: the run tool's $OUT, or gpu-out here.
 OUT=${OUT:-$PWD/gpu-out}
 mkdir -p "$OUT"
 dev=$PWD/.device
 export CFLAGS="-I$dev/include -I$dev/include/nifti" LDFLAGS="-L$dev/lib" LIBRARY_PATH="$dev/lib"
 # The program's libraries travel in .device too, with pkg-config files that
-# point there.
-sed -i "s|@DEVICE@|$dev|" "$dev"/lib/pkgconfig/*.pc
+# point there (the wheel mode carries no .device).
+[ -d "$dev/lib/pkgconfig" ] && sed -i "s|@DEVICE@|$dev|" "$dev"/lib/pkgconfig/*.pc
 export PKG_CONFIG_PATH="$dev/lib/pkgconfig"
 export LD_LIBRARY_PATH="$dev/lib${LD_LIBRARY_PATH:+:$LD_LIBRARY_PATH}"
 export PATH="$PATH:/usr/local/cuda/bin"
 meson=(meson)
 command -v meson >/dev/null || meson=(python3 -m mesonbuild.mesonmain)
+
+# A folder for OCL_ICD_VENDORS that offers one OpenCL platform alone: nvidia
+# (NVIDIA's driver) or pocl (where the machine has it).
+#   vend=$(icd_folder nvidia)
+icd_folder() {
+    local d
+    d=$(mktemp -d)
+    case $1 in
+    nvidia) echo libnvidia-opencl.so.1 >"$d/nvidia.icd" ;;
+    pocl) [ -f /etc/OpenCL/vendors/pocl.icd ] && cp /etc/OpenCL/vendors/pocl.icd "$d/" ;;
+    esac
+    echo "$d"
+}
 
 # The package of source tree TREE installed by pip into folder SITE, from the
 # wheels in .whl/ (nothing is downloaded there): a folder to put on PYTHONPATH
@@ -40,6 +55,15 @@ install_package() {
     export PYTHONPATH=$site PATH="$site/bin:$PATH"
 }
 
+# nibabel alone from .whl/, on PYTHONPATH: for the command line's Python tests
+# and bench/estimate_validation.py, which need no package.
+install_nibabel() {
+    local site
+    site=$(mktemp -d)/site
+    python3 -m pip install -q --no-deps --no-index --find-links .whl --target "$site" nibabel 2>&1 | tail -3
+    export PYTHONPATH=$site
+}
+
 # Nsight Compute on one launch of bench/profile_floor.py's CASE (of the
 # frames, the 12th frame's), with the ncu options given; its report on
 # standard output. Runs the package on PYTHONPATH.
@@ -54,7 +78,7 @@ profile_case() {
 
 # What machine.txt says of a run: when, which commit (PB_COMMIT: the copy
 # there has no trustworthy git state), the GPU, the toolkit and the cores.
-# Extra lines a script wants follow on its standard input.
+# Extra lines a mode wants follow on its standard input.
 write_machine() {
     {
         echo "date: $(date -u +%Y-%m-%dT%H:%MZ)"
@@ -66,31 +90,42 @@ write_machine() {
     } | tee "$1"
 }
 
-# The C tree in build-gpu (CUDA and OpenCL, release), configured once and
-# brought up to date; exits the script when it does not build.
+# The C tree in build-gpu (release, CUDA for sm_90), configured once with the
+# meson options given (default: OpenCL too) and brought up to date, all of it
+# or, after "--", the targets named; exits when it does not build. Its logs go
+# to $BUILD_LOGS (default /tmp).
+#   build_gpu [-Dopencl=disabled] [-- src/cli/petblur]
 build_gpu() {
-    [ -f build-gpu/build.ninja ] || "${meson[@]}" setup build-gpu --buildtype=release -Dcuda=enabled \
-        -Dopencl=enabled -Dgpu_archs=90 >/tmp/setup.log 2>&1 || { tail -30 /tmp/setup.log; exit 1; }
-    ninja -C build-gpu >/tmp/build.log 2>&1 || { tail -30 /tmp/build.log; exit 1; }
+    local opts=() targets=() logs=${BUILD_LOGS:-/tmp}
+    while [ $# -gt 0 ] && [ "$1" != -- ]; do opts+=("$1"); shift; done
+    [ $# -gt 0 ] && shift && targets=("$@")
+    [ ${#opts[@]} -gt 0 ] || opts=(-Dopencl=enabled)
+    [ -f build-gpu/build.ninja ] || "${meson[@]}" setup build-gpu --buildtype=release -Dcuda=enabled -Dgpu_archs=90 \
+        "${opts[@]}" >"$logs/setup.log" 2>&1 || { tail -30 "$logs/setup.log"; exit 1; }
+    ninja -C build-gpu ${targets[@]+"${targets[@]}"} >"$logs/build.log" 2>&1 || { tail -30 "$logs/build.log"; exit 1; }
 }
 
 # The host, cuda and opencl suites of build-gpu, OpenCL on NVIDIA's driver
 # alone; their lines and largest differences appended to $OUT/tests.txt (a
-# failed suite's log tail too) and shown. Returns 1 when a suite failed.
+# failed suite's log tail too) and shown; the pose derivative's errors, where
+# a suite printed them, to $OUT/pose_derivative.txt. Returns 1 when a suite
+# failed.
 run_suites() {
-    local nv s failed=0
-    nv=$(mktemp -d)
-    echo libnvidia-opencl.so.1 >"$nv/nvidia.icd"
+    local nv pd s failed=0
+    nv=$(icd_folder nvidia)
+    pd=$(mktemp)
     for s in host cuda opencl; do
         OCL_ICD_VENDORS=$nv "${meson[@]}" test -C build-gpu --no-rebuild --print-errorlogs --suite $s \
             >/tmp/test-$s.log 2>&1 || failed=1
         {
             echo "== $s"
-            grep -E '^ *[0-9]+/[0-9]+ |^(Ok|Fail|Skipped):' /tmp/test-$s.log
+            grep -E '^ *[0-9]+/[0-9]+ |^(Ok|Fail|Skipped|Timeout):' /tmp/test-$s.log
             grep -h 'largest relative' build-gpu/meson-logs/testlog.txt | sed "s/^/$s: /"
         } >>"$OUT/tests.txt"
+        grep -h "d(Bx)/d" build-gpu/meson-logs/testlog.txt | sed "s/^/$s: /" >>"$pd"
         [ $failed = 0 ] || tail -n 60 /tmp/test-$s.log >>"$OUT/tests.txt"
     done
+    [ -s "$pd" ] && mv "$pd" "$OUT/pose_derivative.txt"
     cat "$OUT/tests.txt"
     return $failed
 }
@@ -106,9 +141,9 @@ sanitize_tests() {
             [ "$t" = -- ] && { tool=racecheck; continue; }
             echo "== $tool $t cuda"
             if [ $tool = memcheck ]; then
-                compute-sanitizer --tool memcheck --error-exitcode 99 --leak-check full ./build-gpu/tests/$t cuda
+                compute-sanitizer --tool memcheck --error-exitcode 99 --leak-check full ./build-gpu/tests/"$t" cuda
             else
-                compute-sanitizer --tool racecheck --error-exitcode 99 ./build-gpu/tests/$t cuda
+                compute-sanitizer --tool racecheck --error-exitcode 99 ./build-gpu/tests/"$t" cuda
             fi | grep -E 'FAIL|passed|SUMMARY|rror' | tail -5
             [ "${PIPESTATUS[0]}" = 0 ] || echo "$tool $t: FAILED"
         done

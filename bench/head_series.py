@@ -1,6 +1,6 @@
 """A series of bench/head_frames.py, written as petblur motion estimate reads it.
 
-    python3 gen.py SEED DIR [SETUP [COUNTS]]     OVR='{"nod_deg": 0, ...}' overrides Setup's fields
+    python3 bench/head_series.py SEED DIR [SETUP [COUNTS]]     OVR='{"nod_deg": 0, ...}' overrides Setup's fields
 
 DIR gets frames.nii.gz and its BIDS-PET sidecar frames.json, the points the error is measured on (drawn after the
 frames, as bench/estimate_validation.py draws them) and meta.json (seed, setup, overrides)."""
@@ -12,7 +12,7 @@ import sys
 import nibabel as nib
 import numpy as np
 
-sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", ".."))
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import estimate_validation as ev  # noqa: E402
 import head_frames as hf  # noqa: E402
 

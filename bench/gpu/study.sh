@@ -1,0 +1,24 @@
+#: study [study.py options]  issue 21's motion-compensated reconstruction study at full size on CUDA, its table and figures
+# examples/motion_study: the program (for the phantom) built, the package
+# installed by pip beside the machine's torch, the study on CUDA (torch
+# tensors; the projector as torch sparse), then its table and figures. Back
+# through $OUT: results.json, table.md, curves.png, slices.png, study.log,
+# machine.txt. ASTRA's wheel needs CUDA 12's cudart and cuFFT, which that
+# machine lacks: its projector matrix is made on the development machine and
+# carried, git-ignored, as .study/astra-128-180.npz:
+#   python3 examples/motion_study/study.py --preset full --matrix .study/astra-128-180.npz --make-matrix
+# (carry .device .whl .study)
+# shellcheck shell=bash
+mode_study() (
+    write_machine "$OUT/machine.txt" </dev/null
+    build_gpu -Dopencl=disabled -- src/cli/petblur
+    install_package -Dopencl=disabled || exit 1
+    export PETBLUR_CLI=$PWD/build-gpu/src/cli/petblur
+    python3 examples/motion_study/study.py --preset full --device cuda --matrix .study/astra-128-180.npz \
+        --out "$OUT/run" "$@" 2>&1 | tee "$OUT/study.log"
+    status=${PIPESTATUS[0]}
+    python3 examples/motion_study/report.py "$OUT/run" >/dev/null 2>>"$OUT/study.log" || status=1
+    for f in results.json table.md curves.png slices.png; do cp "$OUT/run/$f" "$OUT/" 2>/dev/null; done
+    rm -rf "$OUT/run"
+    exit "$status"
+)
