@@ -32,7 +32,7 @@ sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from fetch_floor import chord_slices  # noqa: E402
 from peers import TorchPeer  # noqa: E402
 
-# bench/scenarios.h: translations in voxels, rotations in degrees about z.
+# src/cli/bench/scenarios.h: translations in voxels, rotations in degrees about z.
 SCENARIOS = [((2, 2, 2), 0), ((12, 10, -11), 0), ((-20, 30, 15), 0), ((-20, 30, 0), 0), ((0, 0, 0), 10),
              ((0, 0, 0), 60), ((2.5, -3.2, -0.7), -5), ((42, 21, 12), 20)]
 

@@ -321,7 +321,7 @@ PB_FN int pb_ab_next_partial(const pb_ab_walk *w, int k)
 /* The segments of the polyline of the voxel centred at u (texel coordinates)
  * through the key poses: BODY runs with the segment's ends a and b (object
  * texel coordinates) and its index j in scope; segments clipped away
- * (src/path_clip.c: weight 0) read nothing of the object and are skipped. */
+ * (src/paths/path_clip.c: weight 0) read nothing of the object and are skipped. */
 #define PB_FOR_SEGMENTS(poses, prm, u, BODY)                                                                     \
     {                                                                                                          \
         float a[3], b[3];                                                                                      \

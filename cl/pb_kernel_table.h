@@ -91,7 +91,7 @@ typedef struct pb_kernel_info {
     unsigned group[3];
 } pb_kernel_info;
 
-/* The table itself, indexed by pb_kernel_id (src/kernel_args.c). */
+/* The table itself, indexed by pb_kernel_id (src/devices/kernel_args.c). */
 #ifndef __cplusplus
 extern const pb_kernel_info pb_kernel_table[PB_KERNEL_COUNT];
 #endif

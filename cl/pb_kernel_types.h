@@ -31,7 +31,7 @@ typedef struct pb_kparams {
      * major axis; pb_permute: the axis to make the slowest. */
     int layer_axis;
     /* The first z-slice of the launch: a launch covers a slab of slices when
-     * the caller asks for progress (src/launch.c). */
+     * the caller asks for progress (src/devices/launch.c). */
     int z0;
     /* pb_shift_taps (cl/pb_taps.cl): how many taps it reads, and their
      * largest offset along each axis either way. */

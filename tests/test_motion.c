@@ -1,5 +1,5 @@
-/* Quaternion, SLERP, pose and plan identities of the host maths (src/quaternion.c,
- * src/path_plan.c), on fresh random poses each run. */
+/* Quaternion, SLERP, pose and plan identities of the host maths (src/motion/quaternion.c,
+ * src/paths/path_plan.c), on fresh random poses each run. */
 #include <math.h>
 #include <stdio.h>
 #include <string.h>

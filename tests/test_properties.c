@@ -286,9 +286,9 @@ static void test_hardware_weights(pb_context *ctx)
 }
 
 /* A progress report must not change the result: every backend then runs the
- * volume in slabs of z-slices (src/launch.c), which every voxel must see
+ * volume in slabs of z-slices (src/devices/launch.c), which every voxel must see
  * exactly as in one launch. nz = 70 is not a multiple of the slab (3) nor of
- * the deepest GPU work group (8, src/kernel_table.h): a group
+ * the deepest GPU work group (8, cl/pb_kernel_table.h): a group
  * reaching past its slab would scatter the next slab's voxels twice in the
  * adjoint.
  * The adjoint's atomic adds come in any order, hence its small tolerance. */
@@ -497,7 +497,7 @@ static void test_path_error(pb_context *ctx)
 }
 
 /* A 30 Hz motion log (181 poses over a 6 s frame) merged into chords within
- * the path bound (src/path_split.c). A steady translation is one chord: one
+ * the path bound (src/paths/path_split.c). A steady translation is one chord: one
  * segment, and the blur equals the blur between the frame's two end poses. A
  * slow turn keeps fewer segments than the log's 180, and its blur stays
  * within what the bound allows of a blur cut 25 times finer: values of a
@@ -575,7 +575,7 @@ static void test_track_merge(pb_context *ctx)
     free(fine);
 }
 
-/* Walks clipped to the grid (src/path_clip.c): a translation of D along x
+/* Walks clipped to the grid (src/paths/path_clip.c): a translation of D along x
  * over the frame averages the object over shifts 0..D, and every shift past
  * the grid reads zeros, so blur(D) = (D0 / D) blur(D0) for any D0 beyond the
  * grid. A D of a million mm must give that, and its adjoint must still be

@@ -52,7 +52,7 @@ PRESETS = {
     "small": dict(dims=(48, 48, 24), voxel=(5.87, 5.87, 7.47), angles=60, frame_s=60.0, frames=4, iterations=15,
                   poses=120, counts=3e6, methods="abdefg", short_s=10.0, short_iterations=10),
 }
-# The phantom's lesions (src/cli/phantom_brain.c): world centre mm, radius mm, activity.
+# The phantom's lesions (src/cli/phantoms/phantom_brain.c): world centre mm, radius mm, activity.
 LESIONS = [((44.0, 52.0, 30.0), 4.0, 8.0), ((-28.0, -24.0, 4.0), 5.0, 6.0), ((22.0, -56.0, -40.0), 3.0, 7.0)]
 LABELS = {"a": "(a) no motion model", "b": "(b) one pose per frame (mean)", "c": "(c) sub-frames, one pose each",
           "d": "(d) petblur, one segment per frame", "e": "(e) petblur, default path bound",

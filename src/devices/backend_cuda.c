@@ -1,6 +1,6 @@
 /* The CUDA backend: the kernels of cl/pb_blur.cl, compiled by nvcc
  * (cuda/pb_kernels.cu) or at run time by NVRTC (cuda_rtc.c), run through the
- * CUDA runtime. This file translates src/backend.h's primitives (buffers,
+ * CUDA runtime. This file translates src/devices/backend.h's primitives (buffers,
  * images, launches by kernel id, event timing) into runtime calls, plain C,
  * launching the context's kernel handles (cu_kernels); the device side is
  * cuda_device.c. Every call is checked and its error text reaches the

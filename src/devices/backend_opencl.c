@@ -1,4 +1,4 @@
-/* The OpenCL backend's primitives (src/backend.h): buffers, images, launches
+/* The OpenCL backend's primitives (src/devices/backend.h): buffers, images, launches
  * by kernel id and profiling-event timing, each a translation into OpenCL
  * calls; the device side is opencl_device.c. */
 #include <stdlib.h>

@@ -1,4 +1,4 @@
-/* NDI Polaris logs, in the two layouts STIR reads (src/experimental/motion/
+/* NDI Polaris logs, in the two layouts STIR reads (its experimental/motion/
  * Polaris_MT_File.cxx):
  *  - .mt: a first line "DD/MM/YYYY hh:mm:ss - v1 v2 tool", then records
  *    "time rand tool q0 qx qy qz tx ty tz rms" (time in seconds since midnight)

@@ -1,7 +1,7 @@
 /* Where a grid lies in the world: NIfTI's sform and qform, and the placement
  * STIR gives an Interfile image.
  *
- * STIR (src/IO/interfile.cxx, src/include/stir/DiscretisedDensity.inl) puts
+ * STIR (its IO/interfile.cxx and stir/DiscretisedDensity.inl) puts
  * voxel (i, j, k) of an Interfile image, index [1] fastest, at the centre
  * p = first pixel offset + (i dx, j dy, k dz) in its gantry frame (x left to
  * right seen from the bed, y top to bottom of the gantry, z out along the
