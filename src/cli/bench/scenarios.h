@@ -1,4 +1,4 @@
-/* The paper's eight motions (../shared/paper/paper_tables.csv, scenarios 1-8):
+/* The paper's eight motions (bench/paper_tables.csv, scenarios 1-8):
  * translations in voxels, rotations in degrees about z through the grid's
  * centre, over one frame: petblur bench's, and bench/'s programs' (header-only). */
 #ifndef PB_BENCH_SCENARIOS_H
