@@ -96,8 +96,14 @@ COMPONENT_TOL = {"v": 0.25, "w": 0.5}
 # One sample's blocks alone (test_world_coordinates), measured over 400 fresh
 # draws of that test (seeds 0-399, the host backend): translations at most
 # 7.6 %; rotations median 10.3 %, 99th percentile 18.4 %, largest 20.2 % (and
-# 22.4 % once in CI). A wrong sign, centre or mirror is 50 % and more.
-ONE_SAMPLE_BLOCK_TOL = {"v": 0.15, "w": 0.32}
+# 22.4 % once in CI). Again over 400 other draws (seeds 100000-100399):
+# translations median 5.1 %, 99th percentile 7.0 %, largest 7.9 %; rotations
+# median 10.4 %, 99th percentile 19.5 %, largest 21.7 %; CI's seed 4217072640
+# replays at 26.1 % here. The rotations' tail above its 90th percentile
+# (14.5 %) falls off as an exponential of mean 2.1 %: 32 % would fail about 1
+# run in 40,000, 36 % 1 in 300,000. A wrong sign, centre or mirror is 50 % and
+# more.
+ONE_SAMPLE_BLOCK_TOL = {"v": 0.15, "w": 0.36}
 
 
 def check(errors, request, block_tol=BLOCK_TOL):
