@@ -134,13 +134,21 @@ def test_derivatives_at_far_xi(rng, request):
     """At xi far from zero (4 mm, 5 degrees a sample): the derivative goes
     through G's Jacobian. Without it (the derivative at the moved poses in a
     perturbation composed on their right) the rotations' differ by 17-160 %
-    (30 draws), with it as at xi = 0."""
+    (30 draws), with it as at xi = 0.
+
+    It checks one sample, so against one sample's bounds: over 199 draws
+    (seeds 200000-200198, host) its blocks' translations median 4.5 %,
+    largest 8.3 %, rotations median 7.0 %, 99th percentile 14.7 %, largest
+    15.6 %, whose tail (an exponential of mean 1.7 % above the 90th
+    percentile, 10.7 %) put the four samples' 18 % at about 1 failure in 700
+    runs, and puts 36 % below 1 in 10^7. The derivative without G's Jacobian
+    differed by median 71 %, smallest 11.5 %."""
     x = smooth_object(rng)
     m = random_motion(rng, k=3)
     op = petblur.BlurOperator(SHAPE, VOXEL, m, frame=(0.0, 1.0), method="cl", filter="exact", device="host")
     xi0 = np.concatenate([rng.uniform(-4, 4, (3, 3)), np.deg2rad(rng.uniform(-5, 5, (3, 3)))], axis=1)
     d = pose.derivatives(op, x, xi0)
-    check(fd_errors(op, x, d, xi0, samples=[1]), request)
+    check(fd_errors(op, x, d, xi0, samples=[1]), request, ONE_SAMPLE_BLOCK_TOL)
     placed = pose._Placed(op)
     moved = placed.operator(petblur.BlurOperator, motion=placed.motion(placed.xi(xi0)), frame=op.frame)
     naive = pose.derivatives(moved, x)
