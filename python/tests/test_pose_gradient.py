@@ -87,9 +87,15 @@ def fd_errors(op, x, d, xi0=None, samples=None):
 # Relative RMS errors measured over 40 fresh draws of the test below (seeds
 # 0-39): each component alone, translations 1.4-14 % (mean 4.8), rotations
 # 3.5-32 % (mean 9.9; the worst for a sample with 0.07 s of the frame); all
-# samples' translations together 3.0-6.3 %, rotations 6.1-12 %. A wrong sign,
-# centre, hat or frame is 50 % and more.
-BLOCK_TOL = {"v": 0.10, "w": 0.18}
+# samples' translations together 3.0-6.3 %, rotations 6.1-12 %. Over 60 more
+# draws (seeds 300000-300059): translations together median 4.0 %, largest
+# 5.5 %; rotations together median 7.9 %, 99th percentile 17.5 %, largest
+# 19.0 % (seed 300037, which failed the 18 % held before: its tail above the
+# 90th percentile, 12.5 %, an exponential of mean 2.7 %, put 18 % at about 1
+# failure in 100 runs; 40 % at 1 in 300,000, a bound from 6 tail points, so
+# loose); each rotation component largest 31 %, each translation 14 %. A
+# wrong sign, centre, hat or frame is 50 % and more.
+BLOCK_TOL = {"v": 0.10, "w": 0.40}
 COMPONENT_TOL = {"v": 0.25, "w": 0.5}
 
 
