@@ -62,12 +62,27 @@ def test_adjointness(device, rng, method):
 
 
 def test_memory_orders_agree(device, rng):
-    """C order (numpy's) runs on the transposed grid: the same operator."""
+    """C order (numpy's) runs on the transposed grid: the same operator.
+
+    But for a voxel whose path has a segment with two largest extents tied
+    within float rounding: AB walks along the major axis (ties: the lower
+    one, another axis in the transposed grid), so on a float device the two
+    orders may walk that segment along different axes (the host, in double,
+    gives them bit for bit). Over 3000 draws on PoCL (seeds 500000-502999)
+    9 had such a voxel, one each, off by 4e-5 to 1.66e-2 of the largest
+    value, every other voxel within 1.8e-6 (median of the largest 1.2e-6,
+    99th percentile 2.2e-6): 1e-5 on every voxel failed 1 run in 330. So at
+    most two voxels may sit beyond 1e-5, within 5 % (a walk along another
+    axis is still an average of the same inputs); a wrong transposition
+    moves every voxel by tens of %."""
     op = petblur.BlurOperator((21, 14, 9), (1.2, 1.5, 1.9), _turn(rng), filter="exact", device=device)
     x = rng.random(op.in_shape, dtype=np.float32)
     yc, yf = op(np.ascontiguousarray(x)), op(np.asfortranarray(x))
     assert yc.flags.c_contiguous and yf.flags.f_contiguous
-    np.testing.assert_allclose(yc, yf, rtol=0, atol=1e-5 * yc.max())
+    off = np.abs(yc.astype(np.float64) - yf) / float(yc.max())
+    worst = np.sort(off.ravel())[::-1]
+    assert worst[2] <= 1e-5 and worst[0] <= 0.05, \
+        f"C against Fortran order: largest differences {[repr(float(v)) for v in worst[:4]]} of the largest value"
     # Any other strides are copied: a view of every other voxel of a larger array.
     big = np.zeros((42, 14, 9), dtype=np.float32)
     big[::2] = x

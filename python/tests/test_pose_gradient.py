@@ -87,17 +87,29 @@ def fd_errors(op, x, d, xi0=None, samples=None):
 # Relative RMS errors measured over 40 fresh draws of the test below (seeds
 # 0-39): each component alone, translations 1.4-14 % (mean 4.8), rotations
 # 3.5-32 % (mean 9.9; the worst for a sample with 0.07 s of the frame); all
-# samples' translations together 3.0-6.3 %, rotations 6.1-12 %. A wrong sign,
-# centre, hat or frame is 50 % and more.
-BLOCK_TOL = {"v": 0.10, "w": 0.18}
+# samples' translations together 3.0-6.3 %, rotations 6.1-12 %. Over 60 more
+# draws (seeds 300000-300059): translations together median 4.0 %, largest
+# 5.5 %; rotations together median 7.9 %, 99th percentile 17.5 %, largest
+# 19.0 % (seed 300037, which failed the 18 % held before: its tail above the
+# 90th percentile, 12.5 %, an exponential of mean 2.7 %, put 18 % at about 1
+# failure in 100 runs; 40 % at 1 in 300,000, a bound from 6 tail points, so
+# loose); each rotation component largest 31 %, each translation 14 %. A
+# wrong sign, centre, hat or frame is 50 % and more.
+BLOCK_TOL = {"v": 0.10, "w": 0.40}
 COMPONENT_TOL = {"v": 0.25, "w": 0.5}
 
 
 # One sample's blocks alone (test_world_coordinates), measured over 400 fresh
 # draws of that test (seeds 0-399, the host backend): translations at most
 # 7.6 %; rotations median 10.3 %, 99th percentile 18.4 %, largest 20.2 % (and
-# 22.4 % once in CI). A wrong sign, centre or mirror is 50 % and more.
-ONE_SAMPLE_BLOCK_TOL = {"v": 0.15, "w": 0.32}
+# 22.4 % once in CI). Again over 400 other draws (seeds 100000-100399):
+# translations median 5.1 %, 99th percentile 7.0 %, largest 7.9 %; rotations
+# median 10.4 %, 99th percentile 19.5 %, largest 21.7 %; CI's seed 4217072640
+# replays at 26.1 % here. The rotations' tail above its 90th percentile
+# (14.5 %) falls off as an exponential of mean 2.1 %: 32 % would fail about 1
+# run in 40,000, 36 % 1 in 300,000. A wrong sign, centre or mirror is 50 % and
+# more.
+ONE_SAMPLE_BLOCK_TOL = {"v": 0.15, "w": 0.36}
 
 
 def check(errors, request, block_tol=BLOCK_TOL):
@@ -128,13 +140,21 @@ def test_derivatives_at_far_xi(rng, request):
     """At xi far from zero (4 mm, 5 degrees a sample): the derivative goes
     through G's Jacobian. Without it (the derivative at the moved poses in a
     perturbation composed on their right) the rotations' differ by 17-160 %
-    (30 draws), with it as at xi = 0."""
+    (30 draws), with it as at xi = 0.
+
+    It checks one sample, so against one sample's bounds: over 199 draws
+    (seeds 200000-200198, host) its blocks' translations median 4.5 %,
+    largest 8.3 %, rotations median 7.0 %, 99th percentile 14.7 %, largest
+    15.6 %, whose tail (an exponential of mean 1.7 % above the 90th
+    percentile, 10.7 %) put the four samples' 18 % at about 1 failure in 700
+    runs, and puts 36 % below 1 in 10^7. The derivative without G's Jacobian
+    differed by median 71 %, smallest 11.5 %."""
     x = smooth_object(rng)
     m = random_motion(rng, k=3)
     op = petblur.BlurOperator(SHAPE, VOXEL, m, frame=(0.0, 1.0), method="cl", filter="exact", device="host")
     xi0 = np.concatenate([rng.uniform(-4, 4, (3, 3)), np.deg2rad(rng.uniform(-5, 5, (3, 3)))], axis=1)
     d = pose.derivatives(op, x, xi0)
-    check(fd_errors(op, x, d, xi0, samples=[1]), request)
+    check(fd_errors(op, x, d, xi0, samples=[1]), request, ONE_SAMPLE_BLOCK_TOL)
     placed = pose._Placed(op)
     moved = placed.operator(petblur.BlurOperator, motion=placed.motion(placed.xi(xi0)), frame=op.frame)
     naive = pose.derivatives(moved, x)
