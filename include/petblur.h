@@ -343,6 +343,10 @@ PB_API const size_t *pb_track_missing(const pb_track *track);
 
 /* "auto", "csv", "matrix-csv", "polaris"; "unknown" for any other value. */
 PB_API const char *pb_track_format_name(pb_track_format format);
+/* The format of one of those names ("unknown" is none); otherwise
+ * PB_ERR_INVALID_ARGUMENT and a message that lists the formats with their
+ * columns. */
+PB_API pb_status pb_track_format_parse(const char *name, pb_track_format *format);
 
 /* A track from arrays (copied), as a binding or a program holds one: count
  * (>= 2) samples at strictly increasing finite times, poses as the format
@@ -465,6 +469,33 @@ PB_API pb_status pb_motion_frame(const pb_motion *track, double t0, double t1, p
  * one pose per frame takes. */
 PB_API pb_status pb_motion_mean_pose(const pb_motion *motion, pb_pose *mean);
 
+/* What a frame of a motion holds, as `petblur motion` reports it: the
+ * tracked samples inside [t0, t1], and from the frame's first pose to each of
+ * them and to its end, the largest turn (degrees) and the largest
+ * displacement of the grid's eight corners (mm; the grid of geometry, placed
+ * as the motion's poses are, about the motion's centre, or the grid's centre
+ * where it has none). The motion must be valid over [t0, t1]. */
+typedef struct pb_frame_summary {
+    size_t samples;
+    double max_turn_deg;
+    double max_corner_mm;
+} pb_frame_summary;
+PB_API pb_status pb_motion_frame_summary(const pb_motion *motion, const pb_geometry *geometry, double t0, double t1,
+                                         pb_frame_summary *summary);
+
+/* What a track holds: its samples' span (s), the median step between them
+ * (s; its inverse is the tracker's rate), and the samples the reader found
+ * missing (pb_track_missing): how many, in how many gaps, the longest gap's
+ * length (s). */
+typedef struct pb_track_summary {
+    size_t samples;
+    double first, last;
+    double median_step;
+    size_t missing, gaps;
+    double longest_gap;
+} pb_track_summary;
+PB_API pb_status pb_track_summarize(const pb_track *track, pb_track_summary *summary);
+
 /* Where a pose about centre takes point p: centre + t + R (p - centre). */
 PB_API void pb_pose_apply(const pb_pose *pose, const double center[3], const double p[3], double out[3]);
 /* The angle in degrees of the turn between two poses' rotations. */
@@ -541,6 +572,18 @@ typedef struct pb_blur_options {
     double max_path_error;   /* PB_PATH_BOUNDED only: the bound, in [PB_MIN_MAX_PATH_ERROR, 1000] voxels; else 0 */
     pb_ab_sampling ab_sampling; /* AB only */
 } pb_blur_options;
+
+/* The names the program and the bindings give these options: methods "ab",
+ * "rm", "cl", "ref"; filters "hardware", "exact"; AB samplings "default",
+ * "slice", "sweep". A _name call returns NULL for a value that has none; a
+ * _parse call that does not know the name fails with PB_ERR_INVALID_ARGUMENT
+ * and a message that lists every name with what it means. */
+PB_API const char *pb_method_name(pb_method method);
+PB_API pb_status pb_method_parse(const char *name, pb_method *method);
+PB_API const char *pb_filter_name(pb_filter filter);
+PB_API pb_status pb_filter_parse(const char *name, pb_filter *filter);
+PB_API const char *pb_ab_sampling_name(pb_ab_sampling sampling);
+PB_API pb_status pb_ab_sampling_parse(const char *name, pb_ab_sampling *sampling);
 
 /* Checks options as every call that takes them does: the status and
  * message of the first problem (on the calling thread: pb_last_error(NULL)),
@@ -628,6 +671,14 @@ PB_API pb_status pb_blur_frames_adjoint(pb_context *ctx, const pb_volume *const 
                                         pb_volume *const *objects);
 
 /* ---- motion from the frames -------------------------------------------- */
+
+/* The six gradient images whose blurs pb_blur_pose_derivative returns, on
+ * the host: dx/dp_j by central differences (zero outside the grid), then
+ * ((p - c) x grad x)_j, p a voxel's centre and c center, both in mm of the
+ * grid (its corner at 0). x and out[0..5] hold the geometry's voxels, x
+ * fastest, computed in double. */
+PB_API pb_status pb_pose_gradient_images(const pb_geometry *geometry, const float *x, const double center[3],
+                                         float *const out[6]);
 
 /* The derivative of a blur with respect to its pose: the six volumes
  * d(B x)/d(xi_j) for a rigid perturbation xi = (v, w) (mm, radians) applied

@@ -224,6 +224,40 @@ static void test_two_threads(pb_context *ctx, pb_plan *plan, const float *object
            r[1].refused);
 }
 
+/* The names front ends parse through the library: every name round-trips,
+ * a wrong one or NULL is refused with the list of choices, NULL outputs too. */
+static void test_names(void)
+{
+    for (int m = PB_METHOD_AB; m <= PB_METHOD_REF; m++) {
+        pb_method back = PB_METHOD_REF;
+        pb_check(pb_method_name((pb_method)m) && pb_method_parse(pb_method_name((pb_method)m), &back) == PB_OK &&
+                     back == (pb_method)m, "method %d round trip", m);
+    }
+    for (int f = PB_FILTER_HARDWARE; f <= PB_FILTER_EXACT; f++) {
+        pb_filter back = PB_FILTER_EXACT;
+        pb_check(pb_filter_parse(pb_filter_name((pb_filter)f), &back) == PB_OK && back == (pb_filter)f,
+                 "filter %d round trip", f);
+    }
+    for (int a = PB_AB_SAMPLING_DEFAULT; a <= PB_AB_SAMPLING_SWEEP; a++) {
+        pb_ab_sampling back = PB_AB_SAMPLING_SWEEP;
+        pb_check(pb_ab_sampling_parse(pb_ab_sampling_name((pb_ab_sampling)a), &back) == PB_OK &&
+                     back == (pb_ab_sampling)a, "sampling %d round trip", a);
+    }
+    for (int t = PB_TRACK_AUTO; t <= PB_TRACK_POLARIS; t++) {
+        pb_track_format back = PB_TRACK_POLARIS;
+        pb_check(pb_track_format_parse(pb_track_format_name((pb_track_format)t), &back) == PB_OK &&
+                     back == (pb_track_format)t, "format %d round trip", t);
+    }
+    pb_method m;
+    pb_check(pb_method_parse("AB", &m) == PB_ERR_INVALID_ARGUMENT && strstr(pb_last_error(NULL), "'AB'") &&
+                 strstr(pb_last_error(NULL), "ref (the multi-point reference)"), "AB: %s", pb_last_error(NULL));
+    pb_check(pb_method_parse(NULL, &m) == PB_ERR_INVALID_ARGUMENT && pb_method_parse("ab", NULL) != PB_OK,
+             "NULL name or output");
+    pb_track_format f;
+    pb_check(pb_track_format_parse("unknown", &f) == PB_ERR_INVALID_ARGUMENT, "'unknown' is no format");
+    pb_check(pb_method_name((pb_method)7) == NULL && pb_filter_name((pb_filter)-1) == NULL, "no name out of range");
+}
+
 int main(int argc, char **argv)
 {
     pb_test_seed();
@@ -239,6 +273,7 @@ int main(int argc, char **argv)
 
     test_fresh_messages(ctx);
     test_thread_messages();
+    test_names();
 
     pb_plan *plan = NULL;
     pb_volume *in = NULL, *out = NULL;

@@ -503,7 +503,8 @@ class BadInput(Case):
         self.fails(2, ["--method"], *self.blur("--translate", "1,0,0", "--method", "fast"))
         for bad in ("0", "-1", "nan", "tight"):
             self.fails(2, ["--max-path-error"], *self.blur("--rotate", "10", "--max-path-error", bad))
-        self.fails(2, ["--ab-sampling", "slice, sweep"], *self.blur("--rotate", "10", "--ab-sampling", "diagonal"))
+        self.fails(2, ["--ab-sampling 'diagonal'", "slice (", "sweep ("],
+                   *self.blur("--rotate", "10", "--ab-sampling", "diagonal"))
         self.fails(2, ["--ab-sampling", "RM"], *self.blur("--rotate", "10", "--method", "rm", "--ab-sampling",
                                                           "sweep"))
         self.fails(2, ["--dims"], *self.blur("--translate", "1,0,0")[:4], "1,x,8", "-o", self.p("out.nii"),

@@ -137,6 +137,16 @@ class Warnings(ctypes.Structure):
     _fields_ = [("flags", ctypes.c_uint), ("text", ctypes.c_char * 4096)]
 
 
+class FrameSummary(ctypes.Structure):
+    _fields_ = [("samples", ctypes.c_size_t), ("max_turn_deg", ctypes.c_double), ("max_corner_mm", ctypes.c_double)]
+
+
+class TrackSummary(ctypes.Structure):
+    _fields_ = [("samples", ctypes.c_size_t), ("first", ctypes.c_double), ("last", ctypes.c_double),
+                ("median_step", ctypes.c_double), ("missing", ctypes.c_size_t), ("gaps", ctypes.c_size_t),
+                ("longest_gap", ctypes.c_double)]
+
+
 ProgressFn = ctypes.CFUNCTYPE(None, ctypes.c_double, ctypes.c_void_p)
 
 # The structs above, as the library lays them out (checked at import by
@@ -144,16 +154,16 @@ ProgressFn = ctypes.CFUNCTYPE(None, ctypes.c_double, ctypes.c_void_p)
 STRUCTS = {"pb_geometry": Geometry, "pb_pose": Pose, "pb_motion": CMotion, "pb_blur_options": BlurOptions,
            "pb_context_options": ContextOptions, "pb_device_info": DeviceInfo, "pb_native": Native,
            "pb_track_read_options": TrackReadOptions, "pb_track_conventions": TrackConventions,
-           "pb_warnings": Warnings}
+           "pb_warnings": Warnings, "pb_frame_summary": FrameSummary, "pb_track_summary": TrackSummary}
 
 
 BACKEND_AUTO, BACKEND_HOST, BACKEND_OPENCL, BACKEND_CUDA = 0, 1, 2, 3
-TRACK_CSV, TRACK_MATRIX_CSV, TRACK_POLARIS = 1, 2, 3
+TRACK_AUTO, TRACK_CSV, TRACK_MATRIX_CSV, TRACK_POLARIS = 0, 1, 2, 3
 PATH_DEFAULT, PATH_BOUNDED, PATH_TRACKED = 0, 1, 2
 AB_SAMPLING_DEFAULT, AB_SAMPLING_SLICE, AB_SAMPLING_SWEEP = 0, 1, 2
 ERR_OUT_OF_VIEW = -12
 ENUMS = {"PB_BACKEND_AUTO": BACKEND_AUTO, "PB_BACKEND_HOST": BACKEND_HOST, "PB_BACKEND_OPENCL": BACKEND_OPENCL,
-         "PB_BACKEND_CUDA": BACKEND_CUDA, "PB_TRACK_AUTO": 0, "PB_TRACK_CSV": TRACK_CSV,
+         "PB_BACKEND_CUDA": BACKEND_CUDA, "PB_TRACK_AUTO": TRACK_AUTO, "PB_TRACK_CSV": TRACK_CSV,
          "PB_TRACK_MATRIX_CSV": TRACK_MATRIX_CSV, "PB_TRACK_POLARIS": TRACK_POLARIS, "PB_METHOD_AB": 0,
          "PB_METHOD_RM": 1, "PB_METHOD_CL": 2, "PB_METHOD_REF": 3, "PB_FILTER_HARDWARE": 0, "PB_FILTER_EXACT": 1,
          "PB_PATH_DEFAULT": PATH_DEFAULT, "PB_PATH_BOUNDED": PATH_BOUNDED, "PB_PATH_TRACKED": PATH_TRACKED,
@@ -223,6 +233,13 @@ _signatures = {
     "pb_blur_pose_derivative": (_int, [_vp, _vp, _P(CMotion), _P(BlurOptions), _P(_vp)]),
     "pb_context_set_progress": (_int, [_vp, ProgressFn, _vp]),
     "pb_abi_layout": (ctypes.c_char_p, []),
+    "pb_method_parse": (_int, [ctypes.c_char_p, _P(_int)]),
+    "pb_filter_parse": (_int, [ctypes.c_char_p, _P(_int)]),
+    "pb_ab_sampling_parse": (_int, [ctypes.c_char_p, _P(_int)]),
+    "pb_track_format_parse": (_int, [ctypes.c_char_p, _P(_int)]),
+    "pb_motion_frame_summary": (_int, [_P(CMotion), _P(Geometry), _dbl, _dbl, _P(FrameSummary)]),
+    "pb_track_summarize": (_int, [_vp, _P(TrackSummary)]),
+    "pb_pose_gradient_images": (_int, [_P(Geometry), _vp, _P(_dbl), _P(_vp)]),
 }
 bind(_signatures)
 
@@ -286,6 +303,21 @@ def check(status, ctx=None):
 
 
 check_layout()
+
+
+def parse_name(kind, value):
+    """The enum value of an option's name (kind: method, filter, ab_sampling,
+    track_format), by the library's parser, which names every choice when it
+    refuses one."""
+    out = _int()
+    parse = getattr(lib, f"pb_{kind}_parse")
+    named = isinstance(value, str) and "\0" not in value
+    if named and parse(value.encode("utf-8", "replace"), ctypes.byref(out)) == 0:
+        return out.value
+    if not named:
+        parse(None, ctypes.byref(out))  # refused: the library's list of choices
+    from .errors import ArgumentError
+    raise ArgumentError(f"{kind.replace('track_', '')} {value!r}:{message().split(':', 1)[-1]}")
 
 # Contexts shared by every operator on one device, each used by one thread at a
 # time (the C library's rule: a context, its volumes and plans share its queue

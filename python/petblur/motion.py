@@ -25,7 +25,6 @@ import numpy as np
 from . import _lib
 from .errors import ArgumentError, Error, shown
 
-_FORMATS = {None: 0, "auto": 0, "csv": 1, "matrix-csv": 2, "polaris": 3}
 
 # The library's messages name the command line's options; these are their
 # names here.
@@ -213,13 +212,12 @@ class Motion:
         first sample), ``inverse`` (--motion-inverse), ``center`` (--center; csv
         only: the other formats turn about the world's origin). The poses become
         M(t) = C P(t) P(ref)^-1 C^-1."""
-        if format not in _FORMATS:
-            raise ArgumentError(f"format {format!r}: choose 'csv', 'matrix-csv', 'polaris' or None (from the content)")
+        format_value = _lib.TRACK_AUTO if format is None else _lib.parse_name("track_format", format)
         if time_unit not in ("s", "ms"):
             raise ArgumentError(f"time_unit {time_unit!r}: choose 's' or 'ms'")
         if quaternion_order not in ("wxyz", "xyzw"):
             raise ArgumentError(f"quaternion_order {quaternion_order!r}: choose 'wxyz' or 'xyzw'")
-        opts = _lib.TrackReadOptions(_FORMATS[format], 1000.0 if time_unit == "ms" else 1.0,
+        opts = _lib.TrackReadOptions(format_value, 1000.0 if time_unit == "ms" else 1.0,
                                      int(quaternion_order == "xyzw"))
         handle = ctypes.c_void_p()
         _check(_lib.lib.pb_track_read(os.fsencode(path), ctypes.byref(opts), ctypes.byref(handle)))
@@ -357,6 +355,34 @@ class Motion:
         p = _lib.Pose()
         _check(_lib.lib.pb_motion_pose_at(ctypes.byref(world), float(t), ctypes.byref(p)))
         return np.array(p.translation[:]), np.array(p.rotation[:])
+
+    def summary(self, bounds, shape, voxel_size, affine=None):
+        """What the motion holds, as `petblur motion` reports it, for the grid
+        of shape and voxel_size (mm) placed by affine (None: the grid's own
+        frame) and the frames `bounds` (s, frames + 1): a dict of the track's
+        samples, first and last time, median step (s), missing samples, gaps
+        and the longest gap (s), and under "frames" one dict a frame: start,
+        end, the tracked samples inside, the largest turn from the frame's
+        first pose (max_turn_deg) and the largest displacement of the grid's
+        corners (max_corner_mm)."""
+        from .operator import _affine4, _grid_affine, _shape3, _voxel3
+        shape, vox = _shape3(shape), _voxel3(voxel_size)
+        a = _grid_affine(vox) if affine is None else _affine4(affine)
+        b = _numbers("bounds", bounds)
+        if b.ndim != 1 or b.size < 2:
+            raise ArgumentError(f"bounds must list a frame's start and end at least, not {b.size} number(s)")
+        g, placed, keep = self._c_motion(shape, vox, a, b, warn=False)
+        t = _lib.TrackSummary()
+        _check(_lib.lib.pb_track_summarize(keep[0].handle, ctypes.byref(t)))
+        out = {name: getattr(t, name) for name, _ in _lib.TrackSummary._fields_}
+        out["frames"] = []
+        for t0, t1 in zip(b[:-1], b[1:]):
+            f = _lib.FrameSummary()
+            _check(_lib.lib.pb_motion_frame_summary(ctypes.byref(placed), ctypes.byref(g), float(t0), float(t1),
+                                                    ctypes.byref(f)))
+            out["frames"].append({"start": float(t0), "end": float(t1), "samples": f.samples,
+                                  "max_turn_deg": f.max_turn_deg, "max_corner_mm": f.max_corner_mm})
+        return out
 
     def mean_pose(self, t0, t1):
         """The time-weighted mean pose over the frame [t0, t1], as pose_at

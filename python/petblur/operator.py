@@ -33,9 +33,6 @@ from ._arrays import Array, pointer
 from .errors import ArgumentError, Error, shown
 from .motion import Motion
 
-_METHODS = {"ab": 0, "rm": 1, "cl": 2, "ref": 3}
-_FILTERS = {"hardware": 0, "exact": 1}
-_AB_SAMPLINGS = {None: 0, "slice": 1, "sweep": 2}
 # Index (k, j, i) of a C-ordered array's memory, read x fastest, to (i, j, k).
 _SWAP = np.array([[0, 0, 1, 0], [0, 1, 0, 0], [1, 0, 0, 0], [0, 0, 0, 1]], dtype=np.float64)
 
@@ -115,11 +112,7 @@ class _Operator:
         if not isinstance(motion, Motion):
             raise ArgumentError(f"motion must be a petblur.Motion, not {type(motion).__name__}")
         self.motion = motion
-        if not isinstance(method, str) or method not in _METHODS:
-            raise ArgumentError(f"method {method!r}: choose 'ab' (the paper's antialiased Bresenham), 'rm', 'cl' or "
-                                "'ref'")
-        if not isinstance(filter, str) or filter not in _FILTERS:
-            raise ArgumentError(f"filter {filter!r}: choose 'hardware' (one filtered fetch per slice) or 'exact'")
+        method_value, filter_value = _lib.parse_name("method", method), _lib.parse_name("filter", filter)
         if max_path_error is None:
             path, bound = _lib.PATH_DEFAULT, 0.0
         elif isinstance(max_path_error, str) and max_path_error == "paper":
@@ -139,14 +132,12 @@ class _Operator:
         steps = whole
         if not 0 <= steps < 1 << 32:
             raise ArgumentError(f"steps {steps}: give 0 (the paper's choice) or a positive count")
-        if not (ab_sampling is None or isinstance(ab_sampling, str)) or ab_sampling not in _AB_SAMPLINGS:
-            raise ArgumentError(f"ab_sampling {ab_sampling!r}: choose None (the default), 'slice' (one point a slice, "
-                                "the paper's AB) or 'sweep' (two where the path sweeps sideways across a slice)")
+        sampling_value = _lib.AB_SAMPLING_DEFAULT if ab_sampling is None else _lib.parse_name("ab_sampling",
+                                                                                              ab_sampling)
         if progress is not None and not callable(progress):
             raise ArgumentError("progress must be a callable taking the fraction done, or None")
         self.method, self.filter = method, filter
-        self._options = _lib.BlurOptions(_METHODS[method], _FILTERS[filter], steps, 0, 0, 0, path, bound,
-                                         _AB_SAMPLINGS[ab_sampling])
+        self._options = _lib.BlurOptions(method_value, filter_value, steps, 0, 0, 0, path, bound, sampling_value)
         try:  # every range stated once, by the library
             _lib.check(_lib.lib.pb_options_check(ctypes.byref(self._options)))
         except ArgumentError as e:

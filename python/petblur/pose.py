@@ -204,14 +204,19 @@ def gradient_images(x, voxel_size, center):
     """The six images of pb_blur_pose_derivative for x indexed [x, y, z]
     (numpy or a torch tensor, on its device): dx/dp_j by central differences
     (zero outside the grid), then ((p - c) x grad x)_j, p a voxel's centre and
-    c the centre, both in mm of the grid frame. float32, computed in double."""
+    c the centre, both in mm of the grid frame. float32, computed in double:
+    numpy arrays by the library, torch tensors where they are."""
     torch = _torch_of(x)
-    if torch is not None:
-        xd = x.detach().to(torch.float64)
-        zeros, arange = torch.zeros_like, (lambda n: torch.arange(n, dtype=torch.float64, device=x.device))
-    else:
-        xd = np.asarray(x, dtype=np.float64)
-        zeros, arange = np.zeros_like, (lambda n: np.arange(n, dtype=np.float64))
+    if torch is None:  # on the host: the library's (pb_pose_gradient_images), as its estimate takes them
+        xf = np.asfortranarray(x, dtype=np.float32)
+        out = [np.empty(xf.shape, dtype=np.float32, order="F") for _ in range(6)]
+        g = _lib.Geometry((ctypes.c_size_t * 3)(*xf.shape), (ctypes.c_double * 3)(*map(float, voxel_size)))
+        ptrs = (ctypes.c_void_p * 6)(*[o.ctypes.data for o in out])
+        _lib.check(_lib.lib.pb_pose_gradient_images(ctypes.byref(g), xf.ctypes.data,
+                                                    (ctypes.c_double * 3)(*map(float, center)), ptrs))
+        return out
+    xd = x.detach().to(torch.float64)
+    zeros, arange = torch.zeros_like, (lambda n: torch.arange(n, dtype=torch.float64, device=x.device))
     grad, r = [], []
     for a in range(3):
         g = zeros(xd)
@@ -230,10 +235,7 @@ def gradient_images(x, voxel_size, center):
         shape[a] = n
         r.append(((arange(n) + 0.5) * float(voxel_size[a]) - float(center[a])).reshape(shape))
     rot = [r[1] * grad[2] - r[2] * grad[1], r[2] * grad[0] - r[0] * grad[2], r[0] * grad[1] - r[1] * grad[0]]
-    out = grad + rot
-    if torch is not None:
-        return [v.to(torch.float32) for v in out]
-    return [v.astype(np.float32) for v in out]
+    return [v.to(torch.float32) for v in grad + rot]
 
 
 def _torch_of(x):

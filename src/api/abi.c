@@ -44,6 +44,11 @@ const char *pb_abi_layout(void)
     F(pb_estimate_report, warnings);
     S(pb_comparison); F(pb_comparison, rms_percent); F(pb_comparison, max_percent);
     F(pb_comparison, max_difference); F(pb_comparison, worst); F(pb_comparison, eq5_percent);
+    S(pb_frame_summary); F(pb_frame_summary, samples); F(pb_frame_summary, max_turn_deg);
+    F(pb_frame_summary, max_corner_mm);
+    S(pb_track_summary); F(pb_track_summary, samples); F(pb_track_summary, first); F(pb_track_summary, last);
+    F(pb_track_summary, median_step); F(pb_track_summary, missing); F(pb_track_summary, gaps);
+    F(pb_track_summary, longest_gap);
     E(PB_BACKEND_AUTO); E(PB_BACKEND_HOST); E(PB_BACKEND_OPENCL); E(PB_BACKEND_CUDA);
     E(PB_TRACK_AUTO); E(PB_TRACK_CSV); E(PB_TRACK_MATRIX_CSV); E(PB_TRACK_POLARIS);
     E(PB_METHOD_AB); E(PB_METHOD_RM); E(PB_METHOD_CL); E(PB_METHOD_REF);

@@ -31,13 +31,10 @@ void pbc_print_warnings(const pb_warnings *w)
 
 static int parse_format(const char *text, pb_track_format *format)
 {
-    for (int i = PB_TRACK_CSV; i <= PB_TRACK_POLARIS; i++)
-        if (!strcmp(text, pb_track_format_name((pb_track_format)i))) {
-            *format = (pb_track_format)i;
-            return 0;
-        }
-    return pbc_fail(PBC_EXIT_USAGE, "--motion-format %s: choose csv (t,tx,ty,tz,qw,qx,qy,qz), matrix-csv (t and a "
-                    "3x4 matrix row by row, as yrt-pet writes) or polaris (NDI .mt or Toolviewer CSV)", text);
+    if (pb_track_format_parse(text, format) == PB_OK)
+        return 0;
+    const char *msg = pb_last_error(NULL);
+    return pbc_fail(PBC_EXIT_USAGE, "--motion-%s", msg); /* "format 'x': choose ..." */
 }
 
 static int track_options(const pbc_command *cmd, const pbc_args *args, pb_track_read_options *o)

@@ -6,6 +6,7 @@
 #include <string.h>
 
 #include "estimate.h"
+#include "objects.h"
 
 void pbe_coarser(const pb_geometry *fine, pb_geometry *coarse)
 {
@@ -109,4 +110,21 @@ void pbe_pose_gradients(const pb_geometry *g, const float *x, const double c[3],
                 out[4][at] = (float)(r[2] * grad[0] - r[0] * grad[2]);
                 out[5][at] = (float)(r[0] * grad[1] - r[1] * grad[0]);
             }
+}
+
+pb_status pb_pose_gradient_images(const pb_geometry *geometry, const float *x, const double center[3],
+                                  float *const out[6])
+{
+    size_t count = 0;
+    if (!geometry || !x || !center || !out)
+        return pb_error(NULL, PB_ERR_INVALID_ARGUMENT, "the geometry, object, centre and outputs must not be NULL");
+    for (int j = 0; j < 6; j++)
+        if (!out[j])
+            return pb_error(NULL, PB_ERR_INVALID_ARGUMENT, "output image %d is NULL", j);
+    if (!(isfinite(center[0]) && isfinite(center[1]) && isfinite(center[2])))
+        return pb_error(NULL, PB_ERR_NOT_FINITE, "the centre holds NaN or infinity");
+    pb_status st = pb_geometry_check(NULL, geometry, &count);
+    if (st == PB_OK)
+        pbe_pose_gradients(geometry, x, center, out);
+    return st;
 }

@@ -217,3 +217,18 @@ const char *pb_track_format_name(pb_track_format format)
     }
     return "unknown";
 }
+
+pb_status pb_track_format_parse(const char *name, pb_track_format *format)
+{
+    if (!format)
+        return pb_error(NULL, PB_ERR_INVALID_ARGUMENT, "the format pointer must not be NULL");
+    for (int i = PB_TRACK_AUTO; name && i <= PB_TRACK_POLARIS; i++)
+        if (!strcmp(name, pb_track_format_name((pb_track_format)i))) {
+            *format = (pb_track_format)i;
+            return PB_OK;
+        }
+    return pb_error(NULL, PB_ERR_INVALID_ARGUMENT,
+                    "format '%.200s': choose auto (from the file's content), csv (t,tx,ty,tz,qw,qx,qy,qz), matrix-csv "
+                    "(t and a 3x4 matrix row by row, as yrt-pet writes) or polaris (NDI .mt or Toolviewer CSV)",
+                    name ? name : "(none)");
+}

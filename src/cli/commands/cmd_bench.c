@@ -79,7 +79,6 @@ static const struct {
 } methods[] = {{"AB", PB_METHOD_AB, PB_PATH_TRACKED},  {"RM", PB_METHOD_RM, PB_PATH_TRACKED},
                {"CL", PB_METHOD_CL, PB_PATH_DEFAULT},  {"AB-E", PB_METHOD_AB, PB_PATH_DEFAULT},
                {"RM-E", PB_METHOD_RM, PB_PATH_DEFAULT}};
-static const char *filter_names[] = {"hardware", "exact"};
 
 /* "a,b,c" into tokens of at most 31 characters; calls take(token) for each. */
 static int for_each_token(const char *option, const char *list, int (*take)(const char *, void *), void *user)
@@ -332,7 +331,7 @@ static int bench_case(pb_context *ctx, const bench_config *c, bench_files *f, co
                 return rc;
             pbc_timing t;
             char what[32];
-            snprintf(what, sizeof what, "%s %s", methods[m].name, filter_names[filt]);
+            snprintf(what, sizeof what, "%s %s", methods[m].name, pb_filter_name((pb_filter)filt));
             progress(name, s, what);
             int e2e = c->runs < 5 ? (int)c->runs : 5;
             for (size_t i = 0; i < n; i++)
@@ -342,10 +341,10 @@ static int bench_case(pb_context *ctx, const bench_config *c, bench_files *f, co
             pb_comparison err;
             if (pb_compare(ref[0], res, n, &err) != PB_OK)
                 return pbc_fail(PBC_EXIT_RUNTIME, "%s %s on %s, scenario %d: %s", methods[m].name,
-                                filter_names[filt], name, s, pb_last_error(NULL));
+                                pb_filter_name((pb_filter)filt), name, s, pb_last_error(NULL));
             progress_clear();
             printf("%-11s %d %-22s %-4s %-8s %8.4f %8.4f %9.5f %11.3f %10.3f %11.3f\n", name, s, motion_text,
-                   methods[m].name, filter_names[filt], err.rms_percent, err.max_percent, err.eq5_percent,
+                   methods[m].name, pb_filter_name((pb_filter)filt), err.rms_percent, err.max_percent, err.eq5_percent,
                    t.kernel_ms, t.e2e_ms, t.adjoint_ms);
             fflush(stdout);
             row_prefix(f->results, name, ph, s, sc);
@@ -355,7 +354,7 @@ static int bench_case(pb_context *ctx, const bench_config *c, bench_files *f, co
                 snprintf(bound, sizeof bound, "%g",
                          opt.path == PB_PATH_TRACKED ? -1.0 : PB_DEFAULT_MAX_PATH_ERROR);
             fprintf(f->results, ",%s,%s,%s,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g,%lu,%.0f,%u,%lu,%s,%zu,%.6g\n",
-                    device, methods[m].name, filter_names[filt], err.rms_percent, err.max_percent, err.eq5_percent,
+                    device, methods[m].name, pb_filter_name((pb_filter)filt), err.rms_percent, err.max_percent, err.eq5_percent,
                     noise.rms_percent, noise.eq5_percent, t.kernel_ms, t.kernel_min_ms, t.e2e_ms, c->runs,
                     work.fetches, work.max_slices, c->reference ? 0UL : c->points, bound, segments, t.adjoint_ms);
         }

@@ -56,27 +56,24 @@ static const pbc_command command = {
     "  petblur blur -i dynamic.nii.gz -o dynamic-blurred.nii.gz --motion track.csv --frames 0,60,120,300,600\n"
     "  petblur blur -i ratios.nii.gz -o summed.nii.gz --motion track.csv --frames 0,60,120 --adjoint --sum-frames"};
 
-static const char *const method_names[] = {"ab", "rm", "cl", "ref"};
-static const char *const filter_names[] = {"hardware", "exact"};
-static const char *const sampling_names[] = {"slice", "sweep"};
+/* A name the library did not take: its message, under the option's name. */
+static int refused(const char *option)
+{
+    const char *msg = pb_last_error(NULL), *rest = strchr(msg, ' ');
+    return pbc_fail(PBC_EXIT_USAGE, "%s%s", option, rest ? rest : msg);
+}
 
 static int blur_options(const pbc_args *args, pb_blur_options *opt)
 {
     const char *v;
-    int idx, rc;
+    int rc;
     unsigned long n;
     memset(opt, 0, sizeof *opt);
     opt->seed = 1;
-    if ((v = pbc_arg(&command, args, "--method"))) {
-        if ((rc = pbc_parse_choice("--method", v, method_names, 4, &idx)))
-            return rc;
-        opt->method = (pb_method)idx;
-    }
-    if ((v = pbc_arg(&command, args, "--filter"))) {
-        if ((rc = pbc_parse_choice("--filter", v, filter_names, 2, &idx)))
-            return rc;
-        opt->filter = (pb_filter)idx;
-    }
+    if ((v = pbc_arg(&command, args, "--method")) && pb_method_parse(v, &opt->method) != PB_OK)
+        return refused("--method");
+    if ((v = pbc_arg(&command, args, "--filter")) && pb_filter_parse(v, &opt->filter) != PB_OK)
+        return refused("--filter");
     /* Counts as far as they fit; their ranges are the library's (pb_options_check). */
     if ((v = pbc_arg(&command, args, "--steps")) && (rc = pbc_parse_count("--steps", v, 1, 0xffffffffUL, &n)) == 0)
         opt->steps = (unsigned)n;
@@ -89,11 +86,8 @@ static int blur_options(const pbc_args *args, pb_blur_options *opt)
         return rc;
     else if (bound)
         opt->path = PB_PATH_BOUNDED;
-    if ((v = pbc_arg(&command, args, "--ab-sampling"))) {
-        if ((rc = pbc_parse_choice("--ab-sampling", v, sampling_names, 2, &idx)))
-            return rc;
-        opt->ab_sampling = idx ? PB_AB_SAMPLING_SWEEP : PB_AB_SAMPLING_SLICE;
-    }
+    if ((v = pbc_arg(&command, args, "--ab-sampling")) && pb_ab_sampling_parse(v, &opt->ab_sampling) != PB_OK)
+        return refused("--ab-sampling");
     if ((v = pbc_arg(&command, args, "--points")) && (rc = pbc_parse_count("--points", v, 1, 0xffffffffUL, &n)) == 0)
         opt->ref_points = (unsigned)n;
     else if (v)
@@ -237,7 +231,7 @@ static int run(const pbc_args *args, const char *in_path, const char *out_path, 
         return rc;
     }
     size_t frames = bounds ? nb - 1 : 1;
-    const char *label = method_names[opt.method];
+    const char *label = pb_method_name(opt.method);
     size_t out_frames = bounds && !sum ? frames : 1;
     if (!(rc = read_input(args, in_path, bounds != NULL, &in)) && !(rc = bounds ? check_frames(in_path, &in, frames) : 0) &&
         !(rc = pbc_image_check_output(out_path, in.dims, out_frames)) && !(rc = pbc_motion_place(&motion, &in, in_path)) && !(rc = pbc_motion_check_frames(&motion, bounds, frames, 1)) &&
@@ -262,7 +256,7 @@ static int run(const pbc_args *args, const char *in_path, const char *out_path, 
         if (bounds)
             snprintf(shape, sizeof shape, sum ? ", the sum of %zu frames" : " x %zu frames", frames);
         printf("%s: %zu x %zu x %zu%s, %s %s%s on %s, kernel %.2f ms\n", out_path, in.dims[0], in.dims[1], in.dims[2],
-               shape, method_names[opt.method], opt.method == PB_METHOD_REF ? "box" : filter_names[opt.filter],
+               shape, pb_method_name(opt.method), opt.method == PB_METHOD_REF ? "box" : pb_filter_name(opt.filter),
                adjoint ? " adjoint" : "", dev, ms);
     }
     pb_context_destroy(ctx);

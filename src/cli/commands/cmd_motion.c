@@ -49,73 +49,28 @@ static int grid_image(const pbc_args *args, pbc_image *img)
     return pbc_image_alloc(img, dims, vs);
 }
 
-static void frame_summary(const pbc_motion *m, const pbc_image *img, size_t index, double t0, double t1)
+static int frame_summary(const pbc_motion *m, const pbc_image *img, size_t index, double t0, double t1)
 {
-    pb_motion part;
-    pb_motion_frame(&m->motion, t0, t1, &part);
-    const pb_motion *mo = &part;
-    double c[3], ext[3], rot = 0.0, disp = 0.0;
-    for (int i = 0; i < 3; i++) {
-        ext[i] = (double)img->dims[i] * img->voxel_size[i];
-        c[i] = mo->has_center ? mo->center[i] : 0.5 * ext[i];
-    }
-    pb_pose start, p;
-    pb_motion_pose_at(mo, t0, &start);
-    size_t samples = 0;
-    for (size_t i = 0; i <= mo->count; i++) {
-        /* tracked poses as they are, the frame's end interpolated */
-        double t = i == mo->count ? t1 : mo->times[i];
-        if (t < t0 || t > t1)
-            continue;
-        if (i < mo->count)
-            p = mo->poses[i];
-        else if (pb_motion_pose_at(mo, t, &p) != PB_OK)
-            continue;
-        samples += i < mo->count;
-        rot = fmax(rot, pb_pose_turn_deg(&start, &p));
-        for (int k = 0; k < 8; k++) {
-            double v[3] = {(k & 1) ? ext[0] : 0, (k & 2) ? ext[1] : 0, (k & 4) ? ext[2] : 0}, a[3], b[3];
-            pb_pose_apply(&start, c, v, a);
-            pb_pose_apply(&p, c, v, b);
-            disp = fmax(disp, sqrt((a[0] - b[0]) * (a[0] - b[0]) + (a[1] - b[1]) * (a[1] - b[1]) +
-                                   (a[2] - b[2]) * (a[2] - b[2])));
-        }
-    }
-    printf("%5zu %12.6g %12.6g %8zu %10.3f %12.3f\n", index, t0, t1, samples, rot, disp);
+    pb_geometry g = {{img->dims[0], img->dims[1], img->dims[2]},
+                     {img->voxel_size[0], img->voxel_size[1], img->voxel_size[2]}};
+    pb_frame_summary f;
+    if (pb_motion_frame_summary(&m->motion, &g, t0, t1, &f) != PB_OK)
+        return pbc_fail(PBC_EXIT_RUNTIME, "frame %zu: %s", index, pb_last_error(NULL));
+    printf("%5zu %12.6g %12.6g %8zu %10.3f %12.3f\n", index, t0, t1, f.samples, f.max_turn_deg, f.max_corner_mm);
+    return 0;
 }
 
-static int compare_doubles(const void *a, const void *b)
+static int track_summary(const pbc_motion *m)
 {
-    double x = *(const double *)a, y = *(const double *)b;
-    return (x > y) - (x < y);
-}
-
-static void track_summary(const pbc_motion *m)
-{
-    const pb_track *t = m->track;
-    const double *times = pb_track_times(t);
-    const size_t *miss = pb_track_missing(t);
-    size_t n = pb_track_count(t), missing = 0, gaps = 0;
-    double span = times[n - 1] - times[0], gap = 0.0;
-    double *steps = malloc((n - 1) * sizeof *steps);
-    for (size_t i = 1; i < n; i++) {
-        double d = times[i] - times[i - 1];
-        if (steps)
-            steps[i - 1] = d;
-        missing += miss[i];
-        gaps += miss[i] > 0;
-        gap = miss[i] ? fmax(gap, d) : gap;
-    }
-    double median = 0.0;
-    if (steps) {
-        qsort(steps, n - 1, sizeof *steps, compare_doubles);
-        median = steps[(n - 1) / 2];
-        free(steps);
-    }
+    pb_track_summary s;
+    if (pb_track_summarize(m->track, &s) != PB_OK)
+        return pbc_fail(PBC_EXIT_RUNTIME, "%s: %s", m->source, pb_last_error(NULL));
     printf("%s: %s, %zu poses from %.9g to %.9g s (%.6g s), median step %.6g s (%.4g Hz)\n", m->source,
-           pb_track_format_name(pb_track_get_format(t)), n, times[0], times[n - 1], span, median,
-           median > 0 ? 1.0 / median : 0.0);
-    printf("missing samples: %zu in %zu gap%s, the longest %.6g s\n", missing, gaps, gaps == 1 ? "" : "s", gap);
+           pb_track_format_name(pb_track_get_format(m->track)), s.samples, s.first, s.last, s.last - s.first,
+           s.median_step, s.median_step > 0 ? 1.0 / s.median_step : 0.0);
+    printf("missing samples: %zu in %zu gap%s, the longest %.6g s\n", s.missing, s.gaps, s.gaps == 1 ? "" : "s",
+           s.longest_gap);
+    return 0;
 }
 
 /* Every file motion reads, and its one output, for the rule that no output
@@ -170,11 +125,11 @@ int pbc_cmd_motion(int argc, char **argv)
         const double *b = bounds ? bounds : whole;
         size_t frames = bounds ? nb - 1 : 1;
         if (!(rc = pbc_motion_check_frames(&m, b, frames, 0))) {
-            track_summary(&m);
-            printf("frame        start          end  samples  max rot deg max disp mm\n");
-            for (size_t i = 0; i < frames; i++)
-                frame_summary(&m, &img, i, b[i], b[i + 1]);
-            if (png)
+            if (!(rc = track_summary(&m)))
+                printf("frame        start          end  samples  max rot deg max disp mm\n");
+            for (size_t i = 0; i < frames && !rc; i++)
+                rc = frame_summary(&m, &img, i, b[i], b[i + 1]);
+            if (png && !rc)
                 rc = pbc_motion_plot(png, &m, b, frames + 1);
         }
     }
