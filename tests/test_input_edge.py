@@ -21,7 +21,10 @@ import nibabel as nib
 import numpy as np
 
 PETBLUR = None
-RNG = np.random.default_rng()
+# A fresh draw each run, printed so that a failure replays: PETBLUR_TEST_SEED=N.
+SEED = int(os.environ.get("PETBLUR_TEST_SEED") or np.random.SeedSequence().entropy % 2**32)
+print(f"seed {SEED} (replay with PETBLUR_TEST_SEED={SEED})", file=sys.stderr)
+RNG = np.random.default_rng(SEED)
 
 
 def run(*args, expect=0, timeout=120):

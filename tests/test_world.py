@@ -20,7 +20,10 @@ from scipy.spatial.transform import Rotation, Slerp
 import test_cli
 from test_cli import Case, run
 
-RNG = np.random.default_rng()
+# A fresh draw each run, printed so that a failure replays: PETBLUR_TEST_SEED=N.
+SEED = int(os.environ.get("PETBLUR_TEST_SEED") or np.random.SeedSequence().entropy % 2**32)
+print(f"seed {SEED} (replay with PETBLUR_TEST_SEED={SEED})", file=sys.stderr)
+RNG = np.random.default_rng(SEED)
 DIMS = (24, 20, 16)
 # CL with 64 steps against a 400-step average: measured 1.0e-4 to 1.7e-4 of the largest value on these volumes;
 # the same motion taken along the array's axes misses by 0.4 to 0.7.
