@@ -148,7 +148,9 @@ def test_derivatives_at_far_xi(rng, request):
     15.6 %, whose tail (an exponential of mean 1.7 % above the 90th
     percentile, 10.7 %) put the four samples' 18 % at about 1 failure in 700
     runs, and puts 36 % below 1 in 10^7. The derivative without G's Jacobian
-    differed by median 71 %, smallest 11.5 %."""
+    differed by median 71 %, smallest 11.5 % (1st percentile 21 %); it must
+    differ by 5 %: a derivative that skipped the Jacobian would be the naive
+    one itself, 0 %."""
     x = smooth_object(rng)
     m = random_motion(rng, k=3)
     op = petblur.BlurOperator(SHAPE, VOXEL, m, frame=(0.0, 1.0), method="cl", filter="exact", device="host")
@@ -158,7 +160,7 @@ def test_derivatives_at_far_xi(rng, request):
     placed = pose._Placed(op)
     moved = placed.operator(petblur.BlurOperator, motion=placed.motion(placed.xi(xi0)), frame=op.frame)
     naive = pose.derivatives(moved, x)
-    assert max(rel_rms(naive[1, j], d[1, j]) for j in range(3, 6)) > 0.1
+    assert max(rel_rms(naive[1, j], d[1, j]) for j in range(3, 6)) > 0.05
 
 
 def test_vjp_equals_derivatives(rng):
