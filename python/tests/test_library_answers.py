@@ -82,7 +82,7 @@ def test_summary_against_scipy(rng):
         bounds = np.sort(rng.uniform(t[0], t[-1], int(rng.integers(2, 6))))
         s = m.summary(bounds, shape, voxel)
         assert s["samples"] == t.size and s["first"] == t[0] and s["last"] == t[-1]
-        assert s["median_step"] == pytest.approx(np.median(np.diff(t)), rel=0, abs=np.diff(t).ptp())
+        assert s["median_step"] == pytest.approx(np.median(np.diff(t)), rel=0, abs=np.ptp(np.diff(t)))
         assert s["missing"] == 0 and s["gaps"] == 0
         for f, t0, t1 in zip(s["frames"], bounds[:-1], bounds[1:]):
             samples, turn, disp = _reference(t, trans, rot, center, shape, voxel, t0, t1)
