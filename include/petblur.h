@@ -498,6 +498,12 @@ PB_API pb_status pb_track_summarize(const pb_track *track, pb_track_summary *sum
 
 /* Where a pose about centre takes point p: centre + t + R (p - centre). */
 PB_API void pb_pose_apply(const pb_pose *pose, const double center[3], const double p[3], double out[3]);
+/* The pose T G(xi)^-1 of pose T under the object-side perturbation
+ * xi = (v, w): G(xi) p = R(w) (p - c) + c + v about the pose's centre c, v in
+ * mm, w a rotation vector in radians (angle |w| about w / |w|). The
+ * perturbation pb_blur_pose_derivative differentiates in, and the step of the
+ * estimate's registration. */
+PB_API pb_status pb_pose_perturb(const pb_pose *pose, const double xi[6], pb_pose *out);
 /* The angle in degrees of the turn between two poses' rotations. */
 PB_API double pb_pose_turn_deg(const pb_pose *a, const pb_pose *b);
 

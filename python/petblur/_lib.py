@@ -239,6 +239,7 @@ _signatures = {
     "pb_track_format_parse": (_int, [ctypes.c_char_p, _P(_int)]),
     "pb_motion_frame_summary": (_int, [_P(CMotion), _P(Geometry), _dbl, _dbl, _P(FrameSummary)]),
     "pb_track_summarize": (_int, [_vp, _P(TrackSummary)]),
+    "pb_pose_perturb": (_int, [_P(Pose), _P(_dbl), _P(Pose)]),
     "pb_pose_gradient_images": (_int, [_P(Geometry), _vp, _P(_dbl), _P(_vp)]),
 }
 bind(_signatures)

@@ -35,35 +35,10 @@ from .motion import Motion
 from .operator import BlurOperator, FramesOperator, _quiet
 
 
-# ---- rotations (quaternions w, x, y, z) ----
+# ---- the chain rule's SO(3) Jacobian (the poses themselves move by pb_pose_perturb) ----
 
 def _skew(v):
     return np.array([[0.0, -v[2], v[1]], [v[2], 0.0, -v[0]], [-v[1], v[0], 0.0]])
-
-
-def _qmul(a, b):
-    w1, x1, y1, z1 = a
-    w2, x2, y2, z2 = b
-    return np.array([w1 * w2 - x1 * x2 - y1 * y2 - z1 * z2, w1 * x2 + x1 * w2 + y1 * z2 - z1 * y2,
-                     w1 * y2 - x1 * z2 + y1 * w2 + z1 * x2, w1 * z2 + x1 * y2 - y1 * x2 + z1 * w2])
-
-
-def _qconj(q):
-    return np.array([q[0], -q[1], -q[2], -q[3]])
-
-
-def _qmat(q):
-    w, x, y, z = q / np.linalg.norm(q)
-    return np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
-                     [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
-                     [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)]])
-
-
-def _qrotvec(w):
-    """The unit quaternion of rotation vector w (radians)."""
-    theta = float(np.linalg.norm(w))
-    half = np.sin(0.5 * theta) / theta if theta > 1e-8 else 0.5 - theta * theta / 48.0
-    return np.array([np.cos(0.5 * theta), *(half * np.asarray(w))])
 
 
 def _left_jacobian(w):
@@ -120,16 +95,18 @@ class _Placed:
         return a @ self.m.T
 
     def moved(self, xi_grid):
-        """The samples' poses T_k G(xi_k)^-1 (translations, quaternions)."""
+        """The samples' poses T_k G(xi_k)^-1 (translations, quaternions), by
+        the library's pb_pose_perturb."""
         t = self.translations.copy()
         q = self.quaternions.copy()
-        for k, (v, w) in enumerate(zip(xi_grid[:, :3], xi_grid[:, 3:])):
-            if not (np.any(v) or np.any(w)):
+        out = _lib.Pose()
+        for k, xi in enumerate(xi_grid):
+            if not np.any(xi):
                 continue
-            qw = _qrotvec(w)
-            qk = _qmul(self.quaternions[k], _qconj(qw))
-            t[k] = self.translations[k] - _qmat(qk) @ v
-            q[k] = qk / np.linalg.norm(qk)
+            p = _lib.Pose((ctypes.c_double * 3)(*t[k]), (ctypes.c_double * 4)(*q[k]))
+            _lib.check(_lib.lib.pb_pose_perturb(ctypes.byref(p), (ctypes.c_double * 6)(*map(float, xi)),
+                                                ctypes.byref(out)))
+            t[k], q[k] = out.translation[:], out.rotation[:]
         return t, q
 
     def motion(self, xi_grid):

@@ -15,6 +15,7 @@ petblur.torch.blur_posed gives autograd), on the host backend, without torch.
 
 import numpy as np
 import pytest
+from scipy.spatial.transform import Rotation
 
 import petblur
 from petblur import pose
@@ -50,7 +51,8 @@ def random_motion(rng, k=4, shift=8.0, turn=6.0, shape=SHAPE, voxel=VOXEL):
     q = []
     for _ in range(k):
         axis = rng.normal(size=3)
-        q.append(pose._qrotvec(np.deg2rad(rng.uniform(-turn, turn)) * axis / np.linalg.norm(axis)))
+        q.append(Rotation.from_rotvec(np.deg2rad(rng.uniform(-turn, turn)) * axis / np.linalg.norm(axis))
+                 .as_quat()[[3, 0, 1, 2]])
     centre = rng.uniform(0.4, 0.6, 3) * np.array(shape) * voxel
     return petblur.Motion(times, rng.uniform(-shift, shift, (k, 3)), np.array(q), center=centre)
 
@@ -246,12 +248,12 @@ def test_world_coordinates(rng, request):
     m = petblur.Motion(m.times, m.translations, m.quaternions, center=world_centre)
     op = petblur.BlurOperator(SHAPE, VOXEL, m, affine=affine, method="cl", filter="exact", device="host")
     xi = np.concatenate([rng.uniform(-2, 2, (k, 3)), np.deg2rad(rng.uniform(-4, 4, (k, 3)))], axis=1)
-    # T_k G(xi_k)^-1 in world coordinates, about the world centre.
+    # T_k G(xi_k)^-1 in world coordinates, about the world centre, by SciPy: R_k R(w)^T, t_k - R_k R(w)^T v.
     t2, q2 = m.translations.copy(), m.quaternions.copy()
     for i in range(k):
-        qi = pose._qmul(m.quaternions[i], pose._qconj(pose._qrotvec(xi[i, 3:])))
-        q2[i] = qi
-        t2[i] = m.translations[i] - pose._qmat(qi) @ xi[i, :3]
+        ri = Rotation.from_quat(m.quaternions[i][[1, 2, 3, 0]]) * Rotation.from_rotvec(xi[i, 3:]).inv()
+        q2[i] = ri.as_quat()[[3, 0, 1, 2]]
+        t2[i] = m.translations[i] - ri.apply(xi[i, :3])
     want_op = petblur.BlurOperator(SHAPE, VOXEL, petblur.Motion(m.times, t2, q2, center=world_centre),
                                    affine=affine, method="cl", filter="exact", device="host")
     x = smooth_object(rng)

@@ -141,28 +141,6 @@ static int solve(double *a, double *b, int n, double *x)
     return 1;
 }
 
-/* T o G(step)^-1: the pose after the object-side perturbation v = step[0..2]
- * (mm), w = step[3..5] (radians), about the common centre. */
-static void perturb(const pb_pose *pose, const double step[6], pb_pose *out)
-{
-    pb_pose g, gi;
-    double angle = sqrt(step[3] * step[3] + step[4] * step[4] + step[5] * step[5]);
-    memcpy(g.translation, step, sizeof g.translation);
-    if (angle > 0) {
-        double s = sin(0.5 * angle) / angle;
-        g.rotation[0] = cos(0.5 * angle);
-        g.rotation[1] = s * step[3];
-        g.rotation[2] = s * step[4];
-        g.rotation[3] = s * step[5];
-    } else {
-        g.rotation[0] = 1;
-        g.rotation[1] = g.rotation[2] = g.rotation[3] = 0;
-    }
-    pb_pose_invert(&g, &gi);
-    pb_pose_compose(pose, &gi, out);
-    pb_pose_normalized(out, out);
-}
-
 enum { NP = 8 };
 
 pb_status pbe_register(pb_context *ctx, pbe_level *level, const float *frame, const double c[3],
@@ -227,9 +205,11 @@ pb_status pbe_register(pb_context *ctx, pbe_level *level, const float *frame, co
             A[p * NP + p] *= 1.0 + lambda;
             g[p] = -best_g[p];
         }
-        if (!solve(A, g, NP, step))
+        /* A singular or overflowing system ends the fit at the best pose so far
+         * (checked here: a refusal of pb_pose_perturb would write an error text). */
+        if (!solve(A, g, NP, step) || !pb_all_finite(step, 6))
             break;
-        perturb(&best_pose, step, &trial);
+        pb_pose_perturb(&best_pose, step, &trial);
         fit->iterations = it + 1;
         double move = sqrt(step[0] * step[0] + step[1] * step[1] + step[2] * step[2]);
         double turn = sqrt(step[3] * step[3] + step[4] * step[4] + step[5] * step[5]);

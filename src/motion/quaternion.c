@@ -211,3 +211,21 @@ double pb_pose_turn_deg(const pb_pose *a, const pb_pose *b)
     double na = sqrt(pb_quat_dot(p, p)), nb = sqrt(pb_quat_dot(r, r));
     return 2.0 * acos(fmin(1.0, dot / (na * nb))) * 180.0 / 3.14159265358979323846;
 }
+
+pb_status pb_pose_perturb(const pb_pose *pose, const double xi[6], pb_pose *out)
+{
+    if (!pose || !xi || !out)
+        return pb_error(NULL, PB_ERR_INVALID_ARGUMENT, "pose, xi and out must not be NULL");
+    if (!pb_all_finite(xi, 6) || !pb_all_finite(pose->translation, 3) || !pb_all_finite(pose->rotation, 4))
+        return pb_error(NULL, PB_ERR_NOT_FINITE, "the pose or xi holds NaN or infinity");
+    pb_pose g, gi;
+    double angle = sqrt(xi[3] * xi[3] + xi[4] * xi[4] + xi[5] * xi[5]);
+    memcpy(g.translation, xi, sizeof g.translation);
+    g.rotation[0] = cos(0.5 * angle);
+    for (int i = 0; i < 3; i++)
+        g.rotation[i + 1] = angle > 0 ? sin(0.5 * angle) / angle * xi[3 + i] : 0.0;
+    pb_pose_invert(&g, &gi);
+    pb_pose_compose(pose, &gi, out);
+    pb_pose_normalized(out, out);
+    return PB_OK;
+}
