@@ -48,47 +48,23 @@ static pb_status parse(const char *kind, const name_row *rows, size_t n, const c
     return pb_error(NULL, PB_ERR_INVALID_ARGUMENT, "%s '%.200s': choose %s", kind, name ? name : "(none)", list);
 }
 
-const char *pb_method_name(pb_method method)
-{
-    return name_of(methods, COUNT(methods), (int)method);
-}
+/* pb_KIND_name and pb_KIND_parse of one table. */
+#define NAMED(kind, type, rows)                                                                               \
+    const char *pb_##kind##_name(type value)                                                                  \
+    {                                                                                                         \
+        return name_of(rows, COUNT(rows), (int)value);                                                        \
+    }                                                                                                         \
+    pb_status pb_##kind##_parse(const char *name, type *value)                                                \
+    {                                                                                                         \
+        int v = 0;                                                                                            \
+        if (!value)                                                                                           \
+            return pb_error(NULL, PB_ERR_INVALID_ARGUMENT, "the " #kind " pointer must not be NULL");         \
+        pb_status st = parse(#kind, rows, COUNT(rows), name, &v);                                             \
+        if (st == PB_OK)                                                                                      \
+            *value = (type)v;                                                                                 \
+        return st;                                                                                            \
+    }
 
-pb_status pb_method_parse(const char *name, pb_method *method)
-{
-    int v = 0;
-    pb_status st = method ? parse("method", methods, COUNT(methods), name, &v)
-                          : pb_error(NULL, PB_ERR_INVALID_ARGUMENT, "the method pointer must not be NULL");
-    if (st == PB_OK)
-        *method = (pb_method)v;
-    return st;
-}
-
-const char *pb_filter_name(pb_filter filter)
-{
-    return name_of(filters, COUNT(filters), (int)filter);
-}
-
-pb_status pb_filter_parse(const char *name, pb_filter *filter)
-{
-    int v = 0;
-    pb_status st = filter ? parse("filter", filters, COUNT(filters), name, &v)
-                          : pb_error(NULL, PB_ERR_INVALID_ARGUMENT, "the filter pointer must not be NULL");
-    if (st == PB_OK)
-        *filter = (pb_filter)v;
-    return st;
-}
-
-const char *pb_ab_sampling_name(pb_ab_sampling sampling)
-{
-    return name_of(samplings, COUNT(samplings), (int)sampling);
-}
-
-pb_status pb_ab_sampling_parse(const char *name, pb_ab_sampling *sampling)
-{
-    int v = 0;
-    pb_status st = sampling ? parse("ab_sampling", samplings, COUNT(samplings), name, &v)
-                            : pb_error(NULL, PB_ERR_INVALID_ARGUMENT, "the sampling pointer must not be NULL");
-    if (st == PB_OK)
-        *sampling = (pb_ab_sampling)v;
-    return st;
-}
+NAMED(method, pb_method, methods)
+NAMED(filter, pb_filter, filters)
+NAMED(ab_sampling, pb_ab_sampling, samplings)
