@@ -97,7 +97,7 @@ def layered_walk(r):
     """Whether the library walks AB HARDWARE through 2-D layers for this row's
     motion: a translation (one segment from the identity; the bench gives it in
     voxels) that moves most along y or z, or along x by at least 8 voxels
-    (src/devices/kernel_args.c), ties going to the lower axis as in the kernels."""
+    (src/devices/kernel_choice.c), ties going to the lower axis as in the kernels."""
     if num(r["rot_deg"]) != 0.0:
         return False
     d = [abs(num(r[t])) for t in ("tx", "ty", "tz")]

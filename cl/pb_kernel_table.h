@@ -1,6 +1,6 @@
 /* Every device kernel, once. The enum, the OpenCL kernel names, CUDA's launch
  * switch and check (cuda/pb_kernels.cu), what each launch reads and its work
- * group all come from this table; src/devices/kernel_args.c picks a launch's kernel by
+ * group all come from this table; src/devices/kernel_choice.c picks a launch's kernel by
  * what it is (family, method, filter), never by its position.
  *
  * Columns:
@@ -91,7 +91,7 @@ typedef struct pb_kernel_info {
     unsigned group[3];
 } pb_kernel_info;
 
-/* The table itself, indexed by pb_kernel_id (src/devices/kernel_args.c). */
+/* The table itself, indexed by pb_kernel_id (src/devices/kernel_choice.c). */
 #ifndef __cplusplus
 extern const pb_kernel_info pb_kernel_table[PB_KERNEL_COUNT];
 #endif

@@ -112,7 +112,7 @@ PB_KERNEL void pb_shift_cl_exact(pb_image img, PB_GLOBAL_RO pb_kpose *poses, pb_
  * through the 3-D image: laying it out there saves more fetch time than it
  * costs. Along x the layout is a transpose that costs more than it saves on
  * one blur, so an input laid out anew every call (the gather's tomograph, the
- * caller's device memory) reads the 3-D image along x (src/devices/kernel_args.c). */
+ * caller's device memory) reads the 3-D image along x (src/devices/kernel_choice.c). */
 
 /* Layer `layer` at (pa, pb), or 0 outside the volume along the axis (layers:
  * how many): an array clamps its layer index where a 3-D image reads its zero

@@ -52,7 +52,7 @@ typedef struct motion_case {
  * HARDWARE reads layers along the translation's axis, along x 8 to 11 voxels
  * so that its forward's walks are long enough for them,
  * PB_X_LAYERS_MIN_SLICES, while its gather reads the 3-D image there,
- * src/devices/kernel_args.c), a large turn (cut into several segments by the
+ * src/devices/kernel_choice.c), a large turn (cut into several segments by the
  * default path bound), and a track of several poses with the frame inside it. */
 #define GATHER_CASES 4
 #define CASES 6

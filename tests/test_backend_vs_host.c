@@ -24,7 +24,7 @@ static void random_volume(const pb_geometry *g, float *v)
  * only, the device runs its shift-invariant kernels. With along_x, at least
  * 3 poses of translations only that swing 16 to 24 voxels along x and little
  * else: a whole middle segment is long enough for AB HARDWARE's layers along
- * x (src/devices/kernel_args.c). */
+ * x (src/devices/kernel_choice.c). */
 static void random_motion(const pb_geometry *g, int translations, int along_x, pb_test_motion *tm, double *times,
                           pb_pose *poses, int *count)
 {

@@ -127,7 +127,7 @@ SETUP_24 = hf.Setup(frames=24, shape=(40, 40, 36), voxel=(4.5, 4.5, 4.5), jerk_f
 
 
 class Together(unittest.TestCase):
-    """Pass 4 (src/estimate/collective.c) on 24 frames, the series where it runs: the frames' poses corrected together
+    """Pass 4 (src/estimate/contrast_poses.c) on 24 frames, the series where it runs: the frames' poses corrected together
     along the contrast, against the same estimate without it (PETBLUR_ESTIMATE_CONTRAST=0). Measured while writing
     this (seeds 5 and 6 of this setup, PoCL, two cores): mean 0.905 -> 0.602 and 0.896 -> 0.572 mm, worst frame (the
     jerk's) 1.78 -> 1.52 and 1.87 -> 1.63 mm, 40 s -> 115 s. Where it moves the track it must take a tenth off the

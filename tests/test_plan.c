@@ -192,7 +192,7 @@ static void check_case(pb_context *ctx, const pb_geometry *g, const pb_motion *m
         pb_check(dev_copy(ctx, dout, dev, bytes, 0), "%s: reading device memory back", what);
         /* AB HARDWARE moving along x reads a volume through layers along x,
          * but device memory, laid out anew every call, through the 3-D image
-         * (src/devices/kernel_args.c): the same weights, blended by the texture unit
+         * (src/devices/kernel_choice.c): the same weights, blended by the texture unit
          * in another order, so equal to its rounding (tests/testlib.h). */
         int other_kernel = !adjoint && along_x && opt->method == PB_METHOD_AB && opt->filter == PB_FILTER_HARDWARE;
         pb_check(same(dev, once, n, exact && !other_kernel, other_kernel ? PB_TEX_TRILINEAR_ERROR : 1e-5),

@@ -51,7 +51,7 @@ typedef struct pb_plan_frame {
     pb_path path;
     void *poses; /* device buffer, uploaded once */
     /* The forward for an input laid out once (a volume) and for one laid out
-     * every call (the caller's device memory): kernel_args.h. */
+     * every call (the caller's device memory): kernel_choice.h. */
     pb_kernel_id forward, forward_fresh, adjoint;
     pb_kparams forward_prm, adjoint_prm;
 } pb_plan_frame;

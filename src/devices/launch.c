@@ -6,7 +6,7 @@
 #include <stdlib.h>
 
 #include "backend.h"
-#include "kernel_args.h"
+#include "kernel_choice.h"
 
 void pb_images_stale(pb_images *images)
 {

@@ -10,7 +10,7 @@
 #include <stdlib.h>
 
 #include "backend.h"
-#include "kernel_args.h"
+#include "kernel_choice.h"
 
 /* The impulse grid's largest volume. It holds the offsets from 0 to the
  * path's, so a short path far from the frame's reference (up to about 60

@@ -8,11 +8,11 @@
  *     frame's projection onto the principal images of its nearest frames moved
  *     back onto the reference, which has the frame's contrast (uptake changes
  *     from frame to frame) and the noise of its window's counts;
- *  3. inside frames (inside.c): a frame between two neighbours is fitted as
+ *  3. inside frames (intra_frame.c): a frame between two neighbours is fitted as
  *     a dwell along a path that starts or ends at a still neighbour's pose
  *     (between the two, or from one on through its own pose); where that
  *     explains it clearly better than one pose, the frame gets the path;
- *  4. together (collective.c): one rigid correction for every pose, scaled
+ *  4. together (contrast_poses.c): one rigid correction for every pose, scaled
  *     by each frame's contrast against the reference frame's, which takes
  *     out the bias that uptake changing leaves the frames of passes 2 and 3.
  * Poses live in the grid frame about the grid's centre until the track is
@@ -433,7 +433,7 @@ static pb_status hold_flat_frames(estimate *e, pbe_fit *fits)
     return PB_OK;
 }
 
-/* Pass 4 (collective.c): the poses of frames whose contrast is far from
+/* Pass 4 (contrast_poses.c): the poses of frames whose contrast is far from
  * the reference frame's share a bias that frame-by-frame registration cannot
  * see; one correction along the contrast, fitted to the series as a whole. */
 static pb_status correct_together(estimate *e, size_t ref, pbe_fit *fits, frame_path *paths, const int *moving)

@@ -7,7 +7,7 @@
 
 #include "petblur.h"
 
-/* ---- images.c: host image operations -------------------------------------- */
+/* ---- image_ops.c: host image operations -------------------------------------- */
 
 /* The grid of the next coarser level: ceil(n / 2) voxels of twice the size,
  * from the same corner, so that a position in mm means the same point on
@@ -87,7 +87,7 @@ void pbe_gram_band(const float *moved, size_t n, size_t frames, double *band);
 pb_status pbe_frame_reference(const float *moved, size_t n, size_t frames, const double *band, size_t k,
                               float *out);
 
-/* ---- inside.c: motion inside a frame ---------------------------------------- */
+/* ---- intra_frame.c: motion inside a frame ---------------------------------------- */
 
 /* The frame's dwell along the path from pose s to pose e: weights u[0..m-1]
  * of the poses at s + (e - s) i / (m - 1), non-negative, with an offset,
@@ -101,7 +101,7 @@ pb_status pbe_dwell(pb_context *ctx, pbe_level *level, const float *frame, const
  * for j < n_nonneg and the rest free. */
 void pbe_nnls(const double *gram, const double *h, size_t n, size_t n_nonneg, double *u);
 
-/* ---- unitary.c: rigid moves that keep a volume's energy --------------------- */
+/* ---- sinc_shears.c: rigid moves that keep a volume's energy --------------------- */
 
 /* The padded grid a volume on g is moved in: odd sizes, a margin each side. */
 void pbe_unitary_dims(const pb_geometry *g, size_t pad[3]);
@@ -118,7 +118,7 @@ pb_status pbe_backgrounds(const pb_geometry *g, const float *frames, size_t coun
 /* The share of a frame's variance about its mean that a fit leaving sse explains. */
 double pbe_explained(const float *frame, size_t n, double sse);
 
-/* ---- collective.c: the poses moved together along the contrast ------------- */
+/* ---- contrast_poses.c: the poses moved together along the contrast ------------- */
 
 /* A frame's poses: one, or a path's ends where it moves (pass 3). */
 typedef struct pbe_collective_pose {
@@ -128,7 +128,7 @@ typedef struct pbe_collective_pose {
 
 /* One rigid correction for every pose, scaled by the frame's contrast
  * against frame ref's, chosen to leave the least energy beyond the leading
- * principal images of the still frames moved back (unitary.c) onto the
+ * principal images of the still frames moved back (sinc_shears.c) onto the
  * reference; raw: the frames on the fine grid. *moved_mm: the correction's
  * size (0: none taken). */
 pb_status pbe_collective(const pb_geometry *fine, const float *raw, size_t count, size_t ref, const double c[3],

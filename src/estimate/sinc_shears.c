@@ -6,7 +6,7 @@
  * Trilinear resampling smooths noise by an amount that depends on where the
  * pose puts the samples between voxels; a comparison of many noisy frames
  * moved by different poses then follows the smoothing, not the frames'
- * agreement (collective.c).
+ * agreement (contrast_poses.c).
  *
  * The lines are a few dozen samples, so each shift is a direct sum with the
  * kernel in closed form (the Dirichlet kernel, O(n) sines a line) rather

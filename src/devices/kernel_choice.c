@@ -1,4 +1,4 @@
-#include "kernel_args.h"
+#include "kernel_choice.h"
 
 #include <math.h>
 #include <stdlib.h>

@@ -1,4 +1,4 @@
-/* The estimator's energy-keeping rigid move (src/estimate/unitary.c), on
+/* The estimator's energy-keeping rigid move (src/estimate/sinc_shears.c), on
  * fresh random poses and grids each run: a Gaussian blob moved lands where
  * the pose's inverse takes its centre (against the blob written there in
  * closed form), noise keeps its energy, and whole-voxel shifts are exact. */

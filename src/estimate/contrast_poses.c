@@ -10,7 +10,7 @@
  * contrast lies from the reference frame's, chosen to leave the least energy
  * beyond the moved-back frames' leading principal images.
  *
- * The frames are moved by a resampler that keeps their energy (unitary.c):
+ * The frames are moved by a resampler that keeps their energy (sinc_shears.c):
  * under trilinear resampling the noise's energy falls with the pose and the
  * minimum follows it (docs/motion.md gives the runs). Frames that follow a
  * path (pass 3) are not one pose's view and stay out of the sum; they are
