@@ -19,9 +19,8 @@ pb_status pb_motion_frame_summary(const pb_motion *motion, const pb_geometry *ge
     if (!motion || !geometry || !summary)
         return pb_error(NULL, PB_ERR_INVALID_ARGUMENT, "the motion, geometry and summary must not be NULL");
     memset(summary, 0, sizeof *summary);
-    pb_status st = pb_motion_validate(NULL, motion);
-    if (st != PB_OK)
-        return st;
+    if (!motion->times || motion->count < 2)
+        return pb_motion_validate(NULL, motion); /* its message for a track too short to hold a frame */
     double ext[3], c[3];
     for (int i = 0; i < 3; i++) {
         if (geometry->dims[i] == 0 || !(geometry->voxel_size[i] > 0.0 && isfinite(geometry->voxel_size[i])))
@@ -35,17 +34,25 @@ pb_status pb_motion_frame_summary(const pb_motion *motion, const pb_geometry *ge
     if (!(isfinite(t0) && isfinite(t1) && t0 < t1 && t0 >= times[0] && t1 <= times[motion->count - 1]))
         return pb_error(NULL, PB_ERR_BAD_FRAME, "frame [%g, %g] s: give a start before its end, both inside the "
                         "motion's samples [%g, %g] s", t0, t1, times[0], times[motion->count - 1]);
+    /* The frame's part only, cut as plans cut it: a report of many frames of a
+     * long track stays linear in the track. */
+    pb_motion part;
+    pb_status st = pb_motion_frame(motion, t0, t1, &part);
+    if (st == PB_OK)
+        st = pb_motion_validate(NULL, &part);
+    if (st != PB_OK)
+        return st;
     pb_pose start, p;
-    pb_motion_interpolate(motion, t0, &start);
-    for (size_t i = 0; i <= motion->count; i++) {
+    pb_motion_interpolate(&part, t0, &start);
+    for (size_t i = 0; i <= part.count; i++) {
         /* tracked poses as they are, the frame's end interpolated */
-        if (i < motion->count && (times[i] < t0 || times[i] > t1))
+        if (i < part.count && (part.times[i] < t0 || part.times[i] > t1))
             continue;
-        if (i < motion->count) {
-            p = motion->poses[i];
+        if (i < part.count) {
+            p = part.poses[i];
             summary->samples++;
         } else {
-            pb_motion_interpolate(motion, t1, &p);
+            pb_motion_interpolate(&part, t1, &p);
         }
         summary->max_turn_deg = fmax(summary->max_turn_deg, pb_pose_turn_deg(&start, &p));
         for (int k = 0; k < 8; k++) {
