@@ -31,10 +31,7 @@ void pbc_print_warnings(const pb_warnings *w)
 
 static int parse_format(const char *text, pb_track_format *format)
 {
-    if (pb_track_format_parse(text, format) == PB_OK)
-        return 0;
-    const char *msg = pb_last_error(NULL);
-    return pbc_fail(PBC_EXIT_USAGE, "--motion-%s", msg); /* "format 'x': choose ..." */
+    return pb_track_format_parse(text, format) == PB_OK ? 0 : pbc_refused_name("--motion-format");
 }
 
 static int track_options(const pbc_command *cmd, const pbc_args *args, pb_track_read_options *o)

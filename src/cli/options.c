@@ -7,6 +7,7 @@
 
 #include "cli.h"
 #include "options.h"
+#include "petblur.h"
 
 void pbc_print_help(const pbc_command *cmd)
 {
@@ -204,4 +205,10 @@ int pbc_parse_choice(const char *option, const char *text, const char *const *na
     for (int i = 0; i < count; i++)
         snprintf(list + strlen(list), sizeof list - strlen(list), "%s%s", i ? ", " : "", names[i]);
     return pbc_fail(PBC_EXIT_USAGE, "%s %s: choose one of %s", option, text, list);
+}
+
+int pbc_refused_name(const char *option)
+{
+    const char *msg = pb_last_error(NULL), *rest = strchr(msg, ' '); /* "method 'x': choose ..." */
+    return pbc_fail(PBC_EXIT_USAGE, "%s%s", option, rest ? rest : msg);
 }

@@ -59,5 +59,8 @@ int pbc_parse_bounds(const char *option, const char *text, double **v, size_t *c
 int pbc_parse_count(const char *option, const char *text, unsigned long lo, unsigned long hi, unsigned long *v);
 /* One of names[0..count-1]; *index gets which. */
 int pbc_parse_choice(const char *option, const char *text, const char *const *names, int count, int *index);
+/* A name the library's parser refused (pb_method_parse and kin): its message,
+ * which lists the choices, under the option's name; exit status for usage. */
+int pbc_refused_name(const char *option);
 
 #endif

@@ -56,13 +56,6 @@ static const pbc_command command = {
     "  petblur blur -i dynamic.nii.gz -o dynamic-blurred.nii.gz --motion track.csv --frames 0,60,120,300,600\n"
     "  petblur blur -i ratios.nii.gz -o summed.nii.gz --motion track.csv --frames 0,60,120 --adjoint --sum-frames"};
 
-/* A name the library did not take: its message, under the option's name. */
-static int refused(const char *option)
-{
-    const char *msg = pb_last_error(NULL), *rest = strchr(msg, ' ');
-    return pbc_fail(PBC_EXIT_USAGE, "%s%s", option, rest ? rest : msg);
-}
-
 static int blur_options(const pbc_args *args, pb_blur_options *opt)
 {
     const char *v;
@@ -71,9 +64,9 @@ static int blur_options(const pbc_args *args, pb_blur_options *opt)
     memset(opt, 0, sizeof *opt);
     opt->seed = 1;
     if ((v = pbc_arg(&command, args, "--method")) && pb_method_parse(v, &opt->method) != PB_OK)
-        return refused("--method");
+        return pbc_refused_name("--method");
     if ((v = pbc_arg(&command, args, "--filter")) && pb_filter_parse(v, &opt->filter) != PB_OK)
-        return refused("--filter");
+        return pbc_refused_name("--filter");
     /* Counts as far as they fit; their ranges are the library's (pb_options_check). */
     if ((v = pbc_arg(&command, args, "--steps")) && (rc = pbc_parse_count("--steps", v, 1, 0xffffffffUL, &n)) == 0)
         opt->steps = (unsigned)n;
@@ -87,7 +80,7 @@ static int blur_options(const pbc_args *args, pb_blur_options *opt)
     else if (bound)
         opt->path = PB_PATH_BOUNDED;
     if ((v = pbc_arg(&command, args, "--ab-sampling")) && pb_ab_sampling_parse(v, &opt->ab_sampling) != PB_OK)
-        return refused("--ab-sampling");
+        return pbc_refused_name("--ab-sampling");
     if ((v = pbc_arg(&command, args, "--points")) && (rc = pbc_parse_count("--points", v, 1, 0xffffffffUL, &n)) == 0)
         opt->ref_points = (unsigned)n;
     else if (v)
