@@ -8,6 +8,7 @@ the build itself.
 
 usage: test_layers.py ROOT BUILD_DIR
 """
+import functools
 import json
 import os
 import re
@@ -24,8 +25,10 @@ HEADERS = [("core", "error.h"), ("motion", "motion.h"), ("paths", "path.h"), ("d
 ORDER = [name for name, _ in HEADERS]
 
 
+@functools.lru_cache(maxsize=None)
 def flags_of(folder):
-    """The compiler and its include flags for a source file in src/FOLDER."""
+    """The compiler and its include flags for a source file in src/FOLDER
+    (read once a folder: every probe of it compiles with the same)."""
     with open(os.path.join(BUILD, "compile_commands.json")) as f:
         commands = json.load(f)
     want = os.path.join(os.path.realpath(ROOT), "src", folder) + os.sep
@@ -42,7 +45,7 @@ def flags_of(folder):
                 if args[i].startswith(("-I", "-D", "-std")):
                     keep.append(args[i])
                 i += 1
-            return keep, c["directory"]
+            return tuple(keep), c["directory"]
     raise AssertionError(f"no source of src/{folder} in compile_commands.json")
 
 
@@ -55,7 +58,7 @@ def found(folder, header):
         src = os.path.join(d, "probe.c")
         with open(src, "w") as f:
             f.write(f'#include "{header}"\n')
-        p = subprocess.run(args + ["-M", src], capture_output=True, text=True, cwd=cwd)
+        p = subprocess.run([*args, "-M", src], capture_output=True, text=True, cwd=cwd)
         deps = p.stdout.replace("\\\n", " ").split()
         mine = tuple(os.path.join(os.path.realpath(ROOT), f) + os.sep for f in ("src", "include"))
         ours = [x for x in deps if os.path.basename(x) == os.path.basename(header) and
