@@ -657,3 +657,4 @@ PB_KERNEL void pb_blur_ref(pb_image img, PB_GLOBAL_RO pb_kstep *steps, pb_kparam
 #include "pb_adjoint.cl"
 #include "pb_shift.cl"
 #include "pb_taps.cl"
+#include "pb_field.cl"

@@ -13,6 +13,9 @@
  *           TAPS     under translations with short paths, the convolution
  *                    they are, from taps measured once (cl/pb_taps.cl)
  *           PERMUTE  lays a buffer out in layers for the copy into them
+ *           FIELD    the forward gather along a deformation field's paths
+ *                    (cl/pb_field.cl); CL is RM there
+ *           FIELD_SCATTER  its adjoint's scatter
  *   method, filter   what it computes (ANY: either)
  *   reads   LINEAR / NEAREST  the 3-D image through a linear / point filter
  *           LAYERS  the layered image;  BUFFER  a plain device buffer
@@ -54,7 +57,18 @@
     X(SHIFT_AB_SWEEP_LAYERS, pb_shift_ab_sweep_layers, LAYERS, AB_SWEEP, HARDWARE, LAYERS, ROWS) \
     X(SHIFT_AB_SWEEP_LAYERS_X, pb_shift_ab_sweep_layers_x, LAYERS_X, AB_SWEEP, HARDWARE, LAYERS, ROWS) \
     X(SHIFT_TAPS,       pb_shift_taps,       TAPS,     ANY,   ANY,      BUFFER,  ROWS)      \
-    X(PERMUTE,          pb_permute,          PERMUTE,  ANY,   ANY,      BUFFER,  ROWS)
+    X(PERMUTE,          pb_permute,          PERMUTE,  ANY,   ANY,      BUFFER,  ROWS)      \
+    X(FIELD_AB,         pb_field_ab,         FIELD,    AB,    HARDWARE, LINEAR,  TILES)     \
+    X(FIELD_AB_EXACT,   pb_field_ab_exact,   FIELD,    AB,    EXACT,    NEAREST, TILES)     \
+    X(FIELD_AB_SWEEP,   pb_field_ab_sweep,   FIELD,    AB_SWEEP, HARDWARE, LINEAR, TILES)   \
+    X(FIELD_AB_SWEEP_EXACT, pb_field_ab_sweep_exact, FIELD, AB_SWEEP, EXACT, NEAREST, TILES)  \
+    X(FIELD_RM,         pb_field_rm,         FIELD,    RM,    HARDWARE, LINEAR,  TILES)     \
+    X(FIELD_RM_EXACT,   pb_field_rm_exact,   FIELD,    RM,    EXACT,    NEAREST, TILES)     \
+    X(FIELD_REF,        pb_field_ref,        FIELD,    REF,   ANY,      NEAREST, TILES)     \
+    X(FIELD_ADJOINT_AB, pb_field_adjoint_ab, FIELD_SCATTER, AB, ANY,    BUFFER,  TILES)     \
+    X(FIELD_ADJOINT_AB_SWEEP, pb_field_adjoint_ab_sweep, FIELD_SCATTER, AB_SWEEP, ANY, BUFFER, TILES) \
+    X(FIELD_ADJOINT_RM, pb_field_adjoint_rm, FIELD_SCATTER, RM, ANY,    BUFFER,  TILES)     \
+    X(FIELD_ADJOINT_REF, pb_field_adjoint_ref, FIELD_SCATTER, REF, ANY, BUFFER,  TILES)
 
 typedef enum pb_kernel_id {
 #define PB_KERNEL_ENUM_(id, ...) PB_KERNEL_##id,
@@ -65,7 +79,7 @@ typedef enum pb_kernel_id {
 
 typedef enum pb_kernel_family {
     PB_FAMILY_GENERAL, PB_FAMILY_SCATTER, PB_FAMILY_SHIFT, PB_FAMILY_LAYERS, PB_FAMILY_LAYERS_X, PB_FAMILY_TAPS,
-    PB_FAMILY_PERMUTE
+    PB_FAMILY_PERMUTE, PB_FAMILY_FIELD, PB_FAMILY_FIELD_SCATTER
 } pb_kernel_family;
 
 typedef enum pb_kernel_reads { PB_READS_LINEAR, PB_READS_NEAREST, PB_READS_LAYERS, PB_READS_BUFFER } pb_kernel_reads;

@@ -37,6 +37,14 @@ typedef struct pb_kparams {
      * largest offset along each axis either way. */
     int taps;
     int tap_reach[3];
+    /* The field kernels (cl/pb_field.cl): the field grid, whether it is the
+     * image grid, where the fields start in the plan buffer (in knots), and
+     * the map from image texel coordinates to field voxel coordinates (centre
+     * at i), row-major 3x4. */
+    int field_dims[3];
+    int field_same;
+    int field_start;
+    float field_map[12];
 } pb_kparams;
 
 /* Voxels along x per work item of pb_shift_ab_layers_x: 8 floats fill a
@@ -66,6 +74,16 @@ typedef struct pb_kpose {
     float cos_angle;    /* its cosine and 1 / its sine (0 for angle 0), from the host in double, */
     float inv_sin_angle; /* so that CL's step needs one sincos and no division */
 } pb_kpose;
+
+/* One key point of a field motion's frame, or one of REF's time steps: the
+ * field (1 - alpha) F[f0] + alpha F[f1], and the share of the frame of the
+ * segment to the next key point (of the step, for REF). The frame's fields
+ * follow the knots in the same buffer, at knot prm.field_start. */
+typedef struct pb_kknot {
+    int f0, f1;
+    float alpha;
+    float weight;
+} pb_kknot;
 
 /* One weight of the convolution that a motion of translations is
  * (cl/pb_taps.cl): tomograph voxel W reads object voxel W + offset, `linear`

@@ -676,6 +676,55 @@ PB_API pb_status pb_blur_frames_adjoint(pb_context *ctx, const pb_volume *const 
                                         const double *bounds, size_t frames, const pb_blur_options *options,
                                         pb_volume *const *objects);
 
+/* ---- non-rigid motion: deformation fields ------------------------------- */
+
+/* Motion that a field describes: breathing, the heart, any deformation.
+ * count displacement fields D_k, at times[k], on a field grid of dims. The
+ * resampling convention: a field is defined on the tomograph grid and points
+ * into object space, so the tomograph voxel centred at r (mm in the image's
+ * grid frame, its corner at 0) sits at object point r + D(t)(r) at time t.
+ * For a rigid pose P, D(t)(r) = P(t)^-1 r - r. Between samples D is
+ * interpolated linearly in time, so a voxel's path is a polyline through its
+ * points at the sample times: AB and RM walk it exactly (the path error bound
+ * has nothing to cut), CL's per-step interpolation gives RM's points, and REF
+ * samples dense times and random points in each voxel, the field interpolated
+ * trilinearly at each. Where the field grid is not the image grid, D is
+ * interpolated trilinearly in space between the field's voxel centres, and
+ * held at its edge values beyond them.
+ *
+ * displacements: count fields one after the other, each dims[0] * dims[1] *
+ * dims[2] vectors of three floats (mm along the image grid's x, y and z, the
+ * vector's components fastest, then x, y, z of the field grid). Fields in
+ * world coordinates (NIfTI's RAS, ITK's LPS) are turned into the grid frame
+ * by the image's direction matrix first (D^T d): the command line and the
+ * Python package do it. */
+typedef struct pb_field_motion {
+    const double *times;        /* seconds, strictly increasing, count of them */
+    const float *displacements; /* count * dims[0] * dims[1] * dims[2] * 3 floats, mm */
+    size_t count;               /* >= 2; the same field twice is a still deformation (a gate's warp) */
+    size_t dims[3];             /* the field grid */
+    /* 0: the field grid is the image grid (dims must equal the geometry's).
+     * 1: field_from_grid (row-major 3x4) maps an image voxel index (i, j, k),
+     * at the voxel's centre, to the field voxel index there. */
+    int has_map;
+    double field_from_grid[12];
+    double frame_start, frame_end; /* inside [times[0], times[count - 1]] */
+} pb_field_motion;
+
+/* Where a field folds: the voxels of the field grid at which the map r -> r
+ * + D_k(r) of some field k has a Jacobian determinant of at most zero
+ * (central differences inside, one-sided at the faces), how many, and the
+ * first (field index, voxel index x fastest), -1 where none does. A fold
+ * makes the blur read one place for two, which registrations sometimes
+ * leave: the front ends warn of it. */
+typedef struct pb_field_folds {
+    size_t voxels;
+    long field, voxel;
+    double worst_determinant; /* the smallest determinant found */
+} pb_field_folds;
+PB_API pb_status pb_field_check_folds(const pb_geometry *geometry, const pb_field_motion *field,
+                                      pb_field_folds *folds);
+
 /* ---- motion from the frames -------------------------------------------- */
 
 /* The six gradient images whose blurs pb_blur_pose_derivative returns, on
@@ -776,6 +825,22 @@ PB_API pb_status pb_plan_create(pb_context *ctx, const pb_geometry *geometry, co
 PB_API pb_status pb_plan_create_frames(pb_context *ctx, const pb_geometry *geometry, const pb_motion *track,
                                        const double *bounds, size_t frames, const pb_blur_options *options,
                                        pb_plan **plan);
+/* Plans of field motions, as pb_plan_create and pb_plan_create_frames plan a
+ * track: one frame, [frame_start, frame_end], or frames [bounds[i],
+ * bounds[i+1]] (frame_start and frame_end not used). Every method and filter,
+ * the adjoint exact as for a track; the path options do not apply. A frame
+ * keeps the fields its time covers, on the device, in texel units: about 12
+ * bytes a field voxel each (docs/motion.md). The field is checked first:
+ * NaN or infinite values (PB_ERR_NOT_FINITE, naming the field and voxel),
+ * dims that differ from the geometry without a map, a singular map
+ * (PB_ERR_SIZE_MISMATCH, PB_ERR_INVALID_ARGUMENT), times (PB_ERR_TRACK_ORDER)
+ * and frames outside them (PB_ERR_TRACK_GAP). */
+PB_API pb_status pb_plan_create_field(pb_context *ctx, const pb_geometry *geometry, const pb_field_motion *field,
+                                      const pb_blur_options *options, pb_plan **plan);
+PB_API pb_status pb_plan_create_field_frames(pb_context *ctx, const pb_geometry *geometry,
+                                             const pb_field_motion *field, const double *bounds, size_t frames,
+                                             const pb_blur_options *options, pb_plan **plan);
+
 PB_API void pb_plan_destroy(pb_plan *plan);
 PB_API size_t pb_plan_frame_count(const pb_plan *plan);
 PB_API pb_status pb_plan_get_geometry(const pb_plan *plan, pb_geometry *geometry);

@@ -137,6 +137,18 @@ class Warnings(ctypes.Structure):
     _fields_ = [("flags", ctypes.c_uint), ("text", ctypes.c_char * 4096)]
 
 
+class FieldMotion(ctypes.Structure):
+    _fields_ = [("times", ctypes.POINTER(ctypes.c_double)), ("displacements", ctypes.POINTER(ctypes.c_float)),
+                ("count", ctypes.c_size_t), ("dims", c_size3), ("has_map", ctypes.c_int),
+                ("field_from_grid", ctypes.c_double * 12), ("frame_start", ctypes.c_double),
+                ("frame_end", ctypes.c_double)]
+
+
+class FieldFolds(ctypes.Structure):
+    _fields_ = [("voxels", ctypes.c_size_t), ("field", ctypes.c_long), ("voxel", ctypes.c_long),
+                ("worst_determinant", ctypes.c_double)]
+
+
 class FrameSummary(ctypes.Structure):
     _fields_ = [("samples", ctypes.c_size_t), ("max_turn_deg", ctypes.c_double), ("max_corner_mm", ctypes.c_double)]
 
@@ -154,7 +166,8 @@ ProgressFn = ctypes.CFUNCTYPE(None, ctypes.c_double, ctypes.c_void_p)
 STRUCTS = {"pb_geometry": Geometry, "pb_pose": Pose, "pb_motion": CMotion, "pb_blur_options": BlurOptions,
            "pb_context_options": ContextOptions, "pb_device_info": DeviceInfo, "pb_native": Native,
            "pb_track_read_options": TrackReadOptions, "pb_track_conventions": TrackConventions,
-           "pb_warnings": Warnings, "pb_frame_summary": FrameSummary, "pb_track_summary": TrackSummary}
+           "pb_warnings": Warnings, "pb_frame_summary": FrameSummary, "pb_track_summary": TrackSummary,
+           "pb_field_motion": FieldMotion, "pb_field_folds": FieldFolds}
 
 
 BACKEND_AUTO, BACKEND_HOST, BACKEND_OPENCL, BACKEND_CUDA = 0, 1, 2, 3
@@ -203,6 +216,9 @@ _signatures = {
     "pb_path_segments": (_int, [_P(Geometry), _P(CMotion), _P(BlurOptions), _P(_sz)]),
     "pb_plan_create": (_int, [_vp, _P(Geometry), _P(CMotion), _P(BlurOptions), _P(_vp)]),
     "pb_plan_create_frames": (_int, [_vp, _P(Geometry), _P(CMotion), _P(_dbl), _sz, _P(BlurOptions), _P(_vp)]),
+    "pb_plan_create_field_frames": (_int, [_vp, _P(Geometry), _P(FieldMotion), _P(_dbl), _sz, _P(BlurOptions),
+                                           _P(_vp)]),
+    "pb_field_check_folds": (_int, [_P(Geometry), _P(FieldMotion), _P(FieldFolds)]),
     "pb_plan_destroy": (None, [_vp]),
     "pb_plan_forward": (_int, [_vp, _sz, _vp, _vp]),
     "pb_plan_adjoint": (_int, [_vp, _sz, _vp, _vp, _int]),

@@ -31,6 +31,7 @@ import numpy as np
 from . import _lib
 from ._arrays import Array, pointer
 from .errors import ArgumentError, Error, shown
+from .fields import FieldMotion
 from .motion import Motion
 
 # Index (k, j, i) of a C-ordered array's memory, read x fastest, to (i, j, k).
@@ -109,8 +110,9 @@ class _Operator:
                  progress, ab_sampling):
         self._shape = _shape3(shape)
         self.voxel_size = _voxel3(voxel_size)
-        if not isinstance(motion, Motion):
-            raise ArgumentError(f"motion must be a petblur.Motion, not {type(motion).__name__}")
+        if not isinstance(motion, (Motion, FieldMotion)):
+            raise ArgumentError(f"motion must be a petblur.Motion or petblur.FieldMotion, not "
+                                f"{type(motion).__name__}")
         self.motion = motion
         method_value, filter_value = _lib.parse_name("method", method), _lib.parse_name("filter", filter)
         if max_path_error is None:
@@ -145,6 +147,10 @@ class _Operator:
         self._progress = progress
         if affine is None:
             a = _grid_affine(self.voxel_size)
+            if motion._coords == "world" and isinstance(motion, FieldMotion):
+                raise ArgumentError(
+                    "the fields are placed in the world (FieldMotion(affine=)) and the operator has no affine= to "
+                    "place the image there; give the operator the image's voxel-to-world 4x4 (nibabel's img.affine)")
             if motion._coords == "world":
                 raise _needs_affine(motion, a)
             self.affine = None
@@ -252,9 +258,22 @@ class _Operator:
             dims = self._shape if f else self._shape[::-1]
             vox = self.voxel_size if f else self.voxel_size[::-1]
             affine = self._affine if f else self._affine @ _SWAP
+            handle = ctypes.c_void_p()
+            if isinstance(self.motion, FieldMotion):
+                if f and not self._quiet:
+                    self.motion._warn_folds(self.voxel_size, self._shape, self.affine, stacklevel=6)
+                cf, keep = self.motion._c_field(self._shape, self.voxel_size, self.affine, order)
+                g = _lib.Geometry((ctypes.c_size_t * 3)(*dims), (ctypes.c_double * 3)(*vox))
+                b = (ctypes.c_double * len(self._bounds))(*self._bounds)
+                _lib.check(_lib.lib.pb_plan_create_field_frames(ctx.handle, ctypes.byref(g), ctypes.byref(cf), b,
+                                                                len(self._bounds) - 1, ctypes.byref(self._options),
+                                                                ctypes.byref(handle)), ctx.handle)
+                del keep
+                self._handles.made(_lib.lib.pb_plan_destroy, handle)
+                plans[order] = (handle, g)
+                return plans[order]
             # The checks' warnings once, for the grid the caller named.
             g, cm, keep = self.motion._c_motion(dims, vox, affine, self._bounds, warn=f and not self._quiet)
-            handle = ctypes.c_void_p()
             if len(self._bounds) == 2 and not isinstance(self, FramesOperator):
                 st = _lib.lib.pb_plan_create(ctx.handle, ctypes.byref(g), ctypes.byref(cm),
                                              ctypes.byref(self._options), ctypes.byref(handle))
@@ -458,8 +477,9 @@ class BlurOperator(_Operator):
     def __init__(self, shape, voxel_size, motion, frame=None, method="ab", filter="hardware", max_path_error=None,
                  device="auto", affine=None, steps=0, progress=None, ab_sampling=None):
         if frame is None:
-            if not isinstance(motion, Motion):
-                raise ArgumentError(f"motion must be a petblur.Motion, not {type(motion).__name__}")
+            if not isinstance(motion, (Motion, FieldMotion)):
+                raise ArgumentError(f"motion must be a petblur.Motion or petblur.FieldMotion, not "
+                                    f"{type(motion).__name__}")
             frame = (motion.times[0], motion.times[-1])
         try:
             t0, t1 = (float(v) for v in frame)
@@ -517,8 +537,8 @@ class FramesOperator(_Operator):
     def __init__(self, shape, voxel_size, track, bounds, per_frame=False, method="ab", filter="hardware",
                  max_path_error=None, device="auto", affine=None, steps=0, progress=None, frames_last=False,
                  ab_sampling=None):
-        if not isinstance(track, Motion):
-            raise ArgumentError(f"track must be a petblur.Motion, not {type(track).__name__}")
+        if not isinstance(track, (Motion, FieldMotion)):
+            raise ArgumentError(f"track must be a petblur.Motion or petblur.FieldMotion, not {type(track).__name__}")
         try:
             b = np.array(bounds, dtype=np.float64).reshape(-1)
         except (TypeError, ValueError):

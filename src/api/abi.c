@@ -49,6 +49,11 @@ const char *pb_abi_layout(void)
     S(pb_track_summary); F(pb_track_summary, samples); F(pb_track_summary, first); F(pb_track_summary, last);
     F(pb_track_summary, median_step); F(pb_track_summary, missing); F(pb_track_summary, gaps);
     F(pb_track_summary, longest_gap);
+    S(pb_field_motion); F(pb_field_motion, times); F(pb_field_motion, displacements); F(pb_field_motion, count);
+    F(pb_field_motion, dims); F(pb_field_motion, has_map); F(pb_field_motion, field_from_grid);
+    F(pb_field_motion, frame_start); F(pb_field_motion, frame_end);
+    S(pb_field_folds); F(pb_field_folds, voxels); F(pb_field_folds, field); F(pb_field_folds, voxel);
+    F(pb_field_folds, worst_determinant);
     E(PB_BACKEND_AUTO); E(PB_BACKEND_HOST); E(PB_BACKEND_OPENCL); E(PB_BACKEND_CUDA);
     E(PB_TRACK_AUTO); E(PB_TRACK_CSV); E(PB_TRACK_MATRIX_CSV); E(PB_TRACK_POLARIS);
     E(PB_METHOD_AB); E(PB_METHOD_RM); E(PB_METHOD_CL); E(PB_METHOD_REF);

@@ -176,6 +176,16 @@ static double ab_segment(const host_io *io, const double a[3], const double b[3]
     return sum;
 }
 
+/* Key point j of the voxel at texel coordinates u: under a pose track the
+ * key pose's map, under a field the field there. */
+static void key_point(const pb_path *plan, size_t j, const double u[3], double out[3])
+{
+    if (plan->field)
+        pb_path_field_point(plan, &plan->field->knots[j], u, out);
+    else
+        apply_map(plan->poses[j].map, u, out);
+}
+
 /* Tomograph voxel (ix, iy, iz) under the plan: its blurred value (forward), or
  * with io->acc, scale spread over the object voxels it reads (adjoint). */
 static double blur_voxel(const host_io *io, const pb_path *plan, const pb_blur_options *opt, long ix, long iy,
@@ -195,7 +205,10 @@ static double blur_voxel(const host_io *io, const pb_path *plan, const pb_blur_o
                                iy + (pb_ref_bits(key, c, 1) + 0.5) / 16777216.0,
                                iz + (pb_ref_bits(key, c, 2) + 0.5) / 16777216.0};
                 double o[3];
-                apply_map(plan->ref_steps[s].map, p, o);
+                if (plan->field)
+                    pb_path_field_point(plan, &plan->field->ref_knots[s], p, o);
+                else
+                    apply_map(plan->ref_steps[s].map, p, o);
                 /* Box model: the object voxel that holds the point. */
                 total += touch(io, (long)floor(o[0]), (long)floor(o[1]), (long)floor(o[2]), w);
             }
@@ -208,8 +221,8 @@ static double blur_voxel(const host_io *io, const pb_path *plan, const pb_blur_o
         if (p0->skip) /* clipped: reads nothing of the object (path_clip.c) */
             continue;
         double a[3], b[3];
-        apply_map(p0->map, u, a);
-        apply_map(p1->map, u, b);
+        key_point(plan, j, u, a);
+        key_point(plan, j + 1, u, b);
         double seg_scale = scale * p0->weight;
         if (opt->method == PB_METHOD_AB) {
             unsigned parts = opt->steps ? opt->steps : 1;
@@ -225,7 +238,9 @@ static double blur_voxel(const host_io *io, const pb_path *plan, const pb_blur_o
             long n = opt->steps ? (long)opt->steps : ab_slice_count(a, b);
             for (long i = 0; i < n; i++) {
                 double s = (i + 0.5) / n, o[3];
-                if (opt->method == PB_METHOD_RM) {
+                /* A field is linear in time between its samples: the
+                 * motion interpolated at every step is the chord's point. */
+                if (opt->method == PB_METHOD_RM || plan->field) {
                     for (int d = 0; d < 3; d++)
                         o[d] = a[d] + s * (b[d] - a[d]);
                 } else {

@@ -9,6 +9,14 @@
 const pb_kernel_info pb_kernel_table[PB_KERNEL_COUNT] = {PB_KERNELS(PB_KERNEL_INFO_)};
 #undef PB_KERNEL_INFO_
 
+/* The knots a field frame's buffer holds before its fields: the key points,
+ * or REF's time steps, rounded up to whole 64-byte lines. */
+static size_t field_knot_slots(const pb_path *path, pb_method method)
+{
+    size_t n = method == PB_METHOD_REF ? path->ref_count : path->count;
+    return (n + 3) / 4 * 4;
+}
+
 void pb_kparams_from_path(const pb_path *path, const pb_blur_options *opt, pb_kparams *prm)
 {
     memset(prm, 0, sizeof *prm);
@@ -25,13 +33,23 @@ void pb_kparams_from_path(const pb_path *path, const pb_blur_options *opt, pb_kp
     prm->ref_points = (int)opt->ref_points;
     prm->ref_steps = (int)path->ref_count;
     prm->seed = opt->seed;
+    if (path->field) {
+        const pb_path_field *pf = path->field;
+        for (int d = 0; d < 3; d++)
+            prm->field_dims[d] = (int)pf->dims[d];
+        prm->field_same = pf->same;
+        for (int k = 0; k < 12; k++)
+            prm->field_map[k] = (float)pf->map[k];
+        prm->field_start = (int)field_knot_slots(path, opt->method);
+        return;
+    }
     if (pb_path_shift_invariant(path, opt))
         prm->layer_axis = pb_path_layer_axis(path);
 }
 
 int pb_path_shift_invariant(const pb_path *path, const pb_blur_options *opt)
 {
-    if (opt->method == PB_METHOD_REF)
+    if (opt->method == PB_METHOD_REF || path->field)
         return 0;
     /* The rotations themselves, not the maps: a map is built by differences
      * (pb_pose_texel_map) and its identity may be off by an ulp in double. A
@@ -100,6 +118,10 @@ static pb_kernel_id find_kernel(pb_kernel_family family, const pb_blur_options *
 {
     int method = opt->method == PB_METHOD_AB && opt->ab_sampling == PB_AB_SAMPLING_SWEEP ? PB_KT_AB_SWEEP
                                                                                         : (int)opt->method;
+    /* A field is linear in time between its samples: CL's interpolated
+     * motion at a step is RM's point on the chord. */
+    if ((family == PB_FAMILY_FIELD || family == PB_FAMILY_FIELD_SCATTER) && method == PB_KT_CL)
+        method = PB_KT_RM;
     pb_filter filter = opt->filter;
     for (int k = 0; k < PB_KERNEL_COUNT; k++) {
         const pb_kernel_info *info = &pb_kernel_table[k];
@@ -120,6 +142,8 @@ static int layers_fit(const size_t *n, int m, const size_t *layer_limits)
 pb_kernel_id pb_forward_kernel(const pb_path *path, const pb_blur_options *opt, const size_t *layer_limits,
                                int fresh_input)
 {
+    if (path->field)
+        return find_kernel(PB_FAMILY_FIELD, opt);
     if (!pb_path_shift_invariant(path, opt))
         return find_kernel(PB_FAMILY_GENERAL, opt);
     int m = -1;
@@ -134,6 +158,8 @@ pb_kernel_id pb_forward_kernel(const pb_path *path, const pb_blur_options *opt, 
 
 pb_kernel_id pb_adjoint_kernel(const pb_path *path, const pb_blur_options *opt, const size_t *layer_limits)
 {
+    if (path->field)
+        return find_kernel(PB_FAMILY_FIELD_SCATTER, opt);
     if (pb_path_shift_invariant(path, opt))
         return pb_forward_kernel(path, opt, layer_limits, 1);
     return find_kernel(PB_FAMILY_SCATTER, opt);
@@ -173,8 +199,38 @@ static void kstep_from_path(const pb_path *path, size_t index, pb_kstep *out)
     out->weight = (float)path->ref_steps[index].weight;
 }
 
+int pb_kernel_scatters(pb_kernel_id kernel)
+{
+    pb_kernel_family f = pb_kernel_table[kernel].family;
+    return f == PB_FAMILY_SCATTER || f == PB_FAMILY_FIELD_SCATTER;
+}
+
+/* A field frame's buffer: its knots (key points, or REF's steps), then its
+ * fields, in texel units. */
+static void *field_pack(const pb_path *path, pb_method method, size_t *bytes)
+{
+    const pb_path_field *pf = path->field;
+    size_t slots = field_knot_slots(path, method), n = method == PB_METHOD_REF ? path->ref_count : path->count;
+    size_t values = pf->fields * pf->dims[0] * pf->dims[1] * pf->dims[2] * 3;
+    *bytes = slots * sizeof(pb_kknot) + values * sizeof(float);
+    pb_kknot *k = calloc(1, *bytes);
+    if (!k)
+        return NULL;
+    for (size_t i = 0; i < n; i++) {
+        const pb_path_knot *src = method == PB_METHOD_REF ? &pf->ref_knots[i] : &pf->knots[i];
+        k[i].f0 = (int)src->f0;
+        k[i].f1 = (int)src->f1;
+        k[i].alpha = (float)src->alpha;
+        k[i].weight = (float)(method == PB_METHOD_REF ? path->ref_steps[i].weight : path->poses[i].weight);
+    }
+    memcpy(k + slots, pf->data, values * sizeof(float));
+    return k;
+}
+
 void *pb_kernel_path_pack(const pb_path *path, pb_method method, size_t *bytes)
 {
+    if (path->field)
+        return field_pack(path, method, bytes);
     if (method == PB_METHOD_REF) {
         pb_kstep *s = calloc(path->ref_count, sizeof *s);
         for (size_t i = 0; s && i < path->ref_count; i++)

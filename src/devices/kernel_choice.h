@@ -43,11 +43,16 @@ void pb_kernel_extent(pb_kernel_id kernel, const size_t *dims, size_t *extent);
 /* The z-slices one work item makes: PB_TAP_RUN for the TAPS family, else 1. */
 unsigned pb_kernel_run_z(pb_kernel_id kernel);
 
+/* Whether kernel scatters (adds into its output, which must hold zeros or
+ * what to add to): the adjoints of general paths and of fields. */
+int pb_kernel_scatters(pb_kernel_id kernel);
+
 /* pb_permute's parameters: a volume of dims laid out in layers along axis m. */
 void pb_kparams_permute(const size_t *dims, int m, pb_kparams *prm);
 /* What a launch of `method` reads besides its parameters, in the kernels'
- * layout: the key poses (pb_kpose), or for REF its time steps (pb_kstep), in
- * one malloc'd block of *bytes. NULL when the host is out of memory. */
+ * layout: the key poses (pb_kpose), or for REF its time steps (pb_kstep);
+ * for a field frame its knots (pb_kknot) and then its fields. In one
+ * malloc'd block of *bytes. NULL when the host is out of memory. */
 void *pb_kernel_path_pack(const pb_path *path, pb_method method, size_t *bytes);
 
 #endif

@@ -191,7 +191,7 @@ pb_status pb_launch_prepare(pb_device *dev, const pb_blur_options *opt, pb_plan_
     f->adjoint = pb_adjoint_kernel(&f->path, opt, dev->layer_limits);
     pb_kparams_from_path(&f->path, opt, &f->forward_prm);
     f->adjoint_prm = f->forward_prm;
-    int gather = pb_kernel_table[f->adjoint].family != PB_FAMILY_SCATTER;
+    int gather = !pb_kernel_scatters(f->adjoint);
     f->adjoint_prm.mirror = gather;
     if (!gather && opt->filter == PB_FILTER_HARDWARE && dev->texture_weight_steps > 0.0f) {
         f->adjoint_prm.weight_steps = dev->texture_weight_steps;
@@ -206,6 +206,12 @@ pb_status pb_launch_prepare(pb_device *dev, const pb_blur_options *opt, pb_plan_
     if (st == PB_OK)
         st = dev->ops->buffer_write(dev, f->poses, data, bytes);
     free(data);
+    /* A field frame's fields now live on the device; the host's copy is
+     * only the host backend's. */
+    if (st == PB_OK && f->path.field) {
+        free(f->path.field->data);
+        f->path.field->data = NULL;
+    }
     return st == PB_OK ? pb_shift_taps_prepare(dev, opt, f) : st;
 }
 
@@ -233,7 +239,7 @@ pb_status pb_launch_frame(pb_device *dev, const pb_frame_set *plan, size_t index
     else if (st == PB_OK && !fresh_input)
         timing = (st = ops->timer_begin(dev)) == PB_OK;
     /* The scatter adds into its output: zeros, or what to add to. */
-    if (st == PB_OK && pb_kernel_table[kernel].family == PB_FAMILY_SCATTER && !accumulate)
+    if (st == PB_OK && pb_kernel_scatters(kernel) && !accumulate)
         st = ops->buffer_zero(dev, out, g->dims[0] * g->dims[1] * g->dims[2] * sizeof(float));
     if (st != PB_OK) {
         double ms, before;
@@ -328,7 +334,7 @@ pb_status pb_launch_frames_apply(pb_device *dev, const pb_frame_set *plan, size_
             if (i > first)
                 pb_images_stale(in_images); /* another tomograph */
             launched = refresh_input(dev, f->adjoint, &prm, ins[i - first], dims, in_images, &input);
-            if (launched == PB_OK && pb_kernel_table[f->adjoint].family == PB_FAMILY_SCATTER && !prm.accumulate)
+            if (launched == PB_OK && pb_kernel_scatters(f->adjoint) && !prm.accumulate)
                 launched = ops->buffer_zero(dev, outs[0], bytes);
             if (launched == PB_OK)
                 launched = launch(dev, f->adjoint, input, f->poses, &prm, outs[0], dims);

@@ -23,6 +23,26 @@ typedef struct pb_path_step {
     double weight;
 } pb_path_step;
 
+/* Where a key point of a field motion's frame is: the field
+ * (1 - alpha) D_f0 + alpha D_f1, indices into the frame's own fields. */
+typedef struct pb_path_knot {
+    size_t f0, f1;
+    double alpha;
+} pb_path_knot;
+
+/* What a frame of a field motion walks (path_field.c): the fields its time
+ * covers, in texel units of the image grid, and where its key points and
+ * REF's time steps lie between them. */
+typedef struct pb_path_field {
+    size_t fields;         /* fields kept */
+    size_t dims[3];        /* the field grid */
+    int same;              /* the field grid is the image grid */
+    double map[12];        /* field voxel coordinates (centre at i) from image texel coordinates (centre at i + 0.5) */
+    float *data;           /* fields * voxels vectors of 3: displacement / image voxel size */
+    pb_path_knot *knots;   /* one per key pose */
+    pb_path_knot *ref_knots; /* one per REF time step */
+} pb_path_field;
+
 typedef struct pb_path {
     pb_geometry geometry;
     double center[3];        /* mm */
@@ -30,12 +50,24 @@ typedef struct pb_path {
     pb_path_pose *poses;
     size_t ref_count;        /* REF time steps over the whole frame (0 unless REF) */
     pb_path_step *ref_steps;
+    pb_path_field *field;    /* a field motion's frame; NULL for a pose track (poses then hold only times and
+                              * weights, ref_steps only weights) */
 } pb_path;
 
 /* Validates the motion and options and builds the plan. */
 pb_status pb_path_create(struct pb_context *ctx, const pb_geometry *geometry, const pb_motion *motion,
                          const pb_blur_options *options, pb_path *plan);
 void pb_path_destroy(pb_path *plan);
+
+/* The plan of frame [t0, t1] of a validated field motion (path_field.c):
+ * key points at the frame's ends and the field times inside, each segment
+ * weighed by its time; for REF, dense time steps. */
+pb_status pb_path_create_field(struct pb_context *ctx, const pb_geometry *geometry, const pb_field_motion *field,
+                               double t0, double t1, const pb_blur_options *options, pb_path *plan);
+/* Key point j of a field path for the voxel at texel coordinates u, in
+ * object texel coordinates: u plus the field there (the voxel's own sample
+ * on the image grid, else trilinear on the field's). */
+void pb_path_field_point(const pb_path *plan, const pb_path_knot *knot, const double u[3], double out[3]);
 
 /* The most segments one blur may walk; far above what any sane bound needs (a
  * full turn at 0.01 voxels on a 512^3 grid takes about 6000). */

@@ -152,5 +152,11 @@ void pb_path_destroy(pb_path *plan)
 {
     free(plan->poses);
     free(plan->ref_steps);
+    if (plan->field) {
+        free(plan->field->data);
+        free(plan->field->knots);
+        free(plan->field->ref_knots);
+        free(plan->field);
+    }
     memset(plan, 0, sizeof *plan);
 }

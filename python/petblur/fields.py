@@ -1,0 +1,184 @@
+"""Non-rigid motion: a series of displacement fields, for breathing and the
+heart. A FieldMotion goes wherever a Motion goes (BlurOperator,
+FramesOperator, autograd, pickling, Dask); the C library plans and walks it
+(include/petblur.h, pb_field_motion).
+
+The convention is the resampling one, as registration tools write their
+fields: a field is defined on the tomograph (image) grid and points into
+object space, so the voxel centred at r sits at object point r + D(t)(r) at
+time t. Between samples D is linear in time; where the field grid is not the
+image grid, it is interpolated trilinearly in space."""
+
+import warnings
+
+import numpy as np
+
+from . import _lib
+from .errors import ArgumentError, shown
+
+# Axis order of a plan on the transposed grid (C-ordered volumes).
+_REVERSE = np.array([[0, 0, 1], [0, 1, 0], [1, 0, 0]], dtype=np.float64)
+
+
+def _host_array(a, what):
+    """A numpy view of numpy, CuPy or torch data (fields are uploaded from
+    the host by the library)."""
+    if hasattr(a, "detach") and hasattr(a, "cpu"):  # torch
+        a = a.detach().cpu().numpy()
+    elif type(a).__module__.startswith("cupy"):
+        a = a.get()
+    try:
+        return np.asarray(a)
+    except (TypeError, ValueError) as e:
+        raise ArgumentError(f"{what} is not an array of numbers ({e})") from None
+
+
+def _affine4(a, what):
+    try:
+        m = np.array(a, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise ArgumentError(f"{what} must be a 4x4 voxel-to-world matrix, not {shown(a)}") from None
+    if m.shape != (4, 4) or not np.all(np.isfinite(m)):
+        raise ArgumentError(f"{what} must be a finite 4x4 voxel-to-world matrix (nibabel's img.affine), not one "
+                            f"of shape {m.shape}")
+    if abs(np.linalg.det(m[:3, :3])) < 1e-12 * max(1.0, np.abs(m[:3, :3]).max()) ** 3:
+        raise ArgumentError(f"{what} is singular: it collapses an axis of the grid; check the file's sform/qform")
+    return m
+
+
+class FieldMotion:
+    """Motion as displacement fields: ``displacements[k]`` at ``times[k]``
+    (seconds, increasing, at least two).
+
+    ``displacements`` is (K, nx, ny, nz, 3) mm: numpy, CuPy or torch. With
+    ``affine`` None the fields lie on the operator's image grid and their
+    vectors run along the array's axes (x, y, z of the grid). With
+    ``affine`` (the field grid's voxel-to-world 4x4, nibabel's img.affine)
+    they are vectors in that world (mm, as NIfTI's RAS+), on a grid of their
+    own that the operator's ``affine=`` places against the image; the field
+    is then interpolated trilinearly in space. The same field twice is a
+    still deformation (one gate's warp)."""
+
+    def __init__(self, times, displacements, affine=None):
+        try:
+            t = np.array(times, dtype=np.float64).reshape(-1)
+        except (TypeError, ValueError):
+            raise ArgumentError(f"times must be the fields' times in seconds, not {shown(times)}") from None
+        d = _host_array(displacements, "displacements")
+        if d.ndim != 5 or d.shape[-1] != 3:
+            raise ArgumentError(f"displacements has shape {d.shape}; give (K, nx, ny, nz, 3) mm, one field per "
+                                "time, the vector last")
+        if d.shape[0] != t.size:
+            raise ArgumentError(f"{t.size} times for {d.shape[0]} fields; give one time per field")
+        if not np.issubdtype(d.dtype, np.number) or np.iscomplexobj(d):
+            raise ArgumentError(f"displacements are {d.dtype}; give real numbers (mm)")
+        self.times = t
+        self.shape = tuple(int(n) for n in d.shape[1:4])
+        self.affine = None if affine is None else _affine4(affine, "affine")
+        # The library's layout for the plan along the array's axes: the
+        # vector fastest, then x, y, z; the transposed plan reads the C
+        # order with the vector reversed (made when first asked).
+        self._fields = {"F": np.ascontiguousarray(d.astype(np.float32, copy=False).transpose(0, 3, 2, 1, 4))}
+        self._coords = "world" if affine is not None else "image"
+        self._source = f"a FieldMotion of {t.size} fields of {self.shape[0]} x {self.shape[1]} x {self.shape[2]}"
+
+    def __len__(self):
+        return self.times.size
+
+    def __repr__(self):
+        return (f"FieldMotion({self.times.size} fields of {self.shape[0]}x{self.shape[1]}x{self.shape[2]}, "
+                f"{self.times[0]:g} to {self.times[-1]:g} s{', world mm' if self.affine is not None else ''})")
+
+    def __getstate__(self):
+        return {"times": self.times, "fields": self._fields["F"], "affine": self.affine}
+
+    def __setstate__(self, state):
+        f = np.asarray(state["fields"])
+        FieldMotion.__init__(self, state["times"], f.transpose(0, 3, 2, 1, 4), state["affine"])
+
+    def displacements(self):
+        """The fields as given: (K, nx, ny, nz, 3) float32 mm (a view)."""
+        return self._fields["F"].transpose(0, 3, 2, 1, 4)
+
+    def _layout(self, order):
+        data = self._fields.get(order)
+        if data is None:  # 'C': the transposed grid's x fastest is the fields' z, the vector reversed
+            data = np.ascontiguousarray(self.displacements()[..., ::-1])
+            self._fields[order] = data
+        return data
+
+    def _c_field(self, shape, voxel_size, affine, order):
+        """The C struct of the fields for a plan on the grid of ``shape``
+        (nx, ny, nz) and ``voxel_size`` (the operator's, x first) placed by
+        ``affine`` (4x4, None: no world), in memory order 'F' or 'C'; and what
+        must stay alive while the library reads it."""
+        shape, voxel_size = tuple(shape), np.asarray(voxel_size, dtype=np.float64)
+        fields = self.displacements()
+        if self.affine is None:
+            if self.shape != shape:
+                raise ArgumentError(
+                    f"the fields are {self.shape[0]} x {self.shape[1]} x {self.shape[2]} and the image "
+                    f"{shape[0]} x {shape[1]} x {shape[2]}; fields without affine= lie on the image grid: resample "
+                    "them, or give FieldMotion(affine=) the field grid's voxel-to-world matrix and the operator "
+                    "the image's affine=")
+            has_map, m = 0, np.hstack([np.eye(3), np.zeros((3, 1))])
+            vectors = None
+        else:
+            if affine is None:
+                raise ArgumentError(
+                    "the fields are placed in the world (FieldMotion(affine=)) and the operator has no affine= to "
+                    "place the image there; give the operator the image's voxel-to-world 4x4 (nibabel's img.affine)")
+            a = np.asarray(affine, dtype=np.float64)
+            m4 = np.linalg.solve(self.affine, a)  # field voxel index from image voxel index
+            has_map, m = 1, m4[:3, :]
+            # World vectors into the image grid's frame: the image's unit
+            # direction columns, transposed (include/petblur.h, pb_field_motion).
+            d = a[:3, :3] / np.linalg.norm(a[:3, :3], axis=0)
+            vectors = d.T
+        if vectors is not None:
+            fields = (fields.astype(np.float64) @ vectors.T).astype(np.float32)
+            data = np.ascontiguousarray(fields.transpose(0, 3, 2, 1, 4)) if order == "F" else \
+                np.ascontiguousarray(fields[..., ::-1])
+        else:
+            data = self._layout(order)
+        dims = self.shape
+        if order == "C":  # image and field grids both transposed
+            dims = dims[::-1]
+            m = np.hstack([_REVERSE @ m[:, :3] @ _REVERSE, (_REVERSE @ m[:, 3])[:, None]])
+            if has_map == 0:
+                m = np.hstack([np.eye(3), np.zeros((3, 1))])
+        c = _lib.FieldMotion()
+        c.times = self.times.ctypes.data_as(_lib.ctypes.POINTER(_lib.ctypes.c_double))
+        c.displacements = data.ctypes.data_as(_lib.ctypes.POINTER(_lib.ctypes.c_float))
+        c.count = self.times.size
+        c.dims = (_lib.ctypes.c_size_t * 3)(*dims)
+        c.has_map = has_map
+        c.field_from_grid = (_lib.ctypes.c_double * 12)(*m.reshape(-1))
+        c.frame_start, c.frame_end = self.times[0], self.times[-1]
+        return c, (data, self.times)
+
+    def folds(self, voxel_size, shape=None, affine=None):
+        """Where the fields fold (a Jacobian determinant of r -> r + D(r) at
+        most 0): (voxels, first field, first voxel (i, j, k) or None, the
+        smallest determinant). voxel_size, shape and affine are the image's
+        (shape: the fields' own grid when None)."""
+        shape = tuple(shape) if shape is not None else self.shape
+        c, keep = self._c_field(shape, voxel_size, affine, "F")
+        g = _lib.Geometry((_lib.ctypes.c_size_t * 3)(*shape), (_lib.ctypes.c_double * 3)(*voxel_size))
+        out = _lib.FieldFolds()
+        _lib.check(_lib.lib.pb_field_check_folds(_lib.ctypes.byref(g), _lib.ctypes.byref(c), _lib.ctypes.byref(out)))
+        del keep
+        voxel = None
+        if out.voxels:
+            n = self.shape
+            v = out.voxel
+            voxel = (v % n[0], v // n[0] % n[1], v // (n[0] * n[1]))
+        return int(out.voxels), (int(out.field) if out.voxels else None), voxel, float(out.worst_determinant)
+
+    def _warn_folds(self, voxel_size, shape, affine, stacklevel):
+        n, field, voxel, worst = self.folds(voxel_size, shape, affine)
+        if n:
+            warnings.warn(f"the fields fold at {n} voxel(s) of the field grid, first field {field} at voxel {voxel} "
+                          f"(Jacobian determinant down to {worst:.3g}): the blur there reads one place for two; "
+                          "check the registration (a smoother or diffeomorphic one does not fold)", UserWarning,
+                          stacklevel=stacklevel)
