@@ -30,6 +30,12 @@ static pb_path_knot locate(const pb_field_motion *f, size_t first, double t)
 {
     pb_path_knot k;
     pb_field_locate(f, t, &k.f0, &k.f1, &k.alpha);
+    /* On a sample the other field has no weight, and may lie outside the
+     * frame's run (its last sample is the one at or after its end). */
+    if (k.alpha == 0.0)
+        k.f1 = k.f0;
+    else if (k.alpha == 1.0)
+        k.f0 = k.f1;
     k.f0 -= first;
     k.f1 -= first;
     return k;

@@ -1,0 +1,282 @@
+"""Field motions (petblur.FieldMotion) against references nobody on the team
+wrote: scipy's map_coordinates over dense time samples, a rigid track's own
+blur, and the transpose's dot test. Every case is drawn fresh (the rng
+fixture prints its seed; PETBLUR_TEST_SEED replays it): grid sizes, voxel
+sizes, objects with sharp edges, fields that move tissue non-rigidly."""
+
+import pickle
+import warnings
+
+import numpy as np
+import pytest
+import scipy.ndimage as ndi
+
+import petblur
+
+
+def _sharp_object(rng, n):
+    """Boxes of random size and activity: edges the walk must resolve."""
+    x = np.zeros(n, np.float32)
+    for _ in range(6):
+        lo = [int(rng.integers(0, m - 3)) for m in n]
+        hi = [lo[i] + int(rng.integers(2, 7)) for i in range(3)]
+        x[lo[0]:hi[0], lo[1]:hi[1], lo[2]:hi[2]] += rng.uniform(0.5, 2.0)
+    return x
+
+
+def _indices(n):
+    return np.stack(np.meshgrid(*[np.arange(m) for m in n], indexing="ij"), -1).astype(np.float64)
+
+
+def _breathing(rng, n, times, amplitude_mm):
+    """Fields that move a region (a Gaussian profile, as a liver under the
+    diaphragm) along a direction that changes from sample to sample, the
+    rest of the grid barely: not rigid, not a translation."""
+    idx = _indices(n)
+    centre = rng.uniform(0.2, 0.8, 3) * np.array(n)
+    width = rng.uniform(3.0, 8.0)
+    profile = np.exp(-((idx - centre) ** 2).sum(-1) / (2 * width * width))
+    d = np.zeros((len(times),) + tuple(n) + (3,))
+    for k in range(len(times)):
+        u = rng.normal(size=3)
+        d[k] = rng.uniform(0.0, amplitude_mm) * profile[..., None] * u / np.linalg.norm(u)
+    return d
+
+
+def _dense(x, n, voxel, times, at, t0, t1, steps=800):
+    """The blur by definition: the object read trilinearly (zero outside, as
+    the texture's border) at r + D(t)(r), D linear in time between samples
+    (at(t) gives it, mm), averaged over dense times in [t0, t1]."""
+    idx = _indices(n)
+    out = np.zeros(n)
+    for t in t0 + (np.arange(steps) + 0.5) * (t1 - t0) / steps:
+        p = idx + at(t) / voxel
+        out += ndi.map_coordinates(x.astype(np.float64), [p[..., i] for i in range(3)], order=1,
+                                   mode="grid-constant", cval=0.0)
+    return out / steps
+
+
+def _linear_in_time(times, fields):
+    def at(t):
+        j = min(max(np.searchsorted(times, t, side="right") - 1, 0), len(times) - 2)
+        a = (t - times[j]) / (times[j + 1] - times[j])
+        return (1 - a) * fields[j] + a * fields[j + 1]
+    return at
+
+
+def _errors(y, ref):
+    e = np.asarray(y, np.float64) - ref
+    return 100 * np.sqrt((e ** 2).sum() / (ref ** 2).sum()), 100 * np.abs(e).max() / np.abs(ref).max()
+
+
+def _case(rng):
+    n = tuple(int(v) for v in rng.integers(12, 20, 3))
+    voxel = rng.uniform(1.5, 3.0, 3)
+    times = np.concatenate([[0.0], np.sort(rng.uniform(0.5, 9.5, 4)), [10.0]])
+    return n, voxel, times
+
+
+def test_still_warp_is_one_resampling(rng, device):
+    """The same field twice is a still deformation: RM with the exact filter
+    reads the object at r + D(r) once, as a resampler does; in either memory
+    order."""
+    n, voxel, _ = _case(rng)
+    x = rng.random(n).astype(np.float32)
+    d = rng.normal(0.0, 2.0, n + (3,))
+    fm = petblur.FieldMotion([0.0, 1.0], np.stack([d, d]))
+    p = _indices(n) + d / voxel
+    ref = ndi.map_coordinates(x.astype(np.float64), [p[..., i] for i in range(3)], order=1, mode="grid-constant")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # a random field folds
+        B = petblur.BlurOperator(n, voxel, fm, method="rm", filter="exact", device=device)
+    for arr in (x, np.asfortranarray(x)):
+        y = B(arr)
+        assert np.abs(y - ref).max() <= 2e-6 * np.abs(ref).max(), (np.abs(y - ref).max(), np.abs(ref).max())
+
+
+def test_field_grid_is_interpolated(rng, device):
+    """Fields on a coarser grid of their own (placed by affines) equal the
+    same fields resampled trilinearly onto the image grid by scipy."""
+    n, voxel, _ = _case(rng)
+    image_affine = np.diag(list(voxel) + [1.0])
+    image_affine[:3, 3] = rng.uniform(-50, 50, 3)
+    coarse = rng.uniform(1.6, 2.4)  # field voxels per image voxel
+    fn = tuple(int(np.ceil(m / coarse)) + 1 for m in n)
+    field_affine = image_affine.copy()
+    field_affine[:3, :3] = np.diag(voxel * coarse)
+    d = rng.normal(0.0, 2.0, (2,) + fn + (3,))
+    fm = petblur.FieldMotion([0.0, 1.0], d, affine=field_affine)
+    # The image voxels' field coordinates, and the fields there (edges held).
+    q = _indices(n) / coarse
+    on_image = np.stack([np.stack([ndi.map_coordinates(d[k][..., c], [q[..., i] for i in range(3)], order=1,
+                                                       mode="nearest") for c in range(3)], -1) for k in range(2)])
+    same = petblur.FieldMotion([0.0, 1.0], on_image)
+    x = _sharp_object(rng, n)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        for method in ("ab", "rm"):
+            a = petblur.BlurOperator(n, voxel, fm, method=method, filter="exact", device=device,
+                                     affine=image_affine)(x)
+            b = petblur.BlurOperator(n, voxel, same, method=method, filter="exact", device=device,
+                                     affine=image_affine)(x)
+            assert np.abs(a - b).max() <= 1e-4 * np.abs(b).max(), (method, np.abs(a - b).max())
+
+
+def test_dense_reference_family(rng):
+    """AB and RM at their defaults against the blur by definition over a
+    family of fresh breathing cases, side by side with a rigid translation
+    whose path is the most moving voxel's: a field is walked as well as a
+    rigid path of the same length (one sample a slice bounds both: the
+    rigid AB stands at several percent on sharp edges)."""
+    rows = []
+    for case in range(3):
+        n, voxel, times = _case(rng)
+        x = _sharp_object(rng, n)
+        d = _breathing(rng, n, times, amplitude_mm=rng.uniform(2.0, 8.0))
+        t0, t1 = rng.uniform(0.0, 2.0), rng.uniform(8.0, 10.0)
+        ref = _dense(x, n, voxel, times, _linear_in_time(times, d), t0, t1)
+        # The rigid track: the most moving voxel's displacements, as
+        # translations (the object point is r - t).
+        worst = np.unravel_index(np.abs(d).sum(-1).max(0).argmax(), n)
+        shifts = -d[(slice(None),) + worst]
+        track = petblur.Motion(times, shifts, np.tile([1.0, 0, 0, 0], (len(times), 1)))
+        rigid_ref = _dense(x, n, voxel, times, _linear_in_time(times, np.broadcast_to(
+            -shifts[:, None, None, None, :], (len(times),) + n + (3,))), t0, t1)
+        fm = petblur.FieldMotion(times, d)
+        for method in ("ab", "rm"):
+            field = _errors(petblur.BlurOperator(n, voxel, fm, frame=(t0, t1), method=method, device="host")(x), ref)
+            rigid = _errors(petblur.BlurOperator(n, voxel, track, frame=(t0, t1), method=method,
+                                                 device="host")(x), rigid_ref)
+            rows.append((case, method, field, rigid))
+    for case, method, field, rigid in rows:
+        print(f"case {case} {method}: field rms {field[0]:.3f} % max {field[1]:.3f} %; rigid rms {rigid[0]:.3f} % "
+              f"max {rigid[1]:.3f} %")
+    for case, method, field, rigid in rows:
+        # Within the issue's 1 % max and 0.3 % RMS, or no worse than the rigid path's own error.
+        assert (field[0] <= 0.3 and field[1] <= 1.0) or (field[0] <= 1.25 * rigid[0] + 0.1 and
+                                                          field[1] <= 1.25 * rigid[1] + 0.3), (case, method, field,
+                                                                                               rigid)
+
+
+def _rotation(q):
+    w, x, y, z = q / np.linalg.norm(q)
+    return np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
+                     [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
+                     [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)]])
+
+
+def test_rigid_track_as_fields(rng, device):
+    """A field series made from a rigid track is that track: with one segment
+    per tracked interval ('paper') both walk the same chords; against the
+    default error-bounded rigid blur, within the issue's 1 % max and 0.3 %
+    RMS (the chords against SLERP's arcs, a few degrees a sample)."""
+    n, voxel, times = _case(rng)
+    x = _sharp_object(rng, n)
+    K = len(times)
+    quats, trans = [], []
+    for k in range(K):
+        axis = rng.normal(size=3)
+        angle = np.radians(rng.uniform(-3.0, 3.0))
+        quats.append(np.concatenate([[np.cos(angle / 2)], np.sin(angle / 2) * axis / np.linalg.norm(axis)]))
+        trans.append(rng.uniform(-4.0, 4.0, 3))
+    quats, trans = np.array(quats), np.array(trans)
+    track = petblur.Motion(times, trans, quats)
+    centre = 0.5 * np.array(n) * voxel
+    r = (_indices(n) + 0.5) * voxel
+    fields = np.stack([(r - centre - trans[k]) @ _rotation(quats[k]) + centre - r for k in range(K)])
+    fm = petblur.FieldMotion(times, fields)
+    # Frame ends on samples: between samples a track's pose is SLERP's, on
+    # the arc, a field's the chord's point.
+    t0, t1 = times[1], times[-2]
+    for method in ("ab", "rm"):
+        f = petblur.BlurOperator(n, voxel, fm, frame=(t0, t1), method=method, device=device)(x)
+        chords = petblur.BlurOperator(n, voxel, track, frame=(t0, t1), method=method, device=device,
+                                      max_path_error="paper")(x)
+        bounded = petblur.BlurOperator(n, voxel, track, frame=(t0, t1), method=method, device=device)(x)
+        assert np.abs(f - chords).max() <= 2e-4 * np.abs(chords).max(), (method, np.abs(f - chords).max())
+        rms, mx = _errors(f, bounded.astype(np.float64))
+        print(f"{method}: fields against the bounded rigid blur rms {rms:.3f} % max {mx:.3f} %")
+        assert rms <= 0.3 and mx <= 1.0, (method, rms, mx)
+
+
+@pytest.mark.parametrize("method", ["ab", "rm", "cl", "ref"])
+def test_adjoint_dot(rng, device, method):
+    """<B x, y> = <x, B^T y> on fields on the image grid and on a grid of
+    their own."""
+    n, voxel, times = _case(rng)
+    d = _breathing(rng, n, times, amplitude_mm=6.0)
+    ops = [petblur.FieldMotion(times, d)]
+    affine = np.diag(list(voxel) + [1.0])
+    field_affine = affine.copy()
+    field_affine[:3, :3] = np.diag(voxel * 1.7)
+    fn = tuple(int(m / 1.7) + 2 for m in n)
+    ops.append(petblur.FieldMotion(times, rng.normal(0, 2.0, (len(times),) + fn + (3,)), affine=field_affine))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        for fm in ops:
+            B = petblur.BlurOperator(n, voxel, fm, frame=(1.0, 9.0), method=method, filter="exact", device=device,
+                                     affine=affine)
+            B.adjointness_test(rtol=2e-5, seed=int(rng.integers(1 << 31)))
+
+
+def test_frames_operator(rng, device):
+    """Frames of one field series equal each frame's own operator, and the
+    frames' summed transpose the sum of theirs."""
+    n, voxel, times = _case(rng)
+    fm = petblur.FieldMotion(times, _breathing(rng, n, times, amplitude_mm=6.0))
+    bounds = np.sort(rng.uniform(0.0, 10.0, 4))
+    x = _sharp_object(rng, n)
+    F = petblur.FramesOperator(n, voxel, fm, bounds, device=device)
+    y = F(x)
+    sum_adjoint = F.adjoint(y)
+    total = np.zeros(n)
+    for i in range(3):
+        B = petblur.BlurOperator(n, voxel, fm, frame=(bounds[i], bounds[i + 1]), device=device)
+        assert np.array_equal(y[i], B(x))
+        total += B.adjoint(y[i])
+    assert np.abs(sum_adjoint - total).max() <= 1e-5 * np.abs(total).max()
+
+
+def test_pickled_operator(rng):
+    n, voxel, times = _case(rng)
+    fm = petblur.FieldMotion(times, _breathing(rng, n, times, amplitude_mm=5.0))
+    B = petblur.BlurOperator(n, voxel, fm, frame=(2.0, 8.0), device="host")
+    x = _sharp_object(rng, n)
+    assert np.array_equal(pickle.loads(pickle.dumps(B))(x), B(x))
+
+
+def test_bad_fields_refused(rng):
+    n, voxel, times = _case(rng)
+    d = _breathing(rng, n, times, amplitude_mm=5.0)
+    bad = d.copy()
+    bad[2, 1, 2, 3, 1] = np.nan
+    with pytest.raises(petblur.Error, match=r"field 2 holds NaN in component y of voxel \(1, 2, 3\)"):
+        petblur.BlurOperator(n, voxel, petblur.FieldMotion(times, bad), frame=(1, 9), device="host")
+    with pytest.raises(petblur.ArgumentError, match="lie on the image grid"):
+        petblur.BlurOperator(tuple(m + 1 for m in n), voxel, petblur.FieldMotion(times, d), frame=(1, 9),
+                             device="host")
+    with pytest.raises(petblur.Error, match="not after time"):
+        petblur.BlurOperator(n, voxel, petblur.FieldMotion(times[::-1], d), frame=(1, 9), device="host")
+    with pytest.raises(petblur.Error, match="the fields cover"):
+        petblur.BlurOperator(n, voxel, petblur.FieldMotion(times, d), frame=(5, 11), device="host")
+    with pytest.raises(petblur.ArgumentError, match="no affine="):
+        petblur.BlurOperator(n, voxel, petblur.FieldMotion(times, d, affine=np.eye(4)), frame=(1, 9),
+                             device="host")
+    with pytest.raises(petblur.ArgumentError, match=r"\(K, nx, ny, nz, 3\)"):
+        petblur.FieldMotion(times, d[..., :2])
+    with pytest.raises(petblur.ArgumentError, match="singular"):
+        petblur.FieldMotion(times, d, affine=np.diag([1.0, 0.0, 1.0, 1.0]))
+
+
+def test_folds_found(rng):
+    """A field that turns a slab inside out folds there, and only there."""
+    n, voxel, _ = _case(rng)
+    d = np.zeros((2,) + n + (3,))
+    i = int(rng.integers(3, n[0] - 3))
+    d[1, i, :, :, 0] = 3.0 * voxel[0]  # voxel i jumps past i + 1 and i + 2
+    fm = petblur.FieldMotion([0.0, 1.0], d)
+    count, field, voxel_at, worst = fm.folds(voxel)
+    assert field == 1 and voxel_at[0] == i + 1 and worst < 0
+    assert count == n[1] * n[2]  # central differences: the voxel after the jump, on every row
+    with pytest.warns(UserWarning, match="fold"):
+        petblur.BlurOperator(n, voxel, fm, device="host")
