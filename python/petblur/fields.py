@@ -9,6 +9,7 @@ object space, so the voxel centred at r sits at object point r + D(t)(r) at
 time t. Between samples D is linear in time; where the field grid is not the
 image grid, it is interpolated trilinearly in space."""
 
+import os
 import warnings
 
 import numpy as np
@@ -81,6 +82,49 @@ class FieldMotion:
         self._fields = {"F": np.ascontiguousarray(d.astype(np.float32, copy=False).transpose(0, 3, 2, 1, 4))}
         self._coords = "world" if affine is not None else "image"
         self._source = f"a FieldMotion of {t.size} fields of {self.shape[0]} x {self.shape[1]} x {self.shape[2]}"
+
+    @classmethod
+    def from_files(cls, paths, times=None, convention=None):
+        """Fields from displacement-field files, as registration tools write
+        them (NIfTI, read with nibabel): ``paths`` one file per time, with
+        ``times`` in seconds; or, with ``times`` None, the path of a CSV whose
+        header is ``time,path`` (paths relative to its folder), as the
+        command line takes. ``convention`` None reads it from each file's
+        header (intent 1006: 'nifti'; 1007 named NREG_TRANS: 'niftyreg') and
+        refuses a vector field that does not say; 'nifti' (RAS
+        displacements), 'niftyreg' (alias 'sirf': intent_p1 0 deformation,
+        1 displacement) or 'itk' (aliases 'ants', 'simpleitk': LPS
+        displacements) overrides. The files must share one grid; the result
+        holds RAS displacements with that grid's affine, for operators given
+        the image's ``affine=`` (docs/python.md, "Fields from files")."""
+        from . import field_files
+        if isinstance(paths, (str, bytes, os.PathLike)):
+            if times is not None:
+                raise ArgumentError(f"paths is one file ({os.fsdecode(paths)}) and times= is given: give a list of "
+                                    "field files with one time each, or a CSV 'time,path' without times=")
+            if not os.fsdecode(paths).lower().endswith(".csv"):
+                raise ArgumentError(f"{os.fsdecode(paths)}: one file is one field; give a list of field files and "
+                                    "times= (the same file twice is a still warp), or a CSV 'time,path'")
+            times, paths = field_files.read_csv(paths)
+        else:
+            try:
+                paths = [os.fspath(p) for p in paths]
+            except TypeError:
+                raise ArgumentError(f"paths must be field files or a CSV's path, not {shown(paths)}") from None
+            if times is None:
+                raise ArgumentError("times= is needed with a list of field files: one time in seconds per file "
+                                    "(or give a CSV 'time,path' as paths)")
+            try:
+                times = np.array(times, dtype=np.float64).reshape(-1)
+            except (TypeError, ValueError):
+                raise ArgumentError(f"times must be seconds, one per file, not {shown(times)}") from None
+            if times.size != len(paths):
+                raise ArgumentError(f"{times.size} times for {len(paths)} field files; give one time per file")
+            if len(paths) < 2 or not np.all(np.isfinite(times)) or np.any(np.diff(times) <= 0):
+                raise ArgumentError(f"times {shown(times.tolist())}: give two or more finite, increasing times, one "
+                                    "per file (the same file twice is a still warp)")
+        fields, affine = field_files.read_fields(paths, convention)
+        return cls(times, fields, affine=affine)
 
     def __len__(self):
         return self.times.size
