@@ -147,7 +147,7 @@ int pbc_motion_from_args(const pbc_command *cmd, const pbc_args *args, pbc_motio
         return pbc_fail(PBC_EXIT_USAGE, "give either --motion TRACK or --translate/--rotate, not both");
     if (!has_track && !has_pose)
         return pbc_fail(PBC_EXIT_USAGE, "no motion given; use --translate TX,TY,TZ and/or --rotate DEG, or "
-                        "--motion TRACK");
+                        "--motion TRACK (or --fields TABLE.csv for non-rigid motion)");
     static const char *const track_only[] = {"--frame", "--motion-format", "--time-unit", "--quaternion-order",
                                              "--calibration", "--reference-time", "--motion-inverse"};
     for (size_t i = 0; !has_track && i < sizeof track_only / sizeof track_only[0]; i++)

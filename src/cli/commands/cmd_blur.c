@@ -8,6 +8,7 @@
 #include "blur_run.h"
 #include "cli.h"
 #include "commands.h"
+#include "fields.h"
 #include "picture.h"
 
 static const pbc_option options[] = {
@@ -16,7 +17,8 @@ static const pbc_option options[] = {
     {"--dims", NULL, "NX,NY,NZ", "grid of a .raw input (checked against the header of other formats)"},
     {"--voxel-size", NULL, "DX,DY,DZ", "voxel size in mm of a .raw input (default 1,1,1)"},
     PBC_MOTION_OPTIONS,
-    {"--frames", NULL, "T0,T1,...", "dynamic PET: the frames' boundaries in the track, seconds; IN is a 4-D NIfTI "
+    PBC_FIELD_OPTIONS,
+    {"--frames", NULL, "T0,T1,...", "dynamic PET: the frames' boundaries in the motion, seconds; IN is a 4-D NIfTI "
                                     "with one volume per frame (or 3-D, for all), OUT a 4-D NIfTI"},
     {"--frames-from", NULL, "SIDECAR.json", "the frames from a BIDS-PET sidecar (FrameTimesStart, FrameDuration, "
                                             "s) instead of --frames"},
@@ -39,12 +41,14 @@ static const pbc_option options[] = {
 };
 
 static const pbc_command command = {
-    "blur", "-i IN -o OUT [--translate TX,TY,TZ] [--rotate DEG] [--motion TRACK] [options]",
+    "blur", "-i IN -o OUT [--translate TX,TY,TZ] [--rotate DEG] [--motion TRACK | --fields TABLE.csv] [options]",
     "Blurs a volume along the motion inside one frame (the tomograph-space activity that the frame's\n"
     "projections see). The pose maps object to tomograph space: p' = R (p - c) + c + t. With --translate and\n"
     "--rotate the frame starts at the identity and ends at that pose. Motions are in the scanner's world\n"
     "coordinates (RAS+ mm, as NIfTI's sform and STIR's Interfile placement give them) wherever the input has\n"
-    "a placement, else (.raw, --coords grid) in mm along the array's axes from the grid's corner.",
+    "a placement, else (.raw, --coords grid) in mm along the array's axes from the grid's corner. With\n"
+    "--fields the motion is non-rigid: registrations' displacement fields D(t) (NIfTI, world mm, any grid)\n"
+    "put the voxel at r at object point r + D(t)(r), linear in time between the fields.",
     options, (int)(sizeof options / sizeof options[0]), 0, 0,
     "examples:\n"
     "  petblur blur -i brain.nii.gz -o blurred.nii.gz --translate 12,10,-11 --rotate 10 --png blur.png\n"
@@ -54,7 +58,8 @@ static const pbc_command command = {
     "  petblur blur -i zubal.raw --dims 128,128,64 --voxel-size 2.2,2.2,2.8 -o zubal-blurred.nii --rotate 15\n"
     "  petblur blur -i ratio.nii.gz -o backprojected.nii.gz --motion track.csv --frame 30,60 --adjoint\n"
     "  petblur blur -i dynamic.nii.gz -o dynamic-blurred.nii.gz --motion track.csv --frames 0,60,120,300,600\n"
-    "  petblur blur -i ratios.nii.gz -o summed.nii.gz --motion track.csv --frames 0,60,120 --adjoint --sum-frames"};
+    "  petblur blur -i ratios.nii.gz -o summed.nii.gz --motion track.csv --frames 0,60,120 --adjoint --sum-frames\n"
+    "  petblur blur -i act.nii.gz -o gated.nii.gz --fields breathing.csv --frame 0,4 --method rm"};
 
 static int blur_options(const pbc_args *args, pb_blur_options *opt)
 {
@@ -102,10 +107,12 @@ static int blur_options(const pbc_args *args, pb_blur_options *opt)
 
 /* Every file blur reads and writes, for the rule that no output names one it
  * reads (pbc_files_check). */
-static int check_files(const pbc_args *args, const char *in, const char *out, const char *png)
+static int check_files(const pbc_args *args, const pbc_fields *fields, const char *in, const char *out,
+                       const char *png)
 {
     pbc_files f = {0};
     pbc_files_read_image(&f, "-i", in);
+    pbc_fields_files(fields, &f);
     pbc_files_read(&f, "--motion", pbc_arg(&command, args, "--motion"));
     pbc_files_read(&f, "--calibration", pbc_arg(&command, args, "--calibration"));
     pbc_files_read(&f, "--frames-from", pbc_arg(&command, args, "--frames-from"));
@@ -115,7 +122,8 @@ static int check_files(const pbc_args *args, const char *in, const char *out, co
 }
 
 /* Every path is checked before any work, so a typo costs no minutes of REF. */
-static int check_paths(const pbc_args *args, const char **in, const char **out, const char **png)
+static int check_paths(const pbc_args *args, const pbc_fields *fields, const char **in, const char **out,
+                       const char **png)
 {
     *in = pbc_arg(&command, args, "--input");
     *out = pbc_arg(&command, args, "--output");
@@ -125,7 +133,7 @@ static int check_paths(const pbc_args *args, const char **in, const char **out, 
     int rc = pbc_check_output("-o", *out, 0);
     if (!rc && *png)
         rc = pbc_check_output("--png", *png, 1);
-    return rc ? rc : check_files(args, *in, *out, *png);
+    return rc ? rc : check_files(args, fields, *in, *out, *png);
 }
 
 static int read_input(const pbc_args *args, const char *in, int frames, pbc_image *img)
@@ -207,10 +215,21 @@ static int write_picture(const char *png, const pbc_image *in, const float *out,
     return rc;
 }
 
-static int run(const pbc_args *args, const char *in_path, const char *out_path, const char *png)
+/* The motion placed on the input's grid and its frames checked: a track's
+ * (motion_args.c) or the fields' (src/cli/fields). */
+static int place_motion(pbc_motion *motion, pbc_fields *fields, const pbc_image *in, const char *in_path,
+                        const double *bounds, size_t frames)
+{
+    if (fields->table)
+        return pbc_fields_load(fields, in, in_path, bounds, frames);
+    int rc = pbc_motion_place(motion, in, in_path);
+    return rc ? rc : pbc_motion_check_frames(motion, bounds, frames, 1);
+}
+
+static int run(const pbc_args *args, pbc_fields *fields, const char *in_path, const char *out_path, const char *png)
 {
     pb_blur_options opt;
-    pbc_motion motion;
+    pbc_motion motion = {0};
     pbc_image in = {0}, out = {0};
     pb_context *ctx = NULL;
     double ms = 0.0, *bounds = NULL;
@@ -219,7 +238,8 @@ static int run(const pbc_args *args, const char *in_path, const char *out_path, 
     int adjoint = pbc_arg(&command, args, "--adjoint") != NULL;
     int sum = pbc_arg(&command, args, "--sum-frames") != NULL; /* checked with --frames */
     int rc = blur_options(args, &opt);
-    if (rc || (rc = frame_bounds(args, &bounds, &nb)) || (rc = pbc_motion_from_args(&command, args, &motion))) {
+    if (rc || (rc = frame_bounds(args, &bounds, &nb)) ||
+        (!fields->table && (rc = pbc_motion_from_args(&command, args, &motion)))) {
         free(bounds);
         return rc;
     }
@@ -227,17 +247,20 @@ static int run(const pbc_args *args, const char *in_path, const char *out_path, 
     const char *label = pb_method_name(opt.method);
     size_t out_frames = bounds && !sum ? frames : 1;
     if (!(rc = read_input(args, in_path, bounds != NULL, &in)) && !(rc = bounds ? check_frames(in_path, &in, frames) : 0) &&
-        !(rc = pbc_image_check_output(out_path, in.dims, out_frames)) && !(rc = pbc_motion_place(&motion, &in, in_path)) && !(rc = pbc_motion_check_frames(&motion, bounds, frames, 1)) &&
+        !(rc = pbc_image_check_output(out_path, in.dims, out_frames)) &&
+        !(rc = place_motion(&motion, fields, &in, in_path, bounds, frames)) &&
         !(rc = pbc_image_alloc_frames(&out, in.dims, in.voxel_size, out_frames)) &&
         !(rc = pbc_open_device(pbc_arg(&command, args, "--device"), &ctx))) {
         out.orientation = in.orientation;
-        if (bounds) {
+        if (bounds)
             out.frame_seconds = sum ? 0.0 : common_length(bounds, frames);
+        if (fields->table)
+            rc = pbc_blur_fields_image(ctx, &in, fields, bounds, frames, &opt, adjoint, sum, label, out.data, &ms);
+        else if (bounds)
             rc = pbc_blur_frames_image(ctx, &in, &motion.motion, bounds, frames, &opt, adjoint, sum, label, out.data,
                                        &ms);
-        } else {
+        else
             rc = pbc_blur_image(ctx, &in, &motion.motion, &opt, adjoint, label, out.data, &ms);
-        }
     }
     if (!rc)
         rc = pbc_image_write(out_path, &out);
@@ -267,9 +290,14 @@ int pbc_cmd_blur(int argc, char **argv)
     int rc = pbc_parse_args(&command, argc, argv, &args);
     if (rc)
         return rc < 0 ? 0 : rc;
-    if ((rc = check_paths(&args, &in, &out, &png)))
+    pbc_fields fields;
+    if ((rc = pbc_fields_from_args(&command, &args, &fields)))
         return rc;
-    if (pbc_arg(&command, &args, "--quiet"))
-        pbc_show_progress = 0;
-    return run(&args, in, out, png);
+    if (!(rc = check_paths(&args, &fields, &in, &out, &png))) {
+        if (pbc_arg(&command, &args, "--quiet"))
+            pbc_show_progress = 0;
+        rc = run(&args, &fields, in, out, png);
+    }
+    pbc_fields_free(&fields);
+    return rc;
 }

@@ -6,6 +6,7 @@
 
 #include "cli.h"
 #include "commands.h"
+#include "fields.h"
 #include "motion_args.h"
 #include "motion_plot.h"
 
@@ -16,18 +17,22 @@ static const pbc_option options[] = {
     {"--frames", NULL, "T0,T1,...", "frame boundaries, seconds (default: the --frame, else the whole track)"},
     {"--frames-from", NULL, "SIDECAR.json", "the frames from a BIDS-PET sidecar (FrameTimesStart, FrameDuration)"},
     PBC_MOTION_OPTIONS,
+    PBC_FIELD_OPTIONS,
     {"--png", NULL, "PICTURE.png", "translation and rotation against time, with the frames' boundaries"},
 };
 
 static const pbc_command command = {
-    "motion", "TRACK [-i IN] [--frames T0,T1,...] [--png motion.png] [options]",
+    "motion", "TRACK [-i IN] [--frames T0,T1,...] [--png motion.png] [options] | --fields TABLE.csv [-i IN] [...]",
     "Summarises a pose track: duration, sampling rate, gaps, and per frame the largest rotation and the\n"
     "largest displacement of the grid's corners from the frame's first pose, in the coordinates petblur blur\n"
-    "would use (the same options). Look at a track before trusting a blur to it.",
-    options, (int)(sizeof options / sizeof options[0]), 1, 1,
+    "would use (the same options). Look at a track before trusting a blur to it. With --fields, the fields\n"
+    "a blur would read, checked as it checks them, and per frame the largest displacement of any field\n"
+    "voxel from where the frame's first field puts it.",
+    options, (int)(sizeof options / sizeof options[0]), 0, 1,
     "examples:\n"
     "  petblur motion head.mt -i head.nii.gz --calibration cal.txt --reference-time 65900 --png motion.png\n"
-    "  petblur motion track.csv --frames-from sub-01_pet.json --dims 128,128,64 --voxel-size 2.2,2.2,2.8"};
+    "  petblur motion track.csv --frames-from sub-01_pet.json --dims 128,128,64 --voxel-size 2.2,2.2,2.8\n"
+    "  petblur motion --fields breathing.csv -i act.nii.gz --frames 0,1,2,3,4"};
 
 /* The grid: the input's, or --dims/--voxel-size with no placement. */
 static int grid_image(const pbc_args *args, pbc_image *img)
@@ -75,15 +80,51 @@ static int track_summary(const pbc_motion *m)
 
 /* Every file motion reads, and its one output, for the rule that no output
  * names a file the command reads (pbc_files_check). */
-static int check_files(const pbc_args *args, const char *png)
+static int check_files(const pbc_args *args, const pbc_fields *fields, const char *png)
 {
     pbc_files f = {0};
     pbc_files_read(&f, "the track", args->positional[0]);
+    pbc_fields_files(fields, &f);
     pbc_files_read_image(&f, "-i", pbc_arg(&command, args, "--input"));
     pbc_files_read(&f, "--calibration", pbc_arg(&command, args, "--calibration"));
     pbc_files_read(&f, "--frames-from", pbc_arg(&command, args, "--frames-from"));
     pbc_files_write(&f, "--png", png);
     return pbc_files_check(&f);
+}
+
+/* --fields: the fields the frames read, loaded as blur loads them (onto
+ * -i's grid, or their own), and each frame's largest displacement. */
+static int fields_summary(const pbc_args *args, pbc_fields *f, const double *bounds, size_t nb)
+{
+    const char *in = pbc_arg(&command, args, "--input");
+    static const char *const refused[] = {"--dims", "--voxel-size", "--png"};
+    for (size_t i = 0; i < sizeof refused / sizeof refused[0]; i++)
+        if (pbc_arg(&command, args, refused[i]))
+            return pbc_fail(PBC_EXIT_USAGE, "%s applies to a track; the fields bring their own grid (or -i's): leave "
+                            "%s out", refused[i], refused[i]);
+    pbc_read_hints hints = {NULL, NULL, 1};
+    pbc_image img = {0};
+    size_t frames = bounds ? nb - 1 : 1;
+    int rc = in ? pbc_image_read(in, &hints, &img) : 0;
+    if (!rc)
+        rc = pbc_fields_load(f, in ? &img : NULL, in, bounds, frames);
+    if (!rc) {
+        const pb_field_motion *m = &f->motion;
+        printf("%s: %zu fields from %.9g to %.9g s; the frames read %zu (%.9g to %.9g s) of %zux%zux%zu voxels\n",
+               f->table, f->rows, f->times[0], f->times[f->rows - 1], m->count, m->times[0], m->times[m->count - 1],
+               m->dims[0], m->dims[1], m->dims[2]);
+        printf("frame        start          end  samples max disp mm\n");
+        double whole[2] = {m->frame_start, m->frame_end};
+        const double *b = bounds ? bounds : whole;
+        for (size_t i = 0; i < frames; i++) {
+            size_t samples;
+            double mm;
+            pbc_fields_frame_summary(f, b[i], b[i + 1], &samples, &mm);
+            printf("%5zu %12.6g %12.6g %8zu %11.3f\n", i, b[i], b[i + 1], samples, mm);
+        }
+    }
+    pbc_image_free(&img);
+    return rc;
 }
 
 int pbc_cmd_motion(int argc, char **argv)
@@ -95,6 +136,14 @@ int pbc_cmd_motion(int argc, char **argv)
     int rc = pbc_parse_args(&command, argc, argv, &args);
     if (rc)
         return rc < 0 ? 0 : rc;
+    pbc_fields fields;
+    if (args.positional_count && pbc_arg(&command, &args, "--fields"))
+        return pbc_fail(PBC_EXIT_USAGE, "petblur motion takes a TRACK or --fields TABLE.csv, not both");
+    if (!args.positional_count && !pbc_arg(&command, &args, "--fields"))
+        return pbc_fail(PBC_EXIT_USAGE, "petblur motion needs a TRACK (or --fields TABLE.csv); see petblur motion "
+                        "--help");
+    if ((rc = pbc_fields_from_args(&command, &args, &fields)))
+        return rc;
     /* The track is the positional argument; the motion options read it as --motion. */
     for (int i = 0; i < command.option_count; i++)
         if (!strcmp(command.options[i].name, "--motion")) {
@@ -104,13 +153,24 @@ int pbc_cmd_motion(int argc, char **argv)
         }
     const char *png = pbc_arg(&command, &args, "--png"), *fv = pbc_arg(&command, &args, "--frames"),
                *json = pbc_arg(&command, &args, "--frames-from");
-    if ((png && (rc = pbc_check_output("--png", png, 1))) || (rc = check_files(&args, png)))
+    if ((png && (rc = pbc_check_output("--png", png, 1))) || (rc = check_files(&args, &fields, png))) {
+        pbc_fields_free(&fields);
         return rc;
+    }
     if (fv && json)
-        return pbc_fail(PBC_EXIT_USAGE, "--frames and --frames-from: give one");
-    if ((fv || json) && pbc_arg(&command, &args, "--frame"))
-        return pbc_fail(PBC_EXIT_USAGE, "--frame and --frames: give one; --frames T0,T1,... lists every frame, "
-                        "--frame T0,T1 one");
+        rc = pbc_fail(PBC_EXIT_USAGE, "--frames and --frames-from: give one");
+    else if ((fv || json) && pbc_arg(&command, &args, "--frame"))
+        rc = pbc_fail(PBC_EXIT_USAGE, "--frame and --frames: give one; --frames T0,T1,... lists every frame, "
+                      "--frame T0,T1 one");
+    if (rc || fields.table) {
+        double *b = NULL;
+        size_t n = 0;
+        if (!rc && !(rc = fv ? pbc_parse_bounds("--frames", fv, &b, &n) : json ? pbc_bids_frames(json, &b, &n) : 0))
+            rc = fields_summary(&args, &fields, b, n);
+        free(b);
+        pbc_fields_free(&fields);
+        return rc;
+    }
     pbc_motion m;
     pbc_image img = {0};
     double *bounds = NULL;

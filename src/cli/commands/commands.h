@@ -28,7 +28,6 @@ int pbc_check_output(const char *option, const char *path, int kind);
  * no output names a file the command reads, nor another output (by path,
  * link, or device and inode). A command lists them all and calls
  * pbc_files_check before any work. */
-enum { PBC_MAX_FILES = 128 };
 typedef struct pbc_file_use {
     const char *option; /* "-i", "--motion", "--png", ...; "" for a positional argument */
     char *path;         /* malloc'ed */
@@ -36,8 +35,8 @@ typedef struct pbc_file_use {
     int written;
 } pbc_file_use;
 typedef struct pbc_files {
-    pbc_file_use use[PBC_MAX_FILES];
-    int count;
+    pbc_file_use *use; /* grown as files are added: a --fields table names one file a row */
+    int count, capacity;
     int status; /* the first failure while the list was made (its message printed), else 0 */
 } pbc_files;
 

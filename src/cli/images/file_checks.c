@@ -66,10 +66,15 @@ static void add(pbc_files *f, const char *option, const char *path, const char *
 {
     if (f->status || !path)
         return;
-    if (f->count == PBC_MAX_FILES) {
-        f->status = pbc_fail(PBC_EXIT_RUNTIME, "%s %s: more than %d files in one command; petblur cannot check "
-                             "them all", option, path, PBC_MAX_FILES);
-        return;
+    if (f->count == f->capacity) {
+        int cap = f->capacity ? 2 * f->capacity : 16;
+        pbc_file_use *grown = realloc(f->use, (size_t)cap * sizeof *grown);
+        if (!grown) {
+            f->status = pbc_fail(PBC_EXIT_RUNTIME, "out of memory while checking the files' names");
+            return;
+        }
+        f->use = grown;
+        f->capacity = cap;
     }
     pbc_file_use *u = &f->use[f->count];
     u->option = option;
@@ -188,7 +193,9 @@ static void files_free(pbc_files *f)
         free(f->use[i].path);
         free(f->use[i].header);
     }
-    f->count = 0;
+    free(f->use);
+    f->use = NULL;
+    f->count = f->capacity = 0;
 }
 
 /* Each output against every input and every output listed before it. */

@@ -77,6 +77,16 @@ int pbc_nifti_check_header(const char *path, pbc_nifti_facts *facts);
  * after the message. */
 int pbc_nifti_orientation(const char *path, const pbc_nifti_facts *facts, double unit_mm, pbc_orientation *o);
 
+/* What the volume reader (image_nifti.c) shares with the vector reader
+ * (image_nifti_vectors.c), on a nifti_image * (void *: nifti2_io.h stays in
+ * those two files): nibabel's rule for scl_slope and scl_inter, the sample
+ * format of the data type (0 or an exit status after the message), mm per
+ * file unit of xyz_units, and znzread as a pbc_read_fn. */
+int pbc_nifti_check_scaling(const char *path, const pbc_nifti_facts *facts);
+int pbc_nifti_sample_format(const char *path, const void *nim, pbc_sample_format *format);
+double pbc_nifti_unit_mm(int xyz_units);
+size_t pbc_read_znz(void *source, void *buf, size_t bytes);
+
 int pbc_nifti_read(const char *path, const pbc_read_hints *hints, pbc_image *img);
 int pbc_nifti_write(const char *path, const pbc_image *img);
 /* Whether NIfTI-1 holds the grid and frames: 0 or an exit status. */

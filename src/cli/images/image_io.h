@@ -79,5 +79,31 @@ size_t pbc_image_frame_count(const pbc_image *img);
 
 void pbc_image_free(pbc_image *img);
 
+/* A NIfTI vector image, a registration's displacement field: (nx, ny, nz, 1,
+ * 3), as NiftyReg, ITK and nibabel write it, or (nx, ny, nz, 3). What its
+ * header says, read through nifti_clib after the checks a volume's header
+ * gets (image_nifti_vectors.c); what the vectors mean is the reader's to say
+ * (src/cli/fields/). */
+typedef struct pbc_vector_header {
+    size_t dims[3];
+    double voxel_size[3];  /* mm */
+    int placed;            /* 0: sform and qform codes 0 */
+    double affine[16];     /* voxel index to RAS+ mm, as pbc_image_affine chooses it */
+    double unit_mm;        /* mm per file unit (xyz_units): the vectors are in that unit */
+    int intent_code;
+    char intent_name[17];
+    double intent_p1;
+} pbc_vector_header;
+
+/* The header of path, checked: a single-file NIfTI with three components
+ * along its 5th (or 4th) dimension and a usable sform or qform. Returns 0 or
+ * an exit status after the message, which names the file and the fix. */
+int pbc_vector_header_read(const char *path, pbc_vector_header *h);
+/* The vectors of path (whose header is h), in mm, the three components of a
+ * voxel together, voxels x fastest: out holds 3 * nx * ny * nz floats. NaN
+ * and infinities are kept for the caller to name. Returns 0 or an exit
+ * status after the message. */
+int pbc_vector_read(const char *path, const pbc_vector_header *h, float *out);
+
 
 #endif

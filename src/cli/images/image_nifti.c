@@ -31,7 +31,7 @@ static void quiet_library(void)
 }
 
 /* znzread passes on gzread's -1 for a damaged stream. */
-static size_t read_znz(void *source, void *buf, size_t bytes)
+size_t pbc_read_znz(void *source, void *buf, size_t bytes)
 {
     size_t n = znzread(buf, 1, bytes, source);
     return n > bytes ? 0 : n;
@@ -56,7 +56,7 @@ static int check_layout(const char *path, const nifti_image *nim, int allow_fram
 /* nibabel's rule: a slope of 0 or not finite means no scaling, and a finite
  * slope with an intercept that is not is refused, since no value can be made
  * of it (nifti_clib would read the intercept as 0). */
-static int check_scaling(const char *path, const pbc_nifti_facts *facts)
+int pbc_nifti_check_scaling(const char *path, const pbc_nifti_facts *facts)
 {
     double slope = facts->scl_slope, inter = facts->scl_inter;
     if (slope == 0.0 || !isfinite(slope) || isfinite(inter))
@@ -67,8 +67,9 @@ static int check_scaling(const char *path, const pbc_nifti_facts *facts)
                     PBC_NUM(slope));
 }
 
-static int sample_format(const char *path, const nifti_image *nim, pbc_sample_format *format)
+int pbc_nifti_sample_format(const char *path, const void *header, pbc_sample_format *format)
 {
+    const nifti_image *nim = header;
     static const struct { int datatype; pbc_sample_type type; } types[] = {
         {NIFTI_TYPE_UINT8, PBC_SAMPLE_U8}, {NIFTI_TYPE_INT8, PBC_SAMPLE_I8},
         {NIFTI_TYPE_UINT16, PBC_SAMPLE_U16}, {NIFTI_TYPE_INT16, PBC_SAMPLE_I16},
@@ -91,7 +92,7 @@ static int sample_format(const char *path, const nifti_image *nim, pbc_sample_fo
                     nifti_datatype_string(nim->datatype), path);
 }
 
-static double unit_in_mm(int xyz_units)
+double pbc_nifti_unit_mm(int xyz_units)
 {
     switch (xyz_units) {
     case NIFTI_UNITS_METER: return 1000;
@@ -105,7 +106,7 @@ static double unit_in_mm(int xyz_units)
  * pixdim of 0 (or NaN) is left as 0 for --voxel-size to fill in. */
 static void take_geometry(const nifti_image *nim, const double pixdim[3], pbc_image *img)
 {
-    double mm = unit_in_mm(nim->xyz_units);
+    double mm = pbc_nifti_unit_mm(nim->xyz_units);
     for (int i = 0; i < 3; i++) {
         img->dims[i] = i < nim->ndim ? (size_t)nim->dim[i + 1] : 1;
         img->voxel_size[i] = isfinite(pixdim[i]) ? fabs(pixdim[i]) * mm : 0;
@@ -127,7 +128,7 @@ static int read_data(const char *path, const nifti_image *nim, const pbc_sample_
         rc = pbc_fail(PBC_EXIT_USAGE, "%s: ends before its data starts (at byte %lld); the file is truncated or "
                       "damaged; copy or write it again", path, (long long)nim->iname_offset);
     else
-        rc = pbc_samples_read(path, read_znz, fp, format, img);
+        rc = pbc_samples_read(path, pbc_read_znz, fp, format, img);
     znzclose(fp);
     return rc;
 }
@@ -147,13 +148,13 @@ int pbc_nifti_read(const char *path, const pbc_read_hints *hints, pbc_image *img
     double *pixdim = facts.pixdim;
     rc = check_layout(path, nim, hints && hints->allow_frames);
     if (!rc)
-        rc = check_scaling(path, &facts);
+        rc = pbc_nifti_check_scaling(path, &facts);
     if (!rc)
-        rc = sample_format(path, nim, &format);
+        rc = pbc_nifti_sample_format(path, nim, &format);
     if (!rc) {
         take_geometry(nim, pixdim, img);
         /* From the header's own bytes: nifti_clib reads NaN fields as 0. */
-        rc = pbc_nifti_orientation(path, &facts, unit_in_mm(nim->xyz_units), &img->orientation);
+        rc = pbc_nifti_orientation(path, &facts, pbc_nifti_unit_mm(nim->xyz_units), &img->orientation);
     }
     if (!rc)
         rc = pbc_image_prepare(path, hints, img);
