@@ -8,6 +8,7 @@ r + D(r), as a linear resampler does) on an image grid placed otherwise than
 the field's. The seed is printed; PETBLUR_TEST_SEED replays one. Also here:
 the files that must be refused, with the message that says why."""
 
+import os
 import re
 
 import nibabel as nib
@@ -200,7 +201,8 @@ def test_reader_gives_ras_displacements(kind, rng, tmp_path):
     assert m.times.tolist() == [0, 2.5]
     (tmp_path / "sub").mkdir()
     csv = tmp_path / "sub" / "fields.csv"
-    csv.write_text("time,path\n0,../f0.nii.gz\n\n 2.5 , ../g.nii.gz \n")
+    up = os.pardir + os.sep  # the fields beside the CSV's folder, blanks and an empty line around them
+    csv.write_text(f"time,path\n0,{up}f0.nii.gz\n\n 2.5 , {up}g.nii.gz \n")
     c = petblur.FieldMotion.from_files(csv, convention=convention)
     np.testing.assert_array_equal(c.displacements(), m.displacements())
     assert c.times.tolist() == [0, 2.5]
