@@ -148,7 +148,7 @@ int main(int argc, char **argv)
             if (n_runs == 0)
                 continue;
             /* The paper's polyline (one segment), as in the earlier runs. */
-            pb_blur_options opt = {methods[m].method, methods[m].filter, 0, 0, 0, 0, PB_PATH_TRACKED, 0.0, PB_AB_SAMPLING_DEFAULT};
+            pb_blur_options opt = {methods[m].method, methods[m].filter, 0, 0, 0, 0, PB_PATH_TRACKED, 0.0, PB_AB_SAMPLING_DEFAULT, 0};
             /* Progress on a terminal only, outside the timed calls (a library
              * progress callback would split the launches and change the times). */
             if (tty)

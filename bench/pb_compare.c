@@ -100,7 +100,7 @@ int main(int argc, char **argv)
             for (int f = 0; f < 2 && ok; f++) {
                 if (m == PB_METHOD_REF && f == PB_FILTER_HARDWARE)
                     continue; /* REF reads nearest voxels either way */
-                pb_blur_options opt = {(pb_method)m, (pb_filter)f, 0, m == PB_METHOD_REF ? ref_points : 0, 0, 5, PB_PATH_DEFAULT, 0.0, PB_AB_SAMPLING_DEFAULT};
+                pb_blur_options opt = {(pb_method)m, (pb_filter)f, 0, m == PB_METHOD_REF ? ref_points : 0, 0, 5, PB_PATH_DEFAULT, 0.0, PB_AB_SAMPLING_DEFAULT, 0};
                 ok = blur(ctx[0], &g, in, &motion, &opt, a) && blur(ctx[1], &g, in, &motion, &opt, b);
                 if (!ok)
                     break;

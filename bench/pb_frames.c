@@ -114,7 +114,7 @@ int main(int argc, char **argv)
     pb_context_device_info(ctx, &info);
     pb_geometry g = {{size, size, size}, {1.0, 1.0, 1.0}};
     size_t n = size * size * size;
-    pb_blur_options opt = {method, PB_FILTER_HARDWARE, 0, 0, 0, 0, PB_PATH_DEFAULT, 0.0, PB_AB_SAMPLING_DEFAULT};
+    pb_blur_options opt = {method, PB_FILTER_HARDWARE, 0, 0, 0, 0, PB_PATH_DEFAULT, 0.0, PB_AB_SAMPLING_DEFAULT, 0};
     pb_motion first = track;
     first.frame_start = bounds[0];
     first.frame_end = bounds[1];

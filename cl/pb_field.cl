@@ -73,27 +73,90 @@ PB_FN void pb_field_point(PB_GLOBAL_RO pb_kknot *knots, PB_GLOBAL_RO float *fiel
         o[i] = u[i] + d[i];
 }
 
-/* The segments of voxel W's polyline through the frame's key points: BODY
- * runs with the segment's ends a and b (object texel coordinates) and its
- * index j in scope. */
-#define PB_FOR_FIELD_SEGMENTS(knots, fields, prm, u, own, BODY)                                                  \
-    {                                                                                                          \
-        float a[3], b[3];                                                                                      \
-        pb_field_point((knots), (fields), (prm), 0, (u), (own), b);                                            \
-        for (int j = 0; j < (prm).segments; j++) {                                                             \
-            for (int pb_i = 0; pb_i < 3; pb_i++)                                                               \
-                a[pb_i] = b[pb_i];                                                                             \
-            pb_field_point((knots), (fields), (prm), j + 1, (u), (own), b);                                    \
-            BODY;                                                                                              \
-        }                                                                                                      \
-    }
-
 /* Image voxel (ix, iy, iz)'s own index where the field grid is the image
  * grid, else -1 (interpolate). */
 PB_FN long pb_field_own(pb_kparams prm, int ix, int iy, int iz)
 {
     return prm.field_same ? ix + (long)prm.dims[0] * (iy + (long)prm.dims[1] * iz) : -1;
 }
+
+/* The field of knot k at the centre of image voxel at[] (texel units). */
+PB_FN void pb_field_at_voxel(PB_GLOBAL_RO pb_kknot *knots, PB_GLOBAL_RO float *fields, pb_kparams prm, int k,
+                             const int *at, float *d)
+{
+    const float u[3] = {(float)at[0] + 0.5f, (float)at[1] + 0.5f, (float)at[2] + 0.5f};
+    float o[3];
+    pb_field_point(knots, fields, prm, k, u, pb_field_own(prm, at[0], at[1], at[2]), o);
+    for (int i = 0; i < 3; i++)
+        d[i] = o[i] - u[i];
+}
+
+/* I + dD/dr of knot k at image voxel (ix, iy, iz), row-major: differences of
+ * the field between the voxel's neighbours along each axis, one-sided at the
+ * grid's faces (texel units on both sides: its determinant is the same in
+ * mm). */
+PB_FN void pb_field_gradient(PB_GLOBAL_RO pb_kknot *knots, PB_GLOBAL_RO float *fields, pb_kparams prm, int k, int ix,
+                             int iy, int iz, float *g)
+{
+    for (int a = 0; a < 3; a++) {
+        int at[3] = {ix, iy, iz}, c = at[a];
+        int lo = max(c - 1, 0), hi = min(c + 1, prm.dims[a] - 1);
+        float dl[3] = {0.0f, 0.0f, 0.0f}, dh[3] = {0.0f, 0.0f, 0.0f};
+        if (hi > lo) {
+            at[a] = lo;
+            pb_field_at_voxel(knots, fields, prm, k, at, dl);
+            at[a] = hi;
+            pb_field_at_voxel(knots, fields, prm, k, at, dh);
+        }
+        float inv = hi > lo ? 1.0f / (float)(hi - lo) : 0.0f;
+        for (int r = 0; r < 3; r++)
+            g[3 * r + a] = (dh[r] - dl[r]) * inv + (r == a ? 1.0f : 0.0f);
+    }
+}
+
+/* |det| of (1 - s) A + s B, 3x3 row-major. */
+PB_FN float pb_blend_det(const float *A, const float *B, float s)
+{
+    float g[9];
+    for (int i = 0; i < 9; i++)
+        g[i] = (1.0f - s) * A[i] + s * B[i];
+    return fabs(g[0] * (g[4] * g[8] - g[5] * g[7]) - g[1] * (g[3] * g[8] - g[5] * g[6]) +
+                g[2] * (g[3] * g[7] - g[4] * g[6]));
+}
+
+/* The mean over a segment's time of the mass-preserving weight |det(I +
+ * dD/dr)|: the field is linear in time along the segment, so is its
+ * gradient, and the determinant is a cubic in time, which Simpson's rule
+ * integrates exactly. */
+PB_FN float pb_segment_jacobian(const float *A, const float *B)
+{
+    return (pb_blend_det(A, B, 0.0f) + 4.0f * pb_blend_det(A, B, 0.5f) + pb_blend_det(A, B, 1.0f)) * (1.0f / 6.0f);
+}
+
+/* The segments of voxel W's polyline through the frame's key points: BODY
+ * runs with the segment's ends a and b (object texel coordinates), its index
+ * j and jac, the mean of its ends' Jacobian determinants (1 unless
+ * prm.jacobian), in scope. */
+#define PB_FOR_FIELD_SEGMENTS(knots, fields, prm, u, own, ix, iy, iz, BODY)                                      \
+    {                                                                                                          \
+        float a[3], b[3], pb_ga[9], pb_gb[9];                                                                  \
+        if ((prm).jacobian)                                                                                    \
+            pb_field_gradient((knots), (fields), (prm), 0, (ix), (iy), (iz), pb_gb);                           \
+        pb_field_point((knots), (fields), (prm), 0, (u), (own), b);                                            \
+        for (int j = 0; j < (prm).segments; j++) {                                                             \
+            for (int pb_i = 0; pb_i < 3; pb_i++)                                                               \
+                a[pb_i] = b[pb_i];                                                                             \
+            pb_field_point((knots), (fields), (prm), j + 1, (u), (own), b);                                    \
+            float jac = 1.0f;                                                                                  \
+            if ((prm).jacobian) {                                                                              \
+                for (int pb_i = 0; pb_i < 9; pb_i++)                                                           \
+                    pb_ga[pb_i] = pb_gb[pb_i];                                                                 \
+                pb_field_gradient((knots), (fields), (prm), j + 1, (ix), (iy), (iz), pb_gb);                   \
+                jac = pb_segment_jacobian(pb_ga, pb_gb);                                                       \
+            }                                                                                                  \
+            BODY;                                                                                              \
+        }                                                                                                      \
+    }
 
 /* The forward of voxel W: ab 0 RM, 1 AB, PB_AB_SWEEP AB with two points a
  * slice, a literal in each kernel. */
@@ -105,9 +168,10 @@ PB_FN float pb_field_polyline(pb_image img, PB_GLOBAL_RO pb_kknot *knots, pb_kpa
     PB_GLOBAL_RO float *fields = pb_field_data(knots, prm);
     long own = pb_field_own(prm, ix, iy, iz);
     float total = 0.0f;
-    PB_FOR_FIELD_SEGMENTS(knots, fields, prm, u, own,
-                          total += knots[j].weight * (ab ? pb_ab_sampled(img, prm, exact, ab == PB_AB_SWEEP, &pl, a, b)
-                                                         : pb_rm_sampled(img, prm, exact, &pl, a, b)));
+    PB_FOR_FIELD_SEGMENTS(knots, fields, prm, u, own, ix, iy, iz,
+                          total += knots[j].weight * jac *
+                                   (ab ? pb_ab_sampled(img, prm, exact, ab == PB_AB_SWEEP, &pl, a, b)
+                                       : pb_rm_sampled(img, prm, exact, &pl, a, b)));
     return total;
 }
 
@@ -118,7 +182,8 @@ PB_FN void pb_field_polyline_adjoint(PB_GLOBAL float *out, PB_GLOBAL_RO pb_kknot
     const float u[3] = {(float)ix + 0.5f, (float)iy + 0.5f, (float)iz + 0.5f};
     PB_GLOBAL_RO float *fields = pb_field_data(knots, prm);
     long own = pb_field_own(prm, ix, iy, iz);
-    PB_FOR_FIELD_SEGMENTS(knots, fields, prm, u, own, pb_segment_adjoint(out, prm, a, b, ab, v * knots[j].weight));
+    PB_FOR_FIELD_SEGMENTS(knots, fields, prm, u, own, ix, iy, iz,
+                          pb_segment_adjoint(out, prm, a, b, ab, v * knots[j].weight * jac));
 }
 
 #define PB_FIELD_FORWARD(name, ab, exact)                                                                        \
@@ -149,6 +214,18 @@ PB_FIELD_ADJOINT(pb_field_adjoint_ab, 1)
 PB_FIELD_ADJOINT(pb_field_adjoint_ab_sweep, PB_AB_SWEEP)
 PB_FIELD_ADJOINT(pb_field_adjoint_rm, 0)
 
+/* REF's mass-preserving weight at its time step s: the determinant there
+ * (1 unless prm.jacobian). */
+PB_FN float pb_field_step_jacobian(PB_GLOBAL_RO pb_kknot *knots, PB_GLOBAL_RO float *fields, pb_kparams prm, int s,
+                                   int ix, int iy, int iz)
+{
+    if (!prm.jacobian)
+        return 1.0f;
+    float g[9];
+    pb_field_gradient(knots, fields, prm, s, ix, iy, iz, g);
+    return pb_blend_det(g, g, 0.0f);
+}
+
 /* REF's random point c of voxel (ix, iy, iz) at time step s, in object texel
  * coordinates: the point (texel coordinates, inside the voxel) plus the field
  * interpolated there. */
@@ -177,7 +254,8 @@ PB_KERNEL void pb_field_ref(pb_image img, PB_GLOBAL_RO pb_kknot *knots, pb_kpara
             pb_field_ref_point(knots, fields, prm, s, ix, iy, iz, key, (unsigned int)(s * prm.ref_points + k), o);
             acc += PB_FETCH_NEAREST(img, o[0], o[1], o[2]);
         }
-        total += knots[s].weight * acc / (float)prm.ref_points;
+        total += knots[s].weight * pb_field_step_jacobian(knots, fields, prm, s, ix, iy, iz) * acc /
+                 (float)prm.ref_points;
     }
     PB_OUT(ix, iy, iz) = total;
 }
@@ -192,7 +270,8 @@ PB_KERNEL void pb_field_adjoint_ref(PB_GLOBAL_RO float *in, PB_GLOBAL_RO pb_kkno
     PB_GLOBAL_RO float *fields = pb_field_data(knots, prm);
     unsigned int key = pb_ref_key(prm.seed, (unsigned int)(ix + prm.dims[0] * (iy + prm.dims[1] * iz)));
     for (int s = 0; s < prm.ref_steps; s++) {
-        float vs = v * knots[s].weight / (float)prm.ref_points;
+        float vs = v * knots[s].weight * pb_field_step_jacobian(knots, fields, prm, s, ix, iy, iz) /
+                   (float)prm.ref_points;
         for (int k = 0; k < prm.ref_points; k++) {
             float o[3];
             pb_field_ref_point(knots, fields, prm, s, ix, iy, iz, key, (unsigned int)(s * prm.ref_points + k), o);

@@ -44,6 +44,7 @@ typedef struct pb_kparams {
     int field_dims[3];
     int field_same;
     int field_start;
+    int jacobian;    /* weigh each segment by its mean Jacobian determinant (mass-preserving) */
     float field_map[12];
 } pb_kparams;
 

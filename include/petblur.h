@@ -577,6 +577,14 @@ typedef struct pb_blur_options {
     pb_path_model path;
     double max_path_error;   /* PB_PATH_BOUNDED only: the bound, in [PB_MIN_MAX_PATH_ERROR, 1000] voxels; else 0 */
     pb_ab_sampling ab_sampling; /* AB only */
+    /* Field motions: 0 the blur of concentrations (activity per volume, as
+     * a PET image holds it); 1 mass-preserving, each tomograph voxel's
+     * reading weighed by the Jacobian determinant |det(I + dD/dr)| of its
+     * field, for images of counts (a segment takes the mean of its two key
+     * points' determinants; central differences of the field between the
+     * voxel's neighbours, one-sided at the grid's faces). A rigid motion's
+     * determinant is 1: it changes nothing there. */
+    int jacobian;
 } pb_blur_options;
 
 /* The names the program and the bindings give these options: methods "ab",

@@ -130,7 +130,7 @@ int main(int argc, char **argv)
             for (int c = 0; c < CASES; c++) {
                 pb_motion m = motion_of(&cases[c]);
                 pb_blur_options opt = {runs[r].method, (pb_filter)filter, runs[r].steps, 24, 0, 7, PB_PATH_DEFAULT, 0.0,
-                                       runs[r].sampling};
+                                       runs[r].sampling, 0};
                 if (!pb_check(pb_test_blur(ctx, &g, x, &m, &opt, bx) == PB_OK &&
                                   pb_test_adjoint(ctx, &g, y, &m, &opt, bty) == PB_OK,
                               "%s steps %u%s %s: blur or adjoint failed", method_names[runs[r].method],
@@ -155,7 +155,7 @@ int main(int argc, char **argv)
     motion_case off = cases[1];
     off.poses[1].translation[0] += 0.05 * g.voxel_size[0];
     pb_motion m = motion_of(&cases[1]), m_off = motion_of(&off);
-    pb_blur_options opt = {PB_METHOD_AB, PB_FILTER_EXACT, 0, 0, 0, 0, PB_PATH_DEFAULT, 0.0, PB_AB_SAMPLING_DEFAULT};
+    pb_blur_options opt = {PB_METHOD_AB, PB_FILTER_EXACT, 0, 0, 0, 0, PB_PATH_DEFAULT, 0.0, PB_AB_SAMPLING_DEFAULT, 0};
     if (pb_check(pb_test_blur(ctx, &g, x, &m, &opt, bx) == PB_OK &&
                      pb_test_adjoint(ctx, &g, y, &m_off, &opt, bty) == PB_OK,
                  "check of the check: blur or adjoint failed")) {

@@ -111,8 +111,8 @@ static size_t mark_edges(const pb_geometry *g, const pb_motion *m, const pb_blur
 /* How many voxels are on an edge for AB, or for RM and CL, whichever more. */
 static size_t edges(const pb_geometry *g, const pb_motion *m, unsigned char *edge)
 {
-    pb_blur_options ab = {PB_METHOD_AB, PB_FILTER_EXACT, 0, 0, 0, 0, PB_PATH_DEFAULT, 0.0, PB_AB_SAMPLING_DEFAULT};
-    pb_blur_options rm = {PB_METHOD_RM, PB_FILTER_EXACT, 0, 0, 0, 0, PB_PATH_DEFAULT, 0.0, PB_AB_SAMPLING_DEFAULT};
+    pb_blur_options ab = {PB_METHOD_AB, PB_FILTER_EXACT, 0, 0, 0, 0, PB_PATH_DEFAULT, 0.0, PB_AB_SAMPLING_DEFAULT, 0};
+    pb_blur_options rm = {PB_METHOD_RM, PB_FILTER_EXACT, 0, 0, 0, 0, PB_PATH_DEFAULT, 0.0, PB_AB_SAMPLING_DEFAULT, 0};
     size_t a = mark_edges(g, m, &ab, edge), r = mark_edges(g, m, &rm, edge);
     return a > r ? a : r;
 }
@@ -156,7 +156,7 @@ int main(int argc, char **argv)
         while (++draws < 50 && edges(&g, &tm.motion, edge) > (translations ? 0 : n / 100));
         for (int method = 0; method < 4; method++) {
             for (int filter = 0; filter < 2; filter++) {
-                pb_blur_options opt = {(pb_method)method, (pb_filter)filter, 0, 0, 0, 0, PB_PATH_DEFAULT, 0.0, PB_AB_SAMPLING_DEFAULT};
+                pb_blur_options opt = {(pb_method)method, (pb_filter)filter, 0, 0, 0, 0, PB_PATH_DEFAULT, 0.0, PB_AB_SAMPLING_DEFAULT, 0};
                 if (method == PB_METHOD_REF) {
                     opt.ref_points = 24;
                     opt.ref_time_steps = 4;

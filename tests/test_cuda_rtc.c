@@ -72,7 +72,7 @@ static void compare(pb_context *rtc, pb_context *nvcc, const char *what)
     pb_test_motion_init(&tm, &p0, &p1);
     for (int method = PB_METHOD_AB; method <= PB_METHOD_REF; method++) {
         for (int adjoint = 0; adjoint < 2; adjoint++) {
-            pb_blur_options o = {(pb_method)method, PB_FILTER_HARDWARE, 0, 0, 0, 0, PB_PATH_DEFAULT, 0.0, PB_AB_SAMPLING_DEFAULT};
+            pb_blur_options o = {(pb_method)method, PB_FILTER_HARDWARE, 0, 0, 0, 0, PB_PATH_DEFAULT, 0.0, PB_AB_SAMPLING_DEFAULT, 0};
             pb_status s1 = adjoint ? pb_test_adjoint(rtc, &g, in, &tm.motion, &o, a)
                                    : pb_test_blur(rtc, &g, in, &tm.motion, &o, a);
             pb_status s2 = adjoint ? pb_test_adjoint(nvcc, &g, in, &tm.motion, &o, b)

@@ -199,13 +199,13 @@ static void test_motions(pb_context *ctx)
     pb_check(pb_max_abs_diff(ref, near, 216) <= 1e-6, "near-unit quaternion normalised (diff %.3g)",
              pb_max_abs_diff(ref, near, 216));
 
-    pb_blur_options opt = {(pb_method)7, PB_FILTER_EXACT, 0, 0, 0, 0, PB_PATH_DEFAULT, 0.0, PB_AB_SAMPLING_DEFAULT};
+    pb_blur_options opt = {(pb_method)7, PB_FILTER_EXACT, 0, 0, 0, 0, PB_PATH_DEFAULT, 0.0, PB_AB_SAMPLING_DEFAULT, 0};
     expect(pb_blur(ctx, in, &good, &opt, out), PB_ERR_INVALID_ARGUMENT, "unknown method", pb_last_error(ctx),
            "method");
     expect(pb_blur(ctx, in, NULL, NULL, out), PB_ERR_INVALID_ARGUMENT, "NULL motion", pb_last_error(ctx), NULL);
     /* The path error bound: not a number, and one that would need absurdly many
      * segments for a 20 degree turn. */
-    pb_blur_options bound = {PB_METHOD_AB, PB_FILTER_EXACT, 0, 0, 0, 0, PB_PATH_BOUNDED, (double)NAN, PB_AB_SAMPLING_DEFAULT};
+    pb_blur_options bound = {PB_METHOD_AB, PB_FILTER_EXACT, 0, 0, 0, 0, PB_PATH_BOUNDED, (double)NAN, PB_AB_SAMPLING_DEFAULT, 0};
     expect(pb_blur(ctx, in, &mu, &bound, out), PB_ERR_INVALID_ARGUMENT, "NaN max_path_error", pb_last_error(ctx),
            "max_path_error");
     bound.max_path_error = 1e-12;
@@ -393,7 +393,7 @@ static void test_segment_cap(pb_context *ctx)
     pb_motion m = {t, p, SAMPLES, 0.0, t[SAMPLES - 1], 0, {0, 0, 0}};
     pb_geometry g = {{4, 4, 4}, {1, 1, 1}};
     pb_volume *a = NULL, *b = NULL;
-    pb_blur_options opt = {PB_METHOD_AB, PB_FILTER_EXACT, 0, 0, 0, 0, PB_PATH_TRACKED, 0.0, PB_AB_SAMPLING_DEFAULT};
+    pb_blur_options opt = {PB_METHOD_AB, PB_FILTER_EXACT, 0, 0, 0, 0, PB_PATH_TRACKED, 0.0, PB_AB_SAMPLING_DEFAULT, 0};
     if (pb_volume_create(ctx, &g, &a) == PB_OK && pb_volume_create(ctx, &g, &b) == PB_OK) {
         expect(pb_blur(ctx, a, &m, &opt, b), PB_ERR_INVALID_ARGUMENT, "10^6 segments", pb_last_error(ctx),
                "path error bound");

@@ -84,7 +84,7 @@ int main(int argc, char **argv)
         for (int filter = 0; filter < 2; filter++) {
             if (method == PB_METHOD_REF && filter == PB_FILTER_HARDWARE)
                 continue;
-            pb_blur_options opt = {(pb_method)method, (pb_filter)filter, 0, 16, 0, 9, PB_PATH_DEFAULT, 0.0, PB_AB_SAMPLING_DEFAULT};
+            pb_blur_options opt = {(pb_method)method, (pb_filter)filter, 0, 16, 0, 9, PB_PATH_DEFAULT, 0.0, PB_AB_SAMPLING_DEFAULT, 0};
             for (int f = 0; f < FRAMES; f++)
                 poison(tomo[f], n);
             pb_status st = pb_blur_frames(ctx, objects, &track, bounds, FRAMES, &opt, tomo);
@@ -127,7 +127,7 @@ int main(int argc, char **argv)
             if (method == PB_METHOD_REF && filter == PB_FILTER_HARDWARE)
                 continue;
             const char *what = filter ? "EXACT" : "HARDWARE";
-            pb_blur_options opt = {(pb_method)method, (pb_filter)filter, 0, 16, 0, 9, PB_PATH_DEFAULT, 0.0, PB_AB_SAMPLING_DEFAULT};
+            pb_blur_options opt = {(pb_method)method, (pb_filter)filter, 0, 16, 0, 9, PB_PATH_DEFAULT, 0.0, PB_AB_SAMPLING_DEFAULT, 0};
             /* Float atomics round each add at the running sum's size, in an
              * order no run repeats. AB, RM and CL add a few hundred times per
              * voxel; REF adds every random point on its own, thousands of
@@ -187,7 +187,7 @@ int main(int argc, char **argv)
                          names[method], lhs, rhs);
         }
     /* An output that is a frame's input is refused before anything is written. */
-    pb_blur_options ab_ex = {PB_METHOD_AB, PB_FILTER_EXACT, 0, 0, 0, 0, PB_PATH_DEFAULT, 0.0, PB_AB_SAMPLING_DEFAULT};
+    pb_blur_options ab_ex = {PB_METHOD_AB, PB_FILTER_EXACT, 0, 0, 0, 0, PB_PATH_DEFAULT, 0.0, PB_AB_SAMPLING_DEFAULT, 0};
     pb_volume *into_input[FRAMES] = {back[0], tomo[2], back[2], back[3]};
     for (int f = 0; f < FRAMES; f++)
         poison(back[f], n);
@@ -210,14 +210,14 @@ int main(int argc, char **argv)
     /* Progress runs over the whole call: rising, below 1 until the end, 1 last. */
     pb_test_progress_log log = {0, 0, 0.0};
     pb_context_set_progress(ctx, pb_test_record_progress, &log);
-    pb_blur_options rm = {PB_METHOD_RM, PB_FILTER_EXACT, 0, 0, 0, 0, PB_PATH_DEFAULT, 0.0, PB_AB_SAMPLING_DEFAULT};
+    pb_blur_options rm = {PB_METHOD_RM, PB_FILTER_EXACT, 0, 0, 0, 0, PB_PATH_DEFAULT, 0.0, PB_AB_SAMPLING_DEFAULT, 0};
     pb_check(pb_blur_frames(ctx, objects, &track, bounds, FRAMES, &rm, tomo) == PB_OK, "frames with progress");
     pb_check(log.calls >= 1 && log.last == 1.0 && !log.bad, "progress: %d calls, last %g, %d out of order",
              log.calls, log.last, log.bad);
     pb_context_set_progress(ctx, NULL, NULL);
 
     /* A bad frame anywhere stops the call before any frame is written. */
-    pb_blur_options ab = {PB_METHOD_AB, PB_FILTER_EXACT, 0, 0, 0, 0, PB_PATH_DEFAULT, 0.0, PB_AB_SAMPLING_DEFAULT};
+    pb_blur_options ab = {PB_METHOD_AB, PB_FILTER_EXACT, 0, 0, 0, 0, PB_PATH_DEFAULT, 0.0, PB_AB_SAMPLING_DEFAULT, 0};
     double late[FRAMES + 1], backwards[FRAMES + 1];
     memcpy(late, bounds, sizeof late);
     memcpy(backwards, bounds, sizeof backwards);

@@ -128,7 +128,7 @@ static void test_plan(void)
         poses[i] = random_pose();
     pb_motion m = {times, poses, 5, 0.1, 2.0, 0, {0, 0, 0}};
     pb_geometry g = {{20, 30, 10}, {2.0, 1.5, 3.0}};
-    pb_blur_options opt = {PB_METHOD_REF, PB_FILTER_EXACT, 0, 0, 0, 0, PB_PATH_DEFAULT, 0.0, PB_AB_SAMPLING_DEFAULT};
+    pb_blur_options opt = {PB_METHOD_REF, PB_FILTER_EXACT, 0, 0, 0, 0, PB_PATH_DEFAULT, 0.0, PB_AB_SAMPLING_DEFAULT, 0};
     pb_path plan;
     if (!pb_check(pb_path_create(NULL, &g, &m, &opt, &plan) == PB_OK, "plan: %s", pb_last_error(NULL)))
         return;

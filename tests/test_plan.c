@@ -574,7 +574,7 @@ int main(int argc, char **argv)
             for (int filter = PB_FILTER_HARDWARE; filter <= PB_FILTER_EXACT; filter++) {
                 if (method == PB_METHOD_REF && (filter == PB_FILTER_EXACT || k > 1))
                     continue; /* REF has one kernel, and is slow on the host */
-                pb_blur_options opt = {(pb_method)method, (pb_filter)filter, 0, 16, 16, 7, PB_PATH_DEFAULT, 0.0, PB_AB_SAMPLING_DEFAULT};
+                pb_blur_options opt = {(pb_method)method, (pb_filter)filter, 0, 16, 16, 7, PB_PATH_DEFAULT, 0.0, PB_AB_SAMPLING_DEFAULT, 0};
                 char what[96];
                 snprintf(what, sizeof what, "%s %s, %s", method_names[method],
                          filter == PB_FILTER_EXACT ? "EXACT" : "HARDWARE", motions[k].name);
@@ -585,12 +585,12 @@ int main(int argc, char **argv)
     for (size_t k = 0; k < 2; k++) {
         pb_test_motion tm;
         pb_test_motion_init(&tm, &start, &motions[k].end);
-        pb_blur_options opt = {PB_METHOD_AB, PB_FILTER_HARDWARE, 3, 0, 0, 0, PB_PATH_DEFAULT, 0.0, PB_AB_SAMPLING_DEFAULT};
+        pb_blur_options opt = {PB_METHOD_AB, PB_FILTER_HARDWARE, 3, 0, 0, 0, PB_PATH_DEFAULT, 0.0, PB_AB_SAMPLING_DEFAULT, 0};
         check_case(ctx, &g, &tm.motion, &opt, motions[k].turns, 0, k ? "AB 3 steps, along z" : "AB 3 steps, turn");
         /* Staleness and accumulate, under the turn (the scatter) and along z
          * (the gather; the forward through layers). */
         for (int method = PB_METHOD_AB; method <= PB_METHOD_CL; method++) {
-            pb_blur_options o = {(pb_method)method, PB_FILTER_HARDWARE, 0, 0, 0, 0, PB_PATH_DEFAULT, 0.0, PB_AB_SAMPLING_DEFAULT};
+            pb_blur_options o = {(pb_method)method, PB_FILTER_HARDWARE, 0, 0, 0, 0, PB_PATH_DEFAULT, 0.0, PB_AB_SAMPLING_DEFAULT, 0};
             char what[64];
             snprintf(what, sizeof what, "%s, %s", method_names[method], motions[k].name);
             check_staleness(ctx, &g, &tm.motion, &o, motions[k].turns, what);
@@ -599,7 +599,7 @@ int main(int argc, char **argv)
     pb_geometry small = {{13, 11, 9}, {1.4, 1.2, 1.7}};
     for (int method = PB_METHOD_AB; method <= PB_METHOD_CL; method++)
         check_frames(ctx, &small, &(pb_blur_options){(pb_method)method, PB_FILTER_HARDWARE, 0, 0, 0, 0, PB_PATH_DEFAULT, 0.0,
-                                                         PB_AB_SAMPLING_DEFAULT});
+                                                         PB_AB_SAMPLING_DEFAULT, 0});
     {
         pb_test_motion tm;
         pb_test_motion_init(&tm, &start, &motions[0].end);

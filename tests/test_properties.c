@@ -36,7 +36,7 @@ static void test_zero_motion(pb_context *ctx)
     pb_test_motion_init(&tm, &still, &still);
     for (int method = 0; method < 4; method++)
         for (int filter = 0; filter < 2; filter++) {
-            pb_blur_options opt = {(pb_method)method, (pb_filter)filter, 0, 16, 0, 7, PB_PATH_DEFAULT, 0.0, PB_AB_SAMPLING_DEFAULT};
+            pb_blur_options opt = {(pb_method)method, (pb_filter)filter, 0, 16, 0, 7, PB_PATH_DEFAULT, 0.0, PB_AB_SAMPLING_DEFAULT, 0};
             if (pb_test_blur(ctx, &g, in, &tm.motion, &opt, out) != PB_OK) {
                 pb_check(0, "zero motion %s blur", names[method]);
                 continue;
@@ -87,7 +87,7 @@ static void test_conservation(pb_context *ctx)
         pb_test_motion_init(&tm, &a, &b);
         for (int method = 0; method < 4; method++) {
             /* The paper's one segment (no path cuts): the chord's gain is the check. */
-            pb_blur_options opt = {(pb_method)method, PB_FILTER_EXACT, 0, 64, 4, 3, PB_PATH_TRACKED, 0.0, PB_AB_SAMPLING_DEFAULT};
+            pb_blur_options opt = {(pb_method)method, PB_FILTER_EXACT, 0, 64, 4, 3, PB_PATH_TRACKED, 0.0, PB_AB_SAMPLING_DEFAULT, 0};
             if (pb_test_blur(ctx, &g, in, &tm.motion, &opt, out) != PB_OK) {
                 pb_check(0, "conservation %s blur", names[method]);
                 continue;
@@ -207,7 +207,7 @@ static void test_analytic_translation(pb_context *ctx)
     pb_test_motion_init(&tm, &still, &moved);
     analytic_translation(in, g.dims, along_x, exact);
     for (int filter = 0; filter < 2; filter++) {
-        pb_blur_options opt = {PB_METHOD_AB, (pb_filter)filter, 0, 0, 0, 0, PB_PATH_DEFAULT, 0.0, PB_AB_SAMPLING_DEFAULT};
+        pb_blur_options opt = {PB_METHOD_AB, (pb_filter)filter, 0, 0, 0, 0, PB_PATH_DEFAULT, 0.0, PB_AB_SAMPLING_DEFAULT, 0};
         pb_test_blur(ctx, &g, in, &tm.motion, &opt, out);
         double d = pb_max_abs_diff(exact, out, n);
         pb_check(d <= 2e-6, "AB %s, %.3f voxels along x: max |AB - analytic| = %.3g > 2e-6",
@@ -222,7 +222,7 @@ static void test_analytic_translation(pb_context *ctx)
     analytic_translation(in, g.dims, shift, exact);
     double prev = (double)INFINITY;
     for (unsigned parts = 1; parts <= 64; parts *= 4) {
-        pb_blur_options opt = {PB_METHOD_AB, PB_FILTER_EXACT, parts, 0, 0, 0, PB_PATH_DEFAULT, 0.0, PB_AB_SAMPLING_DEFAULT};
+        pb_blur_options opt = {PB_METHOD_AB, PB_FILTER_EXACT, parts, 0, 0, 0, PB_PATH_DEFAULT, 0.0, PB_AB_SAMPLING_DEFAULT, 0};
         pb_test_blur(ctx, &g, in, &tm.motion, &opt, out);
         double e = error_percent(exact, out, n);
         printf("AB, %u sub-segment(s), shift (%.2f, %.2f, %.2f): error %.3g%%\n", parts, shift[0], shift[1],
@@ -236,7 +236,7 @@ static void test_analytic_translation(pb_context *ctx)
 
     prev = (double)INFINITY;
     for (unsigned k = 4; k <= 1024; k *= 16) {
-        pb_blur_options opt = {PB_METHOD_REF, PB_FILTER_EXACT, 0, k, 64, 11, PB_PATH_DEFAULT, 0.0, PB_AB_SAMPLING_DEFAULT};
+        pb_blur_options opt = {PB_METHOD_REF, PB_FILTER_EXACT, 0, k, 64, 11, PB_PATH_DEFAULT, 0.0, PB_AB_SAMPLING_DEFAULT, 0};
         pb_test_blur(ctx, &g, in, &tm.motion, &opt, out);
         double e = error_percent(exact, out, n);
         printf("REF, %u points, 64 time steps: error %.3g%%\n", k, e);
@@ -267,7 +267,7 @@ static void test_hardware_weights(pb_context *ctx)
         pb_pose still = pb_test_pose(0, 0, 0, NULL, 0), moved = pb_test_pose(2.0 * f, 0, 0, NULL, 0);
         pb_test_motion tm;
         pb_test_motion_init(&tm, &still, &moved);
-        pb_blur_options opt = {PB_METHOD_CL, PB_FILTER_HARDWARE, 1, 0, 0, 0, PB_PATH_DEFAULT, 0.0, PB_AB_SAMPLING_DEFAULT};
+        pb_blur_options opt = {PB_METHOD_CL, PB_FILTER_HARDWARE, 1, 0, 0, 0, PB_PATH_DEFAULT, 0.0, PB_AB_SAMPLING_DEFAULT, 0};
         if (!pb_check(pb_test_blur(ctx, &g, in, &tm.motion, &opt, out) == PB_OK, "hardware weights blur"))
             return;
         for (int i = 1; i < N; i++) {
@@ -304,7 +304,7 @@ static void test_progress(pb_context *ctx)
     for (int run = 0; run < 8; run++) {
         int method = run % 4, adjoint = run / 4;
         const char *what = adjoint ? "adjoint" : "blur";
-        pb_blur_options opt = {(pb_method)method, PB_FILTER_HARDWARE, 0, 8, 0, 5, PB_PATH_DEFAULT, 0.0, PB_AB_SAMPLING_DEFAULT};
+        pb_blur_options opt = {(pb_method)method, PB_FILTER_HARDWARE, 0, 8, 0, 5, PB_PATH_DEFAULT, 0.0, PB_AB_SAMPLING_DEFAULT, 0};
         pb_test_progress_log log = {0, 0, 0.0};
         pb_status (*apply)(pb_context *, const pb_geometry *, const float *, const pb_motion *,
                            const pb_blur_options *, float *) = adjoint ? pb_test_adjoint : pb_test_blur;
@@ -395,7 +395,7 @@ static void test_path_bound(void)
         pb_test_motion tm;
         pb_test_motion_init(&tm, &still, &moved);
         pb_blur_options ab = {PB_METHOD_AB, PB_FILTER_HARDWARE, 0, 0, 0, 0, PB_PATH_BOUNDED, e,
-                              PB_AB_SAMPLING_DEFAULT};
+                              PB_AB_SAMPLING_DEFAULT, 0};
         size_t n = 0;
         if (!pb_check(pb_path_segments(&g, &tm.motion, &ab, &n) == PB_OK && n >= 1, "path bound: pb_path_segments"))
             return;
@@ -452,13 +452,13 @@ static void test_path_error(pb_context *ctx)
     pb_pose moved = pb_test_pose(pb_rand_range(-3, 3), pb_rand_range(-3, 3), pb_rand_range(-2, 2), axis, deg);
     pb_test_motion tm;
     pb_test_motion_init(&tm, &still, &moved);
-    pb_blur_options cl = {PB_METHOD_CL, PB_FILTER_EXACT, 2000, 0, 0, 0, PB_PATH_DEFAULT, 0.0, PB_AB_SAMPLING_DEFAULT};
+    pb_blur_options cl = {PB_METHOD_CL, PB_FILTER_EXACT, 2000, 0, 0, 0, PB_PATH_DEFAULT, 0.0, PB_AB_SAMPLING_DEFAULT, 0};
     pb_test_blur(ctx, &g, in, &tm.motion, &cl, truth);
 
     double prev = (double)INFINITY;
     size_t prev_segments = 0;
     for (double e = 4.0; e >= 0.06; e /= 4.0) {
-        pb_blur_options rm = {PB_METHOD_RM, PB_FILTER_EXACT, 64, 0, 0, 0, PB_PATH_BOUNDED, e, PB_AB_SAMPLING_DEFAULT};
+        pb_blur_options rm = {PB_METHOD_RM, PB_FILTER_EXACT, 64, 0, 0, 0, PB_PATH_BOUNDED, e, PB_AB_SAMPLING_DEFAULT, 0};
         size_t segments = 0;
         pb_check(pb_path_segments(&g, &tm.motion, &rm, &segments) == PB_OK, "pb_path_segments");
         size_t want = expected_segments(&g, &moved, axis_unit, e);
@@ -484,7 +484,7 @@ static void test_path_error(pb_context *ctx)
     /* AB: the default bound against the paper's one segment. */
     double err[2];
     for (int i = 0; i < 2; i++) {
-        pb_blur_options ab = {PB_METHOD_AB, PB_FILTER_EXACT, 0, 0, 0, 0, i ? PB_PATH_DEFAULT : PB_PATH_TRACKED, 0.0, PB_AB_SAMPLING_DEFAULT};
+        pb_blur_options ab = {PB_METHOD_AB, PB_FILTER_EXACT, 0, 0, 0, 0, i ? PB_PATH_DEFAULT : PB_PATH_TRACKED, 0.0, PB_AB_SAMPLING_DEFAULT, 0};
         pb_test_blur(ctx, &g, in, &tm.motion, &ab, out);
         err[i] = error_percent(truth, out, n);
     }
@@ -537,7 +537,7 @@ static void test_track_merge(pb_context *ctx)
     for (int turn = 0; turn < 2; turn++) {
         fill_track(poses, times, turn);
         pb_motion m = {times, poses, 181, 0.0, 6.0, 0, {0, 0, 0}};
-        pb_blur_options opt = {PB_METHOD_AB, PB_FILTER_EXACT, 0, 0, 0, 0, PB_PATH_DEFAULT, 0.0, PB_AB_SAMPLING_DEFAULT};
+        pb_blur_options opt = {PB_METHOD_AB, PB_FILTER_EXACT, 0, 0, 0, 0, PB_PATH_DEFAULT, 0.0, PB_AB_SAMPLING_DEFAULT, 0};
         pb_blur_options raw = opt, finer = opt;
         raw.path = PB_PATH_TRACKED;
         finer.path = PB_PATH_BOUNDED;
@@ -596,7 +596,7 @@ static void test_clipped_walks(pb_context *ctx)
     pb_test_motion_init(&tf, &start, &end_far);
     pb_test_motion_init(&tn, &start, &end_near);
     for (int method = 0; method < 3; method++) {
-        pb_blur_options opt = {(pb_method)method, PB_FILTER_EXACT, 0, 0, 0, 0, PB_PATH_DEFAULT, 0.0, PB_AB_SAMPLING_DEFAULT};
+        pb_blur_options opt = {(pb_method)method, PB_FILTER_EXACT, 0, 0, 0, 0, PB_PATH_DEFAULT, 0.0, PB_AB_SAMPLING_DEFAULT, 0};
         if (pb_test_blur(ctx, &g, in, &tf.motion, &opt, far) != PB_OK ||
             pb_test_blur(ctx, &g, in, &tn.motion, &opt, near) != PB_OK) {
             pb_check(0, "%s: %s", names[method], pb_last_error(ctx));

@@ -106,7 +106,7 @@ int main(int argc, char **argv)
             for (size_t r = 0; r < sizeof runs / sizeof runs[0]; r++)
                 for (int filter = 0; filter < 2; filter++) {
                     pb_blur_options opt = {runs[r].method, (pb_filter)filter, runs[r].steps, 0, 0, 0,
-                                           PB_PATH_DEFAULT, 0.0, runs[r].sampling};
+                                           PB_PATH_DEFAULT, 0.0, runs[r].sampling, 0};
                     char what[160];
                     snprintf(what, sizeof what, "draw %d, %s, %s%s steps %u %s", draw, motion_names[c],
                              method_names[runs[r].method], runs[r].sampling ? " sweep" : "", runs[r].steps,

@@ -105,7 +105,8 @@ class CMotion(ctypes.Structure):
 class BlurOptions(ctypes.Structure):
     _fields_ = [("method", ctypes.c_int), ("filter", ctypes.c_int), ("steps", ctypes.c_uint),
                 ("ref_points", ctypes.c_uint), ("ref_time_steps", ctypes.c_uint), ("seed", ctypes.c_uint32),
-                ("path", ctypes.c_int), ("max_path_error", ctypes.c_double), ("ab_sampling", ctypes.c_int)]
+                ("path", ctypes.c_int), ("max_path_error", ctypes.c_double), ("ab_sampling", ctypes.c_int),
+                ("jacobian", ctypes.c_int)]
 
 
 class ContextOptions(ctypes.Structure):

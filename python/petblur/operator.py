@@ -107,7 +107,7 @@ def _release(ctx, made):
 
 class _Operator:
     def __init__(self, shape, voxel_size, motion, bounds, method, filter, max_path_error, device, affine, steps,
-                 progress, ab_sampling):
+                 progress, ab_sampling, jacobian):
         self._shape = _shape3(shape)
         self.voxel_size = _voxel3(voxel_size)
         if not isinstance(motion, (Motion, FieldMotion)):
@@ -139,7 +139,14 @@ class _Operator:
         if progress is not None and not callable(progress):
             raise ArgumentError("progress must be a callable taking the fraction done, or None")
         self.method, self.filter = method, filter
-        self._options = _lib.BlurOptions(method_value, filter_value, steps, 0, 0, 0, path, bound, sampling_value)
+        if not isinstance(jacobian, (bool, np.bool_)):
+            raise ArgumentError(f"jacobian {shown(jacobian)}: give True (mass-preserving, for images of counts) or "
+                                "False (concentrations)")
+        if jacobian and not isinstance(motion, FieldMotion):
+            raise ArgumentError("jacobian=True weighs a field's blur by its Jacobian determinant; a rigid motion's is 1 "
+                                "everywhere: give a FieldMotion, or leave jacobian out")
+        self._options = _lib.BlurOptions(method_value, filter_value, steps, 0, 0, 0, path, bound, sampling_value,
+                                         int(jacobian))
         try:  # every range stated once, by the library
             _lib.check(_lib.lib.pb_options_check(ctypes.byref(self._options)))
         except ArgumentError as e:
@@ -171,7 +178,8 @@ class _Operator:
         # resolved again where it is loaded).
         self._common = dict(method=method, filter=filter,
                             max_path_error=bound if path == _lib.PATH_BOUNDED else max_path_error,
-                            device=device, affine=self.affine, steps=steps, ab_sampling=ab_sampling)
+                            device=device, affine=self.affine, steps=steps, ab_sampling=ab_sampling,
+                            jacobian=bool(jacobian))
         self._ctx = _lib.context(device)
         self._handles = _Handles(self._ctx)
         self._plan("F")  # every check now, not at the first call
@@ -468,6 +476,9 @@ class BlurOperator(_Operator):
     ``ab_sampling``: how AB reads a slice its path crosses: None (the
     default, as 'slice'), 'slice' (one point, the paper's) or 'sweep' (two
     points where the path sweeps sideways across the slice; docs/methods.md).
+    ``jacobian``: for a FieldMotion, True weighs each voxel's reading by the
+    field's Jacobian determinant (mass-preserving: images of counts);
+    False (the default) blurs concentrations, as PET images hold them.
 
     Making the operator checks the motion on its grid as the command line
     does: a motion that takes the grid out of view for the whole frame, or
@@ -475,7 +486,7 @@ class BlurOperator(_Operator):
     a grid out of view at some poses raise warnings (UserWarning)."""
 
     def __init__(self, shape, voxel_size, motion, frame=None, method="ab", filter="hardware", max_path_error=None,
-                 device="auto", affine=None, steps=0, progress=None, ab_sampling=None):
+                 device="auto", affine=None, steps=0, progress=None, ab_sampling=None, jacobian=False):
         if frame is None:
             if not isinstance(motion, (Motion, FieldMotion)):
                 raise ArgumentError(f"motion must be a petblur.Motion or petblur.FieldMotion, not "
@@ -486,7 +497,7 @@ class BlurOperator(_Operator):
         except (TypeError, ValueError):
             raise ArgumentError(f"frame must be (t0, t1) in seconds, not {frame!r}") from None
         super().__init__(shape, voxel_size, motion, (t0, t1), method, filter, max_path_error, device, affine, steps,
-                         progress, ab_sampling)
+                         progress, ab_sampling, jacobian)
         self.frame = (t0, t1)
 
     def _description(self):
@@ -536,7 +547,7 @@ class FramesOperator(_Operator):
 
     def __init__(self, shape, voxel_size, track, bounds, per_frame=False, method="ab", filter="hardware",
                  max_path_error=None, device="auto", affine=None, steps=0, progress=None, frames_last=False,
-                 ab_sampling=None):
+                 ab_sampling=None, jacobian=False):
         if not isinstance(track, (Motion, FieldMotion)):
             raise ArgumentError(f"track must be a petblur.Motion or petblur.FieldMotion, not {type(track).__name__}")
         try:
@@ -547,7 +558,7 @@ class FramesOperator(_Operator):
         if b.size < 2:
             raise ArgumentError(f"bounds must hold at least two times (one frame), not {b.size}")
         super().__init__(shape, voxel_size, track, b, method, filter, max_path_error, device, affine, steps,
-                         progress, ab_sampling)
+                         progress, ab_sampling, jacobian)
         self.bounds = b
         self.frames = b.size - 1
         self.per_frame = bool(per_frame)

@@ -203,8 +203,9 @@ def test_rigid_track_as_fields(rng, device):
         assert rms <= 0.3 and mx <= 1.0, (method, rms, mx)
 
 
+@pytest.mark.parametrize("jacobian", [False, True])
 @pytest.mark.parametrize("method", ["ab", "rm", "cl", "ref"])
-def test_adjoint_dot(rng, device, method):
+def test_adjoint_dot(rng, device, method, jacobian):
     """<B x, y> = <x, B^T y> on fields on the image grid and on a grid of
     their own."""
     n, voxel, times = _case(rng)
@@ -219,8 +220,34 @@ def test_adjoint_dot(rng, device, method):
         warnings.simplefilter("ignore")
         for fm in ops:
             B = petblur.BlurOperator(n, voxel, fm, frame=(1.0, 9.0), method=method, filter="exact", device=device,
-                                     affine=affine)
+                                     affine=affine, jacobian=jacobian)
             B.adjointness_test(rtol=2e-5, seed=int(rng.integers(1 << 31)))
+
+
+def test_jacobian_conserves_activity(rng, device):
+    """The mass-preserving blur keeps a smooth object's total activity under
+    compressions and expansions, still and breathing, where the blur of
+    concentrations changes it by the volume's change: a family of fresh
+    grids, centres and anisotropic scalings."""
+    for case in range(3):
+        voxel = rng.uniform(1.5, 3.0, 3)
+        n = tuple(int(m) for m in np.ceil(rng.uniform(100.0, 120.0, 3) / voxel))
+        r = (_indices(n) + 0.5) * voxel
+        centre = 0.5 * np.array(n) * voxel + rng.uniform(-5.0, 5.0, 3)
+        x = np.exp(-(((r - centre) / rng.uniform(11.0, 14.0)) ** 2).sum(-1)).astype(np.float32)
+        scale = np.diag(rng.uniform(0.8, 0.9, 3) if rng.random() < 0.5 else rng.uniform(1.1, 1.25, 3))
+        still = (r - centre) @ (scale - np.eye(3)).T
+        times = np.linspace(0.0, 4.0, 17)
+        depth = rng.uniform(0.1, 0.25)
+        breathing = np.stack([(r - centre) * -(depth * np.sin(np.pi * t / 4.0) ** 2) for t in times])
+        for fm, frame in ((petblur.FieldMotion([0.0, 1.0], np.stack([still, still])), (0.0, 1.0)),
+                          (petblur.FieldMotion(times, breathing), (0.3, 3.7))):
+            for method in ("ab", "rm"):
+                kept = petblur.BlurOperator(n, voxel, fm, frame=frame, method=method, device=device,
+                                            jacobian=True)(x).sum() / x.sum()
+                plain = petblur.BlurOperator(n, voxel, fm, frame=frame, method=method, device=device)(x).sum() / x.sum()
+                print(f"case {case} {method}: total kept {kept:.4f}, concentrations' {plain:.4f}")
+                assert abs(kept - 1.0) < 0.01 and abs(plain - 1.0) > 0.05, (case, method, kept, plain)
 
 
 def test_frames_operator(rng, device):
@@ -268,6 +295,9 @@ def test_bad_fields_refused(rng):
                              device="host")
     with pytest.raises(petblur.ArgumentError, match=r"\(K, nx, ny, nz, 3\)"):
         petblur.FieldMotion(times, d[..., :2])
+    with pytest.raises(petblur.ArgumentError, match="a rigid motion's is 1"):
+        petblur.BlurOperator(n, voxel, petblur.Motion([0, 1], [[0, 0, 0], [1, 0, 0]], [[1, 0, 0, 0]] * 2),
+                             device="host", jacobian=True)
     with pytest.raises(petblur.ArgumentError, match="singular"):
         petblur.FieldMotion(times, d, affine=np.diag([1.0, 0.0, 1.0, 1.0]))
 

@@ -26,6 +26,7 @@ const char *pb_abi_layout(void)
     S(pb_blur_options); F(pb_blur_options, method); F(pb_blur_options, filter); F(pb_blur_options, steps);
     F(pb_blur_options, ref_points); F(pb_blur_options, ref_time_steps); F(pb_blur_options, seed);
     F(pb_blur_options, path); F(pb_blur_options, max_path_error); F(pb_blur_options, ab_sampling);
+    F(pb_blur_options, jacobian);
     S(pb_context_options); F(pb_context_options, backend); F(pb_context_options, device_index);
     F(pb_context_options, build_options);
     S(pb_device_info); F(pb_device_info, name); F(pb_device_info, platform); F(pb_device_info, is_gpu);

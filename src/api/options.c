@@ -31,6 +31,9 @@ static pb_status check_options(pb_context *ctx, const pb_blur_options *o)
         return pb_error(ctx, PB_ERR_INVALID_ARGUMENT, "max_path_error %s is set, but the path model is %s; set the "
                         "model to PB_PATH_BOUNDED for a bound", PB_NUM(o->max_path_error),
                         o->path == PB_PATH_TRACKED ? "the paper's polyline" : "the default bound");
+    if (o->jacobian != 0 && o->jacobian != 1)
+        return pb_error(ctx, PB_ERR_INVALID_ARGUMENT, "jacobian is %d; give 0 (concentrations) or 1 (mass-preserving, "
+                        "for images of counts)", o->jacobian);
     if ((unsigned)o->ab_sampling > PB_AB_SAMPLING_SWEEP)
         return pb_error(ctx, PB_ERR_INVALID_ARGUMENT, "unknown AB sampling %d; use PB_AB_SAMPLING_DEFAULT, SLICE or "
                         "SWEEP", (int)o->ab_sampling);
@@ -47,7 +50,7 @@ pb_status pb_path_segments(const pb_geometry *geometry, const pb_motion *motion,
     size_t count;
     if (!geometry || !motion || !segments)
         return pb_error(NULL, PB_ERR_INVALID_ARGUMENT, "geometry, motion and segments must not be NULL");
-    pb_blur_options opt = {PB_METHOD_AB, PB_FILTER_HARDWARE, 0, 0, 0, 0, PB_PATH_DEFAULT, 0.0, PB_AB_SAMPLING_DEFAULT};
+    pb_blur_options opt = {PB_METHOD_AB, PB_FILTER_HARDWARE, 0, 0, 0, 0, PB_PATH_DEFAULT, 0.0, PB_AB_SAMPLING_DEFAULT, 0};
     if (options)
         opt = *options;
     pb_status st = pb_geometry_check(NULL, geometry, &count);
@@ -74,7 +77,7 @@ pb_status pb_options_check(const pb_blur_options *options)
 
 pb_status pb_options_prepare(pb_context *ctx, const pb_blur_options *options, pb_blur_options *opt)
 {
-    *opt = (pb_blur_options){PB_METHOD_AB, PB_FILTER_HARDWARE, 0, 0, 0, 0, PB_PATH_DEFAULT, 0.0, PB_AB_SAMPLING_DEFAULT};
+    *opt = (pb_blur_options){PB_METHOD_AB, PB_FILTER_HARDWARE, 0, 0, 0, 0, PB_PATH_DEFAULT, 0.0, PB_AB_SAMPLING_DEFAULT, 0};
     if (options)
         *opt = *options;
     pb_status st = check_options(ctx, opt);

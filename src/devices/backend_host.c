@@ -186,6 +186,49 @@ static void key_point(const pb_path *plan, size_t j, const double u[3], double o
         apply_map(plan->poses[j].map, u, out);
 }
 
+/* I + dD/dr of a field knot at image voxel at[], row-major: differences of
+ * the field between the voxel's neighbours, one-sided at the grid's faces
+ * (the kernels' rule, cl/pb_field.cl). */
+static void field_gradient(const pb_path *plan, const pb_path_knot *knot, const long at[3], double g[9])
+{
+    for (int a = 0; a < 3; a++) {
+        long lo = at[a] > 0 ? at[a] - 1 : 0, hi = at[a] + 1 < (long)plan->geometry.dims[a] ? at[a] + 1 : at[a];
+        double dl[3] = {0, 0, 0}, dh[3] = {0, 0, 0};
+        for (int side = 0; side < 2 && hi > lo; side++) {
+            double u[3] = {at[0] + 0.5, at[1] + 0.5, at[2] + 0.5}, o[3];
+            u[a] = (side ? hi : lo) + 0.5;
+            pb_path_field_point(plan, knot, u, o);
+            for (int r = 0; r < 3; r++)
+                (side ? dh : dl)[r] = o[r] - u[r];
+        }
+        for (int r = 0; r < 3; r++)
+            g[3 * r + a] = (hi > lo ? (dh[r] - dl[r]) / (double)(hi - lo) : 0.0) + (r == a ? 1.0 : 0.0);
+    }
+}
+
+static double abs_det(const double g[9])
+{
+    return fabs(g[0] * (g[4] * g[8] - g[5] * g[7]) - g[1] * (g[3] * g[8] - g[5] * g[6]) +
+                g[2] * (g[3] * g[7] - g[4] * g[6]));
+}
+
+/* The mean over a segment's time of |det(I + dD/dr)|: the gradient is linear
+ * in time along it and the determinant a cubic, which two-point Gauss-Legendre
+ * integrates exactly (the kernels use Simpson's rule, also exact). */
+static double segment_jacobian(const double A[9], const double B[9])
+{
+    double sum = 0.0;
+    /* Gauss-Legendre with two nodes is exact for cubics. */
+    const double nodes[2] = {0.5 - 0.5 / 1.7320508075688772, 0.5 + 0.5 / 1.7320508075688772};
+    for (int k = 0; k < 2; k++) {
+        double g[9];
+        for (int i = 0; i < 9; i++)
+            g[i] = (1.0 - nodes[k]) * A[i] + nodes[k] * B[i];
+        sum += 0.5 * abs_det(g);
+    }
+    return sum;
+}
+
 /* Tomograph voxel (ix, iy, iz) under the plan: its blurred value (forward), or
  * with io->acc, scale spread over the object voxels it reads (adjoint). */
 static double blur_voxel(const host_io *io, const pb_path *plan, const pb_blur_options *opt, long ix, long iy,
@@ -199,6 +242,11 @@ static double blur_voxel(const host_io *io, const pb_path *plan, const pb_blur_o
         unsigned key = pb_ref_key(opt->seed, voxel);
         for (size_t s = 0; s < plan->ref_count; s++) {
             double w = scale * plan->ref_steps[s].weight / opt->ref_points;
+            if (plan->field && opt->jacobian) {
+                double g[9];
+                field_gradient(plan, &plan->field->ref_knots[s], (const long[3]){ix, iy, iz}, g);
+                w *= abs_det(g);
+            }
             for (unsigned k = 0; k < opt->ref_points; k++) {
                 unsigned c = (unsigned)(s * opt->ref_points + k);
                 double p[3] = {ix + (pb_ref_bits(key, c, 0) + 0.5) / 16777216.0,
@@ -224,6 +272,13 @@ static double blur_voxel(const host_io *io, const pb_path *plan, const pb_blur_o
         key_point(plan, j, u, a);
         key_point(plan, j + 1, u, b);
         double seg_scale = scale * p0->weight;
+        if (plan->field && opt->jacobian) {
+            const long at[3] = {ix, iy, iz};
+            double ga[9], gb[9];
+            field_gradient(plan, &plan->field->knots[j], at, ga);
+            field_gradient(plan, &plan->field->knots[j + 1], at, gb);
+            seg_scale *= segment_jacobian(ga, gb);
+        }
         if (opt->method == PB_METHOD_AB) {
             unsigned parts = opt->steps ? opt->steps : 1;
             for (unsigned r = 0; r < parts; r++) {

@@ -41,6 +41,7 @@ void pb_kparams_from_path(const pb_path *path, const pb_blur_options *opt, pb_kp
         for (int k = 0; k < 12; k++)
             prm->field_map[k] = (float)pf->map[k];
         prm->field_start = (int)field_knot_slots(path, opt->method);
+        prm->jacobian = opt->jacobian;
         return;
     }
     if (pb_path_shift_invariant(path, opt))

@@ -257,7 +257,7 @@ static int references(pb_context *ctx, const bench_config *c, const char *name, 
             pbc_image_free(&r);
             continue;
         }
-        pb_blur_options opt = {PB_METHOD_REF, PB_FILTER_EXACT, 0, (unsigned)c->points, 0, (uint32_t)seed, PB_PATH_DEFAULT, 0.0, PB_AB_SAMPLING_DEFAULT};
+        pb_blur_options opt = {PB_METHOD_REF, PB_FILTER_EXACT, 0, (unsigned)c->points, 0, (uint32_t)seed, PB_PATH_DEFAULT, 0.0, PB_AB_SAMPLING_DEFAULT, 0};
         pbc_timing t;
         if ((rc = pbc_bench_time(ctx, in, out, ph->data, motion, &opt, 0, 0, ref[seed - 1], NULL, &t)))
             return rc;
@@ -325,7 +325,7 @@ static int bench_case(pb_context *ctx, const bench_config *c, bench_files *f, co
             work.fetches, work.max_slices, c->reference ? 0UL : c->points);
     for (size_t m = 0; m < sizeof methods / sizeof methods[0]; m++)
         for (int filt = 0; filt < 2; filt++) {
-            pb_blur_options opt = {methods[m].method, (pb_filter)filt, 0, 0, 0, 0, methods[m].path, 0.0, PB_AB_SAMPLING_DEFAULT};
+            pb_blur_options opt = {methods[m].method, (pb_filter)filt, 0, 0, 0, 0, methods[m].path, 0.0, PB_AB_SAMPLING_DEFAULT, 0};
             size_t segments = 1;
             if ((rc = segments_of(&g, &motion, &opt, &segments)))
                 return rc;

@@ -31,6 +31,8 @@ static const pbc_option options[] = {
                                            "where the path sweeps sideways across it"},
     {"--points", NULL, "K", "REF: random points per voxel (default 200)"},
     {"--seed", NULL, "S", "REF: seed of the random points (default 1)"},
+    {"--jacobian", NULL, NULL, "with --fields: mass-preserving, each voxel weighed by its field's Jacobian "
+                               "determinant, for images of counts (default: concentrations, as PET images hold)"},
     {"--adjoint", NULL, NULL, "apply the transpose instead (back projection's blur): IN is tomograph-space, OUT "
                               "object-space"},
     {"--sum-frames", NULL, NULL, "with --adjoint --frames: add every frame's back projection into one 3-D OUT (the "
@@ -90,6 +92,10 @@ static int blur_options(const pbc_args *args, pb_blur_options *opt)
         opt->ref_points = (unsigned)n;
     else if (v)
         return rc;
+    opt->jacobian = pbc_arg(&command, args, "--jacobian") != NULL;
+    if (opt->jacobian && !pbc_arg(&command, args, "--fields"))
+        return pbc_fail(PBC_EXIT_USAGE, "--jacobian weighs a field's blur by its Jacobian determinant; a track's is 1 "
+                        "everywhere: give --fields, or leave --jacobian out");
     if ((v = pbc_arg(&command, args, "--seed")) && (rc = pbc_parse_count("--seed", v, 0, 0xffffffffUL, &n)) == 0)
         opt->seed = (uint32_t)n;
     else if (v)

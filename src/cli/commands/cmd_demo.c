@@ -100,7 +100,7 @@ static int run_all(pb_context *ctx, unsigned long points, const pbc_image *phant
     int rc = 0;
     printf("\n%-4s %-9s %10s %10s %12s\n", "", "filter", "rms %", "max %", "kernel ms");
     for (int r = 0; r < RUNS && !rc; r++) {
-        pb_blur_options opt = {runs[r].method, runs[r].filter, 0, (unsigned)points, 0, 1, PB_PATH_DEFAULT, 0.0, PB_AB_SAMPLING_DEFAULT};
+        pb_blur_options opt = {runs[r].method, runs[r].filter, 0, (unsigned)points, 0, 1, PB_PATH_DEFAULT, 0.0, PB_AB_SAMPLING_DEFAULT, 0};
         pbc_image out = *phantom;
         double ms = 0.0;
         char path[4096];
