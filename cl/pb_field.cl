@@ -136,7 +136,8 @@ PB_FN float pb_segment_jacobian(const float *A, const float *B)
 /* The segments of voxel W's polyline through the frame's key points: BODY
  * runs with the segment's ends a and b (object texel coordinates), its index
  * j and jac, the mean of its ends' Jacobian determinants (1 unless
- * prm.jacobian), in scope. */
+ * prm.jacobian), in scope; a segment of no weight, the gap between two of a
+ * gate's intervals, is skipped. */
 #define PB_FOR_FIELD_SEGMENTS(knots, fields, prm, u, own, ix, iy, iz, BODY)                                      \
     {                                                                                                          \
         float a[3], b[3], pb_ga[9], pb_gb[9];                                                                  \
@@ -154,6 +155,8 @@ PB_FN float pb_segment_jacobian(const float *A, const float *B)
                 pb_field_gradient((knots), (fields), (prm), j + 1, (ix), (iy), (iz), pb_gb);                   \
                 jac = pb_segment_jacobian(pb_ga, pb_gb);                                                       \
             }                                                                                                  \
+            if ((knots)[j].weight == 0.0f) /* the gap between a gate's intervals */                             \
+                continue;                                                                                      \
             BODY;                                                                                              \
         }                                                                                                      \
     }

@@ -716,7 +716,16 @@ typedef struct pb_field_motion {
      * at the voxel's centre, to the field voxel index there. */
     int has_map;
     double field_from_grid[12];
-    double frame_start, frame_end; /* inside [times[0], times[count - 1]] */
+    double frame_start, frame_end; /* inside [times[0], times[count - 1]] (the signal's times, with one) */
+    /* Surrogate-driven motion (a respiratory belt, a data-driven breathing
+     * signal): with signal_count >= 2, times[k] is field k's surrogate value
+     * (an amplitude, increasing) instead of a time, and the motion at time t
+     * is the field at the surrogate's value s(t), linear between the fields'
+     * values; s is sampled at signal_times (seconds, increasing), linear
+     * between samples. A signal beyond the fields' values is refused, naming
+     * the time: add a field for that amplitude. 0: fields at times. */
+    const double *signal_times, *signal;
+    size_t signal_count;
 } pb_field_motion;
 
 /* Where a field folds: the voxels of the field grid at which the map r -> r
@@ -848,6 +857,16 @@ PB_API pb_status pb_plan_create_field(pb_context *ctx, const pb_geometry *geomet
 PB_API pb_status pb_plan_create_field_frames(pb_context *ctx, const pb_geometry *geometry,
                                              const pb_field_motion *field, const double *bounds, size_t frames,
                                              const pb_blur_options *options, pb_plan **plan);
+/* Gates as frames: frame i is the union of counts[i] intervals, the next
+ * ones of intervals[] (a start and an end each, seconds): every visit of the
+ * breath to an amplitude or phase bin, as a gated reconstruction bins its
+ * counts. Its blur is the time-weighted mean of its intervals' blurs, and the
+ * transpose is exact as for one interval. A frame's intervals increase and
+ * do not overlap. */
+PB_API pb_status pb_plan_create_field_gates(pb_context *ctx, const pb_geometry *geometry,
+                                            const pb_field_motion *field, const double *intervals,
+                                            const size_t *counts, size_t frames, const pb_blur_options *options,
+                                            pb_plan **plan);
 
 PB_API void pb_plan_destroy(pb_plan *plan);
 PB_API size_t pb_plan_frame_count(const pb_plan *plan);

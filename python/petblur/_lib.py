@@ -142,7 +142,8 @@ class FieldMotion(ctypes.Structure):
     _fields_ = [("times", ctypes.POINTER(ctypes.c_double)), ("displacements", ctypes.POINTER(ctypes.c_float)),
                 ("count", ctypes.c_size_t), ("dims", c_size3), ("has_map", ctypes.c_int),
                 ("field_from_grid", ctypes.c_double * 12), ("frame_start", ctypes.c_double),
-                ("frame_end", ctypes.c_double)]
+                ("frame_end", ctypes.c_double), ("signal_times", ctypes.POINTER(ctypes.c_double)),
+                ("signal", ctypes.POINTER(ctypes.c_double)), ("signal_count", ctypes.c_size_t)]
 
 
 class FieldFolds(ctypes.Structure):
@@ -219,6 +220,8 @@ _signatures = {
     "pb_plan_create_frames": (_int, [_vp, _P(Geometry), _P(CMotion), _P(_dbl), _sz, _P(BlurOptions), _P(_vp)]),
     "pb_plan_create_field_frames": (_int, [_vp, _P(Geometry), _P(FieldMotion), _P(_dbl), _sz, _P(BlurOptions),
                                            _P(_vp)]),
+    "pb_plan_create_field_gates": (_int, [_vp, _P(Geometry), _P(FieldMotion), _P(_dbl), _P(_sz), _sz,
+                                          _P(BlurOptions), _P(_vp)]),
     "pb_field_check_folds": (_int, [_P(Geometry), _P(FieldMotion), _P(FieldFolds)]),
     "pb_plan_destroy": (None, [_vp]),
     "pb_plan_forward": (_int, [_vp, _sz, _vp, _vp]),

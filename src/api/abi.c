@@ -52,7 +52,8 @@ const char *pb_abi_layout(void)
     F(pb_track_summary, longest_gap);
     S(pb_field_motion); F(pb_field_motion, times); F(pb_field_motion, displacements); F(pb_field_motion, count);
     F(pb_field_motion, dims); F(pb_field_motion, has_map); F(pb_field_motion, field_from_grid);
-    F(pb_field_motion, frame_start); F(pb_field_motion, frame_end);
+    F(pb_field_motion, frame_start); F(pb_field_motion, frame_end); F(pb_field_motion, signal_times);
+    F(pb_field_motion, signal); F(pb_field_motion, signal_count);
     S(pb_field_folds); F(pb_field_folds, voxels); F(pb_field_folds, field); F(pb_field_folds, voxel);
     F(pb_field_folds, worst_determinant);
     E(PB_BACKEND_AUTO); E(PB_BACKEND_HOST); E(PB_BACKEND_OPENCL); E(PB_BACKEND_CUDA);

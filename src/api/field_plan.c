@@ -1,27 +1,39 @@
 /* Plans of field motions: the field checked once against the grid, then
  * each frame planned from the fields its time covers, as frames of a track
  * are (frames.c). */
+#include <math.h>
 #include <stdio.h>
+#include <stdlib.h>
 
 #include "plan.h"
 
+/* Frame i is the union of counts[i] intervals, taken in turn from
+ * intervals[] (two numbers each); with counts NULL, one each. */
 static pb_status plan_field_entered(pb_context *ctx, const pb_geometry *geometry, const pb_field_motion *field,
-                                    const double *bounds, size_t frames, const pb_blur_options *options,
-                                    pb_plan **plan)
+                                    const double *intervals, const size_t *counts, size_t frames,
+                                    const pb_blur_options *options, pb_plan **plan)
 {
     *plan = NULL;
     size_t count = 0;
     pb_status st = pb_geometry_check(ctx, geometry, &count);
-    if (st == PB_OK)
-        st = pb_frame_bounds_check(ctx, bounds, frames);
+    if (st == PB_OK && frames == 0)
+        st = pb_error(ctx, PB_ERR_INVALID_ARGUMENT, "no frames: give at least one");
     if (st == PB_OK)
         st = pb_field_validate(ctx, geometry, field);
     pb_plan *p = NULL;
     if (st == PB_OK)
         st = pb_plan_new(ctx, geometry, options, frames, &p);
+    size_t next = 0;
     for (size_t i = 0; i < frames && st == PB_OK; i++) {
         pb_plan_frame *f = &p->set.frame[i];
-        st = pb_path_create_field(ctx, geometry, field, bounds[i], bounds[i + 1], &p->set.options, &f->path);
+        size_t n = counts ? counts[i] : 1;
+        for (size_t k = 0; k < 2 * n && st == PB_OK; k++)
+            if (!isfinite(intervals[2 * next + k]))
+                st = pb_error(ctx, PB_ERR_NOT_FINITE, "a time of the frame is %g; give finite seconds",
+                              intervals[2 * next + k]);
+        if (st == PB_OK)
+            st = pb_path_create_field(ctx, geometry, field, intervals + 2 * next, n, &p->set.options, &f->path);
+        next += n;
         if (st == PB_OK)
             st = ctx->dev.ops->frame_prepare(&ctx->dev, &p->set.options, f);
         if (st != PB_OK && frames > 1) {
@@ -47,7 +59,37 @@ pb_status pb_plan_create_field_frames(pb_context *ctx, const pb_geometry *geomet
     pb_status st = pb_context_enter(ctx);
     if (st != PB_OK)
         return st;
-    st = plan_field_entered(ctx, geometry, field, bounds, frames, options, plan);
+    /* Frame i is [bounds[i], bounds[i+1]]: the intervals, two numbers each. */
+    double *iv = NULL;
+    st = pb_frame_bounds_check(ctx, bounds, frames);
+    if (st == PB_OK && !(iv = malloc(2 * frames * sizeof *iv)))
+        st = pb_error(ctx, PB_ERR_OUT_OF_MEMORY, "out of host memory for %zu frames", frames);
+    for (size_t i = 0; st == PB_OK && i < frames; i++) {
+        iv[2 * i] = bounds[i];
+        iv[2 * i + 1] = bounds[i + 1];
+    }
+    if (st == PB_OK)
+        st = plan_field_entered(ctx, geometry, field, iv, NULL, frames, options, plan);
+    free(iv);
+    pb_context_leave(ctx);
+    return st;
+}
+
+pb_status pb_plan_create_field_gates(pb_context *ctx, const pb_geometry *geometry, const pb_field_motion *field,
+                                     const double *intervals, const size_t *counts, size_t frames,
+                                     const pb_blur_options *options, pb_plan **plan)
+{
+    if (!ctx || !geometry || !field || !intervals || !counts || !plan)
+        return pb_error(ctx, PB_ERR_INVALID_ARGUMENT, "ctx, geometry, field, intervals, counts and plan must not be "
+                        "NULL");
+    for (size_t i = 0; i < frames; i++)
+        if (counts[i] == 0 || counts[i] > ((size_t)1 << 24))
+            return pb_error(ctx, PB_ERR_INVALID_ARGUMENT, "frame %zu has %zu intervals; give 1 to 16777216", i,
+                            counts[i]);
+    pb_status st = pb_context_enter(ctx);
+    if (st != PB_OK)
+        return st;
+    st = plan_field_entered(ctx, geometry, field, intervals, counts, frames, options, plan);
     pb_context_leave(ctx);
     return st;
 }

@@ -92,33 +92,83 @@ pb_status pb_field_validate(struct pb_context *ctx, const pb_geometry *g, const 
             return pb_error(ctx, PB_ERR_NOT_FINITE, "field times %zu and %zu are too far apart to subtract; give "
                             "seconds of a scan", i - 1, i);
     }
+    if (f->signal_count == 1 || (f->signal_count && (!f->signal_times || !f->signal)))
+        return pb_error(ctx, PB_ERR_INVALID_ARGUMENT, "the surrogate signal has %zu sample%s%s; give at least two "
+                        "(times and values), or none for fields at times", f->signal_count,
+                        f->signal_count == 1 ? "" : "s", f->signal_count > 1 ? " and a NULL array" : "");
+    for (size_t i = 0; i < f->signal_count; i++) {
+        if (!isfinite(f->signal_times[i]) || !isfinite(f->signal[i]))
+            return pb_error(ctx, PB_ERR_NOT_FINITE, "surrogate sample %zu (%g s, value %g) is NaN or infinite; give "
+                            "finite times (s) and values, dropping the belt's dropouts", i, f->signal_times[i],
+                            f->signal[i]);
+        if (i > 0 && !(f->signal_times[i] > f->signal_times[i - 1]))
+            return pb_error(ctx, PB_ERR_TRACK_ORDER, "surrogate time %zu (%s s) is not after time %zu (%s s); sort "
+                            "the signal by time and drop repeated times", i, PB_NUM(f->signal_times[i]), i - 1,
+                            PB_NUM(f->signal_times[i - 1]));
+    }
     return check_values(ctx, f);
+}
+
+/* The times the motion covers: the fields' or the surrogate's. */
+static void span(const pb_field_motion *f, double *lo, double *hi)
+{
+    *lo = f->signal_count ? f->signal_times[0] : f->times[0];
+    *hi = f->signal_count ? f->signal_times[f->signal_count - 1] : f->times[f->count - 1];
 }
 
 pb_status pb_field_frame_check(struct pb_context *ctx, const pb_field_motion *f, double t0, double t1)
 {
+    double lo, hi;
+    span(f, &lo, &hi);
     if (!isfinite(t0) || !isfinite(t1))
         return pb_error(ctx, PB_ERR_NOT_FINITE, "the frame [%g, %g] is not finite; give finite times in seconds", t0,
                         t1);
     if (!(t1 > t0))
         return pb_error(ctx, PB_ERR_BAD_FRAME, "the frame ends at %s s, not after its start at %s s; give end > "
                         "start", PB_NUM(t1), PB_NUM(t0));
-    if (f->times[0] > t0 || f->times[f->count - 1] < t1)
-        return pb_error(ctx, PB_ERR_TRACK_GAP, "the fields cover [%s, %s] s but the frame is [%s, %s] s; add fields "
-                        "at or beyond the frame's ends or pick a frame inside them", PB_NUM(f->times[0]),
-                        PB_NUM(f->times[f->count - 1]), PB_NUM(t0), PB_NUM(t1));
+    if (lo > t0 || hi < t1)
+        return pb_error(ctx, PB_ERR_TRACK_GAP, "the %s cover [%s, %s] s but the frame is [%s, %s] s; %s",
+                        f->signal_count ? "surrogate signal's samples" : "fields",
+                        PB_NUM(lo), PB_NUM(hi), PB_NUM(t0), PB_NUM(t1),
+                        f->signal_count ? "record the signal over the whole frame, or pick a frame inside it"
+                                        : "add fields at or beyond the frame's ends or pick a frame inside them");
     return PB_OK;
 }
 
-void pb_field_locate(const pb_field_motion *f, double t, size_t *f0, size_t *f1, double *alpha)
+/* Where v lies among n increasing samples: index j and fraction a in [0, 1]
+ * of samples j and j + 1. */
+static void bracket(const double *x, size_t n, double v, size_t *j, double *a)
 {
-    size_t j = 0;
-    while (j + 2 < f->count && f->times[j + 1] <= t)
-        j++;
-    double s = (t - f->times[j]) / (f->times[j + 1] - f->times[j]);
-    *f0 = j;
-    *f1 = j + 1;
-    *alpha = s < 0.0 ? 0.0 : (s > 1.0 ? 1.0 : s);
+    size_t lo = 0, hi = n - 1;
+    while (hi - lo > 1) {
+        size_t mid = lo + (hi - lo) / 2;
+        if (x[mid] <= v)
+            lo = mid;
+        else
+            hi = mid;
+    }
+    double s = (v - x[lo]) / (x[lo + 1] - x[lo]);
+    *j = lo;
+    *a = s < 0.0 ? 0.0 : (s > 1.0 ? 1.0 : s);
+}
+
+pb_status pb_field_locate(struct pb_context *ctx, const pb_field_motion *f, double t, size_t *f0, size_t *f1,
+                          double *alpha)
+{
+    double v = t;
+    if (f->signal_count) {
+        size_t j;
+        double a;
+        bracket(f->signal_times, f->signal_count, t, &j, &a);
+        v = (1.0 - a) * f->signal[j] + a * f->signal[j + 1];
+        if (v < f->times[0] || v > f->times[f->count - 1])
+            return pb_error(ctx, PB_ERR_TRACK_GAP, "the surrogate is %s at %s s, outside the fields' values [%s, %s]; "
+                            "add a field for that amplitude, or leave that time out of the frames", PB_NUM(v),
+                            PB_NUM(t), PB_NUM(f->times[0]), PB_NUM(f->times[f->count - 1]));
+    }
+    bracket(f->times, f->count, v, f0, alpha);
+    *f1 = *f0 + 1;
+    return PB_OK;
 }
 
 /* Trilinear interpolation of field k at field voxel coordinates q (voxel i's

@@ -77,8 +77,11 @@ size_t pb_field_voxels(const pb_field_motion *field);
 pb_status pb_field_validate(struct pb_context *ctx, const pb_geometry *geometry, const pb_field_motion *field);
 /* Checks that frame [t0, t1] lies inside a validated field motion's times. */
 pb_status pb_field_frame_check(struct pb_context *ctx, const pb_field_motion *field, double t0, double t1);
-/* The field at time t, inside the samples: (1 - alpha) D_f0 + alpha D_f1. */
-void pb_field_locate(const pb_field_motion *field, double t, size_t *f0, size_t *f1, double *alpha);
+/* The field at time t inside the motion's span: (1 - alpha) D_f0 + alpha
+ * D_f1, through the surrogate where there is one (refused where it leaves
+ * the fields' values). */
+pb_status pb_field_locate(struct pb_context *ctx, const pb_field_motion *field, double t, size_t *f0, size_t *f1,
+                          double *alpha);
 /* One field (dims vectors of three floats) trilinearly at field voxel
  * coordinates q (voxel i's centre at i), held at its edge values beyond. */
 void pb_field_sample(const float *field, const size_t dims[3], const double q[3], double out[3]);

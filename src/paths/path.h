@@ -59,11 +59,14 @@ pb_status pb_path_create(struct pb_context *ctx, const pb_geometry *geometry, co
                          const pb_blur_options *options, pb_path *plan);
 void pb_path_destroy(pb_path *plan);
 
-/* The plan of frame [t0, t1] of a validated field motion (path_field.c):
- * key points at the frame's ends and the field times inside, each segment
- * weighed by its time; for REF, dense time steps. */
+/* The plan of a frame of a validated field motion that is the union of
+ * `intervals` time intervals (a start and an end each, increasing, not
+ * overlapping; one for a plain frame) (path_field.c): key points at each
+ * interval's ends and the field times (or surrogate samples) inside, each
+ * segment weighed by its time, the gaps between intervals skipped; for REF,
+ * dense time steps. */
 pb_status pb_path_create_field(struct pb_context *ctx, const pb_geometry *geometry, const pb_field_motion *field,
-                               double t0, double t1, const pb_blur_options *options, pb_path *plan);
+                               const double *intervals, size_t count, const pb_blur_options *options, pb_path *plan);
 /* Key point j of a field path for the voxel at texel coordinates u, in
  * object texel coordinates: u plus the field there (the voxel's own sample
  * on the image grid, else trilinear on the field's). */

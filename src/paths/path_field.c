@@ -10,6 +10,7 @@
 #include <string.h>
 
 #include "error.h"
+#include "numbers.h"
 
 void pb_path_field_point(const pb_path *plan, const pb_path_knot *knot, const double u[3], double out[3])
 {
@@ -24,21 +25,17 @@ void pb_path_field_point(const pb_path *plan, const pb_path_knot *knot, const do
         out[r] = u[r] + (1.0 - knot->alpha) * d0[r] + knot->alpha * d1[r];
 }
 
-/* Where time t lies between the fields, as indices into the frame's own
- * run of fields, which starts at global field `first`. */
-static pb_path_knot locate(const pb_field_motion *f, size_t first, double t)
+/* Where time t lies between the fields, as global field indices (the frame's
+ * own are made when its fields are gathered). On a sample the other field
+ * has no weight: it is dropped, so that a frame keeps only what it reads. */
+static pb_status locate(struct pb_context *ctx, const pb_field_motion *f, double t, pb_path_knot *k)
 {
-    pb_path_knot k;
-    pb_field_locate(f, t, &k.f0, &k.f1, &k.alpha);
-    /* On a sample the other field has no weight, and may lie outside the
-     * frame's run (its last sample is the one at or after its end). */
-    if (k.alpha == 0.0)
-        k.f1 = k.f0;
-    else if (k.alpha == 1.0)
-        k.f0 = k.f1;
-    k.f0 -= first;
-    k.f1 -= first;
-    return k;
+    pb_status st = pb_field_locate(ctx, f, t, &k->f0, &k->f1, &k->alpha);
+    if (k->alpha == 0.0)
+        k->f1 = k->f0;
+    else if (k->alpha == 1.0)
+        k->f0 = k->f1;
+    return st;
 }
 
 /* The largest move of any field voxel between two knots, in voxels of the
@@ -65,9 +62,11 @@ static double largest_move(const pb_path *plan, const pb_path_knot *a, const pb_
     return worst;
 }
 
-/* REF's time steps: every segment cut so that no voxel moves more than half
- * a voxel a step (at least 16), as for a track. */
-static pb_status plan_ref_knots(struct pb_context *ctx, const pb_field_motion *f, size_t first,
+/* REF's time steps: every walked segment cut so that no voxel moves more
+ * than half a voxel a step (at least 16), as for a track; in global field
+ * indices, as the key points before their fields are gathered. Needs the
+ * fields at hand: planned after the gather, its knots remapped by `local`. */
+static pb_status plan_ref_knots(struct pb_context *ctx, const pb_field_motion *f, const size_t *local,
                                 const pb_blur_options *opt, pb_path *plan)
 {
     size_t nseg = plan->count - 1, total = 0;
@@ -75,30 +74,36 @@ static pb_status plan_ref_knots(struct pb_context *ctx, const pb_field_motion *f
     if (!per)
         return pb_error(ctx, PB_ERR_OUT_OF_MEMORY, "out of host memory planning the reference");
     for (size_t j = 0; j < nseg; j++) {
-        unsigned n = opt->ref_time_steps;
-        if (n == 0) {
+        unsigned n = plan->poses[j].skip ? 0 : opt->ref_time_steps;
+        if (n == 0 && !plan->poses[j].skip) {
             double d = largest_move(plan, &plan->field->knots[j], &plan->field->knots[j + 1]);
             n = (unsigned)fmin(100000.0, fmax(16.0, 2.0 * ceil(d)));
         }
         per[j] = n;
         total += n;
     }
-    plan->ref_steps = calloc(total, sizeof *plan->ref_steps);
-    plan->field->ref_knots = calloc(total, sizeof *plan->field->ref_knots);
+    plan->ref_steps = calloc(total ? total : 1, sizeof *plan->ref_steps);
+    plan->field->ref_knots = calloc(total ? total : 1, sizeof *plan->field->ref_knots);
     if (!plan->ref_steps || !plan->field->ref_knots) {
         free(per);
         return pb_error(ctx, PB_ERR_OUT_OF_MEMORY, "out of host memory for %zu reference time steps", total);
     }
     size_t k = 0;
-    for (size_t j = 0; j < nseg; j++)
-        for (unsigned i = 0; i < per[j]; i++, k++) {
+    pb_status st = PB_OK;
+    for (size_t j = 0; j < nseg && st == PB_OK; j++)
+        for (unsigned i = 0; i < per[j] && st == PB_OK; i++, k++) {
             double t = plan->poses[j].time + (plan->poses[j + 1].time - plan->poses[j].time) * (i + 0.5) / per[j];
-            plan->field->ref_knots[k] = locate(f, first, t);
+            pb_path_knot g;
+            if ((st = locate(ctx, f, t, &g)) != PB_OK)
+                break;
+            g.f0 = local[g.f0]; /* gathered with the segment's (pb_path_create_field) */
+            g.f1 = local[g.f1];
+            plan->field->ref_knots[k] = g;
             plan->ref_steps[k].weight = plan->poses[j].weight / per[j];
         }
-    plan->ref_count = total;
+    plan->ref_count = total ? total : 1; /* none walked: one step of weight 0 keeps the buffer non-empty */
     free(per);
-    return PB_OK;
+    return st;
 }
 
 /* The map from image texel coordinates (centre at i + 0.5) to field voxel
@@ -114,70 +119,127 @@ static void texel_to_field(const pb_field_motion *f, double map[12])
     }
 }
 
-pb_status pb_path_create_field(struct pb_context *ctx, const pb_geometry *g, const pb_field_motion *f, double t0,
-                               double t1, const pb_blur_options *opt, pb_path *plan)
+/* The key times of one interval [t0, t1]: its ends and the samples strictly
+ * inside (field times, or the surrogate's sample times); appended to
+ * times[] from *n when times is not NULL, else only counted. */
+static void interval_times(const pb_field_motion *f, double t0, double t1, double *times, size_t *n)
+{
+    const double *s = f->signal_count ? f->signal_times : f->times;
+    size_t count = f->signal_count ? f->signal_count : f->count;
+    if (times)
+        times[*n] = t0;
+    (*n)++;
+    for (size_t i = 0; i < count; i++)
+        if (s[i] > t0 && s[i] < t1) {
+            if (times)
+                times[*n] = s[i];
+            (*n)++;
+        }
+    if (times)
+        times[*n] = t1;
+    (*n)++;
+}
+
+pb_status pb_path_create_field(struct pb_context *ctx, const pb_geometry *g, const pb_field_motion *f,
+                               const double *iv, size_t intervals, const pb_blur_options *opt, pb_path *plan)
 {
     memset(plan, 0, sizeof *plan);
-    pb_status st = pb_field_frame_check(ctx, f, t0, t1);
+    pb_status st = PB_OK;
+    double total = 0.0;
+    for (size_t i = 0; i < intervals && st == PB_OK; i++) {
+        st = pb_field_frame_check(ctx, f, iv[2 * i], iv[2 * i + 1]);
+        if (st == PB_OK && i > 0 && iv[2 * i] < iv[2 * i - 1])
+            st = pb_error(ctx, PB_ERR_BAD_FRAME, "interval %zu starts at %s s, before interval %zu ends at %s s; a "
+                          "gate's intervals increase and do not overlap", i, PB_NUM(iv[2 * i]), i - 1,
+                          PB_NUM(iv[2 * i - 1]));
+        total += iv[2 * i + 1] - iv[2 * i];
+    }
     if (st != PB_OK)
         return st;
+    if (intervals == 0 || !(total > 0.0) || !isfinite(total))
+        return pb_error(ctx, PB_ERR_BAD_FRAME, "the frame has no time (%zu intervals); give at least one interval "
+                        "with end > start", intervals);
     plan->geometry = *g;
-    /* The frame's run of fields: the sample at or before t0 to the one at or
-     * after t1. */
-    size_t first = 0, last = f->count - 1;
-    while (first + 1 < f->count && f->times[first + 1] <= t0)
-        first++;
-    while (last > 0 && f->times[last - 1] >= t1)
-        last--;
-    if (last <= first)
-        last = first + 1 < f->count ? first + 1 : first;
-    if (first == last)
-        first--;
-    size_t inside = 0;
-    for (size_t i = 0; i < f->count; i++)
-        inside += f->times[i] > t0 && f->times[i] < t1;
-    plan->count = inside + 2;
-    if (plan->count - 1 > PB_MAX_SEGMENTS)
-        return pb_error(ctx, PB_ERR_INVALID_ARGUMENT, "the frame holds %zu field samples, more than the %d segments "
-                        "one blur walks; use shorter frames or fewer fields", inside, PB_MAX_SEGMENTS);
+    size_t count = 0;
+    for (size_t i = 0; i < intervals; i++)
+        interval_times(f, iv[2 * i], iv[2 * i + 1], NULL, &count);
+    if (count - 1 > PB_MAX_SEGMENTS)
+        return pb_error(ctx, PB_ERR_INVALID_ARGUMENT, "the frame holds %zu key points, more than the %d segments one "
+                        "blur walks; use shorter frames or fewer samples", count, PB_MAX_SEGMENTS);
     pb_path_field *pf = calloc(1, sizeof *pf);
+    double *times = malloc(count * sizeof *times);
+    size_t *local = malloc(f->count * sizeof *local);
     plan->field = pf;
-    plan->poses = calloc(plan->count, sizeof *plan->poses);
-    size_t n = pb_field_voxels(f), fields = last - first + 1;
-    if (pf) {
-        pf->knots = calloc(plan->count, sizeof *pf->knots);
-        pf->data = malloc(fields * n * 3 * sizeof *pf->data);
-    }
-    if (!pf || !plan->poses || !pf->knots || !pf->data) {
+    plan->count = count;
+    plan->poses = calloc(count, sizeof *plan->poses);
+    if (pf)
+        pf->knots = calloc(count, sizeof *pf->knots);
+    if (!pf || !times || !local || !plan->poses || !pf->knots) {
+        free(times);
+        free(local);
         pb_path_destroy(plan);
-        return pb_error(ctx, PB_ERR_OUT_OF_MEMORY, "out of host memory for a frame's %zu fields (%.1f MiB)", fields,
-                        fields * n * 12.0 / 1048576.0);
+        return pb_error(ctx, PB_ERR_OUT_OF_MEMORY, "out of host memory planning a frame of %zu key points", count);
     }
-    pf->fields = fields;
-    for (int i = 0; i < 3; i++)
-        pf->dims[i] = f->dims[i];
-    pf->same = !f->has_map;
-    texel_to_field(f, pf->map);
-    const float *src = f->displacements + first * n * 3;
-    for (size_t i = 0; i < fields * n; i++)
-        for (int c = 0; c < 3; c++)
-            pf->data[3 * i + (size_t)c] = (float)((double)src[3 * i + (size_t)c] / g->voxel_size[c]);
-
     size_t k = 0;
-    plan->poses[k].time = t0;
-    pf->knots[k++] = locate(f, first, t0);
-    for (size_t i = 0; i < f->count; i++)
-        if (f->times[i] > t0 && f->times[i] < t1) {
-            plan->poses[k].time = f->times[i];
-            pf->knots[k++] = (pb_path_knot){i - first, i - first, 0.0};
+    for (size_t i = 0; i < intervals; i++) {
+        size_t from = k;
+        interval_times(f, iv[2 * i], iv[2 * i + 1], times, &k);
+        for (size_t j = from; j < k; j++) {
+            plan->poses[j].time = times[j];
+            /* The segment to the next key point: inside the interval, its
+             * share of the frame's time; from the interval's end to the next
+             * one's start, a gap that is skipped. */
+            plan->poses[j].skip = j + 1 == k;
+            plan->poses[j].weight = j + 1 < k ? (times[j + 1] - times[j]) / total : 0.0;
         }
-    plan->poses[k].time = t1;
-    pf->knots[k] = locate(f, first, t1);
-    for (size_t j = 0; j + 1 < plan->count; j++)
-        plan->poses[j].weight = (plan->poses[j + 1].time - plan->poses[j].time) / (t1 - t0);
-    if (opt->method == PB_METHOD_REF && (st = plan_ref_knots(ctx, f, first, opt, plan)) != PB_OK) {
-        pb_path_destroy(plan);
-        return st;
     }
-    return PB_OK;
+    for (size_t j = 0; j < count && st == PB_OK; j++)
+        st = locate(ctx, f, times[j], &pf->knots[j]);
+    free(times);
+    /* The fields the key points read, gathered in texel units, once each. */
+    size_t n = pb_field_voxels(f), fields = 0;
+    for (size_t i = 0; i < f->count; i++)
+        local[i] = (size_t)-1;
+    /* A walked segment's own fields, and for REF's steps between its key
+     * points every field whose value a surrogate passes on the way: those
+     * between the two key points' (their indices span them). */
+    for (size_t j = 0; j < count && st == PB_OK; j++) {
+        size_t lo = pf->knots[j].f0, hi = pf->knots[j].f1;
+        if (j + 1 < count && !plan->poses[j].skip && opt->method == PB_METHOD_REF) {
+            lo = lo < pf->knots[j + 1].f0 ? lo : pf->knots[j + 1].f0;
+            hi = hi > pf->knots[j + 1].f1 ? hi : pf->knots[j + 1].f1;
+        }
+        for (size_t i = lo; i <= hi; i++)
+            if (local[i] == (size_t)-1)
+                local[i] = fields++;
+    }
+    if (st == PB_OK && !(pf->data = malloc(fields * n * 3 * sizeof *pf->data)))
+        st = pb_error(ctx, PB_ERR_OUT_OF_MEMORY, "out of host memory for a frame's %zu fields (%.1f MiB)", fields,
+                      fields * n * 12.0 / 1048576.0);
+    if (st == PB_OK) {
+        pf->fields = fields;
+        for (int i = 0; i < 3; i++)
+            pf->dims[i] = f->dims[i];
+        pf->same = !f->has_map;
+        texel_to_field(f, pf->map);
+        for (size_t gi = 0; gi < f->count; gi++) {
+            if (local[gi] == (size_t)-1)
+                continue;
+            const float *src = f->displacements + gi * n * 3;
+            float *dst = pf->data + local[gi] * n * 3;
+            for (size_t i = 0; i < n; i++)
+                for (int c = 0; c < 3; c++)
+                    dst[3 * i + (size_t)c] = (float)((double)src[3 * i + (size_t)c] / g->voxel_size[c]);
+        }
+        for (size_t j = 0; j < count; j++) {
+            pf->knots[j].f0 = local[pf->knots[j].f0];
+            pf->knots[j].f1 = local[pf->knots[j].f1];
+        }
+    }
+    if (st == PB_OK && opt->method == PB_METHOD_REF)
+        st = plan_ref_knots(ctx, f, local, opt, plan);
+    free(local);
+    if (st != PB_OK)
+        pb_path_destroy(plan);
+    return st;
 }
