@@ -213,20 +213,20 @@ static double abs_det(const double g[9])
 }
 
 /* The mean over a segment's time of |det(I + dD/dr)|: the gradient is linear
- * in time along it and the determinant a cubic, which two-point Gauss-Legendre
- * integrates exactly (the kernels use Simpson's rule, also exact). */
+ * in time along it and the determinant a cubic, which Simpson's rule
+ * integrates exactly. The kernels' rule too: where a fold makes the
+ * determinant change sign inside the segment its absolute value is no cubic,
+ * and another rule would give another mean. */
 static double segment_jacobian(const double A[9], const double B[9])
 {
     double sum = 0.0;
-    /* Gauss-Legendre with two nodes is exact for cubics. */
-    const double nodes[2] = {0.5 - 0.5 / 1.7320508075688772, 0.5 + 0.5 / 1.7320508075688772};
-    for (int k = 0; k < 2; k++) {
-        double g[9];
+    for (int k = 0; k < 3; k++) {
+        double g[9], s = 0.5 * k;
         for (int i = 0; i < 9; i++)
-            g[i] = (1.0 - nodes[k]) * A[i] + nodes[k] * B[i];
-        sum += 0.5 * abs_det(g);
+            g[i] = (1.0 - s) * A[i] + s * B[i];
+        sum += (k == 1 ? 4.0 : 1.0) * abs_det(g);
     }
-    return sum;
+    return sum / 6.0;
 }
 
 /* Tomograph voxel (ix, iy, iz) under the plan: its blurred value (forward), or
