@@ -13,11 +13,11 @@ docs/python.md has the whole API."""
 from ._lib import backends, devices, lib as _c
 from .errors import (ArgumentError, BuildError, DeviceError, Error, FileContentError, FileError, LaunchError,
                      LibraryError, OutOfMemoryError)
-from .fields import FieldMotion
+from .fields import FieldMotion, amplitude_gates
 from .motion import Motion, frames_from_sidecar
 from .operator import BlurOperator, FramesOperator
 
 __version__ = "0.1.0"
-__all__ = ["Motion", "FieldMotion", "frames_from_sidecar", "BlurOperator", "FramesOperator", "backends", "devices", "Error", "ArgumentError", "DeviceError",
+__all__ = ["Motion", "FieldMotion", "amplitude_gates", "frames_from_sidecar", "BlurOperator", "FramesOperator", "backends", "devices", "Error", "ArgumentError", "DeviceError",
            "BuildError", "LaunchError", "OutOfMemoryError", "FileError", "FileContentError",
            "LibraryError"]

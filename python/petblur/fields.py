@@ -70,7 +70,7 @@ class FieldMotion:
             raise ArgumentError(f"displacements has shape {d.shape}; give (K, nx, ny, nz, 3) mm, one field per "
                                 "time, the vector last")
         if d.shape[0] != t.size:
-            raise ArgumentError(f"{t.size} times for {d.shape[0]} fields; give one time per field")
+            raise ArgumentError(f"{t.size} times (or values) for {d.shape[0]} fields; give one per field")
         if not np.issubdtype(d.dtype, np.number) or np.iscomplexobj(d):
             raise ArgumentError(f"displacements are {d.dtype}; give real numbers (mm)")
         self.times = t
@@ -80,8 +80,37 @@ class FieldMotion:
         # vector fastest, then x, y, z; the transposed plan reads the C
         # order with the vector reversed (made when first asked).
         self._fields = {"F": np.ascontiguousarray(d.astype(np.float32, copy=False).transpose(0, 3, 2, 1, 4))}
+        self.values = None  # a surrogate's values of the fields (from_surrogate)
+        self._signal = None
         self._coords = "world" if affine is not None else "image"
         self._source = f"a FieldMotion of {t.size} fields of {self.shape[0]} x {self.shape[1]} x {self.shape[2]}"
+
+    @classmethod
+    def from_surrogate(cls, values, fields, signal_times, signal, affine=None):
+        """Fields driven by a breathing surrogate (a respiratory belt, a
+        data-driven signal): ``fields[k]`` (K, nx, ny, nz, 3) mm belongs to
+        surrogate value ``values[k]`` (an amplitude, increasing: e.g. the
+        gates' centres from end-exhale to end-inhale), and the motion at time
+        t is the field at the signal's value s(t), linear between the
+        fields' values; ``signal`` sampled at ``signal_times`` (s,
+        increasing), linear between samples. A signal beyond the fields'
+        values is refused where a frame reaches it. ``affine`` as for
+        FieldMotion."""
+        try:
+            st = np.array(signal_times, dtype=np.float64).reshape(-1)
+            sv = np.array(signal, dtype=np.float64).reshape(-1)
+        except (TypeError, ValueError):
+            raise ArgumentError("signal_times and signal must be numbers: the surrogate's sample times (s) and "
+                                "values") from None
+        if st.size != sv.size or st.size < 2:
+            raise ArgumentError(f"{st.size} signal times for {sv.size} values; give one value per time, at least "
+                                "two")
+        m = cls(values, fields, affine)
+        m.values, m.times = m.times, st
+        m._signal = sv
+        m._source = (f"a FieldMotion of {m.values.size} fields at surrogate values {m.values[0]:g} to "
+                     f"{m.values[-1]:g}, driven by {st.size} signal samples")
+        return m
 
     @classmethod
     def from_files(cls, paths, times=None, convention=None):
@@ -134,11 +163,16 @@ class FieldMotion:
                 f"{self.times[0]:g} to {self.times[-1]:g} s{', world mm' if self.affine is not None else ''})")
 
     def __getstate__(self):
-        return {"times": self.times, "fields": self._fields["F"], "affine": self.affine}
+        return {"times": self.times, "fields": self._fields["F"], "affine": self.affine, "values": self.values,
+                "signal": self._signal}
 
     def __setstate__(self, state):
-        f = np.asarray(state["fields"])
-        FieldMotion.__init__(self, state["times"], f.transpose(0, 3, 2, 1, 4), state["affine"])
+        f = np.asarray(state["fields"]).transpose(0, 3, 2, 1, 4)
+        if state.get("signal") is not None:
+            m = FieldMotion.from_surrogate(state["values"], f, state["times"], state["signal"], state["affine"])
+            self.__dict__.update(m.__dict__)
+        else:
+            FieldMotion.__init__(self, state["times"], f, state["affine"])
 
     def displacements(self):
         """The fields as given: (K, nx, ny, nz, 3) float32 mm (a view)."""
@@ -192,14 +226,19 @@ class FieldMotion:
             if has_map == 0:
                 m = np.hstack([np.eye(3), np.zeros((3, 1))])
         c = _lib.FieldMotion()
-        c.times = self.times.ctypes.data_as(_lib.ctypes.POINTER(_lib.ctypes.c_double))
         c.displacements = data.ctypes.data_as(_lib.ctypes.POINTER(_lib.ctypes.c_float))
-        c.count = self.times.size
+        own = self.values if self._signal is not None else self.times
+        c.times = own.ctypes.data_as(_lib.ctypes.POINTER(_lib.ctypes.c_double))
+        c.count = own.size
+        if self._signal is not None:
+            c.signal_times = self.times.ctypes.data_as(_lib.ctypes.POINTER(_lib.ctypes.c_double))
+            c.signal = self._signal.ctypes.data_as(_lib.ctypes.POINTER(_lib.ctypes.c_double))
+            c.signal_count = self.times.size
         c.dims = (_lib.ctypes.c_size_t * 3)(*dims)
         c.has_map = has_map
         c.field_from_grid = (_lib.ctypes.c_double * 12)(*m.reshape(-1))
         c.frame_start, c.frame_end = self.times[0], self.times[-1]
-        return c, (data, self.times)
+        return c, (data, self.times, self.values, self._signal)
 
     def folds(self, voxel_size, shape=None, affine=None):
         """Where the fields fold (a Jacobian determinant of r -> r + D(r) at
@@ -226,3 +265,43 @@ class FieldMotion:
                           f"(Jacobian determinant down to {worst:.3g}): the blur there reads one place for two; "
                           "check the registration (a smoother or diffeomorphic one does not fold)", UserWarning,
                           stacklevel=stacklevel)
+
+
+def amplitude_gates(signal_times, signal, edges, span=None):
+    """Amplitude gates of a breathing surrogate, as a gated reconstruction
+    bins its counts: gate g is every visit of the signal (linear between its
+    samples) to [edges[g], edges[g+1]) inside ``span`` (t0, t1; default the
+    signal's), as a list of (start, end) intervals in seconds. The gates
+    go to FramesOperator(bounds=gates) with a FieldMotion; a gate the breath
+    never visits is an empty list, which the operator refuses."""
+    t = np.asarray(signal_times, dtype=np.float64).reshape(-1)
+    s = np.asarray(signal, dtype=np.float64).reshape(-1)
+    e = np.asarray(edges, dtype=np.float64).reshape(-1)
+    if t.size != s.size or t.size < 2 or not np.all(np.isfinite(t)) or not np.all(np.isfinite(s)) \
+            or not np.all(np.diff(t) > 0):
+        raise ArgumentError("signal_times and signal: one finite value per time, at least two, times increasing")
+    if e.size < 2 or not np.all(np.isfinite(e)) or not np.all(np.diff(e) > 0):
+        raise ArgumentError(f"edges {shown(edges)}: give at least two finite, increasing amplitudes")
+    t0, t1 = (t[0], t[-1]) if span is None else (float(span[0]), float(span[1]))
+    if not (t[0] <= t0 < t1 <= t[-1]):
+        raise ArgumentError(f"span ({t0:g}, {t1:g}) s must lie inside the signal's [{t[0]:g}, {t[-1]:g}] s")
+    # The signal's pieces cut at the span's ends.
+    cut = np.unique(np.clip(np.concatenate([[t0, t1], t]), t0, t1))
+    val = np.interp(cut, t, s)
+    gates = []
+    for lo, hi in zip(e[:-1], e[1:]):
+        out = []
+        for a, b, sa, sb in zip(cut[:-1], cut[1:], val[:-1], val[1:]):
+            if sa == sb:
+                p, q = (a, b) if lo <= sa < hi else (a, a)
+            else:  # the times where s crosses lo and hi, in the piece
+                ta = a + (lo - sa) / (sb - sa) * (b - a)
+                tb = a + (hi - sa) / (sb - sa) * (b - a)
+                p, q = max(a, min(ta, tb)), min(b, max(ta, tb))
+            if q > p:
+                if out and abs(out[-1][1] - p) <= 1e-12 * max(1.0, abs(p)):
+                    out[-1] = (out[-1][0], q)
+                else:
+                    out.append((p, q))
+        gates.append(out)
+    return gates

@@ -272,10 +272,20 @@ class _Operator:
                     self.motion._warn_folds(self.voxel_size, self._shape, self.affine, stacklevel=6)
                 cf, keep = self.motion._c_field(self._shape, self.voxel_size, self.affine, order)
                 g = _lib.Geometry((ctypes.c_size_t * 3)(*dims), (ctypes.c_double * 3)(*vox))
-                b = (ctypes.c_double * len(self._bounds))(*self._bounds)
-                _lib.check(_lib.lib.pb_plan_create_field_frames(ctx.handle, ctypes.byref(g), ctypes.byref(cf), b,
-                                                                len(self._bounds) - 1, ctypes.byref(self._options),
-                                                                ctypes.byref(handle)), ctx.handle)
+                gates = getattr(self, "_gates", None)
+                if gates is not None:
+                    flat = [v for gate in gates for interval in gate for v in interval]
+                    iv = (ctypes.c_double * len(flat))(*flat)
+                    counts = (ctypes.c_size_t * len(gates))(*[len(gate) for gate in gates])
+                    st = _lib.lib.pb_plan_create_field_gates(ctx.handle, ctypes.byref(g), ctypes.byref(cf), iv, counts,
+                                                             len(gates), ctypes.byref(self._options),
+                                                             ctypes.byref(handle))
+                else:
+                    b = (ctypes.c_double * len(self._bounds))(*self._bounds)
+                    st = _lib.lib.pb_plan_create_field_frames(ctx.handle, ctypes.byref(g), ctypes.byref(cf), b,
+                                                              len(self._bounds) - 1, ctypes.byref(self._options),
+                                                              ctypes.byref(handle))
+                _lib.check(st, ctx.handle)
                 del keep
                 self._handles.made(_lib.lib.pb_plan_destroy, handle)
                 plans[order] = (handle, g)
@@ -550,17 +560,25 @@ class FramesOperator(_Operator):
                  ab_sampling=None, jacobian=False):
         if not isinstance(track, (Motion, FieldMotion)):
             raise ArgumentError(f"track must be a petblur.Motion or petblur.FieldMotion, not {type(track).__name__}")
-        try:
-            b = np.array(bounds, dtype=np.float64).reshape(-1)
-        except (TypeError, ValueError):
-            raise ArgumentError(f"bounds must be the frames' n + 1 times in seconds, not {shown(bounds)}") \
-                from None
-        if b.size < 2:
-            raise ArgumentError(f"bounds must hold at least two times (one frame), not {b.size}")
+        gates = _gates(bounds)
+        if gates is not None:
+            if not isinstance(track, FieldMotion):
+                raise ArgumentError("gates (frames of several intervals) are planned for a FieldMotion; a rigid "
+                                    "track's frames are single intervals: give bounds, or the motion as fields")
+            b = np.array([gates[0][0][0], gates[-1][-1][1]])
+        else:
+            try:
+                b = np.array(bounds, dtype=np.float64).reshape(-1)
+            except (TypeError, ValueError):
+                raise ArgumentError(f"bounds must be the frames' n + 1 times in seconds, or gates (a list of (start, "
+                                    f"end) intervals per frame), not {shown(bounds)}") from None
+            if b.size < 2:
+                raise ArgumentError(f"bounds must hold at least two times (one frame), not {b.size}")
+        self._gates = gates
         super().__init__(shape, voxel_size, track, b, method, filter, max_path_error, device, affine, steps,
                          progress, ab_sampling, jacobian)
-        self.bounds = b
-        self.frames = b.size - 1
+        self.bounds = b if gates is None else gates
+        self.frames = b.size - 1 if gates is None else len(gates)
         self.per_frame = bool(per_frame)
         self.frames_last = bool(frames_last)
 
@@ -616,6 +634,30 @@ class FramesOperator(_Operator):
             jobs = [(f, vols[f][0], out[f], 0, order) for f in range(self.frames)]
         self._run(arr, jobs, True)
         return self._last(arr.result(out))
+
+
+def _gates(bounds):
+    """Frames given as gates, a list of (start, end) intervals per frame
+    (amplitude_gates' result), checked; None for plain bounds."""
+    if isinstance(bounds, np.ndarray) or not isinstance(bounds, (list, tuple)) or not bounds:
+        return None
+    if not all(isinstance(g, (list, tuple, np.ndarray)) for g in bounds):
+        return None
+    out = []
+    for i, gate in enumerate(bounds):
+        try:
+            iv = np.array(gate, dtype=np.float64).reshape(-1, 2)
+        except (TypeError, ValueError):
+            raise ArgumentError(f"gate {i} is {shown(gate)}; give a list of (start, end) intervals in seconds") \
+                from None
+        if iv.shape[0] == 0:
+            raise ArgumentError(f"gate {i} has no interval: the breath never visits it; leave it out, or widen the "
+                                "bins")
+        if not np.all(np.isfinite(iv)) or not np.all(iv[:, 1] > iv[:, 0]) or not np.all(iv[1:, 0] >= iv[:-1, 1]):
+            raise ArgumentError(f"gate {i}'s intervals must be finite, each end after its start, in order and not "
+                                "overlapping")
+        out.append([tuple(map(float, r)) for r in iv])
+    return out
 
 
 def _rebuild(cls, description, progress):

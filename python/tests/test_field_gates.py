@@ -1,0 +1,126 @@
+"""Gates as frames and breathing surrogates (petblur.amplitude_gates,
+FieldMotion.from_surrogate, FramesOperator with gates), against what they
+must equal: a gate is the time-weighted sum of its intervals' own blurs; a
+surrogate-driven motion the fields interpolated at the signal's samples; the
+blur by definition (scipy, dense times inside the gate) on a fresh breathing
+case; the transpose's dot test. Every case is drawn fresh (the rng fixture
+prints its seed)."""
+
+import numpy as np
+import pytest
+import scipy.ndimage as ndi
+
+import petblur
+
+from test_fields import _breathing, _errors, _indices, _sharp_object
+
+
+def _belt(rng, duration, rate=25.0):
+    """An irregular breathing trace: period and amplitude drift, a baseline
+    wanders, the belt's noise on top; sampled at a belt's rate."""
+    t = np.arange(0.0, duration, 1.0 / rate)
+    period = 4.0 * (1 + 0.15 * np.sin(2 * np.pi * t / rng.uniform(20, 40)))
+    phase = 2 * np.pi * np.cumsum(1.0 / period) / rate
+    amp = 1 + 0.2 * np.sin(2 * np.pi * t / rng.uniform(15, 30) + rng.uniform(0, 6))
+    s = amp * 0.5 * (1 - np.cos(phase)) + 0.1 * np.sin(2 * np.pi * t / 60) + rng.normal(0, 0.01, t.size)
+    return t, s
+
+
+def _surrogate_case(rng):
+    n = tuple(int(v) for v in rng.integers(10, 16, 3))
+    voxel = rng.uniform(1.5, 3.0, 3)
+    values = np.linspace(-0.3, 1.5, 5)  # the fields' amplitudes, beyond the belt's range
+    fields = _breathing(rng, n, values, amplitude_mm=rng.uniform(4.0, 8.0))
+    fields -= fields[1]  # no displacement at amplitude 0: the reference gate
+    t, s = _belt(rng, rng.uniform(20.0, 30.0))
+    return n, voxel, values, fields, t, s
+
+
+def test_amplitude_gates_cover_the_signal(rng):
+    """Every time of the span lies in exactly one gate, and in the right one."""
+    t, s = _belt(rng, 30.0)
+    edges = np.linspace(s.min() - 1e-9, s.max() + 1e-9, 6)
+    gates = petblur.amplitude_gates(t, s, edges, span=(2.0, 28.0))
+    assert abs(sum(b - a for g in gates for a, b in g) - 26.0) < 1e-9
+    probe = rng.uniform(2.0, 28.0, 500)
+    for p in probe:
+        inside = [g for g, ivs in enumerate(gates) if any(a <= p < b for a, b in ivs)]
+        value = np.interp(p, t, s)
+        assert len(inside) == 1 and edges[inside[0]] <= value < edges[inside[0] + 1] + 1e-9, (p, inside, value)
+
+
+def test_gate_is_the_weighted_sum_of_its_intervals(rng, device):
+    n, voxel, values, fields, t, s = _surrogate_case(rng)
+    fm = petblur.FieldMotion.from_surrogate(values, fields, t, s)
+    edges = np.linspace(s.min() - 1e-9, s.max() + 1e-9, 4)
+    gates = petblur.amplitude_gates(t, s, edges, span=(t[0], t[-1]))
+    x = _sharp_object(rng, n)
+    F = petblur.FramesOperator(n, voxel, fm, gates, method="rm", filter="exact", device=device)
+    y = F(x)
+    for g, ivs in enumerate(gates):
+        total = sum(b - a for a, b in ivs)
+        want = sum((b - a) / total * petblur.BlurOperator(n, voxel, fm, frame=(a, b), method="rm", filter="exact",
+                                                          device=device)(x).astype(np.float64) for a, b in ivs)
+        assert np.abs(y[g] - want).max() <= 1e-5 * np.abs(want).max(), (g, len(ivs))
+    F.adjointness_test(rtol=2e-5, seed=int(rng.integers(1 << 31)))
+
+
+def test_surrogate_is_its_fields_at_the_signal(rng, device):
+    """A surrogate motion is the fields interpolated at the signal's values,
+    sample by sample: the same key points, the same blur."""
+    n, voxel, values, fields, t, s = _surrogate_case(rng)
+    t, s = t[:80], s[:80]
+    fm = petblur.FieldMotion.from_surrogate(values, fields, t, s)
+    j = np.clip(np.searchsorted(values, s, side="right") - 1, 0, len(values) - 2)
+    a = (s - values[j]) / (values[j + 1] - values[j])
+    at_samples = (1 - a)[:, None, None, None, None] * fields[j] + a[:, None, None, None, None] * fields[j + 1]
+    series = petblur.FieldMotion(t, at_samples)
+    frame = (rng.uniform(t[0], t[5]), rng.uniform(t[-6], t[-1]))
+    x = _sharp_object(rng, n)
+    for method in ("ab", "rm"):
+        y = petblur.BlurOperator(n, voxel, fm, frame=frame, method=method, filter="exact", device=device)(x)
+        z = petblur.BlurOperator(n, voxel, series, frame=frame, method=method, filter="exact", device=device)(x)
+        assert np.abs(y - z).max() <= 1e-4 * np.abs(z).max(), (method, np.abs(y - z).max())
+
+
+def test_gate_against_the_blur_by_definition(rng):
+    """A gate of a breathing belt's fields against scipy's average of the
+    object at r + D(s(t))(r) over dense times inside the gate's intervals."""
+    n, voxel, values, fields, t, s = _surrogate_case(rng)
+    fm = petblur.FieldMotion.from_surrogate(values, fields, t, s)
+    edges = np.linspace(s.min() - 1e-9, s.max() + 1e-9, 4)
+    gates = petblur.amplitude_gates(t, s, edges)
+    x = _sharp_object(rng, n)
+    idx = _indices(n)
+    F = petblur.FramesOperator(n, voxel, fm, gates, method="rm", device="host")
+    y = F(x)
+    for g, ivs in enumerate(gates):
+        total = sum(b - a for a, b in ivs)
+        ref = np.zeros(n)
+        for a, b in ivs:
+            steps = max(2, int(np.ceil((b - a) * 200)))
+            for tt in a + (np.arange(steps) + 0.5) * (b - a) / steps:
+                v = np.interp(tt, t, s)
+                k = min(max(np.searchsorted(values, v, side="right") - 1, 0), len(values) - 2)
+                w = (v - values[k]) / (values[k + 1] - values[k])
+                p = idx + ((1 - w) * fields[k] + w * fields[k + 1]) / voxel
+                ref += (b - a) / steps / total * ndi.map_coordinates(
+                    x.astype(np.float64), [p[..., i] for i in range(3)], order=1, mode="grid-constant")
+        rms, mx = _errors(y[g], ref)
+        print(f"gate {g} ({len(ivs)} intervals): rms {rms:.3f} % max {mx:.3f} %")
+        assert rms <= 1.0 and mx <= 3.0, (g, rms, mx)
+
+
+def test_refusals(rng):
+    n, voxel, values, fields, t, s = _surrogate_case(rng)
+    narrow = petblur.FieldMotion.from_surrogate(values[1:3], fields[1:3], t, s)
+    with pytest.raises(petblur.Error, match="outside the fields' values"):
+        petblur.BlurOperator(n, voxel, narrow, device="host")
+    fm = petblur.FieldMotion.from_surrogate(values, fields, t, s)
+    with pytest.raises(petblur.ArgumentError, match="overlapping"):
+        petblur.FramesOperator(n, voxel, fm, [[(1.0, 3.0), (2.0, 4.0)]], device="host")
+    with pytest.raises(petblur.ArgumentError, match="never visits"):
+        petblur.FramesOperator(n, voxel, fm, [[(1.0, 3.0)], []], device="host")
+    track = petblur.Motion([0, 10], [[0, 0, 0], [1, 0, 0]], [[1, 0, 0, 0]] * 2)
+    with pytest.raises(petblur.ArgumentError, match="planned for a FieldMotion"):
+        petblur.FramesOperator(n, voxel, track, [[(1.0, 3.0), (4.0, 5.0)]], device="host")
