@@ -109,6 +109,8 @@ def main():
         R = petblur.BlurOperator(n, voxel, track, frame=frame, method=method, device=args.device)
         rows.append((method, "forward", median_ms(B, x, args.runs), median_ms(R, x, args.runs), plan_s))
         rows.append((method, "adjoint", median_ms(B, x, args.runs, True), median_ms(R, x, args.runs, True), plan_s))
+    J = petblur.BlurOperator(n, voxel, fm, frame=frame, method="ab", device=args.device, jacobian=True)
+    jac = (median_ms(J, x, args.runs), median_ms(J, x, args.runs, True))
     torch_ms, torch_out = grid_sample_loop(x, fields[1:-1], voxel, args.runs)
     gb = fields[0].nbytes / 2 ** 30
     print(f"# field blur, {args.size}^3 of 2 mm, {samples - 2} field samples in the frame, {args.device}")
@@ -118,6 +120,7 @@ def main():
     print("| --- | --- | --- | --- | --- | --- | --- |")
     for method, direction, f, r, p in rows:
         print(f"| {method} | {direction} | {f:.2f} | {r:.2f} | {f / r:.2f} | {torch_ms / f:.1f} | {p:.1f} |")
+    print(f"\nAB mass-preserving (jacobian=True): forward {jac[0]:.2f} ms, adjoint {jac[1]:.2f} ms")
     print(f"\ntorch grid_sample loop over the {samples - 2} samples: {torch_ms:.2f} ms (trilinear, one read a sample, "
           "not the path between them)")
     print(f"memory: {gb:.3f} GiB a field ({gb * 2 ** 30 / np.prod(n):.0f} bytes a voxel); a frame's plan holds the "
