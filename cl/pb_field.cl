@@ -135,13 +135,14 @@ PB_FN float pb_segment_jacobian(const float *A, const float *B)
 
 /* The segments of voxel W's polyline through the frame's key points: BODY
  * runs with the segment's ends a and b (object texel coordinates), its index
- * j and jac, the mean of its ends' Jacobian determinants (1 unless
- * prm.jacobian), in scope; a segment of no weight, the gap between two of a
- * gate's intervals, is skipped. */
-#define PB_FOR_FIELD_SEGMENTS(knots, fields, prm, u, own, ix, iy, iz, BODY)                                      \
+ * j and jac, the mean of its ends' Jacobian determinants (1 unless mass, a
+ * literal in each kernel: the blur of concentrations carries none of the
+ * gradients' registers), in scope; a segment of no weight, the gap between
+ * two of a gate's intervals, is skipped. */
+#define PB_FOR_FIELD_SEGMENTS(knots, fields, prm, u, own, ix, iy, iz, mass, BODY)                                \
     {                                                                                                          \
         float a[3], b[3], pb_ga[9], pb_gb[9];                                                                  \
-        if ((prm).jacobian)                                                                                    \
+        if (mass)                                                                                              \
             pb_field_gradient((knots), (fields), (prm), 0, (ix), (iy), (iz), pb_gb);                           \
         pb_field_point((knots), (fields), (prm), 0, (u), (own), b);                                            \
         for (int j = 0; j < (prm).segments; j++) {                                                             \
@@ -149,7 +150,7 @@ PB_FN float pb_segment_jacobian(const float *A, const float *B)
                 a[pb_i] = b[pb_i];                                                                             \
             pb_field_point((knots), (fields), (prm), j + 1, (u), (own), b);                                    \
             float jac = 1.0f;                                                                                  \
-            if ((prm).jacobian) {                                                                              \
+            if (mass) {                                                                                        \
                 for (int pb_i = 0; pb_i < 9; pb_i++)                                                           \
                     pb_ga[pb_i] = pb_gb[pb_i];                                                                 \
                 pb_field_gradient((knots), (fields), (prm), j + 1, (ix), (iy), (iz), pb_gb);                   \
@@ -164,14 +165,14 @@ PB_FN float pb_segment_jacobian(const float *A, const float *B)
 /* The forward of voxel W: ab 0 RM, 1 AB, PB_AB_SWEEP AB with two points a
  * slice, a literal in each kernel. */
 PB_FN float pb_field_polyline(pb_image img, PB_GLOBAL_RO pb_kknot *knots, pb_kparams prm, int ix, int iy, int iz,
-                              int ab, int exact)
+                              int ab, int exact, int mass)
 {
     const float u[3] = {(float)ix + 0.5f, (float)iy + 0.5f, (float)iz + 0.5f};
     const pb_place pl = {0, {0.0f, 0.0f, 0.0f}, 1.0f};
     PB_GLOBAL_RO float *fields = pb_field_data(knots, prm);
     long own = pb_field_own(prm, ix, iy, iz);
     float total = 0.0f;
-    PB_FOR_FIELD_SEGMENTS(knots, fields, prm, u, own, ix, iy, iz,
+    PB_FOR_FIELD_SEGMENTS(knots, fields, prm, u, own, ix, iy, iz, mass,
                           total += knots[j].weight * jac *
                                    (ab ? pb_ab_sampled(img, prm, exact, ab == PB_AB_SWEEP, &pl, a, b)
                                        : pb_rm_sampled(img, prm, exact, &pl, a, b)));
@@ -180,42 +181,52 @@ PB_FN float pb_field_polyline(pb_image img, PB_GLOBAL_RO pb_kknot *knots, pb_kpa
 
 /* Its transpose: y[W] spread along every segment with the segment's share. */
 PB_FN void pb_field_polyline_adjoint(PB_GLOBAL float *out, PB_GLOBAL_RO pb_kknot *knots, pb_kparams prm, int ix,
-                                     int iy, int iz, int ab, float v)
+                                     int iy, int iz, int ab, int mass, float v)
 {
     const float u[3] = {(float)ix + 0.5f, (float)iy + 0.5f, (float)iz + 0.5f};
     PB_GLOBAL_RO float *fields = pb_field_data(knots, prm);
     long own = pb_field_own(prm, ix, iy, iz);
-    PB_FOR_FIELD_SEGMENTS(knots, fields, prm, u, own, ix, iy, iz,
+    PB_FOR_FIELD_SEGMENTS(knots, fields, prm, u, own, ix, iy, iz, mass,
                           pb_segment_adjoint(out, prm, a, b, ab, v * knots[j].weight * jac));
 }
 
-#define PB_FIELD_FORWARD(name, ab, exact)                                                                        \
+#define PB_FIELD_FORWARD(name, ab, exact, mass)                                                                  \
     PB_KERNEL void name(pb_image img, PB_GLOBAL_RO pb_kknot *knots, pb_kparams prm, PB_GLOBAL float *out)     \
     {                                                                                                          \
         int ix = PB_GID_X, iy = PB_GID_Y, iz = PB_GID_Z + prm.z0;                                              \
         if (!PB_IN_GRID(ix, iy, iz))                                                                           \
             return;                                                                                            \
-        PB_OUT(ix, iy, iz) = pb_field_polyline(img, knots, prm, ix, iy, iz, (ab), (exact));                    \
+        PB_OUT(ix, iy, iz) = pb_field_polyline(img, knots, prm, ix, iy, iz, (ab), (exact), (mass));            \
     }
 
-#define PB_FIELD_ADJOINT(name, ab)                                                                               \
+#define PB_FIELD_ADJOINT(name, ab, mass)                                                                         \
     PB_KERNEL void name(PB_GLOBAL_RO float *in, PB_GLOBAL_RO pb_kknot *knots, pb_kparams prm, PB_GLOBAL float *out) \
     {                                                                                                          \
         int ix = PB_GID_X, iy = PB_GID_Y, iz = PB_GID_Z + prm.z0;                                              \
         float v = pb_adjoint_input(in, prm, ix, iy, iz);                                                       \
         if (v != 0.0f)                                                                                         \
-            pb_field_polyline_adjoint(out, knots, prm, ix, iy, iz, (ab), v);                                   \
+            pb_field_polyline_adjoint(out, knots, prm, ix, iy, iz, (ab), (mass), v);                           \
     }
 
-PB_FIELD_FORWARD(pb_field_ab, 1, 0)
-PB_FIELD_FORWARD(pb_field_ab_exact, 1, 1)
-PB_FIELD_FORWARD(pb_field_ab_sweep, PB_AB_SWEEP, 0)
-PB_FIELD_FORWARD(pb_field_ab_sweep_exact, PB_AB_SWEEP, 1)
-PB_FIELD_FORWARD(pb_field_rm, 0, 0)
-PB_FIELD_FORWARD(pb_field_rm_exact, 0, 1)
-PB_FIELD_ADJOINT(pb_field_adjoint_ab, 1)
-PB_FIELD_ADJOINT(pb_field_adjoint_ab_sweep, PB_AB_SWEEP)
-PB_FIELD_ADJOINT(pb_field_adjoint_rm, 0)
+PB_FIELD_FORWARD(pb_field_ab, 1, 0, 0)
+PB_FIELD_FORWARD(pb_field_ab_exact, 1, 1, 0)
+PB_FIELD_FORWARD(pb_field_ab_sweep, PB_AB_SWEEP, 0, 0)
+PB_FIELD_FORWARD(pb_field_ab_sweep_exact, PB_AB_SWEEP, 1, 0)
+PB_FIELD_FORWARD(pb_field_rm, 0, 0, 0)
+PB_FIELD_FORWARD(pb_field_rm_exact, 0, 1, 0)
+PB_FIELD_ADJOINT(pb_field_adjoint_ab, 1, 0)
+PB_FIELD_ADJOINT(pb_field_adjoint_ab_sweep, PB_AB_SWEEP, 0)
+PB_FIELD_ADJOINT(pb_field_adjoint_rm, 0, 0)
+/* The mass-preserving ones (pb_blur_options.jacobian). */
+PB_FIELD_FORWARD(pb_field_mass_ab, 1, 0, 1)
+PB_FIELD_FORWARD(pb_field_mass_ab_exact, 1, 1, 1)
+PB_FIELD_FORWARD(pb_field_mass_ab_sweep, PB_AB_SWEEP, 0, 1)
+PB_FIELD_FORWARD(pb_field_mass_ab_sweep_exact, PB_AB_SWEEP, 1, 1)
+PB_FIELD_FORWARD(pb_field_mass_rm, 0, 0, 1)
+PB_FIELD_FORWARD(pb_field_mass_rm_exact, 0, 1, 1)
+PB_FIELD_ADJOINT(pb_field_mass_adjoint_ab, 1, 1)
+PB_FIELD_ADJOINT(pb_field_mass_adjoint_ab_sweep, PB_AB_SWEEP, 1)
+PB_FIELD_ADJOINT(pb_field_mass_adjoint_rm, 0, 1)
 
 /* REF's mass-preserving weight at its time step s: the determinant there
  * (1 unless prm.jacobian). */

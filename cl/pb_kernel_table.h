@@ -16,6 +16,9 @@
  *           FIELD    the forward gather along a deformation field's paths
  *                    (cl/pb_field.cl); CL is RM there
  *           FIELD_SCATTER  its adjoint's scatter
+ *           FIELD_MASS, FIELD_MASS_SCATTER  the same, mass-preserving (each
+ *                    segment weighed by its Jacobian determinant); REF reads
+ *                    prm.jacobian in FIELD's own kernels
  *   method, filter   what it computes (ANY: either)
  *   reads   LINEAR / NEAREST  the 3-D image through a linear / point filter
  *           LAYERS  the layered image;  BUFFER  a plain device buffer
@@ -68,7 +71,16 @@
     X(FIELD_ADJOINT_AB, pb_field_adjoint_ab, FIELD_SCATTER, AB, ANY,    BUFFER,  TILES)     \
     X(FIELD_ADJOINT_AB_SWEEP, pb_field_adjoint_ab_sweep, FIELD_SCATTER, AB_SWEEP, ANY, BUFFER, TILES) \
     X(FIELD_ADJOINT_RM, pb_field_adjoint_rm, FIELD_SCATTER, RM, ANY,    BUFFER,  TILES)     \
-    X(FIELD_ADJOINT_REF, pb_field_adjoint_ref, FIELD_SCATTER, REF, ANY, BUFFER,  TILES)
+    X(FIELD_ADJOINT_REF, pb_field_adjoint_ref, FIELD_SCATTER, REF, ANY, BUFFER,  TILES)     \
+    X(FIELD_MASS_AB,    pb_field_mass_ab,    FIELD_MASS, AB,  HARDWARE, LINEAR,  TILES)     \
+    X(FIELD_MASS_AB_EXACT, pb_field_mass_ab_exact, FIELD_MASS, AB, EXACT, NEAREST, TILES)    \
+    X(FIELD_MASS_AB_SWEEP, pb_field_mass_ab_sweep, FIELD_MASS, AB_SWEEP, HARDWARE, LINEAR, TILES) \
+    X(FIELD_MASS_AB_SWEEP_EXACT, pb_field_mass_ab_sweep_exact, FIELD_MASS, AB_SWEEP, EXACT, NEAREST, TILES) \
+    X(FIELD_MASS_RM,    pb_field_mass_rm,    FIELD_MASS, RM,  HARDWARE, LINEAR,  TILES)     \
+    X(FIELD_MASS_RM_EXACT, pb_field_mass_rm_exact, FIELD_MASS, RM, EXACT, NEAREST, TILES)    \
+    X(FIELD_MASS_ADJOINT_AB, pb_field_mass_adjoint_ab, FIELD_MASS_SCATTER, AB, ANY, BUFFER, TILES) \
+    X(FIELD_MASS_ADJOINT_AB_SWEEP, pb_field_mass_adjoint_ab_sweep, FIELD_MASS_SCATTER, AB_SWEEP, ANY, BUFFER, TILES) \
+    X(FIELD_MASS_ADJOINT_RM, pb_field_mass_adjoint_rm, FIELD_MASS_SCATTER, RM, ANY, BUFFER, TILES)
 
 typedef enum pb_kernel_id {
 #define PB_KERNEL_ENUM_(id, ...) PB_KERNEL_##id,
@@ -79,7 +91,7 @@ typedef enum pb_kernel_id {
 
 typedef enum pb_kernel_family {
     PB_FAMILY_GENERAL, PB_FAMILY_SCATTER, PB_FAMILY_SHIFT, PB_FAMILY_LAYERS, PB_FAMILY_LAYERS_X, PB_FAMILY_TAPS,
-    PB_FAMILY_PERMUTE, PB_FAMILY_FIELD, PB_FAMILY_FIELD_SCATTER
+    PB_FAMILY_PERMUTE, PB_FAMILY_FIELD, PB_FAMILY_FIELD_SCATTER, PB_FAMILY_FIELD_MASS, PB_FAMILY_FIELD_MASS_SCATTER
 } pb_kernel_family;
 
 typedef enum pb_kernel_reads { PB_READS_LINEAR, PB_READS_NEAREST, PB_READS_LAYERS, PB_READS_BUFFER } pb_kernel_reads;

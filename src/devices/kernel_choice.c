@@ -121,7 +121,7 @@ static pb_kernel_id find_kernel(pb_kernel_family family, const pb_blur_options *
                                                                                         : (int)opt->method;
     /* A field is linear in time between its samples: CL's interpolated
      * motion at a step is RM's point on the chord. */
-    if ((family == PB_FAMILY_FIELD || family == PB_FAMILY_FIELD_SCATTER) && method == PB_KT_CL)
+    if (family >= PB_FAMILY_FIELD && method == PB_KT_CL)
         method = PB_KT_RM;
     pb_filter filter = opt->filter;
     for (int k = 0; k < PB_KERNEL_COUNT; k++) {
@@ -144,7 +144,7 @@ pb_kernel_id pb_forward_kernel(const pb_path *path, const pb_blur_options *opt, 
                                int fresh_input)
 {
     if (path->field)
-        return find_kernel(PB_FAMILY_FIELD, opt);
+        return find_kernel(opt->jacobian && opt->method != PB_METHOD_REF ? PB_FAMILY_FIELD_MASS : PB_FAMILY_FIELD, opt);
     if (!pb_path_shift_invariant(path, opt))
         return find_kernel(PB_FAMILY_GENERAL, opt);
     int m = -1;
@@ -160,7 +160,8 @@ pb_kernel_id pb_forward_kernel(const pb_path *path, const pb_blur_options *opt, 
 pb_kernel_id pb_adjoint_kernel(const pb_path *path, const pb_blur_options *opt, const size_t *layer_limits)
 {
     if (path->field)
-        return find_kernel(PB_FAMILY_FIELD_SCATTER, opt);
+        return find_kernel(opt->jacobian && opt->method != PB_METHOD_REF ? PB_FAMILY_FIELD_MASS_SCATTER
+                                                                          : PB_FAMILY_FIELD_SCATTER, opt);
     if (pb_path_shift_invariant(path, opt))
         return pb_forward_kernel(path, opt, layer_limits, 1);
     return find_kernel(PB_FAMILY_SCATTER, opt);
@@ -203,7 +204,7 @@ static void kstep_from_path(const pb_path *path, size_t index, pb_kstep *out)
 int pb_kernel_scatters(pb_kernel_id kernel)
 {
     pb_kernel_family f = pb_kernel_table[kernel].family;
-    return f == PB_FAMILY_SCATTER || f == PB_FAMILY_FIELD_SCATTER;
+    return f == PB_FAMILY_SCATTER || f == PB_FAMILY_FIELD_SCATTER || f == PB_FAMILY_FIELD_MASS_SCATTER;
 }
 
 /* A field frame's buffer: its knots (key points, or REF's steps), then its
