@@ -214,7 +214,7 @@ class FieldMotion:
             d = a[:3, :3] / np.linalg.norm(a[:3, :3], axis=0)
             vectors = d.T
         if vectors is not None:
-            fields = (fields.astype(np.float64) @ vectors.T).astype(np.float32)
+            fields = fields @ vectors.T.astype(np.float32)  # float32: fields of a clinical grid are gigabytes
             data = np.ascontiguousarray(fields.transpose(0, 3, 2, 1, 4)) if order == "F" else \
                 np.ascontiguousarray(fields[..., ::-1])
         else:

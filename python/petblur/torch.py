@@ -73,4 +73,9 @@ def blur_posed(op, x, xi, nodes=2):
     coordinates (world mm with affine=, else the grid's). op is a
     petblur.BlurOperator; nodes, the Gauss-Legendre nodes per tracked
     interval of the time quadrature (petblur.pose)."""
+    from .errors import ArgumentError
+    from .motion import Motion
+    if not isinstance(getattr(op, "motion", None), Motion):
+        raise ArgumentError("blur_posed moves the poses of a rigid Motion; a FieldMotion's operator has none: use "
+                            "blur(op, x), differentiable in x")
     return PosedBlurFunction.apply(x, xi, op, nodes)

@@ -6,6 +6,8 @@ blur by definition (scipy, dense times inside the gate) on a fresh breathing
 case; the transpose's dot test. Every case is drawn fresh (the rng fixture
 prints its seed)."""
 
+import pickle
+
 import numpy as np
 import pytest
 import scipy.ndimage as ndi
@@ -63,6 +65,7 @@ def test_gate_is_the_weighted_sum_of_its_intervals(rng, device):
                                                           device=device)(x).astype(np.float64) for a, b in ivs)
         assert np.abs(y[g] - want).max() <= 1e-5 * np.abs(want).max(), (g, len(ivs))
     F.adjointness_test(rtol=2e-5, seed=int(rng.integers(1 << 31)))
+    assert np.array_equal(pickle.loads(pickle.dumps(F))(x), y)  # the surrogate and the gates travel
 
 
 def test_surrogate_is_its_fields_at_the_signal(rng, device):

@@ -109,3 +109,19 @@ def test_blur_posed_cuda(rng):
     np.testing.assert_allclose(xi.grad.cpu().numpy(), want, rtol=0, atol=2e-3 * np.abs(want).max())
     np.testing.assert_allclose(y.detach().cpu().numpy(), pose.posed_operator(host, xi.detach().cpu().numpy())(x0),
                                rtol=0, atol=2e-3 * float(y.detach().max()))
+
+
+def test_field_motion_gradcheck(rng):
+    """A FieldMotion's operator through autograd: its backward is the exact
+    transpose, on fields that move tissue non-rigidly, the mass-preserving
+    weights too; blur_posed, which moves rigid poses, refuses it."""
+    from petblur.torch import blur_posed
+    n = (6, 5, 4)
+    d = rng.normal(0.0, 1.5, (3,) + n + (3,))
+    fm = petblur.FieldMotion([0.0, 1.0, 2.0], d)
+    for jacobian in (False, True):
+        op = petblur.BlurOperator(n, (1.5, 1.5, 2.0), fm, frame=(0.2, 1.7), device="host", jacobian=jacobian)
+        x = torch.tensor(rng.random(op.in_shape), dtype=torch.float64, requires_grad=True)
+        assert torch.autograd.gradcheck(lambda v: blur(op, v), (x,), eps=1e-2, atol=1e-5, rtol=1e-3)
+    with pytest.raises(petblur.ArgumentError, match="FieldMotion"):
+        blur_posed(op, x, torch.zeros(3, 6, dtype=torch.float64))
