@@ -269,7 +269,7 @@ class _Operator:
             handle = ctypes.c_void_p()
             if isinstance(self.motion, FieldMotion):
                 if f and not self._quiet:
-                    self.motion._warn_folds(self.voxel_size, self._shape, self.affine, stacklevel=6)
+                    self.motion._warn_folds(self.voxel_size, self._shape, self.affine, stacklevel=5)
                 cf, keep = self.motion._c_field(self._shape, self.voxel_size, self.affine, order)
                 g = _lib.Geometry((ctypes.c_size_t * 3)(*dims), (ctypes.c_double * 3)(*vox))
                 gates = getattr(self, "_gates", None)
