@@ -580,9 +580,9 @@ typedef struct pb_blur_options {
     /* Field motions: 0 the blur of concentrations (activity per volume, as
      * a PET image holds it); 1 mass-preserving, each tomograph voxel's
      * reading weighed by the Jacobian determinant |det(I + dD/dr)| of its
-     * field, for images of counts (a segment takes the mean of its two key
-     * points' determinants; central differences of the field between the
-     * voxel's neighbours, one-sided at the grid's faces). A rigid motion's
+     * field, for images of counts (a segment takes the determinant's time
+     * mean over it, Simpson's rule; central differences of the field between
+     * the voxel's neighbours, one-sided at the grid's faces). A rigid motion's
      * determinant is 1: it changes nothing there. */
     int jacobian;
 } pb_blur_options;
@@ -696,7 +696,9 @@ PB_API pb_status pb_blur_frames_adjoint(pb_context *ctx, const pb_volume *const 
  * points at the sample times: AB and RM walk it exactly (the path error bound
  * has nothing to cut), CL's per-step interpolation gives RM's points, and REF
  * samples dense times and random points in each voxel, the field interpolated
- * trilinearly at each. Where the field grid is not the image grid, D is
+ * trilinearly at each. With a surrogate the key times also hold the times
+ * where the signal crosses a field's value, where the motion bends. Where
+ * the field grid is not the image grid, D is
  * interpolated trilinearly in space between the field's voxel centres, and
  * held at its edge values beyond them.
  *

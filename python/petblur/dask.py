@@ -88,7 +88,8 @@ def _parts(op, frames_per_task, device):
     out = []
     for start in range(0, op.frames, int(frames_per_task)):
         stop = min(start + int(frames_per_task), op.frames)
-        d["bounds"] = op.bounds[start:stop + 1].copy()
+        # Bounds: n + 1 times; gates: one list of intervals a frame.
+        d["bounds"] = op.bounds[start:stop] if op._gates is not None else op.bounds[start:stop + 1].copy()
         out.append((start, stop, pickle.dumps((type(op), d))))
     return out
 

@@ -207,6 +207,11 @@ class FieldMotion:
                     "the fields are placed in the world (FieldMotion(affine=)) and the operator has no affine= to "
                     "place the image there; give the operator the image's voxel-to-world 4x4 (nibabel's img.affine)")
             a = np.asarray(affine, dtype=np.float64)
+            cols = a[:3, :3] / np.linalg.norm(a[:3, :3], axis=0)
+            if np.abs(cols.T @ cols - np.eye(3)).max() > 1e-4:
+                raise ArgumentError("the image's affine= shears its axes (its columns are not perpendicular); "
+                                    "world vectors cannot be turned onto such a grid: resample the image onto a "
+                                    "grid without shear")
             m4 = np.linalg.solve(self.affine, a)  # field voxel index from image voxel index
             has_map, m = 1, m4[:3, :]
             # World vectors into the image grid's frame: the image's unit
@@ -270,7 +275,7 @@ class FieldMotion:
 def amplitude_gates(signal_times, signal, edges, span=None):
     """Amplitude gates of a breathing surrogate, as a gated reconstruction
     bins its counts: gate g is every visit of the signal (linear between its
-    samples) to [edges[g], edges[g+1]) inside ``span`` (t0, t1; default the
+    samples) to [edges[g], edges[g+1]) (the last bin closed) inside ``span`` (t0, t1; default the
     signal's), as a list of (start, end) intervals in seconds. The gates
     go to FramesOperator(bounds=gates) with a FieldMotion; a gate the breath
     never visits is an empty list, which the operator refuses."""
@@ -289,11 +294,12 @@ def amplitude_gates(signal_times, signal, edges, span=None):
     cut = np.unique(np.clip(np.concatenate([[t0, t1], t]), t0, t1))
     val = np.interp(cut, t, s)
     gates = []
-    for lo, hi in zip(e[:-1], e[1:]):
+    for g, (lo, hi) in enumerate(zip(e[:-1], e[1:])):
+        last = g == e.size - 2  # the top bin is closed: a plateau at the top edge is in it
         out = []
         for a, b, sa, sb in zip(cut[:-1], cut[1:], val[:-1], val[1:]):
             if sa == sb:
-                p, q = (a, b) if lo <= sa < hi else (a, a)
+                p, q = (a, b) if lo <= sa < hi or (last and sa == hi) else (a, a)
             else:  # the times where s crosses lo and hi, in the piece
                 ta = a + (lo - sa) / (sb - sa) * (b - a)
                 tb = a + (hi - sa) / (sb - sa) * (b - a)

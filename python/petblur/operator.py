@@ -639,9 +639,12 @@ class FramesOperator(_Operator):
 def _gates(bounds):
     """Frames given as gates, a list of (start, end) intervals per frame
     (amplitude_gates' result), checked; None for plain bounds."""
+    if isinstance(bounds, np.ndarray) and bounds.ndim >= 2:
+        raise ArgumentError(f"bounds is a {bounds.ndim}-D array; give the frames' n + 1 times, or gates as a list "
+                            "of lists of (start, end) intervals, one list a frame")
     if isinstance(bounds, np.ndarray) or not isinstance(bounds, (list, tuple)) or not bounds:
         return None
-    if not all(isinstance(g, (list, tuple, np.ndarray)) for g in bounds):
+    if not all(isinstance(g, (list, tuple)) or (isinstance(g, np.ndarray) and g.ndim >= 1) for g in bounds):
         return None
     out = []
     for i, gate in enumerate(bounds):

@@ -69,20 +69,43 @@ def test_gate_is_the_weighted_sum_of_its_intervals(rng, device):
 
 
 def test_surrogate_is_its_fields_at_the_signal(rng, device):
-    """A surrogate motion is the fields interpolated at the signal's values,
-    sample by sample: the same key points, the same blur."""
+    """A surrogate motion is its fields at the signal's values, at the
+    signal's samples and where the signal crosses a field's value (found
+    here by numpy): the same key points, the same blur."""
     n, voxel, values, fields, t, s = _surrogate_case(rng)
     t, s = t[:80], s[:80]
     fm = petblur.FieldMotion.from_surrogate(values, fields, t, s)
-    j = np.clip(np.searchsorted(values, s, side="right") - 1, 0, len(values) - 2)
-    a = (s - values[j]) / (values[j + 1] - values[j])
+    cross = [t[i] + (v - s[i]) / (s[i + 1] - s[i]) * (t[i + 1] - t[i]) for i in range(t.size - 1) for v in values
+             if min(s[i], s[i + 1]) < v < max(s[i], s[i + 1])]
+    times = np.unique(np.concatenate([t, cross]))
+    at = np.interp(times, t, s)
+    j = np.clip(np.searchsorted(values, at, side="right") - 1, 0, len(values) - 2)
+    a = (at - values[j]) / (values[j + 1] - values[j])
     at_samples = (1 - a)[:, None, None, None, None] * fields[j] + a[:, None, None, None, None] * fields[j + 1]
-    series = petblur.FieldMotion(t, at_samples)
+    series = petblur.FieldMotion(times, at_samples)
     frame = (rng.uniform(t[0], t[5]), rng.uniform(t[-6], t[-1]))
     x = _sharp_object(rng, n)
     for method in ("ab", "rm"):
         y = petblur.BlurOperator(n, voxel, fm, frame=frame, method=method, filter="exact", device=device)(x)
         z = petblur.BlurOperator(n, voxel, series, frame=frame, method=method, filter="exact", device=device)(x)
+        assert np.abs(y - z).max() <= 1e-4 * np.abs(z).max(), (method, np.abs(y - z).max())
+
+
+def test_surrogate_bends_at_the_fields_values(rng, device):
+    """A signal sampled only at its ends still passes every field between:
+    the key points hold the times it crosses their values (a surrogate
+    motion is linear in the value, not in time)."""
+    n = tuple(int(v) for v in rng.integers(8, 12, 3))
+    voxel = rng.uniform(1.5, 3.0, 3)
+    values = np.sort(rng.uniform(0.1, 0.9, 3))
+    values = np.concatenate([[0.0], values, [1.0]])
+    fields = _breathing(rng, n, values, amplitude_mm=6.0)
+    surrogate = petblur.FieldMotion.from_surrogate(values, fields, [0.0, 2.0], [0.0, 1.0])
+    in_time = petblur.FieldMotion(2.0 * values, fields)  # the signal reaches value v at 2 v s
+    x = _sharp_object(rng, n)
+    for method in ("ab", "rm"):
+        y = petblur.BlurOperator(n, voxel, surrogate, method=method, filter="exact", device=device)(x)
+        z = petblur.BlurOperator(n, voxel, in_time, method=method, filter="exact", device=device)(x)
         assert np.abs(y - z).max() <= 1e-4 * np.abs(z).max(), (method, np.abs(y - z).max())
 
 
@@ -124,6 +147,12 @@ def test_refusals(rng):
         petblur.FramesOperator(n, voxel, fm, [[(1.0, 3.0), (2.0, 4.0)]], device="host")
     with pytest.raises(petblur.ArgumentError, match="never visits"):
         petblur.FramesOperator(n, voxel, fm, [[(1.0, 3.0)], []], device="host")
+    with pytest.raises(petblur.ArgumentError, match="2-D array"):
+        petblur.FramesOperator(n, voxel, fm, np.array([[1.0, 3.0], [4.0, 5.0]]), device="host")
+    # A plateau at the top edge lies in the top gate.
+    flat_t, flat_s = np.array([0.0, 1.0, 2.0, 3.0]), np.array([0.0, 1.0, 1.0, 0.0])
+    top = petblur.amplitude_gates(flat_t, flat_s, [0.0, 0.5, 1.0])[-1]
+    assert abs(sum(b - a for a, b in top) - 2.0) < 1e-12, top
     track = petblur.Motion([0, 10], [[0, 0, 0], [1, 0, 0]], [[1, 0, 0, 0]] * 2)
     with pytest.raises(petblur.ArgumentError, match="planned for a FieldMotion"):
         petblur.FramesOperator(n, voxel, track, [[(1.0, 3.0), (4.0, 5.0)]], device="host")

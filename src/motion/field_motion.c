@@ -160,7 +160,10 @@ pb_status pb_field_locate(struct pb_context *ctx, const pb_field_motion *f, doub
         size_t j;
         double a;
         bracket(f->signal_times, f->signal_count, t, &j, &a);
-        v = (1.0 - a) * f->signal[j] + a * f->signal[j + 1];
+        double s0 = f->signal[j], s1 = f->signal[j + 1];
+        /* Kept between its two samples: a flat stretch at a field's value
+         * must not round an ulp past it. */
+        v = s0 == s1 ? s0 : fmin(fmax((1.0 - a) * s0 + a * s1, fmin(s0, s1)), fmax(s0, s1));
         if (v < f->times[0] || v > f->times[f->count - 1])
             return pb_error(ctx, PB_ERR_TRACK_GAP, "the surrogate is %s at %s s, outside the fields' values [%s, %s]; "
                             "add a field for that amplitude, or leave that time out of the frames", PB_NUM(v),

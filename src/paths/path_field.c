@@ -96,6 +96,12 @@ static pb_status plan_ref_knots(struct pb_context *ctx, const pb_field_motion *f
             pb_path_knot g;
             if ((st = locate(ctx, f, t, &g)) != PB_OK)
                 break;
+            if (local[g.f0] == (size_t)-1 || local[g.f1] == (size_t)-1) {
+                st = pb_error(ctx, PB_ERR_INVALID_ARGUMENT, "REF's step at %s s reads a field that its segment's key "
+                              "points do not; a planning error, please report it with the fields' times",
+                              PB_NUM(t));
+                break;
+            }
             g.f0 = local[g.f0]; /* gathered with the segment's (pb_path_create_field) */
             g.f1 = local[g.f1];
             plan->field->ref_knots[k] = g;
@@ -119,25 +125,49 @@ static void texel_to_field(const pb_field_motion *f, double map[12])
     }
 }
 
-/* The key times of one interval [t0, t1]: its ends and the samples strictly
- * inside (field times, or the surrogate's sample times); appended to
- * times[] from *n when times is not NULL, else only counted. */
+/* Appends t to times[] at *n (when times is not NULL) and counts it. */
+static void emit(double *times, size_t *n, double t, double *last)
+{
+    if (times)
+        times[*n] = t;
+    (*n)++;
+    *last = t;
+}
+
+/* The key times of one interval [t0, t1], increasing: its ends and, strictly
+ * inside, the field times; or with a surrogate its sample times and the
+ * times between them where the signal crosses a field's value, where the
+ * motion, linear in the value, bends. Written to times[] from *n when times
+ * is not NULL, else only counted (the same times both ways). */
 static void interval_times(const pb_field_motion *f, double t0, double t1, double *times, size_t *n)
 {
-    const double *s = f->signal_count ? f->signal_times : f->times;
-    size_t count = f->signal_count ? f->signal_count : f->count;
-    if (times)
-        times[*n] = t0;
-    (*n)++;
-    for (size_t i = 0; i < count; i++)
-        if (s[i] > t0 && s[i] < t1) {
-            if (times)
-                times[*n] = s[i];
-            (*n)++;
+    double last = t0;
+    emit(times, n, t0, &last);
+    if (!f->signal_count) {
+        for (size_t i = 0; i < f->count; i++)
+            if (f->times[i] > t0 && f->times[i] < t1)
+                emit(times, n, f->times[i], &last);
+    } else {
+        const double *st = f->signal_times, *sv = f->signal;
+        for (size_t i = 0; i + 1 < f->signal_count; i++) {
+            double ta = st[i], tb = st[i + 1], sa = sv[i], sb = sv[i + 1];
+            if (tb <= t0 || ta >= t1)
+                continue;
+            if (ta > t0 && ta > last)
+                emit(times, n, ta, &last);
+            if (sa == sb)
+                continue;
+            for (size_t j = 0; j < f->count; j++) { /* the values passed, in the order the signal passes them */
+                double v = f->times[sb > sa ? j : f->count - 1 - j];
+                if (!(v > fmin(sa, sb) && v < fmax(sa, sb)))
+                    continue;
+                double tc = ta + (v - sa) / (sb - sa) * (tb - ta);
+                if (tc > last && tc > t0 && tc < t1 && tc < tb)
+                    emit(times, n, tc, &last);
+            }
         }
-    if (times)
-        times[*n] = t1;
-    (*n)++;
+    }
+    emit(times, n, t1, &last);
 }
 
 pb_status pb_path_create_field(struct pb_context *ctx, const pb_geometry *g, const pb_field_motion *f,

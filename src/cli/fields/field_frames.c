@@ -34,7 +34,12 @@ int pbc_blur_fields_image(pb_context *ctx, const pbc_image *in, const pbc_fields
     size_t n = pbc_image_frame_voxels(in), sources = pbc_image_frame_count(in), outputs = adjoint && sum ? 1 : frames;
     pb_volume **src = calloc(sources, sizeof *src), **dst = calloc(outputs, sizeof *dst);
     pb_plan *plan = NULL;
-    pb_status st = src && dst ? PB_OK : PB_ERR_OUT_OF_MEMORY;
+    if (!src || !dst) {
+        free(src);
+        free(dst);
+        return pbc_fail(PBC_EXIT_RUNTIME, "%s: out of host memory for %zu volumes' handles", label, sources + outputs);
+    }
+    pb_status st = PB_OK;
     pb_context_set_progress(ctx, pbc_show_progress ? pbc_progress_line : NULL, (void *)label);
     if (st == PB_OK)
         st = pb_plan_create_field_frames(ctx, &g, &f->motion, bounds, frames, options, &plan);
