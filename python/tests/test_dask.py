@@ -59,6 +59,30 @@ def test_per_frame_inputs_and_unsummed_adjoint(client, device, rng):
     assert per.dtype == np.float64 and per.shape == ref.shape and _close(per, ref, 1e-5), np.abs(per - ref).max()
 
 
+def test_gates_of_a_field_motion(client, rng):
+    """A gated FramesOperator of a surrogate-driven FieldMotion: its gates
+    split over the tasks as frames are, the same blur and summed transpose as
+    in one process."""
+    import dask.array as da
+    shape = tuple(int(n) for n in rng.integers(8, 12, 3))
+    t = np.linspace(0.0, 20.0, 401)
+    s = 0.5 * (1 - np.cos(2 * np.pi * t / rng.uniform(3.5, 4.5))) * (1 + 0.2 * np.sin(t / 5.0))
+    values = np.linspace(-0.1, 1.3, 4)
+    fields = rng.normal(0.0, 1.5, (4,) + shape + (3,))
+    fm = petblur.FieldMotion.from_surrogate(values, fields, t, s)
+    gates = petblur.amplitude_gates(t, s, np.linspace(s.min(), s.max(), 4))
+    import warnings
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # random fields fold
+        op = petblur.FramesOperator(shape, 2.0, fm, gates, device="host")
+    x = rng.random(op.in_shape, dtype=np.float32)
+    fwd = client.compute(petblur.dask.forward(op, x, frames_per_task=2)).result()
+    np.testing.assert_array_equal(fwd, op.apply(x))
+    s_ = client.compute(petblur.dask.adjoint(op, da.from_array(fwd, chunks=(2,) + op._shape),
+                                             frames_per_task=2)).result()
+    assert _close(s_, op.adjoint(fwd), 1e-5)
+
+
 def test_each_worker_plans_a_frame_range_once(client, rng):
     op = _frames_operator(rng, "host", frames=5)
     first, second = sorted(client.scheduler_info()["workers"])
