@@ -321,7 +321,7 @@ def rms_error(out, ref):
 
 
 # RM along the belt's polyline against a dense time average binned by amplitude (200 bins a gate): measured 6e-7 to
-# 9e-5 of the gate's RMS over 4 draws; the gates differ from one another by 0.1 and more.
+# 1.2e-4 of the gate's RMS over 9 draws; the gates differ from one another by 0.1 and more.
 GATES_TOL = 1e-3
 
 
@@ -422,6 +422,8 @@ class Gates(Case):
         self.refused(["--gates", ".nii"], "--signal", belt_csv, "--gates", "0.1,0.5", out="out.raw")
         self.assert_clean("out.raw")
         self.refused(["header 'time,value'"], "--signal", self.table)
+        _, err = run("motion", "--fields", self.table, expect=2)
+        self.assertIn("petblur blur --signal", err)
 
 
 if __name__ == "__main__":

@@ -62,9 +62,13 @@ int pbc_fields_from_args(const pbc_command *cmd, const pbc_args *args, pbc_field
         return rc;
     }
     if (f->by_value && !pbc_arg(cmd, args, "--signal")) {
-        rc = pbc_fail(PBC_EXIT_USAGE, "--fields %s gives fields at a surrogate's values ('value,path'): give "
-                      "--signal TRACE.csv too, the surrogate's 'time,value' samples%s", f->table,
-                      pbc_arg(cmd, args, "--signal") || !strcmp(cmd->name, "blur") ? "" : " (petblur blur)");
+        if (strcmp(cmd->name, "blur"))
+            rc = pbc_fail(PBC_EXIT_USAGE, "--fields %s gives fields at a surrogate's values ('value,path'); petblur "
+                          "%s reads fields at times ('time,path'): blur such a table with petblur blur --signal "
+                          "TRACE.csv", f->table, cmd->name);
+        else
+            rc = pbc_fail(PBC_EXIT_USAGE, "--fields %s gives fields at a surrogate's values ('value,path'): give "
+                          "--signal TRACE.csv too, the surrogate's 'time,value' samples", f->table);
         pbc_fields_free(f);
         return rc;
     }
