@@ -18,6 +18,7 @@ static const pbc_option options[] = {
     {"--voxel-size", NULL, "DX,DY,DZ", "voxel size in mm of a .raw input (default 1,1,1)"},
     PBC_MOTION_OPTIONS,
     PBC_FIELD_OPTIONS,
+    PBC_SIGNAL_OPTIONS,
     {"--frames", NULL, "T0,T1,...", "dynamic PET: the frames' boundaries in the motion, seconds; IN is a 4-D NIfTI "
                                     "with one volume per frame (or 3-D, for all), OUT a 4-D NIfTI"},
     {"--frames-from", NULL, "SIDECAR.json", "the frames from a BIDS-PET sidecar (FrameTimesStart, FrameDuration, "
@@ -35,8 +36,8 @@ static const pbc_option options[] = {
                                "determinant, for images of counts (default: concentrations, as PET images hold)"},
     {"--adjoint", NULL, NULL, "apply the transpose instead (back projection's blur): IN is tomograph-space, OUT "
                               "object-space"},
-    {"--sum-frames", NULL, NULL, "with --adjoint --frames: add every frame's back projection into one 3-D OUT (the "
-                                 "transpose of a 3-D IN blurred through every frame), in any format"},
+    {"--sum-frames", NULL, NULL, "with --adjoint --frames (or --gates): add every frame's back projection into one "
+                                 "3-D OUT (the transpose of a 3-D IN blurred through every frame), in any format"},
     PBC_OPTION_DEVICE,
     {"--png", NULL, "PICTURE.png", "picture of input, output and difference (central slices)"},
     {"--quiet", "-q", NULL, "print nothing but errors"},
@@ -61,7 +62,8 @@ static const pbc_command command = {
     "  petblur blur -i ratio.nii.gz -o backprojected.nii.gz --motion track.csv --frame 30,60 --adjoint\n"
     "  petblur blur -i dynamic.nii.gz -o dynamic-blurred.nii.gz --motion track.csv --frames 0,60,120,300,600\n"
     "  petblur blur -i ratios.nii.gz -o summed.nii.gz --motion track.csv --frames 0,60,120 --adjoint --sum-frames\n"
-    "  petblur blur -i act.nii.gz -o gated.nii.gz --fields breathing.csv --frame 0,4 --method rm"};
+    "  petblur blur -i act.nii.gz -o gated.nii.gz --fields breathing.csv --frame 0,4 --method rm\n"
+    "  petblur blur -i act.nii.gz -o gates.nii.gz --fields amplitudes.csv --signal belt.csv --gates 0,0.3,0.6,1"};
 
 static int blur_options(const pbc_args *args, pb_blur_options *opt)
 {
@@ -160,33 +162,40 @@ static int frame_bounds(const pbc_args *args, double **bounds, size_t *count)
     if (v && json)
         return pbc_fail(PBC_EXIT_USAGE, "--frames and --frames-from: give one");
     v = v ? v : json;
-    int sum = pbc_arg(&command, args, "--sum-frames") != NULL;
+    int sum = pbc_arg(&command, args, "--sum-frames") != NULL, gates = pbc_arg(&command, args, "--gates") != NULL;
     *bounds = NULL;
     *count = 0;
-    if (sum && (!v || !pbc_arg(&command, args, "--adjoint")))
+    if (sum && ((!v && !gates) || !pbc_arg(&command, args, "--adjoint")))
         return pbc_fail(PBC_EXIT_USAGE, "--sum-frames adds the frames' back projections into one volume: give it "
-                        "with --adjoint and --frames T0,T1,...");
+                        "with --adjoint and --frames T0,T1,... (or --gates)");
+    if (v && gates)
+        return pbc_fail(PBC_EXIT_USAGE, "--gates and --frames%s: give one; the gates are the frames, the span they "
+                        "bin is --frame T0,T1", json && !pbc_arg(&command, args, "--frames") ? "-from" : "");
+    char ext[16];
+    const char *out = pbc_arg(&command, args, "--output");
+    pbc_file_extension(out, ext, sizeof ext);
+    if (gates && !sum && strcmp(ext, ".nii") && strcmp(ext, ".nii.gz"))
+        return pbc_fail(PBC_EXIT_USAGE, "-o %s: --gates makes a 4-D image, a gate a frame, which only NIfTI holds; "
+                        "name the output .nii or .nii.gz", out);
     if (!v)
         return 0;
     if (pbc_arg(&command, args, "--frame"))
         return pbc_fail(PBC_EXIT_USAGE, "--frame and --frames: give one; --frames T0,T1,... blurs every frame, "
                         "--frame T0,T1 one");
-    char ext[16];
-    const char *out = pbc_arg(&command, args, "--output");
-    pbc_file_extension(out, ext, sizeof ext);
     if (!sum && strcmp(ext, ".nii") && strcmp(ext, ".nii.gz"))
         return pbc_fail(PBC_EXIT_USAGE, "-o %s: --frames makes a 4-D image, which only NIfTI holds; name the output "
                         ".nii or .nii.gz", out);
     return json ? pbc_bids_frames(json, bounds, count) : pbc_parse_bounds("--frames", v, bounds, count);
 }
 
-static int check_frames(const char *in_path, const pbc_image *in, size_t frames)
+static int check_frames(const char *in_path, const pbc_image *in, size_t frames, int gated)
 {
     size_t have = pbc_image_frame_count(in);
     if (have != 1 && have != frames)
-        return pbc_fail(PBC_EXIT_USAGE, "%s has %zu frames and --frames gives %zu (one boundary more than frames); "
-                        "give %zu boundaries, or a 3-D volume to blur through every frame", in_path, have, frames,
-                        have + 1);
+        return pbc_fail(PBC_EXIT_USAGE, "%s has %zu frames and %s gives %zu (one %s more than %s); give %zu %ss, or "
+                        "a 3-D volume to blur through every %s", in_path, have, gated ? "--gates" : "--frames", frames,
+                        gated ? "edge" : "boundary", gated ? "gates" : "frames", have + 1,
+                        gated ? "edge" : "boundarie", gated ? "gate" : "frame");
     return 0;
 }
 
@@ -249,10 +258,12 @@ static int run(const pbc_args *args, pbc_fields *fields, const char *in_path, co
         free(bounds);
         return rc;
     }
-    size_t frames = bounds ? nb - 1 : 1;
+    int gated = fields->gates > 0, framed = bounds || gated;
+    size_t frames = bounds ? nb - 1 : gated ? fields->gates : 1;
     const char *label = pb_method_name(opt.method);
-    size_t out_frames = bounds && !sum ? frames : 1;
-    if (!(rc = read_input(args, in_path, bounds != NULL, &in)) && !(rc = bounds ? check_frames(in_path, &in, frames) : 0) &&
+    size_t out_frames = framed && !sum ? frames : 1;
+    if (!(rc = read_input(args, in_path, framed, &in)) &&
+        !(rc = framed ? check_frames(in_path, &in, frames, gated) : 0) &&
         !(rc = pbc_image_check_output(out_path, in.dims, out_frames)) &&
         !(rc = place_motion(&motion, fields, &in, in_path, bounds, frames)) &&
         !(rc = pbc_image_alloc_frames(&out, in.dims, in.voxel_size, out_frames)) &&
@@ -260,7 +271,9 @@ static int run(const pbc_args *args, pbc_fields *fields, const char *in_path, co
         out.orientation = in.orientation;
         if (bounds)
             out.frame_seconds = sum ? 0.0 : common_length(bounds, frames);
-        if (fields->table)
+        if (fields->table && gated)
+            rc = pbc_blur_fields_image(ctx, &in, fields, NULL, frames, &opt, adjoint, sum, label, out.data, &ms);
+        else if (fields->table)
             rc = pbc_blur_fields_image(ctx, &in, fields, bounds, frames, &opt, adjoint, sum, label, out.data, &ms);
         else if (bounds)
             rc = pbc_blur_frames_image(ctx, &in, &motion.motion, bounds, frames, &opt, adjoint, sum, label, out.data,
@@ -271,12 +284,13 @@ static int run(const pbc_args *args, pbc_fields *fields, const char *in_path, co
     if (!rc)
         rc = pbc_image_write(out_path, &out);
     if (!rc && png)
-        rc = write_picture(png, &in, out.data, bounds != NULL, sum);
+        rc = write_picture(png, &in, out.data, framed, sum);
     if (!rc && !quiet) {
         char dev[600], shape[64] = "";
         pbc_describe_device(ctx, dev, sizeof dev);
-        if (bounds)
-            snprintf(shape, sizeof shape, sum ? ", the sum of %zu frames" : " x %zu frames", frames);
+        if (framed)
+            snprintf(shape, sizeof shape, sum ? ", the sum of %zu %s" : " x %zu %s", frames,
+                     gated ? "gates" : "frames");
         printf("%s: %zu x %zu x %zu%s, %s %s%s on %s, kernel %.2f ms\n", out_path, in.dims[0], in.dims[1], in.dims[2],
                shape, pb_method_name(opt.method), opt.method == PB_METHOD_REF ? "box" : pb_filter_name(opt.filter),
                adjoint ? " adjoint" : "", dev, ms);
@@ -299,7 +313,7 @@ int pbc_cmd_blur(int argc, char **argv)
     pbc_fields fields;
     if ((rc = pbc_fields_from_args(&command, &args, &fields)))
         return rc;
-    if (!(rc = check_paths(&args, &fields, &in, &out, &png))) {
+    if (!(rc = pbc_fields_signal(&command, &args, &fields)) && !(rc = check_paths(&args, &fields, &in, &out, &png))) {
         if (pbc_arg(&command, &args, "--quiet"))
             pbc_show_progress = 0;
         rc = run(&args, &fields, in, out, png);

@@ -26,7 +26,10 @@ int pbc_blur_fields_image(pb_context *ctx, const pbc_image *in, const pbc_fields
                           float *out, double *ms)
 {
     double one[2] = {f->motion.frame_start, f->motion.frame_end};
-    if (!bounds) {
+    int gated = !bounds && f->gates;
+    if (gated)
+        frames = f->gates;
+    else if (!bounds) {
         bounds = one;
         frames = 1;
     }
@@ -41,7 +44,9 @@ int pbc_blur_fields_image(pb_context *ctx, const pbc_image *in, const pbc_fields
     }
     pb_status st = PB_OK;
     pb_context_set_progress(ctx, pbc_show_progress ? pbc_progress_line : NULL, (void *)label);
-    if (st == PB_OK)
+    if (st == PB_OK && gated)
+        st = pb_plan_create_field_gates(ctx, &g, &f->motion, f->intervals, f->counts, frames, options, &plan);
+    else if (st == PB_OK)
         st = pb_plan_create_field_frames(ctx, &g, &f->motion, bounds, frames, options, &plan);
     /* Each input frame goes up once; a 3-D input serves every frame. */
     for (size_t i = 0; i < sources && st == PB_OK; i++)

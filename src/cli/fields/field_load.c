@@ -238,7 +238,12 @@ int pbc_fields_load(pbc_fields *f, const pbc_image *img, const char *in_path, co
 {
     size_t count = 0;
     double a[16], dir[9];
-    int rc = frame_rows(f, bounds ? bounds[0] : f->frame[0], bounds ? bounds[frames] : f->frame[1], &count);
+    int rc = 0;
+    if (f->by_value) { /* fields at the signal's values: the library checks the signal against them */
+        f->first = 0;
+        count = f->rows;
+    } else
+        rc = frame_rows(f, bounds ? bounds[0] : f->frame[0], bounds ? bounds[frames] : f->frame[1], &count);
     field_kind *kinds = rc ? NULL : calloc(count, sizeof *kinds);
     if (!rc && !kinds)
         rc = pbc_fail(PBC_EXIT_RUNTIME, "--fields %s: out of memory", f->table);
@@ -279,6 +284,11 @@ int pbc_fields_load(pbc_fields *f, const pbc_image *img, const char *in_path, co
     m->has_map = !(is_identity(m->field_from_grid) && !memcmp(m->dims, f->geometry.dims, sizeof m->dims));
     m->frame_start = f->frame[0];
     m->frame_end = f->frame[1];
+    if (f->by_value) {
+        m->signal_times = f->signal_times;
+        m->signal = f->signal;
+        m->signal_count = f->signal_count;
+    }
     warn_folds(f);
     return 0;
 }

@@ -61,7 +61,18 @@ int pbc_fields_from_args(const pbc_command *cmd, const pbc_args *args, pbc_field
         pbc_fields_free(f);
         return rc;
     }
-    if (!f->has_frame) {
+    if (f->by_value && !pbc_arg(cmd, args, "--signal")) {
+        if (strcmp(cmd->name, "blur"))
+            rc = pbc_fail(PBC_EXIT_USAGE, "--fields %s gives fields at a surrogate's values ('value,path'); petblur "
+                          "%s reads fields at times ('time,path'): blur such a table with petblur blur --signal "
+                          "TRACE.csv", f->table, cmd->name);
+        else
+            rc = pbc_fail(PBC_EXIT_USAGE, "--fields %s gives fields at a surrogate's values ('value,path'): give "
+                          "--signal TRACE.csv too, the surrogate's 'time,value' samples", f->table);
+        pbc_fields_free(f);
+        return rc;
+    }
+    if (!f->has_frame && !f->by_value) {
         f->frame[0] = f->times[0];
         f->frame[1] = f->times[f->rows - 1];
     }
@@ -139,6 +150,9 @@ static int take_row(pbc_fields *f, char *text, size_t line, size_t *capacity)
     if (f->rows == PBC_MAX_FIELDS)
         return pbc_fail(PBC_EXIT_USAGE, "--fields %s: more than %d fields; petblur reads at most %d: give a table "
                         "of the frames' fields only", f->table, PBC_MAX_FIELDS, PBC_MAX_FIELDS);
+    if (f->rows && !(t > f->times[f->rows - 1]) && f->by_value)
+        return pbc_fail(PBC_EXIT_USAGE, "--fields %s line %zu: value %s is not above the row before it (%s); sort the "
+                        "rows by the surrogate's value", f->table, line, PBC_NUM(t), PBC_NUM(f->times[f->rows - 1]));
     if (f->rows && !(t > f->times[f->rows - 1]))
         return pbc_fail(PBC_EXIT_USAGE, "--fields %s line %zu: time %s s is not after the row before it (%s s); "
                         "sort the rows by time (a still warp is the same file at two times)", f->table, line,
@@ -173,10 +187,13 @@ static int read_lines(FILE *in, pbc_fields *f)
             continue;
         if (!header) {
             char *comma = strchr(s, ',');
-            if (!comma || (*comma = '\0', !same_words(trim(s), "time")) || !same_words(trim(comma + 1), "path"))
-                return pbc_fail(PBC_EXIT_USAGE, "--fields %s line %zu: the first line must be the header 'time,path'; "
-                                "add it, then one row per field: its time in seconds and its NIfTI file", f->table,
-                                line);
+            if (comma)
+                *comma = '\0';
+            f->by_value = comma && same_words(trim(s), "value");
+            if (!comma || !(f->by_value || same_words(trim(s), "time")) || !same_words(trim(comma + 1), "path"))
+                return pbc_fail(PBC_EXIT_USAGE, "--fields %s line %zu: the first line must be the header 'time,path' "
+                                "(or 'value,path', fields at a surrogate's values with --signal); add it, then one row "
+                                "per field: its time in seconds and its NIfTI file", f->table, line);
             header = 1;
             continue;
         }
@@ -216,6 +233,7 @@ void pbc_fields_files(const pbc_fields *f, pbc_files *files)
     if (!f->table)
         return;
     pbc_files_read(files, "--fields", f->table);
+    pbc_files_read(files, "--signal", f->signal_path);
     for (size_t i = 0; i < f->rows; i++)
         pbc_files_read(files, "--fields", f->paths[i]);
 }
@@ -227,6 +245,14 @@ void pbc_fields_free(pbc_fields *f)
     free(f->paths);
     free(f->times);
     free(f->vectors);
+    free(f->signal_times);
+    free(f->signal);
+    free(f->edges);
+    free(f->intervals);
+    free(f->counts);
+    f->signal_times = f->signal = f->edges = f->intervals = NULL;
+    f->counts = NULL;
+    f->signal_count = f->gates = 0;
     f->paths = NULL;
     f->times = NULL;
     f->vectors = NULL;

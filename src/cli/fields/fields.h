@@ -15,7 +15,8 @@
 /* The option rows of blur and motion. */
 #define PBC_FIELD_OPTIONS                                                                                             \
     {"--fields", NULL, "TABLE.csv", "non-rigid motion instead of a track: a table 'time,path' of NIfTI displacement " \
-                                    "fields (s; paths relative to the table), world mm on any grid"},                 \
+                                    "fields (s; paths relative to the table), world mm on any grid; 'value,path': "  \
+                                    "fields at a surrogate's values, with --signal"},                                \
     {"--field-convention", NULL, "nifti|niftyreg|itk", "the fields' vectors: RAS displacements (intent 1006), "      \
                                                        "NiftyReg's or SIRF's (intent_p1 0: deformation, 1: "          \
                                                        "displacement), ITK's/ANTs' LPS displacements; default: told " \
@@ -25,6 +26,16 @@
  * frames are tens to hundreds; more is a mistake, refused before anything
  * is read. */
 enum { PBC_MAX_FIELDS = 10000 };
+/* A surrogate's samples at most: a day at 25 Hz is 2.2 million; the file is
+ * refused by its size before it is read. */
+enum { PBC_MAX_SIGNAL = 4000000 };
+
+/* blur's option rows of a surrogate-driven motion. */
+#define PBC_SIGNAL_OPTIONS                                                                                            \
+    {"--signal", NULL, "TRACE.csv", "with a 'value,path' --fields table: the surrogate (a belt) 'time,value', s; the " \
+                                    "motion at t is the field at the surrogate's value then"},                        \
+    {"--gates", NULL, "E0,E1,...", "with --signal: amplitude gates [Ei, Ei+1), each every visit of the signal there "  \
+                                   "in the --frame (default: the whole signal); OUT a 4-D NIfTI, a gate a frame"}
 
 typedef enum pbc_field_convention {
     PBC_FIELDS_AUTO = -1, /* told by each file: intent 1006, or 1007 with NiftyReg's name */
@@ -47,6 +58,15 @@ typedef struct pbc_fields {
     pbc_vector_header grid; /* the files' grid */
     pb_geometry geometry;   /* the image's grid */
     pb_field_motion motion;
+    /* A surrogate (--signal): the table's times are then its values. */
+    int by_value;           /* the table's header is 'value,path' */
+    const char *signal_path;
+    size_t signal_count;
+    double *signal_times, *signal;
+    /* --gates: gates = edges - 1 of them, gate g the intervals counts[g], one after the other. */
+    size_t gates;
+    double *edges, *intervals;
+    size_t *counts;
 } pbc_fields;
 
 /* --fields and --field-convention, checked against the track options and
@@ -56,6 +76,21 @@ typedef struct pbc_fields {
 int pbc_fields_from_args(const pbc_command *cmd, const pbc_args *args, pbc_fields *f);
 /* Reads the table: "time,path" then a row per field. */
 int pbc_field_table_read(const char *table, pbc_fields *f);
+
+/* --signal and --gates (blur): the trace read, the value table paired with
+ * it, the gates' intervals computed over the --frame (or the whole signal);
+ * a gate the signal never visits refused. Returns 0 or an exit status. */
+int pbc_fields_signal(const pbc_command *cmd, const pbc_args *args, pbc_fields *f);
+/* Reads a surrogate's trace: "time,value" then a row per sample. */
+int pbc_signal_read(const char *path, pbc_fields *f);
+/* Gate g = [edges[g], edges[g+1]), g < gates: every interval of [t0, t1]
+ * (inside [t[0], t[n-1]]) where the signal s, linear between its n >= 2
+ * samples at increasing times t, lies in it, touching ones merged. Writes
+ * counts[g] (if counts) and the intervals one gate after the other, a start
+ * and an end each (if intervals); returns how many there are in all. Call
+ * it with NULLs first to size intervals. */
+size_t pbc_amplitude_gates(const double *t, const double *s, size_t n, const double *edges, size_t gates, double t0,
+                           double t1, double *intervals, size_t *counts);
 
 /* Adds the table and every file it names to the files a command reads. */
 void pbc_fields_files(const pbc_fields *f, pbc_files *files);
@@ -71,7 +106,8 @@ int pbc_fields_load(pbc_fields *f, const pbc_image *img, const char *in_path, co
 void pbc_fields_free(pbc_fields *f);
 
 /* As pbc_blur_frames_image (blur_run.h), along the loaded fields: frames
- * bounds[0..frames] (NULL: the one frame f->motion gives). */
+ * bounds[0..frames] (NULL: f->gates frames, the --gates, if any, else the one
+ * frame f->motion gives). */
 int pbc_blur_fields_image(pb_context *ctx, const pbc_image *in, const pbc_fields *f, const double *bounds,
                           size_t frames, const pb_blur_options *options, int adjoint, int sum, const char *label,
                           float *out, double *ms);
