@@ -31,7 +31,7 @@ static pb_status check_values(struct pb_context *ctx, const pb_field_motion *f)
         for (size_t v = 0; v < n; v++)
             for (int c = 0; c < 3; c++) {
                 float x = d[3 * v + c];
-                if (isfinite(x) && fabs(x) <= PB_MAX_DISPLACEMENT)
+                if (isfinite(x) && fabs((double)x) <= PB_MAX_DISPLACEMENT)
                     continue;
                 size_t i = v % f->dims[0], j = v / f->dims[0] % f->dims[1], l = v / f->dims[0] / f->dims[1];
                 if (!isfinite(x))
@@ -247,7 +247,7 @@ pb_status pb_field_check_folds(const pb_geometry *geometry, const pb_field_motio
     pb_status st = pb_field_validate(NULL, geometry, field);
     if (st != PB_OK)
         return st;
-    *folds = (pb_field_folds){0, -1, -1, INFINITY};
+    *folds = (pb_field_folds){0, -1, -1, (double)INFINITY};
     size_t n = pb_field_voxels(field);
     for (size_t k = 0; k < field->count; k++) {
         const float *d = field->displacements + k * n * 3;

@@ -141,7 +141,7 @@ static int compute_gates(const char *text, pbc_fields *f)
     if (!(f->counts = calloc(f->gates, sizeof *f->counts)))
         return pbc_fail(PBC_EXIT_RUNTIME, "--gates: out of memory");
     size_t total = pbc_amplitude_gates(t, s, n, f->edges, f->gates, f->frame[0], f->frame[1], NULL, f->counts);
-    double lo = INFINITY, hi = -INFINITY;
+    double lo = (double)INFINITY, hi = -(double)INFINITY;
     for (size_t i = 0; i < n; i++)
         if (t[i] >= f->frame[0] && t[i] <= f->frame[1]) {
             lo = fmin(lo, s[i]);
