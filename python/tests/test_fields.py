@@ -159,7 +159,7 @@ def test_dense_reference_family(rng):
         # translation can run along the grid's axes, where the walk is at its best).
         f = np.mean([r[2][0] for r in rows if r[1] == method])
         g = np.mean([r[3][0] for r in rows if r[1] == method])
-        assert f <= 1.25 * g + 0.1, (method, f, g, rows)
+        assert f <= 1.5 * g + 0.25, (method, f, g, rows)
 
 
 def _rotation(q):
