@@ -79,7 +79,7 @@ int pbc_fields_from_args(const pbc_command *cmd, const pbc_args *args, pbc_field
     return 0;
 }
 
-static char *trim(char *s)
+char *pbc_field_trim(char *s)
 {
     while (*s == ' ' || *s == '\t')
         s++;
@@ -89,7 +89,7 @@ static char *trim(char *s)
     return s;
 }
 
-static int same_words(const char *a, const char *b)
+int pbc_field_same_words(const char *a, const char *b)
 {
     for (; *a && *b; a++, b++)
         if (tolower((unsigned char)*a) != tolower((unsigned char)*b))
@@ -134,7 +134,7 @@ static int take_row(pbc_fields *f, char *text, size_t line, size_t *capacity)
         return pbc_fail(PBC_EXIT_USAGE, "--fields %s line %zu: '%s' is not 'time,path'; give the field's time in "
                         "seconds, a comma and its file", f->table, line, text);
     *comma = '\0';
-    char *time = trim(text), *path = trim(comma + 1);
+    char *time = pbc_field_trim(text), *path = pbc_field_trim(comma + 1);
     size_t n = strlen(path);
     if (n >= 2 && path[0] == '"' && path[n - 1] == '"') { /* a quoted path, as spreadsheets write one */
         path[n - 1] = '\0';
@@ -182,15 +182,15 @@ static int read_lines(FILE *in, pbc_fields *f)
         char *s = buf;
         if (line == 1 && !strncmp(s, "\xEF\xBB\xBF", 3)) /* a byte-order mark, as some editors write */
             s += 3;
-        s = trim(s);
+        s = pbc_field_trim(s);
         if (!*s)
             continue;
         if (!header) {
             char *comma = strchr(s, ',');
             if (comma)
                 *comma = '\0';
-            f->by_value = comma && same_words(trim(s), "value");
-            if (!comma || !(f->by_value || same_words(trim(s), "time")) || !same_words(trim(comma + 1), "path"))
+            f->by_value = comma && pbc_field_same_words(pbc_field_trim(s), "value");
+            if (!comma || !(f->by_value || pbc_field_same_words(pbc_field_trim(s), "time")) || !pbc_field_same_words(pbc_field_trim(comma + 1), "path"))
                 return pbc_fail(PBC_EXIT_USAGE, "--fields %s line %zu: the first line must be the header 'time,path' "
                                 "(or 'value,path', fields at a surrogate's values with --signal); add it, then one row "
                                 "per field: its time in seconds and its NIfTI file", f->table, line);

@@ -117,4 +117,10 @@ int pbc_blur_fields_image(pb_context *ctx, const pbc_image *in, const pbc_fields
  * of any field voxel from where the frame's first field puts it, mm. */
 void pbc_fields_frame_summary(const pbc_fields *f, double t0, double t1, size_t *samples, double *max_mm);
 
+/* The tables' text (field_table.c, shared with signal.c): a cell without
+ * its surrounding blanks and line end, in place; two header words equal but
+ * for case. */
+char *pbc_field_trim(char *s);
+int pbc_field_same_words(const char *a, const char *b);
+
 #endif

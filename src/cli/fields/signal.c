@@ -16,24 +16,6 @@
 
 #define MAX_LINE 256
 
-static char *trim(char *s)
-{
-    while (*s == ' ' || *s == '\t')
-        s++;
-    size_t n = strlen(s);
-    while (n && (s[n - 1] == ' ' || s[n - 1] == '\t' || s[n - 1] == '\r' || s[n - 1] == '\n'))
-        s[--n] = '\0';
-    return s;
-}
-
-static int same_words(const char *a, const char *b)
-{
-    for (; *a && *b; a++, b++)
-        if (tolower((unsigned char)*a) != tolower((unsigned char)*b))
-            return 0;
-    return *a == *b;
-}
-
 static int take_sample(pbc_fields *f, char *s, size_t line, size_t *capacity)
 {
     const char *path = f->signal_path;
@@ -43,7 +25,7 @@ static int take_sample(pbc_fields *f, char *s, size_t line, size_t *capacity)
         return pbc_fail(PBC_EXIT_USAGE, "--signal %s line %zu: '%s' is not 'time,value'; give the time in seconds, "
                         "a comma and the surrogate's value", path, line, s);
     *comma = '\0';
-    char *ts = trim(s), *vs = trim(comma + 1);
+    char *ts = pbc_field_trim(s), *vs = pbc_field_trim(comma + 1);
     if (pbc_plain_number(ts, &t))
         return pbc_fail(PBC_EXIT_USAGE, "--signal %s line %zu: time '%s' is not a finite number; give seconds as a "
                         "plain decimal", path, line, ts);
@@ -88,12 +70,12 @@ static int read_samples(FILE *in, pbc_fields *f)
         char *s = buf;
         if (line == 1 && !strncmp(s, "\xEF\xBB\xBF", 3))
             s += 3;
-        s = trim(s);
+        s = pbc_field_trim(s);
         if (!*s)
             continue;
         if (!header) {
             char *comma = strchr(s, ',');
-            if (!comma || (*comma = '\0', !same_words(trim(s), "time")) || !same_words(trim(comma + 1), "value"))
+            if (!comma || (*comma = '\0', !pbc_field_same_words(pbc_field_trim(s), "time")) || !pbc_field_same_words(pbc_field_trim(comma + 1), "value"))
                 return pbc_fail(PBC_EXIT_USAGE, "--signal %s line %zu: the first line must be the header 'time,value'; "
                                 "add it, then one row per sample: its time in seconds and the surrogate's value",
                                 f->signal_path, line);
