@@ -3,7 +3,6 @@
  * values, and amplitude gates computed from it (gates.c). The trace is small
  * text ("time,value" and a row per sample), its size bounded before it is
  * read. */
-#include <ctype.h>
 #include <errno.h>
 #include <math.h>
 #include <stdio.h>
