@@ -118,7 +118,7 @@ def check(errors, request, block_tol=BLOCK_TOL):
     """Each component within COMPONENT_TOL, and each of the blocks (all the
     samples' translations together, their rotations) within block_tol."""
     for (k, j), (num, den) in sorted(errors.items()):
-        request.node.user_properties.append((f"sample {k} {'vw'[j // 3]}{'xyz'[j % 3]}", np.sqrt(num / den)))
+        request.node.user_properties.append((f"sample {k} {'vw'[j // 3]}{'xyz'[j % 3]}", float(np.sqrt(num / den))))
     print(" ".join(f"{k}{'vw'[j // 3]}{'xyz'[j % 3]} {100 * np.sqrt(n / d):.1f}%"
                    for (k, j), (n, d) in sorted(errors.items())))
     for block in "vw":

@@ -67,6 +67,17 @@ void pb_path_destroy(pb_path *plan);
  * dense time steps. */
 pb_status pb_path_create_field(struct pb_context *ctx, const pb_geometry *geometry, const pb_field_motion *field,
                                const double *intervals, size_t count, const pb_blur_options *options, pb_path *plan);
+/* A surrogate's frame planned by value (path_surrogate.c): a segment per bin
+ * of surrogate values the frame visits, each bin inside one interval between
+ * fields and no voxel moving more than max_move voxels across it, weighed by
+ * the frame's time there (of `total`); the plan's field, key points (global
+ * field indices) and weights set, its fields not yet gathered. */
+pb_status pb_path_surrogate_knots(struct pb_context *ctx, const pb_field_motion *field, const double *intervals,
+                                  size_t count, double total, double max_move, pb_path *plan);
+/* A surrogate's value bins against the path bound: no voxel moves more than
+ * this many bounds across one (docs/motion.md gives the measurements). */
+#define PB_VALUE_BIN_MOVES 2.5
+
 /* Key point j of a field path for the voxel at texel coordinates u, in
  * object texel coordinates: u plus the field there (the voxel's own sample
  * on the image grid, else trilinear on the field's). */

@@ -170,6 +170,49 @@ static void interval_times(const pb_field_motion *f, double t0, double t1, doubl
     emit(times, n, t1, &last);
 }
 
+/* Key points in time: each interval's ends and what interval_times puts
+ * between them, each segment weighed by its share of the frame's time, the
+ * gaps between intervals skipped; in global field indices. */
+static pb_status time_knots(struct pb_context *ctx, const pb_field_motion *f, const double *iv, size_t intervals,
+                            double total, pb_path *plan)
+{
+    size_t count = 0;
+    for (size_t i = 0; i < intervals; i++)
+        interval_times(f, iv[2 * i], iv[2 * i + 1], NULL, &count);
+    if (count - 1 > PB_MAX_SEGMENTS)
+        return pb_error(ctx, PB_ERR_INVALID_ARGUMENT, "the frame holds %zu key points, more than the %d segments one "
+                        "blur walks; use shorter frames or fewer samples", count, PB_MAX_SEGMENTS);
+    pb_path_field *pf = calloc(1, sizeof *pf);
+    double *times = malloc(count * sizeof *times);
+    plan->field = pf;
+    plan->count = count;
+    plan->poses = calloc(count, sizeof *plan->poses);
+    if (pf)
+        pf->knots = calloc(count, sizeof *pf->knots);
+    if (!pf || !times || !plan->poses || !pf->knots) {
+        free(times);
+        return pb_error(ctx, PB_ERR_OUT_OF_MEMORY, "out of host memory planning a frame of %zu key points", count);
+    }
+    size_t k = 0;
+    for (size_t i = 0; i < intervals; i++) {
+        size_t from = k;
+        interval_times(f, iv[2 * i], iv[2 * i + 1], times, &k);
+        for (size_t j = from; j < k; j++) {
+            plan->poses[j].time = times[j];
+            /* The segment to the next key point: inside the interval, its
+             * share of the frame's time; from the interval's end to the next
+             * one's start, a gap that is skipped. */
+            plan->poses[j].skip = j + 1 == k;
+            plan->poses[j].weight = j + 1 < k ? (times[j + 1] - times[j]) / total : 0.0;
+        }
+    }
+    pb_status st = PB_OK;
+    for (size_t j = 0; j < count && st == PB_OK; j++)
+        st = locate(ctx, f, times[j], &pf->knots[j]);
+    free(times);
+    return st;
+}
+
 pb_status pb_path_create_field(struct pb_context *ctx, const pb_geometry *g, const pb_field_motion *f,
                                const double *iv, size_t intervals, const pb_blur_options *opt, pb_path *plan)
 {
@@ -190,42 +233,26 @@ pb_status pb_path_create_field(struct pb_context *ctx, const pb_geometry *g, con
         return pb_error(ctx, PB_ERR_BAD_FRAME, "the frame has no time (%zu intervals); give at least one interval "
                         "with end > start", intervals);
     plan->geometry = *g;
-    size_t count = 0;
-    for (size_t i = 0; i < intervals; i++)
-        interval_times(f, iv[2 * i], iv[2 * i + 1], NULL, &count);
-    if (count - 1 > PB_MAX_SEGMENTS)
-        return pb_error(ctx, PB_ERR_INVALID_ARGUMENT, "the frame holds %zu key points, more than the %d segments one "
-                        "blur walks; use shorter frames or fewer samples", count, PB_MAX_SEGMENTS);
-    pb_path_field *pf = calloc(1, sizeof *pf);
-    double *times = malloc(count * sizeof *times);
     size_t *local = malloc(f->count * sizeof *local);
-    plan->field = pf;
-    plan->count = count;
-    plan->poses = calloc(count, sizeof *plan->poses);
-    if (pf)
-        pf->knots = calloc(count, sizeof *pf->knots);
-    if (!pf || !times || !local || !plan->poses || !pf->knots) {
-        free(times);
+    if (!local)
+        return pb_error(ctx, PB_ERR_OUT_OF_MEMORY, "out of host memory planning a frame");
+    /* A surrogate's frame by the values it visits (path_surrogate.c), unless
+     * its samples are asked for (the paper's polyline) or REF's reference
+     * walks them densely in time. */
+    if (f->signal_count && opt->method != PB_METHOD_REF && opt->path != PB_PATH_TRACKED)
+        st = pb_path_surrogate_knots(ctx, f, iv, intervals, total,
+                                     PB_VALUE_BIN_MOVES * (opt->path == PB_PATH_BOUNDED ? opt->max_path_error
+                                                                                        : PB_DEFAULT_MAX_PATH_ERROR),
+                                     plan);
+    else
+        st = time_knots(ctx, f, iv, intervals, total, plan);
+    if (st != PB_OK) {
         free(local);
         pb_path_destroy(plan);
-        return pb_error(ctx, PB_ERR_OUT_OF_MEMORY, "out of host memory planning a frame of %zu key points", count);
+        return st;
     }
-    size_t k = 0;
-    for (size_t i = 0; i < intervals; i++) {
-        size_t from = k;
-        interval_times(f, iv[2 * i], iv[2 * i + 1], times, &k);
-        for (size_t j = from; j < k; j++) {
-            plan->poses[j].time = times[j];
-            /* The segment to the next key point: inside the interval, its
-             * share of the frame's time; from the interval's end to the next
-             * one's start, a gap that is skipped. */
-            plan->poses[j].skip = j + 1 == k;
-            plan->poses[j].weight = j + 1 < k ? (times[j + 1] - times[j]) / total : 0.0;
-        }
-    }
-    for (size_t j = 0; j < count && st == PB_OK; j++)
-        st = locate(ctx, f, times[j], &pf->knots[j]);
-    free(times);
+    size_t count = plan->count;
+    pb_path_field *pf = plan->field;
     /* The fields the key points read, gathered in texel units, once each. */
     size_t n = pb_field_voxels(f), fields = 0;
     for (size_t i = 0; i < f->count; i++)
