@@ -844,6 +844,21 @@ PB_API pb_status pb_plan_create(pb_context *ctx, const pb_geometry *geometry, co
 PB_API pb_status pb_plan_create_frames(pb_context *ctx, const pb_geometry *geometry, const pb_motion *track,
                                        const double *bounds, size_t frames, const pb_blur_options *options,
                                        pb_plan **plan);
+/* Gates of a track as frames: frame i is the union of counts[i] intervals,
+ * the next ones of intervals[] (a start and an end each, seconds): every
+ * visit of the breath to an amplitude or phase bin, as a gated
+ * reconstruction bins its counts (pb_plan_create_field_gates for fields).
+ * Its blur is the time-weighted mean of its intervals' blurs, each interval
+ * planned as a frame of its own (path error bound, clipping, REF's steps),
+ * the gaps between them skipped; every method and filter, the transpose
+ * exact as for one interval. One interval gives pb_plan_create_frames' plan
+ * of that frame. A frame's intervals increase and do not overlap
+ * (PB_ERR_BAD_FRAME), lie inside the track (PB_ERR_TRACK_GAP) and are finite
+ * (PB_ERR_NOT_FINITE); a frame has 1 to 2^24 of them. Errors name the frame
+ * and the interval. */
+PB_API pb_status pb_plan_create_gates(pb_context *ctx, const pb_geometry *geometry, const pb_motion *track,
+                                      const double *intervals, const size_t *counts, size_t frames,
+                                      const pb_blur_options *options, pb_plan **plan);
 /* Plans of field motions, as pb_plan_create and pb_plan_create_frames plan a
  * track: one frame, [frame_start, frame_end], or frames [bounds[i],
  * bounds[i+1]] (frame_start and frame_end not used). Every method and filter,

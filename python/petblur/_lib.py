@@ -218,6 +218,8 @@ _signatures = {
     "pb_path_segments": (_int, [_P(Geometry), _P(CMotion), _P(BlurOptions), _P(_sz)]),
     "pb_plan_create": (_int, [_vp, _P(Geometry), _P(CMotion), _P(BlurOptions), _P(_vp)]),
     "pb_plan_create_frames": (_int, [_vp, _P(Geometry), _P(CMotion), _P(_dbl), _sz, _P(BlurOptions), _P(_vp)]),
+    "pb_plan_create_gates": (_int, [_vp, _P(Geometry), _P(CMotion), _P(_dbl), _P(_sz), _sz, _P(BlurOptions),
+                                    _P(_vp)]),
     "pb_plan_create_field_frames": (_int, [_vp, _P(Geometry), _P(FieldMotion), _P(_dbl), _sz, _P(BlurOptions),
                                            _P(_vp)]),
     "pb_plan_create_field_gates": (_int, [_vp, _P(Geometry), _P(FieldMotion), _P(_dbl), _P(_sz), _sz,

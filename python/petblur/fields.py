@@ -277,7 +277,7 @@ def amplitude_gates(signal_times, signal, edges, span=None):
     bins its counts: gate g is every visit of the signal (linear between its
     samples) to [edges[g], edges[g+1]) (the last bin closed) inside ``span`` (t0, t1; default the
     signal's), as a list of (start, end) intervals in seconds. The gates
-    go to FramesOperator(bounds=gates) with a FieldMotion; a gate the breath
+    go to FramesOperator(bounds=gates) with a FieldMotion or a rigid Motion; a gate the breath
     never visits is an empty list, which the operator refuses."""
     t = np.asarray(signal_times, dtype=np.float64).reshape(-1)
     s = np.asarray(signal, dtype=np.float64).reshape(-1)

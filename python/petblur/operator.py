@@ -272,14 +272,10 @@ class _Operator:
                     self.motion._warn_folds(self.voxel_size, self._shape, self.affine, stacklevel=5)
                 cf, keep = self.motion._c_field(self._shape, self.voxel_size, self.affine, order)
                 g = _lib.Geometry((ctypes.c_size_t * 3)(*dims), (ctypes.c_double * 3)(*vox))
-                gates = getattr(self, "_gates", None)
+                gates = self._c_gates()
                 if gates is not None:
-                    flat = [v for gate in gates for interval in gate for v in interval]
-                    iv = (ctypes.c_double * len(flat))(*flat)
-                    counts = (ctypes.c_size_t * len(gates))(*[len(gate) for gate in gates])
-                    st = _lib.lib.pb_plan_create_field_gates(ctx.handle, ctypes.byref(g), ctypes.byref(cf), iv, counts,
-                                                             len(gates), ctypes.byref(self._options),
-                                                             ctypes.byref(handle))
+                    st = _lib.lib.pb_plan_create_field_gates(ctx.handle, ctypes.byref(g), ctypes.byref(cf), *gates,
+                                                             ctypes.byref(self._options), ctypes.byref(handle))
                 else:
                     b = (ctypes.c_double * len(self._bounds))(*self._bounds)
                     st = _lib.lib.pb_plan_create_field_frames(ctx.handle, ctypes.byref(g), ctypes.byref(cf), b,
@@ -292,7 +288,11 @@ class _Operator:
                 return plans[order]
             # The checks' warnings once, for the grid the caller named.
             g, cm, keep = self.motion._c_motion(dims, vox, affine, self._bounds, warn=f and not self._quiet)
-            if len(self._bounds) == 2 and not isinstance(self, FramesOperator):
+            gates = self._c_gates()
+            if gates is not None:
+                st = _lib.lib.pb_plan_create_gates(ctx.handle, ctypes.byref(g), ctypes.byref(cm), *gates,
+                                                   ctypes.byref(self._options), ctypes.byref(handle))
+            elif len(self._bounds) == 2 and not isinstance(self, FramesOperator):
                 st = _lib.lib.pb_plan_create(ctx.handle, ctypes.byref(g), ctypes.byref(cm),
                                              ctypes.byref(self._options), ctypes.byref(handle))
             else:
@@ -305,6 +305,17 @@ class _Operator:
             self._handles.made(_lib.lib.pb_plan_destroy, handle)
             plans[order] = (handle, g)
             return plans[order]
+
+    def _c_gates(self):
+        """A FramesOperator's gates as the C plans take them: the intervals
+        (two numbers each, gate after gate), their counts, and how many
+        gates; None for plain frames."""
+        gates = getattr(self, "_gates", None)
+        if gates is None:
+            return None
+        flat = [v for gate in gates for interval in gate for v in interval]
+        counts = (ctypes.c_size_t * len(gates))(*[len(gate) for gate in gates])
+        return (ctypes.c_double * len(flat))(*flat), counts, len(gates)
 
     def _volume_pair(self, order, g):
         """Under the context's lock: the plan's input and output volumes."""
@@ -549,6 +560,12 @@ class FramesOperator(_Operator):
     activity in every frame, a motion-compensated image from all frames), else
     each frame's transpose.
 
+    ``bounds`` may instead be gates, one list of (start, end) intervals a
+    frame (``amplitude_gates``' result), for a Motion and a FieldMotion alike:
+    every visit of the breath to a bin. A gate's blur is the time-weighted
+    mean of its intervals' blurs, the gaps between them skipped; its
+    transpose is exact as for one interval.
+
     Frames are the first axis, (frames, nx, ny, nz), as torch and CuPy batch
     volumes (the batch leads); ``frames_last=True`` takes and gives
     (nx, ny, nz, frames), as nibabel holds a 4-D image, whose Fortran-ordered
@@ -562,10 +579,8 @@ class FramesOperator(_Operator):
             raise ArgumentError(f"track must be a petblur.Motion or petblur.FieldMotion, not {type(track).__name__}")
         gates = _gates(bounds)
         if gates is not None:
-            if not isinstance(track, FieldMotion):
-                raise ArgumentError("gates (frames of several intervals) are planned for a FieldMotion; a rigid "
-                                    "track's frames are single intervals: give bounds, or the motion as fields")
-            b = np.array([gates[0][0][0], gates[-1][-1][1]])
+            # The span every gate lies in: the track's checks cover it.
+            b = np.array([min(gate[0][0] for gate in gates), max(gate[-1][1] for gate in gates)])
         else:
             try:
                 b = np.array(bounds, dtype=np.float64).reshape(-1)

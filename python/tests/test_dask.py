@@ -59,10 +59,10 @@ def test_per_frame_inputs_and_unsummed_adjoint(client, device, rng):
     assert per.dtype == np.float64 and per.shape == ref.shape and _close(per, ref, 1e-5), np.abs(per - ref).max()
 
 
-def test_gates_of_a_field_motion(client, rng):
-    """A gated FramesOperator of a surrogate-driven FieldMotion: its gates
-    split over the tasks as frames are, the same blur and summed transpose as
-    in one process."""
+def test_gates_of_a_field_motion_and_a_track(client, rng):
+    """Gated FramesOperators of a surrogate-driven FieldMotion and of a rigid
+    track the same belt moves: their gates split over the tasks as frames
+    are, the same blur and summed transpose as in one process."""
     import dask.array as da
     shape = tuple(int(n) for n in rng.integers(8, 12, 3))
     t = np.linspace(0.0, 20.0, 401)
@@ -75,12 +75,14 @@ def test_gates_of_a_field_motion(client, rng):
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")  # random fields fold
         op = petblur.FramesOperator(shape, 2.0, fm, gates, device="host")
-    x = rng.random(op.in_shape, dtype=np.float32)
-    fwd = client.compute(petblur.dask.forward(op, x, frames_per_task=2)).result()
-    np.testing.assert_array_equal(fwd, op.apply(x))
-    s_ = client.compute(petblur.dask.adjoint(op, da.from_array(fwd, chunks=(2,) + op._shape),
-                                             frames_per_task=2)).result()
-    assert _close(s_, op.adjoint(fwd), 1e-5)
+    track = petblur.Motion(t, np.outer(s, rng.uniform(-4.0, 4.0, 3)), np.tile([1.0, 0.0, 0.0, 0.0], (t.size, 1)))
+    for op in (op, petblur.FramesOperator(shape, 2.0, track, gates, device="host")):
+        x = rng.random(op.in_shape, dtype=np.float32)
+        fwd = client.compute(petblur.dask.forward(op, x, frames_per_task=2)).result()
+        np.testing.assert_array_equal(fwd, op.apply(x))
+        s_ = client.compute(petblur.dask.adjoint(op, da.from_array(fwd, chunks=(2,) + op._shape),
+                                                 frames_per_task=2)).result()
+        assert _close(s_, op.adjoint(fwd), 1e-5)
 
 
 def test_each_worker_plans_a_frame_range_once(client, rng):

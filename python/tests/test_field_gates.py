@@ -184,6 +184,3 @@ def test_refusals(rng):
     flat_t, flat_s = np.array([0.0, 1.0, 2.0, 3.0]), np.array([0.0, 1.0, 1.0, 0.0])
     top = petblur.amplitude_gates(flat_t, flat_s, [0.0, 0.5, 1.0])[-1]
     assert abs(sum(b - a for a, b in top) - 2.0) < 1e-12, top
-    track = petblur.Motion([0, 10], [[0, 0, 0], [1, 0, 0]], [[1, 0, 0, 0]] * 2)
-    with pytest.raises(petblur.ArgumentError, match="planned for a FieldMotion"):
-        petblur.FramesOperator(n, voxel, track, [[(1.0, 3.0), (4.0, 5.0)]], device="host")

@@ -53,28 +53,41 @@ static pb_status check_frames(pb_context *ctx, const pb_volume *const *ins, cons
     return PB_OK;
 }
 
-static pb_status plan_create_frames_entered(pb_context *ctx, const pb_geometry *geometry, const pb_motion *track,
-                                            const double *bounds, size_t frames, const pb_blur_options *options,
-                                            pb_plan **plan)
+/* Frame i is the union of counts[i] intervals, taken in turn from
+ * intervals[] (two numbers each, finite); with counts NULL, one each. */
+static pb_status plan_track_entered(pb_context *ctx, const pb_geometry *geometry, const pb_motion *track,
+                                    const double *intervals, const size_t *counts, size_t frames,
+                                    const pb_blur_options *options, pb_plan **plan)
 {
     *plan = NULL;
-    pb_status st = pb_frame_bounds_check(ctx, bounds, frames);
-    if (st != PB_OK)
-        return st;
-    /* The whole track once; each frame's planning then checks only its part
-     * and says which frame leaves the track. */
+    size_t total = 0;
+    for (size_t i = 0; i < frames; i++)
+        total += counts ? counts[i] : 1;
+    /* The whole track once, over every interval's span; each frame's
+     * planning then checks only its parts and says which frame leaves the
+     * track. */
     pb_motion whole = *track;
-    whole.frame_start = bounds[0];
-    whole.frame_end = bounds[frames];
-    if ((st = pb_motion_validate(ctx, &whole)) != PB_OK && st != PB_ERR_TRACK_GAP)
+    whole.frame_start = intervals[0];
+    whole.frame_end = intervals[1];
+    for (size_t k = 0; k < total; k++) {
+        whole.frame_start = fmin(whole.frame_start, intervals[2 * k]);
+        whole.frame_end = fmax(whole.frame_end, intervals[2 * k + 1]);
+    }
+    pb_status st = pb_motion_validate(ctx, &whole);
+    if (st != PB_OK && st != PB_ERR_TRACK_GAP && st != PB_ERR_BAD_FRAME)
         return st;
     pb_plan *p;
     if ((st = pb_plan_new(ctx, geometry, options, frames, &p)) != PB_OK)
         return st;
+    size_t next = 0;
     for (size_t i = 0; i < frames && st == PB_OK; i++) {
-        pb_motion m;
-        pb_motion_frame(track, bounds[i], bounds[i + 1], &m);
-        if ((st = pb_plan_set_frame(p, i, &m)) != PB_OK) {
+        pb_plan_frame *f = &p->set.frame[i];
+        size_t n = counts ? counts[i] : 1;
+        st = pb_path_create_gate(ctx, &p->set.geometry, track, intervals + 2 * next, n, &p->set.options, &f->path);
+        next += n;
+        if (st == PB_OK)
+            st = ctx->dev.ops->frame_prepare(&ctx->dev, &p->set.options, f);
+        if (st != PB_OK) {
             char where[64];
             snprintf(where, sizeof where, " (frame %zu of %zu)", i, frames);
             pb_error_append(ctx, where);
@@ -95,7 +108,47 @@ pb_status pb_plan_create_frames(pb_context *ctx, const pb_geometry *geometry, co
     pb_status st = pb_context_enter(ctx);
     if (st != PB_OK)
         return st;
-    st = plan_create_frames_entered(ctx, geometry, track, bounds, frames, options, plan);
+    /* Frame i is [bounds[i], bounds[i+1]]: the intervals, two numbers each. */
+    double *iv = NULL;
+    st = pb_frame_bounds_check(ctx, bounds, frames);
+    if (st == PB_OK && !(iv = malloc(2 * frames * sizeof *iv)))
+        st = pb_error(ctx, PB_ERR_OUT_OF_MEMORY, "out of host memory for %zu frames", frames);
+    for (size_t i = 0; st == PB_OK && i < frames; i++) {
+        iv[2 * i] = bounds[i];
+        iv[2 * i + 1] = bounds[i + 1];
+    }
+    if (st == PB_OK)
+        st = plan_track_entered(ctx, geometry, track, iv, NULL, frames, options, plan);
+    free(iv);
+    pb_context_leave(ctx);
+    return st;
+}
+
+pb_status pb_plan_create_gates(pb_context *ctx, const pb_geometry *geometry, const pb_motion *track,
+                               const double *intervals, const size_t *counts, size_t frames,
+                               const pb_blur_options *options, pb_plan **plan)
+{
+    if (!ctx || !geometry || !track || !intervals || !counts || !plan)
+        return pb_error(ctx, PB_ERR_INVALID_ARGUMENT, "ctx, geometry, track, intervals, counts and plan must not be "
+                        "NULL");
+    *plan = NULL;
+    if (frames == 0)
+        return pb_error(ctx, PB_ERR_INVALID_ARGUMENT, "no frames: give at least one gate");
+    size_t next = 0;
+    for (size_t i = 0; i < frames; i++) {
+        if (counts[i] == 0 || counts[i] > ((size_t)1 << 24))
+            return pb_error(ctx, PB_ERR_INVALID_ARGUMENT, "frame %zu has %zu intervals; give 1 to 16777216", i,
+                            counts[i]);
+        for (size_t k = 0; k < 2 * counts[i]; k++)
+            if (!isfinite(intervals[2 * next + k]))
+                return pb_error(ctx, PB_ERR_NOT_FINITE, "a time of frame %zu is %g; give finite seconds", i,
+                                intervals[2 * next + k]);
+        next += counts[i];
+    }
+    pb_status st = pb_context_enter(ctx);
+    if (st != PB_OK)
+        return st;
+    st = plan_track_entered(ctx, geometry, track, intervals, counts, frames, options, plan);
     pb_context_leave(ctx);
     return st;
 }

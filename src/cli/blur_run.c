@@ -125,3 +125,60 @@ int pbc_blur_frames_image(pb_context *ctx, const pbc_image *in, const pb_motion 
     free(targets);
     return st == PB_OK ? 0 : blur_failed(ctx, st, label);
 }
+
+static void destroy_all(pb_volume **v, size_t n)
+{
+    for (size_t i = 0; v && i < n; i++)
+        pb_volume_destroy(v[i]);
+    free(v);
+}
+
+int pbc_blur_plan_image(pb_context *ctx, pb_status st, pb_plan *plan, const pbc_image *in, size_t frames, int adjoint,
+                        int sum, const char *label, float *out, double *ms)
+{
+    pb_geometry g = {{in->dims[0], in->dims[1], in->dims[2]}, {in->voxel_size[0], in->voxel_size[1], in->voxel_size[2]}};
+    size_t n = pbc_image_frame_voxels(in), sources = pbc_image_frame_count(in), outputs = adjoint && sum ? 1 : frames;
+    pb_volume **src = calloc(sources, sizeof *src), **dst = calloc(outputs, sizeof *dst);
+    if (!src || !dst) {
+        free(src);
+        free(dst);
+        pb_plan_destroy(plan);
+        return pbc_fail(PBC_EXIT_RUNTIME, "%s: out of host memory for %zu volumes' handles", label, sources + outputs);
+    }
+    /* Each input frame goes up once; a 3-D input serves every frame. */
+    for (size_t i = 0; i < sources && st == PB_OK; i++)
+        if ((st = pb_volume_create(ctx, &g, &src[i])) == PB_OK)
+            st = pb_volume_upload(src[i], in->data + i * n);
+    for (size_t i = 0; i < outputs && st == PB_OK; i++)
+        st = pb_volume_create(ctx, &g, &dst[i]);
+    *ms = 0.0;
+    for (size_t i = 0; i < frames && st == PB_OK; i++) {
+        const pb_volume *x = src[sources == 1 ? 0 : i];
+        /* With sum, every frame's back projection lands in the one output:
+         * the first overwrites it, the others add. */
+        st = adjoint ? pb_plan_adjoint(plan, i, x, dst[outputs == 1 ? 0 : i], sum && i > 0)
+                     : pb_plan_forward(plan, i, x, dst[i]);
+        double t = 0.0;
+        if (st == PB_OK && pb_context_last_kernel_ms(ctx, &t) == PB_OK)
+            *ms += t;
+    }
+    for (size_t i = 0; i < outputs && st == PB_OK; i++)
+        st = pb_volume_download(dst[i], out + i * n);
+    pb_plan_destroy(plan);
+    destroy_all(src, sources);
+    destroy_all(dst, outputs);
+    if (st != PB_OK && pbc_show_progress)
+        pbc_progress_line(1.0, NULL);
+    return st == PB_OK ? 0 : blur_failed(ctx, st, label);
+}
+
+int pbc_blur_gates_image(pb_context *ctx, const pbc_image *in, const pb_motion *track, const double *intervals,
+                         const size_t *counts, size_t frames, const pb_blur_options *options, int adjoint, int sum,
+                         const char *label, float *out, double *ms)
+{
+    pb_geometry g = {{in->dims[0], in->dims[1], in->dims[2]}, {in->voxel_size[0], in->voxel_size[1], in->voxel_size[2]}};
+    pb_plan *plan = NULL;
+    pb_context_set_progress(ctx, pbc_show_progress ? pbc_progress_line : NULL, (void *)label);
+    pb_status st = pb_plan_create_gates(ctx, &g, track, intervals, counts, frames, options, &plan);
+    return pbc_blur_plan_image(ctx, st, plan, in, frames, adjoint, sum, label, out, ms);
+}

@@ -40,4 +40,18 @@ int pbc_blur_frames_image(pb_context *ctx, const pbc_image *in, const pb_motion 
                           size_t frames, const pb_blur_options *options, int adjoint, int sum, const char *label,
                           float *out, double *ms);
 
+/* Gates: frame i the union of counts[i] intervals of the track, the next
+ * ones of intervals[] (a start and an end each; pb_plan_create_gates), as
+ * pbc_blur_frames_image blurs frames. */
+int pbc_blur_gates_image(pb_context *ctx, const pbc_image *in, const pb_motion *track, const double *intervals,
+                         const size_t *counts, size_t frames, const pb_blur_options *options, int adjoint, int sum,
+                         const char *label, float *out, double *ms);
+
+/* Frames 0 .. frames - 1 of plan (made on ctx for in's grid), or the status
+ * its making returned (st; plan NULL then): in (frames frames, or one for
+ * all) blurred or, with adjoint, back projected into out as
+ * pbc_blur_frames_image does. Destroys plan. */
+int pbc_blur_plan_image(pb_context *ctx, pb_status st, pb_plan *plan, const pbc_image *in, size_t frames, int adjoint,
+                        int sum, const char *label, float *out, double *ms);
+
 #endif

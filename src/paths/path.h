@@ -59,6 +59,15 @@ pb_status pb_path_create(struct pb_context *ctx, const pb_geometry *geometry, co
                          const pb_blur_options *options, pb_path *plan);
 void pb_path_destroy(pb_path *plan);
 
+/* The plan of a frame of a pose track that is the union of `intervals` time
+ * intervals (a start and an end each, finite, increasing, not overlapping)
+ * (path_gate.c): each interval planned as pb_path_create plans a frame of
+ * track, the pieces laid end to end with their weights (and REF's steps')
+ * scaled by the interval's share of the frame's time, the gaps between them
+ * skipped. One interval gives pb_path_create's plan itself. */
+pb_status pb_path_create_gate(struct pb_context *ctx, const pb_geometry *geometry, const pb_motion *track,
+                              const double *intervals, size_t count, const pb_blur_options *options, pb_path *plan);
+
 /* The plan of a frame of a validated field motion that is the union of
  * `intervals` time intervals (a start and an end each, increasing, not
  * overlapping; one for a plain frame) (path_field.c): key points at each

@@ -63,7 +63,8 @@ static const pbc_command command = {
     "  petblur blur -i dynamic.nii.gz -o dynamic-blurred.nii.gz --motion track.csv --frames 0,60,120,300,600\n"
     "  petblur blur -i ratios.nii.gz -o summed.nii.gz --motion track.csv --frames 0,60,120 --adjoint --sum-frames\n"
     "  petblur blur -i act.nii.gz -o gated.nii.gz --fields breathing.csv --frame 0,4 --method rm\n"
-    "  petblur blur -i act.nii.gz -o gates.nii.gz --fields amplitudes.csv --signal belt.csv --gates 0,0.3,0.6,1"};
+    "  petblur blur -i act.nii.gz -o gates.nii.gz --fields amplitudes.csv --signal belt.csv --gates 0,0.3,0.6,1\n"
+    "  petblur blur -i act.nii.gz -o gates.nii.gz --motion chest.csv --signal belt.csv --gates 0,0.3,0.6,1"};
 
 static int blur_options(const pbc_args *args, pb_blur_options *opt)
 {
@@ -231,13 +232,16 @@ static int write_picture(const char *png, const pbc_image *in, const float *out,
 }
 
 /* The motion placed on the input's grid and its frames checked: a track's
- * (motion_args.c) or the fields' (src/cli/fields). */
+ * (motion_args.c; its gates over the span they bin) or the fields'
+ * (src/cli/fields). */
 static int place_motion(pbc_motion *motion, pbc_fields *fields, const pbc_image *in, const char *in_path,
                         const double *bounds, size_t frames)
 {
     if (fields->table)
         return pbc_fields_load(fields, in, in_path, bounds, frames);
     int rc = pbc_motion_place(motion, in, in_path);
+    if (!bounds && fields->gates)
+        bounds = fields->frame, frames = 1;
     return rc ? rc : pbc_motion_check_frames(motion, bounds, frames, 1);
 }
 
@@ -275,6 +279,9 @@ static int run(const pbc_args *args, pbc_fields *fields, const char *in_path, co
             rc = pbc_blur_fields_image(ctx, &in, fields, NULL, frames, &opt, adjoint, sum, label, out.data, &ms);
         else if (fields->table)
             rc = pbc_blur_fields_image(ctx, &in, fields, bounds, frames, &opt, adjoint, sum, label, out.data, &ms);
+        else if (gated)
+            rc = pbc_blur_gates_image(ctx, &in, &motion.motion, fields->intervals, fields->counts, frames, &opt,
+                                      adjoint, sum, label, out.data, &ms);
         else if (bounds)
             rc = pbc_blur_frames_image(ctx, &in, &motion.motion, bounds, frames, &opt, adjoint, sum, label, out.data,
                                        &ms);

@@ -7,20 +7,6 @@
 #include "cli.h"
 #include "fields.h"
 
-static int blur_failed(pb_context *ctx, pb_status st, const char *label)
-{
-    if (pbc_show_progress)
-        pbc_progress_line(1.0, NULL);
-    return pbc_fail(pbc_exit_for(st), "%s: %s: %s", label, pb_status_string(st), pb_last_error(ctx));
-}
-
-static void destroy_all(pb_volume **v, size_t n)
-{
-    for (size_t i = 0; v && i < n; i++)
-        pb_volume_destroy(v[i]);
-    free(v);
-}
-
 int pbc_blur_fields_image(pb_context *ctx, const pbc_image *in, const pbc_fields *f, const double *bounds,
                           size_t frames, const pb_blur_options *options, int adjoint, int sum, const char *label,
                           float *out, double *ms)
@@ -34,43 +20,14 @@ int pbc_blur_fields_image(pb_context *ctx, const pbc_image *in, const pbc_fields
         frames = 1;
     }
     pb_geometry g = {{in->dims[0], in->dims[1], in->dims[2]}, {in->voxel_size[0], in->voxel_size[1], in->voxel_size[2]}};
-    size_t n = pbc_image_frame_voxels(in), sources = pbc_image_frame_count(in), outputs = adjoint && sum ? 1 : frames;
-    pb_volume **src = calloc(sources, sizeof *src), **dst = calloc(outputs, sizeof *dst);
     pb_plan *plan = NULL;
-    if (!src || !dst) {
-        free(src);
-        free(dst);
-        return pbc_fail(PBC_EXIT_RUNTIME, "%s: out of host memory for %zu volumes' handles", label, sources + outputs);
-    }
-    pb_status st = PB_OK;
+    pb_status st;
     pb_context_set_progress(ctx, pbc_show_progress ? pbc_progress_line : NULL, (void *)label);
-    if (st == PB_OK && gated)
+    if (gated)
         st = pb_plan_create_field_gates(ctx, &g, &f->motion, f->intervals, f->counts, frames, options, &plan);
-    else if (st == PB_OK)
+    else
         st = pb_plan_create_field_frames(ctx, &g, &f->motion, bounds, frames, options, &plan);
-    /* Each input frame goes up once; a 3-D input serves every frame. */
-    for (size_t i = 0; i < sources && st == PB_OK; i++)
-        if ((st = pb_volume_create(ctx, &g, &src[i])) == PB_OK)
-            st = pb_volume_upload(src[i], in->data + i * n);
-    for (size_t i = 0; i < outputs && st == PB_OK; i++)
-        st = pb_volume_create(ctx, &g, &dst[i]);
-    *ms = 0.0;
-    for (size_t i = 0; i < frames && st == PB_OK; i++) {
-        const pb_volume *x = src[sources == 1 ? 0 : i];
-        /* With sum, every frame's back projection lands in the one output:
-         * the first overwrites it, the others add. */
-        st = adjoint ? pb_plan_adjoint(plan, i, x, dst[outputs == 1 ? 0 : i], sum && i > 0)
-                     : pb_plan_forward(plan, i, x, dst[i]);
-        double t = 0.0;
-        if (st == PB_OK && pb_context_last_kernel_ms(ctx, &t) == PB_OK)
-            *ms += t;
-    }
-    for (size_t i = 0; i < outputs && st == PB_OK; i++)
-        st = pb_volume_download(dst[i], out + i * n);
-    pb_plan_destroy(plan);
-    destroy_all(src, sources);
-    destroy_all(dst, outputs);
-    return st == PB_OK ? 0 : blur_failed(ctx, st, label);
+    return pbc_blur_plan_image(ctx, st, plan, in, frames, adjoint, sum, label, out, ms);
 }
 
 /* Where t falls among the loaded fields: between f0 and f0 + 1, alpha of the way. */

@@ -32,8 +32,9 @@ enum { PBC_MAX_SIGNAL = 4000000 };
 
 /* blur's option rows of a surrogate-driven motion. */
 #define PBC_SIGNAL_OPTIONS                                                                                            \
-    {"--signal", NULL, "TRACE.csv", "with a 'value,path' --fields table: the surrogate (a belt) 'time,value', s; the " \
-                                    "motion at t is the field at the surrogate's value then"},                        \
+    {"--signal", NULL, "TRACE.csv", "a surrogate (a belt) 'time,value', s: with a 'value,path' --fields table the "  \
+                                    "motion at t is the field at its value then; with --gates it bins fields or a "  \
+                                    "track alike"},                                                                   \
     {"--gates", NULL, "E0,E1,...", "with --signal: amplitude gates [Ei, Ei+1), each every visit of the signal there "  \
                                    "in the --frame (default: the whole signal); OUT a 4-D NIfTI, a gate a frame"}
 
@@ -78,8 +79,9 @@ int pbc_fields_from_args(const pbc_command *cmd, const pbc_args *args, pbc_field
 int pbc_field_table_read(const char *table, pbc_fields *f);
 
 /* --signal and --gates (blur): the trace read, the value table paired with
- * it, the gates' intervals computed over the --frame (or the whole signal);
- * a gate the signal never visits refused. Returns 0 or an exit status. */
+ * it (or, with no --fields, the track's gates: --gates required), the
+ * gates' intervals computed over the --frame (or the whole signal); a gate
+ * the signal never visits refused. Returns 0 or an exit status. */
 int pbc_fields_signal(const pbc_command *cmd, const pbc_args *args, pbc_fields *f);
 /* Reads a surrogate's trace: "time,value" then a row per sample. */
 int pbc_signal_read(const char *path, pbc_fields *f);

@@ -1,6 +1,7 @@
 /* --signal and --gates: a surrogate's trace (a respiratory belt, a
  * data-driven breathing signal) that drives a table of fields given at its
- * values, and amplitude gates computed from it (gates.c). The trace is small
+ * values, and amplitude gates computed from it (gates.c), of fields or of a
+ * track alike. The trace is small
  * text ("time,value" and a row per sample), its size bounded before it is
  * read. */
 #include <errno.h>
@@ -140,26 +141,10 @@ static int compute_gates(const char *text, pbc_fields *f)
     return 0;
 }
 
-int pbc_fields_signal(const pbc_command *cmd, const pbc_args *args, pbc_fields *f)
+/* Reads the trace; the span the gates bin is the --frame (inside the
+ * trace), else the whole trace. */
+static int signal_span(const char *signal, pbc_fields *f)
 {
-    const char *signal = pbc_arg(cmd, args, "--signal"), *gates = pbc_arg(cmd, args, "--gates");
-    if (gates && !signal)
-        return pbc_fail(PBC_EXIT_USAGE, "--gates bins a surrogate's amplitude: give --signal TRACE.csv and a "
-                        "'value,path' --fields table too");
-    if (signal && !f->table)
-        return pbc_fail(PBC_EXIT_USAGE, "--signal drives fields given at its values: give --fields TABLE.csv, a "
-                        "table 'value,path'");
-    if (!f->table)
-        return 0;
-    if (signal && !f->by_value)
-        return pbc_fail(PBC_EXIT_USAGE, "--signal %s: --fields %s gives fields at times ('time,path'); with a "
-                        "signal, give them at the signal's values: a table whose header is 'value,path'", signal,
-                        f->table);
-    if (f->by_value && !signal)
-        return pbc_fail(PBC_EXIT_USAGE, "--fields %s gives fields at a surrogate's values ('value,path'): give "
-                        "--signal TRACE.csv too, the surrogate's 'time,value' samples", f->table);
-    if (!signal)
-        return 0;
     int rc = pbc_signal_read(signal, f);
     if (rc)
         return rc;
@@ -170,5 +155,42 @@ int pbc_fields_signal(const pbc_command *cmd, const pbc_args *args, pbc_fields *
     } else if (f->frame[0] < first || f->frame[1] > last)
         return pbc_fail(PBC_EXIT_USAGE, "--frame %s,%s: the signal %s covers %s to %s s; give a frame inside it",
                         PBC_NUM(f->frame[0]), PBC_NUM(f->frame[1]), signal, PBC_NUM(first), PBC_NUM(last));
-    return gates ? compute_gates(gates, f) : 0;
+    return 0;
+}
+
+/* A track's gates: --signal only bins its time (the track moves by itself),
+ * so --gates must come with it; the span is --frame, else the whole signal. */
+static int track_gates(const pbc_command *cmd, const pbc_args *args, const char *signal, const char *gates,
+                       pbc_fields *f)
+{
+    if (!gates)
+        return pbc_fail(PBC_EXIT_USAGE, "--signal without --fields gates a track: give --gates E0,E1,... too (the "
+                        "amplitude bins), or --fields TABLE.csv, a table 'value,path' of fields the signal drives");
+    const char *frame = pbc_arg(cmd, args, "--frame");
+    int rc = frame ? pbc_parse_interval("--frame", frame, f->frame) : 0;
+    f->has_frame = frame != NULL;
+    if (rc || (rc = signal_span(signal, f)))
+        return rc;
+    return compute_gates(gates, f);
+}
+
+int pbc_fields_signal(const pbc_command *cmd, const pbc_args *args, pbc_fields *f)
+{
+    const char *signal = pbc_arg(cmd, args, "--signal"), *gates = pbc_arg(cmd, args, "--gates");
+    if (gates && !signal)
+        return pbc_fail(PBC_EXIT_USAGE, "--gates bins a surrogate's amplitude: give --signal TRACE.csv, the "
+                        "surrogate's 'time,value' samples, too");
+    if (!f->table)
+        return signal ? track_gates(cmd, args, signal, gates, f) : 0;
+    if (signal && !f->by_value)
+        return pbc_fail(PBC_EXIT_USAGE, "--signal %s: --fields %s gives fields at times ('time,path'); with a "
+                        "signal, give them at the signal's values: a table whose header is 'value,path'", signal,
+                        f->table);
+    if (f->by_value && !signal)
+        return pbc_fail(PBC_EXIT_USAGE, "--fields %s gives fields at a surrogate's values ('value,path'): give "
+                        "--signal TRACE.csv too, the surrogate's 'time,value' samples", f->table);
+    if (!signal)
+        return 0;
+    int rc = signal_span(signal, f);
+    return rc ? rc : gates ? compute_gates(gates, f) : 0;
 }
