@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """The breathing study's table and figures from a run's folder (study.py
 --out DIR): table.md, curves.png (each lesion's contrast recovery against
-NRMSE over the iterations), slices.png (a coronal slice through the right
+the liver's variability, the noise, over the iterations), slices.png (a coronal slice through the right
 lung base's lesion and the belt's trace).
 
   report.py DIR"""
@@ -16,13 +16,15 @@ import numpy as np
 def table(res):
     s, r = res["settings"], res["results"]
     names = s["lesions"]
-    lines = [f"| model | NRMSE in body | lesion CR ({' / '.join(names)}) | blur s | plan s |",
-             "|---|---|---|---|---|"]
+    lines = [f"| model | best NRMSE in body (iteration) | at the last iteration: lesion CR ({' / '.join(names)}) "
+             "| liver variability | blur s | plan s |", "|---|---|---|---|---|---|"]
     for m, v in r.items():
-        last = v["history"][-1]
-        lines.append(f"| {v['label']} | {last['nrmse']:.4f} | " +
+        h = v["history"]
+        best = int(np.argmin([e["nrmse"] for e in h]))
+        last = h[-1]
+        lines.append(f"| {v['label']} | {h[best]['nrmse']:.4f} ({best + 1}) | " +
                      " / ".join(f"{c:.2f}" for c in last["contrast_recovery"]) +
-                     f" | {v['blur_s']:.1f} | {v['plan_s']:.1f} |")
+                     f" | {last['liver_variability']:.3f} | {v['blur_s']:.1f} | {v['plan_s']:.1f} |")
     return "\n".join(lines) + "\n"
 
 
@@ -41,9 +43,9 @@ def main():
     for j, ax in enumerate(axes):
         for m, v in res["results"].items():
             h = v["history"]
-            ax.plot([e["nrmse"] for e in h], [e["contrast_recovery"][j] for e in h], label=v["label"])
+            ax.plot([e["liver_variability"] for e in h], [e["contrast_recovery"][j] for e in h], label=v["label"])
         ax.set_title(names[j])
-        ax.set_xlabel("NRMSE in body")
+        ax.set_xlabel("liver variability (noise)")
         ax.set_ylabel("contrast recovery")
     axes[0].legend(fontsize=7)
     fig.tight_layout()
