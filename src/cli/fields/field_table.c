@@ -20,7 +20,7 @@
 static const char *const track_options[] = {"--motion", "--translate", "--rotate"};
 static const char *const track_only[] = {"--axis", "--center", "--coords", "--motion-format", "--time-unit",
                                          "--quaternion-order", "--calibration", "--reference-time",
-                                         "--motion-inverse", "--max-path-error"};
+                                         "--motion-inverse"};
 
 static int convention_arg(const pbc_command *cmd, const pbc_args *args, pbc_fields *f)
 {
