@@ -66,7 +66,7 @@ def main():
         ax.axis("off")
     ax = axes[-1]
     ax.plot(z["belt_t"], z["belt_s"], lw=0.5)
-    for e in res["settings"]["edges"]:
+    for e in next(iter(res["settings"]["edges"].values())):
         ax.axhline(e, color="k", lw=0.4, ls=":")
     ax.set_xlim(0, min(60.0, float(z["belt_t"][-1])))
     ax.set_title("belt (first 60 s) and gate edges", fontsize=7)

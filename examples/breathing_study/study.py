@@ -69,9 +69,9 @@ Projector, projector_matrix = _head.Projector, _head.projector_matrix
 PRESETS = {
     # grid, voxel mm, angles, scan s, gates, time frames, MLEM iterations, counts in the scan, amplitude levels
     # of the data, fields given to petblur (surrogate values), lattice inside a voxel
-    "full": dict(dims=(128, 128, 64), voxel=(3.0, 3.0, 3.5), angles=180, seconds=180.0, gates=5, frames=6,
+    "full": dict(dims=(128, 128, 64), voxel=(3.0, 3.0, 3.5), angles=180, seconds=180.0, gates=(3, 5), frames=6,
                  iterations=40, counts=2e8, levels=40, fields=8, sub=2, methods="abcBCd"),
-    "small": dict(dims=(64, 64, 32), voxel=(6.0, 6.0, 7.0), angles=64, seconds=60.0, gates=4, frames=3,
+    "small": dict(dims=(64, 64, 32), voxel=(6.0, 6.0, 7.0), angles=64, seconds=60.0, gates=(4,), frames=3,
                   iterations=15, counts=4e6, levels=24, fields=6, sub=2, methods="abcd"),
 }
 LABELS = {"a": "(a) no motion model", "b": "(b) gates, one field each", "c": "(c) gates, petblur inside each",
@@ -86,15 +86,19 @@ def _level_image(args):
 
 
 def acquisition(p, rng, W, workers):
-    """The breath, the belt, the binnings and each bin's data (see the module's text). Returns a dict."""
+    """The breath, the belt, the binnings and each bin's data (see the module's text). Returns a dict: "gates"
+    and "edges" by gate count, "frames" (the time frames), "still" (one bin of the whole scan without breathing)."""
     T, shape, voxel = p["seconds"], p["dims"], p["voxel"]
     breath = thorax.Breath(T, rng)
     t = (np.arange(int(round(T * RATE_HZ))) + 0.5) / RATE_HZ
     s_true = breath(t)
     belt = np.interp(t, breath.belt_t, breath.belt_s)
-    # equal-count amplitude gates on the belt (the top bin closed, as petblur.amplitude_gates bins)
-    edges = np.quantile(breath.belt_s, np.linspace(0.0, 1.0, p["gates"] + 1))
-    gate = np.clip(np.searchsorted(edges, belt, side="right") - 1, 0, p["gates"] - 1)
+    # equal-count amplitude gates on the belt (the top bin closed, as petblur.amplitude_gates bins); the
+    # acquisition is drawn on the finest partition all gate counts' edges make, so every binning sums the same
+    # counts
+    edges = {G: np.quantile(breath.belt_s, np.linspace(0.0, 1.0, G + 1)) for G in p["gates"]}
+    cuts = np.unique(np.concatenate(list(edges.values())))
+    atom = np.clip(np.searchsorted(cuts, belt, side="right") - 1, 0, cuts.size - 2)
     frame = np.minimum((t / (T / p["frames"])).astype(int), p["frames"] - 1)
     # images at amplitudes spaced finely over the true breath; each time sample weighs its two neighbours
     levels = np.linspace(s_true.min(), s_true.max(), p["levels"])
@@ -106,50 +110,56 @@ def acquisition(p, rng, W, workers):
     still = thorax.image(shape, voxel, 0.0, p["sub"])
     nx, ny, nz = shape
     cells = {}
-    for g in range(p["gates"]):
+    for a in range(cuts.size - 1):
         for k in range(p["frames"]):
-            m = (gate == g) & (frame == k)
+            m = (atom == a) & (frame == k)
             w = np.bincount(lo[m], 1 - f[m], p["levels"]) + np.bincount(lo[m] + 1, f[m], p["levels"])
             mean = sum(wl * im for wl, im in zip(w, imgs) if wl) / RATE_HZ  # activity x seconds
-            cells[g, k] = (W @ mean.reshape(nx * ny, nz)) if m.any() else None
-    total = sum(c.sum() for c in cells.values() if c is not None)
+            cells[a, k] = (W @ mean.reshape(nx * ny, nz), np.count_nonzero(m) / RATE_HZ) if m.any() else None
+    total = sum(c[0].sum() for c in cells.values() if c is not None)
     scale = p["counts"] / total                 # counts per (activity x second) in the projection
-    bg_rate = 0.2 * scale * total / T / cells[0, 0].size  # a uniform background: 20 % of the counts
-    y = {}
-    for key, c in cells.items():
-        dur = np.count_nonzero((gate == key[0]) & (frame == key[1])) / RATE_HZ
-        y[key] = (rng.poisson(scale * c + bg_rate * dur).astype(np.float32), dur) if c is not None else (None, 0.0)
+    size = next(c[0].size for c in cells.values() if c is not None)
+    bg_rate = 0.2 * scale * total / T / size    # a uniform background: 20 % of the counts
+    y = {key: (rng.poisson(scale * c + bg_rate * dur).astype(np.float32), dur)
+         for key, (c, dur) in ((k, v) for k, v in cells.items() if v is not None)}
 
-    def binned(axis, n):
+    def binned(members):
+        """(data, counts per activity, background) of the bins, each a set of (atom, frame) cells."""
         out = []
-        for i in range(n):
-            parts = [v for key, v in y.items() if key[axis] == i and v[0] is not None]
-            out.append((sum(v[0] for v in parts), sum(v[1] for v in parts)))
-        return [(d, scale * dur, bg_rate * dur) for d, dur in out]  # data, counts per activity, background
+        for keys in members:
+            parts = [y[k] for k in keys if k in y]
+            dur = sum(d for _, d in parts)
+            out.append((sum(v for v, _ in parts), scale * dur, bg_rate * dur))
+        return out
 
+    frames = p["frames"]
+    atoms = range(cuts.size - 1)
+    gates = {}
+    for G, e in edges.items():
+        owner = np.clip(np.searchsorted(e, 0.5 * (cuts[:-1] + cuts[1:]), side="right") - 1, 0, G - 1)
+        gates[G] = binned([[(a, k) for a in atoms if owner[a] == g for k in range(frames)] for g in range(G)])
     still_proj = W @ still.reshape(nx * ny, nz)
-    still_data = [(rng.poisson(scale * still_proj * dur + bg_rate * dur).astype(np.float32), scale * dur,
-                   bg_rate * dur) for _, dur in [(None, T / p["gates"])] * p["gates"]]
-    return dict(breath=breath, t=t, s_true=s_true, edges=edges, gate=gate, frame=frame, gates=binned(0, p["gates"]),
-                frames=binned(1, p["frames"]), still=still_data, levels=levels)
+    still_data = [(rng.poisson(scale * still_proj * T + bg_rate * T).astype(np.float32), scale * T, bg_rate * T)]
+    time_frames = binned([[(a, k) for a in atoms] for k in range(frames)])
+    return dict(breath=breath, edges=edges, gates=gates, frames=time_frames, still=still_data, levels=levels)
 
 
-def gate_intervals(acq, T):
-    """The gates as petblur bins them from the belt's samples (unions of intervals), and the time frames."""
+def gate_intervals(acq, G, T):
+    """The G gates as petblur bins them from the belt's samples (unions of intervals)."""
     b = acq["breath"]
-    gates = petblur.amplitude_gates(b.belt_t, b.belt_s, acq["edges"], span=(0.0, T))
-    return gates
+    return petblur.amplitude_gates(b.belt_t, b.belt_s, acq["edges"][G], span=(0.0, T))
 
 
-def operators(method, p, acq, device):
-    """Per bin, the blur B (None: the identity), as (forward of one image -> list, adjoint of a list -> image)."""
+def operators(method, G, p, acq, device):
+    """Per bin (G gates, or the time frames), the blur B (None: the identity), as (forward of one image -> list,
+    adjoint of a list -> image)."""
     shape, voxel, T = p["dims"], p["voxel"], p["seconds"]
     b = acq["breath"]
     values = np.linspace(b.belt_s.min() - 1e-3, b.belt_s.max() + 1e-3, p["fields"])
     if method in ("a", "d"):
         return None
     gated = method in ("b", "c")
-    bins = gate_intervals(acq, T) if gated else [[(k * T / p["frames"], (k + 1) * T / p["frames"])]
+    bins = gate_intervals(acq, G, T) if gated else [[(k * T / p["frames"], (k + 1) * T / p["frames"])]
                                                   for k in range(p["frames"])]
     if method in ("c", "C"):
         motion = petblur.FieldMotion.from_surrogate(values, thorax.fields(shape, voxel, values), b.belt_t,
@@ -240,7 +250,9 @@ def run(args):
     if args.iterations:
         p["iterations"] = args.iterations
     if args.gates:
-        p["gates"] = args.gates
+        p["gates"] = [int(g) for g in args.gates.split(",")]
+    elif isinstance(p["gates"], int):
+        p["gates"] = [p["gates"]]
     methods = args.methods or p["methods"]
     os.makedirs(args.out, exist_ok=True)
     rng = np.random.default_rng(args.seed)
@@ -248,10 +260,10 @@ def run(args):
     W = projector_matrix(p["dims"][0], p["angles"], args.matrix)
     acq = acquisition(p, rng, W, args.workers)
     sim_s = time.perf_counter() - t
-    gates = gate_intervals(acq, p["seconds"])
-    print(f"acquisition: {p['seconds']:g} s, {len(acq['breath'].amps)} breaths, {p['gates']} gates of "
-          f"{[len(g) for g in gates]} visits, amplitude edges {np.round(acq['edges'], 3).tolist()}; "
-          f"made in {sim_s:.1f} s", flush=True)
+    visits = {G: [len(g) for g in gate_intervals(acq, G, p["seconds"])] for G in p["gates"]}
+    print(f"acquisition: {p['seconds']:g} s, {len(acq['breath'].amps)} breaths, gates' visits {visits}, amplitude "
+          f"edges {({G: np.round(e, 3).tolist() for G, e in acq['edges'].items()})}; made in {sim_s:.1f} s",
+          flush=True)
     torch_mode = args.device.startswith("cuda")
     if torch_mode:
         import torch
@@ -265,24 +277,27 @@ def run(args):
         ones = lambda shape: np.ones(shape, np.float32)  # noqa: E731
     metrics = Metrics(p)
     results, images = {}, {}
-    for m in methods:
+    runs = [(m, G) for m in methods for G in (p["gates"] if m in "bc" else [None])]
+    for m, G in runs:
+        key, label = (m, LABELS[m]) if G is None else (f"{m}{G}", LABELS[m].replace("gates", f"{G} gates"))
         proj = Projector(W, p["dims"], "torch" if torch_mode else "numpy")
-        data = acq["still"] if m == "d" else acq["frames"] if m in "BC" else acq["gates"]
+        data = acq["still"] if m == "d" else acq["gates"][G] if m in "bc" else acq["frames"]
         t = time.perf_counter()
-        blur = operators(m, p, acq, args.device)
+        blur = operators(m, G, p, acq, args.device)
         plan_s = time.perf_counter() - t
         x, history, blur_s = mlem(data, blur, proj, p["iterations"], metrics, conv, to_host, ones)
-        results[m] = {"label": LABELS[m], "history": history, "projector_s": proj.seconds, "blur_s": blur_s,
-                      "plan_s": plan_s, "total_s": time.perf_counter() - t}
-        images[m] = x
+        results[key] = {"label": label, "history": history, "projector_s": proj.seconds, "blur_s": blur_s,
+                        "plan_s": plan_s, "total_s": time.perf_counter() - t}
+        images[key] = x
         last = history[-1]
-        print(f"{LABELS[m]:40s} NRMSE {last['nrmse']:.4f}  CR " +
+        print(f"{label:40s} NRMSE {last['nrmse']:.4f}  CR " +
               " ".join(f"{v:.2f}" for v in last["contrast_recovery"]) +
               f"  plan {plan_s:.1f} s  blur {blur_s:.1f} s  projector {proj.seconds:.1f} s", flush=True)
     settings = {k: (list(v) if isinstance(v, tuple) else v) for k, v in p.items()}
     settings.update(preset=args.preset, device=args.device, seed=args.seed, simulation_s=sim_s,
-                    breaths=int(len(acq["breath"].amps)), edges=acq["edges"].tolist(),
-                    visits=[len(g) for g in gates], lesions=metrics.names,
+                    breaths=int(len(acq["breath"].amps)),
+                    edges={str(G): e.tolist() for G, e in acq["edges"].items()},
+                    visits={str(G): v for G, v in visits.items()}, lesions=metrics.names,
                     true_contrast=[float(c) for c in metrics.true_contrast])
     with open(os.path.join(args.out, "results.json"), "w") as f:
         json.dump({"settings": settings, "results": results}, f, indent=1)
@@ -299,7 +314,8 @@ def main():
     ap.add_argument("--iterations", type=int, default=0)
     ap.add_argument("--methods", default="")
     ap.add_argument("--seed", type=int, default=1)
-    ap.add_argument("--gates", type=int, default=0, help="amplitude gates (equal counts); default the preset's")
+    ap.add_argument("--gates", default="", help="numbers of amplitude gates (equal counts), comma-separated: (b) and "
+                    "(c) run for each; default the preset's")
     ap.add_argument("--workers", type=int, default=os.cpu_count() or 1, help="processes that draw the data")
     ap.add_argument("--matrix", default="", help="the projector's matrix as .npz: read when there, else made by "
                     "ASTRA and written")
