@@ -89,7 +89,7 @@ static void check_refusals(pb_context *ctx, const pb_geometry *g, const pb_motio
 {
     pb_blur_options ab = {PB_METHOD_AB, PB_FILTER_EXACT, 0, 0, 0, 0, PB_PATH_DEFAULT, 0.0, PB_AB_SAMPLING_DEFAULT, 0};
     const double ok[2] = {0.1, 0.5}, overlap[4] = {0.1, 0.5, 0.4, 0.8}, unordered[4] = {0.5, 0.8, 0.1, 0.3},
-                 outside[4] = {0.1, 0.5, 1.8, 2.5}, empty[2] = {0.3, 0.3}, nan_end[2] = {0.1, NAN};
+                 outside[4] = {0.1, 0.5, 1.8, 2.5}, empty[2] = {0.3, 0.3}, nan_end[2] = {0.1, (double)NAN};
     const size_t one[2] = {1, 1}, two[2] = {1, 2}, none[2] = {1, 0};
     double late[6] = {0.1, 0.5, 0.2, 0.4, 1.8, 2.5};
     struct {

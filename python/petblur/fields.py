@@ -264,6 +264,13 @@ class FieldMotion:
         return int(out.voxels), (int(out.field) if out.voxels else None), voxel, float(out.worst_determinant)
 
     def _warn_folds(self, voxel_size, shape, affine, stacklevel):
+        # Once per grid: every operator over the same fields would check them all again.
+        key = (tuple(float(v) for v in voxel_size), tuple(shape), None if affine is None else
+               np.asarray(affine, dtype=np.float64).tobytes())
+        seen = self.__dict__.setdefault("_folds_seen", set())
+        if key in seen:
+            return
+        seen.add(key)
         n, field, voxel, worst = self.folds(voxel_size, shape, affine)
         if n:
             warnings.warn(f"the fields fold at {n} voxel(s) of the field grid, first field {field} at voxel {voxel} "

@@ -329,3 +329,29 @@ def test_folds_found(rng):
     assert count == n[1] * n[2]  # central differences: the voxel after the jump, on every row
     with pytest.warns(UserWarning, match="fold"):
         petblur.BlurOperator(n, voxel, fm, device="host")
+    with warnings.catch_warnings():  # once for a grid: another operator over the same fields checks nothing again
+        warnings.simplefilter("error")
+        petblur.BlurOperator(n, voxel, fm, frame=(0.2, 0.7), device="host")
+
+
+def test_frames_streamed_past_the_budget(rng, device, monkeypatch):
+    """Frames whose fields pass the device's budget for resident fields
+    (half its memory; PETBLUR_FIELD_MEMORY_MIB) stay on the host and are
+    uploaded for each launch: the same numbers as resident frames, forward
+    and adjoint, all frames at once and one alone."""
+    n, voxel, times = _case(rng)
+    fm = petblur.FieldMotion(times, _breathing(rng, n, times, 5.0))
+    bounds = np.linspace(0.5, 9.5, 4)
+    x = rng.random(n).astype(np.float32)
+    ys = rng.random((3,) + n).astype(np.float32)
+    resident = petblur.FramesOperator(n, voxel, fm, bounds, device=device)
+    want = (resident(x), resident.adjoint(ys))
+    monkeypatch.setenv("PETBLUR_FIELD_MEMORY_MIB", "0")
+    streamed = petblur.FramesOperator(n, voxel, fm, bounds, device=device)
+    got = (streamed(x), streamed.adjoint(ys))
+    # the forward gathers: the same bits; the adjoint's scatter adds in whatever order its threads meet
+    assert np.array_equal(got[0], want[0])
+    assert np.abs(got[1] - want[1]).max() <= 1e-5 * np.abs(want[1]).max()
+    assert np.abs(want[0]).max() > 0
+    one = petblur.BlurOperator(n, voxel, fm, frame=(bounds[1], bounds[2]), device=device)  # streamed too
+    assert np.abs(one(x) - want[0][1]).max() <= 1e-5 * np.abs(want[0][1]).max()

@@ -79,9 +79,15 @@ void pb_plan_destroy(pb_plan *plan)
         return;
     pb_context *ctx = plan->ctx;
     for (size_t i = 0; i < plan->set.frames; i++) {
-        pb_path_destroy(&plan->set.frame[i].path);
-        if (plan->set.frame[i].poses)
-            ctx->dev.ops->buffer_release(&ctx->dev, plan->set.frame[i].poses);
+        pb_plan_frame *f = &plan->set.frame[i];
+        if (f->poses) {
+            ctx->dev.ops->buffer_release(&ctx->dev, f->poses);
+            size_t *resident = &ctx->dev.resident_field_bytes; /* the budget for resident fields (launch.c) */
+            if (f->path.field)
+                *resident -= f->bytes < *resident ? f->bytes : *resident;
+        }
+        free(f->streamed);
+        pb_path_destroy(&f->path);
     }
     pb_images_release(&ctx->dev, &plan->set.input);
     free(plan->set.frame);

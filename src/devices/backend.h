@@ -49,7 +49,11 @@ typedef struct pb_images {
  * directions. */
 typedef struct pb_plan_frame {
     pb_path path;
-    void *poses; /* device buffer, uploaded once */
+    void *poses; /* device buffer, uploaded once; NULL while streamed */
+    /* A field frame past the device's budget for resident fields stays on
+     * the host, packed, and is uploaded for each launch (launch.c). */
+    void *streamed;
+    size_t bytes; /* of the packed key points and fields */
     /* The forward for an input laid out once (a volume) and for one laid out
      * every call (the caller's device memory): kernel_choice.h. */
     pb_kernel_id forward, forward_fresh, adjoint;
@@ -167,6 +171,7 @@ struct pb_device {
     void *impl;
     size_t layer_limits[3];      /* largest layered image: width, height, layers; 0: none */
     float texture_weight_steps;  /* the texture unit's weight steps (256 on NVIDIA), 0: float weights */
+    size_t resident_field_bytes; /* field frames' buffers resident on the device (launch.c's budget) */
     void *scratch;               /* a volume laid out for its layers (pb_permute), kept */
     size_t scratch_bytes;
     double last_kernel_ms, last_input_ms;

@@ -3,6 +3,7 @@
  * uploaded; the kernel's input made current (the 3-D image or the layers of a
  * buffer), the output zeroed or added into, launches in progress slabs, timed
  * with device events. */
+#include <stdio.h>
 #include <stdlib.h>
 
 #include "backend.h"
@@ -44,6 +45,48 @@ static pb_status reserve_scratch(pb_device *dev, size_t bytes)
     if (st == PB_OK)
         dev->scratch_bytes = bytes;
     return st;
+}
+
+/* The budget for field frames resident on the device, bytes: half its
+ * memory (the rest for volumes, images and other plans), or
+ * PETBLUR_FIELD_MEMORY_MIB; 0 where the device does not say. */
+static double field_budget(const pb_device *dev)
+{
+    const char *env = getenv("PETBLUR_FIELD_MEMORY_MIB");
+    char *end = NULL;
+    double mib = env && *env ? strtod(env, &end) : -1.0;
+    if (env && *env && end && *end == '\0' && mib >= 0.0)
+        return mib * 1048576.0;
+    return 0.5 * (double)dev->info.global_mem_bytes;
+}
+
+/* A frame's buffer for one launch: resident, or a streamed frame's uploaded
+ * now into a buffer of its own (*temp set: release it after the launch; the
+ * backends' release waits for the kernels that read it). */
+static pb_status frame_buffer(pb_device *dev, const pb_plan_frame *f, void **buffer, int *temp)
+{
+    *buffer = f->poses;
+    *temp = 0;
+    if (f->poses || !f->streamed)
+        return PB_OK;
+    pb_status st = dev->ops->buffer_create(dev, f->bytes, buffer);
+    if (st == PB_OK && (st = dev->ops->buffer_write(dev, *buffer, f->streamed, f->bytes)) != PB_OK)
+        dev->ops->buffer_release(dev, *buffer);
+    if (st != PB_OK) {
+        char why[160];
+        snprintf(why, sizeof why, " (uploading a frame's fields, %.2f GiB, streamed past the device's budget for "
+                 "resident fields: use shorter frames, or fields on a coarser grid)", (double)f->bytes / 1073741824.0);
+        pb_error_append(pb_owner(dev), why);
+        *buffer = NULL;
+    }
+    *temp = st == PB_OK;
+    return st;
+}
+
+static void frame_buffer_done(pb_device *dev, void *buffer, int temp)
+{
+    if (temp)
+        dev->ops->buffer_release(dev, buffer);
 }
 
 /* Queues kernel over a grid of dims with prm. */
@@ -202,12 +245,28 @@ pb_status pb_launch_prepare(pb_device *dev, const pb_blur_options *opt, pb_plan_
     if (!data)
         return pb_error(pb_owner(dev), PB_ERR_OUT_OF_MEMORY, "out of host memory for the %s",
                         opt->method == PB_METHOD_REF ? "reference's steps" : "key poses");
-    pb_status st = dev->ops->buffer_create(dev, bytes, &f->poses);
-    if (st == PB_OK)
-        st = dev->ops->buffer_write(dev, f->poses, data, bytes);
+    f->bytes = bytes;
+    pb_status st = PB_OK;
+    if (f->path.field && (double)(dev->resident_field_bytes + bytes) > field_budget(dev)) {
+        if (dev->info.max_alloc_bytes && bytes > dev->info.max_alloc_bytes) {
+            free(data);
+            return pb_error(pb_owner(dev), PB_ERR_DEVICE, "a frame's key points and fields take %.2f GiB, more than "
+                            "the %.2f GiB one buffer of %s may hold; use shorter frames (fewer fields each), or "
+                            "fields on a coarser grid", (double)bytes / 1073741824.0,
+                            (double)dev->info.max_alloc_bytes / 1073741824.0, dev->info.name);
+        }
+        f->streamed = data; /* uploaded for each launch */
+        data = NULL;
+    } else {
+        st = dev->ops->buffer_create(dev, bytes, &f->poses);
+        if (st == PB_OK)
+            st = dev->ops->buffer_write(dev, f->poses, data, bytes);
+        if (st == PB_OK && f->path.field)
+            dev->resident_field_bytes += bytes;
+    }
     free(data);
-    /* A field frame's fields now live on the device; the host's copy is
-     * only the host backend's. */
+    /* A field frame's fields now live in its buffer; the host's copy is only
+     * the host backend's. */
     if (st == PB_OK && f->path.field) {
         free(f->path.field->data);
         f->path.field->data = NULL;
@@ -247,7 +306,17 @@ pb_status pb_launch_frame(pb_device *dev, const pb_frame_set *plan, size_t index
             ops->timer_end(dev, &ms, &before); /* waits for what was queued; the first error stands */
         return st;
     }
-    return launch_slabs(dev, kernel, input, frame->poses, prm, out, g->dims);
+    void *buffer;
+    int temp;
+    if ((st = frame_buffer(dev, frame, &buffer, &temp)) != PB_OK) {
+        double ms, before;
+        if (timing)
+            ops->timer_end(dev, &ms, &before);
+        return st;
+    }
+    st = launch_slabs(dev, kernel, input, buffer, prm, out, g->dims);
+    frame_buffer_done(dev, buffer, temp);
+    return st;
 }
 
 pb_status pb_launch_frames(pb_device *dev, const pb_frame_set *plan, const pb_memory *const *ins,
@@ -272,8 +341,13 @@ pb_status pb_launch_frames(pb_device *dev, const pb_frame_set *plan, const pb_me
         pb_status launched = PB_OK;
         for (size_t i = 0; i < plan->frames && launched == PB_OK; i++) {
             const pb_plan_frame *f = &plan->frame[i];
-            launched = launch(dev, f->forward, inputs[i], f->poses, &f->forward_prm, outs[i]->buffer,
+            void *buffer;
+            int temp;
+            if ((launched = frame_buffer(dev, f, &buffer, &temp)) != PB_OK)
+                break;
+            launched = launch(dev, f->forward, inputs[i], buffer, &f->forward_prm, outs[i]->buffer,
                               plan->geometry.dims);
+            frame_buffer_done(dev, buffer, temp);
             pb_images_stale(&outs[i]->images);
         }
         double before = 0.0;
@@ -322,7 +396,12 @@ pb_status pb_launch_frames_apply(pb_device *dev, const pb_frame_set *plan, size_
         for (size_t i = first; i < first + count && launched == PB_OK; i++) {
             const pb_plan_frame *f = &plan->frame[i];
             refresh_input(dev, f->forward_fresh, &f->forward_prm, ins[0], dims, in_images, &input); /* current */
-            launched = launch(dev, f->forward_fresh, input, f->poses, &f->forward_prm, outs[i - first], dims);
+            void *buffer;
+            int temp;
+            if ((launched = frame_buffer(dev, f, &buffer, &temp)) != PB_OK)
+                break;
+            launched = launch(dev, f->forward_fresh, input, buffer, &f->forward_prm, outs[i - first], dims);
+            frame_buffer_done(dev, buffer, temp);
         }
     } else {
         size_t bytes = dims[0] * dims[1] * dims[2] * sizeof(float);
@@ -336,8 +415,13 @@ pb_status pb_launch_frames_apply(pb_device *dev, const pb_frame_set *plan, size_
             launched = refresh_input(dev, f->adjoint, &prm, ins[i - first], dims, in_images, &input);
             if (launched == PB_OK && pb_kernel_scatters(f->adjoint) && !prm.accumulate)
                 launched = ops->buffer_zero(dev, outs[0], bytes);
+            void *buffer = NULL;
+            int temp = 0;
             if (launched == PB_OK)
-                launched = launch(dev, f->adjoint, input, f->poses, &prm, outs[0], dims);
+                launched = frame_buffer(dev, f, &buffer, &temp);
+            if (launched == PB_OK)
+                launched = launch(dev, f->adjoint, input, buffer, &prm, outs[0], dims);
+            frame_buffer_done(dev, buffer, temp);
         }
     }
     double before = 0.0;

@@ -149,7 +149,7 @@ pb_status pb_path_surrogate_knots(struct pb_context *ctx, const pb_field_motion 
     if (!b.first)
         return pb_error(ctx, PB_ERR_OUT_OF_MEMORY, "out of host memory planning a surrogate's frame");
     /* The values the frame visits, and bins over the field intervals they touch. */
-    double smin = INFINITY, smax = -INFINITY;
+    double smin = HUGE_VAL, smax = -HUGE_VAL;
     const double *st = f->signal_times, *sv = f->signal;
     for (size_t i = 0; i < intervals; i++)
         for (size_t j = 0; j + 1 < f->signal_count; j++) {
@@ -182,8 +182,9 @@ pb_status pb_path_surrogate_knots(struct pb_context *ctx, const pb_field_motion 
     b.fields = f->count;
     if (nb > PB_MAX_SEGMENTS / 2) {
         free(b.first);
-        return pb_error(ctx, PB_ERR_INVALID_ARGUMENT, "the fields move a voxel %.3g voxels between two surrogate values; "
-                        "give fields at more values", max_move * (double)nb);
+        return pb_error(ctx, PB_ERR_INVALID_ARGUMENT, "the fields move a voxel up to %.3g voxels over their values: "
+                        "%zu value bins at this path bound, more than one blur walks; give a larger max_path_error",
+                        max_move * (double)nb, nb);
     }
     b.acc = calloc(nb, sizeof *b.acc);
     if (!b.acc) {
