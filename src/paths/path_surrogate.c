@@ -43,7 +43,8 @@ static double field_step(const pb_field_motion *f, size_t k, double vmin)
 }
 
 typedef struct moments {
-    double m0, m1, m2; /* time, and time times the value and its square */
+    double m0, m1, m2; /* time, and time times the value above the bin's lower edge and its square (relative: a
+                        * belt in raw units far from 0 keeps its spread) */
 } moments;
 
 typedef struct bins {
@@ -92,18 +93,19 @@ static void add_piece(bins *b, double sa, double sb, double dt)
     double lo = fmin(sa, sb), hi = fmax(sa, sb);
     if (!(dt > 0.0))
         return;
+    double edge, top;
     if (hi == lo) {
-        moments *m = &b->acc[bin_of(b, lo)];
+        size_t i = bin_of(b, lo);
+        bin_range(b, i, &edge, &top);
+        moments *m = &b->acc[i];
         m->m0 += dt;
-        m->m1 += dt * lo;
-        m->m2 += dt * lo * lo;
+        m->m1 += dt * (lo - edge);
+        m->m2 += dt * (lo - edge) * (lo - edge);
         return;
     }
     for (size_t i = bin_of(b, lo), last = bin_of(b, hi); i <= last; i++) {
-        double p, q;
-        bin_range(b, i, &p, &q);
-        p = fmax(p, lo);
-        q = fmin(q, hi);
+        bin_range(b, i, &edge, &top);
+        double p = fmax(edge, lo) - edge, q = fmin(top, hi) - edge;
         if (!(q > p))
             continue;
         double w = dt * (q - p) / (hi - lo);
@@ -161,15 +163,6 @@ pb_status pb_path_surrogate_knots(struct pb_context *ctx, const pb_field_motion 
             smin = fmin(smin, fmin(sa, sb));
             smax = fmax(smax, fmax(sa, sb));
         }
-    for (size_t i = 0; i < intervals; i++) { /* held before and after the samples (below) */
-        double held[2] = {iv[2 * i] < st[0] ? sv[0] : smin,
-                          iv[2 * i + 1] > st[f->signal_count - 1] ? sv[f->signal_count - 1] : smin};
-        for (int e = 0; e < 2; e++)
-            if (isfinite(held[e])) {
-                smin = fmin(smin, held[e]);
-                smax = fmax(smax, held[e]);
-            }
-    }
     size_t nb = 0;
     for (size_t k = 0; k + 1 < f->count; k++) {
         b.first[k] = nb;
@@ -200,14 +193,6 @@ pb_status pb_path_surrogate_knots(struct pb_context *ctx, const pb_field_motion 
             double r = sv[j + 1] - sv[j], dtj = st[j + 1] - st[j];
             add_piece(&b, sv[j] + r * (ta - st[j]) / dtj, sv[j] + r * (tb - st[j]) / dtj, tb - ta);
         }
-    /* The signal is held at its first (last) value before (after) its samples. */
-    for (size_t i = 0; i < intervals; i++) {
-        if (iv[2 * i] < st[0])
-            add_piece(&b, sv[0], sv[0], fmin(st[0], iv[2 * i + 1]) - iv[2 * i]);
-        if (iv[2 * i + 1] > st[f->signal_count - 1])
-            add_piece(&b, sv[f->signal_count - 1], sv[f->signal_count - 1],
-                      iv[2 * i + 1] - fmax(st[f->signal_count - 1], iv[2 * i]));
-    }
     size_t used = 0;
     for (size_t i = 0; i < nb; i++)
         used += b.acc[i].m0 > 0.0;
@@ -229,11 +214,19 @@ pb_status pb_path_surrogate_knots(struct pb_context *ctx, const pb_field_motion 
         const moments *m = &b.acc[i];
         if (!(m->m0 > 0.0))
             continue;
-        double lo, hi, c = m->m1 / m->m0;
+        double lo, hi, mean = m->m1 / m->m0;
         size_t k = bin_range(&b, i, &lo, &hi);
-        double h = sqrt(3.0 * fmax(0.0, m->m2 / m->m0 - c * c));
-        c = fmin(hi, fmax(lo, c));
-        double p = fmax(v[k], c - h), q = fmin(v[k + 1], c + h);
+        double h = sqrt(3.0 * fmax(0.0, m->m2 / m->m0 - mean * mean)), c = fmin(hi, fmax(lo, lo + mean));
+        /* Cut at a field's value, the stretch keeps its mean and gives up spread. */
+        double p = c - h, q = c + h;
+        if (p < v[k]) {
+            p = v[k];
+            q = fmin(v[k + 1], 2.0 * c - v[k]);
+        }
+        if (q > v[k + 1]) {
+            q = v[k + 1];
+            p = fmax(v[k], 2.0 * c - v[k + 1]);
+        }
         pf->knots[j] = knot_at(&b, k, p);
         pf->knots[j + 1] = knot_at(&b, k, q);
         plan->poses[j].time = p; /* values, not times: only REF, never planned so, reads times */
