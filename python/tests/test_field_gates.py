@@ -76,8 +76,8 @@ def test_values_walked_once_equal_the_belt_walked_in_time(rng, device):
     bin weighed by the time spent in it (path_surrogate.c), not the belt's
     samples in time: against the time walk, which is exact for the belt's
     polyline, its error falls with the path bound, and at the default it
-    stays far below the walk's own (measured 0.03-0.13 % RMS, 0.1-0.3 % max
-    for AB; the walk against the blur by definition is 0.1-1.5 % RMS)."""
+    stays far below the walk's own (measured 0.002-0.03 % RMS, up to 0.08 %
+    max for AB; the walk against the blur by definition is 0.1-1.5 % RMS)."""
     n, voxel, values, fields, t, s = _surrogate_case(rng)
     fm = petblur.FieldMotion.from_surrogate(values, fields, t, s)
     gates = petblur.amplitude_gates(t, s, np.linspace(s.min() - 1e-9, s.max() + 1e-9, 4))
