@@ -59,15 +59,9 @@ pb_status pb_plan_create_field_frames(pb_context *ctx, const pb_geometry *geomet
     pb_status st = pb_context_enter(ctx);
     if (st != PB_OK)
         return st;
-    /* Frame i is [bounds[i], bounds[i+1]]: the intervals, two numbers each. */
+    /* Frame i is [bounds[i], bounds[i+1]]. */
     double *iv = NULL;
-    st = pb_frame_bounds_check(ctx, bounds, frames);
-    if (st == PB_OK && !(iv = malloc(2 * frames * sizeof *iv)))
-        st = pb_error(ctx, PB_ERR_OUT_OF_MEMORY, "out of host memory for %zu frames", frames);
-    for (size_t i = 0; st == PB_OK && i < frames; i++) {
-        iv[2 * i] = bounds[i];
-        iv[2 * i + 1] = bounds[i + 1];
-    }
+    st = pb_frame_intervals(ctx, bounds, frames, &iv);
     if (st == PB_OK)
         st = plan_field_entered(ctx, geometry, field, iv, NULL, frames, options, plan);
     free(iv);
@@ -82,11 +76,9 @@ pb_status pb_plan_create_field_gates(pb_context *ctx, const pb_geometry *geometr
     if (!ctx || !geometry || !field || !intervals || !counts || !plan)
         return pb_error(ctx, PB_ERR_INVALID_ARGUMENT, "ctx, geometry, field, intervals, counts and plan must not be "
                         "NULL");
-    for (size_t i = 0; i < frames; i++)
-        if (counts[i] == 0 || counts[i] > ((size_t)1 << 24))
-            return pb_error(ctx, PB_ERR_INVALID_ARGUMENT, "frame %zu has %zu intervals; give 1 to 16777216", i,
-                            counts[i]);
-    pb_status st = pb_context_enter(ctx);
+    pb_status st = pb_gate_counts_check(ctx, counts, frames);
+    if (st == PB_OK)
+        st = pb_context_enter(ctx);
     if (st != PB_OK)
         return st;
     st = plan_field_entered(ctx, geometry, field, intervals, counts, frames, options, plan);

@@ -108,15 +108,9 @@ pb_status pb_plan_create_frames(pb_context *ctx, const pb_geometry *geometry, co
     pb_status st = pb_context_enter(ctx);
     if (st != PB_OK)
         return st;
-    /* Frame i is [bounds[i], bounds[i+1]]: the intervals, two numbers each. */
+    /* Frame i is [bounds[i], bounds[i+1]]. */
     double *iv = NULL;
-    st = pb_frame_bounds_check(ctx, bounds, frames);
-    if (st == PB_OK && !(iv = malloc(2 * frames * sizeof *iv)))
-        st = pb_error(ctx, PB_ERR_OUT_OF_MEMORY, "out of host memory for %zu frames", frames);
-    for (size_t i = 0; st == PB_OK && i < frames; i++) {
-        iv[2 * i] = bounds[i];
-        iv[2 * i + 1] = bounds[i + 1];
-    }
+    st = pb_frame_intervals(ctx, bounds, frames, &iv);
     if (st == PB_OK)
         st = plan_track_entered(ctx, geometry, track, iv, NULL, frames, options, plan);
     free(iv);
@@ -134,19 +128,18 @@ pb_status pb_plan_create_gates(pb_context *ctx, const pb_geometry *geometry, con
     *plan = NULL;
     if (frames == 0)
         return pb_error(ctx, PB_ERR_INVALID_ARGUMENT, "no frames: give at least one gate");
+    pb_status st = pb_gate_counts_check(ctx, counts, frames);
+    if (st != PB_OK)
+        return st;
     size_t next = 0;
     for (size_t i = 0; i < frames; i++) {
-        if (counts[i] == 0 || counts[i] > ((size_t)1 << 24))
-            return pb_error(ctx, PB_ERR_INVALID_ARGUMENT, "frame %zu has %zu intervals; give 1 to 16777216", i,
-                            counts[i]);
         for (size_t k = 0; k < 2 * counts[i]; k++)
             if (!isfinite(intervals[2 * next + k]))
                 return pb_error(ctx, PB_ERR_NOT_FINITE, "a time of frame %zu is %g; give finite seconds", i,
                                 intervals[2 * next + k]);
         next += counts[i];
     }
-    pb_status st = pb_context_enter(ctx);
-    if (st != PB_OK)
+    if ((st = pb_context_enter(ctx)) != PB_OK)
         return st;
     st = plan_track_entered(ctx, geometry, track, intervals, counts, frames, options, plan);
     pb_context_leave(ctx);

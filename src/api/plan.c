@@ -9,6 +9,32 @@
 
 #include "plan.h"
 
+pb_status pb_frame_intervals(pb_context *ctx, const double *bounds, size_t frames, double **intervals)
+{
+    *intervals = NULL;
+    pb_status st = pb_frame_bounds_check(ctx, bounds, frames);
+    if (st != PB_OK)
+        return st;
+    double *iv = malloc(2 * frames * sizeof *iv);
+    if (!iv)
+        return pb_error(ctx, PB_ERR_OUT_OF_MEMORY, "out of host memory for %zu frames", frames);
+    for (size_t i = 0; i < frames; i++) {
+        iv[2 * i] = bounds[i];
+        iv[2 * i + 1] = bounds[i + 1];
+    }
+    *intervals = iv;
+    return PB_OK;
+}
+
+pb_status pb_gate_counts_check(pb_context *ctx, const size_t *counts, size_t frames)
+{
+    for (size_t i = 0; i < frames; i++)
+        if (counts[i] == 0 || counts[i] > ((size_t)1 << 24))
+            return pb_error(ctx, PB_ERR_INVALID_ARGUMENT, "frame %zu has %zu intervals; give 1 to 16777216", i,
+                            counts[i]);
+    return PB_OK;
+}
+
 pb_status pb_plan_new(pb_context *ctx, const pb_geometry *geometry, const pb_blur_options *options, size_t frames,
                       pb_plan **out)
 {
