@@ -168,23 +168,34 @@ static int take_row(pbc_fields *f, char *text, size_t line, size_t *capacity)
     return 0;
 }
 
-static int read_lines(FILE *in, pbc_fields *f)
+int pbc_field_next_row(FILE *in, char *buf, size_t size, size_t *line, char **row, const char *option,
+                       const char *path, const char *form)
 {
-    char buf[MAX_LINE + 2];
-    size_t line = 0, capacity = 0;
-    int header = 0, rc = 0;
-    while (!rc && fgets(buf, sizeof buf, in)) {
-        line++;
+    *row = NULL;
+    while (fgets(buf, (int)size, in)) {
+        ++*line;
         size_t n = strlen(buf);
-        if (n == sizeof buf - 1 && buf[n - 1] != '\n')
-            return pbc_fail(PBC_EXIT_USAGE, "--fields %s line %zu: longer than %d characters; a row is 'time,path'",
-                            f->table, line, MAX_LINE);
+        if (n == size - 1 && buf[n - 1] != '\n')
+            return pbc_fail(PBC_EXIT_USAGE, "%s %s line %zu: longer than %zu characters; a row is '%s'", option, path,
+                            *line, size - 2, form);
         char *s = buf;
-        if (line == 1 && !strncmp(s, "\xEF\xBB\xBF", 3)) /* a byte-order mark, as some editors write */
+        if (*line == 1 && !strncmp(s, "\xEF\xBB\xBF", 3)) /* a byte-order mark, as some editors write */
             s += 3;
         s = pbc_field_trim(s);
-        if (!*s)
-            continue;
+        if (*s) {
+            *row = s;
+            return 0;
+        }
+    }
+    return 0;
+}
+
+static int read_lines(FILE *in, pbc_fields *f)
+{
+    char buf[MAX_LINE + 2], *s;
+    size_t line = 0, capacity = 0;
+    int header = 0, rc = 0;
+    while (!rc && !(rc = pbc_field_next_row(in, buf, sizeof buf, &line, &s, "--fields", f->table, "time,path")) && s) {
         if (!header) {
             char *comma = strchr(s, ',');
             if (comma)

@@ -7,6 +7,8 @@
 #ifndef PBC_FIELDS_H
 #define PBC_FIELDS_H
 
+#include <stdio.h>
+
 #include "commands.h"
 #include "image_io.h"
 #include "options.h"
@@ -124,5 +126,11 @@ void pbc_fields_frame_summary(const pbc_fields *f, double t0, double t1, size_t 
  * for case. */
 char *pbc_field_trim(char *s);
 int pbc_field_same_words(const char *a, const char *b);
+/* The next row of such a table into buf (size bytes: its longest line and
+ * two), trimmed, a byte-order mark dropped from line 1, blank lines skipped;
+ * *line counts the lines read. 0 with *row NULL at the end; an exit status
+ * for a line too long, naming option, path and the row's form. */
+int pbc_field_next_row(FILE *in, char *buf, size_t size, size_t *line, char **row, const char *option,
+                       const char *path, const char *form);
 
 #endif

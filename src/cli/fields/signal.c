@@ -58,21 +58,11 @@ static int take_sample(pbc_fields *f, char *s, size_t line, size_t *capacity)
 
 static int read_samples(FILE *in, pbc_fields *f)
 {
-    char buf[MAX_LINE + 2];
+    char buf[MAX_LINE + 2], *s;
     size_t line = 0, capacity = 0;
     int header = 0, rc = 0;
-    while (!rc && fgets(buf, sizeof buf, in)) {
-        line++;
-        size_t n = strlen(buf);
-        if (n == sizeof buf - 1 && buf[n - 1] != '\n')
-            return pbc_fail(PBC_EXIT_USAGE, "--signal %s line %zu: longer than %d characters; a row is 'time,value'",
-                            f->signal_path, line, MAX_LINE);
-        char *s = buf;
-        if (line == 1 && !strncmp(s, "\xEF\xBB\xBF", 3))
-            s += 3;
-        s = pbc_field_trim(s);
-        if (!*s)
-            continue;
+    while (!rc && !(rc = pbc_field_next_row(in, buf, sizeof buf, &line, &s, "--signal", f->signal_path, "time,value")) &&
+           s) {
         if (!header) {
             char *comma = strchr(s, ',');
             if (!comma || (*comma = '\0', !pbc_field_same_words(pbc_field_trim(s), "time")) || !pbc_field_same_words(pbc_field_trim(comma + 1), "value"))
