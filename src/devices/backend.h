@@ -97,7 +97,9 @@ typedef struct pb_backend_ops {
     void (*native)(const pb_device *dev, pb_native *out);
 
     /* Buffers of device memory (host memory on the host backend). write and
-     * read return with the copy finished; zero is queued. */
+     * read return with the copy finished; zero is queued. release may be
+     * called with kernels that read the buffer still queued: the memory goes
+     * only after them (a streamed frame's upload is released so). */
     pb_status (*buffer_create)(pb_device *dev, size_t bytes, void **buffer);
     void (*buffer_release)(pb_device *dev, void *buffer);
     pb_status (*buffer_write)(pb_device *dev, void *buffer, const void *host, size_t bytes);

@@ -29,12 +29,15 @@ static void cuda_native(const pb_device *dev, pb_native *out)
 
 /* ---- buffers ----------------------------------------------------------- */
 
-/* Calls on a caller's stream return unfinished: before memory is freed, the
- * end of the last call's work (stop; at once when it is done, or was never
- * recorded). */
+/* Before memory is freed, every kernel that may read it: those of the last
+ * call, which on a caller's stream returns unfinished (stop; at once when it
+ * is done, or was never recorded), and those queued since, inside a call
+ * (cudaFree is documented as only "may" synchronise). */
 static void wait_last_call(pb_device *dev)
 {
-    cudaEventSynchronize(((cu_impl *)dev->impl)->stop);
+    cu_impl *cu = dev->impl;
+    cudaEventSynchronize(cu->stop);
+    cudaStreamSynchronize(cu->queue);
 }
 
 static pb_status cuda_buffer_create(pb_device *dev, size_t bytes, void **buffer)

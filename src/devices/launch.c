@@ -61,8 +61,8 @@ static double field_budget(const pb_device *dev)
 }
 
 /* A frame's buffer for one launch: resident, or a streamed frame's uploaded
- * now into a buffer of its own (*temp set: release it after the launch; the
- * backends' release waits for the kernels that read it). */
+ * now into a buffer of its own (*temp set: release it after the launch; a
+ * backend's release waits for the kernels queued that read it, backend.h). */
 static pb_status frame_buffer(pb_device *dev, const pb_plan_frame *f, void **buffer, int *temp)
 {
     *buffer = f->poses;
@@ -259,8 +259,10 @@ pb_status pb_launch_prepare(pb_device *dev, const pb_blur_options *opt, pb_plan_
         data = NULL;
     } else {
         st = dev->ops->buffer_create(dev, bytes, &f->poses);
-        if (st == PB_OK)
-            st = dev->ops->buffer_write(dev, f->poses, data, bytes);
+        if (st == PB_OK && (st = dev->ops->buffer_write(dev, f->poses, data, bytes)) != PB_OK) {
+            dev->ops->buffer_release(dev, f->poses); /* not counted: the plan's release must not uncount it */
+            f->poses = NULL;
+        }
         if (st == PB_OK && f->path.field)
             dev->resident_field_bytes += bytes;
     }
