@@ -101,11 +101,11 @@ PB_FN void pb_slice_scatter(PB_GLOBAL float *out, pb_kparams prm, int major, flo
     }
 }
 
-/* Transpose of pb_ab_segment. The forward divides by the float sum of the
+/* Transpose of pb_ab_walked. The forward divides by the float sum of the
  * shares at the end; the scatter needs that sum before its first slice, so it
  * walks the shares once first (a few flops a slice, against four atomics). */
-PB_FN void pb_ab_segment_adjoint(PB_GLOBAL float *out, pb_kparams prm, int sweep, const float *a, const float *b,
-                                  float v)
+PB_FN void pb_ab_walked_adjoint(PB_GLOBAL float *out, pb_kparams prm, int sweep, const float *a, const float *b,
+                                 float v)
 {
     pb_ab_walk w;
     if (pb_ab_walk_init(a, b, sweep, &w)) {
@@ -145,6 +145,17 @@ PB_FN void pb_ab_segment_adjoint(PB_GLOBAL float *out, pb_kparams prm, int sweep
     PB_AB_PARTIAL_SLICES(w, pb_slice_scatter(out, prm, w.m, x, y, z, s * q * vw));
 }
 
+/* Transpose of pb_ab_segment: the exact chord's share and the walk's. */
+PB_FN void pb_ab_segment_adjoint(PB_GLOBAL float *out, pb_kparams prm, int sweep, const float *a, const float *b,
+                                  float v)
+{
+    float walk = pb_ab_walk_weight(a, b);
+    if (walk < 1.0f)
+        PB_CHORD_SAMPLES(a, b, pb_trilinear_scatter(out, prm, x, y, z, v * (1.0f - walk) * q));
+    if (walk > 0.0f)
+        pb_ab_walked_adjoint(out, prm, sweep, a, b, v * walk);
+}
+
 /* Transpose of pb_ab_sampled (ab) or pb_rm_sampled: v spread along a-b. */
 PB_FN void pb_segment_adjoint(PB_GLOBAL float *out, pb_kparams prm, const float *a, const float *b, int ab, float v)
 {
@@ -157,7 +168,11 @@ PB_FN void pb_segment_adjoint(PB_GLOBAL float *out, pb_kparams prm, const float 
         PB_FOR_PIECES(prm.steps, inv, a, b, pb_ab_segment_adjoint(out, prm, ab == PB_AB_SWEEP, pa, pb, v * inv));
         return;
     }
-    int n = prm.steps > 0 ? prm.steps : pb_ab_slices(a, b);
+    if (prm.steps <= 0) {
+        PB_CHORD_SAMPLES(a, b, pb_trilinear_scatter(out, prm, x, y, z, v * q));
+        return;
+    }
+    int n = prm.steps;
     float inv_n = 1.0f / (float)n;
     for (int i = 0; i < n; i++) {
         float s = pb_step_fraction(i, inv_n);

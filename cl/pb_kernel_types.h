@@ -48,6 +48,13 @@ typedef struct pb_kparams {
     float field_map[12];
 } pb_kparams;
 
+/* AB reads a segment that moves at most PB_AB_EXACT_TO voxels along its
+ * major axis exactly, one of at least PB_AB_WALK_FROM by the paper's walk
+ * (cl/pb_blur.cl's pb_ab_walk_weight; the host backend and the kernel choice
+ * follow them). */
+#define PB_AB_EXACT_TO 3.0f
+#define PB_AB_WALK_FROM 6.0f
+
 /* Voxels along x per work item of pb_shift_ab_layers_x: 8 floats fill a
  * 32-byte sector. */
 #define PB_X_RUN 8

@@ -176,6 +176,59 @@ static double ab_segment(const host_io *io, const double a[3], const double b[3]
     return sum;
 }
 
+/* The first point of a-b (texel coordinates) past fraction t at which a
+ * coordinate crosses a texel centre (i + 0.5), as a fraction of the way, or
+ * 1 where none is left: the trilinear filter's slope jumps there. A crossing
+ * within 1e-9 voxels of t is passed over, so that each call moves on. */
+static double next_kink(const double a[3], const double b[3], double t)
+{
+    double next = 1.0;
+    for (int d = 0; d < 3; d++) {
+        double step = b[d] - a[d];
+        if (fabs(step) < 1e-12)
+            continue;
+        double c = a[d] + t * step - 0.5, i = step > 0.0 ? floor(c + 1e-9) + 1.0 : ceil(c - 1e-9) - 1.0;
+        next = fmin(next, (i + 0.5 - a[d]) / step);
+    }
+    return next;
+}
+
+/* The trilinear filter's exact time average over the chord a-b: cut at every
+ * texel centre it crosses, inside each piece a cubic, which two
+ * Gauss-Legendre points integrate exactly (RM's default; AB's on short
+ * segments; CL on a field is RM, its chord the motion). */
+static double chord_exact(const host_io *io, const double a[3], const double b[3], double scale)
+{
+    double sum = 0.0, t1;
+    for (double t0 = 0.0; t0 < 1.0; t0 = t1) {
+        t1 = next_kink(a, b, t0);
+        if (!(t1 > t0)) /* rounding stalled: the rest is one piece */
+            t1 = 1.0;
+        for (int g = -1; g <= 1; g += 2) {
+            double t = t0 + (t1 - t0) * (0.5 + g * 0.5 / sqrt(3.0)), p[3];
+            for (int d = 0; d < 3; d++)
+                p[d] = a[d] + t * (b[d] - a[d]);
+            sum += trilinear(io, p, 0.5 * scale * (t1 - t0));
+        }
+    }
+    return sum;
+}
+
+/* AB over a-b: exact on short segments, the walk on long ones, both in
+ * between, weighed by the length along the major axis (PB_AB_EXACT_TO and
+ * PB_AB_WALK_FROM; cl/pb_blur.cl says why). */
+static double ab_exact_or_walked(const host_io *io, const double a[3], const double b[3], int sweep, double scale)
+{
+    double along = fmax(fabs(b[0] - a[0]), fmax(fabs(b[1] - a[1]), fabs(b[2] - a[2])));
+    double walk = along < 1e-4 ? 1.0 : fmin(1.0, fmax(0.0, (along - (double)PB_AB_EXACT_TO) / (double)(PB_AB_WALK_FROM - PB_AB_EXACT_TO)));
+    double sum = 0.0;
+    if (walk < 1.0)
+        sum += chord_exact(io, a, b, scale * (1.0 - walk));
+    if (walk > 0.0)
+        sum += ab_segment(io, a, b, sweep, scale * walk);
+    return sum;
+}
+
 /* Key point j of the voxel at texel coordinates u: under a pose track the
  * key pose's map, under a field the field there. */
 static void key_point(const pb_path *plan, size_t j, const double u[3], double out[3])
@@ -287,8 +340,10 @@ static double blur_voxel(const host_io *io, const pb_path *plan, const pb_blur_o
                     pa[d] = a[d] + (b[d] - a[d]) * r / parts;
                     pb[d] = a[d] + (b[d] - a[d]) * (r + 1) / parts;
                 }
-                total += ab_segment(io, pa, pb, opt->ab_sampling == PB_AB_SAMPLING_SWEEP, seg_scale / parts);
+                total += ab_exact_or_walked(io, pa, pb, opt->ab_sampling == PB_AB_SAMPLING_SWEEP, seg_scale / parts);
             }
+        } else if (!opt->steps && (opt->method == PB_METHOD_RM || plan->field)) {
+            total += chord_exact(io, a, b, seg_scale);
         } else {
             long n = opt->steps ? (long)opt->steps : ab_slice_count(a, b);
             for (long i = 0; i < n; i++) {

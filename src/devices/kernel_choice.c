@@ -102,6 +102,19 @@ static double longest_walk(const pb_path *path, const pb_blur_options *opt, int 
     return most / (opt->steps ? (double)opt->steps : 1.0);
 }
 
+/* The fewest slices a walk of a motion of translations crosses: its
+ * shortest segment's move along its major axis over AB's sub-segments. The
+ * layers hold only the paper's walk, which AB takes from PB_AB_WALK_FROM
+ * slices on (shorter segments are read exactly, through the 3-D image). */
+static double shortest_walk(const pb_path *path, const pb_blur_options *opt)
+{
+    double least = HUGE_VAL;
+    for (size_t j = 0; j + 1 < path->count; j++)
+        if (!path->poses[j].skip)
+            least = fmin(least, fmax(segment_move(path, j, 0), fmax(segment_move(path, j, 1), segment_move(path, j, 2))));
+    return least / (opt->steps ? (double)opt->steps : 1.0);
+}
+
 /* Layers along x pay only on long walks: their work items walk PB_X_RUN voxels
  * one after the other, and a short walk leaves too little work in flight to
  * hide that; the 3-D image wins below about 8 slices a walk, the layers above
@@ -151,6 +164,8 @@ pb_kernel_id pb_forward_kernel(const pb_path *path, const pb_blur_options *opt, 
     if (opt->method == PB_METHOD_AB && opt->filter == PB_FILTER_HARDWARE && layer_limits)
         m = pb_path_layer_axis(path);
     if (m == 0 && (fresh_input || longest_walk(path, opt, 0) < PB_X_LAYERS_MIN_SLICES))
+        m = -1;
+    if (m >= 0 && shortest_walk(path, opt) < (double)PB_AB_WALK_FROM + 0.01) /* the margin: the kernels' float */
         m = -1;
     if (m >= 0 && layers_fit(path->geometry.dims, m, layer_limits))
         return find_kernel(m == 0 ? PB_FAMILY_LAYERS_X : PB_FAMILY_LAYERS, opt);
