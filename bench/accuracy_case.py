@@ -16,7 +16,8 @@ relative max in percent (100 ||d|| / ||ref||, 100 max |d| / max |ref|).
   accuracy_case.py --small ...     (a 31 x 27 x 19 grid of twice the voxels: the tests' version)
 
 The tests (python/tests/test_accuracy.py) import Case, reference and
-errors from here."""
+errors from here; bench/path_cases.py its resampling (track_poses,
+mean_resampled)."""
 
 import argparse
 import json
@@ -90,20 +91,33 @@ class Case:
 def reference(case, times=600):
     """The blur of case.x under the track, dense: the mean over `times` equally
     spaced times of x resampled at M(t)^-1 w, each voxel's world point w."""
-    a = case.affine
-    inv = np.linalg.inv(a)
-    ijk = np.stack(np.meshgrid(*[np.arange(n) for n in case.shape], indexing="ij"), 0).reshape(3, -1).astype(np.float64)
-    w = a[:3, :3] @ ijk + a[:3, 3:4]
     t0, t1 = case.times[0], case.times[-1]
     ts = t0 + (np.arange(times) + 0.5) * (t1 - t0) / times
-    rot = Slerp(case.times, case.rotations)(ts)
+    rot, tr = track_poses(case.times, case.rotations, case.translations, ts)
+    return mean_resampled(case.x, case.affine, case.center, rot, tr)
+
+
+def track_poses(times, rotations, translations, ts):
+    """The track's poses at times ts, between its samples as petblur takes
+    them: translations by LERP, rotations by SLERP (a Rotation, (n, 3))."""
+    tr = np.column_stack([np.interp(ts, times, translations[:, i]) for i in range(3)])
+    return Slerp(times, rotations)(ts), tr
+
+
+def mean_resampled(x, affine, center, rotations, translations):
+    """The mean over the poses (a Rotation of n, translations (n, 3) mm, about
+    center, in world mm) of x resampled at M^-1 w, each voxel's world point w:
+    scipy's order-1 map_coordinates, zero outside the grid."""
+    inv = np.linalg.inv(affine)
+    ijk = np.stack(np.meshgrid(*[np.arange(n) for n in x.shape], indexing="ij"), 0).reshape(3, -1).astype(np.float64)
+    w = affine[:3, :3] @ ijk + affine[:3, 3:4]
+    c = np.asarray(center, np.float64)[:, None]
     out = np.zeros(ijk.shape[1])
-    for k, t in enumerate(ts):
-        tr = np.array([np.interp(t, case.times, case.translations[:, i]) for i in range(3)])
-        p = rot[k].inv().apply((w - case.center[:, None] - tr[:, None]).T).T + case.center[:, None]
+    for k in range(len(translations)):
+        p = rotations[k].inv().apply((w - c - translations[k][:, None]).T).T + c
         q = inv[:3, :3] @ p + inv[:3, 3:4]
-        out += ndimage.map_coordinates(case.x, q, order=1, mode="grid-constant", cval=0.0)
-    return (out / times).reshape(case.shape)
+        out += ndimage.map_coordinates(x, q, order=1, mode="grid-constant", cval=0.0)
+    return (out / len(translations)).reshape(x.shape)
 
 
 def errors(ref, x):
