@@ -168,11 +168,16 @@ PB_FN void pb_segment_adjoint(PB_GLOBAL float *out, pb_kparams prm, const float 
         PB_FOR_PIECES(prm.steps, inv, a, b, pb_ab_segment_adjoint(out, prm, ab == PB_AB_SWEEP, pa, pb, v * inv));
         return;
     }
-    if (prm.steps <= 0) {
-        PB_CHORD_SAMPLES(a, b, pb_trilinear_scatter(out, prm, x, y, z, v * q));
-        return;
-    }
     int n = prm.steps;
+    if (n <= 0) { /* pb_rm_sampled's rule by length */
+        float walk = pb_ab_walk_weight(a, b);
+        if (walk < 1.0f)
+            PB_CHORD_SAMPLES(a, b, pb_trilinear_scatter(out, prm, x, y, z, v * (1.0f - walk) * q));
+        if (walk == 0.0f)
+            return;
+        v *= walk;
+        n = pb_ab_slices(a, b);
+    }
     float inv_n = 1.0f / (float)n;
     for (int i = 0; i < n; i++) {
         float s = pb_step_fraction(i, inv_n);

@@ -545,25 +545,35 @@ PB_FN float pb_ab_sampled(pb_image img, pb_kparams prm, int exact, int sweep, co
     return sum * inv;
 }
 
-/* RM over one segment: prm.steps equidistant trilinear samples where the
- * caller asks for a count (the paper's RM), else the exact average over the
- * chord (PB_CHORD_SAMPLES). */
-PB_FN float pb_rm_sampled(pb_image img, pb_kparams prm, int exact, const pb_place *pl, const float *a,
-                          const float *b)
+/* RM's S equidistant trilinear samples of a-b. */
+PB_FN float pb_rm_equidistant(pb_image img, int n, int exact, const pb_place *pl, const float *a, const float *b)
 {
-    float sum = 0.0f;
-    if (prm.steps <= 0) {
-        PB_CHORD_SAMPLES(a, b, sum += q * pb_placed_trilinear(img, exact, pl, x, y, z));
-        return sum;
-    }
-    int n = prm.steps;
-    float inv_n = 1.0f / (float)n;
+    float sum = 0.0f, inv_n = 1.0f / (float)n;
     for (int i = 0; i < n; i++) {
         float s = pb_step_fraction(i, inv_n);
         sum += pb_placed_trilinear(img, exact, pl, a[0] + s * (b[0] - a[0]), a[1] + s * (b[1] - a[1]),
                                    a[2] + s * (b[2] - a[2]));
     }
     return sum * inv_n;
+}
+
+/* RM over one segment: prm.steps equidistant samples where the caller asks
+ * for a count (the paper's RM); by default AB's rule by length
+ * (pb_ab_walk_weight): a short segment's exact average over the chord, a
+ * long one's S = AB's slices equidistant samples (the paper's choice), both
+ * weighed between. */
+PB_FN float pb_rm_sampled(pb_image img, pb_kparams prm, int exact, const pb_place *pl, const float *a,
+                          const float *b)
+{
+    if (prm.steps > 0)
+        return pb_rm_equidistant(img, prm.steps, exact, pl, a, b);
+    float walk = pb_ab_walk_weight(a, b);
+    if (walk == 1.0f)
+        return pb_rm_equidistant(img, pb_ab_slices(a, b), exact, pl, a, b);
+    float sum = 0.0f;
+    PB_CHORD_SAMPLES(a, b, sum += q * pb_placed_trilinear(img, exact, pl, x, y, z));
+    return walk == 0.0f ? sum
+                        : (1.0f - walk) * sum + walk * pb_rm_equidistant(img, pb_ab_slices(a, b), exact, pl, a, b);
 }
 
 /* The polyline methods: the object-space path of the voxel centred at u (texel

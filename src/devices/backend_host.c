@@ -195,8 +195,8 @@ static double next_kink(const double a[3], const double b[3], double t)
 
 /* The trilinear filter's exact time average over the chord a-b: cut at every
  * texel centre it crosses, inside each piece a cubic, which two
- * Gauss-Legendre points integrate exactly (RM's default; AB's on short
- * segments; CL on a field is RM, its chord the motion). */
+ * Gauss-Legendre points integrate exactly (AB's and RM's on short segments;
+ * CL on a field is RM, its chord the motion). */
 static double chord_exact(const host_io *io, const double a[3], const double b[3], double scale)
 {
     double sum = 0.0, t1;
@@ -216,11 +216,19 @@ static double chord_exact(const host_io *io, const double a[3], const double b[3
 
 /* AB over a-b: exact on short segments, the walk on long ones, both in
  * between, weighed by the length along the major axis (PB_AB_EXACT_TO and
- * PB_AB_WALK_FROM; cl/pb_blur.cl says why). */
-static double ab_exact_or_walked(const host_io *io, const double a[3], const double b[3], int sweep, double scale)
+ * PB_AB_WALK_FROM; cl/pb_blur.cl says why); RM's default follows the same
+ * rule with its S samples for the walk. */
+static double ab_walk_weight(const double a[3], const double b[3])
 {
     double along = fmax(fabs(b[0] - a[0]), fmax(fabs(b[1] - a[1]), fabs(b[2] - a[2])));
-    double walk = along < 1e-4 ? 1.0 : fmin(1.0, fmax(0.0, (along - (double)PB_AB_EXACT_TO) / (double)(PB_AB_WALK_FROM - PB_AB_EXACT_TO)));
+    if (along < 1e-4)
+        return 1.0; /* a point */
+    return fmin(1.0, fmax(0.0, (along - (double)PB_AB_EXACT_TO) / (double)(PB_AB_WALK_FROM - PB_AB_EXACT_TO)));
+}
+
+static double ab_exact_or_walked(const host_io *io, const double a[3], const double b[3], int sweep, double scale)
+{
+    double walk = ab_walk_weight(a, b);
     double sum = 0.0;
     if (walk < 1.0)
         sum += chord_exact(io, a, b, scale * (1.0 - walk));
@@ -342,9 +350,17 @@ static double blur_voxel(const host_io *io, const pb_path *plan, const pb_blur_o
                 }
                 total += ab_exact_or_walked(io, pa, pb, opt->ab_sampling == PB_AB_SAMPLING_SWEEP, seg_scale / parts);
             }
-        } else if (!opt->steps && (opt->method == PB_METHOD_RM || plan->field)) {
-            total += chord_exact(io, a, b, seg_scale);
         } else {
+            /* RM's default (and CL's on a field, RM there): AB's rule by
+             * length, the exact chord's share here, the samples' below. */
+            if (!opt->steps && (opt->method == PB_METHOD_RM || plan->field)) {
+                double walk = ab_walk_weight(a, b);
+                if (walk < 1.0)
+                    total += chord_exact(io, a, b, seg_scale * (1.0 - walk));
+                seg_scale *= walk;
+                if (walk == 0.0)
+                    continue;
+            }
             long n = opt->steps ? (long)opt->steps : ab_slice_count(a, b);
             for (long i = 0; i < n; i++) {
                 double s = (i + 0.5) / n, o[3];
