@@ -192,6 +192,10 @@ static double error_percent(const float *ref, const float *x, size_t n)
     return 100.0 * num / den;
 }
 
+/* Where AB's walk takes over from the exact chord (PB_AB_WALK_FROM in
+ * cl/pb_kernel_types.h, behind the library's boundary). */
+#define AB_WALK_FROM 6.0
+
 static void test_analytic_translation(pb_context *ctx)
 {
     pb_geometry g = {{14, 12, 10}, {1.5, 1.0, 2.0}};
@@ -200,7 +204,12 @@ static void test_analytic_translation(pb_context *ctx)
     pb_pose still = pb_test_pose(0, 0, 0, NULL, 0);
 
     /* Along one axis AB's slice shares are the exact tent integrals and nothing
-     * moves inside a slice: AB is the analytic blur up to float rounding. */
+     * moves inside a slice: the walk is the analytic blur up to float
+     * rounding, and so is the exact chord that reads segments shorter than
+     * PB_AB_WALK_FROM (6) voxels. The walk reads slices on their centre
+     * planes, where the texture unit's weights are 0 or 1; the chord reads
+     * between texel centres, where NVIDIA's unit rounds each weight to 1/256:
+     * up to 2^-9 of the largest value there, a HARDWARE filter's own error. */
     double along_x[3] = {pb_rand_range(1.2, 6.0), 0.0, 0.0};
     pb_pose moved = pb_test_pose(along_x[0] * g.voxel_size[0], 0, 0, NULL, 0);
     pb_test_motion tm;
@@ -209,9 +218,12 @@ static void test_analytic_translation(pb_context *ctx)
     for (int filter = 0; filter < 2; filter++) {
         pb_blur_options opt = {PB_METHOD_AB, (pb_filter)filter, 0, 0, 0, 0, PB_PATH_DEFAULT, 0.0, PB_AB_SAMPLING_DEFAULT, 0};
         pb_test_blur(ctx, &g, in, &tm.motion, &opt, out);
-        double d = pb_max_abs_diff(exact, out, n);
-        pb_check(d <= 2e-6, "AB %s, %.3f voxels along x: max |AB - analytic| = %.3g > 2e-6",
-                 filter ? "EXACT" : "HARDWARE", along_x[0], d);
+        double d = pb_max_abs_diff(exact, out, n), top = 0.0;
+        for (size_t i = 0; i < n; i++)
+            top = fmax(top, fabs((double)in[i]));
+        double tol = filter == PB_FILTER_HARDWARE && along_x[0] < AB_WALK_FROM ? 2e-6 + top / 512.0 : 2e-6;
+        pb_check(d <= tol, "AB %s, %.3f voxels along x: max |AB - analytic| = %.3g > %.3g",
+                 filter ? "EXACT" : "HARDWARE", along_x[0], d, tol);
     }
 
     /* A diagonal translation: AB's error falls as its sub-segments shrink the
