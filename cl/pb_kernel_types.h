@@ -12,7 +12,7 @@
 typedef struct pb_kparams {
     int dims[3];
     int segments;    /* key poses - 1 */
-    int steps;       /* CL/RM: samples per segment (0: AB's slice count); AB: sub-segments (>= 1) */
+    int steps;       /* CL/RM: samples per segment (0: AB's slice count, RM's short segments exact); AB: sub-segments (>= 1) */
     int ref_points;  /* REF: points per voxel */
     int ref_steps;   /* REF: time steps over the frame */
     unsigned int seed;

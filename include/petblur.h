@@ -512,9 +512,13 @@ PB_API double pb_pose_turn_deg(const pb_pose *a, const pb_pose *b);
 typedef enum pb_method {
     /* Antialiased Bresenham: each tomograph voxel's object-space path is a
      * polyline (one segment per pair of consecutive poses), walked slice by slice
-     * along its major axis, four voxels weighted per slice. */
+     * along its major axis, four voxels weighted per slice. A segment of at
+     * most 3 voxels along that axis is read as the trilinear image's exact
+     * time average over it, one of 6 or more by the walk, both weighed
+     * between (docs/methods.md, "Short segments"). */
     PB_METHOD_AB = 0,
-    /* Ray marching: S equidistant trilinear samples along each polyline segment. */
+    /* Ray marching: S equidistant trilinear samples along each polyline
+     * segment; with steps 0, short segments exactly, as AB. */
     PB_METHOD_RM = 1,
     /* Classical: S time steps per segment, each interpolates the pose (LERP and
      * SLERP) and takes one trilinear sample. */
@@ -559,7 +563,8 @@ typedef struct pb_blur_options {
     pb_method method;
     pb_filter filter;
     /* CL and RM: samples per segment; 0 takes as many as AB visits slices on that
-     * segment for that voxel (the paper's choice). AB: sub-segments per segment;
+     * segment for that voxel (the paper's choice), RM reading short segments
+     * exactly as AB does. AB: sub-segments per segment, each read by AB's rule;
      * 0 means 1 (the paper). REF: unused. At most 100000. */
     unsigned steps;
     unsigned ref_points;     /* REF: random points per voxel; 0 = 200 (the paper); at most 100000 */
