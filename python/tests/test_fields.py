@@ -234,7 +234,11 @@ def test_adjoint_dot(rng, device, method, jacobian):
         for fm in ops:
             B = petblur.BlurOperator(n, voxel, fm, frame=(1.0, 9.0), method=method, filter="exact", device=device,
                                      affine=affine, jacobian=jacobian)
-            B.adjointness_test(rtol=2e-5, seed=int(rng.integers(1 << 31)))
+            # REF's scatter adds 200 points a voxel over its dense steps into a
+            # grid of 4-6 voxels a side: float atomics sum about a million
+            # terms into each object voxel, so its rounding is some 1e-5 (2.1e-5
+            # seen once on PoCL), where the other methods' stays near 1e-6.
+            B.adjointness_test(rtol=1e-4 if method == "ref" else 2e-5, seed=int(rng.integers(1 << 31)))
 
 
 def test_jacobian_conserves_activity(rng, device):

@@ -52,7 +52,10 @@ def test_short_segments_read_exactly(rng, kind):
     import petblur
     pc = _cases()
     case = pc.draw_case(kind, rng, small=True)
-    ref = pc.reference(case, "logged")
+    # At most 1500 times: a third of them was within 0.01 % of the whole on the
+    # noisiest logs (bench/results/2026-11-29_cpu2_5e57b97_path-cases), far
+    # below the bounds asserted here.
+    ref = pc.reference(case, "logged", times=min(pc.reference_times(case, "logged"), 1500))
     x = np.asfortranarray(case.x)
     devices = _devices()
     for device in devices:
