@@ -12,22 +12,15 @@ off on the mean frame, 2.8-3.2 mm at the worst). And the data's
 resampling moves a volume as petblur's poses do."""
 
 import argparse
-import importlib.util
-import pathlib
 
 import numpy as np
 from scipy.spatial.transform import Rotation
 
 import petblur
-
-STUDY = pathlib.Path(__file__).resolve().parents[2] / "examples" / "motion_study" / "study.py"
-
+import repo_scripts
 
 def _study():
-    spec = importlib.util.spec_from_file_location("motion_study", STUDY)
-    study = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(study)
-    return study
+    return repo_scripts.load("examples/motion_study/study.py", "motion_study")
 
 
 def test_simulation_moves_as_petblur_does(rng):

@@ -18,20 +18,14 @@ RM within float rounding of each other, on every draw. At the default bound
 sharp drift logged at 1 Hz), so AB at the default is held only below 3 % and
 1.5 % here (bench/results/2026-11-29_H200_1e88361_paths)."""
 
-import importlib.util
-import pathlib
-
 import numpy as np
 import pytest
 
-CASES = pathlib.Path(__file__).resolve().parents[2] / "bench" / "path_cases.py"
+import repo_scripts
 
 
 def _cases():
-    spec = importlib.util.spec_from_file_location("path_cases", CASES)
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
+    return repo_scripts.load("bench/path_cases.py", "path_cases")
 
 
 def _devices():
