@@ -134,7 +134,7 @@ class Together(unittest.TestCase):
     mean at least, and it must never make the worst frame worse; the bounds leave room for other seeds."""
 
     def test_pass_4(self):
-        seed = int(np.random.SeedSequence().entropy % 2**32)
+        seed = int(os.environ.get("PETBLUR_TEST_SEED_24") or np.random.SeedSequence().entropy % 2**32)
         rng = np.random.default_rng(seed)
         frames, affine, bounds, truth = hf.simulate(SETUP_24, rng, steps=4, jerk_steps=40)
         points = hf.head_points(rng)
@@ -161,7 +161,7 @@ class Together(unittest.TestCase):
                 else:
                     still = hf.read_matrix_csv(out)[1]
         e, off = errors["1"], errors["0"]
-        msg = f"seed {seed}: with pass 4 {np.round(e, 2)} (mean {e.mean():.3f}), without {np.round(off, 2)} " \
+        msg = f"seed {seed} (PETBLUR_TEST_SEED_24): with pass 4 {np.round(e, 2)} (mean {e.mean():.3f}), without {np.round(off, 2)} " \
               f"(mean {off.mean():.3f})"
         print(msg)
         # Where the series shows no contrast to correct along (the pass's guards), the two tracks are the same;
