@@ -1,10 +1,10 @@
-#: pass4 [SEEDS [JOBS]]   pass 4 of the motion estimate on a family of fresh 24-frame series (bench/pass4_family.py)
+#: contrast [SEEDS [JOBS]]   pass 4 of the motion estimate on a family of fresh 24-frame series (bench/pass4_family.py)
 # The command line's test of pass 4 draws one series a run; this draws SEEDS
 # (default 16), JOBS at a time (default 8) on the machine's cores, each
 # estimated with the pass on and off by the CUDA build. Back through $OUT:
 # machine.txt, pass4.txt (the run), pass4.json and pass4.md. (carry .device .whl)
 # shellcheck shell=bash disable=SC2154 # the helpers: bench/gpu/lib.sh
-mode_pass4() (
+mode_contrast() (
     write_machine "$OUT/machine.txt" </dev/null
     build_gpu -- src/cli/petblur || exit 1
     install_nibabel
