@@ -107,17 +107,19 @@ def track_poses(times, rotations, translations, ts):
 def mean_resampled(x, affine, center, rotations, translations):
     """The mean over the poses (a Rotation of n, translations (n, 3) mm, about
     center, in world mm) of x resampled at M^-1 w, each voxel's world point w:
-    scipy's order-1 map_coordinates, zero outside the grid."""
+    scipy's order-1 resampling, zero outside the grid. Each pose is one
+    voxel-to-voxel affine map, which scipy's affine_transform applies point by
+    point without the arrays of points map_coordinates needs."""
     inv = np.linalg.inv(affine)
-    ijk = np.stack(np.meshgrid(*[np.arange(n) for n in x.shape], indexing="ij"), 0).reshape(3, -1).astype(np.float64)
-    w = affine[:3, :3] @ ijk + affine[:3, 3:4]
-    c = np.asarray(center, np.float64)[:, None]
-    out = np.zeros(ijk.shape[1])
+    c = np.asarray(center, np.float64)
+    out = np.zeros(x.shape)
     for k in range(len(translations)):
-        p = rotations[k].inv().apply((w - c - translations[k][:, None]).T).T + c
-        q = inv[:3, :3] @ p + inv[:3, 3:4]
-        out += ndimage.map_coordinates(x, q, order=1, mode="grid-constant", cval=0.0)
-    return (out / len(translations)).reshape(x.shape)
+        # q = inv (R^T (affine ijk - c - t) + c): linear part and offset in voxels
+        rt = rotations[k].inv().as_matrix()
+        m = inv[:3, :3] @ rt @ affine[:3, :3]
+        b = inv[:3, :3] @ (rt @ (affine[:3, 3] - c - translations[k]) + c) + inv[:3, 3]
+        out += ndimage.affine_transform(x, m, b, order=1, mode="grid-constant", cval=0.0)
+    return out / len(translations)
 
 
 def errors(ref, x):
