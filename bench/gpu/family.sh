@@ -9,7 +9,7 @@
 # shellcheck shell=bash disable=SC2154 # the helpers: bench/gpu/lib.sh
 mode_family() (
     write_machine "$OUT/machine.txt" </dev/null
-    build_gpu -- src/cli/petblur src/libpetblur.so || exit 1
+    build_gpu -Dopencl=enabled -Dpython=true -- src/cli/petblur src/libpetblur.so || exit 1
     install_nibabel
     PYTHONPATH=$PWD/python PETBLUR_LIBRARY=$PWD/build-gpu/src/libpetblur.so PETBLUR_CLI=$PWD/build-gpu/src/cli/petblur \
         python3 bench/study_family.py --seeds "${1:-16}" --jobs "${2:-8}" --device opencl \
