@@ -63,7 +63,7 @@ def main() -> int:
     lines += [f"| {r['seed']} | " + " | ".join(f"{r['nrmse'][m]:.4f}" for m in "abeg") +
               f" | {r['g/e']:.3f} | {r['track_mean_mm']:.2f} / {r['track_max_mm']:.2f} |" for r in ok]
     lines.append("")
-    for k in ("b/a", "e/b", "g/e", "track_mean_mm", "track_max_mm"):
+    for k in ("b/a", "e/b", "g/e", "track_mean_mm", "track_max_mm") if ok else ():
         v = np.array([r[k] for r in ok])
         lines.append(f"- {k}: median {np.median(v):.3f}, range {v.min():.3f}-{v.max():.3f} over {len(v)} seeds")
     open(os.path.join(a.out, "family.md"), "w").write("\n".join(lines) + "\n")

@@ -11,7 +11,7 @@ mode_family() (
     write_machine "$OUT/machine.txt" </dev/null
     build_gpu -Dopencl=enabled -Dpython=true -- src/cli/petblur src/libpetblur.so || exit 1
     install_nibabel
-    PYTHONPATH=$PWD/python PETBLUR_LIBRARY=$PWD/build-gpu/src/libpetblur.so PETBLUR_CLI=$PWD/build-gpu/src/cli/petblur \
+    PYTHONPATH=$PWD/python:$PYTHONPATH PETBLUR_LIBRARY=$PWD/build-gpu/src/libpetblur.so PETBLUR_CLI=$PWD/build-gpu/src/cli/petblur \
         python3 bench/study_family.py --seeds "${1:-16}" --jobs "${2:-8}" --device opencl \
         --matrix .study/astra-48-60.npz --out /tmp/family >"$OUT/family.txt" 2>&1
     status=$?
