@@ -5,11 +5,11 @@
 # projector's matrix is carried, git-ignored, as .study/astra-48-60.npz:
 #   python3 examples/motion_study/study.py --preset small --matrix .study/astra-48-60.npz --make-matrix
 # Back through $OUT: machine.txt, family.txt, family.json, family.md.
-# (carry .device .whl .study)
+# (carry .device .whl .study/astra-48-60.npz)
 # shellcheck shell=bash disable=SC2154 # the helpers: bench/gpu/lib.sh
 mode_family() (
     write_machine "$OUT/machine.txt" </dev/null
-    build_gpu -Dopencl=enabled -Dpython=true -- src/cli/petblur src/libpetblur.so || exit 1
+    build_gpu -Dopencl=enabled -Dpython=true || exit 1
     install_nibabel
     PYTHONPATH=$PWD/python:$PYTHONPATH PETBLUR_LIBRARY=$PWD/build-gpu/src/libpetblur.so PETBLUR_CLI=$PWD/build-gpu/src/cli/petblur \
         python3 bench/study_family.py --seeds "${1:-16}" --jobs "${2:-8}" --device opencl \
