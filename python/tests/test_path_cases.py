@@ -19,8 +19,8 @@ starts between samples), the planner merges it into one chord that leaves the
 track by 0.005 voxels, and on spheres whose edge steps by most of the largest
 value across one voxel that shift alone is 0.2-0.3 % of the largest value (seeds
 2887532700 and 3668248385: 0.21 and 0.29 % max at 0.01 voxels, 0.015 % at 0.001
-and 0 % with the frame on the samples; CL, which samples the same plan's track
-densely, 0.003-0.008 %). At the default bound
+and 0 % with the frame on the samples; CL, the mean of resamplings at poses of the track
+itself, 0.003-0.008 %). At the default bound
 (0.1 voxels) what is left is the path's own error, the merged chords' (issue
 46's first item, not yet done): measured up to 2.3 % max and 1.1 % RMS (a
 sharp drift logged at 1 Hz), so AB at the default is held only below 3 % and
