@@ -163,8 +163,8 @@ class Together(unittest.TestCase):
                 else:
                     still = hf.read_matrix_csv(out)[1]
         e, off = errors["1"], errors["0"]
-        msg = f"seed {seed} (PETBLUR_TEST_SEED_24): with pass 4 {np.round(e, 2)} (mean {e.mean():.3f}), without {np.round(off, 2)} " \
-              f"(mean {off.mean():.3f})"
+        msg = f"seed {seed} (PETBLUR_TEST_SEED_24): with pass 4 {np.round(e, 2)} (mean {e.mean():.3f}), " \
+              f"without {np.round(off, 2)} (mean {off.mean():.3f})"
         print(msg)
         # Where the series shows no contrast to correct along (the pass's guards), the two tracks are the same
         self.assertEqual(moved.shape, still.shape, msg)
