@@ -47,8 +47,7 @@ def run_case(kind, seed, spacings, device):
     vals = np.column_stack([tr, (mid.inv() * rot).as_rotvec()])
 
     def motion(kt, kv):
-        q = (mid * Rotation.from_rotvec(kv[:, 3:])).as_quat()
-        return petblur.Motion(kt, kv[:, :3], np.column_stack([q[:, 3], q[:, :3]]), center=case.center)
+        return pc._motion(kt, mid * Rotation.from_rotvec(kv[:, 3:]), kv[:, :3], case.center)
 
     for k in spacings:
         kt = np.unique(np.concatenate([np.arange(t0, t1, k), [t1]]))
