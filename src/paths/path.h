@@ -99,8 +99,15 @@ enum { PB_MAX_SEGMENTS = 100000 };
 /* Error-bounded polylines (path_split.c): the plan with every interval cut
  * into the equal pieces that keep each voxel centre within max_error voxels of
  * its chord, then runs of pieces merged into chords within the same bound
- * (maps and weights still to fill). */
-pb_status pb_path_split(struct pb_context *ctx, pb_path *plan, double max_error);
+ * (maps and weights still to fill); with merge 0, only cut. */
+pb_status pb_path_split(struct pb_context *ctx, pb_path *plan, double max_error, int merge);
+
+/* Key poses fitted to the track (path_fit.c): the plan's key poses (the
+ * frame's ends and its samples) replaced by the knots of a continuous
+ * polyline fitted to them by least squares, its knots where the samples
+ * leave a line by more than max_error voxels (plus their noise of sigma_mm;
+ * 0 on main, which has no noise estimate). */
+pb_status pb_path_fit(struct pb_context *ctx, pb_path *plan, double sigma_mm, double max_error);
 
 /* Walks clipped to the grid (path_clip.c): each segment cut to the part of it
  * during which a sample can land in the object grid, the rest marked skip,

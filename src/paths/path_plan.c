@@ -110,9 +110,24 @@ pb_status pb_path_create(struct pb_context *ctx, const pb_geometry *g, const pb_
         if (pb_quat_dot(plan->poses[j].pose.rotation, plan->poses[j - 1].pose.rotation) < 0.0)
             for (int i = 0; i < 4; i++)
                 plan->poses[j].pose.rotation[i] = -plan->poses[j].pose.rotation[i];
-    /* The polyline methods get their intervals cut to the path error bound. */
+    /* The polyline methods get their key poses fitted to the track, where it
+     * has samples inside the frame, and their intervals cut to the path error
+     * bound. The fit (path_fit.c): a chord through two samples leaves the
+     * track between them on one side, which shifts every voxel's time average
+     * by up to the bound, and a sharp edge's blur is first-order sensitive to
+     * that; the fitted polyline's residual has zero time mean (docs/methods.md,
+     * "Where the merged chords' error comes from"). */
     if ((opt->method == PB_METHOD_AB || opt->method == PB_METHOD_RM) && opt->path != PB_PATH_TRACKED) {
-        st = pb_path_split(ctx, plan, opt->path == PB_PATH_BOUNDED ? opt->max_path_error : PB_DEFAULT_MAX_PATH_ERROR);
+        double bound = opt->path == PB_PATH_BOUNDED ? opt->max_path_error : PB_DEFAULT_MAX_PATH_ERROR;
+        int fit = plan->count >= 3;
+        st = fit ? pb_path_fit(ctx, plan, 0.0, bound) : PB_OK;
+        /* Fitted knots are cut, not merged again: a merge keeps a chord
+         * within the bound of the fitted polyline, and such a chord through
+         * fitted knots leaves it on one side as a chord through samples left
+         * the track (seeds 101-1010 of the noise-free kinds: 0.05-0.35 % RMS
+         * merged, 0.04-0.25 % cut only, at about the same segments). */
+        if (st == PB_OK)
+            st = pb_path_split(ctx, plan, bound, !fit);
         if (st != PB_OK) {
             pb_path_destroy(plan);
             return st;

@@ -168,7 +168,7 @@ static int merge_segments(pb_path *plan, const double *dev, double max_error)
     return 1;
 }
 
-pb_status pb_path_split(struct pb_context *ctx, pb_path *plan, double max_error)
+pb_status pb_path_split(struct pb_context *ctx, pb_path *plan, double max_error, int merge)
 {
     size_t total = 0, intervals = plan->count - 1;
     size_t *pieces = malloc(intervals * sizeof *pieces);
@@ -219,7 +219,7 @@ pb_status pb_path_split(struct pb_context *ctx, pb_path *plan, double max_error)
     free(curvature);
     plan->poses = poses;
     plan->count = total + 1;
-    int merged = merge_segments(plan, dev, max_error);
+    int merged = !merge || merge_segments(plan, dev, max_error);
     free(dev);
     return merged ? PB_OK : pb_error(ctx, PB_ERR_OUT_OF_MEMORY, "out of host memory merging the path's segments");
 }

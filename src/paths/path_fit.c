@@ -1,0 +1,396 @@
+/* Key poses fitted to the track by least squares (docs/methods.md, "Where the
+ * merged chords' error comes from").
+ *
+ * AB and RM walk chords between key poses. A chord through two of the track's
+ * samples leaves the track between them on one side, so every voxel's time
+ * average moves by up to the path bound, and the blur of a sharp edge is
+ * first-order sensitive to that shift. A continuous polyline fitted to the
+ * samples by least squares over the hat functions of its knots has a residual
+ * of zero time mean, and that first-order error cancels
+ * (bench/results/2026-11-29_cpu2_ls-knots). Here the frame's key poses (its
+ * two ends and the samples inside) are replaced by such a polyline's knots:
+ *
+ *  - the samples are cut into runs, from each knot the longest run (doubling,
+ *    then a binary search, as path_split.c's merge_segments) whose
+ *    least-squares line keeps each of the grid's 8 corner voxel centres (their
+ *    positions are affine in the voxel, so the corners bound the grid) within
+ *    the bound E of every sample;
+ *  - one continuous polyline is fitted to the whole track at once (its
+ *    samples and their interpolation, least squares over time), its knots
+ *    at the runs' ends (a tridiagonal system), translations linear in
+ *    time and the rotation through its rotation vector relative to the
+ *    frame's middle sample; a run whose piece of that polyline leaves a sample
+ *    by more than E is cut at its middle sample and the whole fitted again,
+ *    for at most PB_FIT_ROUNDS rounds (the last round fits without testing,
+ *    so the knots kept are those fitted);
+ *  - the knots become the plan's key poses, and pb_path_split cuts each
+ *    interval between them to the bound (path_plan.c says why it does not
+ *    merge them again).
+ *
+ * Tracker noise. The code is that of branch noise-paths (path_noise.c there,
+ * reviewed), but for the fit over time where that one weighs every sample
+ * alike (which counts the frame's ends, closing partial intervals, as whole
+ * samples: on fresh 1 Hz drifts and oblique translations 3-9x the error of
+ * the fit over time, bench/results/2026-11-29_cpu2_fit-main). Noise-paths
+ * fits a noisy log with sigma_mm its noise: there a run's
+ * test allows E + 5 sigma / sqrt(k) for the mean residual of every k
+ * consecutive samples (k = 1, 2, 4, ... below a window W) and E + 3 sigma /
+ * sqrt(W) for every W, and a run whose slope is within its noise is held
+ * flat. Main has no noise estimate and passes sigma_mm = 0, where all of that
+ * reduces to the plain test above (W = 1: every sample within E of its
+ * piece; a run is held flat only where its samples do not move at all, which
+ * is the line the fit would give it anyway). The parameter is kept, not
+ * specialised away, so that the reviewed code stays as it was reviewed and
+ * the noise estimate, when merged, passes its sigma here unchanged. */
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "error.h"
+#include "path.h"
+
+/* The most rounds of cutting the pieces that fail and fitting again: each
+ * round halves them, so a run of 2^32 samples is down to single intervals
+ * (which are not tested) within this many. */
+enum { PB_FIT_ROUNDS = 32 };
+
+typedef struct fit_ctx {
+    size_t n;
+    const double *t;      /* key pose times, from the first */
+    const double *o;      /* 24 per key pose: the 8 corners in object space, mm */
+    const double *st, *so; /* prefix sums: t, and per corner o (24 each) */
+    size_t w;             /* window, samples */
+    double e, sigma;      /* bound and noise, mm */
+} fit_ctx;
+
+/* Do the lines a[c] + b[c] t (c: corner, 3 each) keep key poses i..e within
+ * the bounds? The mean residual of every k consecutive samples, k = 1, 2, 4,
+ * ... below W, within E + 5 sigma / sqrt(k), and of every W within
+ * E + 3 sigma / sqrt(W): a jerk's few samples leave the line at the short
+ * scales, a slow drift at the long one. */
+static int line_holds(const fit_ctx *f, size_t i, size_t e, const double *a, const double *b)
+{
+    size_t len = e - i + 1, top = f->w < len ? f->w : len;
+    for (size_t k = 1;; k = 2 * k < top ? 2 * k : top) {
+        double bound = f->e + (k < top ? 5.0 : 3.0) * f->sigma / sqrt((double)k);
+        for (size_t m = i; m + k <= e + 1; m++) {
+            double mt = (f->st[m + k] - f->st[m]) / (double)k;
+            for (int c = 0; c < 8; c++) {
+                double d2 = 0.0;
+                for (int j = 0; j < 3; j++) {
+                    size_t q = 3 * c + j;
+                    double d = (f->so[24 * (m + k) + q] - f->so[24 * m + q]) / (double)k - (a[q] + b[q] * mt);
+                    d2 += d * d;
+                }
+                if (d2 > bound * bound)
+                    return 0;
+            }
+        }
+        if (k == top)
+            return 1;
+    }
+}
+
+/* The least-squares statistics of key poses i..e: the mean time (*mt),
+ * per corner coordinate the mean (mo) and slope (slope); returns
+ * sum (t - mean t)^2. Summed over the run itself, about its own first
+ * sample: prefix sums of t^2 and t o over a long log grow to 1e12 and more,
+ * and their differences lose a short run's spread of times to rounding. */
+static double run_stats(const fit_ctx *f, size_t i, size_t e, double *mt, double mo[24], double slope[24])
+{
+    double N = (double)(e - i + 1), t0 = f->t[i], m = 0.0, stt = 0.0, sto[24] = {0};
+    const double *o0 = &f->o[24 * i];
+    for (size_t j = i; j <= e; j++)
+        m += f->t[j] - t0;
+    m /= N;
+    for (int q = 0; q < 24; q++)
+        mo[q] = 0.0;
+    for (size_t j = i; j <= e; j++) {
+        double u = f->t[j] - t0 - m;
+        stt += u * u;
+        for (int q = 0; q < 24; q++) {
+            double d = f->o[24 * j + q] - o0[q];
+            mo[q] += d;
+            sto[q] += u * d;
+        }
+    }
+    for (int q = 0; q < 24; q++) {
+        mo[q] = o0[q] + mo[q] / N;
+        slope[q] = stt > 0.0 ? sto[q] / stt : 0.0;
+    }
+    *mt = t0 + m;
+    return stt;
+}
+
+/* The least-squares lines of key poses i..e (e > i), then line_holds. */
+static int run_holds(const fit_ctx *f, size_t i, size_t e)
+{
+    double a[24], b[24], mo[24], mt;
+    run_stats(f, i, e, &mt, mo, b);
+    for (int q = 0; q < 24; q++)
+        a[q] = mo[q] - b[q] * mt;
+    return line_holds(f, i, e, a, b);
+}
+
+/* Is the run i..e still within its noise: every corner's least-squares
+ * slope within 3 standard errors of none (sigma / sqrt(sum (t - mean t)^2)),
+ * and the constant at the mean within the bounds? */
+static int run_flat(const fit_ctx *f, size_t i, size_t e)
+{
+    double a[24], b[24] = {0}, slope[24], mt;
+    double stt = run_stats(f, i, e, &mt, a, slope);
+    if (!(stt > 0.0))
+        return 0;
+    for (int q = 0; q < 24; q++)
+        if (fabs(slope[q]) > 3.0 * f->sigma / sqrt(stt))
+            return 0;
+    return line_holds(f, i, e, a, b);
+}
+
+static void quat_log(const double q[4], double v[3])
+{
+    double s = sqrt(q[1] * q[1] + q[2] * q[2] + q[3] * q[3]);
+    double k = s > 1e-15 ? 2.0 * atan2(s, q[0]) / s : 2.0 / (q[0] != 0.0 ? q[0] : 1.0);
+    for (int i = 0; i < 3; i++)
+        v[i] = k * q[i + 1];
+}
+
+static void quat_exp(const double v[3], double q[4])
+{
+    double a = 0.5 * sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
+    double k = a > 1e-15 ? sin(a) / (2.0 * a) : 0.5;
+    q[0] = cos(a);
+    for (int i = 0; i < 3; i++)
+        q[i + 1] = k * v[i];
+}
+
+/* The continuous polyline with knots at key poses knot[0..K] (knot[0] = 0,
+ * knot[K] = n - 1) fitted to the key poses' 6 parameters x (n x 6) and
+ * their linear interpolation between them, the two knots of a flat piece
+ * (flat[s]) tied to one value: the knots' parameters into out ((K + 1) x 6).
+ * Least squares over time, over the hat functions of the knots (summed over
+ * tied knots): a tridiagonal system, symmetric positive definite (every
+ * knot's hat covers at least one interval of the track). */
+static int fit_polyline(const double *t, const double *x, size_t n, const size_t *knot, const int *flat, size_t K,
+                        double *out)
+{
+    size_t *group = malloc((K + 1) * sizeof *group);
+    double *diag = calloc(K + 1, sizeof *diag), *off = calloc(K + 1, sizeof *off);
+    double *rhs = calloc((K + 1) * 6, sizeof *rhs), *val = calloc((K + 1) * 6, sizeof *val);
+    int ok = group && diag && off && rhs && val;
+    if (ok) {
+        group[0] = 0;
+        for (size_t s = 0; s < K; s++)
+            group[s + 1] = group[s] + !flat[s];
+        size_t m = group[K] + 1;
+        /* The track between samples is their interpolation, so the fit is
+         * over time, not over samples: each interval's products of linear
+         * functions integrated exactly (Simpson's rule). A sample-weighted
+         * fit would count the frame's ends, which close partial intervals,
+         * as whole samples and tilt a short log's knots. */
+        for (size_t s = 0, j = 0; j + 1 < n; j++) {
+            while (s + 1 < K && j >= knot[s + 1])
+                s++;
+            double span = t[knot[s + 1]] - t[knot[s]], h = (t[j + 1] - t[j]) / 6.0;
+            double u[3] = {(t[j] - t[knot[s]]) / span, 0.0, (t[j + 1] - t[knot[s]]) / span}, wq[3] = {h, 4.0 * h, h};
+            u[1] = 0.5 * (u[0] + u[2]);
+            size_t ga = group[s], gb = group[s + 1];
+            for (int r = 0; r < 3; r++) {
+                double xr[6];
+                for (int p = 0; p < 6; p++)
+                    xr[p] = r == 0 ? x[6 * j + p] : r == 2 ? x[6 * (j + 1) + p] : 0.5 * (x[6 * j + p] + x[6 * (j + 1) + p]);
+                if (ga == gb) {
+                    diag[ga] += wq[r];
+                    for (int p = 0; p < 6; p++)
+                        rhs[6 * ga + p] += wq[r] * xr[p];
+                    continue;
+                }
+                double a = 1.0 - u[r], b = u[r];
+                diag[ga] += wq[r] * a * a;
+                off[ga] += wq[r] * a * b;
+                diag[gb] += wq[r] * b * b;
+                for (int p = 0; p < 6; p++) {
+                    rhs[6 * ga + p] += wq[r] * a * xr[p];
+                    rhs[6 * gb + p] += wq[r] * b * xr[p];
+                }
+            }
+        }
+        for (size_t g = 1; g < m; g++) { /* Thomas */
+            double l = off[g - 1] / diag[g - 1];
+            diag[g] -= l * off[g - 1];
+            for (int p = 0; p < 6; p++)
+                rhs[6 * g + p] -= l * rhs[6 * (g - 1) + p];
+        }
+        for (size_t g = m; g-- > 0;)
+            for (int p = 0; p < 6; p++)
+                val[6 * g + p] = (rhs[6 * g + p] - (g + 1 < m ? off[g] * val[6 * (g + 1) + p] : 0.0)) / diag[g];
+        for (size_t s = 0; s <= K; s++)
+            memcpy(&out[6 * s], &val[6 * group[s]], 6 * sizeof *out);
+    }
+    free(group);
+    free(diag);
+    free(off);
+    free(rhs);
+    free(val);
+    return ok;
+}
+
+static void corners_of(const pb_path *plan, const pb_pose *pose, double *o)
+{
+    const double *v = plan->geometry.voxel_size;
+    for (int c = 0; c < 8; c++) {
+        double p[3];
+        for (int i = 0; i < 3; i++)
+            p[i] = ((c >> i & 1) ? ((double)plan->geometry.dims[i] - 0.5) : 0.5) * v[i];
+        pb_pose_apply_inverse(pose, plan->center, p, &o[3 * c]);
+    }
+}
+
+pb_status pb_path_fit(struct pb_context *ctx, pb_path *plan, double sigma_mm, double max_error)
+{
+    size_t n = plan->count;
+    const double *v = plan->geometry.voxel_size;
+    double vmin = fmin(v[0], fmin(v[1], v[2])), e_mm = max_error * vmin;
+    double *buf = calloc(n * (1 + 24 + 6) + (n + 1) * (1 + 24), sizeof *buf);
+    size_t *knot = malloc(n * sizeof *knot);
+    double *kx = malloc(n * 6 * sizeof *kx);
+    pb_path_pose *poses = NULL;
+    if (!buf || !knot || !kx) {
+        free(buf);
+        free(knot);
+        free(kx);
+        return pb_error(ctx, PB_ERR_OUT_OF_MEMORY, "out of host memory fitting the path through %zu samples", n);
+    }
+    double *t = buf, *o = t + n, *x = o + 24 * n, *st = x + 6 * n, *so = st + n + 1;
+    double qref[4], qc[4];
+    memcpy(qref, plan->poses[n / 2].pose.rotation, sizeof qref);
+    pb_quat_conj(qref, qc);
+    for (size_t j = 0; j < n; j++) {
+        const pb_pose *p = &plan->poses[j].pose;
+        t[j] = plan->poses[j].time - plan->poses[0].time;
+        corners_of(plan, p, &o[24 * j]);
+        double rel[4];
+        pb_quat_mul(qc, p->rotation, rel);
+        if (rel[0] < 0.0)
+            for (int i = 0; i < 4; i++)
+                rel[i] = -rel[i];
+        memcpy(&x[6 * j], p->translation, 3 * sizeof *x);
+        quat_log(rel, &x[6 * j + 3]);
+        st[j + 1] = st[j] + t[j];
+        for (int q = 0; q < 24; q++)
+            so[24 * (j + 1) + q] = so[24 * j + q] + o[24 * j + q];
+    }
+    /* W: 3 sigma / sqrt(W) <= E / 2. Thresholds measured on bench/path_cases.py's
+     * noisy cases: 3 sigma at the short scales cut still heads into ten
+     * runs on false alarms, each run's knots noisier, 4x the error. */
+    double wn = ceil(pow(6.0 * sigma_mm / e_mm, 2.0));
+    fit_ctx f = {n, t, o, st, so, wn < 1.0 ? 1 : (wn > 1000.0 ? 1000 : (size_t)wn), e_mm, sigma_mm};
+
+    /* Runs: from each knot, the longest run whose line holds (doubling, then
+     * a binary search, as merge_segments). */
+    size_t K = 0, i = 0;
+    knot[0] = 0;
+    while (i + 1 < n) {
+        size_t limit = n - 1, good = i + 1, bad = limit + 1;
+        for (size_t len = 2; good < limit && bad > limit; len *= 2) {
+            size_t e = i + len < limit ? i + len : limit;
+            if (run_holds(&f, i, e))
+                good = e;
+            else
+                bad = e;
+        }
+        while (bad <= limit && bad - good > 1) {
+            size_t mid = good + (bad - good) / 2;
+            if (run_holds(&f, i, mid))
+                good = mid;
+            else
+                bad = mid;
+        }
+        knot[++K] = good;
+        i = good;
+    }
+    /* One polyline through every sample, its runs that are still within
+     * their noise (a still head, the rest before and after a jerk) held
+     * flat: a flat run's value is the mean of its samples, whose noise is
+     * sigma / sqrt(n), where a line's ends stray sqrt(3) times as far again
+     * and make a still head a spurious drift. A piece that fails is cut at
+     * its middle sample and the whole fitted again; a flat piece's halves
+     * are lines from then on (two flat runs side by side are tied to one
+     * value by the polyline's continuity, which no cut would untie). The last
+     * round fits without testing, so the knots kept are those fitted. */
+    int ok = 1, *flat = malloc(n * sizeof *flat);
+    unsigned char *sloped = calloc(n, 1); /* per piece: never held flat */
+    if (!flat || !sloped)
+        ok = 0;
+    for (int round = 0; ok; round++) {
+        for (size_t s = 0; s < K; s++)
+            flat[s] = !sloped[s] && knot[s + 1] - knot[s] > 1 && run_flat(&f, knot[s], knot[s + 1]);
+        if (!(ok = fit_polyline(t, x, n, knot, flat, K, kx)) || round == PB_FIT_ROUNDS)
+            break;
+        size_t added = 0;
+        double (*ends)[24] = malloc((K + 1) * sizeof *ends);
+        size_t *next = malloc(2 * (K + 1) * sizeof *next), Kn = 0;
+        unsigned char *next_sloped = malloc(2 * (K + 1));
+        if (!(ok = ends && next && next_sloped)) {
+            free(ends);
+            free(next);
+            free(next_sloped);
+            break;
+        }
+        for (size_t s = 0; s <= K; s++) {
+            pb_pose p;
+            double q[4];
+            memcpy(p.translation, &kx[6 * s], 3 * sizeof *kx);
+            quat_exp(&kx[6 * s + 3], q);
+            pb_quat_mul(qref, q, p.rotation);
+            corners_of(plan, &p, ends[s]);
+        }
+        next[0] = 0;
+        for (size_t s = 0; s < K; s++) {
+            double a[24], b[24], t0 = t[knot[s]], t1 = t[knot[s + 1]];
+            for (int q = 0; q < 24; q++) {
+                b[q] = (ends[s + 1][q] - ends[s][q]) / (t1 - t0);
+                a[q] = ends[s][q] - b[q] * t0;
+            }
+            int cut = knot[s + 1] - knot[s] > 1 && !line_holds(&f, knot[s], knot[s + 1], a, b);
+            if (cut) {
+                next_sloped[Kn] = sloped[s] || flat[s];
+                next[++Kn] = knot[s] + (knot[s + 1] - knot[s]) / 2;
+                added++;
+            }
+            next_sloped[Kn] = sloped[s] || (cut && flat[s]);
+            next[++Kn] = knot[s + 1];
+        }
+        free(ends);
+        if (added) {
+            memcpy(knot, next, (Kn + 1) * sizeof *knot);
+            memcpy(sloped, next_sloped, Kn);
+            K = Kn;
+        }
+        free(next);
+        free(next_sloped);
+        if (!added)
+            break;
+    }
+    if (ok && (poses = calloc(K + 1, sizeof *poses))) {
+        for (size_t s = 0; s <= K; s++) {
+            double q[4];
+            poses[s].time = plan->poses[knot[s]].time;
+            memcpy(poses[s].pose.translation, &kx[6 * s], 3 * sizeof *kx);
+            quat_exp(&kx[6 * s + 3], q);
+            pb_quat_mul(qref, q, poses[s].pose.rotation);
+            if (s > 0 && pb_quat_dot(poses[s].pose.rotation, poses[s - 1].pose.rotation) < 0.0)
+                for (int k = 0; k < 4; k++)
+                    poses[s].pose.rotation[k] = -poses[s].pose.rotation[k];
+        }
+        free(plan->poses);
+        plan->poses = poses;
+        plan->count = K + 1;
+    }
+    free(buf);
+    free(knot);
+    free(kx);
+    free(flat);
+    free(sloped);
+    return poses ? PB_OK : pb_error(ctx, PB_ERR_OUT_OF_MEMORY, "out of host memory fitting the path");
+}
