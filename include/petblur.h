@@ -631,12 +631,15 @@ PB_API pb_status pb_options_check(const pb_blur_options *options);
  * |t|max the larger translation of its two poses and |dt| the translation's
  * change, both across that axis (all in mm), vmin the smallest voxel
  * size and E the bound. A C2 curve leaves its chord over a piece of
- * parameter length h by at most h^2 max|p''| / 8. Then runs of consecutive
- * segments (a 30 Hz log gives one per sample) are merged into one chord while
- * every voxel, at every time, stays within E of its true path: the old
- * polyline's largest distance from the chord (at the grid's corners, at the
- * inner key poses) plus the pieces' own bound above. A steady motion logged at
- * any rate is one segment. */
+ * parameter length h by at most h^2 max|p''| / 8. Where the frame holds
+ * tracked poses, they are first replaced by the knots of a continuous
+ * polyline fitted to the track by least squares over time, each of its pieces
+ * within E of every tracked pose it spans at the grid's corners (a 30 Hz log
+ * of a smooth motion needs few; a steady motion logged at any rate is one
+ * segment); the intervals between the knots are then cut as above and not
+ * merged (docs/methods.md, "Short segments, read exactly"). Without tracked
+ * poses inside the frame, runs of consecutive pieces are merged into one chord
+ * while every voxel, at every time, stays within E of its true path. */
 PB_API pb_status pb_path_segments(const pb_geometry *geometry, const pb_motion *motion,
                                   const pb_blur_options *options, size_t *segments);
 
