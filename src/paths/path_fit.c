@@ -19,8 +19,9 @@
  *    samples and their interpolation, least squares over time), its knots
  *    at the runs' ends (a tridiagonal system), translations linear in
  *    time and the rotation through its rotation vector relative to the
- *    frame's middle sample; a run whose piece of that polyline leaves a sample
- *    by more than E is cut at its middle sample and the whole fitted again,
+ *    frame's middle sample (continuous to 360 degrees either side of it);
+ *    a run whose piece of that polyline leaves a sample by more than E is
+ *    cut at its middle sample and the whole fitted again,
  *    for at most PB_FIT_ROUNDS rounds (the last round fits without testing,
  *    so the knots kept are those fitted);
  *  - the knots become the plan's key poses, and pb_path_split cuts each
@@ -269,11 +270,12 @@ pb_status pb_path_fit(struct pb_context *ctx, pb_path *plan, double sigma_mm, do
         const pb_pose *p = &plan->poses[j].pose;
         t[j] = plan->poses[j].time - plan->poses[0].time;
         corners_of(plan, p, &o[24 * j]);
+        /* Not folded to rel[0] >= 0: the plan's poses are each in the
+         * hemisphere of the one before (path_plan.c), so rel runs on
+         * continuously from the identity at the middle sample, and its
+         * rotation vector with it, to turns of 360 degrees either side. */
         double rel[4];
         pb_quat_mul(qc, p->rotation, rel);
-        if (rel[0] < 0.0)
-            for (int i = 0; i < 4; i++)
-                rel[i] = -rel[i];
         memcpy(&x[6 * j], p->translation, 3 * sizeof *x);
         quat_log(rel, &x[6 * j + 3]);
         st[j + 1] = st[j] + t[j];
