@@ -50,11 +50,12 @@ forward and the summed adjoint of either within 10x the memory floor.
                  [--ref-hz 20] [--error-frames all | 0,11,23] [--out frames_cost.json]
   frames_cost.py --device host --shape 40,40,20 --frames 3 --runs 3     (the quick check on a CPU)
 
-On an H200 the default run takes about a minute or two after the package is
-built: the CL references sample each voxel of each frame 1500 times (one
-reference per track, and one of the true drift), and the 20 Hz tracks' AB
-calls cost 0.1-0.2 s each. --error-frames 0,11,23 cuts the references to
-those frames, made one frame at a time by BlurOperator.
+On an H200 (at 97be16e) the default run took 70 s after the package's build
+(about 55 s, bash bench/gpu.sh frames: 127 s in all): the CL references,
+each sampling every voxel of each frame 1500 times (one per track, and one
+of the true drift), 1.6-2.7 s each; the 20 Hz log's AB calls 0.15-1.1 s
+each, 16 of them each way per bound. --error-frames 0,11,23 cuts the
+references to those frames, made one frame at a time by BlurOperator.
 
 The seed (printed) draws the drift (default_rng([seed, 0])), each track's
 jitter or noise (default_rng([seed, 1 + its index in TRACKS])) and the object
