@@ -14,35 +14,36 @@
  *    then a binary search, as path_split.c's merge_segments) whose
  *    least-squares line keeps each of the grid's 8 corner voxel centres (their
  *    positions are affine in the voxel, so the corners bound the grid) within
- *    the bound E of every sample;
+ *    the bound E of every sample (beyond the tracker's noise, below);
  *  - one continuous polyline is fitted to the whole track at once (its
  *    samples and their interpolation, least squares over time), its knots
  *    at the runs' ends (a tridiagonal system), translations linear in
  *    time and the rotation through its rotation vector relative to the
  *    frame's middle sample (continuous to 360 degrees either side of it);
- *    a run whose piece of that polyline leaves a sample by more than E is
- *    cut at its middle sample and the whole fitted again,
- *    for at most PB_FIT_ROUNDS rounds (the last round fits without testing,
+ *    a run whose piece of that polyline fails the same test is cut at its
+ *    middle sample and the whole fitted again, for at most PB_FIT_ROUNDS rounds (the last round fits without testing,
  *    so the knots kept are those fitted);
  *  - the knots become the plan's key poses, and pb_path_split cuts each
  *    interval between them to the bound (path_plan.c says why it does not
  *    merge them again).
  *
- * Tracker noise. The code is that of branch noise-paths (path_noise.c there,
- * reviewed), but for the fit over time where that one weighs every sample
- * alike (which counts the frame's ends, closing partial intervals, as whole
- * samples: on fresh 1 Hz drifts and oblique translations 3-9x the error of
- * the fit over time, bench/results/2026-11-29_cpu2_fit-main). Noise-paths
- * fits a noisy log with sigma_mm its noise: there a run's
- * test allows E + 5 sigma / sqrt(k) for the mean residual of every k
- * consecutive samples (k = 1, 2, 4, ... below a window W) and E + 3 sigma /
- * sqrt(W) for every W, and a run whose slope is within its noise is held
- * flat. Main has no noise estimate and passes sigma_mm = 0, where all of that
- * reduces to the plain test above (W = 1: every sample within E of its
- * piece; a run is held flat only where its samples do not move at all, which
- * is the line the fit would give it anyway). The parameter is kept, not
- * specialised away, so that the reviewed code stays as it was reviewed and
- * the noise estimate, when merged, passes its sigma here unchanged. */
+ * Tracker noise (tracker_noise below). A log's samples scatter about the
+ * motion by the tracker's noise, white from sample to sample, and what is
+ * noise is not motion: a chord need not follow it. Each corner's noise is
+ * measured from the whole track, where it passes a test of whiteness (a
+ * tremor is a motion, however fast); a run's line then holds where
+ *  - each corner's residual has a mean square within E^2 plus the noise's:
+ *    what the run drops of each voxel's spread of positions beyond the noise
+ *    bounds the blur's second-order error;
+ *  - the mean residual of every k consecutive samples, k = 1, 2, 4, ... up to
+ *    the run, is within E + 3 s / sqrt(k), s the corner's noise (the 3D
+ *    norm's RMS): the first-order error, where a jerk's few samples leave
+ *    the line at the short scales and a slow drift at the long one.
+ * A track without noise (or whose noise fails the test) has s = 0: every
+ * sample within E of its piece. The noise is measured for the default path
+ * only (measure_noise): a bound the caller sets asks for the logged track
+ * within it, noise and all. pb_path_fit's sigma_mm, the tracker's noise per
+ * axis where a caller knows it, is a floor under the measured one. */
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -60,24 +61,76 @@ typedef struct fit_ctx {
     const double *t;      /* key pose times, from the first */
     const double *o;      /* 24 per key pose: the 8 corners in object space, mm */
     const double *st, *so; /* prefix sums: t, and per corner o (24 each) */
-    size_t w;             /* window, samples */
-    double e, sigma;      /* bound and noise, mm */
+    double e;             /* bound, mm */
+    double noise[8];      /* per corner, the RMS of the noise's 3D norm, mm */
+    double sigma;         /* per axis, the largest corner's, mm (run_flat) */
 } fit_ctx;
 
+/* u_j: how far key pose j's corner c lies from the chord of its two
+ * neighbours. */
+static void chord_offset(const double *t, const double *o, size_t j, int c, double u[3])
+{
+    double wa = (t[j + 1] - t[j]) / (t[j + 1] - t[j - 1]), wb = 1.0 - wa;
+    for (int k = 0; k < 3; k++) {
+        size_t q = 3 * c + k;
+        u[k] = o[24 * j + q] - wa * o[24 * (j - 1) + q] - wb * o[24 * (j + 1) + q];
+    }
+}
+
+/* Corner c's noise, the RMS of its 3D norm, from the whole track, or 0 where
+ * the track does not look like a motion plus white noise. For white noise of
+ * sigma per axis (times equally spaced), the mean of u_j . u_{j+l} is
+ * 4.5 sigma^2 at lag 0, -3 sigma^2 at lag 1 (they share two samples with
+ * opposite signs), 0.75 sigma^2 at lag 2 and 0 beyond; a smooth motion's u is
+ * smooth, its products positive at every lag, so a log's bend between samples
+ * (a 1 Hz drift) is not taken for noise, and a tremor of frequency f has
+ * products in the ratios cos(2 pi f l dt), which match the three of white
+ * noise nowhere (a 7.8 Hz tremor in a 20 Hz log matches the first two). The
+ * test's margins allow the products' own scatter over a few hundred samples;
+ * a shorter log, or one that fails, is followed sample by sample. */
+static double tracker_noise(size_t n, const double *t, const double *o, int c)
+{
+    if (n < 64)
+        return 0.0;
+    double p[4] = {0};
+    size_t m = 0;
+    for (size_t j = 1; j + 4 < n; j++, m++) {
+        double u[4][3];
+        for (int l = 0; l < 4; l++)
+            chord_offset(t, o, j + (size_t)l, c, u[l]);
+        for (int l = 0; l < 4; l++)
+            p[l] += u[0][0] * u[l][0] + u[0][1] * u[l][1] + u[0][2] * u[l][2];
+    }
+    for (int l = 0; l < 4; l++)
+        p[l] /= (double)m;
+    double s2 = -p[1] / 3.0; /* sigma^2 per axis, from lag 1 */
+    if (!(s2 > 0.0) || p[0] > 2.0 * 4.5 * s2 || p[0] < 0.5 * 4.5 * s2 || p[2] > 2.0 * 0.75 * s2 ||
+        p[2] < 0.5 * 0.75 * s2 || fabs(p[3]) > 0.25 * 3.0 * s2)
+        return 0.0;
+    return sqrt(3.0 * s2);
+}
+
 /* Do the lines a[c] + b[c] t (c: corner, 3 each) keep key poses i..e within
- * the bounds? The mean residual of every k consecutive samples, k = 1, 2, 4,
- * ... below W, within E + 5 sigma / sqrt(k), and of every W within
- * E + 3 sigma / sqrt(W): a jerk's few samples leave the line at the short
- * scales, a slow drift at the long one. */
+ * the bounds (the header's two tests)? */
 static int line_holds(const fit_ctx *f, size_t i, size_t e, const double *a, const double *b)
 {
-    size_t len = e - i + 1, top = f->w < len ? f->w : len;
-    for (size_t k = 1;; k = 2 * k < top ? 2 * k : top) {
-        double bound = f->e + (k < top ? 5.0 : 3.0) * f->sigma / sqrt((double)k);
+    size_t len = e - i + 1;
+    for (int c = 0; c < 8; c++) {
+        double ms = 0.0;
+        for (size_t m = i; m <= e; m++)
+            for (int j = 0; j < 3; j++) {
+                size_t q = 3 * c + j;
+                double d = f->o[24 * m + q] - (a[q] + b[q] * f->t[m]);
+                ms += d * d;
+            }
+        if (ms > (f->e * f->e + f->noise[c] * f->noise[c]) * (double)len)
+            return 0;
+    }
+    for (size_t k = 1;; k = 2 * k < len ? 2 * k : len) {
         for (size_t m = i; m + k <= e + 1; m++) {
             double mt = (f->st[m + k] - f->st[m]) / (double)k;
             for (int c = 0; c < 8; c++) {
-                double d2 = 0.0;
+                double bound = f->e + 3.0 * f->noise[c] / sqrt((double)k), d2 = 0.0;
                 for (int j = 0; j < 3; j++) {
                     size_t q = 3 * c + j;
                     double d = (f->so[24 * (m + k) + q] - f->so[24 * m + q]) / (double)k - (a[q] + b[q] * mt);
@@ -87,7 +140,7 @@ static int line_holds(const fit_ctx *f, size_t i, size_t e, const double *a, con
                     return 0;
             }
         }
-        if (k == top)
+        if (k == len)
             return 1;
     }
 }
@@ -247,7 +300,7 @@ static void corners_of(const pb_path *plan, const pb_pose *pose, double *o)
     }
 }
 
-pb_status pb_path_fit(struct pb_context *ctx, pb_path *plan, double sigma_mm, double max_error)
+pb_status pb_path_fit(struct pb_context *ctx, pb_path *plan, double sigma_mm, double max_error, int measure_noise)
 {
     size_t n = plan->count;
     const double *v = plan->geometry.voxel_size;
@@ -282,11 +335,11 @@ pb_status pb_path_fit(struct pb_context *ctx, pb_path *plan, double sigma_mm, do
         for (int q = 0; q < 24; q++)
             so[24 * (j + 1) + q] = so[24 * j + q] + o[24 * j + q];
     }
-    /* W: 3 sigma / sqrt(W) <= E / 2. Thresholds measured on bench/path_cases.py's
-     * noisy cases: 3 sigma at the short scales cut still heads into ten
-     * runs on false alarms, each run's knots noisier, 4x the error. */
-    double wn = ceil(pow(6.0 * sigma_mm / e_mm, 2.0));
-    fit_ctx f = {n, t, o, st, so, wn < 1.0 ? 1 : (wn > 1000.0 ? 1000 : (size_t)wn), e_mm, sigma_mm};
+    fit_ctx f = {n, t, o, st, so, e_mm, {0}, 0.0};
+    for (int c = 0; c < 8; c++) {
+        f.noise[c] = fmax(measure_noise ? tracker_noise(n, t, o, c) : 0.0, sqrt(3.0) * sigma_mm);
+        f.sigma = fmax(f.sigma, f.noise[c] / sqrt(3.0));
+    }
 
     /* Runs: from each knot, the longest run whose line holds (doubling, then
      * a binary search, as merge_segments). */
