@@ -77,8 +77,9 @@ static void chord_offset(const double *t, const double *o, size_t j, int c, doub
     }
 }
 
-/* Corner c's noise, the RMS of its 3D norm, from the whole track, or 0 where
- * the track does not look like a motion plus white noise. For white noise of
+/* Each corner's noise, the RMS of its 3D norm, from the whole track, or 0
+ * where the track does not look like a motion plus white noise (the test on
+ * the corners' mean products, whose scatter is smaller than one corner's). For white noise of
  * sigma per axis (times equally spaced), the mean of u_j . u_{j+l} is
  * 4.5 sigma^2 at lag 0, -3 sigma^2 at lag 1 (they share two samples with
  * opposite signs), 0.75 sigma^2 at lag 2 and 0 beyond; a smooth motion's u is
@@ -86,28 +87,33 @@ static void chord_offset(const double *t, const double *o, size_t j, int c, doub
  * (a 1 Hz drift) is not taken for noise, and a tremor of frequency f has
  * products in the ratios cos(2 pi f l dt), which match the three of white
  * noise nowhere (a 7.8 Hz tremor in a 20 Hz log matches the first two). The
- * test's margins allow the products' own scatter over a few hundred samples;
+ * test's margins allow the products' own scatter over a few hundred samples
+ * (lag 2's, the widest, to 0.25x: a 232-sample still log fell below 0.5x);
  * a shorter log, or one that fails, is followed sample by sample. */
-static double tracker_noise(size_t n, const double *t, const double *o, int c)
+static void tracker_noise(size_t n, const double *t, const double *o, double noise[8])
 {
+    double p[8][4] = {{0}}, all[4] = {0};
+    for (int c = 0; c < 8; c++)
+        noise[c] = 0.0;
     if (n < 64)
-        return 0.0;
-    double p[4] = {0};
-    size_t m = 0;
-    for (size_t j = 1; j + 4 < n; j++, m++) {
-        double u[4][3];
+        return;
+    for (int c = 0; c < 8; c++) {
+        for (size_t j = 1; j + 4 < n; j++) {
+            double u[4][3];
+            for (int l = 0; l < 4; l++)
+                chord_offset(t, o, j + (size_t)l, c, u[l]);
+            for (int l = 0; l < 4; l++)
+                p[c][l] += (u[0][0] * u[l][0] + u[0][1] * u[l][1] + u[0][2] * u[l][2]) / (double)(n - 5);
+        }
         for (int l = 0; l < 4; l++)
-            chord_offset(t, o, j + (size_t)l, c, u[l]);
-        for (int l = 0; l < 4; l++)
-            p[l] += u[0][0] * u[l][0] + u[0][1] * u[l][1] + u[0][2] * u[l][2];
+            all[l] += p[c][l] / 8.0;
     }
-    for (int l = 0; l < 4; l++)
-        p[l] /= (double)m;
-    double s2 = -p[1] / 3.0; /* sigma^2 per axis, from lag 1 */
-    if (!(s2 > 0.0) || p[0] > 2.0 * 4.5 * s2 || p[0] < 0.5 * 4.5 * s2 || p[2] > 2.0 * 0.75 * s2 ||
-        p[2] < 0.5 * 0.75 * s2 || fabs(p[3]) > 0.25 * 3.0 * s2)
-        return 0.0;
-    return sqrt(3.0 * s2);
+    double s2 = -all[1] / 3.0; /* sigma^2 per axis, from lag 1, over the corners */
+    if (!(s2 > 0.0) || all[0] > 2.0 * 4.5 * s2 || all[0] < 0.5 * 4.5 * s2 || all[2] > 2.0 * 0.75 * s2 ||
+        all[2] < 0.25 * 0.75 * s2 || fabs(all[3]) > 0.25 * 3.0 * s2)
+        return;
+    for (int c = 0; c < 8; c++)
+        noise[c] = p[c][1] < 0.0 ? sqrt(-p[c][1]) : 0.0;
 }
 
 /* Do the lines a[c] + b[c] t (c: corner, 3 each) keep key poses i..e within
@@ -336,8 +342,10 @@ pb_status pb_path_fit(struct pb_context *ctx, pb_path *plan, double sigma_mm, do
             so[24 * (j + 1) + q] = so[24 * j + q] + o[24 * j + q];
     }
     fit_ctx f = {n, t, o, st, so, e_mm, {0}, 0.0};
+    if (measure_noise)
+        tracker_noise(n, t, o, f.noise);
     for (int c = 0; c < 8; c++) {
-        f.noise[c] = fmax(measure_noise ? tracker_noise(n, t, o, c) : 0.0, sqrt(3.0) * sigma_mm);
+        f.noise[c] = fmax(f.noise[c], sqrt(3.0) * sigma_mm);
         f.sigma = fmax(f.sigma, f.noise[c] / sqrt(3.0));
     }
 
