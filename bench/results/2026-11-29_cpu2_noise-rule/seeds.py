@@ -12,8 +12,8 @@ import path_cases as pc  # noqa: E402
 
 import petblur  # noqa: E402
 
-for seed in map(int, sys.argv[1:]):
-    for kind in ("still", "drift-20hz", "nod", "seizure"):
+for seed in [int(a) for a in sys.argv[1:] if a.isdigit()]:
+    for kind in (sys.argv[1].split(",") if not sys.argv[1].isdigit() else ("still", "drift-20hz", "nod", "seizure")):
         case = pc.draw_case(kind, np.random.default_rng([seed, pc.KINDS.index(kind)]), small=True)
         refs = {w: pc.reference(case, w, times=min(pc.reference_times(case, w), 1500)) for w in ("true", "logged")}
         op = petblur.BlurOperator(case.shape, case.voxel, case.logged, frame=case.frame, method="ab",
