@@ -636,8 +636,8 @@ PB_API pb_status pb_options_check(const pb_blur_options *options);
  * polyline fitted to the track by least squares over time, each of its pieces
  * within E of every tracked pose it spans at the grid's corners (a 30 Hz log
  * of a smooth motion needs few; a steady motion logged at any rate is one
- * segment), beyond the tracker's white noise where the default bound measures
- * it from the log (docs/methods.md, "Tracker noise"); the intervals between the knots are then cut as above and not
+ * segment), beyond the tracker's white noise, measured from the log
+ * (docs/methods.md, "Tracker noise"); the intervals between the knots are then cut as above and not
  * merged (docs/methods.md, "Short segments, read exactly"). Without tracked
  * poses inside the frame, runs of consecutive pieces are merged into one chord
  * while every voxel, at every time, stays within E of its true path. */

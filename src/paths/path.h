@@ -106,9 +106,9 @@ pb_status pb_path_split(struct pb_context *ctx, pb_path *plan, double max_error,
  * frame's ends and its samples) replaced by the knots of a continuous
  * polyline fitted to them by least squares, its knots where the samples
  * leave a line by more than max_error voxels beyond the tracker's noise:
- * sigma_mm per axis where the caller knows it, and with measure_noise what
- * the track's own samples show of white noise. */
-pb_status pb_path_fit(struct pb_context *ctx, pb_path *plan, double sigma_mm, double max_error, int measure_noise);
+ * sigma_mm per axis where the caller knows it, and what the track's own
+ * samples show of white noise. */
+pb_status pb_path_fit(struct pb_context *ctx, pb_path *plan, double sigma_mm, double max_error);
 
 /* Walks clipped to the grid (path_clip.c): each segment cut to the part of it
  * during which a sample can land in the object grid, the rest marked skip,

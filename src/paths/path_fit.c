@@ -40,10 +40,10 @@
  *    norm's RMS): the first-order error, where a jerk's few samples leave
  *    the line at the short scales and a slow drift at the long one.
  * A track without noise (or whose noise fails the test) has s = 0: every
- * sample within E of its piece. The noise is measured for the default path
- * only (measure_noise): a bound the caller sets asks for the logged track
- * within it, noise and all. pb_path_fit's sigma_mm, the tracker's noise per
- * axis where a caller knows it, is a floor under the measured one. */
+ * sample within E of its piece. The bound, the default's or the caller's, is
+ * on the motion, and the noise is not motion; the logged polyline itself,
+ * noise and all, is PB_PATH_TRACKED's. pb_path_fit's sigma_mm, the tracker's
+ * noise per axis where a caller knows it, is a floor under the measured one. */
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -306,7 +306,7 @@ static void corners_of(const pb_path *plan, const pb_pose *pose, double *o)
     }
 }
 
-pb_status pb_path_fit(struct pb_context *ctx, pb_path *plan, double sigma_mm, double max_error, int measure_noise)
+pb_status pb_path_fit(struct pb_context *ctx, pb_path *plan, double sigma_mm, double max_error)
 {
     size_t n = plan->count;
     const double *v = plan->geometry.voxel_size;
@@ -342,8 +342,7 @@ pb_status pb_path_fit(struct pb_context *ctx, pb_path *plan, double sigma_mm, do
             so[24 * (j + 1) + q] = so[24 * j + q] + o[24 * j + q];
     }
     fit_ctx f = {n, t, o, st, so, e_mm, {0}, 0.0};
-    if (measure_noise)
-        tracker_noise(n, t, o, f.noise);
+    tracker_noise(n, t, o, f.noise);
     for (int c = 0; c < 8; c++) {
         f.noise[c] = fmax(f.noise[c], sqrt(3.0) * sigma_mm);
         f.sigma = fmax(f.sigma, f.noise[c] / sqrt(3.0));
