@@ -78,9 +78,10 @@ static void chord_offset(const double *t, const double *o, size_t j, int c, doub
 }
 
 /* Each corner's noise, the RMS of its 3D norm, from the whole track, or 0
- * where the track does not look like a motion plus white noise (the test on
- * the corners' mean products, whose scatter is smaller than one corner's). For white noise of
- * sigma per axis (times equally spaced), the mean of u_j . u_{j+l} is
+ * where the track does not look like a motion plus white noise (tested on
+ * the corners' mean products, whose scatter is smaller than one corner's).
+ * For white noise of sigma per axis (times equally spaced), the mean of
+ * u_j . u_{j+l} is
  * 4.5 sigma^2 at lag 0, -3 sigma^2 at lag 1 (they share two samples with
  * opposite signs), 0.75 sigma^2 at lag 2 and 0 beyond; a smooth motion's u is
  * smooth, its products positive at every lag, so a log's bend between samples
