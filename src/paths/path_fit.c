@@ -121,8 +121,11 @@ static void tracker_noise(size_t n, const double *t, const double *o, double noi
  * the bounds (the header's two tests)? */
 static int line_holds(const fit_ctx *f, size_t i, size_t e, const double *a, const double *b)
 {
-    size_t len = e - i + 1;
-    for (int c = 0; c < 8; c++) {
+    /* Without noise every sample within E implies both the mean square and
+     * every longer window's mean within E: single samples only. */
+    int noisy = f->sigma > 0.0;
+    size_t len = e - i + 1, top = noisy ? len : 1;
+    for (int c = 0; noisy && c < 8; c++) {
         double ms = 0.0;
         for (size_t m = i; m <= e; m++)
             for (int j = 0; j < 3; j++) {
@@ -133,7 +136,7 @@ static int line_holds(const fit_ctx *f, size_t i, size_t e, const double *a, con
         if (ms > (f->e * f->e + f->noise[c] * f->noise[c]) * (double)len)
             return 0;
     }
-    for (size_t k = 1;; k = 2 * k < len ? 2 * k : len) {
+    for (size_t k = 1;; k = 2 * k < top ? 2 * k : top) {
         for (size_t m = i; m + k <= e + 1; m++) {
             double mt = (f->st[m + k] - f->st[m]) / (double)k;
             for (int c = 0; c < 8; c++) {
@@ -147,7 +150,7 @@ static int line_holds(const fit_ctx *f, size_t i, size_t e, const double *a, con
                     return 0;
             }
         }
-        if (k == len)
+        if (k == top)
             return 1;
     }
 }
