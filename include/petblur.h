@@ -643,6 +643,15 @@ PB_API pb_status pb_options_check(const pb_blur_options *options);
  * while every voxel, at every time, stays within E of its true path. */
 PB_API pb_status pb_path_segments(const pb_geometry *geometry, const pb_motion *motion,
                                   const pb_blur_options *options, size_t *segments);
+/* The tracker's noise in the motion's frame that the path of these options
+ * (NULL: the defaults) treats as noise and does not follow: the RMS of the 3D
+ * scatter of the grid's corners about the motion, mm, the largest corner's,
+ * measured from the frame's tracked poses (docs/methods.md, "Tracker noise").
+ * 0 where every tracked pose is followed: fewer than 64 in the frame, a
+ * scatter that is not white (a tremor is motion), PB_PATH_TRACKED, or CL and
+ * REF, which follow the track itself. */
+PB_API pb_status pb_path_noise(const pb_geometry *geometry, const pb_motion *motion,
+                               const pb_blur_options *options, double *noise_mm);
 
 /* Blurs an object-space volume along the motion into a tomograph-space volume of
  * the same geometry (the paper's eq. 1, gather form: one work item per

@@ -235,6 +235,12 @@ static void test_motions(pb_context *ctx)
     bound.path = PB_PATH_TRACKED; /* the paper's one segment */
     pb_check(pb_path_segments(&g6, &mu, &bound, &segments) == PB_OK && segments == 1,
              "no cuts on the paper's polyline (%zu segments)", segments);
+    double noise = -1.0;
+    pb_check(pb_path_noise(&g6, &mu, &bound, &noise) == PB_OK && noise == 0.0,
+             "no noise measured on the paper's polyline (%g mm)", noise);
+    bound.max_path_error = -1.0;
+    expect(pb_path_noise(&g6, &mu, &bound, &noise), PB_ERR_INVALID_ARGUMENT, "pb_path_noise, negative bound",
+           pb_last_error(NULL), "max_path_error");
     pb_check(pb_options_check(NULL) == PB_OK, "the defaults pass");
     pb_volume_destroy(in);
     pb_volume_destroy(out);
@@ -352,6 +358,7 @@ static void test_null_pointers(pb_context *ctx)
     pb_backend b;
     int i;
     size_t n;
+    double d;
     pb_pose p;
     double q[4], m[16] = {0};
     pb_geometry g = {{2, 2, 2}, {1, 1, 1}};
@@ -364,7 +371,8 @@ static void test_null_pointers(pb_context *ctx)
         pb_volume_get_geometry(NULL, &g), pb_volume_upload(NULL, NULL), pb_volume_download(NULL, NULL),
         pb_motion_pose_at(NULL, 0, &p), pb_quaternion_from_axis_angle(NULL, 0, q), pb_pose_from_matrix(NULL, &p),
         pb_pose_to_matrix(NULL, m), pb_motion_world_to_grid(NULL, NULL, NULL, NULL, NULL),
-        pb_path_segments(NULL, NULL, NULL, &n), pb_blur(NULL, NULL, NULL, NULL, NULL),
+        pb_path_segments(NULL, NULL, NULL, &n), pb_path_noise(&g, NULL, NULL, &d), pb_path_noise(&g, NULL, NULL, NULL),
+        pb_blur(NULL, NULL, NULL, NULL, NULL),
         pb_blur(ctx, NULL, NULL, NULL, NULL), pb_blur_adjoint(ctx, NULL, NULL, NULL, NULL),
         pb_blur_frames(ctx, NULL, NULL, NULL, 2, NULL, NULL), pb_blur_frames_adjoint(ctx, NULL, NULL, NULL, 2, NULL, NULL)};
     for (size_t k = 0; k < sizeof got / sizeof got[0]; k++)

@@ -105,17 +105,14 @@ def test_tracker_noise_is_not_followed(rng, kind):
     for noise) and fits its pieces beyond it. AB on the host: the log's
     segments at most 3x the true motion's (sampled at 100 Hz without noise)
     plus 10, and within 1.0 % RMS and 2.5 % max of the true motion's dense
-    reference. The segments scatter: the mean-square test allows for neither
-    a run's own scatter of the noise nor the measured noise's, so where the
-    noise is several times the bound runs are cut more often than the path
-    needs (CI's rehearsal drew a nod with 0.24 mm of noise, 312 samples, at
-    109 segments against the true motion's 55, seed 3805303007; seeds
-    301-312 a still at 9 against 1 and a seizure at 22 against 5, all within
-    0.5 % RMS of the true motion's blur). Measured on 8 fresh seeds of each kind
-    (bench/results/2026-11-29_cpu2_noise-rule): segments 1 (still: 1),
-    1-7 (drift: 5-11), 60-119 (nod: 56-146), 6-11 (seizure: 5-7); from the
-    true motion at most 0.56 / 1.18 %, 0.90 / 2.04 %, 0.72 / 1.57 % and
-    0.49 / 0.77 %, where following the noise stood at up to 6.7 / 12.6 %
+    reference. Where the noise is several times the bound, a short run's noise
+    alone fails its mean square now and then; long runs are allowed the
+    noise's own scatter, and runs merged where their union holds (CI drew a
+    drift at 84 segments against 16 before that; seeds 40-139 after: at most
+    2.1x, bench/results/2026-11-29_cpu2_noise-scatter). Measured on fresh seeds
+    11-20 of each kind: from the true motion at most 0.45 / 0.89 % (still),
+    0.78 / 1.21 % (drift), 0.84 / 1.84 % (nod) and 0.49 / 0.81 % (seizure),
+    RMS / max, where following the noise stood at up to 6.7 / 12.6 %
     (the log's own reference). The floor under a noisy log is its noise's
     mean over the frame: 0.014 mm moves a sharp sphere's blur by 0.6 %."""
     import petblur

@@ -52,6 +52,8 @@ typedef struct pb_path {
     pb_path_step *ref_steps;
     pb_path_field *field;    /* a field motion's frame; NULL for a pose track (poses then hold only times and
                               * weights, ref_steps only weights) */
+    double noise_mm;         /* the tracker's noise pb_path_fit measured and did not follow: the largest corner's
+                              * RMS of its 3D scatter; 0 where it followed every sample */
 } pb_path;
 
 /* Validates the motion and options and builds the plan. */

@@ -34,7 +34,14 @@
  * tremor is a motion, however fast); a run's line then holds where
  *  - each corner's residual has a mean square within E^2 plus the noise's:
  *    what the run drops of each voxel's spread of positions beyond the noise
- *    bounds the blur's second-order error;
+ *    bounds the blur's second-order error. On a run of 64 samples or more,
+ *    plus 3 standard deviations of the noise's own mean square: without it
+ *    a long still or drifting run failed at random wherever the noise was
+ *    several times E, at up to 7x the true motion's segments; shorter runs
+ *    go without, as there it would hide a nod's bend (seeds 11-16 of the
+ *    noisy nods: 0.48-0.72 % RMS from the true motion's blur without it,
+ *    up to 0.99 % with one deviation's allowance at every length;
+ *    bench/results/2026-11-29_cpu2_noise-scatter);
  *  - the mean residual of every k consecutive samples, k = 1, 2, 4, ... up to
  *    the run, is within E + 3 s / sqrt(k), s the corner's noise (the 3D
  *    norm's RMS): the first-order error, where a jerk's few samples leave
@@ -55,6 +62,11 @@
  * round halves them, so a run of 2^32 samples is down to single intervals
  * (which are not tested) within this many. */
 enum { PB_FIT_ROUNDS = 32 };
+/* A run of at least PB_FIT_SCATTER_RUN noisy samples may have a mean square
+ * up to PB_FIT_SCATTER_Z standard deviations of the noise's own above E^2 plus
+ * the noise's (the header says why). */
+enum { PB_FIT_SCATTER_RUN = 64 };
+static const double PB_FIT_SCATTER_Z = 3.0;
 
 typedef struct fit_ctx {
     size_t n;
@@ -133,7 +145,11 @@ static int line_holds(const fit_ctx *f, size_t i, size_t e, const double *a, con
                 double d = f->o[24 * m + q] - (a[q] + b[q] * f->t[m]);
                 ms += d * d;
             }
-        if (ms > (f->e * f->e + f->noise[c] * f->noise[c]) * (double)len)
+        /* The noise's mean square over len samples of 3 axes scatters by
+         * s^2 sqrt(2 / (3 len)) (chi-square of 3 len degrees). */
+        double s2 = f->noise[c] * f->noise[c];
+        double scatter = len >= PB_FIT_SCATTER_RUN ? PB_FIT_SCATTER_Z * s2 * sqrt(2.0 * (double)len / 3.0) : 0.0;
+        if (ms > (f->e * f->e + s2) * (double)len + scatter)
             return 0;
     }
     for (size_t k = 1;; k = 2 * k < top ? 2 * k : top) {
@@ -350,6 +366,7 @@ pb_status pb_path_fit(struct pb_context *ctx, pb_path *plan, double sigma_mm, do
     for (int c = 0; c < 8; c++) {
         f.noise[c] = fmax(f.noise[c], sqrt(3.0) * sigma_mm);
         f.sigma = fmax(f.sigma, f.noise[c] / sqrt(3.0));
+        plan->noise_mm = fmax(plan->noise_mm, f.noise[c]);
     }
 
     /* Runs: from each knot, the longest run whose line holds (doubling, then
@@ -374,6 +391,21 @@ pb_status pb_path_fit(struct pb_context *ctx, pb_path *plan, double sigma_mm, do
         }
         knot[++K] = good;
         i = good;
+    }
+    /* Under noise, the runs merged where their union holds: a short run's
+     * noise alone fails its mean square now and then (4 % a corner at 8 samples
+     * where the noise's RMS is twice E) and ends a run that the motion would not, and
+     * the union of two such runs has the scatter allowance where it reaches
+     * PB_FIT_SCATTER_RUN samples. Until none merges. */
+    for (int merged = f.sigma > 0.0; merged && K > 1;) {
+        size_t Kn = 0;
+        merged = 0;
+        for (size_t s = 0; s < K; s++)
+            if (s + 1 < K && run_holds(&f, knot[Kn], knot[s + 2]))
+                merged = 1; /* knot s + 1 dropped */
+            else
+                knot[++Kn] = knot[s + 1];
+        K = Kn;
     }
     /* One polyline through every sample, its runs that are still within
      * their noise (a still head, the rest before and after a jerk) held

@@ -25,7 +25,8 @@ static const pbc_command command = {
     "motion", "TRACK [-i IN] [--frames T0,T1,...] [--png motion.png] [options] | --fields TABLE.csv [-i IN] [...]",
     "Summarises a pose track: duration, sampling rate, gaps, and per frame the largest rotation and the\n"
     "largest displacement of the grid's corners from the frame's first pose, in the coordinates petblur blur\n"
-    "would use (the same options). Look at a track before trusting a blur to it. With --fields, the fields\n"
+    "would use (the same options); and the tracker's noise a blur measures there and does not follow, and the\n"
+    "segments its default path walks. Look at a track before trusting a blur to it. With --fields, the fields\n"
     "a blur would read, checked as it checks them, and per frame the largest displacement of any field\n"
     "voxel from where the frame's first field puts it.",
     options, (int)(sizeof options / sizeof options[0]), 0, 1,
@@ -59,9 +60,16 @@ static int frame_summary(const pbc_motion *m, const pbc_image *img, size_t index
     pb_geometry g = {{img->dims[0], img->dims[1], img->dims[2]},
                      {img->voxel_size[0], img->voxel_size[1], img->voxel_size[2]}};
     pb_frame_summary f;
-    if (pb_motion_frame_summary(&m->motion, &g, t0, t1, &f) != PB_OK)
+    pb_motion frame = m->motion;
+    frame.frame_start = t0;
+    frame.frame_end = t1;
+    double noise = 0.0;
+    size_t segments = 0;
+    if (pb_motion_frame_summary(&m->motion, &g, t0, t1, &f) != PB_OK || pb_path_noise(&g, &frame, NULL, &noise) ||
+        pb_path_segments(&g, &frame, NULL, &segments))
         return pbc_fail(PBC_EXIT_RUNTIME, "frame %zu: %s", index, pb_last_error(NULL));
-    printf("%5zu %12.6g %12.6g %8zu %10.3f %12.3f\n", index, t0, t1, f.samples, f.max_turn_deg, f.max_corner_mm);
+    printf("%5zu %12.6g %12.6g %8zu %10.3f %12.3f %9.3f %9zu\n", index, t0, t1, f.samples, f.max_turn_deg,
+           f.max_corner_mm, noise, segments);
     return 0;
 }
 
@@ -186,9 +194,14 @@ int pbc_cmd_motion(int argc, char **argv)
         size_t frames = bounds ? nb - 1 : 1;
         if (!(rc = pbc_motion_check_frames(&m, b, frames, 0))) {
             if (!(rc = track_summary(&m)))
-                printf("frame        start          end  samples  max rot deg max disp mm\n");
+                printf("frame        start          end  samples  max rot deg max disp mm  noise mm  segments\n");
             for (size_t i = 0; i < frames && !rc; i++)
                 rc = frame_summary(&m, &img, i, b[i], b[i + 1]);
+            if (!rc)
+                printf("noise mm: the tracker's noise a blur measures in the frame and does not follow as motion (RMS "
+                       "of the grid corners' 3-D scatter; 0: every sample followed, as below 64 samples or where the "
+                       "scatter is not white); segments: what the default path walks (docs/methods.md, \"Tracker "
+                       "noise\")\n");
             if (png && !rc)
                 rc = pbc_motion_plot(png, &m, b, frames + 1);
         }
