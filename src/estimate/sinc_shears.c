@@ -37,10 +37,10 @@ void pbe_unitary_dims(const pb_geometry *g, size_t pad[3])
  * trigonometric polynomial and sampled at i + s: out[i] = sum_j h[j] D(i + s
  * - j), D(x) = sin(pi x) / (n sin(pi x / n)). Only the line's support (its
  * samples from the first to the last that is not 0) enters the sum. buf
- * holds 3 n floats. */
+ * holds 4 n floats. */
 static void shift_line(float *h, size_t n, size_t stride, double s, float *buf)
 {
-    float *line = buf, *kern = buf + n;
+    float *line = buf, *restrict rk = buf + n, *restrict acc = buf + 3 * n;
     size_t j0 = n, j1 = 0;
     for (size_t j = 0; j < n; j++) {
         line[j] = h[j * stride];
@@ -61,29 +61,40 @@ static void shift_line(float *h, size_t n, size_t stride, double s, float *buf)
             h[i * stride] = line[(i + (size_t)rs) % n];
         return;
     }
-    /* kern[d] = D(f - d) for d = j - i - rs mod n: sin(pi (f - d)) =
-     * (-1)^d sin(pi f); twice over, so that a run of d needs no modulo */
+    /* D(f - d) for d = j - i - rs mod n, held backwards and twice over:
+     * rk[2 n - 1 - d] = rk[n - 1 - d] = D(f - d), so that the sum below runs
+     * forwards through it without a modulo. sin(pi (f - d)) = (-1)^d
+     * sin(pi f). */
     const double sf = sin(PB_PI * f), dn = (double)n;
     /* sin(pi (f - d) / n) by turning one step of pi / n at a time: two sines a
      * line instead of n, the sum's rounding far below the kernel's float */
     const double sb = sin(PB_PI / dn), cb = cos(PB_PI / dn);
     double s_d = sin(PB_PI * f / dn), c_d = cos(PB_PI * f / dn);
     for (size_t d = 0; d < n; d++) {
-        kern[d] = kern[d + n] = (float)((d % 2 ? -sf : sf) / (dn * s_d));
+        rk[2 * n - 1 - d] = rk[n - 1 - d] = (float)((d % 2 ? -sf : sf) / (dn * s_d));
         double s_next = s_d * cb - c_d * sb;
         c_d = c_d * cb + s_d * sb;
         s_d = s_next;
     }
+    /* out[i] = sum over j of src[j] D(f - d), d = (j0 + j - i - rs) mod n:
+     * summed a sample j at a time into every out[i] (the same order of
+     * adds for each i as one out[i] at a time, so the same floats), where
+     * the i run forwards through rk and vectorise without reordering a sum
+     * (the shears' lines are most of the motion estimate's time). d at j = 0
+     * is b0 - i up to i = b0 and b0 + n - i beyond. */
     const float *src = line + j0;
-    const size_t len = j1 - j0 + 1;
-    for (size_t i = 0; i < n; i++) {
-        /* d of j0: (j0 - i - rs) mod n, then d + 1 for each j after it */
-        const float *k = kern + (j0 + 2 * n - i - (size_t)rs) % n;
-        float acc = 0.0f;
-        for (size_t j = 0; j < len; j++)
-            acc += src[j] * k[j];
-        h[i * stride] = acc;
+    const size_t len = j1 - j0 + 1, b0 = (j0 + 2 * n - (size_t)rs) % n;
+    memset(acc, 0, sizeof(float) * n);
+    for (size_t j = 0; j < len; j++) {
+        const float v = src[j];
+        const float *near = rk + (2 * n - 1 - b0 - j), *far = rk + (n - j);
+        for (size_t i = 0; i <= b0; i++)
+            acc[i] += v * near[i];
+        for (size_t i = b0 + 1; i < n; i++)
+            acc[i] += v * far[i - b0 - 1];
     }
+    for (size_t i = 0; i < n; i++)
+        h[i * stride] = acc[i];
 }
 
 /* Every line along axis u shifted by a + b (index along v less cv). */
@@ -126,7 +137,7 @@ pb_status pbe_move_unitary(const pb_geometry *g, const float *f, const size_t pa
         cidx[a] = c[a] / g->voxel_size[a] - 0.5 + (double)lo[a];
         longest = pad[a] > longest ? pad[a] : longest;
     }
-    float *buf = malloc(sizeof(float) * 3 * longest);
+    float *buf = malloc(sizeof(float) * 4 * longest);
     if (!buf)
         return PB_ERR_OUT_OF_MEMORY;
     memset(out, 0, sizeof(float) * pad[0] * pad[1] * pad[2]);
