@@ -44,9 +44,11 @@ static pb_status check_options(pb_context *ctx, const pb_blur_options *o)
     return PB_OK;
 }
 
-/* AB's plan of a frame, as pb_path_segments and pb_path_noise read it. */
-static pb_status ab_plan(const pb_geometry *geometry, const pb_motion *motion, const pb_blur_options *options,
-                         pb_path *plan)
+/* What AB's plan of a frame holds: its segments, and the tracker noise it
+ * measured and does not follow (none where the options' method follows the
+ * track itself: CL and REF). */
+static pb_status plan_facts(const pb_geometry *geometry, const pb_motion *motion, const pb_blur_options *options,
+                            size_t *segments, double *noise_mm)
 {
     size_t count;
     pb_blur_options opt = {PB_METHOD_AB, PB_FILTER_HARDWARE, 0, 0, 0, 0, PB_PATH_DEFAULT, 0.0, PB_AB_SAMPLING_DEFAULT, 0};
@@ -59,38 +61,33 @@ static pb_status ab_plan(const pb_geometry *geometry, const pb_motion *motion, c
         return st;
     /* AB's plan: CL and REF follow the path itself, but the question is what
      * a polyline of these options would need. */
+    int follows = opt.method == PB_METHOD_CL || opt.method == PB_METHOD_REF;
     opt.method = PB_METHOD_AB;
-    return pb_path_create(NULL, geometry, motion, &opt, plan);
+    pb_path plan;
+    if ((st = pb_path_create(NULL, geometry, motion, &opt, &plan)) != PB_OK)
+        return st;
+    *segments = plan.count - 1;
+    *noise_mm = follows ? 0.0 : plan.noise_mm;
+    pb_path_destroy(&plan);
+    return PB_OK;
 }
 
 pb_status pb_path_segments(const pb_geometry *geometry, const pb_motion *motion, const pb_blur_options *options,
                            size_t *segments)
 {
-    pb_path plan;
+    double noise;
     if (!geometry || !motion || !segments)
         return pb_error(NULL, PB_ERR_INVALID_ARGUMENT, "geometry, motion and segments must not be NULL");
-    pb_status st = ab_plan(geometry, motion, options, &plan);
-    if (st != PB_OK)
-        return st;
-    *segments = plan.count - 1;
-    pb_path_destroy(&plan);
-    return PB_OK;
+    return plan_facts(geometry, motion, options, segments, &noise);
 }
 
 pb_status pb_path_noise(const pb_geometry *geometry, const pb_motion *motion, const pb_blur_options *options,
                         double *noise_mm)
 {
-    pb_path plan;
+    size_t segments;
     if (!geometry || !motion || !noise_mm)
         return pb_error(NULL, PB_ERR_INVALID_ARGUMENT, "geometry, motion and noise_mm must not be NULL");
-    pb_status st = ab_plan(geometry, motion, options, &plan);
-    if (st != PB_OK)
-        return st;
-    /* CL and REF follow the track itself, noise and all. */
-    int follows = options && (options->method == PB_METHOD_CL || options->method == PB_METHOD_REF);
-    *noise_mm = follows ? 0.0 : plan.noise_mm;
-    pb_path_destroy(&plan);
-    return PB_OK;
+    return plan_facts(geometry, motion, options, &segments, noise_mm);
 }
 
 pb_status pb_options_check(const pb_blur_options *options)
