@@ -363,8 +363,11 @@ class Motion:
         samples, first and last time, median step (s), missing samples, gaps
         and the longest gap (s), and under "frames" one dict a frame: start,
         end, the tracked samples inside, the largest turn from the frame's
-        first pose (max_turn_deg) and the largest displacement of the grid's
-        corners (max_corner_mm)."""
+        first pose (max_turn_deg), the largest displacement of the grid's
+        corners (max_corner_mm), the tracker's noise a blur measures there and
+        does not follow as motion (noise_mm: the RMS of the corners' 3-D
+        scatter; 0 where every sample is followed) and the segments the
+        default path walks (segments)."""
         from .operator import _affine4, _grid_affine, _shape3, _voxel3
         shape, vox = _shape3(shape), _voxel3(voxel_size)
         a = _grid_affine(vox) if affine is None else _affine4(affine)
@@ -380,8 +383,14 @@ class Motion:
             f = _lib.FrameSummary()
             _check(_lib.lib.pb_motion_frame_summary(ctypes.byref(placed), ctypes.byref(g), float(t0), float(t1),
                                                     ctypes.byref(f)))
+            frame = _lib.CMotion.from_buffer_copy(placed)
+            frame.frame_start, frame.frame_end = float(t0), float(t1)
+            noise, segments = ctypes.c_double(), ctypes.c_size_t()
+            _check(_lib.lib.pb_path_noise(ctypes.byref(g), ctypes.byref(frame), None, ctypes.byref(noise)))
+            _check(_lib.lib.pb_path_segments(ctypes.byref(g), ctypes.byref(frame), None, ctypes.byref(segments)))
             out["frames"].append({"start": float(t0), "end": float(t1), "samples": f.samples,
-                                  "max_turn_deg": f.max_turn_deg, "max_corner_mm": f.max_corner_mm})
+                                  "max_turn_deg": f.max_turn_deg, "max_corner_mm": f.max_corner_mm,
+                                  "noise_mm": noise.value, "segments": segments.value})
         return out
 
     def mean_pose(self, t0, t1):
