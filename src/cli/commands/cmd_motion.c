@@ -55,21 +55,30 @@ static int grid_image(const pbc_args *args, pbc_image *img)
     return pbc_image_alloc(img, dims, vs);
 }
 
-static int frame_summary(const pbc_motion *m, const pbc_image *img, size_t index, double t0, double t1)
+/* One frame's row. A frame the default path cannot walk (more segments
+ * than a blur takes) is still shown, its last two columns '-', and the
+ * first such frame's reason kept in *unplanned for after the table. */
+static int frame_summary(const pbc_motion *m, const pbc_image *img, size_t index, double t0, double t1,
+                         char *unplanned, size_t size)
 {
     pb_geometry g = {{img->dims[0], img->dims[1], img->dims[2]},
                      {img->voxel_size[0], img->voxel_size[1], img->voxel_size[2]}};
     pb_frame_summary f;
+    if (pb_motion_frame_summary(&m->motion, &g, t0, t1, &f) != PB_OK)
+        return pbc_fail(PBC_EXIT_RUNTIME, "frame %zu: %s", index, pb_last_error(NULL));
+    printf("%5zu %12.6g %12.6g %8zu %10.3f %12.3f", index, t0, t1, f.samples, f.max_turn_deg, f.max_corner_mm);
     pb_motion frame = m->motion;
     frame.frame_start = t0;
     frame.frame_end = t1;
     double noise = 0.0;
     size_t segments = 0;
-    if (pb_motion_frame_summary(&m->motion, &g, t0, t1, &f) != PB_OK || pb_path_noise(&g, &frame, NULL, &noise) ||
-        pb_path_segments(&g, &frame, NULL, &segments))
-        return pbc_fail(PBC_EXIT_RUNTIME, "frame %zu: %s", index, pb_last_error(NULL));
-    printf("%5zu %12.6g %12.6g %8zu %10.3f %12.3f %9.3f %9zu\n", index, t0, t1, f.samples, f.max_turn_deg,
-           f.max_corner_mm, noise, segments);
+    if (pb_path_noise(&g, &frame, NULL, &noise) == PB_OK && pb_path_segments(&g, &frame, NULL, &segments) == PB_OK)
+        printf(" %9.3f %9zu\n", noise, segments);
+    else {
+        printf(" %9s %9s\n", "-", "-");
+        if (!unplanned[0])
+            snprintf(unplanned, size, "frame %zu: %s", index, pb_last_error(NULL));
+    }
     return 0;
 }
 
@@ -195,8 +204,11 @@ int pbc_cmd_motion(int argc, char **argv)
         if (!(rc = pbc_motion_check_frames(&m, b, frames, 0))) {
             if (!(rc = track_summary(&m)))
                 printf("frame        start          end  samples  max rot deg max disp mm  noise mm  segments\n");
+            char unplanned[1024] = "";
             for (size_t i = 0; i < frames && !rc; i++)
-                rc = frame_summary(&m, &img, i, b[i], b[i + 1]);
+                rc = frame_summary(&m, &img, i, b[i], b[i + 1], unplanned, sizeof unplanned);
+            if (!rc && unplanned[0])
+                printf("-: no path at the default bound; %s\n", unplanned);
             if (!rc)
                 printf("noise mm: the tracker's noise a blur measures in the frame and does not follow as motion (RMS "
                        "of the grid corners' 3-D scatter; 0: every sample followed, as below 64 samples or where the "
