@@ -367,7 +367,8 @@ class Motion:
         corners (max_corner_mm), the tracker's noise a blur measures there and
         does not follow as motion (noise_mm: the RMS of the corners' 3-D
         scatter; 0 where every sample is followed) and the segments the
-        default path walks (segments)."""
+        default path walks (segments); both None where that path cannot
+        walk the frame (more segments than a blur takes)."""
         from .operator import _affine4, _grid_affine, _shape3, _voxel3
         shape, vox = _shape3(shape), _voxel3(voxel_size)
         a = _grid_affine(vox) if affine is None else _affine4(affine)
@@ -386,11 +387,15 @@ class Motion:
             frame = _lib.CMotion.from_buffer_copy(placed)
             frame.frame_start, frame.frame_end = float(t0), float(t1)
             noise, segments = ctypes.c_double(), ctypes.c_size_t()
-            _check(_lib.lib.pb_path_noise(ctypes.byref(g), ctypes.byref(frame), None, ctypes.byref(noise)))
-            _check(_lib.lib.pb_path_segments(ctypes.byref(g), ctypes.byref(frame), None, ctypes.byref(segments)))
+            # None where the default path cannot walk the frame (more segments than a blur takes), as the
+            # program's '-': a summary shows what a blur would refuse
+            planned = (_lib.lib.pb_path_noise(ctypes.byref(g), ctypes.byref(frame), None, ctypes.byref(noise)) == 0
+                       and _lib.lib.pb_path_segments(ctypes.byref(g), ctypes.byref(frame), None,
+                                                     ctypes.byref(segments)) == 0)
             out["frames"].append({"start": float(t0), "end": float(t1), "samples": f.samples,
                                   "max_turn_deg": f.max_turn_deg, "max_corner_mm": f.max_corner_mm,
-                                  "noise_mm": noise.value, "segments": segments.value})
+                                  "noise_mm": noise.value if planned else None,
+                                  "segments": segments.value if planned else None})
         return out
 
     def mean_pose(self, t0, t1):

@@ -167,3 +167,17 @@ def test_gradient_images_of_torch_tensors_equal_the_library_s(rng):
     dev = pose.gradient_images(torch.from_numpy(x), voxel, center)
     for j in range(6):
         np.testing.assert_allclose(dev[j].numpy(), host[j], rtol=1e-6, atol=1e-7)
+
+
+def test_summary_shows_a_frame_no_path_walks(rng):
+    """A frame whose default path would take more segments than a blur walks
+    (a 20 Hz random walk of 1 mm steps for 98 minutes, every sample followed)
+    gets None for noise_mm and segments, as the program prints '-'; the frame
+    beside it is summarised as ever."""
+    t = np.arange(0, 6000, 0.05)
+    walk = np.cumsum(rng.normal(0, 1.0, (t.size, 3)), axis=0)
+    q = np.tile([1.0, 0.0, 0.0, 0.0], (t.size, 1))
+    frames = petblur.Motion(t, walk, q).summary([0, 100, 5999], (100, 100, 60), (2, 2, 2))["frames"]
+    assert frames[0]["noise_mm"] == 0.0 and frames[0]["segments"] > 1000, frames[0]
+    assert frames[1]["noise_mm"] is None and frames[1]["segments"] is None, frames[1]
+    assert frames[1]["samples"] == 117981 and frames[1]["max_corner_mm"] > 0, frames[1]
