@@ -69,9 +69,12 @@ def _estimate_device(device):
     return f"{_lib.BACKEND_NAMES[backend.value]}:{index.value}"
 
 
-def estimate(frames, affine, voxel_size, bounds, reference, device, frame_poses_only, levels, iterations, fwhm):
+def estimate(frames, affine, voxel_size, bounds, reference, device, frame_poses_only, levels, iterations, fwhm,
+             progress=None):
     """The motion's C track (matrix-csv: world maps about the world's origin; the caller frees it) and the
     report."""
+    if progress is not None and not callable(progress):
+        raise ArgumentError("progress must be a callable taking the fraction done, or None")
     x = _host_frames(frames)
     nx, ny, nz, nt = x.shape
     if affine is None:
@@ -120,7 +123,28 @@ def estimate(frames, affine, voxel_size, bounds, reference, device, frame_poses_
     track, report = ctypes.c_void_p(), EstimateReport()
     ctx = _lib.context(_estimate_device(device))
     with ctx.use():
-        status = _lib.lib.pb_motion_estimate(ctx.handle, ctypes.byref(g), flat, x.ctypes.data, nt, cb,
-                                             ctypes.byref(opts), ctypes.byref(track), ctypes.byref(report))
+        # the callback lives as long as the call; an exception inside it is
+        # kept and raised after the library returns (ctypes would only print it)
+        raised = []
+
+        def hear(fraction, user):
+            if not raised:
+                try:
+                    progress(float(fraction))
+                except BaseException as e:  # noqa: B036 - re-raised below, whatever it is
+                    raised.append(e)
+        fn = _lib.ProgressFn(hear) if progress is not None else None
+        if fn is not None:
+            _lib.check(_lib.lib.pb_context_set_progress(ctx.handle, fn, None), ctx.handle)
+        try:
+            status = _lib.lib.pb_motion_estimate(ctx.handle, ctypes.byref(g), flat, x.ctypes.data, nt, cb,
+                                                 ctypes.byref(opts), ctypes.byref(track), ctypes.byref(report))
+        finally:
+            if fn is not None:
+                _lib.lib.pb_context_set_progress(ctx.handle, _lib.ProgressFn(), None)
+        if raised:
+            if status == 0:
+                _lib.lib.pb_track_free(track)
+            raise raised[0]
         _lib.check(status, ctx.handle)
     return track, report

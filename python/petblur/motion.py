@@ -247,7 +247,7 @@ class Motion:
 
     @classmethod
     def from_frames(cls, frames, affine=None, starts=None, durations=None, reference=0, device="auto", bounds=None,
-                    frame_poses_only=False, levels=0, iterations=0, fwhm=0.0, voxel_size=None):
+                    frame_poses_only=False, levels=0, iterations=0, fwhm=0.0, voxel_size=None, progress=None):
         """The head's rigid motion estimated from a dynamic series itself, as
         `petblur motion estimate` does (the C library's pb_motion_estimate):
         ``frames`` [x, y, z, t] (numpy, CuPy, torch or Dask, computed; read on the host),
@@ -260,9 +260,11 @@ class Motion:
         frame ``reference`` (its pose is the identity); a frame holding a jerk
         gets the poses on both sides of it unless ``frame_poses_only``.
         ``levels``, ``iterations`` and ``fwhm`` (mm) are the command line's
-        --levels, --iterations and --fwhm (0: the defaults). The poses are
-        rigid maps about the world's origin, as a matrix-csv track's: give
-        the operators the same affine."""
+        --levels, --iterations and --fwhm (0: the defaults). ``progress``,
+        as the operators take it: a callable given the fraction done (0 to 1,
+        1 at the end) as the estimate goes. The poses are rigid maps about
+        the world's origin, as a matrix-csv track's: give the operators the
+        same affine."""
         from . import estimate
         if bounds is None:
             if starts is None or durations is None:
@@ -285,7 +287,7 @@ class Motion:
         _frames_warn(bounds)
         try:
             handle, report = estimate.estimate(frames, affine, voxel_size, bounds, reference, device,
-                                               frame_poses_only, levels, iterations, fwhm)
+                                               frame_poses_only, levels, iterations, fwhm, progress)
         except Error as e:
             raise type(e)(python_words(e.message), e.status) from None
         _warn(report.warnings, 2)

@@ -332,3 +332,31 @@ def test_a_frame_of_noise_takes_its_neighbours_pose(rng):
     # the noise registered across two steps); a noise frame's pose passed down the chain turned the frames after it
     # by over 100 degrees, tens of mm.
     assert error < 1.5, f"off by {error:.2f} mm: {got.tolist()} for {truth.tolist()}"
+
+
+def test_progress_is_heard(rng):
+    """progress= (issue 47), as the operators take it: fractions from 0 to 1,
+    never falling, the last 1, and the same track as without it; a progress
+    callable that raises stops nothing in the library but is raised to the
+    caller once it returns; a progress that is not callable is refused."""
+    frames = _series(rng, 6)
+    bounds = np.arange(7) * 10.0
+    heard = []
+    got = petblur.Motion.from_frames(frames, voxel_size=2.0, bounds=bounds, device="host", progress=heard.append)
+    want = petblur.Motion.from_frames(frames, voxel_size=2.0, bounds=bounds, device="host")
+    assert len(heard) >= 6 and heard[-1] == 1.0, heard
+    assert all(0.0 <= f <= 1.0 for f in heard) and all(b >= a for a, b in zip(heard, heard[1:])), heard
+    assert got.translations.tolist() == want.translations.tolist()
+
+    class Stop(Exception):
+        pass
+
+    def stop(fraction):
+        raise Stop(fraction)
+    with pytest.raises(Stop):
+        petblur.Motion.from_frames(frames, voxel_size=2.0, bounds=bounds, device="host", progress=stop)
+    with pytest.raises(ArgumentError, match="progress must be a callable"):
+        petblur.Motion.from_frames(frames, voxel_size=2.0, bounds=bounds, device="host", progress=0.5)
+    # the context is left without the callable: a later call hears nothing of it
+    again = petblur.Motion.from_frames(frames, voxel_size=2.0, bounds=bounds, device="host")
+    assert again.translations.tolist() == want.translations.tolist()
