@@ -49,6 +49,8 @@ typedef struct collective {
     size_t *use;            /* the frames in the sum */
     const pbe_collective_pose *poses;
     double *weight, *gram, *a, *w, *v;
+    void (*tick)(void *);   /* each evaluation of the residual, for progress */
+    void *tick_user;
 } collective;
 
 /* The correction p (mm, and mm at the radius for the turn) scaled by w as
@@ -144,6 +146,8 @@ static pb_status residual(collective *cv, const double p[NG], double *out)
         return st;
     pbe_gram(cv->moved, cv->padded, cv->used, cv->gram);
     *out = energy_beyond(cv);
+    if (cv->tick)
+        cv->tick(cv->tick_user);
     return PB_OK;
 }
 
@@ -318,10 +322,12 @@ static void pick_still(const pbe_collective_pose *poses, size_t count, size_t st
 }
 
 pb_status pbe_collective(const pb_geometry *fine, const float *raw, size_t count, size_t ref, const double c[3],
-                         pbe_collective_pose *poses, double *moved_mm)
+                         pbe_collective_pose *poses, double *moved_mm, void (*tick)(void *), void *tick_user)
 {
     collective cv;
     memset(&cv, 0, sizeof cv);
+    cv.tick = tick;
+    cv.tick_user = tick_user;
     *moved_mm = 0.0;
     cv.g = *fine;
     cv.count = count;

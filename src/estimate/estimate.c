@@ -62,6 +62,7 @@ typedef struct estimate {
     pb_progress_fn progress;
     void *progress_user;
     double done, total;
+    double together;        /* pass 4's share of total, reported as it evaluates */
 } estimate;
 
 static void report_progress(estimate *e, double units)
@@ -433,6 +434,13 @@ static pb_status hold_flat_frames(estimate *e, pbe_fit *fits)
     return PB_OK;
 }
 
+/* One of pass 4's evaluations done: its share of the pass's progress. */
+static void together_tick(void *user)
+{
+    estimate *e = user;
+    report_progress(e, e->together / PBE_COLLECTIVE_EVALUATIONS);
+}
+
 /* Pass 4 (contrast_poses.c): the poses of frames whose contrast is far from
  * the reference frame's share a bias that frame-by-frame registration cannot
  * see; one correction along the contrast, fitted to the series as a whole. */
@@ -449,8 +457,8 @@ static pb_status correct_together(estimate *e, size_t ref, pbe_fit *fits, frame_
             p[k].end = paths[k * PATHS + (size_t)(moving[k] - 1)].end;
         }
     }
-    double moved_mm;
-    pb_status st = pbe_collective(&e->g, e->raw, e->count, ref, e->c, p, &moved_mm);
+    double moved_mm, given = e->done;
+    pb_status st = pbe_collective(&e->g, e->raw, e->count, ref, e->c, p, &moved_mm, together_tick, e);
     for (size_t k = 0; k < e->count && st == PB_OK; k++) {
         fits[k].pose = p[k].pose;
         if (moving[k]) {
@@ -458,7 +466,7 @@ static pb_status correct_together(estimate *e, size_t ref, pbe_fit *fits, frame_
             paths[k * PATHS + (size_t)(moving[k] - 1)].end = p[k].end;
         }
     }
-    report_progress(e, (double)e->count);
+    report_progress(e, fmax(0.0, e->together - (e->done - given)));
     free(p);
     return st;
 }
@@ -740,7 +748,12 @@ pb_status pb_motion_estimate(pb_context *ctx, const pb_geometry *geometry, const
     e.progress = ctx->dev.progress;
     e.progress_user = ctx->dev.progress_user;
     ctx->dev.progress = NULL;
-    e.total = 5.0 * (double)count;
+    /* progress in units of a frame's registration: passes 1 and 3 one a
+     * frame, pass 2 two; pass 4, where its references have the images it
+     * needs, about as long as the three together (24 frames on the host: 34
+     * of 65 s), reported as it evaluates */
+    e.together = (double)count * (pbe_reference_rank(count) >= 3 ? 4.0 : 1.0);
+    e.total = 4.0 * (double)count + e.together;
 
     g = *geometry;
     for (size_t l = 0; l < e.levels && st == PB_OK; l++) {

@@ -126,12 +126,17 @@ typedef struct pbe_collective_pose {
     int moving;
 } pbe_collective_pose;
 
+/* At most this many evaluations of the series' residual in pbe_collective
+ * (its Newton rounds' differences and halvings), each a tick. */
+enum { PBE_COLLECTIVE_EVALUATIONS = 48 };
+
 /* One rigid correction for every pose, scaled by the frame's contrast
  * against frame ref's, chosen to leave the least energy beyond the leading
  * principal images of the still frames moved back (sinc_shears.c) onto the
  * reference; raw: the frames on the fine grid. *moved_mm: the correction's
- * size (0: none taken). */
+ * size (0: none taken). tick (may be NULL) hears each evaluation of the
+ * residual, for progress. */
 pb_status pbe_collective(const pb_geometry *fine, const float *raw, size_t count, size_t ref, const double c[3],
-                         pbe_collective_pose *poses, double *moved_mm);
+                         pbe_collective_pose *poses, double *moved_mm, void (*tick)(void *), void *tick_user);
 
 #endif
