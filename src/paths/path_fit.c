@@ -35,13 +35,15 @@
  *  - each corner's residual has a mean square within E^2 plus the noise's:
  *    what the run drops of each voxel's spread of positions beyond the noise
  *    bounds the blur's second-order error. On a run of 64 samples or more,
- *    plus 3 standard deviations of the noise's own mean square: without it
- *    a long still or drifting run failed at random wherever the noise was
- *    several times E, at up to 7x the true motion's segments; shorter runs
- *    go without, as there it would hide a nod's bend (seeds 11-16 of the
- *    noisy nods: 0.48-0.72 % RMS from the true motion's blur without it,
- *    up to 0.99 % with one deviation's allowance at every length;
- *    bench/results/2026-11-29_cpu2_noise-scatter);
+ *    plus 3 standard deviations of the noise's own mean square, which a
+ *    long run's noise alone would otherwise exceed now and then wherever
+ *    the noise is several times E; shorter runs go without, as there it
+ *    would hide a nod's bend (seeds 11-16 of the noisy nods: 0.48-0.72 %
+ *    RMS from the true motion's blur without it, up to 0.99 % with one
+ *    deviation's allowance at every length). The runs are then merged
+ *    where their union holds (below). Before both, CI drew a noisy drift
+ *    at 84 segments against the true motion's 16, and a still head took
+ *    24 against 1 (bench/results/2026-11-29_cpu2_noise-scatter);
  *  - the mean residual of every k consecutive samples, k = 1, 2, 4, ... up to
  *    the run, is within E + 3 s / sqrt(k), s the corner's noise (the 3D
  *    norm's RMS): the first-order error, where a jerk's few samples leave
