@@ -39,6 +39,7 @@ from scipy import ndimage
 from scipy.spatial.transform import Rotation
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import estimate_validation as ev  # noqa: E402
 import head_frames as hf  # noqa: E402
 
 # Early frames of a scan from injection (s), a common shape of dynamic protocols (e.g. 6 x 10, 4 x 30, then 60 s)
@@ -223,50 +224,6 @@ def simulate(d: Draw, rng: np.random.Generator, steps: int = 4, moving_steps: in
     return frames, affine, b, truth
 
 
-def sitk_track(frames, affine, bounds, metric):
-    """SimpleITK: every frame rigidly to frame 0, three levels; one pose per frame at its middle."""
-    import SimpleITK as sitk
-    lps3 = np.diag([-1.0, -1.0, 1.0])
-
-    def image(vol):
-        img = sitk.GetImageFromArray(np.ascontiguousarray(vol.transpose(2, 1, 0)).astype(np.float32))
-        m = lps3 @ affine[:3, :3]
-        spacing = np.linalg.norm(m, axis=0)
-        img.SetSpacing(tuple(spacing))
-        img.SetDirection(tuple((m / spacing).ravel()))
-        img.SetOrigin(tuple(lps3 @ affine[:3, 3]))
-        return img
-
-    fixed, maps, lps = image(frames[..., 0]), [np.eye(4)], np.diag([-1.0, -1.0, 1.0, 1.0])
-    for k in range(1, frames.shape[-1]):
-        moving = image(frames[..., k])
-        reg = sitk.ImageRegistrationMethod()
-        if metric == "mattes":
-            reg.SetMetricAsMattesMutualInformation(numberOfHistogramBins=50)
-        else:
-            reg.SetMetricAsCorrelation()
-        reg.SetInterpolator(sitk.sitkLinear)
-        reg.SetOptimizerAsRegularStepGradientDescent(learningRate=1.0, minStep=1e-4, numberOfIterations=200,
-                                                     gradientMagnitudeTolerance=1e-8)
-        reg.SetOptimizerScalesFromPhysicalShift()
-        reg.SetShrinkFactorsPerLevel([4, 2, 1])
-        reg.SetSmoothingSigmasPerLevel([2, 1, 0])
-        reg.SmoothingSigmasAreSpecifiedInPhysicalUnitsOff()
-        reg.SetInitialTransform(sitk.CenteredTransformInitializer(fixed, moving, sitk.Euler3DTransform(),
-                                                                  sitk.CenteredTransformInitializerFilter.GEOMETRY),
-                                inPlace=False)
-        t = reg.Execute(fixed, moving)
-        t = sitk.CompositeTransform(t).GetNthTransform(0) if isinstance(t, sitk.CompositeTransform) else t
-        e = sitk.Euler3DTransform(t)
-        m = np.eye(4)
-        m[:3, :3] = np.array(e.GetMatrix()).reshape(3, 3)
-        c = np.array(e.GetCenter())
-        m[:3, 3] = np.array(e.GetTranslation()) + c - m[:3, :3] @ c
-        maps.append(lps @ m @ lps)  # frame 0's object to frame k's, in RAS
-    mids = 0.5 * (bounds[:-1] + bounds[1:])
-    return np.concatenate([[bounds[0]], mids, [bounds[-1]]]), np.concatenate([[maps[0]], maps, [maps[-1]]])
-
-
 def frame_means(truth: Truth, bounds, samples: int = 40):
     """The best one pose a frame can do: the truth's mean pose over each frame, at the frame's middle, interpolated
     between them as the SimpleITK track is. What bounds a method that gives each frame one pose; motion inside
@@ -286,7 +243,6 @@ def frame_means(truth: Truth, bounds, samples: int = 40):
 def one(petblur: str, seed: int, device: str, metric: str, threads: int) -> dict:
     """Draw `seed`, simulate it, estimate with petblur and SimpleITK: a dict of the draw and both errors."""
     import nibabel as nib
-    import SimpleITK as sitk
     d = draw(seed)
     rng = np.random.default_rng([seed, 1])
     frames, affine, bounds, truth = simulate(d, rng)
@@ -315,9 +271,8 @@ def one(petblur: str, seed: int, device: str, metric: str, threads: int) -> dict
         if r.returncode:
             raise RuntimeError(f"seed {seed}: petblur motion estimate exited {r.returncode}: {r.stderr[-2000:]}")
         row["petblur"] = dict(errors(*hf.read_matrix_csv(csv)), seconds=round(time.perf_counter() - started, 1))
-    sitk.ProcessObject.SetGlobalDefaultNumberOfThreads(threads)
     started = time.perf_counter()
-    row["sitk"] = dict(errors(*sitk_track(frames, affine, bounds, metric)),
+    row["sitk"] = dict(errors(*ev.sitk_track(frames, affine, bounds, threads, metric)),
                        seconds=round(time.perf_counter() - started, 1))
     return row
 

@@ -35,8 +35,9 @@ SETUPS = {
 }
 
 
-def sitk_track(frames, affine, bounds, threads=2):
-    """SimpleITK: every frame registered rigidly to frame 0, one pose per frame (mid-time)."""
+def sitk_track(frames, affine, bounds, threads=2, metric="correlation"):
+    """SimpleITK: every frame registered rigidly to frame 0, one pose per frame (mid-time); metric "correlation" or
+    "mattes" (Mattes mutual information, 50 bins)."""
     import SimpleITK as sitk
 
     def image(vol):
@@ -57,7 +58,10 @@ def sitk_track(frames, affine, bounds, threads=2):
     for k in range(1, frames.shape[-1]):
         moving = image(frames[..., k])
         reg = sitk.ImageRegistrationMethod()
-        reg.SetMetricAsCorrelation()
+        if metric == "mattes":
+            reg.SetMetricAsMattesMutualInformation(numberOfHistogramBins=50)
+        else:
+            reg.SetMetricAsCorrelation()
         reg.SetInterpolator(sitk.sitkLinear)
         reg.SetOptimizerAsRegularStepGradientDescent(learningRate=1.0, minStep=1e-4, numberOfIterations=200,
                                                      gradientMagnitudeTolerance=1e-8)
