@@ -18,6 +18,7 @@ mm, where tracker logs live (--coords world)."""
 import ctypes
 import numbers
 import os
+import secrets
 import warnings
 
 import numpy as np
@@ -200,7 +201,7 @@ class Motion:
 
     @classmethod
     def from_file(cls, path, format=None, time_unit="s", quaternion_order="wxyz", calibration=None,
-                  reference_time=None, inverse=False, center=None):
+                  reference_time=None, inverse=False, center=None, coords=None):
         """A tracker's log, read by the C library as the command line reads it:
         ``format`` 'csv' (t,tx,ty,tz,qw,qx,qy,qz), 'matrix-csv' (t and a 3x4
         rigid matrix; yrt-pet) or 'polaris' (NDI .mt and Toolviewer CSV); None
@@ -210,8 +211,10 @@ class Motion:
         matrix or a text file of its 16 numbers (--calibration),
         ``reference_time`` s (--reference-time; a Polaris log's default is its
         first sample), ``inverse`` (--motion-inverse), ``center`` (--center; csv
-        only: the other formats turn about the world's origin). The poses become
-        M(t) = C P(t) P(ref)^-1 C^-1."""
+        only: the other formats turn about the world's origin), ``coords``
+        (--coords: 'world', the default for tracker matrices, or 'grid' for
+        matrices in the grid frame, as an estimate given voxel_size= saves
+        them). The poses become M(t) = C P(t) P(ref)^-1 C^-1."""
         format_value = _lib.TRACK_AUTO if format is None else _lib.parse_name("track_format", format)
         if time_unit not in ("s", "ms"):
             raise ArgumentError(f"time_unit {time_unit!r}: choose 's' or 'ms'")
@@ -224,8 +227,12 @@ class Motion:
         fmt, times, tr, q, lines, missing = track_arrays(handle)
         m = cls(times, tr, q)
         m._format, m._lines, m._missing, m._source = fmt, lines, missing, os.fsdecode(path)
-        if fmt != _lib.TRACK_CSV:  # tracker matrices: the scanner's world
-            m._coords = "world"
+        if coords not in _COORDS:
+            raise ArgumentError(f"coords {coords!r}: choose 'world' or 'grid' (or None: as the format says)")
+        if fmt != _lib.TRACK_CSV:  # tracker matrices: the scanner's world, unless told
+            m._coords = coords or "world"
+        elif coords is not None:
+            m._coords = coords
         if center is not None:
             m.center = _vector("center", center, 3)
         if calibration is not None:
@@ -399,6 +406,61 @@ class Motion:
                                   "noise_mm": noise.value if planned else None,
                                   "segments": segments.value if planned else None})
         return out
+
+    def save(self, path, format=None):
+        """Writes the motion as a track file that from_file and the program's
+        --motion read back to the same motion: 'matrix-csv' (t and the 3x4
+        map about the world's origin) for a motion about the origin (tracker
+        matrices, estimates), 'csv' (t,tx,ty,tz,qw,qx,qy,qz about the
+        motion's centre) for the others; ``format``, where given, must be
+        that one: poses about another centre would agree at the samples but
+        not between them (the blur interpolates about the motion's centre).
+        The conventions (calibration, reference_time, inverse) are applied:
+        the file holds the poses they give and reads back without them. A csv
+        file holds no centre: read it back with the motion's center= (None:
+        the grid's, as before); a motion in the grid frame reads back with
+        coords='grid'. Written whole or not at all (a temporary beside the
+        file, renamed over it), never over the file the motion was read
+        from."""
+        own = "matrix-csv" if self.about_origin else "csv"
+        if format not in (None, "csv", "matrix-csv"):
+            raise ArgumentError(f"format {format!r}: choose 'csv' or 'matrix-csv'")
+        if format is not None and format != own:
+            about, other = ("the world's origin", "a centre") if self.about_origin else ("a centre", "the origin")
+            raise ArgumentError(f"this motion turns about {about}: saved as {format} it would turn about {other}, the "
+                                f"same at the samples but not between them; save it as format='{own}' (the default)")
+        world, keep = self._world(None, None, warn=False)
+        n = len(self)
+        times = np.array(world.times[:n])
+        tr = np.array([world.poses[i].translation[:] for i in range(n)])
+        q = np.array([world.poses[i].rotation[:] for i in range(n)])
+        if own == "matrix-csv":
+            rows = []
+            for t, p in zip(times, range(n)):
+                m = (ctypes.c_double * 16)()
+                _check(_lib.lib.pb_pose_to_matrix(ctypes.byref(world.poses[p]), m))
+                rows.append([t, *np.array(m[:12])])
+            header = "t,r00,r01,r02,tx,r10,r11,r12,ty,r20,r21,r22,tz"
+        else:
+            rows = np.column_stack([times, tr, q])
+            header = "t,tx,ty,tz,qw,qx,qy,qz"
+        path = os.fspath(path)
+        source = self._source if isinstance(self._source, str) else None
+        if source and os.path.exists(path) and os.path.exists(source) and os.path.samefile(path, source):
+            raise ArgumentError(f"{path} is the file this motion was read from: save it under another name")
+        folder = os.path.dirname(os.path.abspath(path))
+        # a fresh name beside the file, made with the modes a new file gets (mkstemp's are 0600)
+        temp = os.path.join(folder, f".petblur-{os.getpid()}-{secrets.token_hex(6)}.csv")
+        fd = os.open(temp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666)
+        try:
+            with os.fdopen(fd, "w") as f:
+                f.write(header + "\n")
+                for r in rows:
+                    f.write(",".join(repr(float(v)) for v in r) + "\n")
+            os.replace(temp, path)
+        except BaseException:
+            os.unlink(temp)
+            raise
 
     def mean_pose(self, t0, t1):
         """The time-weighted mean pose over the frame [t0, t1], as pose_at
