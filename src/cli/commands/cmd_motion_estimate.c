@@ -30,10 +30,14 @@ static const pbc_option options[] = {
 
 static const pbc_command command = {
     "motion estimate", "FRAMES.nii[.gz] (--frames-from SIDECAR.json | --frames T0,T1,...) -o TRACK.csv [options]",
-    "Estimates the head's rigid motion from the frames of a dynamic PET series, inside frames too: each frame\n"
-    "is registered to the reference frame and to the mean of all frames, and a frame that holds a jerk gets the\n"
-    "poses on both sides of it. TRACK says where a point of the reference frame's object is at each time, in the\n"
-    "world coordinates of FRAMES' affine: give it to petblur blur --motion and petblur.Motion.from_file as it is.",
+    "Estimates the head's rigid motion from the frames of a dynamic PET series, inside frames too. Each frame\n"
+    "is registered to its neighbour towards the reference frame, then twice to its own reference (the principal\n"
+    "images of its nearest frames moved back onto the reference frame, so that changing uptake is followed); a\n"
+    "frame whose blur along a path between its neighbours' poses fits it better than one pose (a jerk inside it)\n"
+    "gets that path, timed; and in a series of 12 frames or more every pose gets one correction along the\n"
+    "contrast, against the bias changing uptake leaves (docs/motion.md, \"Motion from the frames\"). TRACK says\n"
+    "where a point of the reference frame's object is at each time, in the world coordinates of FRAMES' affine:\n"
+    "give it to petblur blur --motion and petblur.Motion.from_file as it is.",
     options, (int)(sizeof options / sizeof options[0]), 1, 1,
     "examples:\n"
     "  petblur motion estimate sub-01_pet.nii.gz --frames-from sub-01_pet.json -o motion.csv\n"
