@@ -1,6 +1,7 @@
 """Which part of a family draw (bench/estimate_family.py) makes the estimate fail: the same draw with one thing
 changed (counts x10, steady uptake in every tissue, pass 4 off), estimated on the host. From the repository root:
-PETBLUR=build/src/cli/petblur python3 causes.py SEED "default"|"counts x10"|"steady uptake"|"no pass 4"|"frame poses only""""
+PETBLUR=build/src/cli/petblur python3 causes.py SEED WHAT, WHAT one of: default, "counts x10", "steady uptake",
+"no pass 4", "frame poses only"."""
 import dataclasses, json, os, subprocess, sys, tempfile, time
 import numpy as np
 sys.path.insert(0, "bench")
