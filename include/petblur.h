@@ -649,9 +649,11 @@ PB_API pb_status pb_path_segments(const pb_geometry *geometry, const pb_motion *
  * measured from the frame's tracked poses (docs/methods.md, "Tracker noise").
  * 0 where every tracked pose is followed: fewer than 64 in the frame, a
  * scatter that is not white (a tremor is motion), PB_PATH_TRACKED, or CL and
- * REF, which follow the track itself. */
+ * REF, which follow the track itself. segments (may be NULL): what
+ * pb_path_segments gives, from the same plan, so that a report of both
+ * plans the frame once. */
 PB_API pb_status pb_path_noise(const pb_geometry *geometry, const pb_motion *motion,
-                               const pb_blur_options *options, double *noise_mm);
+                               const pb_blur_options *options, double *noise_mm, size_t *segments);
 
 /* Blurs an object-space volume along the motion into a tomograph-space volume of
  * the same geometry (the paper's eq. 1, gather form: one work item per

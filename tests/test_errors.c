@@ -236,10 +236,13 @@ static void test_motions(pb_context *ctx)
     pb_check(pb_path_segments(&g6, &mu, &bound, &segments) == PB_OK && segments == 1,
              "no cuts on the paper's polyline (%zu segments)", segments);
     double noise = -1.0;
-    pb_check(pb_path_noise(&g6, &mu, &bound, &noise) == PB_OK && noise == 0.0,
+    size_t again = 0;
+    pb_check(pb_path_noise(&g6, &mu, &bound, &noise, NULL) == PB_OK && noise == 0.0,
              "no noise measured on the paper's polyline (%g mm)", noise);
+    pb_check(pb_path_noise(&g6, &mu, &bound, &noise, &again) == PB_OK && again == segments,
+             "pb_path_noise's segments are pb_path_segments' (%zu, %zu)", again, segments);
     bound.max_path_error = -1.0;
-    expect(pb_path_noise(&g6, &mu, &bound, &noise), PB_ERR_INVALID_ARGUMENT, "pb_path_noise, negative bound",
+    expect(pb_path_noise(&g6, &mu, &bound, &noise, NULL), PB_ERR_INVALID_ARGUMENT, "pb_path_noise, negative bound",
            pb_last_error(NULL), "max_path_error");
     pb_check(pb_options_check(NULL) == PB_OK, "the defaults pass");
     pb_volume_destroy(in);
@@ -371,7 +374,7 @@ static void test_null_pointers(pb_context *ctx)
         pb_volume_get_geometry(NULL, &g), pb_volume_upload(NULL, NULL), pb_volume_download(NULL, NULL),
         pb_motion_pose_at(NULL, 0, &p), pb_quaternion_from_axis_angle(NULL, 0, q), pb_pose_from_matrix(NULL, &p),
         pb_pose_to_matrix(NULL, m), pb_motion_world_to_grid(NULL, NULL, NULL, NULL, NULL),
-        pb_path_segments(NULL, NULL, NULL, &n), pb_path_noise(&g, NULL, NULL, &d), pb_path_noise(&g, NULL, NULL, NULL),
+        pb_path_segments(NULL, NULL, NULL, &n), pb_path_noise(&g, NULL, NULL, &d, &n), pb_path_noise(&g, NULL, NULL, NULL, &n),
         pb_blur(NULL, NULL, NULL, NULL, NULL),
         pb_blur(ctx, NULL, NULL, NULL, NULL), pb_blur_adjoint(ctx, NULL, NULL, NULL, NULL),
         pb_blur_frames(ctx, NULL, NULL, NULL, 2, NULL, NULL), pb_blur_frames_adjoint(ctx, NULL, NULL, NULL, 2, NULL, NULL)};

@@ -216,7 +216,7 @@ _signatures = {
     "pb_pose_from_matrix": (_int, [_P(_dbl), _P(Pose)]),
     "pb_pose_to_matrix": (_int, [_P(Pose), _P(_dbl)]),
     "pb_path_segments": (_int, [_P(Geometry), _P(CMotion), _P(BlurOptions), _P(_sz)]),
-    "pb_path_noise": (_int, [_P(Geometry), _P(CMotion), _P(BlurOptions), _P(_dbl)]),
+    "pb_path_noise": (_int, [_P(Geometry), _P(CMotion), _P(BlurOptions), _P(_dbl), _P(_sz)]),
     "pb_plan_create": (_int, [_vp, _P(Geometry), _P(CMotion), _P(BlurOptions), _P(_vp)]),
     "pb_plan_create_frames": (_int, [_vp, _P(Geometry), _P(CMotion), _P(_dbl), _sz, _P(BlurOptions), _P(_vp)]),
     "pb_plan_create_gates": (_int, [_vp, _P(Geometry), _P(CMotion), _P(_dbl), _P(_sz), _sz, _P(BlurOptions),

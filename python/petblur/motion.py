@@ -398,9 +398,8 @@ class Motion:
             noise, segments = ctypes.c_double(), ctypes.c_size_t()
             # None where the default path cannot walk the frame (more segments than a blur takes), as the
             # program's '-': a summary shows what a blur would refuse
-            planned = (_lib.lib.pb_path_noise(ctypes.byref(g), ctypes.byref(frame), None, ctypes.byref(noise)) == 0
-                       and _lib.lib.pb_path_segments(ctypes.byref(g), ctypes.byref(frame), None,
-                                                     ctypes.byref(segments)) == 0)
+            planned = _lib.lib.pb_path_noise(ctypes.byref(g), ctypes.byref(frame), None, ctypes.byref(noise),
+                                             ctypes.byref(segments)) == 0
             out["frames"].append({"start": float(t0), "end": float(t1), "samples": f.samples,
                                   "max_turn_deg": f.max_turn_deg, "max_corner_mm": f.max_corner_mm,
                                   "noise_mm": noise.value if planned else None,
@@ -430,22 +429,18 @@ class Motion:
             raise ArgumentError(f"this motion turns about {about}: saved as {format} it would turn about {other}, the "
                                 f"same at the samples but not between them; save it as format='{own}' (the default)")
         world, keep = self._world(None, None, warn=False)
-        n = len(self)
-        times = np.array(world.times[:n])
-        tr = np.array([world.poses[i].translation[:] for i in range(n)])
-        q = np.array([world.poses[i].rotation[:] for i in range(n)])
-        if own == "matrix-csv":
-            rows = []
-            for t, p in zip(times, range(n)):
-                m = (ctypes.c_double * 16)()
-                _check(_lib.lib.pb_pose_to_matrix(ctypes.byref(world.poses[p]), m))
-                rows.append([t, *np.array(m[:12])])
-            header = "t,r00,r01,r02,tx,r10,r11,r12,ty,r20,r21,r22,tz"
-        else:
-            rows = np.column_stack([times, tr, q])
-            header = "t,tx,ty,tz,qw,qx,qy,qz"
+        rows, m = [], (ctypes.c_double * 16)()
+        for i in range(len(self)):
+            p = world.poses[i]
+            if own == "matrix-csv":
+                _check(_lib.lib.pb_pose_to_matrix(ctypes.byref(p), m))
+                rows.append([world.times[i], *m[:12]])
+            else:
+                rows.append([world.times[i], *p.translation, *p.rotation])
+        header = ("t,r00,r01,r02,tx,r10,r11,r12,ty,r20,r21,r22,tz" if own == "matrix-csv" else
+                  "t,tx,ty,tz,qw,qx,qy,qz")
         path = os.fspath(path)
-        source = self._source if isinstance(self._source, str) else None
+        source = self._source if self._lines is not None else None  # _lines: read from a file
         if source and os.path.exists(path) and os.path.exists(source) and os.path.samefile(path, source):
             raise ArgumentError(f"{path} is the file this motion was read from: save it under another name")
         folder = os.path.dirname(os.path.abspath(path))

@@ -82,12 +82,12 @@ pb_status pb_path_segments(const pb_geometry *geometry, const pb_motion *motion,
 }
 
 pb_status pb_path_noise(const pb_geometry *geometry, const pb_motion *motion, const pb_blur_options *options,
-                        double *noise_mm)
+                        double *noise_mm, size_t *segments)
 {
-    size_t segments;
+    size_t count;
     if (!geometry || !motion || !noise_mm)
         return pb_error(NULL, PB_ERR_INVALID_ARGUMENT, "geometry, motion and noise_mm must not be NULL");
-    return plan_facts(geometry, motion, options, &segments, noise_mm);
+    return plan_facts(geometry, motion, options, segments ? segments : &count, noise_mm);
 }
 
 pb_status pb_options_check(const pb_blur_options *options)

@@ -72,7 +72,7 @@ static int frame_summary(const pbc_motion *m, const pbc_image *img, size_t index
     frame.frame_end = t1;
     double noise = 0.0;
     size_t segments = 0;
-    if (pb_path_noise(&g, &frame, NULL, &noise) == PB_OK && pb_path_segments(&g, &frame, NULL, &segments) == PB_OK)
+    if (pb_path_noise(&g, &frame, NULL, &noise, &segments) == PB_OK)
         printf(" %9.3f %9zu\n", noise, segments);
     else {
         printf(" %9s %9s\n", "-", "-");
