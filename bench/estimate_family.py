@@ -240,8 +240,11 @@ def frame_means(truth: Truth, bounds, samples: int = 40):
     return np.concatenate([[bounds[0]], mids, [bounds[-1]]]), np.array([maps[0]] + maps + [maps[-1]])
 
 
-def one(petblur: str, seed: int, device: str, metric: str, threads: int) -> dict:
-    """Draw `seed`, simulate it, estimate with petblur and SimpleITK: a dict of the draw and both errors."""
+def one(petblur: str, seed: int, device: str, metric: str, threads: int, variants: dict = None,
+        sitk: dict = None) -> dict:
+    """Draw `seed`, simulate it, estimate with petblur and SimpleITK: a dict of the draw and both errors; with
+    variants ({name: {VARIABLE: value}}), petblur again under each variant's environment, in row["variants"]; with
+    sitk (a row of an earlier run's draws.jsonl for the same seed), its SimpleITK result instead of running it."""
     import nibabel as nib
     d = draw(seed)
     rng = np.random.default_rng([seed, 1])
@@ -271,6 +274,17 @@ def one(petblur: str, seed: int, device: str, metric: str, threads: int) -> dict
         if r.returncode:
             raise RuntimeError(f"seed {seed}: petblur motion estimate exited {r.returncode}: {r.stderr[-2000:]}")
         row["petblur"] = dict(errors(*hf.read_matrix_csv(csv)), seconds=round(time.perf_counter() - started, 1))
+        for name, env in (variants or {}).items():
+            started = time.perf_counter()
+            r = subprocess.run([petblur, "motion", "estimate", nii, "--frames-from", side, "-o", csv, "-q",
+                                "--device", device], capture_output=True, text=True, env=dict(os.environ, **env))
+            if r.returncode:
+                raise RuntimeError(f"seed {seed}, variant {name}: petblur exited {r.returncode}: {r.stderr[-2000:]}")
+            row.setdefault("variants", {})[name] = dict(errors(*hf.read_matrix_csv(csv)),
+                                                        seconds=round(time.perf_counter() - started, 1))
+    if sitk is not None:
+        row["sitk"] = sitk
+        return row
     started = time.perf_counter()
     row["sitk"] = dict(errors(*ev.sitk_track(frames, affine, bounds, threads, metric)),
                        seconds=round(time.perf_counter() - started, 1))
@@ -306,6 +320,19 @@ def summary(rows: list, metric: str) -> str:
               "0.6 mm mean (%s); every draw at or below SimpleITK's mean (%d of %d)." % (
                   "met" if np.median(pm) <= 0.4 else "NOT met", "met" if np.median(pw) <= 1.0 else "NOT met",
                   "met" if pm.max() <= 0.6 else "NOT met", int(np.sum(pm <= sm)), len(rows))]
+    names = sorted({n for r in rows for n in r.get("variants", {})})
+    if names:
+        inj = np.array([r["from_injection"] for r in rows])
+        lines += ["", "Variants (the same draws; petblur under each's environment):", "",
+                  "| variant | mean, median / 90th / worst draw | worst frame, median | mean from injection, median "
+                  "| mean late, median | at or below SimpleITK | below the default's mean |", "|---|---|---|---|---|---|---|"]
+        for name in ["default"] + names:
+            vm = pm if name == "default" else np.array([r["variants"][name]["mean_mm"] for r in rows])
+            vw = pw if name == "default" else np.array([r["variants"][name]["max_mm"] for r in rows])
+            lines.append("| %s | %s | %.3f | %s | %s | %d of %d | %d of %d |" % (
+                name, q(vm), np.median(vw), "%.3f" % np.median(vm[inj]) if inj.any() else "-",
+                "%.3f" % np.median(vm[~inj]) if (~inj).any() else "-", int(np.sum(vm <= sm)), len(rows),
+                int(np.sum(vm < pm)), len(rows)))
     return "\n".join(lines) + "\n"
 
 
@@ -318,13 +345,27 @@ def main() -> int:
     p.add_argument("--device", default="auto", help="petblur's --device")
     p.add_argument("--sitk-metric", choices=("correlation", "mattes"), default="correlation")
     p.add_argument("--sitk-threads", type=int, default=2)
+    p.add_argument("--variant", action="append", default=[], metavar="NAME:VAR=VALUE[,VAR=VALUE]",
+                   help="petblur again on each draw with these environment variables (repeatable; to compare "
+                        "estimator changes on the same draws)")
+    p.add_argument("--sitk-from", metavar="DRAWS.JSONL", help="SimpleITK's results of an earlier run (its "
+                   "draws.jsonl) for the draws it holds, not run again; replay its seeds with --seed")
     p.add_argument("--out", required=True)
     a = p.parse_args()
+    earlier = {}
+    if a.sitk_from:
+        with open(a.sitk_from) as f:
+            earlier = {r["seed"]: r["sitk"] for r in map(json.loads, f) if r.get("sitk")}
+    variants = {}
+    for v in a.variant:
+        name, _, assignments = v.partition(":")
+        variants[name] = dict(x.split("=", 1) for x in assignments.split(",") if x)
     seeds = a.seed or [int(s) for s in np.random.SeedSequence().generate_state(a.draws)]
     os.makedirs(a.out, exist_ok=True)
     rows = []
     with concurrent.futures.ProcessPoolExecutor(a.jobs) as pool, open(os.path.join(a.out, "draws.jsonl"), "w") as f:
-        futures = [pool.submit(one, a.petblur, s, a.device, a.sitk_metric, a.sitk_threads) for s in seeds]
+        futures = [pool.submit(one, a.petblur, s, a.device, a.sitk_metric, a.sitk_threads, variants,
+                               earlier.get(s)) for s in seeds]
         for fut in concurrent.futures.as_completed(futures):
             r = fut.result()
             rows.append(r)
@@ -332,7 +373,9 @@ def main() -> int:
             f.flush()
             print("seed %d: petblur %.3f / %.3f mm, SimpleITK %.3f / %.3f mm, none %.2f / %.2f mm (%d frames)" % (
                 r["seed"], r["petblur"]["mean_mm"], r["petblur"]["max_mm"], r["sitk"]["mean_mm"],
-                r["sitk"]["max_mm"], r["none"]["mean_mm"], r["none"]["max_mm"], r["frames"]), flush=True)
+                r["sitk"]["max_mm"], r["none"]["mean_mm"], r["none"]["max_mm"], r["frames"]) + "".join(
+                "; %s %.3f / %.3f mm" % (n, x["mean_mm"], x["max_mm"]) for n, x in r.get("variants", {}).items()),
+                flush=True)
     rows.sort(key=lambda r: r["seed"])
     text = summary(rows, a.sitk_metric)
     with open(os.path.join(a.out, "family.md"), "w") as f:
