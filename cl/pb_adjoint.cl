@@ -60,6 +60,48 @@ PB_FN void pb_trilinear_scatter(PB_GLOBAL float *out, pb_kparams prm, float x, f
     }
 }
 
+/* The eight voxels of one trilinear cell, summed in the work item's registers
+ * while its samples stay in that cell, and added to the object once when a
+ * sample leaves it (and at the end of the path). Under a sub-voxel path (a
+ * still or drifting head) the exact chord's samples fall in one or two cells,
+ * and scattered one by one each cost eight atomic adds: the adds, not the
+ * reads, bound the adjoint of a dense input (docs/performance.md). The same
+ * products are added to the same voxels, in another order. */
+typedef struct pb_cell {
+    int i, j, k, live;
+    float w[8];
+} pb_cell;
+
+PB_FN void pb_cell_flush(PB_GLOBAL float *out, pb_kparams prm, pb_cell *cell)
+{
+    if (!cell->live)
+        return;
+    for (int c = 0; c < 8; c++)
+        pb_scatter(out, prm, cell->i + (c & 1), cell->j + ((c >> 1) & 1), cell->k + (c >> 2), cell->w[c]);
+    cell->live = 0;
+}
+
+/* pb_trilinear_scatter through the cell. */
+PB_FN void pb_cell_scatter(PB_GLOBAL float *out, pb_kparams prm, pb_cell *cell, float x, float y, float z, float v)
+{
+    float cx = x - 0.5f, cy = y - 0.5f, cz = z - 0.5f;
+    float x0 = floor(cx), y0 = floor(cy), z0 = floor(cz);
+    float fx = pb_texture_weight(cx - x0, prm), fy = pb_texture_weight(cy - y0, prm);
+    float fz = pb_texture_weight(cz - z0, prm);
+    int i = pb_voxel_index(x0), j = pb_voxel_index(y0), k = pb_voxel_index(z0);
+    if (!cell->live || i != cell->i || j != cell->j || k != cell->k) {
+        pb_cell_flush(out, prm, cell);
+        cell->i = i;
+        cell->j = j;
+        cell->k = k;
+        cell->live = 1;
+        for (int c = 0; c < 8; c++)
+            cell->w[c] = 0.0f;
+    }
+    for (int c = 0; c < 8; c++)
+        cell->w[c] += v * (((c & 1) ? fx : 1.0f - fx) * ((c & 2) ? fy : 1.0f - fy) * ((c & 4) ? fz : 1.0f - fz));
+}
+
 /* Transpose of pb_slice_sample: v spread over the four voxels of the slice
  * around the point, whose major coordinate is the slice's centre. */
 PB_FN void pb_slice_scatter(PB_GLOBAL float *out, pb_kparams prm, int major, float x, float y, float z, float v)
@@ -146,33 +188,35 @@ PB_FN void pb_ab_walked_adjoint(PB_GLOBAL float *out, pb_kparams prm, int sweep,
 }
 
 /* Transpose of pb_ab_segment: the exact chord's share and the walk's. */
-PB_FN void pb_ab_segment_adjoint(PB_GLOBAL float *out, pb_kparams prm, int sweep, const float *a, const float *b,
-                                  float v)
+PB_FN void pb_ab_segment_adjoint(PB_GLOBAL float *out, pb_kparams prm, pb_cell *cell, int sweep, const float *a,
+                                  const float *b, float v)
 {
     float walk = pb_ab_walk_weight(a, b);
     if (walk < 1.0f)
-        PB_CHORD_SAMPLES(a, b, pb_trilinear_scatter(out, prm, x, y, z, v * (1.0f - walk) * q));
+        PB_CHORD_SAMPLES(a, b, pb_cell_scatter(out, prm, cell, x, y, z, v * (1.0f - walk) * q));
     if (walk > 0.0f)
         pb_ab_walked_adjoint(out, prm, sweep, a, b, v * walk);
 }
 
 /* Transpose of pb_ab_sampled (ab) or pb_rm_sampled: v spread along a-b. */
-PB_FN void pb_segment_adjoint(PB_GLOBAL float *out, pb_kparams prm, const float *a, const float *b, int ab, float v)
+PB_FN void pb_segment_adjoint(PB_GLOBAL float *out, pb_kparams prm, pb_cell *cell, const float *a, const float *b,
+                               int ab, float v)
 {
     if (ab && prm.steps == 1) { /* the usual case: no pieces, no division */
-        pb_ab_segment_adjoint(out, prm, ab == PB_AB_SWEEP, a, b, v);
+        pb_ab_segment_adjoint(out, prm, cell, ab == PB_AB_SWEEP, a, b, v);
         return;
     }
     if (ab) {
         float inv = 1.0f / (float)prm.steps;
-        PB_FOR_PIECES(prm.steps, inv, a, b, pb_ab_segment_adjoint(out, prm, ab == PB_AB_SWEEP, pa, pb, v * inv));
+        PB_FOR_PIECES(prm.steps, inv, a, b,
+                      pb_ab_segment_adjoint(out, prm, cell, ab == PB_AB_SWEEP, pa, pb, v * inv));
         return;
     }
     int n = prm.steps;
     if (n <= 0) { /* pb_rm_sampled's rule by length */
         float walk = pb_ab_walk_weight(a, b);
         if (walk < 1.0f)
-            PB_CHORD_SAMPLES(a, b, pb_trilinear_scatter(out, prm, x, y, z, v * (1.0f - walk) * q));
+            PB_CHORD_SAMPLES(a, b, pb_cell_scatter(out, prm, cell, x, y, z, v * (1.0f - walk) * q));
         if (walk == 0.0f)
             return;
         v *= walk;
@@ -181,8 +225,8 @@ PB_FN void pb_segment_adjoint(PB_GLOBAL float *out, pb_kparams prm, const float 
     float inv_n = 1.0f / (float)n;
     for (int i = 0; i < n; i++) {
         float s = pb_step_fraction(i, inv_n);
-        pb_trilinear_scatter(out, prm, a[0] + s * (b[0] - a[0]), a[1] + s * (b[1] - a[1]), a[2] + s * (b[2] - a[2]),
-                             v * inv_n);
+        pb_cell_scatter(out, prm, cell, a[0] + s * (b[0] - a[0]), a[1] + s * (b[1] - a[1]),
+                        a[2] + s * (b[2] - a[2]), v * inv_n);
     }
 }
 
@@ -192,7 +236,10 @@ PB_FN void pb_polyline_adjoint(PB_GLOBAL float *out, PB_GLOBAL_RO pb_kpose *pose
                                int iz, int ab, float v)
 {
     const float u[3] = {(float)ix + 0.5f, (float)iy + 0.5f, (float)iz + 0.5f};
-    PB_FOR_SEGMENTS(poses, prm, u, pb_segment_adjoint(out, prm, a, b, ab, v * poses[j].weight));
+    pb_cell cell;
+    cell.live = 0;
+    PB_FOR_SEGMENTS(poses, prm, u, pb_segment_adjoint(out, prm, &cell, a, b, ab, v * poses[j].weight));
+    pb_cell_flush(out, prm, &cell);
 }
 
 /* Transpose of pb_classical. */
@@ -200,6 +247,8 @@ PB_FN void pb_classical_adjoint(PB_GLOBAL float *out, PB_GLOBAL_RO pb_kpose *pos
                                 int iz, float v)
 {
     float u[3] = {(float)ix + 0.5f, (float)iy + 0.5f, (float)iz + 0.5f};
+    pb_cell cell;
+    cell.live = 0;
     for (int j = 0; j < prm.segments; j++) {
         if (poses[j].weight == 0.0f) /* clipped */
             continue;
@@ -208,9 +257,10 @@ PB_FN void pb_classical_adjoint(PB_GLOBAL float *out, PB_GLOBAL_RO pb_kpose *pos
         for (int i = 0; i < n; i++) {
             float o[3];
             pb_classical_point(&poses[j], &poses[j + 1], pb_step_fraction(i, inv_n), prm, u, o);
-            pb_trilinear_scatter(out, prm, o[0], o[1], o[2], vn);
+            pb_cell_scatter(out, prm, &cell, o[0], o[1], o[2], vn);
         }
     }
+    pb_cell_flush(out, prm, &cell);
 }
 
 /* The tomograph voxel's value, or 0 (nothing to spread) outside the grid. */

@@ -186,8 +186,11 @@ PB_FN void pb_field_polyline_adjoint(PB_GLOBAL float *out, PB_GLOBAL_RO pb_kknot
     const float u[3] = {(float)ix + 0.5f, (float)iy + 0.5f, (float)iz + 0.5f};
     PB_GLOBAL_RO float *fields = pb_field_data(knots, prm);
     long own = pb_field_own(prm, ix, iy, iz);
+    pb_cell cell;
+    cell.live = 0;
     PB_FOR_FIELD_SEGMENTS(knots, fields, prm, u, own, ix, iy, iz, mass,
-                          pb_segment_adjoint(out, prm, a, b, ab, v * knots[j].weight * jac));
+                          pb_segment_adjoint(out, prm, &cell, a, b, ab, v * knots[j].weight * jac));
+    pb_cell_flush(out, prm, &cell);
 }
 
 #define PB_FIELD_FORWARD(name, ab, exact, mass)                                                                  \
