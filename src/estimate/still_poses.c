@@ -3,17 +3,12 @@
  * with a millimetre or more of noise, and the reference frame's noise moves
  * every other frame with it. Where neighbouring frames agree within that
  * noise, the head held still across them and their poses measure one pose
- * several times, or a slow drift across them the same: each still frame
- * takes, at its mid-time, the count-weighted least-squares line through the
- * widest run of at least three neighbours around it whose scatter about
- * that line is noise alone (a chi-square test at 99 %). A line, not a mean:
- * a mean flattened a slow drift that no pair of frames showed above the
- * noise (issue 47's family, late scans, 0.44 -> 0.52 mm). A frame's weight
- * is its counts (the Fisher information of a Poisson image grows with them);
- * the noise's scale is the series' own, from each frame's distance to the
- * line through its two neighbours (which a drift does not move), a robust
- * estimate that leaves out the frames that moved. Poses are compared as six
- * numbers in mm:
+ * several times: each still frame takes the count-weighted mean of the
+ * widest run of neighbours around it whose scatter is that of noise alone
+ * (a chi-square test at 99 %). A frame's weight is its counts (the Fisher
+ * information of a Poisson image grows with them); the noise's scale is the
+ * series' own, from its consecutive differences, a robust estimate that
+ * leaves out the pairs that moved. Poses are compared as six numbers in mm:
  * the displacement of the centre and the rotation vector times the
  * activity's RMS radius about it (a turn's displacement of an average point).
  * Frames that follow a path, or show no structure, neither pool nor join a
@@ -30,7 +25,7 @@
 #define CHI2_6_Q25 3.4545988357
 #define CHI2_6_Q99 16.8118938298
 #define CHI2_6_MEAN_BELOW_Q99 5.8658877730
-/* at least this many frames between still-looking neighbours to measure the noise */
+/* at least this many pairs of still-looking neighbours to measure the noise */
 #define MIN_PAIRS 4
 
 /* The 99 % quantile of chi-square with k degrees (Wilson-Hilferty: within
@@ -66,6 +61,14 @@ static void from_vector(const double v[6], double radius, pb_pose *p)
     }
 }
 
+static double distance2(const double *a, const double *b)
+{
+    double s = 0.0;
+    for (int i = 0; i < 6; i++)
+        s += (a[i] - b[i]) * (a[i] - b[i]);
+    return s;
+}
+
 /* The frames' counts (their positive activity times their length) and the
  * activity's RMS radius about c, mm. */
 static double counts_and_radius(const pb_geometry *g, const float *raw, size_t count, const double *bounds,
@@ -94,26 +97,16 @@ static double counts_and_radius(const pb_geometry *g, const float *raw, size_t c
 }
 
 /* The noise's scale s2: a frame of weight w scatters by s2 / w in each of
- * the six numbers. Frame k's distance from the line through its neighbours
- * at its time, r = v_k - (a v_(k-1) + b v_(k+1)), is s2 (1 / w_k + a^2 /
- * w_(k-1) + b^2 / w_(k+1)) times a chi-square of 6 degrees where the head
- * held still or drifted evenly; the frames that moved otherwise lie above.
- * A start from the lower quartile, then the mean of those under the 99 %
- * quantile, to a fixed point. 0 where too few frames. */
-static double noise_scale(size_t count, const double *vec, const double *w, const double *t, const int *skip,
-                          double *z)
+ * the six numbers. From the pairs of neighbours, |d|^2 / (1 / w_a + 1 / w_b)
+ * is s2 times a chi-square of 6 degrees where the head held still; the pairs
+ * that moved lie above. A start from the lower quartile, then the mean of
+ * the pairs under the 99 % quantile, to a fixed point. 0 where too few pairs. */
+static double noise_scale(size_t count, const double *vec, const double *w, const int *skip, double *z)
 {
     size_t m = 0;
-    for (size_t k = 1; k + 1 < count; k++) {
-        if (skip[k - 1] || skip[k] || skip[k + 1] || !(w[k - 1] > 0.0 && w[k] > 0.0 && w[k + 1] > 0.0))
-            continue;
-        double a = (t[k + 1] - t[k]) / (t[k + 1] - t[k - 1]), b = 1.0 - a, d2 = 0.0;
-        for (int i = 0; i < 6; i++) {
-            double r = vec[6 * k + i] - a * vec[6 * (k - 1) + i] - b * vec[6 * (k + 1) + i];
-            d2 += r * r;
-        }
-        z[m++] = d2 / (1.0 / w[k] + a * a / w[k - 1] + b * b / w[k + 1]);
-    }
+    for (size_t k = 0; k + 1 < count; k++)
+        if (!skip[k] && !skip[k + 1] && w[k] > 0.0 && w[k + 1] > 0.0)
+            z[m++] = distance2(vec + 6 * k, vec + 6 * (k + 1)) / (1.0 / w[k] + 1.0 / w[k + 1]);
     if (m < MIN_PAIRS)
         return 0.0;
     double *sorted = malloc(sizeof(double) * m);
@@ -122,9 +115,9 @@ static double noise_scale(size_t count, const double *vec, const double *w, cons
     memcpy(sorted, z, sizeof(double) * m);
     for (size_t i = 1; i < m; i++)
         for (size_t j = i; j > 0 && sorted[j - 1] > sorted[j]; j--) {
-            double x = sorted[j];
+            double t = sorted[j];
             sorted[j] = sorted[j - 1];
-            sorted[j - 1] = x;
+            sorted[j - 1] = t;
         }
     double s2 = sorted[(m - 1) / 4] / CHI2_6_Q25;
     free(sorted);
@@ -148,50 +141,24 @@ static double noise_scale(size_t count, const double *vec, const double *w, cons
     return s2;
 }
 
-/* Is frames [lo, hi)'s scatter about their weighted least-squares line in
- * time that of noise (three frames at least)? The line at time at goes to
- * out. */
-static int one_line(const double *vec, const double *w, const double *t, size_t lo, size_t hi, double s2,
-                    double at, double out[6])
+/* Is frames [lo, hi)'s scatter about their weighted mean that of noise? The
+ * mean goes to mean. */
+static int one_pose(const double *vec, const double *w, size_t lo, size_t hi, double s2, double mean[6])
 {
-    if (hi - lo < 3)
-        return 0;
-    double total = 0.0, tm = 0.0, stt = 0.0, mean[6] = {0}, slope[6] = {0};
+    double total = 0.0;
+    for (int i = 0; i < 6; i++)
+        mean[i] = 0.0;
     for (size_t j = lo; j < hi; j++) {
         total += w[j];
-        tm += w[j] * t[j];
+        for (int i = 0; i < 6; i++)
+            mean[i] += w[j] * vec[6 * j + i];
     }
-    tm /= total;
-    for (size_t j = lo; j < hi; j++) {
-        stt += w[j] * (t[j] - tm) * (t[j] - tm);
-        for (int i = 0; i < 6; i++) {
-            mean[i] += w[j] * vec[6 * j + i] / total;
-            slope[i] += w[j] * (t[j] - tm) * vec[6 * j + i];
-        }
-    }
-    if (!(stt > 0.0))
-        return 0;
+    for (int i = 0; i < 6; i++)
+        mean[i] /= total;
     double stat = 0.0;
-    for (int i = 0; i < 6; i++)
-        slope[i] /= stt;
     for (size_t j = lo; j < hi; j++)
-        for (int i = 0; i < 6; i++) {
-            double r = vec[6 * j + i] - mean[i] - slope[i] * (t[j] - tm);
-            stat += w[j] * r * r / s2;
-        }
-    for (int i = 0; i < 6; i++)
-        out[i] = mean[i] + slope[i] * (at - tm);
-    return stat < chi2_q99(6.0 * (double)(hi - lo - 2));
-}
-
-static int usable(const int *skip, const double *w, size_t count, size_t lo, size_t hi)
-{
-    if (hi > count)
-        return 0;
-    for (size_t j = lo; j < hi; j++)
-        if (skip[j] || !(w[j] > 0.0))
-            return 0;
-    return 1;
+        stat += w[j] * distance2(vec + 6 * j, mean) / s2;
+    return stat < chi2_q99(6.0 * (double)(hi - lo - 1));
 }
 
 pb_status pbe_pool_still(const pb_geometry *g, const float *raw, size_t count, const double *bounds,
@@ -199,49 +166,39 @@ pb_status pbe_pool_still(const pb_geometry *g, const float *raw, size_t count, c
 {
     *pooled = 0;
     double *w = malloc(sizeof(double) * count), *vec = malloc(sizeof(double) * 6 * count);
-    double *z = malloc(sizeof(double) * count), *t = malloc(sizeof(double) * count);
-    if (!w || !vec || !z || !t) {
-        free(w), free(vec), free(z), free(t);
+    double *z = malloc(sizeof(double) * count);
+    if (!w || !vec || !z) {
+        free(w), free(vec), free(z);
         return PB_ERR_OUT_OF_MEMORY;
     }
     double radius = counts_and_radius(g, raw, count, bounds, c, w);
     double s2 = 0.0;
     if (radius > 0.0) {
-        for (size_t k = 0; k < count; k++) {
+        for (size_t k = 0; k < count; k++)
             to_vector(&fits[k].pose, radius, vec + 6 * k);
-            t[k] = 0.5 * (bounds[k] + bounds[k + 1]);
-        }
-        s2 = noise_scale(count, vec, w, t, skip, z);
+        s2 = noise_scale(count, vec, w, skip, z);
     }
     for (size_t k = 0; k < count && s2 > 0.0; k++) {
-        if (!usable(skip, w, count, k, k + 1))
+        if (skip[k] || !(w[k] > 0.0))
             continue;
-        /* the first three: centred, then before, then after */
-        size_t lo = 0, hi = 0;
-        double line[6];
-        const size_t starts[3] = {k >= 1 ? k - 1 : count, k >= 2 ? k - 2 : count, k};
-        for (int s = 0; s < 3 && hi == 0; s++)
-            if (starts[s] < count && usable(skip, w, count, starts[s], starts[s] + 3) &&
-                one_line(vec, w, t, starts[s], starts[s] + 3, s2, t[k], line)) {
-                lo = starts[s];
-                hi = lo + 3;
-            }
-        if (hi == 0)
-            continue;
+        size_t lo = k, hi = k + 1;
+        double mean[6];
         for (int grew = 1; grew;) {
             grew = 0;
-            if (lo > 0 && usable(skip, w, count, lo - 1, lo) && one_line(vec, w, t, lo - 1, hi, s2, t[k], line)) {
+            if (lo > 0 && !skip[lo - 1] && w[lo - 1] > 0.0 && one_pose(vec, w, lo - 1, hi, s2, mean)) {
                 lo--;
                 grew = 1;
-            } else if (usable(skip, w, count, hi, hi + 1) && one_line(vec, w, t, lo, hi + 1, s2, t[k], line)) {
+            } else if (hi < count && !skip[hi] && w[hi] > 0.0 && one_pose(vec, w, lo, hi + 1, s2, mean)) {
                 hi++;
                 grew = 1;
             }
         }
-        one_line(vec, w, t, lo, hi, s2, t[k], line);
-        from_vector(line, radius, &fits[k].pose);
+        if (hi - lo < 2)
+            continue;
+        one_pose(vec, w, lo, hi, s2, mean);
+        from_vector(mean, radius, &fits[k].pose);
         (*pooled)++;
     }
-    free(w), free(vec), free(z), free(t);
+    free(w), free(vec), free(z);
     return PB_OK;
 }
