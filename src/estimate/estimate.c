@@ -615,25 +615,6 @@ static double now_seconds(void)
     return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
 }
 
-/* Pass 5 (still_poses.c), on the frames that neither follow a path nor lack
- * structure. PETBLUR_ESTIMATE_POOL=0 leaves the poses as they are, for
- * comparisons. */
-static pb_status pool_still(estimate *e, const double *bounds, pbe_fit *fits, const int *moving)
-{
-    const char *env = getenv("PETBLUR_ESTIMATE_POOL");
-    if (env && strcmp(env, "0") == 0)
-        return PB_OK;
-    int *skip = malloc(sizeof(int) * e->count);
-    if (!skip)
-        return PB_ERR_OUT_OF_MEMORY;
-    for (size_t k = 0; k < e->count; k++)
-        skip[k] = moving[k] || e->flat[k];
-    size_t pooled = 0;
-    pb_status st = pbe_pool_still(&e->level[0].g, e->raw, e->count, bounds, e->c, skip, fits, &pooled);
-    free(skip);
-    return st;
-}
-
 static pb_status estimate_run(estimate *e, const double *bounds, const pb_estimate_options *o, const double d[9],
                               const double corner[3], pb_track **track, pb_estimate_report *report)
 {
@@ -669,9 +650,6 @@ static pb_status estimate_run(estimate *e, const double *bounds, const pb_estima
     /* 4: every pose corrected along the contrast, together */
     if (st == PB_OK)
         st = correct_together(e, ref, fits, paths, moving);
-    /* 5: one pose for frames that held still together */
-    if (st == PB_OK)
-        st = pool_still(e, bounds, fits, moving);
     if (st == PB_OK) {
         pb_pose back;
         pb_pose_invert(&fits[ref].pose, &back);

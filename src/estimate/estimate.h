@@ -139,12 +139,4 @@ enum { PBE_COLLECTIVE_EVALUATIONS = 48 };
 pb_status pbe_collective(const pb_geometry *fine, const float *raw, size_t count, size_t ref, const double c[3],
                          pbe_collective_pose *poses, double *moved_mm, void (*tick)(void *), void *tick_user);
 
-/* ---- still_poses.c: one pose for frames that held still together --------- */
-
-/* Each frame not skipped takes the count-weighted mean pose of the widest run
- * of its neighbours (none skipped) whose scatter is the noise's; raw: the
- * frames on grid g, bounds their times. *pooled: the frames that took one. */
-pb_status pbe_pool_still(const pb_geometry *g, const float *raw, size_t count, const double *bounds,
-                         const double c[3], const int *skip, pbe_fit *fits, size_t *pooled);
-
 #endif
