@@ -797,11 +797,23 @@ typedef struct pb_estimate_options {
     double fwhm_mm;        /* smoothing before registration, mm; 0: two voxels of each level */
 } pb_estimate_options;
 
+/* One frame of what pb_motion_estimate found: how far to trust its pose. */
+typedef struct pb_estimate_frame {
+    double explained;      /* the share of the frame's variance about its mean that its registration to its own
+                            * reference explains, 0 to 1: low where counts are few or the contrast is unlike the
+                            * other frames' */
+    double motion_from, motion_to; /* moving: when the motion inside the frame began and ended, s; else both the
+                            * frame's mid-time */
+    int structure;         /* 0: no structure above the frame's noise: it took its nearest structured frame's pose */
+    int moving;            /* nonzero: the track follows a path inside the frame (a jerk, or a nod held across its end) */
+} pb_estimate_frame;
+
 /* What pb_motion_estimate found, frame by frame (may be NULL). */
 typedef struct pb_estimate_report {
     double seconds;        /* the whole call's wall time */
     size_t moving_frames;  /* frames given motion inside them */
     pb_warnings warnings;  /* PB_WARN_BACKGROUND, PB_WARN_NO_STRUCTURE: what was found and what was done */
+    pb_estimate_frame *frames; /* the caller's array of one per frame, filled; NULL: not wanted */
 } pb_estimate_report;
 
 /* The patient's rigid motion estimated from the frames themselves. frames

@@ -70,6 +70,28 @@ class Estimate(unittest.TestCase):
         # the reference frame is the identity (to the rounding of poses composed in the world)
         t, maps = hf.read_matrix_csv(inside)
         self.assertTrue(np.allclose(maps[0], np.eye(4), atol=1e-5), maps[0])
+        self.check_frame_table(out, msg)
+
+    def check_frame_table(self, out, msg):
+        """The line a frame after the summary: its times, the share its fit explains, and the motion inside it: the
+        jerk's frame among those with motion, its motion within the frame and about the jerk's time."""
+        lines = out.splitlines()
+        head = next(i for i, line in enumerate(lines) if line.split()[:2] == ["frame", "start"])
+        rows = [line.split(maxsplit=5) for line in lines[head + 1:head + 1 + SETUP.frames]]
+        self.assertEqual([int(r[0]) for r in rows], list(range(SETUP.frames)), out)
+        self.assertTrue(np.allclose([[float(r[1]), float(r[2])] for r in rows],
+                                    np.stack([self.bounds[:-1], self.bounds[1:]], 1), atol=1e-3), out)
+        explained = np.array([float(r[3]) for r in rows])
+        self.assertTrue(np.all((explained > 0) & (explained <= 100)), out)
+        moving = {int(r[0]): [float(x) for x in r[5].split()[1::2]] for r in rows if r[5].startswith("from ")}
+        summary = int(out.split(" with motion inside")[0].rsplit("(", 1)[1])
+        self.assertEqual(len(moving), summary, out)
+        j, T = SETUP.jerk_frame, self.bounds[1] - self.bounds[0]
+        self.assertIn(j, moving, out + msg)
+        a, b = moving[j]
+        self.assertTrue(self.bounds[j] <= a <= b <= self.bounds[j + 1], out)
+        jerk = self.bounds[j] + SETUP.jerk_at * T
+        self.assertTrue(a - 0.25 * T <= jerk <= b + 0.25 * T, f"jerk at {jerk:.2f} s, motion from {a} to {b}; {msg}")
 
     def test_csv_is_the_same_motion(self):
         """--format csv (poses about the grid's centre in the world) against matrix-csv, converted in numpy; and

@@ -18,11 +18,18 @@ class EstimateOptions(ctypes.Structure):
                 ("frame_poses_only", ctypes.c_int), ("fwhm_mm", ctypes.c_double)]
 
 
+class EstimateFrame(ctypes.Structure):
+    _fields_ = [("explained", ctypes.c_double), ("motion_from", ctypes.c_double), ("motion_to", ctypes.c_double),
+                ("structure", ctypes.c_int), ("moving", ctypes.c_int)]
+
+
 class EstimateReport(ctypes.Structure):
-    _fields_ = [("seconds", ctypes.c_double), ("moving_frames", ctypes.c_size_t), ("warnings", _lib.Warnings)]
+    _fields_ = [("seconds", ctypes.c_double), ("moving_frames", ctypes.c_size_t), ("warnings", _lib.Warnings),
+                ("frames", ctypes.POINTER(EstimateFrame))]
 
 
-_lib.check_layout({"pb_estimate_options": EstimateOptions, "pb_estimate_report": EstimateReport}, {})
+_lib.check_layout({"pb_estimate_options": EstimateOptions, "pb_estimate_report": EstimateReport,
+                   "pb_estimate_frame": EstimateFrame}, {})
 _P, _vp, _dbl = ctypes.POINTER, ctypes.c_void_p, ctypes.c_double
 _lib.bind({"pb_motion_estimate": (ctypes.c_int, [_vp, _P(_lib.Geometry), _P(_dbl), _vp, ctypes.c_size_t, _P(_dbl),
                                                   _P(EstimateOptions), _P(_vp), _P(EstimateReport)])})
@@ -121,6 +128,8 @@ def estimate(frames, affine, voxel_size, bounds, reference, device, frame_poses_
     opts = EstimateOptions(int(reference), int(levels), int(iterations), int(bool(frame_poses_only)), fwhm)
     cb = (ctypes.c_double * b.size)(*b)
     track, report = ctypes.c_void_p(), EstimateReport()
+    per_frame = (EstimateFrame * nt)()
+    report.frames = ctypes.cast(per_frame, ctypes.POINTER(EstimateFrame))
     ctx = _lib.context(_estimate_device(device))
     with ctx.use():
         # the callback lives as long as the call; an exception inside it is
@@ -147,4 +156,8 @@ def estimate(frames, affine, voxel_size, bounds, reference, device, frame_poses_
                 _lib.lib.pb_track_free(track)
             raise raised[0]
         _lib.check(status, ctx.handle)
-    return track, report
+    frames_report = [{"frame": k, "start": float(b[k]), "end": float(b[k + 1]),
+                      "explained": float(per_frame[k].explained), "structure": bool(per_frame[k].structure),
+                      "motion_inside": (float(per_frame[k].motion_from), float(per_frame[k].motion_to))
+                      if per_frame[k].moving else None} for k in range(nt)]
+    return track, report, frames_report

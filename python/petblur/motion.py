@@ -271,7 +271,13 @@ class Motion:
         as the operators take it: a callable given the fraction done (0 to 1,
         1 at the end) as the estimate goes. The poses are rigid maps about
         the world's origin, as a matrix-csv track's: give the operators the
-        same affine."""
+        same affine. The motion's ``frame_report`` says, a dict a frame
+        (``frame``, ``start``, ``end``), how far to trust each: ``explained``,
+        the share of the frame's variance its registration explains (a frame
+        of few counts, or of a contrast unlike the others', less);
+        ``structure`` False where the frame shows none above its noise and
+        took a neighbour's pose; ``motion_inside`` (from, to) in seconds where
+        the track moves inside the frame, else None."""
         from . import estimate
         if bounds is None:
             if starts is None or durations is None:
@@ -293,8 +299,9 @@ class Motion:
                 raise ArgumentError(f"bounds must hold at least two times (one frame), not {bounds.size}")
         _frames_warn(bounds)
         try:
-            handle, report = estimate.estimate(frames, affine, voxel_size, bounds, reference, device,
-                                               frame_poses_only, levels, iterations, fwhm, progress)
+            handle, report, frames_report = estimate.estimate(frames, affine, voxel_size, bounds, reference,
+                                                              device, frame_poses_only, levels, iterations, fwhm,
+                                                              progress)
         except Error as e:
             raise type(e)(python_words(e.message), e.status) from None
         _warn(report.warnings, 2)
@@ -303,6 +310,7 @@ class Motion:
         m._format, m._source = fmt, "the motion estimated from the frames"
         m._coords = "grid" if affine is None else "world"
         m.estimate_seconds, m.moving_frames = report.seconds, int(report.moving_frames)
+        m.frame_report = frames_report
         return m
 
     # ---- the library's motion layer ----
@@ -535,6 +543,9 @@ class Motion:
             raise ArgumentError(f"_coords is {shown(state['_coords'])}; give None, 'world' or 'grid'")
         self._coords = state["_coords"]
         for name in _REPORT:
+            if name == "frame_report" and name in state:
+                self.frame_report = _frame_report(state[name])
+                continue
             if name in state:
                 v = state[name]
                 good = (_whole(v) if name == "moving_frames" else isinstance(v, numbers.Real) and
@@ -551,7 +562,27 @@ class Motion:
 # coordinates), and an estimate's report.
 _STATE = ("times", "translations", "quaternions", "center", "_format", "_lines", "_missing", "_source",
           "_calibration", "_reference_time", "_inverse", "_coords")
-_REPORT = ("estimate_seconds", "moving_frames")
+_REPORT = ("estimate_seconds", "moving_frames", "frame_report")
+
+
+def _frame_report(v):
+    """A pickled estimate's frame_report, checked: a list of one dict a frame,
+    as Motion.from_frames makes it."""
+    def real(x):
+        return isinstance(x, numbers.Real) and not isinstance(x, bool) and np.isfinite(x)
+    if not isinstance(v, list):
+        raise ArgumentError(f"frame_report is {shown(v)}; give a list of one dict a frame")
+    out = []
+    for k, f in enumerate(v):
+        inside = f.get("motion_inside", 0) if isinstance(f, dict) else 0
+        if not (isinstance(f, dict) and set(f) == {"frame", "start", "end", "explained", "structure",
+                                                   "motion_inside"} and f["frame"] == k and _whole(f["frame"]) and
+                real(f["start"]) and real(f["end"]) and real(f["explained"]) and
+                isinstance(f["structure"], bool) and
+                (inside is None or isinstance(inside, tuple) and len(inside) == 2 and all(map(real, inside)))):
+            raise ArgumentError(f"frame_report[{k}] is {shown(f)}; give the dict Motion.from_frames makes")
+        out.append(dict(f))
+    return out
 _COORDS = (None, "world", "grid")
 
 

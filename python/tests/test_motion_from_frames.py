@@ -13,6 +13,7 @@ frame before, the rest that of the frame after, 8 mm and 8 degrees on."""
 
 import ast
 import json
+import pickle
 import re
 import subprocess
 import time
@@ -387,6 +388,23 @@ def test_recovers_known_motion(rng, device):
     np.testing.assert_array_equal(one.times, np.concatenate([[s.starts[0]], mids, [s.starts[-1] + 10.0]]))
     # the time the library reports is this call's
     assert 0.0 < m.estimate_seconds <= wall + 0.05, (m.estimate_seconds, wall)
+    # the report a frame: times, fit, structure; the jerk's frame alone with motion inside, about the jerk's time
+    rep = m.frame_report
+    assert [f["frame"] for f in rep] == list(range(nf)), rep
+    np.testing.assert_allclose([[f["start"], f["end"]] for f in rep], np.stack([s.starts, s.starts + s.durations], 1))
+    assert all(0.0 < f["explained"] <= 1.0 and f["structure"] for f in rep), rep
+    assert [f["frame"] for f in rep if f["motion_inside"]] == [j], rep
+    a, b = rep[j]["motion_inside"]
+    assert s.starts[j] <= a <= b <= s.starts[j] + s.durations[j], rep[j]
+    assert a - 0.25 * s.durations[j] <= s.jerk_time <= b + 0.25 * s.durations[j], (s.jerk_time, rep[j])
+    assert all(f["motion_inside"] is None for f in one.frame_report), one.frame_report
+    # it travels with the motion through pickle, checked on the way back
+    back = pickle.loads(pickle.dumps(m))
+    assert back.frame_report == rep and back.moving_frames == m.moving_frames
+    bad = m.__getstate__()
+    bad["frame_report"] = rep[:1] + [dict(rep[1], explained=float("nan"))]
+    with pytest.raises(petblur.ArgumentError, match=r"frame_report\[1\]"):
+        petblur.Motion.__new__(petblur.Motion).__setstate__(bad)
 
 
 def test_motion_held_across_a_frame_boundary(rng):
