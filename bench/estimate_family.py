@@ -275,6 +275,7 @@ def one(petblur: str, seed: int, device: str, metric: str, threads: int, variant
             raise RuntimeError(f"seed {seed}: petblur motion estimate exited {r.returncode}: {r.stderr[-2000:]}")
         row["petblur"] = dict(errors(*hf.read_matrix_csv(csv)), seconds=round(time.perf_counter() - started, 1))
         for name, env in (variants or {}).items():
+            os.remove(csv)  # a variant that writes nothing must not be scored on the run before
             started = time.perf_counter()
             r = subprocess.run([petblur, "motion", "estimate", nii, "--frames-from", side, "-o", csv, "-q",
                                 "--device", device], capture_output=True, text=True, env=dict(os.environ, **env))
@@ -358,8 +359,12 @@ def main() -> int:
             earlier = {r["seed"]: r["sitk"] for r in map(json.loads, f) if r.get("sitk")}
     variants = {}
     for v in a.variant:
-        name, _, assignments = v.partition(":")
-        variants[name] = dict(x.split("=", 1) for x in assignments.split(",") if x)
+        name, colon, assignments = v.partition(":")
+        pairs = [x.split("=", 1) for x in assignments.split(",") if x]
+        if not colon or not name or name == "default" or name in variants or not pairs or \
+                any(len(x) != 2 or not x[0] for x in pairs):
+            p.error(f"--variant {v!r}: give NAME:VAR=VALUE[,VAR=VALUE], a new NAME other than 'default'")
+        variants[name] = dict(pairs)
     seeds = a.seed or [int(s) for s in np.random.SeedSequence().generate_state(a.draws)]
     os.makedirs(a.out, exist_ok=True)
     rows = []

@@ -788,16 +788,8 @@ PB_API pb_status pb_pose_gradient_images(const pb_geometry *geometry, const floa
 PB_API pb_status pb_blur_pose_derivative(pb_context *ctx, const pb_volume *object, const pb_motion *motion,
                                          const pb_blur_options *options, pb_volume *const derivatives[6]);
 
-/* How pb_motion_estimate works. Zero-initialised: the defaults. */
-typedef struct pb_estimate_options {
-    size_t reference;      /* the frame whose object the motion moves: poses are relative to it */
-    unsigned levels;       /* resolution levels, each halving the grid; 0: as many as keep 12 voxels a side, at most 3 */
-    unsigned iterations;   /* Gauss-Newton iterations at most per level and frame; 0: 12 */
-    int frame_poses_only;  /* nonzero: one pose per frame; 0: a frame that holds a jerk gets the poses on both sides */
-    double fwhm_mm;        /* smoothing before registration, mm; 0: two voxels of each level */
-} pb_estimate_options;
-
-/* One frame of what pb_motion_estimate found: how far to trust its pose. */
+/* One frame of what pb_motion_estimate found: how far to trust its pose
+ * (pb_estimate_options.frames). */
 typedef struct pb_estimate_frame {
     double explained;      /* the share of the frame's variance about its mean that its registration to its own
                             * reference explains, 0 to 1: low where counts are few or the contrast is unlike the
@@ -808,12 +800,22 @@ typedef struct pb_estimate_frame {
     int moving;            /* nonzero: the track follows a path inside the frame (a jerk, or a nod held across its end) */
 } pb_estimate_frame;
 
+/* How pb_motion_estimate works. Zero-initialised: the defaults. */
+typedef struct pb_estimate_options {
+    size_t reference;      /* the frame whose object the motion moves: poses are relative to it */
+    unsigned levels;       /* resolution levels, each halving the grid; 0: as many as keep 12 voxels a side, at most 3 */
+    unsigned iterations;   /* Gauss-Newton iterations at most per level and frame; 0: 12 */
+    int frame_poses_only;  /* nonzero: one pose per frame; 0: a frame that holds a jerk gets the poses on both sides */
+    double fwhm_mm;        /* smoothing before registration, mm; 0: two voxels of each level */
+    pb_estimate_frame *frames; /* the caller's array of one per frame, filled on success with how far to trust
+                            * each; NULL: not wanted */
+} pb_estimate_options;
+
 /* What pb_motion_estimate found, frame by frame (may be NULL). */
 typedef struct pb_estimate_report {
     double seconds;        /* the whole call's wall time */
     size_t moving_frames;  /* frames given motion inside them */
     pb_warnings warnings;  /* PB_WARN_BACKGROUND, PB_WARN_NO_STRUCTURE: what was found and what was done */
-    pb_estimate_frame *frames; /* the caller's array of one per frame, filled; NULL: not wanted */
 } pb_estimate_report;
 
 /* The patient's rigid motion estimated from the frames themselves. frames

@@ -114,7 +114,7 @@ static void test_warnings(pb_context *ctx)
     pb_geometry g = {{SIDE, SIDE, SIDE}, {2, 2, 2}};
     for (size_t i = 0; i < n * FRAMES; i++)
         f[i] += (float)level;
-    pb_estimate_report report;
+    pb_estimate_report report = {0};
     pb_track *t = NULL;
     pb_status st = pb_motion_estimate(ctx, &g, NULL, f, FRAMES, b, NULL, &t, &report);
     pb_check(st == PB_OK && report.warnings.flags == PB_WARN_BACKGROUND && strstr(report.warnings.text, "subtracted"),

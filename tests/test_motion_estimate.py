@@ -91,7 +91,7 @@ class Estimate(unittest.TestCase):
         a, b = moving[j]
         self.assertTrue(self.bounds[j] <= a <= b <= self.bounds[j + 1], out)
         jerk = self.bounds[j] + SETUP.jerk_at * T
-        self.assertTrue(a - 0.25 * T <= jerk <= b + 0.25 * T, f"jerk at {jerk:.2f} s, motion from {a} to {b}; {msg}")
+        self.assertTrue(a - 0.1 * T <= jerk <= b + 0.1 * T, f"jerk at {jerk:.2f} s, motion from {a} to {b}; {msg}")
 
     def test_csv_is_the_same_motion(self):
         """--format csv (poses about the grid's centre in the world) against matrix-csv, converted in numpy; and

@@ -50,7 +50,7 @@ mode_driftprof() (
         if [ -s "$work/k.cubin" ]; then
             cuobjdump -sass "$work/k.cubin" >"$work/sass.txt" 2>/dev/null
             for k in pb_blur_ab pb_adjoint_ab; do
-                awk -v k="$k" '/Function : /{on = ($3 == k)} on && /\/\*[0-9a-f]{4}\*\//' "$work/sass.txt" \
+                awk -v k="$k" '/Function : /{on = ($3 == k)} on && /\/\*[0-9a-f][0-9a-f][0-9a-f][0-9a-f]+\*\//' "$work/sass.txt" \
                     >"$work/sass-$k.txt"
                 echo "$k: $(wc -l <"$work/sass-$k.txt") SASS instructions, $(grep -c 'TEX\|TLD' "$work/sass-$k.txt")" \
                     "texture, $(grep -c 'LDG' "$work/sass-$k.txt") LDG, $(grep -c 'RED\|ATOM' "$work/sass-$k.txt")" \

@@ -17,7 +17,7 @@ mode_profile() (
     grep -A3 "entry function '\(pb_blur_ab\|pb_adjoint_ab\|pb_shift_taps\)'" "$work/ptxas.txt" >"$work/resources.txt"
     cuobjdump -sass "$work/k.cubin" >"$work/sass.txt"
     for k in pb_blur_ab pb_adjoint_ab pb_shift_taps; do
-        awk -v k="$k" '/Function : /{on = ($3 == k)} on && /\/\*[0-9a-f]{4}\*\//' "$work/sass.txt" >"$work/sass-$k.txt"
+        awk -v k="$k" '/Function : /{on = ($3 == k)} on && /\/\*[0-9a-f][0-9a-f][0-9a-f][0-9a-f]+\*\//' "$work/sass.txt" >"$work/sass-$k.txt"
         echo "$k: $(wc -l <"$work/sass-$k.txt") SASS instructions, $(grep -c 'TEX\|TLD' "$work/sass-$k.txt") texture," \
             "$(grep -c 'LDG' "$work/sass-$k.txt") LDG, $(grep -c 'RED\|ATOM' "$work/sass-$k.txt") atomic"
     done | tee "$work/sass-counts.txt"

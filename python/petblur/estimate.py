@@ -13,19 +13,19 @@ from .motion import _finite
 from .operator import VOXEL_MAX, VOXEL_MIN, _affine4, _voxel3
 
 
-class EstimateOptions(ctypes.Structure):
-    _fields_ = [("reference", ctypes.c_size_t), ("levels", ctypes.c_uint), ("iterations", ctypes.c_uint),
-                ("frame_poses_only", ctypes.c_int), ("fwhm_mm", ctypes.c_double)]
-
-
 class EstimateFrame(ctypes.Structure):
     _fields_ = [("explained", ctypes.c_double), ("motion_from", ctypes.c_double), ("motion_to", ctypes.c_double),
                 ("structure", ctypes.c_int), ("moving", ctypes.c_int)]
 
 
-class EstimateReport(ctypes.Structure):
-    _fields_ = [("seconds", ctypes.c_double), ("moving_frames", ctypes.c_size_t), ("warnings", _lib.Warnings),
+class EstimateOptions(ctypes.Structure):
+    _fields_ = [("reference", ctypes.c_size_t), ("levels", ctypes.c_uint), ("iterations", ctypes.c_uint),
+                ("frame_poses_only", ctypes.c_int), ("fwhm_mm", ctypes.c_double),
                 ("frames", ctypes.POINTER(EstimateFrame))]
+
+
+class EstimateReport(ctypes.Structure):
+    _fields_ = [("seconds", ctypes.c_double), ("moving_frames", ctypes.c_size_t), ("warnings", _lib.Warnings)]
 
 
 _lib.check_layout({"pb_estimate_options": EstimateOptions, "pb_estimate_report": EstimateReport,
@@ -125,11 +125,11 @@ def estimate(frames, affine, voxel_size, bounds, reference, device, frame_poses_
     if fwhm is None or not 0.0 <= fwhm <= 1000.0:
         raise ArgumentError(f"fwhm {shown(given)}: give 0 (two voxels of each level) to 1000 mm")
     g = _lib.Geometry((ctypes.c_size_t * 3)(nx, ny, nz), (ctypes.c_double * 3)(*geometry_voxel))
-    opts = EstimateOptions(int(reference), int(levels), int(iterations), int(bool(frame_poses_only)), fwhm)
+    per_frame = (EstimateFrame * nt)()
+    opts = EstimateOptions(int(reference), int(levels), int(iterations), int(bool(frame_poses_only)), fwhm,
+                           ctypes.cast(per_frame, ctypes.POINTER(EstimateFrame)))
     cb = (ctypes.c_double * b.size)(*b)
     track, report = ctypes.c_void_p(), EstimateReport()
-    per_frame = (EstimateFrame * nt)()
-    report.frames = ctypes.cast(per_frame, ctypes.POINTER(EstimateFrame))
     ctx = _lib.context(_estimate_device(device))
     with ctx.use():
         # the callback lives as long as the call; an exception inside it is

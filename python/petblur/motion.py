@@ -576,10 +576,11 @@ def _frame_report(v):
     for k, f in enumerate(v):
         inside = f.get("motion_inside", 0) if isinstance(f, dict) else 0
         if not (isinstance(f, dict) and set(f) == {"frame", "start", "end", "explained", "structure",
-                                                   "motion_inside"} and f["frame"] == k and _whole(f["frame"]) and
-                real(f["start"]) and real(f["end"]) and real(f["explained"]) and
-                isinstance(f["structure"], bool) and
-                (inside is None or isinstance(inside, tuple) and len(inside) == 2 and all(map(real, inside)))):
+                                                   "motion_inside"} and _whole(f["frame"]) and f["frame"] == k and
+                real(f["start"]) and real(f["end"]) and f["start"] < f["end"] and real(f["explained"]) and
+                0.0 <= f["explained"] <= 1.0 and isinstance(f["structure"], bool) and
+                (inside is None or isinstance(inside, tuple) and len(inside) == 2 and all(map(real, inside)) and
+                 f["start"] <= inside[0] <= inside[1] <= f["end"])):
             raise ArgumentError(f"frame_report[{k}] is {shown(f)}; give the dict Motion.from_frames makes")
         out.append(dict(f))
     return out

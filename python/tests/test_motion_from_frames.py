@@ -396,7 +396,8 @@ def test_recovers_known_motion(rng, device):
     assert [f["frame"] for f in rep if f["motion_inside"]] == [j], rep
     a, b = rep[j]["motion_inside"]
     assert s.starts[j] <= a <= b <= s.starts[j] + s.durations[j], rep[j]
-    assert a - 0.25 * s.durations[j] <= s.jerk_time <= b + 0.25 * s.durations[j], (s.jerk_time, rep[j])
+    # the span reported held the jerk on every series tried (its start at 0.15, 0.4, 0.5 and 0.8 of the frame)
+    assert a - 0.1 * s.durations[j] <= s.jerk_time <= b + 0.1 * s.durations[j], (s.jerk_time, rep[j])
     assert all(f["motion_inside"] is None for f in one.frame_report), one.frame_report
     # it travels with the motion through pickle, checked on the way back
     back = pickle.loads(pickle.dumps(m))

@@ -41,8 +41,9 @@ const char *pb_abi_layout(void)
     S(pb_warnings); F(pb_warnings, flags); F(pb_warnings, text);
     S(pb_estimate_options); F(pb_estimate_options, reference); F(pb_estimate_options, levels);
     F(pb_estimate_options, iterations); F(pb_estimate_options, frame_poses_only); F(pb_estimate_options, fwhm_mm);
+    F(pb_estimate_options, frames);
     S(pb_estimate_report); F(pb_estimate_report, seconds); F(pb_estimate_report, moving_frames);
-    F(pb_estimate_report, warnings); F(pb_estimate_report, frames);
+    F(pb_estimate_report, warnings);
     S(pb_estimate_frame); F(pb_estimate_frame, explained); F(pb_estimate_frame, motion_from);
     F(pb_estimate_frame, motion_to); F(pb_estimate_frame, structure); F(pb_estimate_frame, moving);
     S(pb_comparison); F(pb_comparison, rms_percent); F(pb_comparison, max_percent);

@@ -492,8 +492,6 @@ static void key(keys *k, double t, const pb_pose *p)
     k->p[k->n++] = *p;
 }
 
-/* A moving frame's poses: it holds each point of the path for its dwell, in
- * path order, stepping between them in STEP_FRACTION of the frame. */
 /* The dwell's shares of the frame that path_keys lays out (those under two
  * steps dropped), adding up to 1. */
 static void dwell_shares(const double *u, double *w)
@@ -511,22 +509,28 @@ static void dwell_shares(const double *u, double *w)
 }
 
 /* When the path of frame [t0, t1] leaves its first pose held and reaches its
- * last: the report's motion inside the frame. */
+ * last, as path_keys lays them out: the report's motion inside the frame. */
 static void motion_times(double t0, double t1, const double *u, double *from, double *to)
 {
-    double w[DWELL_POINTS];
+    double w[DWELL_POINTS], len = t1 - t0, step = STEP_FRACTION * len;
     dwell_shares(u, w);
     int first = 0, last = DWELL_POINTS - 1;
     while (first < DWELL_POINTS - 1 && w[first] <= 0)
         first++;
     while (last > 0 && w[last] <= 0)
         last--;
-    *from = t0 + w[first] * (t1 - t0);
-    *to = t1 - w[last] * (t1 - t0);
-    if (*to < *from)
-        *from = *to = t0 + 0.5 * (t1 - t0);
+    if (first >= last) { /* one pose held: no motion laid out */
+        *from = *to = t0 + 0.5 * len;
+        return;
+    }
+    *from = fmax(t0, t0 + w[first] * len - 0.5 * step);
+    *to = fmin(t1, t1 - w[last] * len + 0.5 * step);
+    if (*to < *from) /* an instant's jerk, to rounding */
+        *from = *to = 0.5 * (*from + *to);
 }
 
+/* A moving frame's poses: it holds each point of the path for its dwell, in
+ * path order, stepping between them in STEP_FRACTION of the frame. */
 static void path_keys(keys *out, double t0, double t1, const pb_pose *s, const pb_pose *e, const double *u)
 {
     double w[DWELL_POINTS];
@@ -700,18 +704,18 @@ static pb_status estimate_run(estimate *e, const double *bounds, const pb_estima
             st = pb_track_create("the motion estimated from the frames", PB_TRACK_MATRIX_CSV, k.t, k.p, NULL, NULL,
                                  k.n, track);
     }
-    if (report) {
+    if (report)
         report->moving_frames = moving_count;
-        for (size_t f = 0; f < count && report->frames && st == PB_OK; f++) {
-            pb_estimate_frame *r = &report->frames[f];
-            r->explained = pbe_explained(e->frames[0] + f * e->level[0].n, e->level[0].n, fits[f].sse);
-            r->structure = !e->flat[f];
-            r->moving = moving[f] != 0;
-            r->motion_from = r->motion_to = mid_time(bounds[f], bounds[f + 1]);
-            if (moving[f])
-                motion_times(bounds[f], bounds[f + 1], paths[f * PATHS + (size_t)(moving[f] - 1)].dwell,
-                          &r->motion_from, &r->motion_to);
-        }
+    for (size_t f = 0; f < count && o->frames && st == PB_OK; f++) {
+        pb_estimate_frame *r = &o->frames[f];
+        r->explained = fmin(1.0, fmax(0.0, pbe_explained(e->frames[0] + f * e->level[0].n, e->level[0].n,
+                                                          fits[f].sse)));
+        r->structure = !e->flat[f];
+        r->moving = moving[f] != 0;
+        r->motion_from = r->motion_to = mid_time(bounds[f], bounds[f + 1]);
+        if (moving[f])
+            motion_times(bounds[f], bounds[f + 1], paths[f * PATHS + (size_t)(moving[f] - 1)].dwell,
+                         &r->motion_from, &r->motion_to);
     }
     free(fits);
     free(moving);
@@ -733,11 +737,8 @@ pb_status pb_motion_estimate(pb_context *ctx, const pb_geometry *geometry, const
         *track = NULL;
     if (!ctx || !geometry || !frames || !bounds || !track)
         return pb_error(ctx, PB_ERR_INVALID_ARGUMENT, "context, geometry, frames, bounds and track must not be NULL");
-    if (report) {
-        pb_estimate_frame *frames_report = report->frames; /* the caller's */
+    if (report)
         memset(report, 0, sizeof *report);
-        report->frames = frames_report;
-    }
     pb_estimate_options o = {0};
     if (options)
         o = *options;

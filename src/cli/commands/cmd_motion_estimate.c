@@ -150,17 +150,17 @@ static int options_from_args(const pbc_args *args, pb_estimate_options *o, int *
  * frame of few counts, or of a contrast unlike the others', less: its pose
  * deserves less trust), and where the track moves inside it. */
 static void print_summary(pb_context *ctx, const char *out_path, const pb_track *track, size_t frames, int csv,
-                          const double *bounds, const pb_estimate_report *report)
+                          const double *bounds, const pb_estimate_frame *per_frame, const pb_estimate_report *report)
 {
     char dev[600];
     pbc_describe_device(ctx, dev, sizeof dev);
     printf("%s: %zu poses from %zu frames (%zu with motion inside), %s, on %s in %.1f s\n", out_path,
            pb_track_count(track), frames, report->moving_frames, csv ? "csv" : "matrix-csv", dev, report->seconds);
-    if (!report->frames)
+    if (!per_frame)
         return;
     printf("  frame       start s      end s  fit explains  motion inside the frame\n");
     for (size_t f = 0; f < frames; f++) {
-        const pb_estimate_frame *r = &report->frames[f];
+        const pb_estimate_frame *r = &per_frame[f];
         printf("  %5zu  %12.3f %10.3f  %11.1f %%  ", f, bounds[f], bounds[f + 1], 100.0 * r->explained);
         if (!r->structure)
             printf("no structure above the noise: a neighbour's pose\n");
@@ -219,7 +219,7 @@ static int run(const pbc_args *args, const char *in_path, const char *out_path)
         pb_geometry g = {{img.dims[0], img.dims[1], img.dims[2]},
                          {img.voxel_size[0], img.voxel_size[1], img.voxel_size[2]}};
         pb_estimate_report report = {0};
-        report.frames = calloc(frames, sizeof *report.frames); /* without it, no table: the track stands */
+        o.frames = calloc(frames, sizeof *o.frames); /* without it, no table: the track stands */
         pb_context_set_progress(ctx, pbc_show_progress && !quiet ? pbc_progress_line : NULL,
                                 (void *)"estimating motion");
         pb_status st = pb_motion_estimate(ctx, &g, affine, img.data, frames, bounds, &o, &track, &report);
@@ -234,9 +234,9 @@ static int run(const pbc_args *args, const char *in_path, const char *out_path)
         } else {
             pbc_print_warnings(&report.warnings);
             if (!(rc = write_track(out_path, track, csv, center)) && !quiet)
-                print_summary(ctx, out_path, track, frames, csv, bounds, &report);
+                print_summary(ctx, out_path, track, frames, csv, bounds, o.frames, &report);
         }
-        free(report.frames);
+        free(o.frames);
     }
     pb_track_free(track);
     pb_context_destroy(ctx);
