@@ -37,7 +37,9 @@ static const pbc_command command = {
     "gets that path, timed; and in a series of 12 frames or more every pose gets one correction along the\n"
     "contrast, against the bias changing uptake leaves (docs/motion.md, \"Motion from the frames\"). TRACK says\n"
     "where a point of the reference frame's object is at each time, in the world coordinates of FRAMES' affine:\n"
-    "give it to petblur blur --motion and petblur.Motion.from_file as it is.",
+    "give it to petblur blur --motion and petblur.Motion.from_file as it is. It prints, a line a frame, the share\n"
+    "of the frame's variance its fit explains (a frame of few counts, or of a contrast unlike the others', has\n"
+    "less: trust its pose less) and when the track moves inside it.",
     options, (int)(sizeof options / sizeof options[0]), 1, 1,
     "examples:\n"
     "  petblur motion estimate sub-01_pet.nii.gz --frames-from sub-01_pet.json -o motion.csv\n"
