@@ -114,22 +114,6 @@ class Case:
         self.torch.cuda.synchronize()
 
 
-def event_ms(torch, fn, runs):
-    """Median of CUDA-event times around fn(), calls queued back to back
-    (bench/python_torch.py's)."""
-    fn()
-    torch.cuda.synchronize()
-    pairs = []
-    for _ in range(runs):
-        a, b = torch.cuda.Event(enable_timing=True), torch.cuda.Event(enable_timing=True)
-        a.record()
-        fn()
-        b.record()
-        pairs.append((a, b))
-    torch.cuda.synchronize()
-    return statistics.median(a.elapsed_time(b) for a, b in pairs)
-
-
 def library_ms(op, call, n=5):
     """The library's device time of the call: (kernels ms, input copy ms),
     median of n calls (bench/python_torch.py's device_ms)."""
@@ -193,6 +177,7 @@ def kernel_stats(events):
 
 def timing(a):
     from frames_cost import frame_segments
+    from python_torch import event_ms  # medians of CUDA-event times, calls queued back to back
     c = Case(a)
     torch, F = c.torch, c.F
     y = F.apply(c.x)
@@ -203,7 +188,7 @@ def timing(a):
     calls = {"forward": lambda: F.apply(c.x), "adjoint": lambda: F.adjoint(y, sum=True),
              "adjoint-dense": lambda: F.adjoint(y_dense, sum=True), "forward-dense": lambda: F.apply(x_dense)}
     dst = torch.empty_like(y)
-    floor = event_ms(torch, lambda: dst.copy_(y), a.runs)
+    floor = event_ms(lambda: dst.copy_(y), a.runs)
     del dst
     voxels = int(np.prod(c.shape))
     try:
@@ -220,7 +205,7 @@ def timing(a):
         call()  # warm
         c.sync()
         t = time.perf_counter()
-        ms = event_ms(torch, call, a.runs)
+        ms = event_ms(call, a.runs)
         kern, inp = library_ms(F, call)
         st = kernel_stats(cupti_events(torch, call))
         names = sorted(k for k, v in st.items() if v["cat"] == "kernel" and k.startswith("pb_")) \
