@@ -93,7 +93,10 @@ def test_values_walked_once_equal_the_belt_walked_in_time(rng, device):
         for rms, mx in errors[None]:
             assert rms <= 0.3 and mx <= 1.0, (method, errors[None])
         worst = {b: max(m for _, m in e) for b, e in errors.items()}
-        assert worst[0.02] <= worst[None] + 0.02 and worst[None] < worst[0.5], (method, worst)
+        # below 0.02 % max the bound binds nowhere and the order is rounding's (seed 2863781065: 0.009 % at the
+        # default, 0.008 % at 0.5)
+        assert worst[0.02] <= worst[None] + 0.02, (method, worst)
+        assert worst[None] < worst[0.5] or max(worst[None], worst[0.5]) < 0.02, (method, worst)
     # The transpose of the value plan; the exact filter (NVIDIA's texture unit rounds HARDWARE's weights as the
     # scatter does not).
     F = petblur.FramesOperator(n, voxel, fm, gates, method="ab", filter="exact", device=device)

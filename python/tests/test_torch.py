@@ -69,7 +69,9 @@ def test_blur_posed_descends(rng):
     samples' true poses, xi.grad against a central difference along that
     direction: the continuous model's derivative against CL's blur (the
     numpy equivalent, 30 draws: 0.2-6.8 %; docs/python.md, "Pose
-    gradients")."""
+    gradients"). 300 draws of this test's case: median 3.7 %, at most
+    12.5 %; CI drew 15.4 % (seed 2657451367): 25 % is the bound, which a
+    gradient of the wrong scale or sign still fails."""
     from petblur import pose
     from petblur.torch import blur_posed
     op, x0 = _posed_case(rng, shape=(20, 18, 16))
@@ -84,7 +86,7 @@ def test_blur_posed_descends(rng):
         return float(((blur_posed(op, x, torch.from_numpy(s * eps * direction)) - target) ** 2).sum())
     fd = (loss(1) - loss(-1)) / (2 * eps)
     got = float((xi.grad * torch.from_numpy(direction)).sum())
-    assert got < 0 and abs(got - fd) < 0.15 * abs(fd), (got, fd)
+    assert got < 0 and abs(got - fd) < 0.25 * abs(fd), (got, fd)
 
 
 @pytest.mark.skipif(not torch.cuda.is_available() or not any(s.startswith("cuda") for s, _ in petblur.devices()),
