@@ -492,11 +492,14 @@ static void key(keys *k, double t, const pb_pose *p)
     k->p[k->n++] = *p;
 }
 
-/* The dwell's shares of the frame that path_keys lays out (those under two
- * steps dropped), adding up to 1. */
-static void dwell_shares(const double *u, double *w)
+/* A moving frame's poses: it holds each point of the path for its dwell, in
+ * path order, stepping between them in STEP_FRACTION of the frame. *from and
+ * *to: when the first pose held ends and the last begins, the report's
+ * motion inside the frame (both the frame's middle where one pose is held). */
+static void path_keys(keys *out, double t0, double t1, const pb_pose *s, const pb_pose *e, const double *u,
+                      double *from, double *to)
 {
-    double total = 0.0;
+    double total = 0.0, w[DWELL_POINTS];
     for (int i = 0; i < DWELL_POINTS; i++)
         total += u[i];
     for (int i = 0; i < DWELL_POINTS; i++)
@@ -504,49 +507,24 @@ static void dwell_shares(const double *u, double *w)
     total = 0.0;
     for (int i = 0; i < DWELL_POINTS; i++)
         total += w[i];
-    for (int i = 0; i < DWELL_POINTS; i++)
-        w[i] = total > 0 ? w[i] / total : 0.0;
-}
-
-/* When the path of frame [t0, t1] leaves its first pose held and reaches its
- * last, as path_keys lays them out: the report's motion inside the frame. */
-static void motion_times(double t0, double t1, const double *u, double *from, double *to)
-{
-    double w[DWELL_POINTS], len = t1 - t0, step = STEP_FRACTION * len;
-    dwell_shares(u, w);
-    int first = 0, last = DWELL_POINTS - 1;
-    while (first < DWELL_POINTS - 1 && w[first] <= 0)
-        first++;
-    while (last > 0 && w[last] <= 0)
-        last--;
-    if (first >= last) { /* one pose held: no motion laid out */
-        *from = *to = t0 + 0.5 * len;
-        return;
-    }
-    *from = fmax(t0, t0 + w[first] * len - 0.5 * step);
-    *to = fmin(t1, t1 - w[last] * len + 0.5 * step);
-    if (*to < *from) /* an instant's jerk, to rounding */
-        *from = *to = 0.5 * (*from + *to);
-}
-
-/* A moving frame's poses: it holds each point of the path for its dwell, in
- * path order, stepping between them in STEP_FRACTION of the frame. */
-static void path_keys(keys *out, double t0, double t1, const pb_pose *s, const pb_pose *e, const double *u)
-{
-    double w[DWELL_POINTS];
-    dwell_shares(u, w);
     double len = t1 - t0, step = STEP_FRACTION * len, at = t0;
+    int held = 0;
     for (int i = 0; i < DWELL_POINTS; i++) {
         if (w[i] <= 0)
             continue;
         pb_pose p;
         pb_pose_interpolate(s, e, (double)i / (DWELL_POINTS - 1), &p);
-        double hold = w[i] * len;
+        double hold = w[i] / total * len;
         double a = at == t0 ? t0 : at + 0.5 * step, b = at + hold >= t1 - 1e-9 * len ? t1 : at + hold - 0.5 * step;
         key(out, a, &p);
         key(out, b, &p);
+        if (held++ == 0)
+            *from = b;
+        *to = a;
         at += hold;
     }
+    if (held < 2)
+        *from = *to = t0 + 0.5 * len;
 }
 
 /* A grid pose about c as a world map about the world's origin:
@@ -688,7 +666,12 @@ static pb_status estimate_run(estimate *e, const double *bounds, const pb_estima
         for (size_t f = 0; f < count; f++) {
             if (moving[f]) {
                 const frame_path *p = &paths[f * PATHS + (size_t)(moving[f] - 1)];
-                path_keys(&k, bounds[f], bounds[f + 1], &p->start, &p->end, p->dwell);
+                double from = 0.0, to = 0.0;
+                path_keys(&k, bounds[f], bounds[f + 1], &p->start, &p->end, p->dwell, &from, &to);
+                if (o->frames) {
+                    o->frames[f].motion_from = from;
+                    o->frames[f].motion_to = to;
+                }
             }
             else
                 key(&k, mid_time(bounds[f], bounds[f + 1]), &fits[f].pose);
@@ -712,10 +695,8 @@ static pb_status estimate_run(estimate *e, const double *bounds, const pb_estima
                                                           fits[f].sse)));
         r->structure = !e->flat[f];
         r->moving = moving[f] != 0;
-        r->motion_from = r->motion_to = mid_time(bounds[f], bounds[f + 1]);
-        if (moving[f])
-            motion_times(bounds[f], bounds[f + 1], paths[f * PATHS + (size_t)(moving[f] - 1)].dwell,
-                         &r->motion_from, &r->motion_to);
+        if (!moving[f]) /* a moving frame's times come with its keys */
+            r->motion_from = r->motion_to = mid_time(bounds[f], bounds[f + 1]);
     }
     free(fits);
     free(moving);
