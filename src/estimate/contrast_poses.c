@@ -151,16 +151,16 @@ static pb_status residual(collective *cv, const double p[NG], double *out)
     return PB_OK;
 }
 
-/* Each frame's contrast against the reference frame's: the ratio of its
- * second principal score to its first, as a share of the series' widest; a
- * frame out of the sum takes its nearest neighbour's in the sum. 0 when
- * the series shows no second image. */
-static int contrast_weights(collective *cv, size_t ref)
+/* The two leading principal images of the frames whose Gram matrix is
+ * gram (m of them), in cv->w and cv->v, and whether the second stands out
+ * of the noise: its energy against the median of those beyond the
+ * references' images (noise alone makes them nearly equal; the axial
+ * validation's series gives 58). */
+static int second_image(collective *cv, const double *gram, size_t m, size_t *first_out, size_t *second_out)
 {
-    const size_t m = cv->used;
     if (m < cv->rank + 3)
         return 0;
-    memcpy(cv->a, cv->gram, sizeof(double) * m * m);
+    memcpy(cv->a, gram, sizeof(double) * m * m);
     pbe_eigen(cv->a, m, cv->w, cv->v);
     size_t first = 0, second = m;
     for (size_t j = 1; j < m; j++)
@@ -171,9 +171,6 @@ static int contrast_weights(collective *cv, size_t ref)
             second = j;
     if (second == m || !(cv->w[second] > 1e-12 * cv->w[first]))
         return 0;
-    /* The contrast must stand out of the noise: the second image's energy
-     * against the median of those beyond the references' images (noise
-     * alone makes them nearly equal; the axial validation's series gives 58). */
     double *rest = malloc(sizeof(double) * m), noise;
     if (!rest)
         return 0;
@@ -187,7 +184,68 @@ static int contrast_weights(collective *cv, size_t ref)
             }
     noise = rest[cv->rank + (m - cv->rank) / 2];
     free(rest);
-    if (!(cv->w[second] > CONTRAST_OVER_NOISE * noise))
+    *first_out = first;
+    *second_out = second;
+    return cv->w[second] > CONTRAST_OVER_NOISE * noise;
+}
+
+/* How far pose a takes the grid's corners from where pose b takes them, mm,
+ * the most over the eight. */
+static double corner_distance(const collective *cv, const pb_pose *a, const pb_pose *b)
+{
+    double most = 0.0;
+    for (int corner = 0; corner < 8; corner++) {
+        double p[3], pa[3], pb[3], d = 0.0;
+        for (int i = 0; i < 3; i++)
+            p[i] = (corner >> i & 1) ? (double)cv->g.dims[i] * cv->g.voxel_size[i] : 0.0;
+        pb_pose_apply(a, cv->c, p, pa);
+        pb_pose_apply(b, cv->c, p, pb);
+        for (int i = 0; i < 3; i++)
+            d += (pa[i] - pb[i]) * (pa[i] - pb[i]);
+        most = fmax(most, sqrt(d));
+    }
+    return most;
+}
+
+/* Whether the frames that sit where the reference frame does (within a
+ * voxel of the grid compared on, at its corners) show the second image too.
+ * Uptake changes the image wherever the head is; a second image that only
+ * frames far from the reference carry is how the grid samples a head turned
+ * far, moved back (a 15 degree, 10 mm jerk on 6 mm voxels: one 15 times the
+ * noise's, its scores stepping at the jerk), and a correction along it moved
+ * every frame after the jerk by 4 mm (docs/motion.md). Too few frames near
+ * the reference to tell: no correction. */
+static int contrast_near_reference(collective *cv, size_t ref)
+{
+    const size_t m = cv->used;
+    double voxel = fmax(cv->g.voxel_size[0], fmax(cv->g.voxel_size[1], cv->g.voxel_size[2]));
+    size_t *near = malloc(sizeof(size_t) * m), n = 0, first, second;
+    double *sub = malloc(sizeof(double) * m * m);
+    int shows = 0;
+    if (near && sub) {
+        for (size_t i = 0; i < m; i++)
+            if (corner_distance(cv, &cv->poses[cv->use[i]].pose, &cv->poses[ref].pose) <= voxel)
+                near[n++] = i;
+        for (size_t i = 0; i < n; i++)
+            for (size_t j = 0; j < n; j++)
+                sub[i * n + j] = cv->gram[near[i] * m + near[j]];
+        shows = second_image(cv, sub, n, &first, &second);
+    }
+    free(near);
+    free(sub);
+    return shows;
+}
+
+/* Each frame's contrast against the reference frame's: the ratio of its
+ * second principal score to its first, as a share of the series' widest; a
+ * frame out of the sum takes its nearest neighbour's in the sum. 0 when
+ * the series shows no second image, or only frames far from the reference
+ * frame's pose show it. */
+static int contrast_weights(collective *cv, size_t ref)
+{
+    const size_t m = cv->used;
+    size_t first, second;
+    if (!contrast_near_reference(cv, ref) || !second_image(cv, cv->gram, m, &first, &second))
         return 0;
     for (size_t k = 0; k < cv->count; k++) {
         size_t near = 0;
