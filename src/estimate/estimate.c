@@ -247,6 +247,31 @@ static double path_span(const estimate *e, const double far[3], const pb_pose *a
     return sqrt(d);
 }
 
+/* Whether the motion went on into neighbour n = k + dir: its pose lies on
+ * the far side of frame k's own from the other neighbour's, at least half
+ * as far again (the grid's corners moved, summed). What a path into a
+ * neighbour claims, shown by the poses where the neighbour moves too slowly
+ * for its own paths to gain (the end of a slow nod). */
+static int motion_went_on(const estimate *e, const pbe_fit *fits, size_t k, int dir)
+{
+    const pb_pose *own = &fits[k].pose, *into = &fits[dir > 0 ? k + 1 : k - 1].pose,
+                  *from = &fits[dir > 0 ? k - 1 : k + 1].pose;
+    double along = 0.0, length = 0.0;
+    for (int corner = 0; corner < 8; corner++) {
+        double p[3], a[3], b[3], c[3];
+        for (int i = 0; i < 3; i++)
+            p[i] = (corner >> i & 1) ? (double)e->g.dims[i] * e->g.voxel_size[i] : 0.0;
+        pb_pose_apply(from, e->c, p, a);
+        pb_pose_apply(own, e->c, p, b);
+        pb_pose_apply(into, e->c, p, c);
+        for (int i = 0; i < 3; i++) {
+            along += (c[i] - b[i]) * (b[i] - a[i]);
+            length += (b[i] - a[i]) * (b[i] - a[i]);
+        }
+    }
+    return along > 0.5 * length;
+}
+
 /* Whether frame k may follow a path of a kind: the neighbours it starts or
  * ends at stay still, and no moving frame's path starts or ends at k.
  * moving[k] is 1 + the kind a frame follows, 0 for a still one. */
@@ -292,17 +317,21 @@ static pb_status inside_frames(estimate *e, const pbe_fit *fits, size_t referenc
         report_progress(e, 1.0);
     }
     /* A path into a neighbour is for motion that neighbour holds too: where
-     * it shows none, the path between the neighbours (a jerk between still
-     * frames) is the model, and a longer path would only spread the dwell
-     * over coarser points. */
+     * it shows none and the path between the neighbours explains the frame
+     * (a jerk between still frames), that is the model, and a longer path
+     * would only spread the dwell over coarser points. Where the path between
+     * does not (a neighbour moves, but too slowly for its own paths to gain:
+     * a slow nod's end beside a jerk, whose path between then fit worse than
+     * one pose), a path into a neighbour stands on its own gain. */
     for (size_t k = 1; k + 1 < e->count; k++) {
         for (int kind = 0; kind < PATHS; kind++)
             moves[k] |= paths[k * PATHS + (size_t)kind].gain > DWELL_GAIN;
     }
     for (size_t k = 1; k + 1 < e->count; k++) {
-        if (!moves[k + 1])
+        int between = paths[k * PATHS + PATH_BETWEEN].gain > DWELL_GAIN;
+        if (!moves[k + 1] && (between || !motion_went_on(e, fits, k, +1)))
             paths[k * PATHS + PATH_ON].gain = 0.0;
-        if (!moves[k - 1])
+        if (!moves[k - 1] && (between || !motion_went_on(e, fits, k, -1)))
             paths[k * PATHS + PATH_FROM].gain = 0.0;
     }
     /* the clearest first, of the paths still free */
