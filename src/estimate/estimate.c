@@ -322,7 +322,10 @@ static pb_status inside_frames(estimate *e, const pbe_fit *fits, size_t referenc
      * would only spread the dwell over coarser points. Where the path between
      * does not (a neighbour moves, but too slowly for its own paths to gain:
      * a slow nod's end beside a jerk, whose path between then fit worse than
-     * one pose), a path into a neighbour stands on its own gain. */
+     * one pose), a path into a neighbour stands on its own gain where the
+     * poses show the motion went on into that neighbour; where they do not
+     * (a nod that turned back inside the frame), a path on into it would lay
+     * keys where the head never was. */
     for (size_t k = 1; k + 1 < e->count; k++) {
         for (int kind = 0; kind < PATHS; kind++)
             moves[k] |= paths[k * PATHS + (size_t)kind].gain > DWELL_GAIN;
