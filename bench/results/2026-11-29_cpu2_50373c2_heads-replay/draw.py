@@ -1,6 +1,6 @@
 """python draw.py SEED DIR: write the draw; python draw.py SEED DIR TRACK.csv: its errors"""
 import sys, os, json, numpy as np
-sys.path.insert(0, "/work/main/bench")
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", ".."))
 import estimate_family as ef, head_frames as hf
 seed, out = int(sys.argv[1]), sys.argv[2]
 d = ef.draw(seed)

@@ -1,4 +1,5 @@
 #!/bin/bash
+# As run on the two-core machine: /tmp/wt-old held a build of bf1d11a, /tmp/s47/final one of 50373c2.
 cd /tmp/s47
 for s in "$@"; do
   d=/tmp/s47/fresh/$s; mkdir -p $d

@@ -1,4 +1,5 @@
 #!/bin/bash
+# As run: /tmp/s47/dbg held the instrumented build the README names; seeds from the two records.
 cd /work/main
 export LD_LIBRARY_PATH=/tmp/s47/dbg
 PY=/work/venv-py/bin/python
