@@ -196,8 +196,7 @@ static double corner_distance(const collective *cv, const pb_pose *a, const pb_p
     double most = 0.0;
     for (int corner = 0; corner < 8; corner++) {
         double p[3], pa[3], pb[3], d = 0.0;
-        for (int i = 0; i < 3; i++)
-            p[i] = (corner >> i & 1) ? (double)cv->g.dims[i] * cv->g.voxel_size[i] : 0.0;
+        pbe_grid_corner(&cv->g, corner, p);
         pb_pose_apply(a, cv->c, p, pa);
         pb_pose_apply(b, cv->c, p, pb);
         for (int i = 0; i < 3; i++)

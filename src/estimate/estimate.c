@@ -264,8 +264,7 @@ static int motion_went_on(const estimate *e, const pbe_fit *fits, size_t k, int 
     double along = 0.0, length = 0.0;
     for (int corner = 0; corner < 8; corner++) {
         double p[3], a[3], b[3], c[3];
-        for (int i = 0; i < 3; i++)
-            p[i] = (corner >> i & 1) ? (double)e->g.dims[i] * e->g.voxel_size[i] : 0.0;
+        pbe_grid_corner(&e->g, corner, p);
         pb_pose_apply(from, e->c, p, a);
         pb_pose_apply(own, e->c, p, b);
         pb_pose_apply(into, e->c, p, c);
@@ -562,7 +561,7 @@ static void path_keys(keys *out, double t0, double t1, const pb_pose *s, const p
         at += hold;
     }
     if (held < 2)
-        *from = *to = t0 + 0.5 * len;
+        *from = *to = mid_time(t0, t1);
 }
 
 /* A grid pose about c as a world map about the world's origin:

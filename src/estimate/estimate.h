@@ -13,6 +13,10 @@
  * from the same corner, so that a position in mm means the same point on
  * every level. */
 void pbe_coarser(const pb_geometry *fine, pb_geometry *coarse);
+/* Corner `corner` (0-7; bit a: the far face along axis a) of the grid's box,
+ * mm from its first voxel's outer corner: where the passes measure how far a
+ * pose moves the grid. */
+void pbe_grid_corner(const pb_geometry *g, int corner, double p[3]);
 /* 2x2x2 block means onto the coarser grid (a block cut by the edge averages
  * the voxels it holds). */
 void pbe_downsample(const pb_geometry *fine, const float *in, const pb_geometry *coarse, float *out);

@@ -16,6 +16,12 @@ void pbe_coarser(const pb_geometry *fine, pb_geometry *coarse)
     }
 }
 
+void pbe_grid_corner(const pb_geometry *g, int corner, double p[3])
+{
+    for (int a = 0; a < 3; a++)
+        p[a] = (corner >> a & 1) ? (double)g->dims[a] * g->voxel_size[a] : 0.0;
+}
+
 void pbe_downsample(const pb_geometry *fine, const float *in, const pb_geometry *coarse, float *out)
 {
     const size_t nx = fine->dims[0], ny = fine->dims[1], nz = fine->dims[2];
