@@ -364,59 +364,13 @@ PB_FN void pb_midpoint(const float *a, const float *b, float *o)
         o[i] = 0.5f * (a[i] + b[i]);
 }
 
-/* Where the trilinear filter has its kinks: at texel centres (i + 0.5) along
- * each axis its slope jumps. The next fraction t > t0 at which p0 + t d
- * crosses a texel centre along one axis, or `none` where it does not move
- * along it; a crossing within PB_KINK_GAP voxels of the start is passed over,
- * so that rounding at a start on a centre makes no sliver and each call moves
- * on. */
-#define PB_KINK_GAP 1e-4f
-PB_FN float pb_next_kink(float p0, float d, float t0, float none)
-{
-    if (fabs(d) < 1e-6f)
-        return none;
-    float y = p0 + t0 * d - 0.5f;
-    float n = d > 0.0f ? floor(y + PB_KINK_GAP) + 1.0f : ceil(y - PB_KINK_GAP) - 1.0f;
-    return t0 + PB_DIV(n - y, d);
-}
-
-/* The trilinear filter's exact time average over the chord a-b: the chord
- * cut where any coordinate crosses a texel centre, and two samples in each
- * piece, half its length each, at its Gauss-Legendre points (its middle plus
- * and minus 1/sqrt 12 of it). Inside a piece the filter is a cubic along the
- * chord, which the two points integrate exactly; one sample a slice (AB) or
- * S equidistant ones (the paper's RM) straddle the kinks, the error of a
- * short path over a sharp edge (docs/methods.md). Pieces: one more than the
- * centres crossed, about |b - a|_1 + 1; the cap only guards against
- * rounding. BODY runs with a sample x, y, z and its weight q in scope; the
- * weights add up to 1. */
-#define PB_GAUSS_OFFSET 0.28867513f
-#define PB_CHORD_SAMPLES(a, b, BODY)                                                                             \
-    {                                                                                                          \
-        const float pb_d[3] = {(b)[0] - (a)[0], (b)[1] - (a)[1], (b)[2] - (a)[2]};                            \
-        const int pb_cap = (int)(fabs(pb_d[0]) + fabs(pb_d[1]) + fabs(pb_d[2])) + 8;                           \
-        float pb_t0 = 0.0f;                                                                                    \
-        for (int pb_p = 0; pb_p < pb_cap && pb_t0 < 1.0f; pb_p++) {                                            \
-            float pb_t1 = 1.0f;                                                                                \
-            if (pb_p + 1 < pb_cap)                                                                             \
-                for (int pb_i = 0; pb_i < 3; pb_i++)                                                           \
-                    pb_t1 = fmin(pb_t1, pb_next_kink((a)[pb_i], pb_d[pb_i], pb_t0, 1.0f));                     \
-            const float pb_l = pb_t1 - pb_t0, q = 0.5f * pb_l;                                                 \
-            for (int pb_g = -1; pb_g <= 1; pb_g += 2) {                                                        \
-                const float pb_t = pb_t0 + pb_l * (0.5f + (float)pb_g * PB_GAUSS_OFFSET);                      \
-                const float x = (a)[0] + pb_t * pb_d[0], y = (a)[1] + pb_t * pb_d[1];                          \
-                const float z = (a)[2] + pb_t * pb_d[2];                                                       \
-                BODY;                                                                                          \
-            }                                                                                                  \
-            pb_t0 = pb_t1;                                                                                     \
-        }                                                                                                      \
-    }
+#include "pb_chord.cl"
 
 /* AB's short segments. AB's one sample a slice misses the filter's kinks
  * across the slice; on a segment of a few voxels that is most of its error
  * (2-5 % of the largest value on sharp edges), while the exact average costs
  * only a few samples more. So a segment that moves at most PB_AB_EXACT_TO
- * voxels along its major axis is read exactly (PB_CHORD_SAMPLES), one of at
+ * voxels along its major axis is read exactly (pb_chord), one of at
  * least PB_AB_WALK_FROM by the paper's walk, and one between by both,
  * weighed linearly in its length, so that the blur stays continuous in the
  * motion (PB_AB_EXACT_TO and PB_AB_WALK_FROM: pb_kernel_types.h).
@@ -472,16 +426,17 @@ PB_FN float pb_ab_walked(pb_image img, int exact, int sweep, const pb_place *pl,
     return PB_DIV(sum, wsum);
 }
 
-/* AB over a-b through the 3-D image: exact, walked or both by its length
- * (pb_ab_walk_weight). */
-PB_FN float pb_ab_segment(pb_image img, int exact, int sweep, const pb_place *pl, const float *a, const float *b)
+/* AB over a-b through the 3-D image, weighed by w: exact (pb_chord, through
+ * the cell), walked or both by its length (pb_ab_walk_weight). Returns what
+ * it read, including any cell the path left. */
+PB_FN float pb_ab_segment(pb_image img, int exact, int sweep, const pb_place *pl, pb_cell *cell, const float *a,
+                          const float *b, float w)
 {
     float walk = pb_ab_walk_weight(a, b);
-    if (walk == 1.0f)
-        return pb_ab_walked(img, exact, sweep, pl, a, b);
-    float sum = 0.0f;
-    PB_CHORD_SAMPLES(a, b, sum += q * pb_placed_trilinear(img, exact, pl, x, y, z));
-    return walk == 0.0f ? sum : (1.0f - walk) * sum + walk * pb_ab_walked(img, exact, sweep, pl, a, b);
+    float sum = walk > 0.0f ? walk * w * pb_ab_walked(img, exact, sweep, pl, a, b) : 0.0f;
+    if (walk < 1.0f)
+        sum += pb_chord(img, exact, pl, cell, a, b, (1.0f - walk) * w);
+    return sum;
 }
 
 /* p' = R(q)^T p for a unit quaternion q = (w, v): p - 2w (v x p) + 2 v x (v x p). */
@@ -533,16 +488,17 @@ PB_FN float pb_step_fraction(int i, float inv_n)
     return ((float)i + 0.5f) * inv_n;
 }
 
-/* AB over one segment, split into prm.steps equal sub-segments; sweep: two
- * points a slice where the path sweeps sideways (a literal in each kernel). */
-PB_FN float pb_ab_sampled(pb_image img, pb_kparams prm, int exact, int sweep, const pb_place *pl, const float *a,
-                          const float *b)
+/* AB over one segment weighed by w, split into prm.steps equal
+ * sub-segments; sweep: two points a slice where the path sweeps sideways (a
+ * literal in each kernel). */
+PB_FN float pb_ab_sampled(pb_image img, pb_kparams prm, int exact, int sweep, const pb_place *pl, pb_cell *cell,
+                          const float *a, const float *b, float w)
 {
     if (prm.steps == 1) /* the usual case: no pieces, no division */
-        return pb_ab_segment(img, exact, sweep, pl, a, b);
+        return pb_ab_segment(img, exact, sweep, pl, cell, a, b, w);
     float sum = 0.0f, inv = 1.0f / (float)prm.steps;
-    PB_FOR_PIECES(prm.steps, inv, a, b, sum += pb_ab_segment(img, exact, sweep, pl, pa, pb));
-    return sum * inv;
+    PB_FOR_PIECES(prm.steps, inv, a, b, sum += pb_ab_segment(img, exact, sweep, pl, cell, pa, pb, w * inv));
+    return sum;
 }
 
 /* RM's S equidistant trilinear samples of a-b. */
@@ -561,19 +517,17 @@ PB_FN float pb_rm_equidistant(pb_image img, int n, int exact, const pb_place *pl
  * for a count (the paper's RM); by default AB's rule by length
  * (pb_ab_walk_weight): a short segment's exact average over the chord, a
  * long one's S = AB's slices equidistant samples (the paper's choice), both
- * weighed between. */
-PB_FN float pb_rm_sampled(pb_image img, pb_kparams prm, int exact, const pb_place *pl, const float *a,
-                          const float *b)
+ * weighed between; all of it weighed by w, as pb_ab_segment. */
+PB_FN float pb_rm_sampled(pb_image img, pb_kparams prm, int exact, const pb_place *pl, pb_cell *cell, const float *a,
+                          const float *b, float w)
 {
     if (prm.steps > 0)
-        return pb_rm_equidistant(img, prm.steps, exact, pl, a, b);
+        return w * pb_rm_equidistant(img, prm.steps, exact, pl, a, b);
     float walk = pb_ab_walk_weight(a, b);
-    if (walk == 1.0f)
-        return pb_rm_equidistant(img, pb_ab_slices(a, b), exact, pl, a, b);
-    float sum = 0.0f;
-    PB_CHORD_SAMPLES(a, b, sum += q * pb_placed_trilinear(img, exact, pl, x, y, z));
-    return walk == 0.0f ? sum
-                        : (1.0f - walk) * sum + walk * pb_rm_equidistant(img, pb_ab_slices(a, b), exact, pl, a, b);
+    float sum = walk > 0.0f ? walk * w * pb_rm_equidistant(img, pb_ab_slices(a, b), exact, pl, a, b) : 0.0f;
+    if (walk < 1.0f)
+        sum += pb_chord(img, exact, pl, cell, a, b, (1.0f - walk) * w);
+    return sum;
 }
 
 /* The polyline methods: the object-space path of the voxel centred at u (texel
@@ -586,10 +540,12 @@ PB_FN float pb_polyline(pb_image img, PB_GLOBAL_RO pb_kpose *poses, pb_kparams p
                         const pb_place *pl, int ab, int exact)
 {
     float total = 0.0f;
+    pb_cell cell;
+    cell.live = 0;
     PB_FOR_SEGMENTS(poses, prm, u,
-                    total += poses[j].weight * (ab ? pb_ab_sampled(img, prm, exact, ab == PB_AB_SWEEP, pl, a, b)
-                                                   : pb_rm_sampled(img, prm, exact, pl, a, b)));
-    return total;
+                    total += ab ? pb_ab_sampled(img, prm, exact, ab == PB_AB_SWEEP, pl, &cell, a, b, poses[j].weight)
+                                : pb_rm_sampled(img, prm, exact, pl, &cell, a, b, poses[j].weight));
+    return total + pb_cell_read(img, &cell);
 }
 
 /* Classical motion blur's steps on segment j: prm.steps, or as many as AB has
