@@ -40,23 +40,35 @@ mode_cells() (
         for filter in hardware exact; do
             echo "== $which: profile_frames timing, AB $filter"
             (cd /tmp && PYTHONPATH=$work/$which python3 "$root/bench/profile_frames.py" timing --filter $filter \
-                --runs 10 --cache "$work" --out "$work/timing-$which-$filter.json") \
+                --runs 5 --cache "$work" --out "$work/timing-$which-$filter.json") \
                 >"$work/timing-$which-$filter.md" 2>&1 || status=1
             grep -E '^\|' "$work/timing-$which-$filter.md" | head -12
         done
-        echo "== $which: frames_cost at the default bound"
-        (cd /tmp && PYTHONPATH=$work/$which python3 "$root/bench/frames_cost.py" --bounds default --runs 10 \
-            --out "$work/frames-$which.json") >"$work/frames-$which.md" 2>&1 || status=1
-        sed -n '/^| track | bound/,/^$/p' "$work/frames-$which.md"
-        grep -E 'target|Error|error:' "$work/frames-$which.md"
     done
+    cells_report
     for round in 1 2; do
         for which in old new; do
-            "$work/build-$which/bench/pb_bench" --device cuda --size 256 --runs 20 --ref-runs 0 --label $which \
+            "$work/build-$which/bench/pb_bench" --device cuda --size 256 --runs 10 --ref-runs 0 --label $which \
                 --csv "$work/paper-$which-$round.csv" >/dev/null || status=1
         done
     done
-    python3 - "$work" >"$OUT/cells.md" <<'EOF' || status=1
+    cells_report
+    for which in old new; do
+        echo "== $which: frames_cost at the default bound"
+        (cd /tmp && PYTHONPATH=$work/$which python3 "$root/bench/frames_cost.py" --bounds default --runs 5 \
+            --tracks smooth,20hz-noisy --out "$work/frames-$which.json") >"$work/frames-$which.md" 2>&1 || status=1
+        sed -n '/^| track | bound/,/^$/p' "$work/frames-$which.md"
+        grep -E 'target|Error|error:' "$work/frames-$which.md"
+    done
+    cells_report
+    cat "$OUT/cells.md"
+    exit $status
+)
+
+# cells.md from what $work holds so far, and the tarball of it: after each
+# step, so that a run cut short by the time limit still brings back its part.
+cells_report() {
+    python3 - "$work" >"$OUT/cells.md" <<'EOF' || true
 import csv, glob, json, os, sys
 w = sys.argv[1]
 print("# issue 46's cells: old against new\n")
@@ -92,8 +104,19 @@ for key in sorted(rows):
     d = rows[key]
     if "old" in d and "new" in d:
         print(f"| {' | '.join(key)} | {d['old']:.4f} | {d['new']:.4f} | {d['new'] / d['old']:.3f} |")
+for which in ("old", "new"):
+    try:
+        lines = open(f"{w}/frames-{which}.md").read().splitlines()
+    except OSError:
+        continue
+    print(f"\n## frames_cost, {which}\n")
+    on = False
+    for line in lines:
+        on = on or line.startswith("| track | bound")
+        if on and not line.startswith("|"):
+            break
+        if on or "target" in line:
+            print(line)
 EOF
-    cat "$OUT/cells.md"
     tar -czf "$OUT/cells.tar.gz" -C "$work" --exclude='*.npy' --exclude=old --exclude=new --exclude='build-*' .
-    exit $status
-)
+}
