@@ -53,49 +53,46 @@ PB_FN void pb_trilinear_scatter(PB_GLOBAL float *out, pb_kparams prm, float x, f
     }
 }
 
-/* The adjoint's leaving of the live cell (cl/pb_chord.cl): its eight
- * voxels' weights added into the object, once. Under a sub-voxel path the
- * adds, not the reads, bound the adjoint of a dense input, and a cell takes
- * all of a frame's pieces in it (docs/performance.md). */
+/* The eight voxels of one trilinear cell, summed in the work item's registers
+ * while its samples stay in that cell, and added to the object once when a
+ * sample leaves it (and at the end of the path). Under a sub-voxel path (a
+ * still or drifting head) the exact chord's samples fall in one or two cells,
+ * and scattered one by one each cost eight atomic adds: the adds, not the
+ * reads, bound the adjoint of a dense input (docs/performance.md). The same
+ * products are added to the same voxels, in another order. */
+typedef struct pb_cell {
+    int i, j, k, live;
+    float w[8];
+} pb_cell;
+
 PB_FN void pb_cell_flush(PB_GLOBAL float *out, pb_kparams prm, pb_cell *cell)
 {
     if (!cell->live)
         return;
-    float w[8];
-    pb_cell_weights(cell, w);
     for (int c = 0; c < 8; c++)
-        pb_scatter(out, prm, cell->i + (c & 1), cell->j + ((c >> 1) & 1), cell->k + (c >> 2), w[c]);
+        pb_scatter(out, prm, cell->i + (c & 1), cell->j + ((c >> 1) & 1), cell->k + (c >> 2), cell->w[c]);
     cell->live = 0;
 }
 
-/* Transpose of one trilinear fetch at (x, y, z), through the cell: a point
- * at its fractions, rounded as the texture unit rounds them
- * (pb_texture_weight). */
-PB_FN void pb_cell_point(PB_GLOBAL float *out, pb_kparams prm, pb_cell *cell, float x, float y, float z, float v)
+/* pb_trilinear_scatter through the cell. */
+PB_FN void pb_cell_scatter(PB_GLOBAL float *out, pb_kparams prm, pb_cell *cell, float x, float y, float z, float v)
 {
-    float f[3];
-    const float none[3] = {0.0f, 0.0f, 0.0f};
-    int i = pb_cell_axis(x, &f[0]), j = pb_cell_axis(y, &f[1]), k = pb_cell_axis(z, &f[2]);
-    if (pb_cell_leaves(cell, i, j, k))
+    float cx = x - 0.5f, cy = y - 0.5f, cz = z - 0.5f;
+    float x0 = floor(cx), y0 = floor(cy), z0 = floor(cz);
+    float fx = pb_texture_weight(cx - x0, prm), fy = pb_texture_weight(cy - y0, prm);
+    float fz = pb_texture_weight(cz - z0, prm);
+    int i = pb_voxel_index(x0), j = pb_voxel_index(y0), k = pb_voxel_index(z0);
+    if (!cell->live || i != cell->i || j != cell->j || k != cell->k) {
         pb_cell_flush(out, prm, cell);
-    pb_cell_enter(cell, i, j, k);
-    pb_cell_add(cell, pb_texture_weight(f[0], prm), pb_texture_weight(f[1], prm), pb_texture_weight(f[2], prm), none,
-                v);
-}
-
-/* Transpose of pb_chord: through the cell where the forward read exact
- * weights (prm.weight_steps 0: the EXACT filter, or a platform whose filter
- * is exact) or the chord lies in one cell; else the texture unit's samples,
- * rounded. */
-PB_FN void pb_chord_adjoint(PB_GLOBAL float *out, pb_kparams prm, pb_cell *cell, const float *a, const float *b,
-                            float v)
-{
-    if (prm.weight_steps == 0.0f || pb_chord_in_one_cell(a, b)) {
-        const pb_place own = {0, {0.0f, 0.0f, 0.0f}, 1.0f};
-        PB_CHORD_CELLS(cell, &own, a, b, v, pb_cell_flush(out, prm, cell));
-        return;
+        cell->i = i;
+        cell->j = j;
+        cell->k = k;
+        cell->live = 1;
+        for (int c = 0; c < 8; c++)
+            cell->w[c] = 0.0f;
     }
-    PB_CHORD_SAMPLES(a, b, pb_cell_point(out, prm, cell, x, y, z, v * q));
+    for (int c = 0; c < 8; c++)
+        cell->w[c] += v * (((c & 1) ? fx : 1.0f - fx) * ((c & 2) ? fy : 1.0f - fy) * ((c & 4) ? fz : 1.0f - fz));
 }
 
 /* Transpose of pb_slice_sample: v spread over the four voxels of the slice
@@ -189,7 +186,7 @@ PB_FN void pb_ab_segment_adjoint(PB_GLOBAL float *out, pb_kparams prm, pb_cell *
 {
     float walk = pb_ab_walk_weight(a, b);
     if (walk < 1.0f)
-        pb_chord_adjoint(out, prm, cell, a, b, v * (1.0f - walk));
+        PB_CHORD_SAMPLES(a, b, pb_cell_scatter(out, prm, cell, x, y, z, v * (1.0f - walk) * q));
     if (walk > 0.0f)
         pb_ab_walked_adjoint(out, prm, sweep, a, b, v * walk);
 }
@@ -212,7 +209,7 @@ PB_FN void pb_segment_adjoint(PB_GLOBAL float *out, pb_kparams prm, pb_cell *cel
     if (n <= 0) { /* pb_rm_sampled's rule by length */
         float walk = pb_ab_walk_weight(a, b);
         if (walk < 1.0f)
-            pb_chord_adjoint(out, prm, cell, a, b, v * (1.0f - walk));
+            PB_CHORD_SAMPLES(a, b, pb_cell_scatter(out, prm, cell, x, y, z, v * (1.0f - walk) * q));
         if (walk == 0.0f)
             return;
         v *= walk;
@@ -221,7 +218,7 @@ PB_FN void pb_segment_adjoint(PB_GLOBAL float *out, pb_kparams prm, pb_cell *cel
     float inv_n = 1.0f / (float)n;
     for (int i = 0; i < n; i++) {
         float s = pb_step_fraction(i, inv_n);
-        pb_cell_point(out, prm, cell, a[0] + s * (b[0] - a[0]), a[1] + s * (b[1] - a[1]),
+        pb_cell_scatter(out, prm, cell, a[0] + s * (b[0] - a[0]), a[1] + s * (b[1] - a[1]),
                         a[2] + s * (b[2] - a[2]), v * inv_n);
     }
 }
@@ -253,7 +250,7 @@ PB_FN void pb_classical_adjoint(PB_GLOBAL float *out, PB_GLOBAL_RO pb_kpose *pos
         for (int i = 0; i < n; i++) {
             float o[3];
             pb_classical_point(&poses[j], &poses[j + 1], pb_step_fraction(i, inv_n), prm, u, o);
-            pb_cell_point(out, prm, &cell, o[0], o[1], o[2], vn);
+            pb_cell_scatter(out, prm, &cell, o[0], o[1], o[2], vn);
         }
     }
     pb_cell_flush(out, prm, &cell);

@@ -426,17 +426,15 @@ PB_FN float pb_ab_walked(pb_image img, int exact, int sweep, const pb_place *pl,
     return PB_DIV(sum, wsum);
 }
 
-/* AB over a-b through the 3-D image, weighed by w: exact (pb_chord, through
- * the cell), walked or both by its length (pb_ab_walk_weight). Returns what
- * it read, including any cell the path left. */
-PB_FN float pb_ab_segment(pb_image img, int exact, int sweep, const pb_place *pl, pb_cell *cell, const float *a,
-                          const float *b, float w)
+/* AB over a-b through the 3-D image: exact, walked or both by its length
+ * (pb_ab_walk_weight). */
+PB_FN float pb_ab_segment(pb_image img, int exact, int sweep, const pb_place *pl, const float *a, const float *b)
 {
     float walk = pb_ab_walk_weight(a, b);
-    float sum = walk > 0.0f ? walk * w * pb_ab_walked(img, exact, sweep, pl, a, b) : 0.0f;
-    if (walk < 1.0f)
-        sum += pb_chord(img, exact, pl, cell, a, b, (1.0f - walk) * w);
-    return sum;
+    if (walk == 1.0f)
+        return pb_ab_walked(img, exact, sweep, pl, a, b);
+    float sum = pb_chord(img, exact, pl, a, b);
+    return walk == 0.0f ? sum : (1.0f - walk) * sum + walk * pb_ab_walked(img, exact, sweep, pl, a, b);
 }
 
 /* p' = R(q)^T p for a unit quaternion q = (w, v): p - 2w (v x p) + 2 v x (v x p). */
@@ -488,17 +486,16 @@ PB_FN float pb_step_fraction(int i, float inv_n)
     return ((float)i + 0.5f) * inv_n;
 }
 
-/* AB over one segment weighed by w, split into prm.steps equal
- * sub-segments; sweep: two points a slice where the path sweeps sideways (a
- * literal in each kernel). */
-PB_FN float pb_ab_sampled(pb_image img, pb_kparams prm, int exact, int sweep, const pb_place *pl, pb_cell *cell,
-                          const float *a, const float *b, float w)
+/* AB over one segment, split into prm.steps equal sub-segments; sweep: two
+ * points a slice where the path sweeps sideways (a literal in each kernel). */
+PB_FN float pb_ab_sampled(pb_image img, pb_kparams prm, int exact, int sweep, const pb_place *pl, const float *a,
+                          const float *b)
 {
     if (prm.steps == 1) /* the usual case: no pieces, no division */
-        return pb_ab_segment(img, exact, sweep, pl, cell, a, b, w);
+        return pb_ab_segment(img, exact, sweep, pl, a, b);
     float sum = 0.0f, inv = 1.0f / (float)prm.steps;
-    PB_FOR_PIECES(prm.steps, inv, a, b, sum += pb_ab_segment(img, exact, sweep, pl, cell, pa, pb, w * inv));
-    return sum;
+    PB_FOR_PIECES(prm.steps, inv, a, b, sum += pb_ab_segment(img, exact, sweep, pl, pa, pb));
+    return sum * inv;
 }
 
 /* RM's S equidistant trilinear samples of a-b. */
@@ -517,17 +514,18 @@ PB_FN float pb_rm_equidistant(pb_image img, int n, int exact, const pb_place *pl
  * for a count (the paper's RM); by default AB's rule by length
  * (pb_ab_walk_weight): a short segment's exact average over the chord, a
  * long one's S = AB's slices equidistant samples (the paper's choice), both
- * weighed between; all of it weighed by w, as pb_ab_segment. */
-PB_FN float pb_rm_sampled(pb_image img, pb_kparams prm, int exact, const pb_place *pl, pb_cell *cell, const float *a,
-                          const float *b, float w)
+ * weighed between. */
+PB_FN float pb_rm_sampled(pb_image img, pb_kparams prm, int exact, const pb_place *pl, const float *a,
+                          const float *b)
 {
     if (prm.steps > 0)
-        return w * pb_rm_equidistant(img, prm.steps, exact, pl, a, b);
+        return pb_rm_equidistant(img, prm.steps, exact, pl, a, b);
     float walk = pb_ab_walk_weight(a, b);
-    float sum = walk > 0.0f ? walk * w * pb_rm_equidistant(img, pb_ab_slices(a, b), exact, pl, a, b) : 0.0f;
-    if (walk < 1.0f)
-        sum += pb_chord(img, exact, pl, cell, a, b, (1.0f - walk) * w);
-    return sum;
+    if (walk == 1.0f)
+        return pb_rm_equidistant(img, pb_ab_slices(a, b), exact, pl, a, b);
+    float sum = pb_chord(img, exact, pl, a, b);
+    return walk == 0.0f ? sum
+                        : (1.0f - walk) * sum + walk * pb_rm_equidistant(img, pb_ab_slices(a, b), exact, pl, a, b);
 }
 
 /* The polyline methods: the object-space path of the voxel centred at u (texel
@@ -540,12 +538,10 @@ PB_FN float pb_polyline(pb_image img, PB_GLOBAL_RO pb_kpose *poses, pb_kparams p
                         const pb_place *pl, int ab, int exact)
 {
     float total = 0.0f;
-    pb_cell cell;
-    cell.live = 0;
     PB_FOR_SEGMENTS(poses, prm, u,
-                    total += ab ? pb_ab_sampled(img, prm, exact, ab == PB_AB_SWEEP, pl, &cell, a, b, poses[j].weight)
-                                : pb_rm_sampled(img, prm, exact, pl, &cell, a, b, poses[j].weight));
-    return total + pb_cell_read(img, &cell);
+                    total += poses[j].weight * (ab ? pb_ab_sampled(img, prm, exact, ab == PB_AB_SWEEP, pl, a, b)
+                                                   : pb_rm_sampled(img, prm, exact, pl, a, b)));
+    return total;
 }
 
 /* Classical motion blur's steps on segment j: prm.steps, or as many as AB has

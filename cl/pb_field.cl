@@ -172,13 +172,11 @@ PB_FN float pb_field_polyline(pb_image img, PB_GLOBAL_RO pb_kknot *knots, pb_kpa
     PB_GLOBAL_RO float *fields = pb_field_data(knots, prm);
     long own = pb_field_own(prm, ix, iy, iz);
     float total = 0.0f;
-    pb_cell cell;
-    cell.live = 0;
     PB_FOR_FIELD_SEGMENTS(knots, fields, prm, u, own, ix, iy, iz, mass,
-                          total += ab ? pb_ab_sampled(img, prm, exact, ab == PB_AB_SWEEP, &pl, &cell, a, b,
-                                                      knots[j].weight * jac)
-                                      : pb_rm_sampled(img, prm, exact, &pl, &cell, a, b, knots[j].weight * jac));
-    return total + pb_cell_read(img, &cell);
+                          total += knots[j].weight * jac *
+                                   (ab ? pb_ab_sampled(img, prm, exact, ab == PB_AB_SWEEP, &pl, a, b)
+                                       : pb_rm_sampled(img, prm, exact, &pl, a, b)));
+    return total;
 }
 
 /* Its transpose: y[W] spread along every segment with the segment's share. */

@@ -94,17 +94,12 @@ static inline void pb_atomic_add(volatile __global float *p, float v)
 #define PB_GID_Z ((int)(blockIdx.z * blockDim.z + threadIdx.z))
 /* A texture object carries its filter mode, where OpenCL passes a sampler per
  * read: the backend binds a linear and a point texture object to the volume's
- * array and passes both, so that a kernel reads either as OpenCL's does (the
- * linear filter's trilinear fetches and a trilinear cell's point reads,
- * cl/pb_chord.cl: through the linear object a point read costs a trilinear
- * fetch, twice a point fetch's time). Layers are read linearly only. */
-typedef struct pb_image_objects {
-    cudaTextureObject_t linear, point;
-} pb_image;
+ * array and passes the one the kernel's row of cl/pb_kernel_table.h names. */
+typedef cudaTextureObject_t pb_image;
 typedef cudaTextureObject_t pb_layers;
 
-#define PB_FETCH_LINEAR(img, px, py, pz) tex3D<float>((img).linear, (px), (py), (pz))
-#define PB_FETCH_NEAREST(img, px, py, pz) tex3D<float>((img).point, (px), (py), (pz))
+#define PB_FETCH_LINEAR(img, px, py, pz) tex3D<float>((img), (px), (py), (pz))
+#define PB_FETCH_NEAREST(img, px, py, pz) tex3D<float>((img), (px), (py), (pz))
 #define PB_FETCH_LAYER(img, pa, pb, layer) tex2DLayered<float>((img), (pa), (pb), (layer))
 
 /* With its result unused nvcc emits RED.ADD.F32. */

@@ -11,7 +11,7 @@
 #include "cuda_impl.h"
 
 /* An image: a CUDA array and its texture objects, which carry the filter: a
- * linear one for trilinear fetches and layers, a point one for point reads;
+ * linear one for HARDWARE fetches and layers, a point one for EXACT and REF;
  * layers also have a surface, which cuda_image_layout writes through. */
 typedef struct cu_image {
     cudaArray_t array;
@@ -238,27 +238,16 @@ static pb_status cuda_launch(pb_device *dev, const pb_launch *l)
     for (int d = 0; d < 3; d++)
         n[d] = (unsigned)((l->extent[d] + info->group[d] - 1) / info->group[d]);
     dim3 block = {info->group[0], info->group[1], info->group[2]}, grid = {n[0], n[1], n[2]};
-    /* Every kernel is (input, plan, parameters, output); the input a buffer,
-     * the layers' linear texture object, or a 3-D image's linear and point
-     * objects (cl/pb_shim.h's pb_image), as its row of cl/pb_kernel_table.h
-     * says. */
+    /* Every kernel is (input, plan, parameters, output); the input a texture
+     * object or a buffer, as its row of cl/pb_kernel_table.h says. */
     const cu_image *img = l->input;
-    struct {
-        cudaTextureObject_t linear, point;
-    } image = {0, 0};
+    cudaTextureObject_t texture = 0;
     const void *buffer = l->input, *plan = l->plan;
-    void *input = &buffer;
-    if (info->reads == PB_READS_LAYERS) {
-        image.linear = img->linear;
-        input = &image.linear;
-    } else if (info->reads != PB_READS_BUFFER) {
-        image.linear = img->linear;
-        image.point = img->point;
-        input = &image;
-    }
+    if (info->reads != PB_READS_BUFFER)
+        texture = info->reads == PB_READS_NEAREST ? img->point : img->linear;
     pb_kparams prm = l->prm;
     float *out = l->out;
-    void *args[] = {input, &plan, &prm, &out};
+    void *args[] = {info->reads == PB_READS_BUFFER ? (void *)&buffer : (void *)&texture, &plan, &prm, &out};
     cudaError_t e = cudaLaunchKernel(cu->kernels.kernel[l->kernel], grid, block, args, 0, cu->queue);
     return e == cudaSuccess ? PB_OK : pb_cu_fail(dev, PB_ERR_LAUNCH, "the kernel launch", e);
 }
