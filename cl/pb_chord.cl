@@ -32,21 +32,22 @@ PB_FN float pb_next_kink(float p0, float d, float t0, float none)
  * weights). The body runs once a piece, with the chord's step pb_d, the
  * piece's start pb_t0 and length pb_l (fractions of the chord) in scope.
  * Pieces: one more than the centres crossed, about |b - a|_1 + 1; the cap
- * only guards against rounding. Variadic, so that a body may hold commas. */
-#define PB_CHORD_PIECES(a, b, ...)                                                                               \
-    {                                                                                                          \
-        const float pb_d[3] = {(b)[0] - (a)[0], (b)[1] - (a)[1], (b)[2] - (a)[2]};                            \
-        const int pb_cap = (int)(fabs(pb_d[0]) + fabs(pb_d[1]) + fabs(pb_d[2])) + 8;                           \
-        float pb_t0 = 0.0f;                                                                                    \
-        for (int pb_p = 0; pb_p < pb_cap && pb_t0 < 1.0f; pb_p++) {                                            \
-            float pb_t1 = 1.0f;                                                                                \
-            if (pb_p + 1 < pb_cap)                                                                             \
-                for (int pb_i = 0; pb_i < 3; pb_i++)                                                           \
-                    pb_t1 = fmin(pb_t1, pb_next_kink((a)[pb_i], pb_d[pb_i], pb_t0, 1.0f));                     \
-            const float pb_l = pb_t1 - pb_t0;                                                                  \
-            __VA_ARGS__;                                                                                       \
-            pb_t0 = pb_t1;                                                                                     \
-        }                                                                                                      \
+ * only guards against rounding. A body's commas must lie inside parentheses
+ * (OpenCL C 1.2 has no variadic macros). */
+#define PB_CHORD_PIECES(a, b, BODY)                                                                                    \
+    {                                                                                                                  \
+        const float pb_d[3] = {(b)[0] - (a)[0], (b)[1] - (a)[1], (b)[2] - (a)[2]};                                     \
+        const int pb_cap = (int)(fabs(pb_d[0]) + fabs(pb_d[1]) + fabs(pb_d[2])) + 8;                                   \
+        float pb_t0 = 0.0f;                                                                                            \
+        for (int pb_p = 0; pb_p < pb_cap && pb_t0 < 1.0f; pb_p++) {                                                    \
+            float pb_t1 = 1.0f;                                                                                        \
+            if (pb_p + 1 < pb_cap)                                                                                     \
+                for (int pb_i = 0; pb_i < 3; pb_i++)                                                                   \
+                    pb_t1 = fmin(pb_t1, pb_next_kink((a)[pb_i], pb_d[pb_i], pb_t0, 1.0f));                             \
+            const float pb_l = pb_t1 - pb_t0;                                                                          \
+            BODY;                                                                                                      \
+            pb_t0 = pb_t1;                                                                                             \
+        }                                                                                                              \
     }
 
 /* The filter's exact time average over the chord by sampling: two samples
@@ -55,14 +56,14 @@ PB_FN float pb_next_kink(float p0, float d, float t0, float none)
  * exactly. The body runs with a sample x, y, z and its weight q in scope;
  * the weights add up to 1. */
 #define PB_GAUSS_OFFSET 0.28867513f
-#define PB_CHORD_SAMPLES(a, b, ...)                                                                              \
-    PB_CHORD_PIECES(a, b, for (int pb_g = -1; pb_g <= 1; pb_g += 2) {                                          \
-        const float pb_t = pb_t0 + pb_l * (0.5f + (float)pb_g * PB_GAUSS_OFFSET);                              \
-        const float x = (a)[0] + pb_t * pb_d[0];                                                               \
-        const float y = (a)[1] + pb_t * pb_d[1];                                                               \
-        const float z = (a)[2] + pb_t * pb_d[2];                                                               \
-        const float q = 0.5f * pb_l;                                                                           \
-        __VA_ARGS__;                                                                                           \
+#define PB_CHORD_SAMPLES(a, b, BODY)                                                                                   \
+    PB_CHORD_PIECES(a, b, for (int pb_g = -1; pb_g <= 1; pb_g += 2) {                                                  \
+        const float pb_t = pb_t0 + pb_l * (0.5f + (float)pb_g * PB_GAUSS_OFFSET);                                      \
+        const float x = (a)[0] + pb_t * pb_d[0];                                                                       \
+        const float y = (a)[1] + pb_t * pb_d[1];                                                                       \
+        const float z = (a)[2] + pb_t * pb_d[2];                                                                       \
+        const float q = 0.5f * pb_l;                                                                                   \
+        BODY;                                                                                                          \
     })
 
 /* One piece's exact time average with the EXACT filter: inside the
