@@ -124,6 +124,9 @@ int main(int argc, char **argv)
 {
     pb_test_seed();
     pb_context *ctx = pb_test_context(argc, argv);
+    pb_device_info info;
+    pb_context_device_info(ctx, &info);
+    int nvidia = pb_context_backend(ctx) == PB_BACKEND_CUDA || strstr(info.platform, "NVIDIA") != NULL;
     pb_geometry g = {{15, 13, 9}, {1.3, 1.1, 1.8}};
     size_t n = 15 * 13 * 9;
     double times[TRACK];
@@ -161,8 +164,16 @@ int main(int argc, char **argv)
              * draw other points than alone: two estimates of one mean,
              * each of 16 points times at least 16 steps an interval reading
              * values in [0, 1) (standard deviation 0.29 a read): their
-             * difference stays within 0.29 sqrt(2 / 256) x 5 = 0.13. */
-            double tol = method == PB_METHOD_REF ? 0.13 : 1e-5;
+             * difference stays within 0.29 sqrt(2 / 256) x 5 = 0.13.
+             * NVIDIA's HARDWARE weights are rounded to 1/256 (by its texture
+             * unit, and as it would in the adjoint's scatter): a gate's sample
+             * and its interval's alone differ by float rounding, and where
+             * one lies on a step's edge its weight moves by a step, a read
+             * by up to 1/256 of the largest value (measured: 2.6e-4, CL
+             * HARDWARE's adjoint on NVIDIA's OpenCL, seed 1795986535913126). */
+            double tol = method == PB_METHOD_REF                    ? 0.13
+                         : nvidia && filter == PB_FILTER_HARDWARE ? 1.0 / 256.0
+                                                                   : 1e-5;
             double lhs = 0.0, rhs = 0.0, worst = 0.0;
             for (size_t k = 0, first = 0; k < GATES; first += counts[k++]) {
                 for (int adjoint = 0; adjoint < 2; adjoint++) {
