@@ -18,6 +18,7 @@
  * Poses live in the grid frame about the grid's centre until the track is
  * written, in the world of the affine. */
 #include <math.h>
+#include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -218,7 +219,9 @@ static pb_status register_own(estimate *e, pbe_fit *fits, float *moved, double *
  * or ends at a still neighbour's pose: between the two neighbours (the
  * motion began and ended inside the frame), or from one neighbour on
  * through the frame's own pose as far again (the motion went on into the
- * other neighbour, which then moves too: a nod held across a frame's end). */
+ * other neighbour, which then moves too: a nod held across a frame's end;
+ * or, in the series' first or last frame, which has one neighbour, the
+ * motion that the frame holds after or before it). */
 enum { PATH_BETWEEN, PATH_ON, PATH_FROM, PATHS };
 
 typedef struct frame_path {
@@ -227,16 +230,27 @@ typedef struct frame_path {
     double dwell[DWELL_POINTS + 1];
 } frame_path;
 
-/* The path of a kind for frame k, from its neighbours' and its own poses. */
+/* Whether frame k of count has the neighbours a path of a kind starts or
+ * ends at: the first frame only a path from its successor, the last only
+ * one on from its predecessor. */
+static int path_defined(size_t k, size_t count, int kind)
+{
+    return (kind == PATH_FROM || k > 0) && (kind == PATH_ON || k + 1 < count);
+}
+
+/* The path of a kind for frame k (path_defined), from its neighbours' and
+ * its own poses. */
 static void path_ends(const pbe_fit *fits, size_t k, int kind, pb_pose *start, pb_pose *end)
 {
-    const pb_pose *before = &fits[k - 1].pose, *own = &fits[k].pose, *after = &fits[k + 1].pose;
-    *start = kind == PATH_FROM ? *after : *before;
-    *end = kind == PATH_ON ? *own : *after;
+    const pb_pose *own = &fits[k].pose;
     if (kind == PATH_ON)
-        pb_pose_interpolate(before, own, 2.0, end);
+        pb_pose_interpolate(&fits[k - 1].pose, own, 2.0, end);
+    else
+        *end = fits[k + 1].pose;
     if (kind == PATH_FROM)
-        pb_pose_interpolate(after, own, 2.0, start);
+        pb_pose_interpolate(&fits[k + 1].pose, own, 2.0, start);
+    else
+        *start = fits[k - 1].pose;
     pb_pose_normalized(start, start);
     pb_pose_normalized(end, end);
 }
@@ -279,9 +293,10 @@ static int motion_went_on(const estimate *e, const pbe_fit *fits, size_t k, int 
 /* Whether frame k may follow a path of a kind: the neighbours it starts or
  * ends at stay still, and no moving frame's path starts or ends at k.
  * moving[k] is 1 + the kind a frame follows, 0 for a still one. */
-static int path_free(const int *moving, const int *anchor, size_t k, int kind)
+static int path_free(const int *moving, const int *anchor, size_t k, size_t count, int kind)
 {
-    return !moving[k] && !anchor[k] && (kind == PATH_FROM || !moving[k - 1]) && (kind == PATH_ON || !moving[k + 1]);
+    return path_defined(k, count, kind) && !moving[k] && !anchor[k] && (kind == PATH_FROM || !moving[k - 1]) &&
+           (kind == PATH_ON || !moving[k + 1]);
 }
 
 static pb_status inside_frames(estimate *e, const pbe_fit *fits, size_t reference, const float *moved,
@@ -299,10 +314,12 @@ static pb_status inside_frames(estimate *e, const pbe_fit *fits, size_t referenc
         ext = fmax(ext, (double)e->g.dims[i] * e->g.voxel_size[i]);
     for (int i = 0; i < 3; i++)
         far[i] = e->c[i] + 0.5 * ext;
-    for (size_t k = 1; k + 1 < e->count && st == PB_OK; k++) {
+    for (size_t k = 0; k < e->count && st == PB_OK; k++) {
         int referenced = 0;
         for (int kind = 0; kind < PATHS && st == PB_OK && k != reference && !e->flat[k]; kind++) {
             frame_path *p = &paths[k * PATHS + (size_t)kind];
+            if (!path_defined(k, e->count, kind))
+                continue;
             path_ends(fits, k, kind, &p->start, &p->end);
             /* a path shorter than a tenth of a voxel at the far corner holds nothing to find */
             if (!(path_span(e, far, &p->start, &p->end) > 0.1 * e->g.voxel_size[0]))
@@ -329,34 +346,43 @@ static pb_status inside_frames(estimate *e, const pbe_fit *fits, size_t referenc
      * one pose), a path into a neighbour stands on its own gain, if that is
      * UNSUPPORTED_GAIN, where the poses show the motion went on into that
      * neighbour; where they do not (a nod that turned back inside the
-     * frame), a path on into it would lay keys where the head never was. */
-    for (size_t k = 1; k + 1 < e->count; k++) {
+     * frame), a path on into it would lay keys where the head never was.
+     * The first and last frames have no path between and no neighbour for
+     * the motion to go on into: their one path stands on its own gain, if
+     * that is UNSUPPORTED_GAIN (a jerk inside the series' last frame). */
+    for (size_t k = 0; k < e->count; k++) {
         for (int kind = 0; kind < PATHS; kind++)
             moves[k] |= paths[k * PATHS + (size_t)kind].gain > DWELL_GAIN;
     }
-    for (size_t k = 1; k + 1 < e->count; k++) {
+    for (size_t k = 0; k < e->count; k++) {
         frame_path *on = &paths[k * PATHS + PATH_ON], *from = &paths[k * PATHS + PATH_FROM];
         int between = paths[k * PATHS + PATH_BETWEEN].gain > DWELL_GAIN;
-        if (!moves[k + 1] && (between || on->gain <= UNSUPPORTED_GAIN || !motion_went_on(e, fits, k, +1)))
+        if (k + 1 == e->count ? on->gain <= UNSUPPORTED_GAIN
+                              : !moves[k + 1] && (between || on->gain <= UNSUPPORTED_GAIN ||
+                                                  !motion_went_on(e, fits, k, +1)))
             on->gain = 0.0;
-        if (!moves[k - 1] && (between || from->gain <= UNSUPPORTED_GAIN || !motion_went_on(e, fits, k, -1)))
+        if (k == 0 ? from->gain <= UNSUPPORTED_GAIN
+                   : !moves[k - 1] && (between || from->gain <= UNSUPPORTED_GAIN ||
+                                       !motion_went_on(e, fits, k, -1)))
             from->gain = 0.0;
     }
     /* the clearest first, of the paths still free */
     *moving_count = 0;
     for (;;) {
-        size_t best = 0;
-        for (size_t i = PATHS; i < (e->count - 1) * PATHS; i++)
-            if (paths[i].gain > DWELL_GAIN && path_free(moving, anchor, i / PATHS, (int)(i % PATHS)) &&
-                (best == 0 || paths[i].gain > paths[best].gain))
+        size_t best = SIZE_MAX;
+        for (size_t i = 0; i < e->count * PATHS; i++)
+            if (paths[i].gain > DWELL_GAIN && path_free(moving, anchor, i / PATHS, e->count, (int)(i % PATHS)) &&
+                (best == SIZE_MAX || paths[i].gain > paths[best].gain))
                 best = i;
-        if (best == 0)
+        if (best == SIZE_MAX)
             break;
         size_t k = best / PATHS;
         int kind = (int)(best % PATHS);
         moving[k] = 1 + kind;
-        anchor[k - 1] |= kind != PATH_FROM;
-        anchor[k + 1] |= kind != PATH_ON;
+        if (kind != PATH_FROM)
+            anchor[k - 1] = 1;
+        if (kind != PATH_ON)
+            anchor[k + 1] = 1;
         ++*moving_count;
     }
     free(anchor);
@@ -699,7 +725,9 @@ static pb_status estimate_run(estimate *e, const double *bounds, const pb_estima
     if (st == PB_OK) {
         pb_pose back;
         pb_pose_invert(&fits[ref].pose, &back);
-        key(&k, bounds[0], &fits[0].pose);
+        /* a moving first or last frame's keys reach the series' ends */
+        if (!moving[0])
+            key(&k, bounds[0], &fits[0].pose);
         for (size_t f = 0; f < count; f++) {
             if (moving[f]) {
                 const frame_path *p = &paths[f * PATHS + (size_t)(moving[f] - 1)];
@@ -713,7 +741,8 @@ static pb_status estimate_run(estimate *e, const double *bounds, const pb_estima
             else
                 key(&k, mid_time(bounds[f], bounds[f + 1]), &fits[f].pose);
         }
-        key(&k, bounds[count], &fits[count - 1].pose);
+        if (!moving[count - 1])
+            key(&k, bounds[count], &fits[count - 1].pose);
         for (size_t i = 0; i < k.n && st == PB_OK; i++) {
             pb_pose rel;
             pb_pose_compose(&k.p[i], &back, &rel);
