@@ -426,12 +426,13 @@ def test_jerk_in_the_series_first_or_last_frame(rng, edge):
     holding a 0.8 s jerk of 8 degrees and 7 mm, 5.57 mm off). The path's far
     end is the frame's own pose taken as far again from the neighbour's, not
     a pose a neighbour holds, so it is found less surely than between two
-    neighbours. Measured while writing this test, 24 fresh draws (12 an edge,
-    the jerk at 0.25-0.75 of the frame): 0.21-0.72 of one pose's error
-    (median 0.42; between two neighbours, test_recovers_known_motion, at most
-    0.53); the span reported missed the jerk by more than a tenth of the
-    frame in 7 of them (by up to 1.7 s of 10), and the pose at the series'
-    end beside the jerk was up to 2.3 mm off, so neither is asserted here."""
+    neighbours. Measured while writing this test, 48 fresh draws (24 an edge,
+    the jerk at 0.25-0.75 of the frame; bench/results/2026-11-29_cpu2_edge-
+    frames): 0.21-0.73 of one pose's error (median 0.51; between two
+    neighbours, test_recovers_known_motion, at most 0.53); the span reported
+    missed the jerk by more than a tenth of the frame in 8 of the last 24,
+    and the pose at the series' end beside the jerk was up to 2.3 mm off, so
+    neither is asserted here."""
     nf = 7
     j = 0 if edge == "first" else nf - 1
     s = Series(rng, (32, 32, 32), (4.0, 3.5, 4.0), nf, jerk=j, at=float(rng.uniform(0.25, 0.75)))

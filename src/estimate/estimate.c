@@ -349,8 +349,11 @@ static pb_status inside_frames(estimate *e, const pbe_fit *fits, size_t referenc
      * frame), a path on into it would lay keys where the head never was.
      * The first and last frames have no path between and no neighbour for
      * the motion to go on into: their one path stands on its own gain, if
-     * that is UNSUPPORTED_GAIN (a jerk inside the series' last frame). */
-    for (size_t k = 0; k < e->count; k++) {
+     * that is UNSUPPORTED_GAIN (a jerk inside the series' last frame), and
+     * is no neighbour's support (issue 47's draw 164924818: the last frame's
+     * path gained, and so took the frame before on into it, where a nod had
+     * turned back, 1.875 -> 2.281 mm). */
+    for (size_t k = 1; k + 1 < e->count; k++) {
         for (int kind = 0; kind < PATHS; kind++)
             moves[k] |= paths[k * PATHS + (size_t)kind].gain > DWELL_GAIN;
     }
