@@ -76,13 +76,9 @@ PB_FN float pb_next_kink(float p0, float d, float t0, float none)
  * moments, give the exact average: eight point reads a piece, where its two
  * Gauss-Legendre samples took eight each. The piece runs from fraction t0 of
  * the chord a + t d, l long; the middle is placed (pb_place: a mirror
- * reverses the step, which leaves the moments as they are).
- *
- * Tried and not kept (docs/methods.md): summing a path's pieces in its cell
- * across segments, and reading a cell once when the path leaves it, with
- * HARDWARE too. Fewer reads, but each work item leaves its cells at its own
- * pieces, and the warp ran every read once for each work item that left:
- * issue 46's drift forward 6.4 -> 12.5 ms with HARDWARE. */
+ * reverses the step, which leaves the moments as they are). A piece's cell
+ * is read in step with the samples it replaces; why not one cell for a
+ * path's pieces across segments: docs/methods.md. */
 PB_FN float pb_piece_exact(pb_image img, const pb_place *pl, const float *a, const float *d, float t0, float l)
 {
     const float mid = t0 + 0.5f * l;
