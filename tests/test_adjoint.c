@@ -103,9 +103,7 @@ int main(int argc, char **argv)
 {
     pb_test_seed();
     pb_context *ctx = pb_test_context(argc, argv);
-    pb_device_info info;
-    pb_context_device_info(ctx, &info);
-    int nvidia = pb_context_backend(ctx) == PB_BACKEND_CUDA || strstr(info.platform, "NVIDIA") != NULL;
+    int nvidia = pb_test_nvidia(ctx);
     pb_geometry g = {{17, 14, 11}, {1.2, 1.0, 1.5}};
     size_t n = 17 * 14 * 11;
     motion_case cases[CASES];

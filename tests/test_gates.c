@@ -124,9 +124,7 @@ int main(int argc, char **argv)
 {
     pb_test_seed();
     pb_context *ctx = pb_test_context(argc, argv);
-    pb_device_info info;
-    pb_context_device_info(ctx, &info);
-    int nvidia = pb_context_backend(ctx) == PB_BACKEND_CUDA || strstr(info.platform, "NVIDIA") != NULL;
+    int nvidia = pb_test_nvidia(ctx);
     pb_geometry g = {{15, 13, 9}, {1.3, 1.1, 1.8}};
     size_t n = 15 * 13 * 9;
     double times[TRACK];

@@ -77,6 +77,13 @@ pb_backend pb_test_backend(int argc, char **argv)
     return PB_BACKEND_HOST;
 }
 
+int pb_test_nvidia(pb_context *ctx)
+{
+    pb_device_info info;
+    pb_context_device_info(ctx, &info);
+    return pb_context_backend(ctx) == PB_BACKEND_CUDA || strstr(info.platform, "NVIDIA") != NULL;
+}
+
 pb_context *pb_test_context(int argc, char **argv)
 {
     pb_backend b = pb_test_backend(argc, argv);

@@ -67,6 +67,9 @@ double pb_rand_range(double lo, double hi);
  * it, or exits 77 (skipped) when the backend has no device. */
 pb_context *pb_test_context(int argc, char **argv);
 pb_backend pb_test_backend(int argc, char **argv);
+/* Whether ctx runs on NVIDIA's texture unit (CUDA, or NVIDIA's OpenCL),
+ * whose linear filter rounds its weights to steps of 1/256. */
+int pb_test_nvidia(pb_context *ctx);
 
 /* Blurs host data through a context: uploads, blurs, downloads. The device
  * output is poisoned with -1e30 and the host copy with NaN first, so that a
