@@ -74,13 +74,10 @@ PB_FN void pb_cell_flush(PB_GLOBAL float *out, pb_kparams prm, pb_cell *cell)
     cell->live = 0;
 }
 
-/* pb_trilinear_scatter through the cell. */
-PB_FN void pb_cell_scatter(PB_GLOBAL float *out, pb_kparams prm, pb_cell *cell, float x, float y, float z, float v)
+/* The cell whose eight voxels are (i..i+1, j..j+1, k..k+1), from its
+ * floored origin: the one held, or a new one (the held one added first). */
+PB_FN void pb_cell_enter(PB_GLOBAL float *out, pb_kparams prm, pb_cell *cell, float x0, float y0, float z0)
 {
-    float cx = x - 0.5f, cy = y - 0.5f, cz = z - 0.5f;
-    float x0 = floor(cx), y0 = floor(cy), z0 = floor(cz);
-    float fx = pb_texture_weight(cx - x0, prm), fy = pb_texture_weight(cy - y0, prm);
-    float fz = pb_texture_weight(cz - z0, prm);
     int i = pb_voxel_index(x0), j = pb_voxel_index(y0), k = pb_voxel_index(z0);
     if (!cell->live || i != cell->i || j != cell->j || k != cell->k) {
         pb_cell_flush(out, prm, cell);
@@ -91,8 +88,44 @@ PB_FN void pb_cell_scatter(PB_GLOBAL float *out, pb_kparams prm, pb_cell *cell, 
         for (int c = 0; c < 8; c++)
             cell->w[c] = 0.0f;
     }
+}
+
+/* v at (x, y, z) into the held cell of origin (x0, y0, z0): the weights
+ * pb_trilinear_scatter gives where the point lies in that cell. */
+PB_FN void pb_cell_add(pb_kparams prm, pb_cell *cell, float x0, float y0, float z0, float x, float y, float z,
+                       float v)
+{
+    float fx = pb_texture_weight(x - 0.5f - x0, prm), fy = pb_texture_weight(y - 0.5f - y0, prm);
+    float fz = pb_texture_weight(z - 0.5f - z0, prm);
     for (int c = 0; c < 8; c++)
         cell->w[c] += v * (((c & 1) ? fx : 1.0f - fx) * ((c & 2) ? fy : 1.0f - fy) * ((c & 4) ? fz : 1.0f - fz));
+}
+
+/* pb_trilinear_scatter through the cell. */
+PB_FN void pb_cell_scatter(PB_GLOBAL float *out, pb_kparams prm, pb_cell *cell, float x, float y, float z, float v)
+{
+    float x0 = floor(x - 0.5f), y0 = floor(y - 0.5f), z0 = floor(z - 0.5f);
+    pb_cell_enter(out, prm, cell, x0, y0, z0);
+    pb_cell_add(prm, cell, x0, y0, z0, x, y, z, v);
+}
+
+/* Transpose of a piece of the exact chord (PB_CHORD_SAMPLES's two samples,
+ * from t0, l long, of a + t d), v its share: a piece lies between kinks,
+ * inside one trilinear cell, so the cell is found once, at its middle. A
+ * sample that rounding puts a hair across the cell's face has a weight a hair
+ * below 0 or above 1 there, the same adds to float rounding (and, rounded to
+ * the texture unit's steps, the same adds). */
+PB_FN void pb_cell_piece(PB_GLOBAL float *out, pb_kparams prm, pb_cell *cell, const float *a, const float *d,
+                         float t0, float l, float v)
+{
+    const float mid = t0 + 0.5f * l;
+    const float x0 = floor(a[0] + mid * d[0] - 0.5f), y0 = floor(a[1] + mid * d[1] - 0.5f);
+    const float z0 = floor(a[2] + mid * d[2] - 0.5f);
+    pb_cell_enter(out, prm, cell, x0, y0, z0);
+    for (int g = -1; g <= 1; g += 2) {
+        const float t = t0 + l * (0.5f + (float)g * PB_GAUSS_OFFSET);
+        pb_cell_add(prm, cell, x0, y0, z0, a[0] + t * d[0], a[1] + t * d[1], a[2] + t * d[2], v * (0.5f * l));
+    }
 }
 
 /* Transpose of pb_slice_sample: v spread over the four voxels of the slice
@@ -186,7 +219,7 @@ PB_FN void pb_ab_segment_adjoint(PB_GLOBAL float *out, pb_kparams prm, pb_cell *
 {
     float walk = pb_ab_walk_weight(a, b);
     if (walk < 1.0f)
-        PB_CHORD_SAMPLES(a, b, pb_cell_scatter(out, prm, cell, x, y, z, v * (1.0f - walk) * q));
+        PB_CHORD_PIECES(a, b, pb_cell_piece(out, prm, cell, a, pb_d, pb_t0, pb_l, v * (1.0f - walk)));
     if (walk > 0.0f)
         pb_ab_walked_adjoint(out, prm, sweep, a, b, v * walk);
 }
@@ -209,7 +242,7 @@ PB_FN void pb_segment_adjoint(PB_GLOBAL float *out, pb_kparams prm, pb_cell *cel
     if (n <= 0) { /* pb_rm_sampled's rule by length */
         float walk = pb_ab_walk_weight(a, b);
         if (walk < 1.0f)
-            PB_CHORD_SAMPLES(a, b, pb_cell_scatter(out, prm, cell, x, y, z, v * (1.0f - walk) * q));
+            PB_CHORD_PIECES(a, b, pb_cell_piece(out, prm, cell, a, pb_d, pb_t0, pb_l, v * (1.0f - walk)));
         if (walk == 0.0f)
             return;
         v *= walk;

@@ -12,19 +12,37 @@ PB_FN int pb_voxel_index(float f)
 }
 
 /* Where the trilinear filter has its kinks: at texel centres (i + 0.5) along
- * each axis its slope jumps. The next fraction t > t0 at which p0 + t d
- * crosses a texel centre along one axis, or `none` where it does not move
- * along it; a crossing within PB_KINK_GAP voxels of the start is passed over,
- * so that rounding at a start on a centre makes no sliver and each call moves
- * on. */
+ * each axis its slope jumps. The chord p0 + t d (t from 0 to 1) crosses them
+ * along one axis at equal steps of 1 / |d|, so each axis keeps its next
+ * crossing and steps on from it: no division a piece, which the drift's
+ * sub-voxel chords, a piece or two each, spent most of their instructions on
+ * (docs/methods.md). A crossing within PB_KINK_GAP voxels of the start, or of
+ * a piece's end, is passed over, so that rounding at a start on a centre
+ * makes no sliver; an axis along which the chord does not move has its next
+ * crossing beyond the end. */
 #define PB_KINK_GAP 1e-4f
-PB_FN float pb_next_kink(float p0, float d, float t0, float none)
+PB_FN void pb_kinks_init(float p0, float d, float *next, float *step)
 {
-    if (fabs(d) < 1e-6f)
-        return none;
-    float y = p0 + t0 * d - 0.5f;
-    float n = d > 0.0f ? floor(y + PB_KINK_GAP) + 1.0f : ceil(y - PB_KINK_GAP) - 1.0f;
-    return t0 + PB_DIV(n - y, d);
+    const float ad = fabs(d);
+    const float y = p0 - 0.5f;
+    const float n = d > 0.0f ? floor(y + PB_KINK_GAP) + 1.0f : ceil(y - PB_KINK_GAP) - 1.0f;
+    const float to = fabs(n - y);
+    /* No crossing on this chord (or no motion along the axis): no reciprocal. */
+    if (to >= ad || ad < 1e-6f) {
+        *next = 2.0f;
+        *step = 0.0f;
+        return;
+    }
+    *step = PB_RCP(ad);
+    *next = to * *step;
+}
+
+/* After a piece ending at t1: an axis whose crossing that was (or lies
+ * within the gap of it) steps to its next. */
+PB_FN void pb_kinks_pass(float t1, float *next, float step)
+{
+    if (*next <= t1 + PB_KINK_GAP * step)
+        *next += step;
 }
 
 /* The chord a-b cut where any coordinate crosses a texel centre: inside each
@@ -38,14 +56,17 @@ PB_FN float pb_next_kink(float p0, float d, float t0, float none)
     {                                                                                                                  \
         const float pb_d[3] = {(b)[0] - (a)[0], (b)[1] - (a)[1], (b)[2] - (a)[2]};                                     \
         const int pb_cap = (int)(fabs(pb_d[0]) + fabs(pb_d[1]) + fabs(pb_d[2])) + 8;                                   \
+        float pb_next[3], pb_step[3];                                                                                  \
+        for (int pb_i = 0; pb_i < 3; pb_i++)                                                                           \
+            pb_kinks_init((a)[pb_i], pb_d[pb_i], &pb_next[pb_i], &pb_step[pb_i]);                                      \
         float pb_t0 = 0.0f;                                                                                            \
         for (int pb_p = 0; pb_p < pb_cap && pb_t0 < 1.0f; pb_p++) {                                                    \
-            float pb_t1 = 1.0f;                                                                                        \
-            if (pb_p + 1 < pb_cap)                                                                                     \
-                for (int pb_i = 0; pb_i < 3; pb_i++)                                                                   \
-                    pb_t1 = fmin(pb_t1, pb_next_kink((a)[pb_i], pb_d[pb_i], pb_t0, 1.0f));                             \
+            const float pb_t1 =                                                                                        \
+                pb_p + 1 < pb_cap ? fmin(fmin(pb_next[0], pb_next[1]), fmin(pb_next[2], 1.0f)) : 1.0f;                 \
             const float pb_l = pb_t1 - pb_t0;                                                                          \
             BODY;                                                                                                      \
+            for (int pb_i = 0; pb_i < 3; pb_i++)                                                                       \
+                pb_kinks_pass(pb_t1, &pb_next[pb_i], pb_step[pb_i]);                                                   \
             pb_t0 = pb_t1;                                                                                             \
         }                                                                                                              \
     }

@@ -18,6 +18,7 @@
  *   PB_FETCH_LAYER     a bilinear fetch inside one layer
  *   PB_ATOMIC_ADD      the adjoint's float atomic add
  *   PB_DIV             a division off the precise path
+ *   PB_RCP             an approximate reciprocal (of a number far from 0 and inf)
  *   PB_SINCOS, PB_RSQRT  CL's step: one range reduction, one reciprocal root */
 #ifndef PB_SHIM_H
 #define PB_SHIM_H
@@ -70,6 +71,7 @@ static inline void pb_atomic_add(volatile __global float *p, float v)
  * short segments, and precise divisions cost AB-E measurably. The forward
  * and the adjoint divide through the same helpers, so they agree. */
 #define PB_DIV(a, b) native_divide((a), (b))
+#define PB_RCP(x) native_recip(x)
 #define PB_SINCOS(x, c) sincos((x), (c))
 #define PB_RSQRT(x) rsqrt(x)
 
@@ -105,6 +107,15 @@ typedef cudaTextureObject_t pb_layers;
 /* With its result unused nvcc emits RED.ADD.F32. */
 #define PB_ATOMIC_ADD(p, v) atomicAdd((p), (v))
 #define PB_DIV(a, b) __fdividef((a), (b))
+/* One MUFU.RCP: __fdividef(1, x) adds a guard for huge x that the chord's
+ * kinks (cl/pb_chord.cl), which take it of lengths from 1e-6 to a grid's, never need. */
+PB_FN float pb_rcp(float x)
+{
+    float r;
+    asm("rcp.approx.ftz.f32 %0, %1;" : "=f"(r) : "f"(x));
+    return r;
+}
+#define PB_RCP(x) pb_rcp(x)
 /* Left to 1.0f / sqrtf, nvcc emits a correctly rounded root and division
  * (NVIDIA's OpenCL compiler does not), which made CUDA's CL steps slower. */
 PB_FN float pb_sincos(float x, float *c)
