@@ -13,13 +13,14 @@
 #     PB_NCU_SKIP (11: frame 11) on, PB_NCU_COUNT (2) of them, of the forward,
 #     the adjoint and the dense adjoint, one process each: speed of light,
 #     launch, occupancy, memory (and its tables), compute, scheduler, warp
-#     states, instructions, source counters.
+#     states, instructions, source counters; and the source page: each SASS
+#     instruction with its executed count (ncu-*-source.csv).
 #  3. meanwhile on the CPU: nvcc -Xptxas -v on cuda/pb_kernels.cu (registers,
 #     stack frame, spills of pb_blur_ab and pb_adjoint_ab, their SASS counts),
 #     and cuobjdump -res-usage of the library the package built.
 # Back through $OUT: machine.txt, summary.md (all of it as tables),
 # timing.json, timing.md, driftprof.tar.gz (ncu-*.txt, ncu-*-details.csv,
-# ncu-*-raw.csv, ncu-*.log, ptxas.txt, resources.txt, res-usage.txt,
+# ncu-*-raw.csv, ncu-*-source.csv, ncu-*.log, ptxas.txt, resources.txt, res-usage.txt,
 # sass-*.txt), ncu-reports.tar (the .ncu-rep files, where under 15 MiB).
 #   PB_COMMIT=$(git rev-parse --short HEAD) bash bench/gpu.sh driftprof [--bound 0.25] [--track 20hz-noisy]
 # (carry .device .whl)
@@ -108,6 +109,9 @@ print("|".join(n) or sys.argv[3])' "$work/timing.json" "$1" "$2"
         "$ncu_bin" -i "$work/ncu-$kind.ncu-rep" --page details --csv >"$work/ncu-$kind-details.csv" 2>&1
         "$ncu_bin" -i "$work/ncu-$kind.ncu-rep" --page raw --csv >"$work/ncu-$kind-raw.csv" 2>&1
         "$ncu_bin" -i "$work/ncu-$kind.ncu-rep" --page details >"$work/ncu-$kind.txt" 2>&1
+        # Every SASS instruction with how often it ran: where the issue slots go.
+        "$ncu_bin" -i "$work/ncu-$kind.ncu-rep" --page source --csv --print-source sass \
+            >"$work/ncu-$kind-source.csv" 2>&1
         echo "== ncu $kind"
         grep -E 'pb_|Duration|Registers Per|Theoretical Occ|Achieved Occ|L1/TEX Hit|L2 Hit|DRAM Throughput|Issue Slots Busy|Warp Cycles Per Issued' \
             "$work/ncu-$kind.txt" | head -40 || true
