@@ -69,9 +69,21 @@ PB_FN void pb_cell_flush(PB_GLOBAL float *out, pb_kparams prm, pb_cell *cell)
 {
     if (!cell->live)
         return;
+    cell->live = 0;
+    /* The usual case, the whole cell inside the grid: one bounds check and
+     * one address for its eight adds, not eight (the same adds at the same
+     * addresses; docs/methods.md has what the checks cost). */
+    if (cell->i >= 0 && cell->j >= 0 && cell->k >= 0 && cell->i + 1 < prm.dims[0] && cell->j + 1 < prm.dims[1] &&
+        cell->k + 1 < prm.dims[2]) {
+        const int sy = prm.dims[0], sz = prm.dims[0] * prm.dims[1];
+        PB_GLOBAL float *p = out + (cell->i + sy * (cell->j + prm.dims[1] * cell->k));
+        for (int c = 0; c < 8; c++)
+            if (cell->w[c] != 0.0f)
+                PB_ATOMIC_ADD(p + ((c & 1) + ((c >> 1) & 1) * sy + (c >> 2) * sz), cell->w[c]);
+        return;
+    }
     for (int c = 0; c < 8; c++)
         pb_scatter(out, prm, cell->i + (c & 1), cell->j + ((c >> 1) & 1), cell->k + (c >> 2), cell->w[c]);
-    cell->live = 0;
 }
 
 /* The cell whose eight voxels are (i..i+1, j..j+1, k..k+1), from its
