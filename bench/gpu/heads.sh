@@ -1,5 +1,6 @@
 #: heads [estimate_family.py options]  issue 47's family of fresh head series: petblur motion estimate on CUDA beside SimpleITK
-# bench/estimate_family.py with the CUDA build (--device cuda), its draws run
+# bench/estimate_family.py with the CUDA build (--device cuda; no OpenCL, so
+# .device's CL/ headers and libOpenCL may stay behind for room), its draws run
 # side by side on the machine's cores (default --draws 20 --jobs 8, two
 # threads each for SimpleITK's registration), options going to it. SimpleITK
 # and nibabel from .whl/ (SimpleITK's wheel is about 53 MB: with .device the
@@ -8,7 +9,7 @@
 # shellcheck shell=bash disable=SC2154 # the helpers: bench/gpu/lib.sh
 mode_heads() (
     write_machine "$OUT/machine.txt" </dev/null
-    build_gpu -- src/cli/petblur || exit 1
+    build_gpu -Dopencl=disabled -- src/cli/petblur || exit 1
     install_nibabel
     python3 -m pip install -q --no-deps --no-index --find-links .whl --target "$PYTHONPATH" SimpleITK 2>&1 | tail -3
     python3 bench/estimate_family.py --petblur build-gpu/src/cli/petblur --device cuda --draws 20 --jobs 8 \

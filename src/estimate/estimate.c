@@ -500,6 +500,38 @@ static pb_status hold_flat_frames(estimate *e, pbe_fit *fits)
     return PB_OK;
 }
 
+/* The still frames' poses seen together in time (smooth_poses.c), the
+ * reference frame's among them; a frame of noise alone then takes its
+ * nearest structured frame's smoothed pose. PETBLUR_ESTIMATE_SMOOTH=0
+ * leaves the poses as registered, for comparisons. */
+static double mid_time(double a, double b);
+
+static pb_status smooth_still_poses(estimate *e, pbe_fit *fits, const double *bounds, size_t ref)
+{
+    const char *env = getenv("PETBLUR_ESTIMATE_SMOOTH");
+    if (env && strcmp(env, "0") == 0)
+        return PB_OK;
+    double *t = malloc(sizeof(double) * e->count), r2 = 0.0;
+    if (!t)
+        return PB_ERR_OUT_OF_MEMORY;
+    for (size_t k = 0; k < e->count; k++)
+        t[k] = mid_time(bounds[k], bounds[k + 1]);
+    /* turns weighed by the grid's RMS radius about its centre */
+    for (int a = 0; a < 3; a++) {
+        double side = (double)e->g.dims[a] * e->g.voxel_size[a];
+        r2 += side * side / 12.0;
+    }
+    pbe_smooth_poses(fits, e->flat, t, e->count, ref, sqrt(r2));
+    free(t);
+    for (size_t k = 0; k < e->count; k++)
+        if (e->flat[k]) {
+            size_t near = nearest_structured(e->flat, e->count, k);
+            if (near < e->count)
+                fits[k].pose = fits[near].pose;
+        }
+    return PB_OK;
+}
+
 /* One of pass 4's evaluations done: its share of the pass's progress. */
 static void together_tick(void *user)
 {
@@ -719,6 +751,9 @@ static pb_status estimate_run(estimate *e, const double *bounds, const pb_estima
     /* frames of noise alone: their poses are noise's, and their neighbours' paths are not to be built on them */
     if (st == PB_OK)
         st = hold_flat_frames(e, fits);
+    /* the still frames' poses, each as sure as its registration, together in time */
+    if (st == PB_OK)
+        st = smooth_still_poses(e, fits, bounds, ref);
     /* 3: inside frames, against the same references */
     if (st == PB_OK && !o->frame_poses_only)
         st = inside_frames(e, fits, ref, moved, gram, own, paths, moving, &moving_count);

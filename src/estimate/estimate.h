@@ -51,6 +51,10 @@ typedef struct pbe_fit {
     double scale, offset;
     double sse;          /* sum of squared residuals at the end */
     unsigned iterations;
+    /* What the fit knows of the pose: J^T J / sigma^2 of its six
+     * perturbations (pb_pose_perturb's), scale and offset eliminated, sigma^2
+     * the residual's variance; all zero where the fit took no step. */
+    double information[36];
 } pbe_fit;
 
 /* A motion holding pose still over [0, 1] about c (times and poses: two each). */
@@ -121,6 +125,17 @@ pb_status pbe_move_unitary(const pb_geometry *g, const float *f, const size_t pa
 pb_status pbe_backgrounds(const pb_geometry *g, const float *frames, size_t count, double *level, double *peak);
 /* The share of a frame's variance about its mean that a fit leaving sse explains. */
 double pbe_explained(const float *frame, size_t n, double sse);
+
+/* ---- smooth_poses.c: the still frames' poses seen together in time ---------- */
+
+/* The poses of the frames not skipped (skip[k]), each fit's pose a sighting
+ * of a head that moves as a random walk through it with that fit's
+ * information, smoothed in time (mid-times t) by the walk's rate that makes
+ * the sightings likeliest; a sighting too far from the walk so far to be
+ * noise (a jerk between frames) starts the walk anew. r: the head's radius
+ * in mm, which puts turns and shifts on one scale. Returns the rate chosen
+ * (mm^2/s), or a negative number where nothing was smoothed. */
+double pbe_smooth_poses(pbe_fit *fits, const int *skip, const double *t, size_t count, size_t base, double r);
 
 /* ---- contrast_poses.c: the poses moved together along the contrast ------------- */
 

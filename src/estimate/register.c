@@ -143,6 +143,25 @@ static int solve(double *a, double *b, int n, double *x)
 
 enum { NP = 8 };
 
+/* The pose's information from the normal equations A (NP x NP, the last two
+ * rows scale and offset) at the fit's end: the Schur complement of the scale
+ * and offset, over the residual's variance sse / (n - NP). Zero where A was
+ * never set or the residual is zero. */
+static void information(const double *A, double sse, size_t n, double *info)
+{
+    memset(info, 0, sizeof(double) * 36);
+    const double a = A[6 * NP + 6], b = A[6 * NP + 7], d = A[7 * NP + 7], det = a * d - b * b;
+    if (!(sse > 0.0) || n <= NP || !(det > 0.0) || !isfinite(sse))
+        return;
+    const double var = sse / (double)(n - NP);
+    for (int p = 0; p < 6; p++)
+        for (int q = 0; q < 6; q++) {
+            const double up = A[p * NP + 6], vp = A[p * NP + 7], uq = A[q * NP + 6], vq = A[q * NP + 7];
+            const double schur = A[p * NP + q] - (up * (d * uq - b * vq) + vp * (a * vq - b * uq)) / det;
+            info[p * 6 + q] = schur / var;
+        }
+}
+
 pb_status pbe_register(pb_context *ctx, pbe_level *level, const float *frame, const double c[3],
                        unsigned iterations, pbe_fit *fit)
 {
@@ -222,5 +241,6 @@ pb_status pbe_register(pb_context *ctx, pbe_level *level, const float *frame, co
     fit->scale = best_scale;
     fit->offset = best_offset;
     fit->sse = best_sse;
+    information(best_a, best_sse, n, fit->information);
     return PB_OK;
 }

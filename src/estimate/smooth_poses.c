@@ -1,0 +1,291 @@
+/* The still frames' poses seen together in time. Each frame's registration
+ * sights the head with its own noise: a frame of the first minutes, of few
+ * counts or blood-dominated, by millimetres, a late one by hundredths. A
+ * head that moves slowly is where its neighbours say it is, weighed by how
+ * well each sees it, and a head that jumps is not. So the poses are taken as
+ * a random walk seen through each fit's information (J^T J over the
+ * residual's variance, register.c), smoothed by Kalman's filter and
+ * Rauch-Tung-Striebel's pass back; the walk's rate is the one under which
+ * the sightings are likeliest, so a series of sharp frames keeps its drift.
+ * A sighting farther from the walk than noise goes (a jerk between frames,
+ * or a frame that holds one) starts the walk anew there. The poses live on a
+ * chart about the base frame's pose: x = log(P_k^-1 P_base), the
+ * perturbation pb_pose_perturb takes, in mm and radians. */
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "estimate.h"
+#include "motion.h"
+
+enum { D = 6 };
+
+/* chi-square of six degrees of freedom at 1e-3: a sighting this far from
+ * the walk is not the walk's */
+#define JUMP_CHI2 22.46
+/* jumps between frames: one step in JUMP_SHARE, spread over JUMP_MM and
+ * JUMP_RAD a component */
+#define JUMP_SHARE 0.1
+#define JUMP_MM 5.0
+#define JUMP_RAD 0.1
+/* the rates tried, mm^2/s: from a head held still to faster than frames of
+ * a second can follow */
+#define RATE_LOW 1e-6
+#define RATE_HIGH 1e3
+#define RATE_STEPS 19
+/* the fits' own noise scaled by 1 to this (their residuals are not white) */
+#define NOISE_HIGH 1000.0
+#define NOISE_STEPS 31
+
+/* Cholesky factor of a symmetric positive definite D x D matrix (lower, in
+ * place); 0 where it is not. */
+static int cholesky(double *a)
+{
+    for (int j = 0; j < D; j++) {
+        double s = a[j * D + j];
+        for (int k = 0; k < j; k++)
+            s -= a[j * D + k] * a[j * D + k];
+        if (!(s > 0.0) || !isfinite(s))
+            return 0;
+        a[j * D + j] = sqrt(s);
+        for (int i = j + 1; i < D; i++) {
+            double v = a[i * D + j];
+            for (int k = 0; k < j; k++)
+                v -= a[i * D + k] * a[j * D + k];
+            a[i * D + j] = v / a[j * D + j];
+        }
+    }
+    return 1;
+}
+
+/* x = A^-1 b from A's Cholesky factor l. */
+static void cholesky_solve(const double *l, double *x)
+{
+    for (int i = 0; i < D; i++) {
+        for (int k = 0; k < i; k++)
+            x[i] -= l[i * D + k] * x[k];
+        x[i] /= l[i * D + i];
+    }
+    for (int i = D; i-- > 0;) {
+        for (int k = i + 1; k < D; k++)
+            x[i] -= l[k * D + i] * x[k];
+        x[i] /= l[i * D + i];
+    }
+}
+
+/* inverse of a symmetric positive definite matrix; 0 where it is not */
+static int spd_inverse(const double *a, double *inv, double *logdet)
+{
+    double l[D * D];
+    memcpy(l, a, sizeof l);
+    if (!cholesky(l))
+        return 0;
+    if (logdet) {
+        *logdet = 0.0;
+        for (int i = 0; i < D; i++)
+            *logdet += 2.0 * log(l[i * D + i]);
+    }
+    for (int j = 0; j < D; j++) {
+        double col[D] = {0};
+        col[j] = 1.0;
+        cholesky_solve(l, col);
+        for (int i = 0; i < D; i++)
+            inv[i * D + j] = col[i];
+    }
+    for (int i = 0; i < D; i++) /* symmetric to rounding */
+        for (int j = 0; j < i; j++)
+            inv[i * D + j] = inv[j * D + i] = 0.5 * (inv[i * D + j] + inv[j * D + i]);
+    return 1;
+}
+
+static void mat_mul(const double *a, const double *b, double *o)
+{
+    for (int i = 0; i < D; i++)
+        for (int j = 0; j < D; j++) {
+            double s = 0.0;
+            for (int k = 0; k < D; k++)
+                s += a[i * D + k] * b[k * D + j];
+            o[i * D + j] = s;
+        }
+}
+
+/* x = log(P^-1 P_base): the translation and rotation vector of G with
+ * P = P_base G^-1 (pb_pose_perturb's step) */
+static void chart(const pb_pose *p, const pb_pose *base, double *x)
+{
+    pb_pose inv, g;
+    pb_pose_invert(p, &inv);
+    pb_pose_compose(&inv, base, &g);
+    pb_pose_normalized(&g, &g);
+    double w = g.rotation[0], v[3] = {g.rotation[1], g.rotation[2], g.rotation[3]};
+    if (w < 0.0) { /* the shorter way round */
+        w = -w;
+        for (int i = 0; i < 3; i++)
+            v[i] = -v[i];
+    }
+    double s = sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
+    double f = s > 1e-12 ? 2.0 * atan2(s, w) / s : 2.0;
+    for (int i = 0; i < 3; i++) {
+        x[i] = g.translation[i];
+        x[3 + i] = f * v[i];
+    }
+}
+
+/* One filter pass at rate q (mm^2/s; turns weighed by r^2): the smoothed
+ * chart positions into xs (where used), and the log-likelihood of the
+ * sightings, a jump counted at the threshold. cov_r: each sighting's
+ * covariance (count x D x D). */
+static double filter_smooth(size_t count, const int *use, const double *t, const double *y, const double *cov_r,
+                            double q, double r, double *xf, double *pf, double *pp, int *jump, double *xs)
+{
+    double ll = 0.0, x[D], p[D * D];
+    size_t last = SIZE_MAX;
+    for (size_t k = 0; k < count; k++) {
+        jump[k] = 0;
+        if (!use[k])
+            continue;
+        const double *yk = y + k * D, *rk = cov_r + k * D * D;
+        if (last == SIZE_MAX) {
+            memcpy(x, yk, sizeof x);
+            memcpy(p, rk, sizeof p);
+            jump[k] = 1;
+        } else {
+            const double dt = fmax(t[k] - t[last], 0.0);
+            double pred[D * D], s[D * D], si[D * D], e[D], logdet = 0.0;
+            memcpy(pred, p, sizeof pred);
+            for (int i = 0; i < D; i++)
+                pred[i * D + i] += q * dt * (i < 3 ? 1.0 : 1.0 / (r * r));
+            for (int i = 0; i < D * D; i++)
+                s[i] = pred[i] + rk[i];
+            for (int i = 0; i < D; i++)
+                e[i] = yk[i] - x[i];
+            memcpy(pp + k * D * D, pred, sizeof pred);
+            if (!spd_inverse(s, si, &logdet)) {
+                memcpy(x, yk, sizeof x);
+                memcpy(p, rk, sizeof p);
+                jump[k] = 1;
+            } else {
+                double chi = 0.0;
+                for (int i = 0; i < D; i++)
+                    for (int j = 0; j < D; j++)
+                        chi += e[i] * si[i * D + j] * e[j];
+                /* a jump's likelihood: its step as one of a broad spread of
+                 * jumps (JUMP_MM, JUMP_RAD), however sure the sightings */
+                double jl = 0.0;
+                for (int i = 0; i < D; i++) {
+                    double v = i < 3 ? JUMP_MM * JUMP_MM : JUMP_RAD * JUMP_RAD;
+                    jl -= 0.5 * (e[i] * e[i] / v + log(v));
+                }
+                jl += log(JUMP_SHARE);
+                const double wl = log(1.0 - JUMP_SHARE) - 0.5 * (chi + logdet);
+                ll += wl > jl ? wl + log1p(exp(jl - wl)) : jl + log1p(exp(wl - jl));
+                if (chi > JUMP_CHI2) {
+                    memcpy(x, yk, sizeof x);
+                    memcpy(p, rk, sizeof p);
+                    jump[k] = 1;
+                } else {
+                    double gain[D * D], gp[D * D];
+                    mat_mul(pred, si, gain);
+                    for (int i = 0; i < D; i++)
+                        for (int j = 0; j < D; j++)
+                            x[i] += gain[i * D + j] * e[j];
+                    mat_mul(gain, pred, gp);
+                    for (int i = 0; i < D * D; i++)
+                        p[i] = pred[i] - gp[i];
+                }
+            }
+        }
+        memcpy(xf + k * D, x, sizeof x);
+        memcpy(pf + k * D * D, p, sizeof p);
+        last = k;
+    }
+    if (!xs)
+        return ll;
+    /* back: each stretch between jumps, from its end */
+    size_t next = SIZE_MAX;
+    for (size_t k = count; k-- > 0;) {
+        if (!use[k])
+            continue;
+        if (next == SIZE_MAX || jump[next]) {
+            memcpy(xs + k * D, xf + k * D, sizeof(double) * D);
+        } else {
+            double pi[D * D], c[D * D];
+            if (!spd_inverse(pp + next * D * D, pi, NULL)) {
+                memcpy(xs + k * D, xf + k * D, sizeof(double) * D);
+            } else {
+                mat_mul(pf + k * D * D, pi, c);
+                for (int i = 0; i < D; i++) {
+                    double v = xf[k * D + i];
+                    for (int j = 0; j < D; j++)
+                        v += c[i * D + j] * (xs[next * D + j] - xf[next * D + j]);
+                    xs[k * D + i] = v;
+                }
+            }
+        }
+        next = k;
+    }
+    return ll;
+}
+
+double pbe_smooth_poses(pbe_fit *fits, const int *skip, const double *t, size_t count, size_t base, double r)
+{
+    if (count < 3 || !(r > 0.0))
+        return -1.0;
+    const pb_pose origin = fits[base].pose;
+    int *use = calloc(count, sizeof(int)), *jump = calloc(count, sizeof(int));
+    double *y = malloc(sizeof(double) * count * D), *cov = malloc(sizeof(double) * count * D * D);
+    double *xf = malloc(sizeof(double) * count * D), *xs = malloc(sizeof(double) * count * D);
+    double *pf = malloc(sizeof(double) * count * D * D), *pp = malloc(sizeof(double) * count * D * D);
+    double best_q = -1.0;
+    if (!use || !jump || !y || !cov || !xf || !xs || !pf || !pp)
+        goto done;
+    size_t used = 0;
+    for (size_t k = 0; k < count; k++) {
+        if (skip[k] || !spd_inverse(fits[k].information, cov + k * D * D, NULL))
+            continue;
+        chart(&fits[k].pose, &origin, y + k * D);
+        use[k] = 1;
+        used++;
+    }
+    if (used < 3)
+        goto done;
+    double best_ll = -INFINITY, best_s = 1.0;
+    double *scaled = malloc(sizeof(double) * count * D * D);
+    if (!scaled)
+        goto done;
+    for (int j = 0; j < NOISE_STEPS; j++) {
+        double s2 = pow(NOISE_HIGH, 2.0 * j / (NOISE_STEPS - 1));
+        for (size_t i = 0; i < count * D * D; i++)
+            scaled[i] = s2 * cov[i];
+        for (int i = 0; i < RATE_STEPS; i++) {
+            double q = RATE_LOW * pow(RATE_HIGH / RATE_LOW, (double)i / (RATE_STEPS - 1));
+            double ll = filter_smooth(count, use, t, y, scaled, q, r, xf, pf, pp, jump, NULL);
+            if (ll > best_ll) {
+                best_ll = ll;
+                best_q = q;
+                best_s = s2;
+            }
+        }
+    }
+    for (size_t i = 0; i < count * D * D; i++)
+        cov[i] *= best_s;
+    free(scaled);
+    if (!(best_q > 0.0))
+        goto done;
+    filter_smooth(count, use, t, y, cov, best_q, r, xf, pf, pp, jump, xs);
+    for (size_t k = 0; k < count; k++) {
+        pb_pose p;
+        if (use[k] && pb_all_finite(xs + k * D, D) && pb_pose_perturb(&origin, xs + k * D, &p) == PB_OK)
+            fits[k].pose = p;
+    }
+done:
+    free(use);
+    free(jump);
+    free(y);
+    free(cov);
+    free(xf);
+    free(xs);
+    free(pf);
+    free(pp);
+    return best_q;
+}
