@@ -351,6 +351,8 @@ def main() -> int:
                         "estimator changes on the same draws)")
     p.add_argument("--sitk-from", metavar="DRAWS.JSONL", help="SimpleITK's results of an earlier run (its "
                    "draws.jsonl) for the draws it holds, not run again; replay its seeds with --seed")
+    p.add_argument("--no-sitk", action="store_true", help="petblur alone (its variants against its default): "
+                   "SimpleITK's columns are NaN")
     p.add_argument("--out", required=True)
     a = p.parse_args()
     earlier = {}
@@ -370,7 +372,8 @@ def main() -> int:
     rows = []
     with concurrent.futures.ProcessPoolExecutor(a.jobs) as pool, open(os.path.join(a.out, "draws.jsonl"), "w") as f:
         futures = [pool.submit(one, a.petblur, s, a.device, a.sitk_metric, a.sitk_threads, variants,
-                               earlier.get(s)) for s in seeds]
+                               {"mean_mm": float("nan"), "max_mm": float("nan"), "seconds": 0.0} if a.no_sitk
+                               else earlier.get(s)) for s in seeds]
         for fut in concurrent.futures.as_completed(futures):
             r = fut.result()
             rows.append(r)
