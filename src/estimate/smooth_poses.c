@@ -9,8 +9,8 @@
  * the sightings are likeliest, so a series of sharp frames keeps its drift.
  * A sighting farther from the walk than noise goes (a jerk between frames,
  * or a frame that holds one) starts the walk anew there. The poses live on a
- * chart about the base frame's pose: x = log(P_k^-1 P_base), the
- * perturbation pb_pose_perturb takes, in mm and radians. */
+ * chart about the base frame's pose, x = log(P_base^-1 P_k) in mm and
+ * radians (chart()). */
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -32,10 +32,12 @@ enum { D = 6 };
  * a second can follow */
 #define RATE_LOW 1e-6
 #define RATE_HIGH 1e3
-#define RATE_STEPS 19
+#define RATE_STEPS 55
 /* the fits' own noise scaled by 1 to this (their residuals are not white) */
 #define NOISE_HIGH 1000.0
-#define NOISE_STEPS 31
+#define NOISE_STEPS 61
+/* log-likelihood units: chi-square of two degrees of freedom at 0.95, halved */
+#define LIKELIHOOD_SPAN 3.0
 
 /* Cholesky factor of a symmetric positive definite D x D matrix (lower, in
  * place); 0 where it is not. */
@@ -109,15 +111,17 @@ static void mat_mul(const double *a, const double *b, double *o)
         }
 }
 
-/* x = log(P^-1 P_base): the translation and rotation vector of G with
- * P = P_base G^-1 (pb_pose_perturb's step) */
-static void chart(const pb_pose *p, const pb_pose *base, double *x)
+/* x = log(P_base^-1 P): the translation and rotation vector of H = P_base^-1
+ * P. On this chart a step of the head (P' = P g^-1, pb_pose_perturb's) moves
+ * x by g's six numbers turned by H's rotation, whatever H's translation, so
+ * that a random walk of the head is one of x. rot: H's rotation matrix. */
+static void chart(const pb_pose *p, const pb_pose *base, double *x, double rot[9])
 {
-    pb_pose inv, g;
-    pb_pose_invert(p, &inv);
-    pb_pose_compose(&inv, base, &g);
-    pb_pose_normalized(&g, &g);
-    double w = g.rotation[0], v[3] = {g.rotation[1], g.rotation[2], g.rotation[3]};
+    pb_pose inv, h;
+    pb_pose_invert(base, &inv);
+    pb_pose_compose(&inv, p, &h);
+    pb_pose_normalized(&h, &h);
+    double w = h.rotation[0], v[3] = {h.rotation[1], h.rotation[2], h.rotation[3]};
     if (w < 0.0) { /* the shorter way round */
         w = -w;
         for (int i = 0; i < 3; i++)
@@ -126,9 +130,43 @@ static void chart(const pb_pose *p, const pb_pose *base, double *x)
     double s = sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
     double f = s > 1e-12 ? 2.0 * atan2(s, w) / s : 2.0;
     for (int i = 0; i < 3; i++) {
-        x[i] = g.translation[i];
+        x[i] = h.translation[i];
         x[3 + i] = f * v[i];
     }
+    pb_quat_to_matrix(h.rotation, rot);
+}
+
+/* P = P_base exp(x), the inverse of chart */
+static void unchart(const double *x, const pb_pose *base, pb_pose *p)
+{
+    pb_pose h;
+    double angle = sqrt(x[3] * x[3] + x[4] * x[4] + x[5] * x[5]);
+    for (int i = 0; i < 3; i++) {
+        h.translation[i] = x[i];
+        h.rotation[i + 1] = angle > 0.0 ? sin(0.5 * angle) / angle * x[3 + i] : 0.5 * x[3 + i];
+    }
+    h.rotation[0] = cos(0.5 * angle);
+    pb_pose_compose(base, &h, p);
+    pb_pose_normalized(p, p);
+}
+
+/* A fit's covariance on the chart: its perturbations' turned by H's rotation
+ * (the sign of a step does not change a covariance). */
+static void turn_covariance(const double *cov, const double r[9], double *out)
+{
+    double m[D * D] = {0}, t[D * D];
+    for (int b = 0; b < 2; b++)
+        for (int i = 0; i < 3; i++)
+            for (int j = 0; j < 3; j++)
+                m[(3 * b + i) * D + 3 * b + j] = r[i * 3 + j];
+    mat_mul(m, cov, t);
+    for (int i = 0; i < D; i++)
+        for (int j = 0; j < D; j++) {
+            double v = 0.0;
+            for (int k = 0; k < D; k++)
+                v += t[i * D + k] * m[j * D + k];
+            out[i * D + j] = v;
+        }
 }
 
 /* One filter pass at rate q (mm^2/s; turns weighed by r^2): the smoothed
@@ -241,15 +279,22 @@ double pbe_smooth_poses(pbe_fit *fits, const int *skip, const double *t, size_t 
         goto done;
     size_t used = 0;
     for (size_t k = 0; k < count; k++) {
-        if (skip[k] || !spd_inverse(fits[k].information, cov + k * D * D, NULL))
+        double own[D * D], rot[9];
+        if (skip[k] || !spd_inverse(fits[k].information, own, NULL))
             continue;
-        chart(&fits[k].pose, &origin, y + k * D);
+        chart(&fits[k].pose, &origin, y + k * D, rot);
+        turn_covariance(own, rot, cov + k * D * D);
         use[k] = 1;
         used++;
     }
     if (used < 3)
         goto done;
-    double best_ll = -INFINITY, best_s = 1.0;
+    /* the likelihood on a grid of rates and noise scales; where the steps
+     * between frames are much larger than the fits' noise the likelihood
+     * hardly tells noise scales apart, and the least of those within
+     * LIKELIHOOD_SPAN of the best is taken: smoothing that the sightings
+     * do not ask for would move sharp frames towards their neighbours */
+    double ll[NOISE_STEPS][RATE_STEPS], best_ll = -INFINITY, best_s = 1.0;
     double *scaled = malloc(sizeof(double) * count * D * D);
     if (!scaled)
         goto done;
@@ -259,13 +304,18 @@ double pbe_smooth_poses(pbe_fit *fits, const int *skip, const double *t, size_t 
             scaled[i] = s2 * cov[i];
         for (int i = 0; i < RATE_STEPS; i++) {
             double q = RATE_LOW * pow(RATE_HIGH / RATE_LOW, (double)i / (RATE_STEPS - 1));
-            double ll = filter_smooth(count, use, t, y, scaled, q, r, xf, pf, pp, jump, NULL);
-            if (ll > best_ll) {
-                best_ll = ll;
-                best_q = q;
-                best_s = s2;
-            }
+            ll[j][i] = filter_smooth(count, use, t, y, scaled, q, r, xf, pf, pp, jump, NULL);
+            best_ll = fmax(best_ll, ll[j][i]);
         }
+    }
+    for (int j = 0; j < NOISE_STEPS && !(best_q > 0.0); j++) {
+        double top = -INFINITY;
+        for (int i = 0; i < RATE_STEPS; i++)
+            if (ll[j][i] >= best_ll - LIKELIHOOD_SPAN && ll[j][i] > top) {
+                top = ll[j][i];
+                best_q = RATE_LOW * pow(RATE_HIGH / RATE_LOW, (double)i / (RATE_STEPS - 1));
+                best_s = pow(NOISE_HIGH, 2.0 * j / (NOISE_STEPS - 1));
+            }
     }
     for (size_t i = 0; i < count * D * D; i++)
         cov[i] *= best_s;
@@ -274,9 +324,8 @@ double pbe_smooth_poses(pbe_fit *fits, const int *skip, const double *t, size_t 
         goto done;
     filter_smooth(count, use, t, y, cov, best_q, r, xf, pf, pp, jump, xs);
     for (size_t k = 0; k < count; k++) {
-        pb_pose p;
-        if (use[k] && pb_all_finite(xs + k * D, D) && pb_pose_perturb(&origin, xs + k * D, &p) == PB_OK)
-            fits[k].pose = p;
+        if (use[k] && pb_all_finite(xs + k * D, D))
+            unchart(xs + k * D, &origin, &fits[k].pose);
     }
 done:
     free(use);
