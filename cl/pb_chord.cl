@@ -14,12 +14,12 @@ PB_FN int pb_voxel_index(float f)
 /* Where the trilinear filter has its kinks: at texel centres (i + 0.5) along
  * each axis its slope jumps. The chord p0 + t d (t from 0 to 1) crosses them
  * along one axis at equal steps of 1 / |d|, so each axis keeps its next
- * crossing and steps on from it: no division a piece, which the drift's
- * sub-voxel chords, a piece or two each, spent most of their instructions on
- * (docs/methods.md). A crossing within PB_KINK_GAP voxels of the start, or of
- * a piece's end, is passed over, so that rounding at a start on a centre
- * makes no sliver; an axis along which the chord does not move has its next
- * crossing beyond the end. */
+ * crossing and steps on from it: no division a piece, where the three
+ * divisions were about half of a piece's instructions (docs/methods.md). A
+ * crossing within PB_KINK_GAP voxels of the start, or of a piece's end, is
+ * passed over, so that rounding at a start on a centre makes no sliver; an
+ * axis along which the chord does not move has its next crossing beyond the
+ * end. */
 #define PB_KINK_GAP 1e-4f
 PB_FN void pb_kinks_init(float p0, float d, float *next, float *step)
 {
