@@ -72,7 +72,8 @@ static void series(double noisy_sd, double sharp_sd, double drift, int jump_at, 
             if (k == jump_at) {
                 double xi[6] = {pb_rand_range(4, 8), pb_rand_range(-8, -4), pb_rand_range(2, 6),
                                 pb_rand_range(0.08, 0.15), pb_rand_range(-0.1, 0.1), pb_rand_range(-0.1, 0.1)};
-                pb_pose_perturb(&truth[k], xi, &truth[k]);
+                pb_pose walked = truth[k];
+                pb_pose_perturb(&walked, xi, &truth[k]);
             }
         }
         now += length;

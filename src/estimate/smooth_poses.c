@@ -294,7 +294,7 @@ double pbe_smooth_poses(pbe_fit *fits, const int *skip, const double *t, size_t 
      * hardly tells noise scales apart, and the least of those within
      * LIKELIHOOD_SPAN of the best is taken: smoothing that the sightings
      * do not ask for would move sharp frames towards their neighbours */
-    double ll[NOISE_STEPS][RATE_STEPS], best_ll = -INFINITY, best_s = 1.0;
+    double ll[NOISE_STEPS][RATE_STEPS], best_ll = -(double)INFINITY, best_s = 1.0;
     double *scaled = malloc(sizeof(double) * count * D * D);
     if (!scaled)
         goto done;
@@ -309,7 +309,7 @@ double pbe_smooth_poses(pbe_fit *fits, const int *skip, const double *t, size_t 
         }
     }
     for (int j = 0; j < NOISE_STEPS && !(best_q > 0.0); j++) {
-        double top = -INFINITY;
+        double top = -(double)INFINITY;
         for (int i = 0; i < RATE_STEPS; i++)
             if (ll[j][i] >= best_ll - LIKELIHOOD_SPAN && ll[j][i] > top) {
                 top = ll[j][i];
