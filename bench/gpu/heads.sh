@@ -3,9 +3,12 @@
 # .device's CL/ headers and libOpenCL may stay behind for room), its draws run
 # side by side on the machine's cores (default --draws 20 --jobs 8, two
 # threads each for SimpleITK's registration), options going to it. SimpleITK
-# and nibabel from .whl/ (SimpleITK's wheel is about 53 MB: with .device the
-# carry stays under 64 MiB). Back through $OUT: machine.txt, family.txt (the
-# run), draws.jsonl and family.md. (carry .device .whl)
+# and nibabel from .whl/. SimpleITK's wheel (53 MB) no longer fits the 64 MiB
+# carry beside the tree (8 MB at 8a06d47), nibabel and .device, even with the
+# meson wheels and .device's CL/ and libOpenCL set aside: run --no-sitk (petblur
+# and its --variant runs alone) or --sitk-from an earlier run's draws.jsonl.
+# Back through $OUT: machine.txt, family.txt (the run), draws.jsonl and
+# family.md. (carry .device .whl)
 # shellcheck shell=bash disable=SC2154 # the helpers: bench/gpu/lib.sh
 mode_heads() (
     write_machine "$OUT/machine.txt" </dev/null
