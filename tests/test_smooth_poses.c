@@ -39,12 +39,13 @@ static double distance(const pb_pose *a, const pb_pose *b)
                 g.translation[2] * g.translation[2] + (angle * RADIUS) * (angle * RADIUS) * 2.0 / 3.0);
 }
 
-/* A pose moved by a random step of sd mm a translation and sd / RADIUS a turn. */
-static pb_pose step(const pb_pose *p, double sd)
+/* A pose moved by a random step of sd mm a translation and sd / RADIUS a
+ * turn, each of the six scaled by axis[i] (NULL: 1). */
+static pb_pose step(const pb_pose *p, double sd, const double *axis)
 {
     double xi[6];
     for (int i = 0; i < 6; i++)
-        xi[i] = gauss() * (i < 3 ? sd : sd / RADIUS);
+        xi[i] = gauss() * (i < 3 ? sd : sd / RADIUS) * (axis ? axis[i] : 1.0);
     pb_pose out;
     pb_pose_perturb(p, xi, &out);
     return out;
@@ -53,7 +54,7 @@ static pb_pose step(const pb_pose *p, double sd)
 /* One series: truth and fits; returns the RMS distance of the sightings and
  * of the smoothed poses from the truth, and the largest of each near the jump. */
 static void series(double noisy_sd, double sharp_sd, double drift, int jump_at, double *raw_rms, double *smooth_rms,
-                   double *raw_jump, double *smooth_jump)
+                   double *raw_jump, double *smooth_jump, double *first_ratio)
 {
     pb_pose truth[FRAMES];
     pbe_fit fits[FRAMES];
@@ -68,7 +69,7 @@ static void series(double noisy_sd, double sharp_sd, double drift, int jump_at, 
         double length = k < noisy ? pb_rand_range(2, 10) : pb_rand_range(10, 60);
         t[k] = now + 0.5 * length;
         if (k > 0) {
-            truth[k] = step(&truth[k - 1], drift * sqrt(t[k] - t[k - 1]));
+            truth[k] = step(&truth[k - 1], drift * sqrt(t[k] - t[k - 1]), NULL);
             if (k == jump_at) {
                 double xi[6] = {pb_rand_range(4, 8), pb_rand_range(-8, -4), pb_rand_range(2, 6),
                                 pb_rand_range(0.08, 0.15), pb_rand_range(-0.1, 0.1), pb_rand_range(-0.1, 0.1)};
@@ -78,9 +79,14 @@ static void series(double noisy_sd, double sharp_sd, double drift, int jump_at, 
         }
         now += length;
         sd[k] = k < noisy ? noisy_sd * pb_rand_range(0.5, 1.5) : sharp_sd * pb_rand_range(0.5, 1.5);
-        fits[k].pose = step(&truth[k], sd[k]);
+        /* each fit sees some axes better than others, as a registration
+         * does: the smoother must turn its covariance onto the chart */
+        double axis[6];
+        for (int i = 0; i < 6; i++)
+            axis[i] = pb_rand_range(0.4, 2.0);
+        fits[k].pose = step(&truth[k], sd[k], axis);
         for (int i = 0; i < 6; i++) {
-            double v = i < 3 ? sd[k] * sd[k] : sd[k] * sd[k] / (RADIUS * RADIUS);
+            double v = (i < 3 ? sd[k] * sd[k] : sd[k] * sd[k] / (RADIUS * RADIUS)) * axis[i] * axis[i];
             fits[k].information[i * 6 + i] = overconfident / v;
         }
     }
@@ -102,6 +108,14 @@ static void series(double noisy_sd, double sharp_sd, double drift, int jump_at, 
     }
     *raw_rms = sqrt(r2 / FRAMES);
     *smooth_rms = sqrt(s2 / FRAMES);
+    /* the first frame learns only from the frames after it: the pass back */
+    *first_ratio = distance(&fits[0].pose, &truth[0]) / distance(&seen[0], &truth[0]);
+}
+
+static int by_value(const void *a, const void *b)
+{
+    double x = *(const double *)a, y = *(const double *)b;
+    return (x > y) - (x < y);
 }
 
 int main(void)
@@ -109,34 +123,44 @@ int main(void)
     pb_test_seed();
     /* A scan from injection: a few early frames sighted to 0.5-1.5 mm, the
      * rest to 0.02-0.06, a slow drift, one jump. */
-    double worst_ratio = 0.0, worst_jump = 0.0, sum_ratio = 0.0;
+    double worst_ratio = 0.0, worst_jump = 0.0, sum_ratio = 0.0, sum_first = 0.0;
     for (int i = 0; i < SERIES; i++) {
-        double raw, smooth, raw_jump, smooth_jump;
+        double raw, smooth, raw_jump, smooth_jump, first;
         int jump_at = 8 + (int)(pb_rand_uniform() * (FRAMES - 10));
-        series(1.0, 0.04, 0.01, jump_at, &raw, &smooth, &raw_jump, &smooth_jump);
+        series(1.0, 0.04, 0.01, jump_at, &raw, &smooth, &raw_jump, &smooth_jump, &first);
         worst_ratio = fmax(worst_ratio, smooth / raw);
         sum_ratio += smooth / raw;
+        sum_first += first;
         worst_jump = fmax(worst_jump, smooth_jump - raw_jump);
     }
-    printf("noisy early frames: smoothed / sighted RMS error, mean %.3f, worst %.3f; at the jump at most %.3f mm "
-           "beyond the sightings\n", sum_ratio / SERIES, worst_ratio, worst_jump);
-    pb_check(sum_ratio / SERIES < 0.85, "smoothing takes the early frames' noise down: mean ratio %.3f",
+    printf("noisy early frames: smoothed / sighted RMS error, mean %.3f, worst %.3f; the first frame's, mean %.3f; "
+           "at the jump at most %.3f mm beyond the sightings\n", sum_ratio / SERIES, worst_ratio, sum_first / SERIES,
+           worst_jump);
+    pb_check(sum_first / SERIES < 0.5, "the first frame learns from the frames after it: mean ratio %.3f",
+             sum_first / SERIES);
+    pb_check(sum_ratio / SERIES < 0.5, "smoothing takes the early frames' noise down: mean ratio %.3f",
              sum_ratio / SERIES);
     pb_check(worst_ratio < 1.3, "and costs no series much: worst ratio %.3f", worst_ratio);
     pb_check(worst_jump < 0.2, "the jump stays a jump: the frames beside it at most %.3f mm worse", worst_jump);
 
     /* A late scan: every frame sighted to 0.02-0.06 mm, drifting fast against
      * that: the drift is kept. */
+    double ratio[SERIES];
     worst_ratio = 0.0;
     for (int i = 0; i < SERIES; i++) {
-        double raw, smooth, raw_jump, smooth_jump;
-        series(0.04, 0.04, 0.2, FRAMES / 2, &raw, &smooth, &raw_jump, &smooth_jump);
-        worst_ratio = fmax(worst_ratio, smooth / raw);
+        double raw, smooth, raw_jump, smooth_jump, first;
+        series(0.04, 0.04, 0.2, FRAMES / 2, &raw, &smooth, &raw_jump, &smooth_jump, &first);
+        ratio[i] = smooth / raw;
+        worst_ratio = fmax(worst_ratio, ratio[i]);
     }
-    printf("sharp frames, fast drift: smoothed / sighted RMS error at most %.3f\n", worst_ratio);
-    /* measured: at most 1.02 in most runs of 40 series, up to 1.54 in about
-     * one run in four (the likelihood hardly tells a sharp series' noise
-     * from a little more, and the least within its span is taken) */
-    pb_check(worst_ratio < 2.0, "a sharp series keeps its drift: ratio %.3f", worst_ratio);
+    qsort(ratio, SERIES, sizeof ratio[0], by_value);
+    printf("sharp frames, fast drift: smoothed / sighted RMS error, median %.3f, at most %.3f\n", ratio[SERIES / 2],
+           worst_ratio);
+    pb_check(ratio[SERIES / 2] < 1.05, "a sharp series keeps its drift: median ratio %.3f", ratio[SERIES / 2]);
+    /* measured over 28 runs of 40 series: the worst at most 1.06 in most,
+     * 1.7 and 2.7 once each (the likelihood hardly tells a sharp series'
+     * noise from a little more; the least within its span is taken), on
+     * errors of hundredths of a millimetre */
+    pb_check(worst_ratio < 3.0, "and no sharp series is smoothed far: worst ratio %.3f", worst_ratio);
     return pb_test_finish();
 }

@@ -52,8 +52,9 @@ typedef struct pbe_fit {
     double sse;          /* sum of squared residuals at the end */
     unsigned iterations;
     /* What the fit knows of the pose: J^T J / sigma^2 of its six
-     * perturbations (pb_pose_perturb's), scale and offset eliminated, sigma^2
-     * the residual's variance; all zero where the fit took no step. */
+     * perturbations (pb_pose_perturb's) at its best pose, scale and offset
+     * eliminated, sigma^2 the residual's variance; all zero where that is not
+     * defined (no residual, too few voxels, a degenerate scale). */
     double information[36];
 } pbe_fit;
 
@@ -132,8 +133,9 @@ double pbe_explained(const float *frame, size_t n, double sse);
  * of a head that moves as a random walk through it with that fit's
  * information, smoothed in time (mid-times t) by the walk's rate that makes
  * the sightings likeliest; a sighting too far from the walk so far to be
- * noise (a jerk between frames) starts the walk anew. r: the head's radius
- * in mm, which puts turns and shifts on one scale. Returns the rate chosen
+ * noise (a jerk between frames) starts the walk anew. r: a radius in mm
+ * (the estimate passes the grid's RMS radius about its centre), which puts
+ * turns and shifts on one scale. Returns the rate chosen
  * (mm^2/s), or a negative number where nothing was smoothed. */
 double pbe_smooth_poses(pbe_fit *fits, const int *skip, const double *t, size_t count, size_t base, double r);
 

@@ -113,8 +113,10 @@ static void mat_mul(const double *a, const double *b, double *o)
 
 /* x = log(P_base^-1 P): the translation and rotation vector of H = P_base^-1
  * P. On this chart a step of the head (P' = P g^-1, pb_pose_perturb's) moves
- * x by g's six numbers turned by H's rotation, whatever H's translation, so
- * that a random walk of the head is one of x. rot: H's rotation matrix. */
+ * x's translation by g's turned by H's rotation, whatever H's translation,
+ * and its rotation vector by g's to first order (for the few degrees a head
+ * turns, within a few per cent), so that a random walk of the head is about
+ * one of x. rot: H's rotation matrix. */
 static void chart(const pb_pose *p, const pb_pose *base, double *x, double rot[9])
 {
     pb_pose inv, h;
@@ -171,7 +173,8 @@ static void turn_covariance(const double *cov, const double r[9], double *out)
 
 /* One filter pass at rate q (mm^2/s; turns weighed by r^2): the smoothed
  * chart positions into xs (where used), and the log-likelihood of the
- * sightings, a jump counted at the threshold. cov_r: each sighting's
+ * sightings, each step a mixture of the walk's and a broad jump's; a step
+ * past JUMP_CHI2 restarts the walk. cov_r: each sighting's
  * covariance (count x D x D). */
 static double filter_smooth(size_t count, const int *use, const double *t, const double *y, const double *cov_r,
                             double q, double r, double *xf, double *pf, double *pp, int *jump, double *xs)
@@ -255,7 +258,7 @@ static double filter_smooth(size_t count, const int *use, const double *t, const
                 for (int i = 0; i < D; i++) {
                     double v = xf[k * D + i];
                     for (int j = 0; j < D; j++)
-                        v += c[i * D + j] * (xs[next * D + j] - xf[next * D + j]);
+                        v += c[i * D + j] * (xs[next * D + j] - xf[k * D + j]); /* a walk predicts where it was */
                     xs[k * D + i] = v;
                 }
             }
@@ -283,6 +286,8 @@ double pbe_smooth_poses(pbe_fit *fits, const int *skip, const double *t, size_t 
         if (skip[k] || !spd_inverse(fits[k].information, own, NULL))
             continue;
         chart(&fits[k].pose, &origin, y + k * D, rot);
+        if (!pb_all_finite(y + k * D, D))
+            continue;
         turn_covariance(own, rot, cov + k * D * D);
         use[k] = 1;
         used++;
