@@ -23,15 +23,17 @@ enum { D = 6 };
 /* chi-square of six degrees of freedom at 1e-3: a sighting this far from
  * the walk is not the walk's */
 #define JUMP_CHI2 22.46
-/* jumps between frames: one step in JUMP_SHARE, spread over JUMP_MM and
- * JUMP_RAD a component */
+/* The walk runs in units of the radius r: shifts over r, turns in radians,
+ * so that a series on a grid of twice the voxel size smooths the same way.
+ * Jumps between frames: one step in JUMP_SHARE, spread over JUMP_SHIFT (of
+ * r) and JUMP_TURN (radians) a component. */
 #define JUMP_SHARE 0.1
-#define JUMP_MM 5.0
-#define JUMP_RAD 0.1
-/* the rates tried, mm^2/s: from a head held still to faster than frames of
- * a second can follow */
-#define RATE_LOW 1e-6
-#define RATE_HIGH 1e3
+#define JUMP_SHIFT 0.05
+#define JUMP_TURN 0.1
+/* the rates tried, r^2/s: from a head held still to faster than frames of a
+ * second can follow */
+#define RATE_LOW 1e-10
+#define RATE_HIGH 1e-1
 #define RATE_STEPS 55
 /* the fits' own noise scaled by 1 to this (their residuals are not white) */
 #define NOISE_HIGH 1000.0
@@ -171,13 +173,13 @@ static void turn_covariance(const double *cov, const double r[9], double *out)
         }
 }
 
-/* One filter pass at rate q (mm^2/s; turns weighed by r^2): the smoothed
+/* One filter pass at rate q (r^2/s): the smoothed
  * chart positions into xs (where used), and the log-likelihood of the
  * sightings, each step a mixture of the walk's and a broad jump's; a step
  * past JUMP_CHI2 restarts the walk. cov_r: each sighting's
  * covariance (count x D x D). */
 static double filter_smooth(size_t count, const int *use, const double *t, const double *y, const double *cov_r,
-                            double q, double r, double *xf, double *pf, double *pp, int *jump, double *xs)
+                            double q, double *xf, double *pf, double *pp, int *jump, double *xs)
 {
     double ll = 0.0, x[D], p[D * D];
     size_t last = SIZE_MAX;
@@ -195,7 +197,7 @@ static double filter_smooth(size_t count, const int *use, const double *t, const
             double pred[D * D], s[D * D], si[D * D], e[D], logdet = 0.0;
             memcpy(pred, p, sizeof pred);
             for (int i = 0; i < D; i++)
-                pred[i * D + i] += q * dt * (i < 3 ? 1.0 : 1.0 / (r * r));
+                pred[i * D + i] += q * dt;
             for (int i = 0; i < D * D; i++)
                 s[i] = pred[i] + rk[i];
             for (int i = 0; i < D; i++)
@@ -211,10 +213,10 @@ static double filter_smooth(size_t count, const int *use, const double *t, const
                     for (int j = 0; j < D; j++)
                         chi += e[i] * si[i * D + j] * e[j];
                 /* a jump's likelihood: its step as one of a broad spread of
-                 * jumps (JUMP_MM, JUMP_RAD), however sure the sightings */
+                 * jumps (JUMP_SHIFT, JUMP_TURN), however sure the sightings */
                 double jl = 0.0;
                 for (int i = 0; i < D; i++) {
-                    double v = i < 3 ? JUMP_MM * JUMP_MM : JUMP_RAD * JUMP_RAD;
+                    double v = i < 3 ? JUMP_SHIFT * JUMP_SHIFT : JUMP_TURN * JUMP_TURN;
                     jl -= 0.5 * (e[i] * e[i] / v + log(v));
                 }
                 jl += log(JUMP_SHARE);
@@ -289,6 +291,12 @@ double pbe_smooth_poses(pbe_fit *fits, const int *skip, const double *t, size_t 
         if (!pb_all_finite(y + k * D, D))
             continue;
         turn_covariance(own, rot, cov + k * D * D);
+        for (int i = 0; i < D; i++) { /* shifts in units of r */
+            if (i < 3)
+                y[k * D + i] /= r;
+            for (int j = 0; j < D; j++)
+                cov[k * D * D + i * D + j] /= (i < 3 ? r : 1.0) * (j < 3 ? r : 1.0);
+        }
         use[k] = 1;
         used++;
     }
@@ -309,7 +317,7 @@ double pbe_smooth_poses(pbe_fit *fits, const int *skip, const double *t, size_t 
             scaled[i] = s2 * cov[i];
         for (int i = 0; i < RATE_STEPS; i++) {
             double q = RATE_LOW * pow(RATE_HIGH / RATE_LOW, (double)i / (RATE_STEPS - 1));
-            ll[j][i] = filter_smooth(count, use, t, y, scaled, q, r, xf, pf, pp, jump, NULL);
+            ll[j][i] = filter_smooth(count, use, t, y, scaled, q, xf, pf, pp, jump, NULL);
             best_ll = fmax(best_ll, ll[j][i]);
         }
     }
@@ -327,10 +335,13 @@ double pbe_smooth_poses(pbe_fit *fits, const int *skip, const double *t, size_t 
     free(scaled);
     if (!(best_q > 0.0))
         goto done;
-    filter_smooth(count, use, t, y, cov, best_q, r, xf, pf, pp, jump, xs);
+    filter_smooth(count, use, t, y, cov, best_q, xf, pf, pp, jump, xs);
     for (size_t k = 0; k < count; k++) {
-        if (use[k] && pb_all_finite(xs + k * D, D))
-            unchart(xs + k * D, &origin, &fits[k].pose);
+        double x[D];
+        for (int i = 0; i < D; i++)
+            x[i] = xs[k * D + i] * (i < 3 ? r : 1.0);
+        if (use[k] && pb_all_finite(x, D))
+            unchart(x, &origin, &fits[k].pose);
     }
 done:
     free(use);
