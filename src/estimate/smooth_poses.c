@@ -5,12 +5,13 @@
  * well each sees it, and a head that jumps is not. So the poses are taken as
  * a random walk seen through each fit's information (J^T J over the
  * residual's variance, register.c), smoothed by Kalman's filter and
- * Rauch-Tung-Striebel's pass back; the walk's rate is the one under which
- * the sightings are likeliest, so a series of sharp frames keeps its drift.
+ * Rauch-Tung-Striebel's pass back; the walk's rate and the fits' noise
+ * scale are those under which the sightings are likeliest (the least scale
+ * among the nearly likeliest, so a series of sharp frames keeps its drift).
  * A sighting farther from the walk than noise goes (a jerk between frames,
  * or a frame that holds one) starts the walk anew there. The poses live on a
- * chart about the base frame's pose, x = log(P_base^-1 P_k) in mm and
- * radians (chart()). */
+ * chart about the base frame's pose, x = log(P_base^-1 P_k) (chart()), the
+ * walk's shifts over the radius r and its turns in radians. */
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
