@@ -460,6 +460,21 @@ static size_t nearest_structured(const int *flat, size_t count, size_t k)
     return count;
 }
 
+/* Each frame of noise alone takes its nearest structured frame's pose (the
+ * identity where no frame has structure). */
+static void give_flat_frames_poses(const estimate *e, pbe_fit *fits)
+{
+    for (size_t k = 0; k < e->count; k++) {
+        if (!e->flat[k])
+            continue;
+        size_t near = nearest_structured(e->flat, e->count, k);
+        memset(&fits[k].pose, 0, sizeof fits[k].pose);
+        fits[k].pose.rotation[0] = 1.0;
+        if (near < e->count)
+            fits[k].pose = fits[near].pose;
+    }
+}
+
 /* Frames whose registration explains less than STRUCTURE_EXPLAINED of their
  * variance show nothing but noise: each takes its nearest structured
  * frame's pose (the identity where no frame has structure), and is warned
@@ -480,15 +495,7 @@ static pb_status hold_flat_frames(estimate *e, pbe_fit *fits)
     }
     if (!flat)
         return PB_OK;
-    for (size_t k = 0; k < e->count; k++) {
-        if (!e->flat[k])
-            continue;
-        size_t near = nearest_structured(e->flat, e->count, k);
-        memset(&fits[k].pose, 0, sizeof fits[k].pose);
-        fits[k].pose.rotation[0] = 1.0;
-        if (near < e->count)
-            fits[k].pose = fits[near].pose;
-    }
+    give_flat_frames_poses(e, fits);
     char list[256];
     frame_list(e->flat, e->count, list, sizeof list);
     pb_warn(e->warnings, PB_WARN_NO_STRUCTURE, "motion estimate: %zu of %zu frames (%s) show no structure above "
@@ -523,12 +530,7 @@ static pb_status smooth_still_poses(estimate *e, pbe_fit *fits, const double *bo
     }
     pbe_smooth_poses(fits, e->flat, t, e->count, ref, sqrt(r2));
     free(t);
-    for (size_t k = 0; k < e->count; k++)
-        if (e->flat[k]) {
-            size_t near = nearest_structured(e->flat, e->count, k);
-            if (near < e->count)
-                fits[k].pose = fits[near].pose;
-        }
+    give_flat_frames_poses(e, fits);
     return PB_OK;
 }
 

@@ -103,6 +103,17 @@ static int spd_inverse(const double *a, double *inv, double *logdet)
     return 1;
 }
 
+/* The grid's rate i and squared noise scale j. */
+static double rate(int i)
+{
+    return RATE_LOW * pow(RATE_HIGH / RATE_LOW, (double)i / (RATE_STEPS - 1));
+}
+
+static double noise_scale2(int j)
+{
+    return pow(NOISE_HIGH, 2.0 * j / (NOISE_STEPS - 1));
+}
+
 static void mat_mul(const double *a, const double *b, double *o)
 {
     for (int i = 0; i < D; i++)
@@ -159,19 +170,13 @@ static void unchart(const double *x, const pb_pose *base, pb_pose *p)
  * (the sign of a step does not change a covariance). */
 static void turn_covariance(const double *cov, const double r[9], double *out)
 {
-    double m[D * D] = {0}, t[D * D];
+    double m[D * D] = {0}, mt[D * D] = {0}, t[D * D];
     for (int b = 0; b < 2; b++)
         for (int i = 0; i < 3; i++)
             for (int j = 0; j < 3; j++)
-                m[(3 * b + i) * D + 3 * b + j] = r[i * 3 + j];
+                m[(3 * b + i) * D + 3 * b + j] = mt[(3 * b + j) * D + 3 * b + i] = r[i * 3 + j];
     mat_mul(m, cov, t);
-    for (int i = 0; i < D; i++)
-        for (int j = 0; j < D; j++) {
-            double v = 0.0;
-            for (int k = 0; k < D; k++)
-                v += t[i * D + k] * m[j * D + k];
-            out[i * D + j] = v;
-        }
+    mat_mul(t, mt, out);
 }
 
 /* One filter pass at rate q (r^2/s): the smoothed
@@ -189,11 +194,8 @@ static double filter_smooth(size_t count, const int *use, const double *t, const
         if (!use[k])
             continue;
         const double *yk = y + k * D, *rk = cov_r + k * D * D;
-        if (last == SIZE_MAX) {
-            memcpy(x, yk, sizeof x);
-            memcpy(p, rk, sizeof p);
-            jump[k] = 1;
-        } else {
+        int restart = last == SIZE_MAX;
+        if (!restart) {
             const double dt = fmax(t[k] - t[last], 0.0);
             double pred[D * D], s[D * D], si[D * D], e[D], logdet = 0.0;
             memcpy(pred, p, sizeof pred);
@@ -205,9 +207,7 @@ static double filter_smooth(size_t count, const int *use, const double *t, const
                 e[i] = yk[i] - x[i];
             memcpy(pp + k * D * D, pred, sizeof pred);
             if (!spd_inverse(s, si, &logdet)) {
-                memcpy(x, yk, sizeof x);
-                memcpy(p, rk, sizeof p);
-                jump[k] = 1;
+                restart = 1;
             } else {
                 double chi = 0.0;
                 for (int i = 0; i < D; i++)
@@ -224,9 +224,7 @@ static double filter_smooth(size_t count, const int *use, const double *t, const
                 const double wl = log(1.0 - JUMP_SHARE) - 0.5 * (chi + logdet);
                 ll += wl > jl ? wl + log1p(exp(jl - wl)) : jl + log1p(exp(wl - jl));
                 if (chi > JUMP_CHI2) {
-                    memcpy(x, yk, sizeof x);
-                    memcpy(p, rk, sizeof p);
-                    jump[k] = 1;
+                    restart = 1;
                 } else {
                     double gain[D * D], gp[D * D];
                     mat_mul(pred, si, gain);
@@ -238,6 +236,11 @@ static double filter_smooth(size_t count, const int *use, const double *t, const
                         p[i] = pred[i] - gp[i];
                 }
             }
+        }
+        if (restart) { /* the walk starts anew at this sighting */
+            memcpy(x, yk, sizeof x);
+            memcpy(p, rk, sizeof p);
+            jump[k] = 1;
         }
         memcpy(xf + k * D, x, sizeof x);
         memcpy(pf + k * D * D, p, sizeof p);
@@ -313,12 +316,10 @@ double pbe_smooth_poses(pbe_fit *fits, const int *skip, const double *t, size_t 
     if (!scaled)
         goto done;
     for (int j = 0; j < NOISE_STEPS; j++) {
-        double s2 = pow(NOISE_HIGH, 2.0 * j / (NOISE_STEPS - 1));
         for (size_t i = 0; i < count * D * D; i++)
-            scaled[i] = s2 * cov[i];
+            scaled[i] = noise_scale2(j) * cov[i];
         for (int i = 0; i < RATE_STEPS; i++) {
-            double q = RATE_LOW * pow(RATE_HIGH / RATE_LOW, (double)i / (RATE_STEPS - 1));
-            ll[j][i] = filter_smooth(count, use, t, y, scaled, q, xf, pf, pp, jump, NULL);
+            ll[j][i] = filter_smooth(count, use, t, y, scaled, rate(i), xf, pf, pp, jump, NULL);
             best_ll = fmax(best_ll, ll[j][i]);
         }
     }
@@ -327,8 +328,8 @@ double pbe_smooth_poses(pbe_fit *fits, const int *skip, const double *t, size_t 
         for (int i = 0; i < RATE_STEPS; i++)
             if (ll[j][i] >= best_ll - LIKELIHOOD_SPAN && ll[j][i] > top) {
                 top = ll[j][i];
-                best_q = RATE_LOW * pow(RATE_HIGH / RATE_LOW, (double)i / (RATE_STEPS - 1));
-                best_s = pow(NOISE_HIGH, 2.0 * j / (NOISE_STEPS - 1));
+                best_q = rate(i);
+                best_s = noise_scale2(j);
             }
     }
     for (size_t i = 0; i < count * D * D; i++)
