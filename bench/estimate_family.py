@@ -269,11 +269,17 @@ def one(petblur: str, seed: int, device: str, metric: str, threads: int, variant
         with open(side, "w") as f:
             json.dump({"FrameTimesStart": bounds[:-1].tolist(), "FrameDuration": np.diff(bounds).tolist()}, f)
         started = time.perf_counter()
-        r = subprocess.run([petblur, "motion", "estimate", nii, "--frames-from", side, "-o", csv, "-q", "--device",
-                            device], capture_output=True, text=True)
-        if r.returncode:
-            raise RuntimeError(f"seed {seed}: petblur motion estimate exited {r.returncode}: {r.stderr[-2000:]}")
-        row["petblur"] = dict(errors(*hf.read_matrix_csv(csv)), seconds=round(time.perf_counter() - started, 1))
+        if petblur is None:  # SimpleITK alone (--sitk-only), for a GPU run to take with --sitk-from
+            row["petblur"] = {"mean_mm": float("nan"), "max_mm": float("nan"), "seconds": 0.0}
+            variants = {}
+        else:
+            r = subprocess.run([petblur, "motion", "estimate", nii, "--frames-from", side, "-o", csv, "-q",
+                                "--device", device], capture_output=True, text=True)
+            if r.returncode:
+                raise RuntimeError(f"seed {seed}: petblur motion estimate exited {r.returncode}: "
+                                   f"{r.stderr[-2000:]}")
+            row["petblur"] = dict(errors(*hf.read_matrix_csv(csv)),
+                                  seconds=round(time.perf_counter() - started, 1))
         for name, env in (variants or {}).items():
             os.remove(csv)  # a variant that writes nothing must not be scored on the run before
             started = time.perf_counter()
@@ -304,7 +310,7 @@ def summary(rows: list, metric: str) -> str:
             r["seed"], r["frames"], "x".join("%.2f" % v for v in r["voxel_mm"]), "-".join("%g" % v for v in
                                                                                             r["frame_s"]),
             "yes" if r["from_injection"] else "no", r["counts_per_voxel"],
-            "; ".join("%g, %g, %g, %g" % j for j in r["jerks"]), r["petblur"]["mean_mm"], r["petblur"]["max_mm"],
+            "; ".join("%g, %g, %g, %g" % tuple(j) for j in r["jerks"]), r["petblur"]["mean_mm"], r["petblur"]["max_mm"],
             r["sitk"]["mean_mm"], r["sitk"]["max_mm"], r["frame_means"]["mean_mm"], r["frame_means"]["max_mm"],
             r["none"]["mean_mm"], r["none"]["max_mm"],
             r["petblur"]["seconds"]))
@@ -339,7 +345,7 @@ def summary(rows: list, metric: str) -> str:
 
 def main() -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    p.add_argument("--petblur", required=True)
+    p.add_argument("--petblur", help="the program (not needed with --sitk-only)")
     p.add_argument("--draws", type=int, default=20, help="fresh draws (ignored with --seed)")
     p.add_argument("--seed", type=int, action="append", help="a draw to replay (repeatable)")
     p.add_argument("--jobs", type=int, default=2)
@@ -353,8 +359,17 @@ def main() -> int:
                    "draws.jsonl) for the draws it holds, not run again; replay its seeds with --seed")
     p.add_argument("--no-sitk", action="store_true", help="petblur alone (its variants against its default): "
                    "SimpleITK's columns are NaN")
+    p.add_argument("--sitk-only", action="store_true", help="SimpleITK alone, petblur's columns NaN: run it where "
+                   "SimpleITK is (the host) for the seeds a GPU run then replays with --sitk-from")
+    p.add_argument("--summarize", metavar="DRAWS.JSONL", help="no draws: the summary of an earlier run's rows, "
+                   "SimpleITK's taken from --sitk-from where that holds the seed (a GPU run with --no-sitk beside a "
+                   "host run with --sitk-only)")
     p.add_argument("--out", required=True)
     a = p.parse_args()
+    if not a.sitk_only and not a.petblur and not a.summarize:
+        p.error("--petblur is needed (unless --sitk-only)")
+    if a.sitk_only and (a.no_sitk or a.sitk_from or a.variant):
+        p.error("--sitk-only runs SimpleITK alone: not with --no-sitk, --sitk-from or --variant")
     earlier = {}
     if a.sitk_from:
         with open(a.sitk_from) as f:
@@ -367,11 +382,24 @@ def main() -> int:
                 any(len(x) != 2 or not x[0] for x in pairs):
             p.error(f"--variant {v!r}: give NAME:VAR=VALUE[,VAR=VALUE], a new NAME other than 'default'")
         variants[name] = dict(pairs)
+    if a.summarize:
+        with open(a.summarize) as f:
+            rows = sorted(map(json.loads, f), key=lambda r: r["seed"])
+        for r in rows:
+            r["sitk"] = earlier.get(r["seed"], r["sitk"])
+        os.makedirs(a.out, exist_ok=True)
+        with open(os.path.join(a.out, "draws.jsonl"), "w") as f:
+            f.writelines(json.dumps(r) + "\n" for r in rows)
+        text = summary(rows, a.sitk_metric)
+        with open(os.path.join(a.out, "family.md"), "w") as f:
+            f.write(text)
+        print(text)
+        return 0
     seeds = a.seed or [int(s) for s in np.random.SeedSequence().generate_state(a.draws)]
     os.makedirs(a.out, exist_ok=True)
     rows = []
     with concurrent.futures.ProcessPoolExecutor(a.jobs) as pool, open(os.path.join(a.out, "draws.jsonl"), "w") as f:
-        futures = [pool.submit(one, a.petblur, s, a.device, a.sitk_metric, a.sitk_threads, variants,
+        futures = [pool.submit(one, None if a.sitk_only else a.petblur, s, a.device, a.sitk_metric, a.sitk_threads, variants,
                                {"mean_mm": float("nan"), "max_mm": float("nan"), "seconds": 0.0} if a.no_sitk
                                else earlier.get(s)) for s in seeds]
         for fut in concurrent.futures.as_completed(futures):
