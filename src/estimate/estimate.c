@@ -528,8 +528,10 @@ static pb_status smooth_still_poses(estimate *e, pbe_fit *fits, const double *bo
         double side = (double)e->g.dims[a] * e->g.voxel_size[a];
         r2 += side * side / 12.0;
     }
-    pbe_smooth_poses(fits, e->flat, t, e->count, ref, sqrt(r2));
+    double rate = pbe_smooth_poses(fits, e->flat, t, e->count, ref, sqrt(r2));
     free(t);
+    if (rate == PBE_SMOOTH_NO_MEMORY)
+        return PB_ERR_OUT_OF_MEMORY;
     give_flat_frames_poses(e, fits);
     return PB_OK;
 }

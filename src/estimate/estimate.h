@@ -136,7 +136,9 @@ double pbe_explained(const float *frame, size_t n, double sse);
  * noise (a jerk between frames) starts the walk anew. r: a radius in mm
  * (the estimate passes the grid's RMS radius about its centre), which puts
  * turns and shifts on one scale. Returns the rate chosen
- * (r^2/s), or a negative number where nothing was smoothed. */
+ * (r^2/s), or a negative number where nothing was smoothed:
+ * PBE_SMOOTH_NO_MEMORY where memory ran out, -1 where too few sightings. */
+#define PBE_SMOOTH_NO_MEMORY (-2.0)
 double pbe_smooth_poses(pbe_fit *fits, const int *skip, const double *t, size_t count, size_t base, double r);
 
 /* ---- contrast_poses.c: the poses moved together along the contrast ------------- */

@@ -283,9 +283,10 @@ double pbe_smooth_poses(pbe_fit *fits, const int *skip, const double *t, size_t 
     double *y = malloc(sizeof(double) * count * D), *cov = malloc(sizeof(double) * count * D * D);
     double *xf = malloc(sizeof(double) * count * D), *xs = malloc(sizeof(double) * count * D);
     double *pf = malloc(sizeof(double) * count * D * D), *pp = malloc(sizeof(double) * count * D * D);
-    double best_q = -1.0;
+    double best_q = PBE_SMOOTH_NO_MEMORY;
     if (!use || !jump || !y || !cov || !xf || !xs || !pf || !pp)
         goto done;
+    best_q = -1.0;
     size_t used = 0;
     for (size_t k = 0; k < count; k++) {
         double own[D * D], rot[9];
@@ -313,8 +314,10 @@ double pbe_smooth_poses(pbe_fit *fits, const int *skip, const double *t, size_t 
      * do not ask for would move sharp frames towards their neighbours */
     double ll[NOISE_STEPS][RATE_STEPS], best_ll = -(double)INFINITY, best_s = 1.0;
     double *scaled = malloc(sizeof(double) * count * D * D);
-    if (!scaled)
+    if (!scaled) {
+        best_q = PBE_SMOOTH_NO_MEMORY;
         goto done;
+    }
     for (int j = 0; j < NOISE_STEPS; j++) {
         for (size_t i = 0; i < count * D * D; i++)
             scaled[i] = noise_scale2(j) * cov[i];
