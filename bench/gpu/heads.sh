@@ -6,7 +6,9 @@
 # and nibabel from .whl/. SimpleITK's wheel (53 MB) no longer fits the 64 MiB
 # carry beside the tree (8 MB at 8a06d47), nibabel and .device, even with the
 # meson wheels and .device's CL/ and libOpenCL set aside: run --no-sitk (petblur
-# and its --variant runs alone) or --sitk-from an earlier run's draws.jsonl.
+# and its --variant runs alone) with --seed's, SimpleITK for the same seeds on
+# the development machine (estimate_family.py --sitk-only), and merge the two
+# there (--summarize DRAWS.JSONL --sitk-from THE-HOST'S.JSONL).
 # Back through $OUT: machine.txt, family.txt (the run), draws.jsonl and
 # family.md. (carry .device .whl)
 # shellcheck shell=bash disable=SC2154 # the helpers: bench/gpu/lib.sh
