@@ -310,7 +310,8 @@ def summary(rows: list, metric: str) -> str:
             r["seed"], r["frames"], "x".join("%.2f" % v for v in r["voxel_mm"]), "-".join("%g" % v for v in
                                                                                             r["frame_s"]),
             "yes" if r["from_injection"] else "no", r["counts_per_voxel"],
-            "; ".join("%g, %g, %g, %g" % tuple(j) for j in r["jerks"]), r["petblur"]["mean_mm"], r["petblur"]["max_mm"],
+            "; ".join("%g, %g, %g, %g" % tuple(j) for j in r["jerks"]), r["petblur"]["mean_mm"],
+            r["petblur"]["max_mm"],
             r["sitk"]["mean_mm"], r["sitk"]["max_mm"], r["frame_means"]["mean_mm"], r["frame_means"]["max_mm"],
             r["none"]["mean_mm"], r["none"]["max_mm"],
             r["petblur"]["seconds"]))
@@ -399,7 +400,8 @@ def main() -> int:
     os.makedirs(a.out, exist_ok=True)
     rows = []
     with concurrent.futures.ProcessPoolExecutor(a.jobs) as pool, open(os.path.join(a.out, "draws.jsonl"), "w") as f:
-        futures = [pool.submit(one, None if a.sitk_only else a.petblur, s, a.device, a.sitk_metric, a.sitk_threads, variants,
+        futures = [pool.submit(one, None if a.sitk_only else a.petblur, s, a.device, a.sitk_metric, a.sitk_threads,
+                               variants,
                                {"mean_mm": float("nan"), "max_mm": float("nan"), "seconds": 0.0} if a.no_sitk
                                else earlier.get(s)) for s in seeds]
         for fut in concurrent.futures.as_completed(futures):
