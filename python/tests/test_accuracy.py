@@ -91,6 +91,9 @@ def test_the_program_meets_the_targets(measured):
 
 def test_the_old_bound_is_coarser(measured):
     """0.25 voxels (the default before) is further from the reference than the
-    default: the bound is what the targets measure."""
+    default: the bound is what the targets measure. Since the planner fits its
+    knots both stand at hundredths of a percent; on 31 fresh cases 0.25 was
+    1.19-4.29x the default's RMS and 1.51-4.83x its max
+    (bench/results/2026-11-30_cpu2_old-bound)."""
     old, new = measured[("ab", 0.25)], measured[("ab", None)]
-    assert old["rms_pct"] > 1.2 * new["rms_pct"], (old, new)
+    assert old["rms_pct"] > 1.1 * new["rms_pct"] and old["max_pct"] > 1.2 * new["max_pct"], (old, new)
