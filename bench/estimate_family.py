@@ -271,7 +271,6 @@ def one(petblur: str, seed: int, device: str, metric: str, threads: int, variant
         started = time.perf_counter()
         if petblur is None:  # SimpleITK alone (--sitk-only), for a GPU run to take with --sitk-from
             row["petblur"] = {"mean_mm": float("nan"), "max_mm": float("nan"), "seconds": 0.0}
-            variants = {}
         else:
             r = subprocess.run([petblur, "motion", "estimate", nii, "--frames-from", side, "-o", csv, "-q",
                                 "--device", device], capture_output=True, text=True)

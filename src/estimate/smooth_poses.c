@@ -283,10 +283,12 @@ double pbe_smooth_poses(pbe_fit *fits, const int *skip, const double *t, size_t 
     double *y = malloc(sizeof(double) * count * D), *cov = malloc(sizeof(double) * count * D * D);
     double *xf = malloc(sizeof(double) * count * D), *xs = malloc(sizeof(double) * count * D);
     double *pf = malloc(sizeof(double) * count * D * D), *pp = malloc(sizeof(double) * count * D * D);
-    double best_q = PBE_SMOOTH_NO_MEMORY;
-    if (!use || !jump || !y || !cov || !xf || !xs || !pf || !pp)
+    double *scaled = malloc(sizeof(double) * count * D * D);
+    double best_q = -1.0;
+    if (!use || !jump || !y || !cov || !xf || !xs || !pf || !pp || !scaled) {
+        best_q = PBE_SMOOTH_NO_MEMORY;
         goto done;
-    best_q = -1.0;
+    }
     size_t used = 0;
     for (size_t k = 0; k < count; k++) {
         double own[D * D], rot[9];
@@ -313,11 +315,6 @@ double pbe_smooth_poses(pbe_fit *fits, const int *skip, const double *t, size_t 
      * LIKELIHOOD_SPAN of the best is taken: smoothing that the sightings
      * do not ask for would move sharp frames towards their neighbours */
     double ll[NOISE_STEPS][RATE_STEPS], best_ll = -(double)INFINITY, best_s = 1.0;
-    double *scaled = malloc(sizeof(double) * count * D * D);
-    if (!scaled) {
-        best_q = PBE_SMOOTH_NO_MEMORY;
-        goto done;
-    }
     for (int j = 0; j < NOISE_STEPS; j++) {
         for (size_t i = 0; i < count * D * D; i++)
             scaled[i] = noise_scale2(j) * cov[i];
@@ -337,7 +334,6 @@ double pbe_smooth_poses(pbe_fit *fits, const int *skip, const double *t, size_t 
     }
     for (size_t i = 0; i < count * D * D; i++)
         cov[i] *= best_s;
-    free(scaled);
     if (!(best_q > 0.0))
         goto done;
     filter_smooth(count, use, t, y, cov, best_q, xf, pf, pp, jump, xs);
@@ -349,6 +345,7 @@ double pbe_smooth_poses(pbe_fit *fits, const int *skip, const double *t, size_t 
             unchart(x, &origin, &fits[k].pose);
     }
 done:
+    free(scaled);
     free(use);
     free(jump);
     free(y);
