@@ -352,14 +352,7 @@ static pb_status inside_frames(estimate *e, const pbe_fit *fits, size_t referenc
      * that is UNSUPPORTED_GAIN (a jerk inside the series' last frame), and
      * is no neighbour's support (issue 47's draw 164924818: the last frame's
      * path gained, and so took the frame before on into it, where a nod had
-     * turned back, 1.875 -> 2.281 mm). A neighbour that moves supports a path
-     * on into it only where the poses show the motion went on, too: a still
-     * frame beside a jerk, whose path on into the jerk's frame gained from
-     * the reference's misfit, laid a step of 2.8 mm where the head was still
-     * (docs/motion.md). PETBLUR_ESTIMATE_ONWARD=0 takes such paths without
-     * the poses' support, as before, for comparisons. */
-    const char *onward_env = getenv("PETBLUR_ESTIMATE_ONWARD");
-    const int onward = !(onward_env && strcmp(onward_env, "0") == 0);
+     * turned back, 1.875 -> 2.281 mm). */
     for (size_t k = 1; k + 1 < e->count; k++) {
         for (int kind = 0; kind < PATHS; kind++)
             moves[k] |= paths[k * PATHS + (size_t)kind].gain > DWELL_GAIN;
@@ -368,12 +361,12 @@ static pb_status inside_frames(estimate *e, const pbe_fit *fits, size_t referenc
         frame_path *on = &paths[k * PATHS + PATH_ON], *from = &paths[k * PATHS + PATH_FROM];
         int between = paths[k * PATHS + PATH_BETWEEN].gain > DWELL_GAIN;
         if (k + 1 == e->count ? on->gain <= UNSUPPORTED_GAIN
-                              : ((onward || !moves[k + 1]) && !motion_went_on(e, fits, k, +1)) ||
-                                    (!moves[k + 1] && (between || on->gain <= UNSUPPORTED_GAIN)))
+                              : !moves[k + 1] && (between || on->gain <= UNSUPPORTED_GAIN ||
+                                                  !motion_went_on(e, fits, k, +1)))
             on->gain = 0.0;
         if (k == 0 ? from->gain <= UNSUPPORTED_GAIN
-                   : ((onward || !moves[k - 1]) && !motion_went_on(e, fits, k, -1)) ||
-                         (!moves[k - 1] && (between || from->gain <= UNSUPPORTED_GAIN)))
+                   : !moves[k - 1] && (between || from->gain <= UNSUPPORTED_GAIN ||
+                                       !motion_went_on(e, fits, k, -1)))
             from->gain = 0.0;
     }
     /* the clearest first, of the paths still free */
