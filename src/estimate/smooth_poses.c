@@ -36,9 +36,15 @@ enum { D = 6 };
 #define RATE_LOW 1e-10
 #define RATE_HIGH 1e-1
 #define RATE_STEPS 55
-/* the fits' own noise scaled by 1 to this (their residuals are not white) */
-#define NOISE_HIGH 1000.0
-#define NOISE_STEPS 61
+/* The fits' own spread scaled by 1 to 20 (their residuals are not white), in
+ * steps of 10^0.05. On issue 47's family the sightings chose 1 to 14
+ * (bench/results/2026-11-30_H200_8b318f4_smooth-scale); a head that moves to
+ * and fro between frames looks to a random walk like noise, and a scale of
+ * 63 moved frames fitted to 5 um by 0.9 mm (docs/motion.md). */
+#define NOISE_STEP 0.05 /* decades of the noise's spread */
+#define NOISE_STEPS 27 /* to 10^1.3 */
+/* PETBLUR_ESTIMATE_SMOOTH=wide: to 1000, as before, for comparisons */
+#define NOISE_STEPS_WIDE 61
 /* log-likelihood units: chi-square of two degrees of freedom at 0.95, halved */
 #define LIKELIHOOD_SPAN 3.0
 
@@ -111,7 +117,13 @@ static double rate(int i)
 
 static double noise_scale2(int j)
 {
-    return pow(NOISE_HIGH, 2.0 * j / (NOISE_STEPS - 1));
+    return pow(10.0, 2.0 * NOISE_STEP * j);
+}
+
+static int noise_steps(void)
+{
+    const char *env = getenv("PETBLUR_ESTIMATE_SMOOTH");
+    return env && strcmp(env, "wide") == 0 ? NOISE_STEPS_WIDE : NOISE_STEPS;
 }
 
 static void mat_mul(const double *a, const double *b, double *o)
@@ -314,8 +326,9 @@ double pbe_smooth_poses(pbe_fit *fits, const int *skip, const double *t, size_t 
      * hardly tells noise scales apart, and the least of those within
      * LIKELIHOOD_SPAN of the best is taken: smoothing that the sightings
      * do not ask for would move sharp frames towards their neighbours */
-    double ll[NOISE_STEPS][RATE_STEPS], best_ll = -(double)INFINITY, best_s = 1.0;
-    for (int j = 0; j < NOISE_STEPS; j++) {
+    double ll[NOISE_STEPS_WIDE][RATE_STEPS], best_ll = -(double)INFINITY, best_s = 1.0;
+    const int steps = noise_steps();
+    for (int j = 0; j < steps; j++) {
         for (size_t i = 0; i < count * D * D; i++)
             scaled[i] = noise_scale2(j) * cov[i];
         for (int i = 0; i < RATE_STEPS; i++) {
@@ -323,7 +336,7 @@ double pbe_smooth_poses(pbe_fit *fits, const int *skip, const double *t, size_t 
             best_ll = fmax(best_ll, ll[j][i]);
         }
     }
-    for (int j = 0; j < NOISE_STEPS && !(best_q > 0.0); j++) {
+    for (int j = 0; j < steps && !(best_q > 0.0); j++) {
         double top = -(double)INFINITY;
         for (int i = 0; i < RATE_STEPS; i++)
             if (ll[j][i] >= best_ll - LIKELIHOOD_SPAN && ll[j][i] > top) {
