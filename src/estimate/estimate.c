@@ -36,10 +36,14 @@
 enum { DWELL_POINTS = 9 };
 #define DWELL_GAIN 0.05
 /* A path into a neighbour that shows no motion of its own, where the path
- * between fails, must gain three times that: on issue 47's draws such paths
+ * between fails, must gain three times the bar: on issue 47's draws such paths
  * that gained 0.07-0.08 laid a jump inside slow nods (0.73 -> 0.82 mm and
  * 2.30 -> 2.41 mm), those that gained 0.20-0.83 were jerks (docs/motion.md). */
-#define UNSUPPORTED_GAIN (3 * DWELL_GAIN)
+#define UNSUPPORTED_TIMES 3.0
+/* The bar a series sets itself (series_gain). */
+#define SERIES_GAIN_TIMES 8.0
+#define SERIES_GAIN_FLOOR 0.01
+enum { SERIES_GAIN_FRAMES = 8 };
 /* The shortest time a path's step takes, as a fraction of its frame. */
 #define STEP_FRACTION 0.01
 /* A background at least this share of a frame's peak is warned about (it is
@@ -299,13 +303,57 @@ static int path_free(const int *moving, const int *anchor, size_t k, size_t coun
            (kind == PATH_ON || !moving[k + 1]);
 }
 
+static int cmp_double(const void *a, const void *b)
+{
+    double x = *(const double *)a, y = *(const double *)b;
+    return (x > y) - (x < y);
+}
+
+/* The gain a path must show in this series. What a mixture of views gains
+ * on a still frame is what it fits of interpolation, uptake and noise, and
+ * that depends on the series (counts, grid, contrast): on issue 47's draws
+ * the still frames' best gains stood at 0.0004-0.005 where a jerk a third
+ * into its frame gained 0.037-0.051, under DWELL_GAIN. So the bar is
+ * SERIES_GAIN_TIMES the upper quartile of the frames' best gains (most
+ * frames of a series are still), within SERIES_GAIN_FLOOR and DWELL_GAIN;
+ * a series of fewer than SERIES_GAIN_FRAMES frames with paths tried keeps
+ * DWELL_GAIN, as does PETBLUR_ESTIMATE_DWELL=fixed (for comparisons).
+ * docs/motion.md gives the measurement. */
+static double series_gain(const frame_path *paths, const unsigned char *tried, size_t count)
+{
+    const char *env = getenv("PETBLUR_ESTIMATE_DWELL");
+    if (env && strcmp(env, "fixed") == 0)
+        return DWELL_GAIN;
+    double *g = malloc(count * sizeof *g), bar = DWELL_GAIN;
+    size_t n = 0;
+    if (!g)
+        return DWELL_GAIN;
+    for (size_t k = 0; k < count; k++) {
+        if (!tried[k])
+            continue;
+        double best = -HUGE_VAL;
+        for (int kind = 0; kind < PATHS; kind++)
+            if (paths[k * PATHS + (size_t)kind].gain != 0.0)
+                best = fmax(best, paths[k * PATHS + (size_t)kind].gain);
+        g[n++] = best > -HUGE_VAL ? fabs(best) : 0.0;
+    }
+    if (n >= SERIES_GAIN_FRAMES) {
+        qsort(g, n, sizeof *g, cmp_double);
+        bar = fmin(DWELL_GAIN, fmax(SERIES_GAIN_FLOOR, SERIES_GAIN_TIMES * g[3 * (n - 1) / 4]));
+    }
+    free(g);
+    return bar;
+}
+
 static pb_status inside_frames(estimate *e, const pbe_fit *fits, size_t reference, const float *moved,
                                const double *gram, float *own, frame_path *paths, int *moving, size_t *moving_count)
 {
     int *anchor = calloc(e->count, sizeof(int)), *moves = calloc(e->count, sizeof(int));
-    if (!anchor || !moves) {
+    unsigned char *tried = calloc(e->count, 1);
+    if (!anchor || !moves || !tried) {
         free(anchor);
         free(moves);
+        free(tried);
         return PB_ERR_OUT_OF_MEMORY;
     }
     pb_status st = PB_OK;
@@ -334,6 +382,7 @@ static pb_status inside_frames(estimate *e, const pbe_fit *fits, size_t referenc
                                DWELL_POINTS, p->dwell, &sse);
             if (st == PB_OK && fits[k].sse > 0)
                 p->gain = 1.0 - sse / fits[k].sse;
+            tried[k] = 1;
         }
         report_progress(e, 1.0);
     }
@@ -344,28 +393,29 @@ static pb_status inside_frames(estimate *e, const pbe_fit *fits, size_t referenc
      * does not (a neighbour moves, but too slowly for its own paths to gain:
      * a slow nod's end beside a jerk, whose path between then fit worse than
      * one pose), a path into a neighbour stands on its own gain, if that is
-     * UNSUPPORTED_GAIN, where the poses show the motion went on into that
+     * UNSUPPORTED_TIMES the bar, where the poses show the motion went on into that
      * neighbour; where they do not (a nod that turned back inside the
      * frame), a path on into it would lay keys where the head never was.
      * The first and last frames have no path between and no neighbour for
      * the motion to go on into: their one path stands on its own gain, if
-     * that is UNSUPPORTED_GAIN (a jerk inside the series' last frame), and
+     * that is UNSUPPORTED_TIMES the bar (a jerk inside the series' last frame), and
      * is no neighbour's support (issue 47's draw 164924818: the last frame's
      * path gained, and so took the frame before on into it, where a nod had
      * turned back, 1.875 -> 2.281 mm). */
+    double dwell_gain = series_gain(paths, tried, e->count), unsupported_gain = UNSUPPORTED_TIMES * dwell_gain;
     for (size_t k = 1; k + 1 < e->count; k++) {
         for (int kind = 0; kind < PATHS; kind++)
-            moves[k] |= paths[k * PATHS + (size_t)kind].gain > DWELL_GAIN;
+            moves[k] |= paths[k * PATHS + (size_t)kind].gain > dwell_gain;
     }
     for (size_t k = 0; k < e->count; k++) {
         frame_path *on = &paths[k * PATHS + PATH_ON], *from = &paths[k * PATHS + PATH_FROM];
-        int between = paths[k * PATHS + PATH_BETWEEN].gain > DWELL_GAIN;
-        if (k + 1 == e->count ? on->gain <= UNSUPPORTED_GAIN
-                              : !moves[k + 1] && (between || on->gain <= UNSUPPORTED_GAIN ||
+        int between = paths[k * PATHS + PATH_BETWEEN].gain > dwell_gain;
+        if (k + 1 == e->count ? on->gain <= unsupported_gain
+                              : !moves[k + 1] && (between || on->gain <= unsupported_gain ||
                                                   !motion_went_on(e, fits, k, +1)))
             on->gain = 0.0;
-        if (k == 0 ? from->gain <= UNSUPPORTED_GAIN
-                   : !moves[k - 1] && (between || from->gain <= UNSUPPORTED_GAIN ||
+        if (k == 0 ? from->gain <= unsupported_gain
+                   : !moves[k - 1] && (between || from->gain <= unsupported_gain ||
                                        !motion_went_on(e, fits, k, -1)))
             from->gain = 0.0;
     }
@@ -374,7 +424,7 @@ static pb_status inside_frames(estimate *e, const pbe_fit *fits, size_t referenc
     for (;;) {
         size_t best = SIZE_MAX;
         for (size_t i = 0; i < e->count * PATHS; i++)
-            if (paths[i].gain > DWELL_GAIN && path_free(moving, anchor, i / PATHS, e->count, (int)(i % PATHS)) &&
+            if (paths[i].gain > dwell_gain && path_free(moving, anchor, i / PATHS, e->count, (int)(i % PATHS)) &&
                 (best == SIZE_MAX || paths[i].gain > paths[best].gain))
                 best = i;
         if (best == SIZE_MAX)
@@ -390,6 +440,7 @@ static pb_status inside_frames(estimate *e, const pbe_fit *fits, size_t referenc
     }
     free(anchor);
     free(moves);
+    free(tried);
     return st;
 }
 
