@@ -36,10 +36,10 @@
 enum { DWELL_POINTS = 9 };
 #define DWELL_GAIN 0.05
 /* A path into a neighbour that shows no motion of its own, where the path
- * between fails, must gain three times the bar: on issue 47's draws such paths
+ * between fails, must gain three times that: on issue 47's draws such paths
  * that gained 0.07-0.08 laid a jump inside slow nods (0.73 -> 0.82 mm and
  * 2.30 -> 2.41 mm), those that gained 0.20-0.83 were jerks (docs/motion.md). */
-#define UNSUPPORTED_TIMES 3.0
+#define UNSUPPORTED_GAIN (3 * DWELL_GAIN)
 /* The bar a series sets itself (series_gain). */
 #define SERIES_GAIN_TIMES 8.0
 #define SERIES_GAIN_FLOOR 0.01
@@ -309,7 +309,8 @@ static int cmp_double(const void *a, const void *b)
     return (x > y) - (x < y);
 }
 
-/* The gain a path must show in this series. What a mixture of views gains
+/* The gain a path must show in this series to be taken (a neighbour shows
+ * motion of its own at DWELL_GAIN still). What a mixture of views gains
  * on a still frame is what it fits of interpolation, uptake and noise, and
  * that depends on the series (counts, grid, contrast): on issue 47's draws
  * the still frames' best gains stood at 0.0004-0.005 where a jerk a third
@@ -393,19 +394,24 @@ static pb_status inside_frames(estimate *e, const pbe_fit *fits, size_t referenc
      * does not (a neighbour moves, but too slowly for its own paths to gain:
      * a slow nod's end beside a jerk, whose path between then fit worse than
      * one pose), a path into a neighbour stands on its own gain, if that is
-     * UNSUPPORTED_TIMES the bar, where the poses show the motion went on into that
+     * UNSUPPORTED_GAIN, where the poses show the motion went on into that
      * neighbour; where they do not (a nod that turned back inside the
      * frame), a path on into it would lay keys where the head never was.
      * The first and last frames have no path between and no neighbour for
      * the motion to go on into: their one path stands on its own gain, if
-     * that is UNSUPPORTED_TIMES the bar (a jerk inside the series' last frame), and
+     * that is UNSUPPORTED_GAIN (a jerk inside the series' last frame), and
      * is no neighbour's support (issue 47's draw 164924818: the last frame's
      * path gained, and so took the frame before on into it, where a nod had
      * turned back, 1.875 -> 2.281 mm). */
-    double dwell_gain = series_gain(paths, tried, e->count), unsupported_gain = UNSUPPORTED_TIMES * dwell_gain;
+    /* A neighbour's support (it moves) and a path without it keep the fixed
+     * bars: a frame held still may gain on a path into a neighbour 1-9 %
+     * where its series sets 1-3 % (series of frames each at a pose of its
+     * own, test_frames_held_still_take_no_path_in_a_longer_series), and two
+     * such neighbours would support each other. */
+    double dwell_gain = series_gain(paths, tried, e->count), unsupported_gain = UNSUPPORTED_GAIN;
     for (size_t k = 1; k + 1 < e->count; k++) {
         for (int kind = 0; kind < PATHS; kind++)
-            moves[k] |= paths[k * PATHS + (size_t)kind].gain > dwell_gain;
+            moves[k] |= paths[k * PATHS + (size_t)kind].gain > DWELL_GAIN;
     }
     for (size_t k = 0; k < e->count; k++) {
         frame_path *on = &paths[k * PATHS + PATH_ON], *from = &paths[k * PATHS + PATH_FROM];
