@@ -408,7 +408,7 @@ static pb_status inside_frames(estimate *e, const pbe_fit *fits, size_t referenc
      * where its series sets 1-3 % (series of frames each at a pose of its
      * own, test_frames_held_still_take_no_path_in_a_longer_series), and two
      * such neighbours would support each other. */
-    double dwell_gain = series_gain(paths, tried, e->count), unsupported_gain = UNSUPPORTED_GAIN;
+    double dwell_gain = series_gain(paths, tried, e->count);
     for (size_t k = 1; k + 1 < e->count; k++) {
         for (int kind = 0; kind < PATHS; kind++)
             moves[k] |= paths[k * PATHS + (size_t)kind].gain > DWELL_GAIN;
@@ -416,12 +416,12 @@ static pb_status inside_frames(estimate *e, const pbe_fit *fits, size_t referenc
     for (size_t k = 0; k < e->count; k++) {
         frame_path *on = &paths[k * PATHS + PATH_ON], *from = &paths[k * PATHS + PATH_FROM];
         int between = paths[k * PATHS + PATH_BETWEEN].gain > dwell_gain;
-        if (k + 1 == e->count ? on->gain <= unsupported_gain
-                              : !moves[k + 1] && (between || on->gain <= unsupported_gain ||
+        if (k + 1 == e->count ? on->gain <= UNSUPPORTED_GAIN
+                              : !moves[k + 1] && (between || on->gain <= UNSUPPORTED_GAIN ||
                                                   !motion_went_on(e, fits, k, +1)))
             on->gain = 0.0;
-        if (k == 0 ? from->gain <= unsupported_gain
-                   : !moves[k - 1] && (between || from->gain <= unsupported_gain ||
+        if (k == 0 ? from->gain <= UNSUPPORTED_GAIN
+                   : !moves[k - 1] && (between || from->gain <= UNSUPPORTED_GAIN ||
                                        !motion_went_on(e, fits, k, -1)))
             from->gain = 0.0;
     }
