@@ -303,12 +303,6 @@ static int path_free(const int *moving, const int *anchor, size_t k, size_t coun
            (kind == PATH_ON || !moving[k + 1]);
 }
 
-static int cmp_double(const void *a, const void *b)
-{
-    double x = *(const double *)a, y = *(const double *)b;
-    return (x > y) - (x < y);
-}
-
 /* The gain a path must show in this series to be taken (a neighbour shows
  * motion of its own at DWELL_GAIN still). What a mixture of views gains
  * on a still frame is what it fits of interpolation, uptake and noise, and
@@ -339,7 +333,7 @@ static double series_gain(const frame_path *paths, const unsigned char *tried, s
         g[n++] = best > -HUGE_VAL ? fabs(best) : 0.0;
     }
     if (n >= SERIES_GAIN_FRAMES) {
-        qsort(g, n, sizeof *g, cmp_double);
+        qsort(g, n, sizeof *g, pb_compare_doubles);
         bar = fmin(DWELL_GAIN, fmax(SERIES_GAIN_FLOOR, SERIES_GAIN_TIMES * g[3 * (n - 1) / 4]));
     }
     free(g);

@@ -14,6 +14,9 @@ struct pb_context;
 /* 1 when none of v[0..n-1] is NaN or infinite. */
 int pb_all_finite(const double *v, size_t n);
 
+/* qsort's comparison of two doubles, ascending (motion_summary.c). */
+int pb_compare_doubles(const void *a, const void *b);
+
 /* Quaternions are w, x, y, z. */
 void pb_quat_mul(const double a[4], const double b[4], double out[4]);
 void pb_quat_conj(const double q[4], double out[4]);

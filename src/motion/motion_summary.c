@@ -65,7 +65,7 @@ pb_status pb_motion_frame_summary(const pb_motion *motion, const pb_geometry *ge
     return PB_OK;
 }
 
-static int compare_doubles(const void *a, const void *b)
+int pb_compare_doubles(const void *a, const void *b)
 {
     double x = *(const double *)a, y = *(const double *)b;
     return (x > y) - (x < y);
@@ -92,7 +92,7 @@ pb_status pb_track_summarize(const pb_track *track, pb_track_summary *summary)
     summary->first = n ? track->times[0] : 0.0;
     summary->last = n ? track->times[n - 1] : 0.0;
     if (n > 1) {
-        qsort(steps, n - 1, sizeof *steps, compare_doubles);
+        qsort(steps, n - 1, sizeof *steps, pb_compare_doubles);
         summary->median_step = steps[(n - 1) / 2];
     }
     free(steps);
