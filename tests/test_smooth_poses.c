@@ -97,7 +97,7 @@ static void series(double noisy_sd, double sharp_sd, double drift, int jump_at, 
     pb_pose seen[FRAMES];
     for (int k = 0; k < FRAMES; k++)
         seen[k] = fits[k].pose;
-    double q = pbe_smooth_poses(fits, skip, t, FRAMES, 0, RADIUS);
+    double q = pbe_smooth_poses(fits, skip, t, FRAMES, 0, RADIUS, NULL);
     pb_check(q > 0.0, "the smoother ran (rate %g)", q);
     double r2 = 0.0, s2 = 0.0;
     *raw_jump = *smooth_jump = 0.0;

@@ -44,6 +44,10 @@ enum { DWELL_POINTS = 9 };
 #define SERIES_GAIN_TIMES 8.0
 #define SERIES_GAIN_FLOOR 0.01
 enum { SERIES_GAIN_FRAMES = 8 };
+/* How many standard deviations of a frame's noise must part a ramp's image
+ * from one pose's (at +-1 of the evidence: side_evidence) for the frame to
+ * tell them apart: at 4 the evidence's noise is a quarter of the gap. */
+#define SEPARATION 4.0
 /* The shortest time a path's step takes, as a fraction of its frame. */
 #define STEP_FRACTION 0.01
 /* A background at least this share of a frame's peak is warned about (it is
@@ -340,8 +344,78 @@ static double series_gain(const frame_path *paths, const unsigned char *tried, s
     return bar;
 }
 
+/* Between two still frames the track is linear from one's middle to the
+ * other's: each frame's half beside their boundary holds a ramp along the
+ * line between their poses. A head that jumped at the boundary (a jerk
+ * across it) holds each pose to the boundary instead, and each frame then
+ * shows its pose alone. What frame k shows on a side: its residual on its
+ * reference blurred along a ramp of that half's length toward the
+ * neighbour's pose, laid so that its mean is the frame's own pose (a ramp's
+ * mean is where the frame's registration puts it), against the residual of
+ * one pose, in units of the distance between the two models' images: about
+ * +1 where the frame holds still to the boundary, about -1 where it ramps.
+ * step[2 * k + side] (side 0 the start, 1 the end); 0 where there is no
+ * neighbour or the poses are within a tenth of a voxel at the far corner
+ * (nothing to tell). */
+static pb_status side_evidence(estimate *e, const pbe_fit *fits, size_t k, const double far[3], double step[2])
+{
+    const pb_pose *own = &fits[k].pose;
+    pbe_level *level = &e->level[0];
+    const float *frame = e->frames[0] + k * level->n;
+    double times[3], scale, offset, one_sse = 0.0, least = 0.0;
+    pb_pose poses[3];
+    pb_motion m;
+    float *one = NULL;
+    pb_status st = PB_OK;
+    step[0] = step[1] = 0.0;
+    for (int side = 0; side < 2 && st == PB_OK; side++) {
+        size_t n = side ? k + 1 : k - 1;
+        if (!(side ? k + 1 < e->count : k > 0) || e->flat[n] ||
+            !(path_span(e, far, own, &fits[n].pose) > 0.1 * e->g.voxel_size[0]))
+            continue;
+        if (!one) {
+            if (!(one = malloc(sizeof(float) * level->n)))
+                return PB_ERR_OUT_OF_MEMORY;
+            pbe_static_motion(own, e->c, times, poses, &m);
+            if ((st = pbe_blur_reference(e->ctx, level, &m)) != PB_OK)
+                break;
+            pbe_fit_scale(level->host[0], frame, level->n, &scale, &offset, &one_sse);
+            for (size_t v = 0; v < level->n; v++)
+                one[v] = (float)(scale * (double)level->host[0][v] + offset);
+            /* the least distance between the two models' images at which the
+             * residual's noise (its variance a voxel, correlated over
+             * volume) leaves them SEPARATION standard deviations apart */
+            least = SEPARATION * SEPARATION * pbe_correlation_volume(&level->g, frame, one) * one_sse /
+                    (double)level->n;
+        }
+        /* a ramp over the half to the poses' midpoint, its mean at the own pose */
+        pb_pose back, on;
+        pb_pose_interpolate(own, &fits[n].pose, -0.125, &back);
+        pb_pose_interpolate(own, &fits[n].pose, 0.375, &on);
+        pb_pose_normalized(&back, &back);
+        pb_pose_normalized(&on, &on);
+        pbe_static_motion(own, e->c, times, poses, &m);
+        times[1] = 0.5; /* pbe_static_motion set two times, 0 and 1 */
+        times[2] = 1.0;
+        m.count = 3;
+        poses[0] = side ? back : on;
+        poses[1] = back;
+        poses[2] = side ? on : back;
+        if ((st = pbe_blur_reference(e->ctx, level, &m)) != PB_OK)
+            break;
+        double ramp_sse, a, b, dist;
+        pbe_fit_scale(level->host[0], frame, level->n, &scale, &offset, &ramp_sse);
+        pbe_fit_scale(level->host[0], one, level->n, &a, &b, &dist);
+        if (dist > least && dist > 0)
+            step[side] = (ramp_sse - one_sse) / dist;
+    }
+    free(one);
+    return st;
+}
+
 static pb_status inside_frames(estimate *e, const pbe_fit *fits, size_t reference, const float *moved,
-                               const double *gram, float *own, frame_path *paths, int *moving, size_t *moving_count)
+                               const double *gram, float *own, frame_path *paths, int *moving, size_t *moving_count,
+                               double *sides)
 {
     int *anchor = calloc(e->count, sizeof(int)), *moves = calloc(e->count, sizeof(int));
     unsigned char *tried = calloc(e->count, 1);
@@ -379,6 +453,11 @@ static pb_status inside_frames(estimate *e, const pbe_fit *fits, size_t referenc
                 p->gain = 1.0 - sse / fits[k].sse;
             tried[k] = 1;
         }
+        /* ramps or steps at its boundaries, against the same reference */
+        if (st == PB_OK && !e->flat[k] && !referenced)
+            st = frame_reference(e, moved, gram, k, own);
+        if (st == PB_OK && !e->flat[k])
+            st = side_evidence(e, fits, k, far, &sides[2 * k]);
         report_progress(e, 1.0);
     }
     /* A path into a neighbour is for motion that neighbour holds too: where
@@ -564,7 +643,7 @@ static pb_status hold_flat_frames(estimate *e, pbe_fit *fits)
  * leaves the poses as registered, for comparisons. */
 static double mid_time(double a, double b);
 
-static pb_status smooth_still_poses(estimate *e, pbe_fit *fits, const double *bounds, size_t ref)
+static pb_status smooth_still_poses(estimate *e, pbe_fit *fits, const double *bounds, size_t ref, int *jumped)
 {
     const char *env = getenv("PETBLUR_ESTIMATE_SMOOTH");
     if (env && strcmp(env, "0") == 0)
@@ -579,7 +658,7 @@ static pb_status smooth_still_poses(estimate *e, pbe_fit *fits, const double *bo
         double side = (double)e->g.dims[a] * e->g.voxel_size[a];
         r2 += side * side / 12.0;
     }
-    double rate = pbe_smooth_poses(fits, e->flat, t, e->count, ref, sqrt(r2));
+    double rate = pbe_smooth_poses(fits, e->flat, t, e->count, ref, sqrt(r2), jumped);
     free(t);
     if (rate == PBE_SMOOTH_NO_MEMORY)
         return PB_ERR_OUT_OF_MEMORY;
@@ -678,6 +757,26 @@ static void path_keys(keys *out, double t0, double t1, const pb_pose *s, const p
     }
     if (held < 2)
         *from = *to = mid_time(t0, t1);
+}
+
+/* Where the head jumped at a boundary between still frames: steps[b] for
+ * the boundary before frame b, where the poses jumped into frame b (more than
+ * the walk of smooth_poses.c goes, jumped[b]) and both frames show their
+ * poses held to the boundary more than halfway from a ramp to a step
+ * (side_evidence). A boundary beside a moving frame keeps its path's keys.
+ * PETBLUR_ESTIMATE_BOUNDARY=ramp keeps every ramp, =images asks the frames
+ * alone (not the walk), for comparisons. */
+static void boundary_steps(const estimate *e, const int *moving, const int *jumped, const double *sides,
+                           unsigned char *steps)
+{
+    const char *env = getenv("PETBLUR_ESTIMATE_BOUNDARY");
+    memset(steps, 0, e->count + 1);
+    if (env && strcmp(env, "ramp") == 0)
+        return;
+    const int images_only = env && strcmp(env, "images") == 0;
+    for (size_t b = 1; b < e->count; b++)
+        steps[b] = (jumped[b] || images_only) && !moving[b - 1] && !moving[b] && !e->flat[b - 1] && !e->flat[b] && sides[2 * (b - 1) + 1] > 0.5 &&
+                   sides[2 * b] > 0.5;
 }
 
 /* A grid pose about c as a world map about the world's origin:
@@ -784,12 +883,15 @@ static pb_status estimate_run(estimate *e, const double *bounds, const pb_estima
     pbe_fit *fits = calloc(count, sizeof *fits);
     int *moving = calloc(count, sizeof(int));
     frame_path *paths = calloc(count * PATHS, sizeof *paths);
+    double *sides = calloc(2 * count, sizeof *sides);
+    unsigned char *steps = calloc(count + 1, 1);
+    int *jumped = calloc(count, sizeof(int));
     float *moved = malloc(sizeof(float) * e->level[0].n * count), *own = malloc(sizeof(float) * e->level[0].n);
     double *gram = malloc(sizeof(double) * count * (PBE_REFERENCE_OTHERS + 1));
     keys k = {malloc(sizeof(double) * (count * 2 * DWELL_POINTS + 4)),
               malloc(sizeof(pb_pose) * (count * 2 * DWELL_POINTS + 4)), 0};
     size_t moving_count = 0;
-    pb_status st = fits && moving && paths && moved && own && gram && k.t && k.p ? PB_OK
+    pb_status st = fits && moving && paths && sides && steps && jumped && moved && own && gram && k.t && k.p ? PB_OK
                                                                                       : PB_ERR_OUT_OF_MEMORY;
     for (size_t i = 0; i < count && fits; i++) {
         fits[i].pose.rotation[0] = 1.0;
@@ -808,10 +910,12 @@ static pb_status estimate_run(estimate *e, const double *bounds, const pb_estima
         st = hold_flat_frames(e, fits);
     /* the still frames' poses, each as sure as its registration, together in time */
     if (st == PB_OK)
-        st = smooth_still_poses(e, fits, bounds, ref);
+        st = smooth_still_poses(e, fits, bounds, ref, jumped);
     /* 3: inside frames, against the same references */
     if (st == PB_OK && !o->frame_poses_only)
-        st = inside_frames(e, fits, ref, moved, gram, own, paths, moving, &moving_count);
+        st = inside_frames(e, fits, ref, moved, gram, own, paths, moving, &moving_count, sides);
+    if (st == PB_OK && !o->frame_poses_only)
+        boundary_steps(e, moving, jumped, sides, steps);
     /* 4: every pose corrected along the contrast, together */
     if (st == PB_OK)
         st = correct_together(e, ref, fits, paths, moving);
@@ -833,6 +937,11 @@ static pb_status estimate_run(estimate *e, const double *bounds, const pb_estima
             }
             else
                 key(&k, mid_time(bounds[f], bounds[f + 1]), &fits[f].pose);
+            if (steps[f + 1]) {
+                double h = 0.5 * STEP_FRACTION * fmin(bounds[f + 1] - bounds[f], bounds[f + 2] - bounds[f + 1]);
+                key(&k, bounds[f + 1] - h, &fits[f].pose);
+                key(&k, bounds[f + 1] + h, &fits[f + 1].pose);
+            }
         }
         if (!moving[count - 1])
             key(&k, bounds[count], &fits[count - 1].pose);
@@ -860,6 +969,9 @@ static pb_status estimate_run(estimate *e, const double *bounds, const pb_estima
     free(fits);
     free(moving);
     free(paths);
+    free(sides);
+    free(steps);
+    free(jumped);
     free(moved);
     free(own);
     free(gram);

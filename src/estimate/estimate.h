@@ -17,6 +17,11 @@ void pbe_coarser(const pb_geometry *fine, pb_geometry *coarse);
  * mm from its first voxel's outer corner: where the passes measure how far a
  * pose moves the grid. */
 void pbe_grid_corner(const pb_geometry *g, int corner, double p[3]);
+/* The volume (voxels) over which the residual a - b is correlated, as
+ * smoothed white noise's, from its correlation at one voxel along each
+ * axis; at least 1. A sum over the grid of that residual times a smooth
+ * image has about this many times white noise's variance. */
+double pbe_correlation_volume(const pb_geometry *g, const float *a, const float *b);
 /* 2x2x2 block means onto the coarser grid (a block cut by the edge averages
  * the voxels it holds). */
 void pbe_downsample(const pb_geometry *fine, const float *in, const pb_geometry *coarse, float *out);
@@ -137,9 +142,12 @@ double pbe_explained(const float *frame, size_t n, double sse);
  * (the estimate passes the grid's RMS radius about its centre), which puts
  * turns and shifts on one scale. Returns the rate chosen
  * (r^2/s), or a negative number where nothing was smoothed:
- * PBE_SMOOTH_NO_MEMORY where memory ran out, -1 where too few sightings. */
+ * PBE_SMOOTH_NO_MEMORY where memory ran out, -1 where too few sightings.
+ * jumped (count, or NULL): 1 for a sighting the walk restarted at after an
+ * earlier one, where something was smoothed. */
 #define PBE_SMOOTH_NO_MEMORY (-2.0)
-double pbe_smooth_poses(pbe_fit *fits, const int *skip, const double *t, size_t count, size_t base, double r);
+double pbe_smooth_poses(pbe_fit *fits, const int *skip, const double *t, size_t count, size_t base, double r,
+                        int *jumped);
 
 /* ---- contrast_poses.c: the poses moved together along the contrast ------------- */
 

@@ -134,3 +134,31 @@ pb_status pb_pose_gradient_images(const pb_geometry *geometry, const float *x, c
         pbe_pose_gradients(geometry, x, center, out);
     return st;
 }
+
+double pbe_correlation_volume(const pb_geometry *g, const float *a, const float *b)
+{
+    const size_t nx = g->dims[0], ny = g->dims[1], nz = g->dims[2], n = nx * ny * nz;
+    const size_t step[3] = {1, nx, nx * ny};
+    double mean = 0.0, var = 0.0, lag[3] = {0}, volume = 1.0;
+    for (size_t v = 0; v < n; v++)
+        mean += (double)a[v] - (double)b[v];
+    mean /= (double)n;
+    for (size_t k = 0; k < nz; k++)
+        for (size_t j = 0; j < ny; j++)
+            for (size_t i = 0; i < nx; i++) {
+                const size_t idx[3] = {i, j, k}, at = i + nx * (j + ny * k);
+                double r = (double)a[at] - (double)b[at] - mean;
+                var += r * r;
+                for (int x = 0; x < 3; x++)
+                    if (idx[x] + 1 < g->dims[x])
+                        lag[x] += r * ((double)a[at + step[x]] - (double)b[at + step[x]] - mean);
+            }
+    for (int x = 0; x < 3 && var > 0; x++) {
+        /* smoothed white noise: rho(1) = exp(-1 / (4 s^2)), its volume
+         * 2 sqrt(pi) s a side */
+        double rho = fmin(0.99, lag[x] / var);
+        if (rho > 0.01)
+            volume *= fmax(1.0, 3.5449077018110318 * sqrt(-0.25 / log(rho)));
+    }
+    return volume;
+}

@@ -286,8 +286,11 @@ static double filter_smooth(size_t count, const int *use, const double *t, const
     return ll;
 }
 
-double pbe_smooth_poses(pbe_fit *fits, const int *skip, const double *t, size_t count, size_t base, double r)
+double pbe_smooth_poses(pbe_fit *fits, const int *skip, const double *t, size_t count, size_t base, double r,
+                        int *jumped)
 {
+    for (size_t k = 0; jumped && k < count; k++)
+        jumped[k] = 0;
     if (count < 3 || !(r > 0.0))
         return -1.0;
     const pb_pose origin = fits[base].pose;
@@ -350,6 +353,9 @@ double pbe_smooth_poses(pbe_fit *fits, const int *skip, const double *t, size_t 
     if (!(best_q > 0.0))
         goto done;
     filter_smooth(count, use, t, y, cov, best_q, xf, pf, pp, jump, xs);
+    for (size_t k = 0, seen = 0; jumped && k < count; k++)
+        if (use[k])
+            jumped[k] = seen++ > 0 && jump[k];
     for (size_t k = 0; k < count; k++) {
         double x[D];
         for (int i = 0; i < D; i++)
