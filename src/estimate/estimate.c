@@ -44,9 +44,9 @@ enum { DWELL_POINTS = 9 };
 #define SERIES_GAIN_TIMES 8.0
 #define SERIES_GAIN_FLOOR 0.01
 enum { SERIES_GAIN_FRAMES = 8 };
-/* How many standard deviations of a frame's noise must part a ramp's image
- * from one pose's (at +-1 of the evidence: side_evidence) for the frame to
- * tell them apart: at 4 the evidence's noise is a quarter of the gap. */
+/* How far apart, in standard deviations of the frames' noise, a ramp's
+ * images and one pose's must be for the frames to tell them apart
+ * (boundary_steps). */
 #define SEPARATION 4.0
 /* The shortest time a path's step takes, as a fraction of its frame. */
 #define STEP_FRACTION 0.01
@@ -348,26 +348,27 @@ static double series_gain(const frame_path *paths, const unsigned char *tried, s
  * other's: each frame's half beside their boundary holds a ramp along the
  * line between their poses. A head that jumped at the boundary (a jerk
  * across it) holds each pose to the boundary instead, and each frame then
- * shows its pose alone. What frame k shows on a side: its residual on its
- * reference blurred along a ramp of that half's length toward the
- * neighbour's pose, laid so that its mean is the frame's own pose (a ramp's
- * mean is where the frame's registration puts it), against the residual of
- * one pose, in units of the distance between the two models' images: about
- * +1 where the frame holds still to the boundary, about -1 where it ramps.
- * step[2 * k + side] (side 0 the start, 1 the end); 0 where there is no
- * neighbour or the poses are within a tenth of a voxel at the far corner
- * (nothing to tell). */
-static pb_status side_evidence(estimate *e, const pbe_fit *fits, size_t k, const double far[3], double step[2])
+ * shows its pose alone. What frame k shows on a side: its reference blurred
+ * along a ramp of that half's length toward the neighbour's pose, laid so
+ * that its mean is the frame's own pose (where its registration puts a
+ * ramp), against one pose, in units of the frame's noise (its residual's
+ * variance a voxel times the volume it is correlated over): the two models'
+ * images apart by g, the ramp's residual above one pose's by h. A frame that
+ * holds its pose to the boundary shows h about g, one that ramps about -g,
+ * give or take 2 sqrt(g) of noise. ev[4 * k + 2 * side] = g, + 1 = h (side 0
+ * the start, 1 the end); 0 where there is no neighbour or the poses are
+ * within a tenth of a voxel at the far corner (nothing to tell). */
+static pb_status side_evidence(estimate *e, const pbe_fit *fits, size_t k, const double far[3], double ev[4])
 {
     const pb_pose *own = &fits[k].pose;
     pbe_level *level = &e->level[0];
     const float *frame = e->frames[0] + k * level->n;
-    double times[3], scale, offset, one_sse = 0.0, least = 0.0;
+    double times[3], scale, offset, one_sse = 0.0, noise = 0.0;
     pb_pose poses[3];
     pb_motion m;
     float *one = NULL;
     pb_status st = PB_OK;
-    step[0] = step[1] = 0.0;
+    memset(ev, 0, 4 * sizeof *ev);
     for (int side = 0; side < 2 && st == PB_OK; side++) {
         size_t n = side ? k + 1 : k - 1;
         if (!(side ? k + 1 < e->count : k > 0) || e->flat[n] ||
@@ -382,11 +383,7 @@ static pb_status side_evidence(estimate *e, const pbe_fit *fits, size_t k, const
             pbe_fit_scale(level->host[0], frame, level->n, &scale, &offset, &one_sse);
             for (size_t v = 0; v < level->n; v++)
                 one[v] = (float)(scale * (double)level->host[0][v] + offset);
-            /* the least distance between the two models' images at which the
-             * residual's noise (its variance a voxel, correlated over
-             * volume) leaves them SEPARATION standard deviations apart */
-            least = SEPARATION * SEPARATION * pbe_correlation_volume(&level->g, frame, one) * one_sse /
-                    (double)level->n;
+            noise = pbe_correlation_volume(&level->g, frame, one) * one_sse / (double)level->n;
         }
         /* a ramp over the half to the poses' midpoint, its mean at the own pose */
         pb_pose back, on;
@@ -406,8 +403,10 @@ static pb_status side_evidence(estimate *e, const pbe_fit *fits, size_t k, const
         double ramp_sse, a, b, dist;
         pbe_fit_scale(level->host[0], frame, level->n, &scale, &offset, &ramp_sse);
         pbe_fit_scale(level->host[0], one, level->n, &a, &b, &dist);
-        if (dist > least && dist > 0)
-            step[side] = (ramp_sse - one_sse) / dist;
+        if (noise > 0) {
+            ev[2 * side] = dist / noise;
+            ev[2 * side + 1] = (ramp_sse - one_sse) / noise;
+        }
     }
     free(one);
     return st;
@@ -457,7 +456,7 @@ static pb_status inside_frames(estimate *e, const pbe_fit *fits, size_t referenc
         if (st == PB_OK && !e->flat[k] && !referenced)
             st = frame_reference(e, moved, gram, k, own);
         if (st == PB_OK && !e->flat[k])
-            st = side_evidence(e, fits, k, far, &sides[2 * k]);
+            st = side_evidence(e, fits, k, far, &sides[4 * k]);
         report_progress(e, 1.0);
     }
     /* A path into a neighbour is for motion that neighbour holds too: where
@@ -761,9 +760,11 @@ static void path_keys(keys *out, double t0, double t1, const pb_pose *s, const p
 
 /* Where the head jumped at a boundary between still frames: steps[b] for
  * the boundary before frame b, where the poses jumped into frame b (more than
- * the walk of smooth_poses.c goes, jumped[b]) and both frames show their
- * poses held to the boundary more than halfway from a ramp to a step
- * (side_evidence). A boundary beside a moving frame keeps its path's keys.
+ * the walk of smooth_poses.c goes, jumped[b]) and the two frames together
+ * show their poses held to the boundary (side_evidence: the sum of their h
+ * over half the sum of their g, which the noise moves by under a quarter of
+ * the gap between a step's h and a ramp's where the sum of g is at least
+ * SEPARATION^2). A boundary beside a moving frame keeps its path's keys.
  * PETBLUR_ESTIMATE_BOUNDARY=ramp keeps every ramp, =images asks the frames
  * alone (not the walk), for comparisons. */
 static void boundary_steps(const estimate *e, const int *moving, const int *jumped, const double *sides,
@@ -774,9 +775,12 @@ static void boundary_steps(const estimate *e, const int *moving, const int *jump
     if (env && strcmp(env, "ramp") == 0)
         return;
     const int images_only = env && strcmp(env, "images") == 0;
-    for (size_t b = 1; b < e->count; b++)
-        steps[b] = (jumped[b] || images_only) && !moving[b - 1] && !moving[b] && !e->flat[b - 1] && !e->flat[b] && sides[2 * (b - 1) + 1] > 0.5 &&
-                   sides[2 * b] > 0.5;
+    for (size_t b = 1; b < e->count; b++) {
+        const double *before = &sides[4 * (b - 1) + 2], *after = &sides[4 * b];
+        double g = before[0] + after[0], h = before[1] + after[1];
+        steps[b] = (jumped[b] || images_only) && !moving[b - 1] && !moving[b] && !e->flat[b - 1] && !e->flat[b] &&
+                   g >= SEPARATION * SEPARATION && h > 0.5 * g;
+    }
 }
 
 /* A grid pose about c as a world map about the world's origin:
@@ -883,7 +887,7 @@ static pb_status estimate_run(estimate *e, const double *bounds, const pb_estima
     pbe_fit *fits = calloc(count, sizeof *fits);
     int *moving = calloc(count, sizeof(int));
     frame_path *paths = calloc(count * PATHS, sizeof *paths);
-    double *sides = calloc(2 * count, sizeof *sides);
+    double *sides = calloc(4 * count, sizeof *sides);
     unsigned char *steps = calloc(count + 1, 1);
     int *jumped = calloc(count, sizeof(int));
     float *moved = malloc(sizeof(float) * e->level[0].n * count), *own = malloc(sizeof(float) * e->level[0].n);
