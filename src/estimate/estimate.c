@@ -46,8 +46,12 @@ enum { DWELL_POINTS = 9 };
 enum { SERIES_GAIN_FRAMES = 8 };
 /* How far apart, in standard deviations of the frames' noise, a ramp's
  * images and one pose's must be for the frames to tell them apart
- * (boundary_steps). */
-#define SEPARATION 4.0
+ * (boundary_steps): at 6 the evidence's noise is a sixth of the gap between
+ * a step and a ramp. At 4 three of 44 draws of issue 47's family got steps
+ * inside slow nods, where the frames' evidence stood at 17-22 (a ramp
+ * between frame poses is not a nod's curve, so neither model fits there),
+ * while their jumps at boundaries stood at 100-1100 (docs/motion.md). */
+#define SEPARATION 6.0
 /* The shortest time a path's step takes, as a fraction of its frame. */
 #define STEP_FRACTION 0.01
 /* A background at least this share of a frame's peak is warned about (it is
@@ -762,9 +766,9 @@ static void path_keys(keys *out, double t0, double t1, const pb_pose *s, const p
  * the boundary before frame b, where the poses jumped into frame b (more than
  * the walk of smooth_poses.c goes, jumped[b]) and the two frames together
  * show their poses held to the boundary (side_evidence: the sum of their h
- * over half the sum of their g, which the noise moves by under a quarter of
- * the gap between a step's h and a ramp's where the sum of g is at least
- * SEPARATION^2). A boundary beside a moving frame keeps its path's keys.
+ * over half the sum of their g, where that sum is at least SEPARATION^2),
+ * each frame leaning that way (its h above 0). A boundary beside a moving
+ * frame keeps its path's keys.
  * PETBLUR_ESTIMATE_BOUNDARY=ramp keeps every ramp, =images asks the frames
  * alone (not the walk), for comparisons. */
 static void boundary_steps(const estimate *e, const int *moving, const int *jumped, const double *sides,
@@ -779,7 +783,7 @@ static void boundary_steps(const estimate *e, const int *moving, const int *jump
         const double *before = &sides[4 * (b - 1) + 2], *after = &sides[4 * b];
         double g = before[0] + after[0], h = before[1] + after[1];
         steps[b] = (jumped[b] || images_only) && !moving[b - 1] && !moving[b] && !e->flat[b - 1] && !e->flat[b] &&
-                   g >= SEPARATION * SEPARATION && h > 0.5 * g;
+                   g >= SEPARATION * SEPARATION && h > 0.5 * g && before[1] > 0 && after[1] > 0;
     }
 }
 
