@@ -798,6 +798,8 @@ typedef struct pb_estimate_frame {
                             * frame's mid-time */
     int structure;         /* 0: no structure above the frame's noise: it took its nearest structured frame's pose */
     int moving;            /* nonzero: the track follows a path inside the frame (a jerk, or a nod held across its end) */
+    int jumped_at_start;   /* nonzero: the head jumped at the frame's start, so the track holds the frame before's pose
+                            * to it and this frame's from it (where both frames show their poses held) */
 } pb_estimate_frame;
 
 /* How pb_motion_estimate works. Zero-initialised: the defaults. */

@@ -86,6 +86,11 @@ class Estimate(unittest.TestCase):
         moving = {int(r[0]): [float(x) for x in r[5].split()[1::2]] for r in rows if r[5].startswith("from ")}
         summary = int(out.split(" with motion inside")[0].rsplit("(", 1)[1])
         self.assertEqual(len(moving), summary, out)
+        # the jumps at boundaries the summary counts are the frames whose line says so, none with motion inside
+        jumps = int(out.split(" at a boundary)")[0].rsplit(", ", 1)[1].split()[0])
+        jumped = [int(r[0]) for r in rows if r[5].endswith("(the head jumped at its start)")]
+        self.assertEqual(len(jumped), jumps, out)
+        self.assertFalse(set(jumped) & set(moving), out)
         j, T = SETUP.jerk_frame, self.bounds[1] - self.bounds[0]
         self.assertIn(j, moving, out + msg)
         a, b = moving[j]

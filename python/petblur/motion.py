@@ -277,7 +277,9 @@ class Motion:
         of few counts, or of a contrast unlike the others', less);
         ``structure`` False where the frame shows none above its noise and
         took a neighbour's pose; ``motion_inside`` (from, to) in seconds where
-        the track moves inside the frame, else None."""
+        the track moves inside the frame, else None; ``jumped_at_start`` True
+        where the head jumped at the frame's start (the track steps there
+        from the frame before's pose to this frame's)."""
         from . import estimate
         if bounds is None:
             if starts is None or durations is None:
@@ -575,8 +577,11 @@ def _frame_report(v):
     out = []
     for k, f in enumerate(v):
         inside = f.get("motion_inside", 0) if isinstance(f, dict) else 0
+        if isinstance(f, dict) and "jumped_at_start" not in f:  # pickled before the report had it
+            f = dict(f, jumped_at_start=False)
         if not (isinstance(f, dict) and set(f) == {"frame", "start", "end", "explained", "structure",
-                                                   "motion_inside"} and _whole(f["frame"]) and f["frame"] == k and
+                                                   "motion_inside", "jumped_at_start"} and
+                isinstance(f["jumped_at_start"], bool) and _whole(f["frame"]) and f["frame"] == k and
                 real(f["start"]) and real(f["end"]) and f["start"] < f["end"] and real(f["explained"]) and
                 0.0 <= f["explained"] <= 1.0 and isinstance(f["structure"], bool) and
                 (inside is None or isinstance(inside, tuple) and len(inside) == 2 and all(map(real, inside)) and

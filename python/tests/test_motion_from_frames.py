@@ -415,6 +415,12 @@ def test_recovers_known_motion(rng, device):
     bad["frame_report"] = rep[:1] + [dict(rep[1], explained=float("nan"))]
     with pytest.raises(petblur.ArgumentError, match=r"frame_report\[1\]"):
         petblur.Motion.__new__(petblur.Motion).__setstate__(bad)
+    # a motion pickled before the report said where the head jumped at a boundary reads it as nowhere
+    older = m.__getstate__()
+    older["frame_report"] = [{k: v for k, v in f.items() if k != "jumped_at_start"} for f in rep]
+    back = petblur.Motion.__new__(petblur.Motion)
+    back.__setstate__(older)
+    assert back.frame_report == [dict(f, jumped_at_start=False) for f in rep]
 
 
 def test_frames_held_still_take_no_path_in_a_longer_series(rng, monkeypatch):
@@ -637,6 +643,9 @@ def test_jump_at_a_frame_boundary_is_held_as_a_step(rng, monkeypatch):
     assert np.all(err[others] <= err_ramp[others] + 0.02), msg
     inside = m.times[(m.times > starts[j] - 5.0) & (m.times < starts[j] + 5.0)]
     assert len(inside) == 2 and inside[0] < starts[j] < inside[1], m.times
+    # the report says where: frame j's start, and no other
+    assert [f["frame"] for f in m.frame_report if f["jumped_at_start"]] == [j], m.frame_report
+    assert not any(f["jumped_at_start"] for f in ramp.frame_report), ramp.frame_report
 
 
 def test_motion_through_frames_is_not_taken_for_steps(rng, monkeypatch):
@@ -666,6 +675,7 @@ def test_motion_through_frames_is_not_taken_for_steps(rng, monkeypatch):
     msg = f"{nf} frames: errors {np.round(err, 3)} mm, with ramps {np.round(err_ramp, 3)} mm; times {m.times}"
     print(msg)
     assert err.mean() <= err_ramp.mean() + 0.01, msg
+    assert not any(f["jumped_at_start"] for f in m.frame_report), m.frame_report
 
 
 # ---- bad inputs -------------------------------------------------------------

@@ -769,8 +769,7 @@ static void path_keys(keys *out, double t0, double t1, const pb_pose *s, const p
  * over half the sum of their g, where that sum is at least SEPARATION^2),
  * each frame leaning that way (its h above 0). A boundary beside a moving
  * frame keeps its path's keys.
- * PETBLUR_ESTIMATE_BOUNDARY=ramp keeps every ramp, =images asks the frames
- * alone (not the walk), for comparisons. */
+ * PETBLUR_ESTIMATE_BOUNDARY=ramp keeps every ramp, for comparisons. */
 static void boundary_steps(const estimate *e, const int *moving, const int *jumped, const double *sides,
                            unsigned char *steps)
 {
@@ -778,11 +777,10 @@ static void boundary_steps(const estimate *e, const int *moving, const int *jump
     memset(steps, 0, e->count + 1);
     if (env && strcmp(env, "ramp") == 0)
         return;
-    const int images_only = env && strcmp(env, "images") == 0;
     for (size_t b = 1; b < e->count; b++) {
         const double *before = &sides[4 * (b - 1) + 2], *after = &sides[4 * b];
         double g = before[0] + after[0], h = before[1] + after[1];
-        steps[b] = (jumped[b] || images_only) && !moving[b - 1] && !moving[b] && !e->flat[b - 1] && !e->flat[b] &&
+        steps[b] = jumped[b] && !moving[b - 1] && !moving[b] && !e->flat[b - 1] && !e->flat[b] &&
                    g >= SEPARATION * SEPARATION && h > 0.5 * g && before[1] > 0 && after[1] > 0;
     }
 }
@@ -971,6 +969,7 @@ static pb_status estimate_run(estimate *e, const double *bounds, const pb_estima
                                                           fits[f].sse)));
         r->structure = !e->flat[f];
         r->moving = moving[f] != 0;
+        r->jumped_at_start = steps[f] != 0;
         if (!moving[f]) /* a moving frame's times come with its keys */
             r->motion_from = r->motion_to = mid_time(bounds[f], bounds[f + 1]);
     }

@@ -158,8 +158,15 @@ static void print_summary(pb_context *ctx, const char *out_path, const pb_track 
 {
     char dev[600];
     pbc_describe_device(ctx, dev, sizeof dev);
-    printf("%s: %zu poses from %zu frames (%zu with motion inside), %s, on %s in %.1f s\n", out_path,
-           pb_track_count(track), frames, report->moving_frames, csv ? "csv" : "matrix-csv", dev, report->seconds);
+    char jumps[64] = "";
+    size_t n = 0;
+    for (size_t f = 0; per_frame && f < frames; f++)
+        n += per_frame[f].jumped_at_start != 0;
+    if (per_frame) /* without the table the frames' report is not at hand */
+        snprintf(jumps, sizeof jumps, ", %zu %s at a boundary", n, n == 1 ? "jump" : "jumps");
+    printf("%s: %zu poses from %zu frames (%zu with motion inside%s), %s, on %s in %.1f s\n", out_path,
+           pb_track_count(track), frames, report->moving_frames, jumps, csv ? "csv" : "matrix-csv", dev,
+           report->seconds);
     if (!per_frame)
         return;
     printf("  frame       start s      end s  fit explains  motion inside the frame\n");
@@ -167,11 +174,12 @@ static void print_summary(pb_context *ctx, const char *out_path, const pb_track 
         const pb_estimate_frame *r = &per_frame[f];
         printf("  %5zu  %12.3f %10.3f  %11.1f %%  ", f, bounds[f], bounds[f + 1], 100.0 * r->explained);
         if (!r->structure)
-            printf("no structure above the noise: a neighbour's pose\n");
+            printf("no structure above the noise: a neighbour's pose");
         else if (r->moving)
-            printf("from %.3f to %.3f s\n", r->motion_from, r->motion_to);
+            printf("from %.3f to %.3f s", r->motion_from, r->motion_to);
         else
-            printf("-\n");
+            printf("-");
+        printf("%s\n", r->jumped_at_start ? " (the head jumped at its start)" : "");
     }
 }
 
