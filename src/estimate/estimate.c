@@ -767,9 +767,19 @@ static void path_keys(keys *out, double t0, double t1, const pb_pose *s, const p
  * the walk of smooth_poses.c goes, jumped[b]) and the two frames together
  * show their poses held to the boundary (side_evidence: the sum of their h
  * over half the sum of their g, where that sum is at least SEPARATION^2),
- * each frame leaning that way (its h above 0). A boundary beside a moving
+ * neither frame nearer the ramp beyond its noise (leans_to_step: a frame
+ * whose h stood at 0 with g at 20, inside a slow nod, vetoed its neighbour's
+ * h of 162 there; issue 47's draw 1614930606). A boundary beside a moving
  * frame keeps its path's keys.
  * PETBLUR_ESTIMATE_BOUNDARY=ramp keeps every ramp, for comparisons. */
+/* Whether a frame's side (g, h: side_evidence) is not nearer a ramp than a
+ * step by more than two standard deviations of its noise: h at least
+ * halfway from -g to g, less 2 sqrt(g). */
+static int leans_to_step(const double side[2])
+{
+    return side[1] > 0.5 * side[0] - 2.0 * sqrt(side[0]);
+}
+
 static void boundary_steps(const estimate *e, const int *moving, const int *jumped, const double *sides,
                            unsigned char *steps)
 {
@@ -781,7 +791,7 @@ static void boundary_steps(const estimate *e, const int *moving, const int *jump
         const double *before = &sides[4 * (b - 1) + 2], *after = &sides[4 * b];
         double g = before[0] + after[0], h = before[1] + after[1];
         steps[b] = jumped[b] && !moving[b - 1] && !moving[b] && !e->flat[b - 1] && !e->flat[b] &&
-                   g >= SEPARATION * SEPARATION && h > 0.5 * g && before[1] > 0 && after[1] > 0;
+                   g >= SEPARATION * SEPARATION && h > 0.5 * g && leans_to_step(before) && leans_to_step(after);
     }
 }
 
