@@ -764,7 +764,9 @@ static void path_keys(keys *out, double t0, double t1, const pb_pose *s, const p
 
 /* Where the head jumped at a boundary between still frames: steps[b] for
  * the boundary before frame b, where the poses jumped into frame b (more than
- * the walk of smooth_poses.c goes, jumped[b]) and the two frames together
+ * the walk of smooth_poses.c goes, jumped[b]: none where the poses were not
+ * smoothed, PETBLUR_ESTIMATE_SMOOTH=0 or under three frames with
+ * structure) and the two frames together
  * show their poses held to the boundary (side_evidence: the sum of their h
  * over half the sum of their g, where that sum is at least SEPARATION^2),
  * neither frame nearer the ramp beyond its noise (leans_to_step: a frame
