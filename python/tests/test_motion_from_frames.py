@@ -432,19 +432,9 @@ def test_frames_held_still_take_no_path_in_a_longer_series(rng, monkeypatch):
     give no frame held still a path that 5 % for every series
     (PETBLUR_ESTIMATE_DWELL=fixed) does not."""
     nf = int(rng.integers(9, 15))
-    shape, voxel = (24, 24, 24), (4.0, 4.0, 4.0)
-    affine = _affine(rng, shape, voxel)
-    phantom = Phantom(rng)
     maps = [np.eye(4)] + [_rigid(rng, 3.0, 3.0) for _ in range(nf - 1)]
-    idx = np.stack(np.meshgrid(*[np.arange(m) for m in shape], indexing="ij"), axis=-1).reshape(-1, 3)
-    world = idx @ affine[:3, :3].T + affine[:3, 3]
-    counts = float(np.exp(rng.uniform(np.log(2e5), np.log(2e6))))
-    frames = np.zeros(shape + (nf,), np.float32)
-    for k, m in enumerate(maps):
-        inv = np.linalg.inv(m)
-        v = phantom(world @ inv[:3, :3].T + inv[:3, 3], k / (nf - 1)).reshape(shape)
-        frames[..., k] = rng.poisson(v * (counts / v.sum()))
-    starts, durations = np.arange(nf) * 10.0, np.full(nf, 10.0)
+    frames, affine, starts, durations, phantom = _moving_series(rng, nf, lambda t: maps[int(t // 10.0)],
+                                                                shape=(24, 24, 24), steps=1, counts=(2e5, 2e6))
     m = petblur.Motion.from_frames(frames, affine, starts, durations)
     monkeypatch.setenv("PETBLUR_ESTIMATE_DWELL", "fixed")
     fixed = petblur.Motion.from_frames(frames, affine, starts, durations)
@@ -453,8 +443,8 @@ def test_frames_held_still_take_no_path_in_a_longer_series(rng, monkeypatch):
     none = np.array([_displacement(np.eye(4), maps[k], points) for k in range(nf)])
     moving = [f["frame"] for f in m.frame_report if f["motion_inside"] is not None]
     moving_fixed = [f["frame"] for f in fixed.frame_report if f["motion_inside"] is not None]
-    msg = (f"{nf} frames, {counts:.3g} counts: moving {moving} (5 %: {moving_fixed}), errors {np.round(err, 3)} mm, "
-           f"uncorrected {np.round(none, 2)} mm")
+    msg = (f"{nf} frames, {frames[..., 0].sum():.3g} counts a frame: moving {moving} (5 %: {moving_fixed}), errors "
+           f"{np.round(err, 3)} mm, uncorrected {np.round(none, 2)} mm")
     print(msg)
     assert set(moving) <= set(moving_fixed), msg
     # Measured while writing this test: the mean error at most 0.15 of the uncorrected (30 seeds), the worst frame at
@@ -581,15 +571,16 @@ def test_motion_held_across_a_frame_boundary(rng):
         assert g < 0.7 * s1, (got, single)
 
 
-def _moving_series(rng, nf, pose_at, seconds=10.0, shape=(28, 28, 28), voxel=(4.0, 4.0, 4.0), steps=12):
+def _moving_series(rng, nf, pose_at, seconds=10.0, shape=(28, 28, 28), voxel=(4.0, 4.0, 4.0), steps=12,
+                   counts=(3e5, 2e6)):
     """Frames of the phantom whose world map at t is pose_at(t), each the mean
-    of its views at `steps` times through it, Poisson counts of 3e5 to 2e6 a
-    frame: frames, affine, starts, durations, phantom."""
+    of its views at `steps` times through it, Poisson counts a frame drawn
+    log-uniformly in `counts`: frames, affine, starts, durations, phantom."""
     affine = _affine(rng, shape, voxel)
     phantom = Phantom(rng)
     idx = np.stack(np.meshgrid(*[np.arange(m) for m in shape], indexing="ij"), axis=-1).reshape(-1, 3)
     world = idx @ affine[:3, :3].T + affine[:3, 3]
-    counts = float(np.exp(rng.uniform(np.log(3e5), np.log(2e6))))
+    counts = float(np.exp(rng.uniform(np.log(counts[0]), np.log(counts[1]))))
     frames = np.zeros(shape + (nf,), np.float32)
     for k in range(nf):
         v = np.zeros(shape)
@@ -641,14 +632,15 @@ def test_jump_at_a_frame_boundary_is_held_as_a_step(rng, monkeypatch):
     monkeypatch.setenv("PETBLUR_ESTIMATE_BOUNDARY", "ramp")
     ramp = petblur.Motion.from_frames(frames, affine, starts, durations, device="host")
     err, err_ramp = (_frame_errors(x, truth, points, starts, durations) for x in (m, ramp))
-    msg = (f"{nf} frames, the jump before frame {j} ({_displacement(jump, np.eye(4), points):.2f} mm): errors "
+    size = _displacement(jump, np.eye(4), points)
+    msg = (f"{nf} frames, the jump before frame {j} ({size:.2f} mm): errors "
            f"{np.round(err, 3)} mm, with ramps {np.round(err_ramp, 3)} mm")
     print(msg)
     beside = [j - 1, j]
     others = [k for k in range(nf) if k not in beside]
     # a ramp over each half frame beside the boundary, to the poses' midpoint, is off by an eighth of the jump on
     # average over each frame; the frames' own error (the phantom's uptake changing) stays
-    assert np.all(err_ramp[beside] - err[beside] > 0.5 * _displacement(jump, np.eye(4), points) / 8), msg
+    assert np.all(err_ramp[beside] - err[beside] > 0.5 * size / 8), msg
     assert np.all(err[others] <= err_ramp[others] + 0.02), msg
     inside = m.times[(m.times > starts[j] - 5.0) & (m.times < starts[j] + 5.0)]
     assert len(inside) == 2 and inside[0] < starts[j] < inside[1], m.times

@@ -278,6 +278,13 @@ static double path_span(const estimate *e, const double far[3], const pb_pose *a
     return sqrt(d);
 }
 
+/* Whether two poses are far enough apart for a frame to tell a motion
+ * between them from one pose: a tenth of a voxel at the far corner. */
+static int poses_apart(const estimate *e, const double far[3], const pb_pose *a, const pb_pose *b)
+{
+    return path_span(e, far, a, b) > 0.1 * e->g.voxel_size[0];
+}
+
 /* Whether the motion went on into neighbour n = k + dir: its pose lies on
  * the far side of frame k's own from the other neighbour's, at least half
  * as far again (the grid's corners moved, summed). What a path into a
@@ -362,26 +369,37 @@ static double series_gain(const frame_path *paths, const unsigned char *tried, s
  * give or take 2 sqrt(g) of noise. ev[4 * k + 2 * side] = g, + 1 = h (side 0
  * the start, 1 the end); 0 where there is no neighbour or the poses are
  * within a tenth of a voxel at the far corner (nothing to tell). */
+/* Whether frame k has evidence to give on a side (0 its start, 1 its end):
+ * a neighbour there with structure, at a pose apart from its own. */
+static int side_defined(const estimate *e, const pbe_fit *fits, size_t k, int side, const double far[3])
+{
+    return (side ? k + 1 < e->count : k > 0) && !e->flat[side ? k + 1 : k - 1] &&
+           poses_apart(e, far, &fits[k].pose, &fits[side ? k + 1 : k - 1].pose);
+}
+
 static pb_status side_evidence(estimate *e, const pbe_fit *fits, size_t k, const double far[3], double ev[4])
 {
     const pb_pose *own = &fits[k].pose;
     pbe_level *level = &e->level[0];
     const float *frame = e->frames[0] + k * level->n;
-    double times[3], scale, offset, one_sse = 0.0, noise = 0.0;
-    pb_pose poses[3];
-    pb_motion m;
+    double times[2], ramp_times[3] = {0.0, 0.5, 1.0}, scale, offset, one_sse = 0.0, noise = 0.0;
+    pb_pose poses[2], ramp_poses[3];
+    pb_motion m, ramp;
     float *one = NULL;
     pb_status st = PB_OK;
     memset(ev, 0, 4 * sizeof *ev);
+    pbe_static_motion(own, e->c, times, poses, &m);
+    ramp = m;
+    ramp.times = ramp_times;
+    ramp.poses = ramp_poses;
+    ramp.count = 3;
     for (int side = 0; side < 2 && st == PB_OK; side++) {
-        size_t n = side ? k + 1 : k - 1;
-        if (!(side ? k + 1 < e->count : k > 0) || e->flat[n] ||
-            !(path_span(e, far, own, &fits[n].pose) > 0.1 * e->g.voxel_size[0]))
+        if (!side_defined(e, fits, k, side, far))
             continue;
+        const pb_pose *other = &fits[side ? k + 1 : k - 1].pose;
         if (!one) {
             if (!(one = malloc(sizeof(float) * level->n)))
                 return PB_ERR_OUT_OF_MEMORY;
-            pbe_static_motion(own, e->c, times, poses, &m);
             if ((st = pbe_blur_reference(e->ctx, level, &m)) != PB_OK)
                 break;
             pbe_fit_scale(level->host[0], frame, level->n, &scale, &offset, &one_sse);
@@ -391,18 +409,14 @@ static pb_status side_evidence(estimate *e, const pbe_fit *fits, size_t k, const
         }
         /* a ramp over the half to the poses' midpoint, its mean at the own pose */
         pb_pose back, on;
-        pb_pose_interpolate(own, &fits[n].pose, -0.125, &back);
-        pb_pose_interpolate(own, &fits[n].pose, 0.375, &on);
+        pb_pose_interpolate(own, other, -0.125, &back);
+        pb_pose_interpolate(own, other, 0.375, &on);
         pb_pose_normalized(&back, &back);
         pb_pose_normalized(&on, &on);
-        pbe_static_motion(own, e->c, times, poses, &m);
-        times[1] = 0.5; /* pbe_static_motion set two times, 0 and 1 */
-        times[2] = 1.0;
-        m.count = 3;
-        poses[0] = side ? back : on;
-        poses[1] = back;
-        poses[2] = side ? on : back;
-        if ((st = pbe_blur_reference(e->ctx, level, &m)) != PB_OK)
+        ramp_poses[0] = side ? back : on;
+        ramp_poses[1] = back;
+        ramp_poses[2] = side ? on : back;
+        if ((st = pbe_blur_reference(e->ctx, level, &ramp)) != PB_OK)
             break;
         double ramp_sse, a, b, dist;
         pbe_fit_scale(level->host[0], frame, level->n, &scale, &offset, &ramp_sse);
@@ -441,8 +455,7 @@ static pb_status inside_frames(estimate *e, const pbe_fit *fits, size_t referenc
             if (!path_defined(k, e->count, kind))
                 continue;
             path_ends(fits, k, kind, &p->start, &p->end);
-            /* a path shorter than a tenth of a voxel at the far corner holds nothing to find */
-            if (!(path_span(e, far, &p->start, &p->end) > 0.1 * e->g.voxel_size[0]))
+            if (!poses_apart(e, far, &p->start, &p->end))
                 continue;
             if (!referenced) {
                 st = frame_reference(e, moved, gram, k, own);
@@ -457,10 +470,12 @@ static pb_status inside_frames(estimate *e, const pbe_fit *fits, size_t referenc
             tried[k] = 1;
         }
         /* ramps or steps at its boundaries, against the same reference */
-        if (st == PB_OK && !e->flat[k] && !referenced)
-            st = frame_reference(e, moved, gram, k, own);
-        if (st == PB_OK && !e->flat[k])
-            st = side_evidence(e, fits, k, far, &sides[4 * k]);
+        if (st == PB_OK && !e->flat[k] && (side_defined(e, fits, k, 0, far) || side_defined(e, fits, k, 1, far))) {
+            if (!referenced)
+                st = frame_reference(e, moved, gram, k, own);
+            if (st == PB_OK)
+                st = side_evidence(e, fits, k, far, &sides[4 * k]);
+        }
         report_progress(e, 1.0);
     }
     /* A path into a neighbour is for motion that neighbour holds too: where
