@@ -121,13 +121,12 @@ PB_FN void pb_cell_scatter(PB_GLOBAL float *out, pb_kparams prm, pb_cell *cell, 
     pb_cell_add(prm, cell, x0, y0, z0, x, y, z, v);
 }
 
-/* Transpose of a piece of the chord (PB_CHORD_SAMPLES's one or two samples,
- * or pb_piece_exact's, which weighs the cell as the two Gauss-Legendre
- * samples do; from t0, l long, of a + t d), v its share: a piece lies between
- * kinks, inside one trilinear cell, so the cell is found once, at its middle.
- * A sample that rounding puts a hair across the cell's face has a weight a
- * hair below 0 or above 1 there, the same adds to float rounding (and,
- * rounded to the texture unit's steps, the same adds). */
+/* Transpose of a piece of the exact chord (PB_CHORD_SAMPLES's two samples,
+ * from t0, l long, of a + t d), v its share: a piece lies between kinks,
+ * inside one trilinear cell, so the cell is found once, at its middle. A
+ * sample that rounding puts a hair across the cell's face has a weight a hair
+ * below 0 or above 1 there, the same adds to float rounding (and, rounded to
+ * the texture unit's steps, the same adds). */
 PB_FN void pb_cell_piece(PB_GLOBAL float *out, pb_kparams prm, pb_cell *cell, const float *a, const float *d,
                          float t0, float l, float v)
 {
@@ -135,12 +134,9 @@ PB_FN void pb_cell_piece(PB_GLOBAL float *out, pb_kparams prm, pb_cell *cell, co
     const float x0 = floor(a[0] + mid * d[0] - 0.5f), y0 = floor(a[1] + mid * d[1] - 0.5f);
     const float z0 = floor(a[2] + mid * d[2] - 0.5f);
     pb_cell_enter(out, prm, cell, x0, y0, z0);
-    const float off = pb_piece_offset(prm.one_fetch, l, d);
-    const int two = off > 0.0f;
-    for (int g = -two; g <= two; g += 2) {
-        const float t = t0 + l * (0.5f + (float)g * off);
-        pb_cell_add(prm, cell, x0, y0, z0, a[0] + t * d[0], a[1] + t * d[1], a[2] + t * d[2],
-                    v * (two ? 0.5f * l : l));
+    for (int g = -1; g <= 1; g += 2) {
+        const float t = t0 + l * (0.5f + (float)g * PB_GAUSS_OFFSET);
+        pb_cell_add(prm, cell, x0, y0, z0, a[0] + t * d[0], a[1] + t * d[1], a[2] + t * d[2], v * (0.5f * l));
     }
 }
 

@@ -71,40 +71,20 @@ PB_FN void pb_kinks_pass(float t1, float *next, float step)
         }                                                                                                              \
     }
 
-/* Where a piece's samples sit, as a fraction of its length either side of
- * its middle: at the Gauss-Legendre points (1/sqrt 12), which integrate its
- * cubic exactly, or, for the HARDWARE filter's short pieces (one_fetch;
- * PB_ONE_FETCH_SPREAD), at the middle itself, one fetch, moving out to those
- * points as the piece's spread across axes grows from the bound to twice it,
- * so that the blur stays continuous in the motion. Along one axis the filter
- * is linear inside a piece and the middle is exact at any length. Returns 0
- * for one sample. */
+/* The filter's exact time average over the chord by sampling: two samples
+ * in each piece, half its length each, at its Gauss-Legendre points (its
+ * middle plus and minus 1/sqrt 12 of it), which integrate the piece's cubic
+ * exactly. The body runs with a sample x, y, z and its weight q in scope;
+ * the weights add up to 1. */
 #define PB_GAUSS_OFFSET 0.28867513f
-PB_FN float pb_piece_offset(int one_fetch, float l, const float *d)
-{
-    if (!one_fetch)
-        return PB_GAUSS_OFFSET;
-    const float e = l * l * (fabs(d[0] * d[1]) + fabs(d[0] * d[2]) + fabs(d[1] * d[2]));
-    const float r = fmin(1.0f, e * (1.0f / PB_ONE_FETCH_SPREAD) - 1.0f);
-    return r > 0.0f ? PB_GAUSS_OFFSET * sqrt(r) : 0.0f;
-}
-
-/* The HARDWARE filter's average over the chord by sampling: one or two
- * samples in each piece (pb_piece_offset), half its length each when two.
- * The body runs with a sample x, y, z and its weight q in scope; the
- * weights add up to 1. */
 #define PB_CHORD_SAMPLES(a, b, BODY)                                                                                   \
-    PB_CHORD_PIECES(a, b, {                                                                                            \
-        const float pb_off = pb_piece_offset(1, pb_l, pb_d);                                                           \
-        const int pb_two = pb_off > 0.0f;                                                                              \
-        const float q = pb_two ? 0.5f * pb_l : pb_l;                                                                   \
-        for (int pb_g = -pb_two; pb_g <= pb_two; pb_g += 2) {                                                          \
-            const float pb_t = pb_t0 + pb_l * (0.5f + (float)pb_g * pb_off);                                          \
-            const float x = (a)[0] + pb_t * pb_d[0];                                                                   \
-            const float y = (a)[1] + pb_t * pb_d[1];                                                                   \
-            const float z = (a)[2] + pb_t * pb_d[2];                                                                   \
-            BODY;                                                                                                      \
-        }                                                                                                              \
+    PB_CHORD_PIECES(a, b, for (int pb_g = -1; pb_g <= 1; pb_g += 2) {                                                  \
+        const float pb_t = pb_t0 + pb_l * (0.5f + (float)pb_g * PB_GAUSS_OFFSET);                                      \
+        const float x = (a)[0] + pb_t * pb_d[0];                                                                       \
+        const float y = (a)[1] + pb_t * pb_d[1];                                                                       \
+        const float z = (a)[2] + pb_t * pb_d[2];                                                                       \
+        const float q = 0.5f * pb_l;                                                                                   \
+        BODY;                                                                                                          \
     })
 
 /* One piece's exact time average with the EXACT filter: inside the
@@ -149,10 +129,10 @@ PB_FN float pb_piece_exact(pb_image img, const pb_place *pl, const float *a, con
     return sum;
 }
 
-/* The filter's time average over the chord a-b: with the EXACT filter
- * exact, each piece's eight texels (pb_piece_exact); with HARDWARE the
- * texture unit's one or two samples a piece (PB_CHORD_SAMPLES), where the
- * cell's eight point reads would cost four fetches. */
+/* The filter's exact time average over the chord a-b: with the EXACT
+ * filter each piece's eight texels (pb_piece_exact); with HARDWARE the
+ * texture unit's two samples a piece (PB_CHORD_SAMPLES), two trilinear
+ * fetches where the cell's eight point reads would cost four. */
 PB_FN float pb_chord(pb_image img, int exact, const pb_place *pl, const float *a, const float *b)
 {
     float sum = 0.0f;

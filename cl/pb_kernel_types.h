@@ -46,10 +46,6 @@ typedef struct pb_kparams {
     int field_start;
     int jacobian;    /* weigh each segment by its mean Jacobian determinant (mass-preserving) */
     float field_map[12];
-    /* The adjoint of the exact chord: 1 where the forward read its short
-     * pieces by one fetch (the HARDWARE filter, PB_ONE_FETCH_SPREAD), 0 where
-     * it read every piece exactly (EXACT). */
-    int one_fetch;
 } pb_kparams;
 
 /* AB reads a segment that moves at most PB_AB_EXACT_TO voxels along its
@@ -58,16 +54,6 @@ typedef struct pb_kparams {
  * follow them). */
 #define PB_AB_EXACT_TO 3.0f
 #define PB_AB_WALK_FROM 6.0f
-
-/* With the HARDWARE filter a piece of the exact chord whose spread across
- * axes, e = l^2 (|dx dy| + |dx dz| + |dy dz|) voxels^2 for its steps l d, is
- * at most PB_ONE_FETCH_SPREAD is read by one fetch at its middle, and from
- * there to twice it by two that move apart to the Gauss-Legendre points
- * (cl/pb_chord.cl's pb_piece_offset). One fetch misses l^2/12 of the filter's
- * cross slopes, at most 2 of the largest value: so at most e/6 of it, and
- * 6/512 keeps that within 2^-9, one stage of the texture unit's own rounding
- * (docs/methods.md). The host backend follows the same rule. */
-#define PB_ONE_FETCH_SPREAD (6.0f / 512.0f)
 
 /* Voxels along x per work item of pb_shift_ab_layers_x: 8 floats fill a
  * 32-byte sector. */

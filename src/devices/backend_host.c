@@ -19,7 +19,6 @@ typedef struct host_io {
     const float *in; /* forward: the object volume */
     double *acc;     /* adjoint: the object volume being summed into */
     long n[3];
-    int one_fetch; /* the HARDWARE filter: short pieces of a chord by one sample (chord_exact) */
 } host_io;
 
 /* Forward: scale * w * activity of voxel (i, j, k); adjoint: adds scale * w
@@ -194,40 +193,22 @@ static double next_kink(const double a[3], const double b[3], double t)
     return next;
 }
 
-/* Where a piece's two samples sit either side of its middle, as a fraction of
- * its length (cl/pb_chord.cl's pb_piece_offset, PB_ONE_FETCH_SPREAD): the
- * Gauss-Legendre points, or for the HARDWARE filter's short pieces the middle
- * (0: one sample), moving out to them as the spread grows to twice the bound. */
-static double piece_offset(int one_fetch, double l, const double d[3])
-{
-    double gauss = 0.5 / sqrt(3.0);
-    if (!one_fetch)
-        return gauss;
-    double e = l * l * (fabs(d[0] * d[1]) + fabs(d[0] * d[2]) + fabs(d[1] * d[2]));
-    double r = fmin(1.0, e / (double)PB_ONE_FETCH_SPREAD - 1.0);
-    return r > 0.0 ? gauss * sqrt(r) : 0.0;
-}
-
-/* The trilinear filter's time average over the chord a-b: cut at every texel
- * centre it crosses, inside each piece a cubic, which two Gauss-Legendre
- * points integrate exactly; the HARDWARE filter reads a short piece by fewer
- * (piece_offset). AB's and RM's on short segments; CL on a field is RM, its
- * chord the motion. */
+/* The trilinear filter's exact time average over the chord a-b: cut at every
+ * texel centre it crosses, inside each piece a cubic, which two
+ * Gauss-Legendre points integrate exactly (AB's and RM's on short segments;
+ * CL on a field is RM, its chord the motion). */
 static double chord_exact(const host_io *io, const double a[3], const double b[3], double scale)
 {
-    const double d[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]};
     double sum = 0.0, t1;
     for (double t0 = 0.0; t0 < 1.0; t0 = t1) {
         t1 = next_kink(a, b, t0);
         if (!(t1 > t0)) /* rounding stalled: the rest is one piece */
             t1 = 1.0;
-        double off = piece_offset(io->one_fetch, t1 - t0, d);
-        int two = off > 0.0;
-        for (int g = -two; g <= two; g += 2) {
-            double t = t0 + (t1 - t0) * (0.5 + g * off), p[3];
-            for (int k = 0; k < 3; k++)
-                p[k] = a[k] + t * d[k];
-            sum += trilinear(io, p, (two ? 0.5 : 1.0) * scale * (t1 - t0));
+        for (int g = -1; g <= 1; g += 2) {
+            double t = t0 + (t1 - t0) * (0.5 + g * 0.5 / sqrt(3.0)), p[3];
+            for (int d = 0; d < 3; d++)
+                p[d] = a[d] + t * (b[d] - a[d]);
+            sum += trilinear(io, p, 0.5 * scale * (t1 - t0));
         }
     }
     return sum;
@@ -491,7 +472,7 @@ static pb_status host_forward(pb_device *dev, const float *in, const pb_path *pl
 {
     struct timespec t0;
     clock_gettime(CLOCK_MONOTONIC, &t0);
-    host_io io = {in, NULL, {(long)d[0], (long)d[1], (long)d[2]}, opt->filter == PB_FILTER_HARDWARE};
+    host_io io = {in, NULL, {(long)d[0], (long)d[1], (long)d[2]}};
     for (long iz = 0; iz < io.n[2]; iz++) {
         for (long iy = 0; iy < io.n[1]; iy++)
             for (long ix = 0; ix < io.n[0]; ix++)
@@ -515,7 +496,7 @@ static pb_status host_adjoint(pb_device *dev, const float *in, const pb_path *pl
     if (!acc)
         return pb_error(pb_owner(dev), PB_ERR_OUT_OF_MEMORY, "out of host memory for the adjoint's %.1f MiB sum",
                         count * 8.0 / 1048576.0);
-    host_io io = {NULL, acc, {(long)d[0], (long)d[1], (long)d[2]}, opt->filter == PB_FILTER_HARDWARE};
+    host_io io = {NULL, acc, {(long)d[0], (long)d[1], (long)d[2]}};
     for (size_t i = 0; accumulate && i < count; i++)
         acc[i] = (double)out[i];
     for (long iz = 0; iz < io.n[2]; iz++) {

@@ -33,7 +33,6 @@ void pb_kparams_from_path(const pb_path *path, const pb_blur_options *opt, pb_kp
     prm->ref_points = (int)opt->ref_points;
     prm->ref_steps = (int)path->ref_count;
     prm->seed = opt->seed;
-    prm->one_fetch = opt->filter == PB_FILTER_HARDWARE;
     if (path->field) {
         const pb_path_field *pf = path->field;
         for (int d = 0; d < 3; d++)
