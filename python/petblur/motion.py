@@ -345,10 +345,13 @@ class Motion:
             _warn(w, stacklevel)
         return world, (track, poses)
 
-    def _c_motion(self, dims, voxel_size, affine, bounds, warn=True):
+    def _c_motion(self, dims, voxel_size, affine, bounds, warn=True, refuse=True):
         """The motion in the grid frame of a grid of dims and voxel_size placed
         by affine, with frames `bounds` checked as the command line checks
-        them: the C struct, the geometry, and what they point into."""
+        them: the C struct, the geometry, and what they point into. With
+        refuse False, a motion that takes the grid out of view for a whole
+        frame is a warning, as in the program's summary (`petblur motion`),
+        where a blur refuses it."""
         g = _grid(dims, voxel_size)
         track = _Track(self)
         n = len(self)
@@ -359,8 +362,12 @@ class Motion:
                                        ctypes.byref(out), ctypes.byref(w)))
         out.frame_start, out.frame_end = float(bounds[0]), float(bounds[-1])
         b = (ctypes.c_double * len(bounds))(*bounds)
-        _check(_lib.lib.pb_track_check_frames(track.handle, ctypes.byref(out), ctypes.byref(g), b, len(bounds) - 1,
-                                              ctypes.byref(w)))
+        st = _lib.lib.pb_track_check_frames(track.handle, ctypes.byref(out), ctypes.byref(g), b, len(bounds) - 1,
+                                            ctypes.byref(w))
+        if st == _lib.ERR_OUT_OF_VIEW and not refuse:
+            warnings.warn(python_words(_lib.message()), stacklevel=3)
+        else:
+            _check(st)
         if warn:
             _warn(w, 4)
         return g, out, (track, grid)
@@ -387,14 +394,16 @@ class Motion:
         does not follow as motion (noise_mm: the RMS of the corners' 3-D
         scatter; 0 where every sample is followed) and the segments the
         default path walks (segments); both None where that path cannot
-        walk the frame (more segments than a blur takes)."""
+        walk the frame (more segments than a blur takes). A motion that
+        takes the grid out of view for a whole frame, which a blur refuses,
+        is a warning here, as in the program's summary."""
         from .operator import _affine4, _grid_affine, _shape3, _voxel3
         shape, vox = _shape3(shape), _voxel3(voxel_size)
         a = _grid_affine(vox) if affine is None else _affine4(affine)
         b = _numbers("bounds", bounds)
         if b.ndim != 1 or b.size < 2:
             raise ArgumentError(f"bounds must list a frame's start and end at least, not {b.size} number(s)")
-        g, placed, keep = self._c_motion(shape, vox, a, b, warn=False)
+        g, placed, keep = self._c_motion(shape, vox, a, b, warn=False, refuse=False)
         t = _lib.TrackSummary()
         _check(_lib.lib.pb_track_summarize(keep[0].handle, ctypes.byref(t)))
         out = {name: getattr(t, name) for name, _ in _lib.TrackSummary._fields_}

@@ -84,6 +84,31 @@ def test_program_and_python_refuse_and_warn_alike(tmp_path, rng, cli):
         assert any(words in line for line in cli_lines), (name, cli_lines)
 
 
+def test_summaries_warn_where_a_blur_refuses(tmp_path, rng, cli):
+    """A track that takes the grid out of view for a whole frame: a blur
+    refuses it (above), the summaries show it, the program's (`petblur
+    motion`, exit 0) and Python's (Motion.summary) with the same warning,
+    and the same frame table."""
+    shape, vox = (20, 18, 12), np.array([2.0, 2.0, 3.0])
+    path, _, words = _cases(tmp_path, rng)["away"]
+    frames = [0.0, 1.0, 3.0]
+    p = subprocess.run([cli, "motion", str(path), "--dims", ",".join(map(str, shape)), "--voxel-size",
+                        ",".join(f"{v:g}" for v in vox), "--coords", "grid", "--frames", "0,1,3"],
+                       capture_output=True, text=True)
+    assert p.returncode == 0, p.stderr
+    cli_lines = [line for line in _cli_words(p.stderr) if words in line]
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        s = petblur.Motion.from_file(path).summary(frames, shape, vox)
+    py_lines = [str(w.message) for w in caught if words in str(w.message)]
+    assert len(cli_lines) == 1 and cli_lines == py_lines, (p.stderr, py_lines)
+    rows = [line.split() for line in p.stdout.splitlines() if re.match(r"^ *\d+ ", line)]
+    assert len(rows) == len(s["frames"]) == 2, p.stdout
+    for row, frame in zip(rows, s["frames"]):
+        assert int(row[3]) == frame["samples"], (row, frame)
+        assert abs(float(row[5]) - frame["max_corner_mm"]) <= 0.01, (row, frame)
+
+
 def test_the_order_that_fits_is_named(tmp_path, rng):
     cases = _cases(tmp_path, rng)
     with pytest.warns(UserWarning, match=r"read as x,y,z,w \(quaternion_order='xyzw'\) instead"):
