@@ -15,6 +15,16 @@ PB_FN void pb_map_point(PB_GLOBAL_RO float *m, float ux, float uy, float uz, flo
     o[2] = m[8] * ux + m[9] * uy + m[10] * uz + m[11];
 }
 
+/* pb_map_point through a key pose's map, its rows read as three float4
+ * (pb_kpose's 96 bytes keep them aligned). */
+PB_FN void pb_map_pose(PB_GLOBAL_RO pb_kpose *p, float ux, float uy, float uz, float *o)
+{
+    const float4 r0 = PB_LOAD4(p->map), r1 = PB_LOAD4(p->map + 4), r2 = PB_LOAD4(p->map + 8);
+    o[0] = r0.x * ux + r0.y * uy + r0.z * uz + r0.w;
+    o[1] = r1.x * ux + r1.y * uy + r1.z * uz + r1.w;
+    o[2] = r2.x * ux + r2.y * uy + r2.z * uz + r2.w;
+}
+
 /* Trilinear sample at texel coordinates: one linear fetch, or eight nearest
  * reads weighted in float. */
 PB_FN float pb_trilinear(pb_image img, int exact, float x, float y, float z)
@@ -325,11 +335,11 @@ PB_FN int pb_ab_next_partial(const pb_ab_walk *w, int k)
 #define PB_FOR_SEGMENTS(poses, prm, u, BODY)                                                                     \
     {                                                                                                          \
         float a[3], b[3];                                                                                      \
-        pb_map_point((poses)[0].map, (u)[0], (u)[1], (u)[2], b);                                               \
+        pb_map_pose(&(poses)[0], (u)[0], (u)[1], (u)[2], b);                                                   \
         for (int j = 0; j < (prm).segments; j++) {                                                             \
             for (int pb_i = 0; pb_i < 3; pb_i++)                                                               \
                 a[pb_i] = b[pb_i];                                                                             \
-            pb_map_point((poses)[j + 1].map, (u)[0], (u)[1], (u)[2], b);                                       \
+            pb_map_pose(&(poses)[j + 1], (u)[0], (u)[1], (u)[2], b);                                           \
             if ((poses)[j].weight == 0.0f)                                                                     \
                 continue;                                                                                      \
             BODY;                                                                                              \
@@ -551,8 +561,8 @@ PB_FN int pb_classical_steps(PB_GLOBAL_RO pb_kpose *poses, int j, pb_kparams prm
     if (prm.steps > 0)
         return prm.steps;
     float a[3], b[3];
-    pb_map_point(poses[j].map, u[0], u[1], u[2], a);
-    pb_map_point(poses[j + 1].map, u[0], u[1], u[2], b);
+    pb_map_pose(&poses[j], u[0], u[1], u[2], a);
+    pb_map_pose(&poses[j + 1], u[0], u[1], u[2], b);
     return pb_ab_slices(a, b);
 }
 

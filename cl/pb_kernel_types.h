@@ -71,7 +71,10 @@ PB_FN int pb_layer_across(int m, int i)
     return i == 0 ? (m == 0 ? 1 : 0) : (m == 2 ? 1 : 2);
 }
 
-/* One key pose, as the kernels read it. */
+/* One key pose, as the kernels read it: 24 floats, so that in a buffer of
+ * them every map starts on 16 bytes and is read by three vector loads
+ * (pb_map_pose), where twelve loads a segment were a tenth of the forward's
+ * instructions on a slow drift (docs/performance.md). */
 typedef struct pb_kpose {
     float map[12];      /* object texel coords from tomograph texel coords, row-major 3x4 */
     float rotation[4];  /* unit quaternion w, x, y, z, same hemisphere as the previous pose */
@@ -81,6 +84,7 @@ typedef struct pb_kpose {
                          * acos of a float dot product near 1 would lose most of it */
     float cos_angle;    /* its cosine and 1 / its sine (0 for angle 0), from the host in double, */
     float inv_sin_angle; /* so that CL's step needs one sincos and no division */
+    float unused;        /* to 96 bytes */
 } pb_kpose;
 
 /* One key point of a field motion's frame, or one of REF's time steps: the

@@ -72,6 +72,8 @@ static inline void pb_atomic_add(volatile __global float *p, float v)
  * and the adjoint divide through the same helpers, so they agree. */
 #define PB_DIV(a, b) native_divide((a), (b))
 #define PB_RCP(x) native_recip(x)
+/* Four floats from p, 16-byte aligned (a float4). */
+#define PB_LOAD4(p) vload4(0, (p))
 #define PB_SINCOS(x, c) sincos((x), (c))
 #define PB_RSQRT(x) rsqrt(x)
 
@@ -107,6 +109,7 @@ typedef cudaTextureObject_t pb_layers;
 /* With its result unused nvcc emits RED.ADD.F32. */
 #define PB_ATOMIC_ADD(p, v) atomicAdd((p), (v))
 #define PB_DIV(a, b) __fdividef((a), (b))
+#define PB_LOAD4(p) (*(const float4 *)(p))
 /* One MUFU.RCP: __fdividef(1, x) adds a guard for huge x that the chord's
  * kinks (cl/pb_chord.cl), which take it of lengths from 1e-6 to a grid's, never need. */
 PB_FN float pb_rcp(float x)
