@@ -24,9 +24,11 @@ PB_FN int pb_voxel_index(float f)
 PB_FN void pb_kinks_init(float p0, float d, float *next, float *step)
 {
     const float ad = fabs(d);
-    const float y = p0 - 0.5f;
-    const float n = d > 0.0f ? floor(y + PB_KINK_GAP) + 1.0f : ceil(y - PB_KINK_GAP) - 1.0f;
-    const float to = fabs(n - y);
+    /* Along the motion: mirrored where it runs down the axis, the next centre
+     * is floor(z + gap) + 1 either way (ceil(y - gap) - 1 mirrored, the same
+     * floats), one rounding where both ways took two a segment. */
+    const float z = d > 0.0f ? p0 - 0.5f : 0.5f - p0;
+    const float to = floor(z + PB_KINK_GAP) + 1.0f - z;
     /* No crossing on this chord (or no motion along the axis): no reciprocal. */
     if (to >= ad || ad < 1e-6f) {
         *next = 2.0f;
