@@ -1,6 +1,7 @@
 #include "kernel_choice.h"
 
 #include <math.h>
+#include <stddef.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -189,6 +190,12 @@ void pb_kparams_permute(const size_t *dims, int m, pb_kparams *prm)
         prm->dims[d] = (int)dims[d];
     prm->layer_axis = m;
 }
+
+/* The kernels read each key pose's map as three float4 (pb_map_pose): in a
+ * buffer of poses, which the devices align to at least 16 bytes, every map
+ * must start on 16 bytes. */
+_Static_assert(sizeof(pb_kpose) % 16 == 0 && offsetof(pb_kpose, map) == 0,
+               "pb_kpose: a whole number of 16 bytes, its map first");
 
 static void kpose_from_path(const pb_path *path, size_t index, pb_kpose *out)
 {
