@@ -24,9 +24,9 @@ PB_FN int pb_voxel_index(float f)
 PB_FN void pb_kinks_init(float p0, float d, float *next, float *step)
 {
     const float ad = fabs(d);
-    /* Along the motion: mirrored where it runs down the axis, the next centre
-     * is floor(z + gap) + 1 either way (ceil(y - gap) - 1 mirrored, the same
-     * floats), one rounding where both ways took two a segment. */
+    /* Mirrored where the chord runs down the axis, so that one floor finds
+     * the next centre either way: floor(z + gap) + 1 is ceil(y - gap) - 1
+     * mirrored, the same floats. */
     const float z = d > 0.0f ? p0 - 0.5f : 0.5f - p0;
     const float to = floor(z + PB_KINK_GAP) + 1.0f - z;
     /* No crossing on this chord (or no motion along the axis): no reciprocal. */

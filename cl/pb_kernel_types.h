@@ -73,8 +73,8 @@ PB_FN int pb_layer_across(int m, int i)
 
 /* One key pose, as the kernels read it: 24 floats, so that in a buffer of
  * them every map starts on 16 bytes and is read by three vector loads
- * (pb_map_pose), where twelve loads a segment were a tenth of the forward's
- * instructions on a slow drift (docs/performance.md). */
+ * (pb_map_pose): a segment's scalar loads of it were a tenth of the forward's
+ * instructions on a slow drift (docs/methods.md, "Less set-up a segment"). */
 typedef struct pb_kpose {
     float map[12];      /* object texel coords from tomograph texel coords, row-major 3x4 */
     float rotation[4];  /* unit quaternion w, x, y, z, same hemisphere as the previous pose */
