@@ -276,7 +276,12 @@ PB_FN void pb_polyline_adjoint(PB_GLOBAL float *out, PB_GLOBAL_RO pb_kpose *pose
     const float u[3] = {(float)ix + 0.5f, (float)iy + 0.5f, (float)iz + 0.5f};
     pb_cell cell;
     cell.live = 0;
-    PB_FOR_SEGMENTS(poses, prm, u, pb_segment_adjoint(out, prm, &cell, a, b, ab, v * poses[j].weight));
+    if (ab && prm.steps == 1) { /* as pb_polyline: decided once a voxel */
+        PB_FOR_SEGMENTS(poses, prm, u,
+                        pb_ab_segment_adjoint(out, prm, &cell, ab == PB_AB_SWEEP, a, b, v * poses[j].weight));
+    } else {
+        PB_FOR_SEGMENTS(poses, prm, u, pb_segment_adjoint(out, prm, &cell, a, b, ab, v * poses[j].weight));
+    }
     pb_cell_flush(out, prm, &cell);
 }
 

@@ -548,6 +548,14 @@ PB_FN float pb_polyline(pb_image img, PB_GLOBAL_RO pb_kpose *poses, pb_kparams p
                         const pb_place *pl, int ab, int exact)
 {
     float total = 0.0f;
+    /* AB of one sub-segment, the usual case, decided once a voxel rather than
+     * at every segment (the check was a few of a short segment's hundred
+     * instructions, docs/methods.md). */
+    if (ab && prm.steps == 1) {
+        PB_FOR_SEGMENTS(poses, prm, u,
+                        total += poses[j].weight * pb_ab_segment(img, exact, ab == PB_AB_SWEEP, pl, a, b));
+        return total;
+    }
     PB_FOR_SEGMENTS(poses, prm, u,
                     total += poses[j].weight * (ab ? pb_ab_sampled(img, prm, exact, ab == PB_AB_SWEEP, pl, a, b)
                                                    : pb_rm_sampled(img, prm, exact, pl, a, b)));
