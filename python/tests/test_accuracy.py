@@ -61,13 +61,17 @@ def measured(request, cli, tmp_path_factory):
     ref = ac.reference(case, times=1500)
     device = "opencl" if any(s.startswith("opencl") for s, _ in petblur.devices()) else "host"
     x = np.asfortranarray(case.x)
-    out = {}
-    for method, bound in (("ab", None), ("rm", None), ("ab", 0.25)):
+    out, blurs = {"seed": seed}, {}
+    for method, bound in (("ab", None), ("rm", None), ("ab", 0.25), ("ab", 0.01)):
         op = petblur.BlurOperator(case.shape, case.voxel, case.motion(), method=method, max_path_error=bound,
                                   affine=case.affine, device=device)
-        y = op(x)
+        y = blurs[(method, bound)] = op(x)
         assert np.isfinite(y).all() and y.shape == case.shape
         out[(method, bound)] = ac.errors(ref, y)
+    # what a bound's path adds: its blur against AB's along a path 25 times
+    # finer, where what is left against the reference is AB's own sampling
+    for name, bound in (("path 0.25", 0.25), ("path default", None)):
+        out[name] = ac.errors(blurs[("ab", 0.01)], blurs[("ab", bound)])
     out["cli"], out["cli numpy"] = _cli_errors(cli, tmp_path_factory.mktemp("accuracy"), case, ref)
     return out
 
@@ -76,7 +80,7 @@ def measured(request, cli, tmp_path_factory):
 def test_defaults_meet_the_targets(measured, method):
     e = measured[(method, None)]
     print(method, e)
-    assert e["rms_pct"] <= 0.3 and e["max_pct"] <= 1.0, e
+    assert e["rms_pct"] <= 0.3 and e["max_pct"] <= 1.0, (measured["seed"], e)
 
 
 def test_the_program_meets_the_targets(measured):
@@ -84,16 +88,19 @@ def test_the_program_meets_the_targets(measured):
     must equal numpy's errors of the program's output."""
     e, numpy_e = measured["cli"], measured["cli numpy"]
     print("cli", e)
-    assert e["rms_pct"] <= 0.3 and e["max_pct"] <= 1.0, e
+    assert e["rms_pct"] <= 0.3 and e["max_pct"] <= 1.0, (measured["seed"], e)
     for k in e:
-        assert abs(e[k] - numpy_e[k]) <= 1e-4 * numpy_e[k] + 1e-6, (e, numpy_e)
+        assert abs(e[k] - numpy_e[k]) <= 1e-4 * numpy_e[k] + 1e-6, (measured["seed"], e, numpy_e)
 
 
 def test_the_old_bound_is_coarser(measured):
-    """0.25 voxels (the default before) is further from the reference than the
-    default: the bound is what the targets measure. Since the planner fits its
-    knots both stand at hundredths of a percent; on 31 fresh cases 0.25 was
-    1.19-4.29x the default's RMS and 1.51-4.83x its max
+    """0.25 voxels (the default before) leaves the blur further from that of a
+    path 25 times finer than the default does: the bound is what sets the
+    path's share of the error. Against the reference both bounds stand at a
+    few hundredths of a percent since the planner fits its knots, where AB's
+    own sampling, the same at every bound, is most of it: a CI draw had 0.25
+    at 0.92x the default's RMS there. The path's own share on 56 fresh cases:
+    0.25 at 1.11-7.1x the default's RMS and 1.60-7.9x its max
     (bench/results/2026-11-30_cpu2_old-bound)."""
-    old, new = measured[("ab", 0.25)], measured[("ab", None)]
-    assert old["rms_pct"] > 1.1 * new["rms_pct"] and old["max_pct"] > 1.2 * new["max_pct"], (old, new)
+    old, new = measured["path 0.25"], measured["path default"]
+    assert old["rms_pct"] > new["rms_pct"] and old["max_pct"] > 1.3 * new["max_pct"], (measured["seed"], old, new)
