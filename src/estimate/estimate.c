@@ -355,6 +355,14 @@ static double series_gain(const frame_path *paths, const unsigned char *tried, s
     return bar;
 }
 
+/* Whether frame k has evidence to give on a side (0 its start, 1 its end):
+ * a neighbour there with structure, at a pose apart from its own. */
+static int side_defined(const estimate *e, const pbe_fit *fits, size_t k, int side, const double far[3])
+{
+    return (side ? k + 1 < e->count : k > 0) && !e->flat[side ? k + 1 : k - 1] &&
+           poses_apart(e, far, &fits[k].pose, &fits[side ? k + 1 : k - 1].pose);
+}
+
 /* Between two still frames the track is linear from one's middle to the
  * other's: each frame's half beside their boundary holds a ramp along the
  * line between their poses. A head that jumped at the boundary (a jerk
@@ -369,14 +377,6 @@ static double series_gain(const frame_path *paths, const unsigned char *tried, s
  * give or take 2 sqrt(g) of noise. ev[4 * k + 2 * side] = g, + 1 = h (side 0
  * the start, 1 the end); 0 where there is no neighbour or the poses are
  * within a tenth of a voxel at the far corner (nothing to tell). */
-/* Whether frame k has evidence to give on a side (0 its start, 1 its end):
- * a neighbour there with structure, at a pose apart from its own. */
-static int side_defined(const estimate *e, const pbe_fit *fits, size_t k, int side, const double far[3])
-{
-    return (side ? k + 1 < e->count : k > 0) && !e->flat[side ? k + 1 : k - 1] &&
-           poses_apart(e, far, &fits[k].pose, &fits[side ? k + 1 : k - 1].pose);
-}
-
 static pb_status side_evidence(estimate *e, const pbe_fit *fits, size_t k, const double far[3], double ev[4])
 {
     const pb_pose *own = &fits[k].pose;
@@ -777,6 +777,14 @@ static void path_keys(keys *out, double t0, double t1, const pb_pose *s, const p
         *from = *to = mid_time(t0, t1);
 }
 
+/* Whether a frame's side (g, h: side_evidence) is not nearer a ramp than a
+ * step by more than two standard deviations of its noise: h at least
+ * halfway from -g to g, less 2 sqrt(g). */
+static int leans_to_step(const double side[2])
+{
+    return side[1] > 0.5 * side[0] - 2.0 * sqrt(side[0]);
+}
+
 /* Where the head jumped at a boundary between still frames: steps[b] for
  * the boundary before frame b, where the poses jumped into frame b (more than
  * the walk of smooth_poses.c goes, jumped[b]: none where the poses were not
@@ -789,14 +797,6 @@ static void path_keys(keys *out, double t0, double t1, const pb_pose *s, const p
  * h of 162 there; issue 47's draw 1614930606). A boundary beside a moving
  * frame keeps its path's keys.
  * PETBLUR_ESTIMATE_BOUNDARY=ramp keeps every ramp, for comparisons. */
-/* Whether a frame's side (g, h: side_evidence) is not nearer a ramp than a
- * step by more than two standard deviations of its noise: h at least
- * halfway from -g to g, less 2 sqrt(g). */
-static int leans_to_step(const double side[2])
-{
-    return side[1] > 0.5 * side[0] - 2.0 * sqrt(side[0]);
-}
-
 static void boundary_steps(const estimate *e, const int *moving, const int *jumped, const double *sides,
                            unsigned char *steps)
 {
