@@ -45,7 +45,7 @@ pb_status pb_blur_pose_derivative(pb_context *ctx, const pb_volume *object, cons
         float *d[6];
         for (int j = 0; j < 6; j++)
             d[j] = images + (size_t)j * n;
-        pbe_pose_gradients(&g, x, c, d);
+        pbe_pose_gradients(NULL, &g, x, c, d);
         for (int j = 0; j < 6 && st == PB_OK; j++) {
             st = pb_volume_upload(image, d[j]);
             if (st == PB_OK)

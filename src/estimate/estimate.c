@@ -77,6 +77,7 @@ typedef struct estimate {
     float *frames[8];       /* per level: every frame, smoothed */
     pbe_level level[8];
     float *scratch, *tmp;   /* six volumes of level 0; one line */
+    pbe_pool *pool;         /* threads for the loops over voxels (parallel.c) */
     pb_progress_fn progress;
     void *progress_user;
     double done, total;
@@ -105,8 +106,17 @@ static void pyramid(estimate *e, const float *src, float *const *out)
         double fwhm = e->fwhm > 0 ? e->fwhm : 2.0 * fmax(e->level[l].g.voxel_size[0],
                                                            fmax(e->level[l].g.voxel_size[1],
                                                                 e->level[l].g.voxel_size[2]));
-        pbe_smooth(&e->level[l].g, out[l], fwhm, e->tmp);
+        pbe_smooth(e->pool, &e->level[l].g, out[l], fwhm, e->tmp);
     }
+}
+
+/* The reference on every level from its pyramid (pyramid's levels). */
+static pb_status set_reference_levels(estimate *e, const float *const *levels)
+{
+    pb_status st = PB_OK;
+    for (size_t l = 0; l < e->levels && st == PB_OK; l++)
+        st = pbe_level_set_reference(&e->level[l], levels[l], e->c, e->scratch);
+    return st;
 }
 
 static pb_status set_reference(estimate *e, const float *reference)
@@ -118,8 +128,7 @@ static pb_status set_reference(estimate *e, const float *reference)
             st = PB_ERR_OUT_OF_MEMORY;
     if (st == PB_OK) {
         pyramid(e, reference, ref);
-        for (size_t l = 0; l < e->levels && st == PB_OK; l++)
-            st = pbe_level_set_reference(&e->level[l], ref[l], e->c, e->scratch);
+        st = set_reference_levels(e, (const float *const *)ref);
     }
     for (size_t l = 0; l < e->levels; l++)
         free(ref[l]);
@@ -160,7 +169,11 @@ static pb_status register_chain(estimate *e, size_t ref, pbe_fit *fits)
             pbe_fit step = fits[k];
             memset(&step.pose, 0, sizeof step.pose);
             step.pose.rotation[0] = 1.0;
-            st = set_reference(e, e->raw + j * e->level[0].n);
+            /* frame j's pyramid, made once at the start */
+            const float *levels[8];
+            for (size_t l = 0; l < e->levels; l++)
+                levels[l] = e->frames[l] + j * e->level[l].n;
+            st = set_reference_levels(e, levels);
             if (st == PB_OK)
                 st = register_frame(e, k, &step);
             if (st != PB_OK)
@@ -203,7 +216,7 @@ static pb_status move_back(estimate *e, const pbe_fit *fits, float *moved)
 /* Frame k's own reference (references.c) on every level. */
 static pb_status frame_reference(estimate *e, const float *moved, const double *gram, size_t k, float *reference)
 {
-    pb_status st = pbe_frame_reference(moved, e->level[0].n, e->count, gram, k, reference);
+    pb_status st = pbe_frame_reference(e->pool, moved, e->level[0].n, e->count, gram, k, reference);
     return st == PB_OK ? set_reference(e, reference) : st;
 }
 
@@ -218,7 +231,7 @@ static pb_status register_own(estimate *e, pbe_fit *fits, float *moved, double *
     for (size_t k = 0; k < e->count; k++)
         if (e->flat[k])
             memset(moved + k * e->level[0].n, 0, sizeof(float) * e->level[0].n);
-    pbe_gram_band(moved, e->level[0].n, e->count, gram);
+    pbe_gram_band(e->pool, moved, e->level[0].n, e->count, gram);
     for (size_t k = 0; k < e->count && st == PB_OK; k++) {
         st = frame_reference(e, moved, gram, k, reference);
         if (st == PB_OK)
@@ -402,7 +415,7 @@ static pb_status side_evidence(estimate *e, const pbe_fit *fits, size_t k, const
                 return PB_ERR_OUT_OF_MEMORY;
             if ((st = pbe_blur_reference(e->ctx, level, &m)) != PB_OK)
                 break;
-            pbe_fit_scale(level->host[0], frame, level->n, &scale, &offset, &one_sse);
+            pbe_fit_scale(level->pool, level->host[0], frame, level->n, &scale, &offset, &one_sse);
             for (size_t v = 0; v < level->n; v++)
                 one[v] = (float)(scale * (double)level->host[0][v] + offset);
             noise = pbe_correlation_volume(&level->g, frame, one) * one_sse / (double)level->n;
@@ -419,8 +432,8 @@ static pb_status side_evidence(estimate *e, const pbe_fit *fits, size_t k, const
         if ((st = pbe_blur_reference(e->ctx, level, &ramp)) != PB_OK)
             break;
         double ramp_sse, a, b, dist;
-        pbe_fit_scale(level->host[0], frame, level->n, &scale, &offset, &ramp_sse);
-        pbe_fit_scale(level->host[0], one, level->n, &a, &b, &dist);
+        pbe_fit_scale(level->pool, level->host[0], frame, level->n, &scale, &offset, &ramp_sse);
+        pbe_fit_scale(level->pool, level->host[0], one, level->n, &a, &b, &dist);
         if (noise > 0) {
             ev[2 * side] = dist / noise;
             ev[2 * side + 1] = (ramp_sse - one_sse) / noise;
@@ -1055,6 +1068,7 @@ pb_status pb_motion_estimate(pb_context *ctx, const pb_geometry *geometry, const
         st = PB_ERR_OUT_OF_MEMORY;
     if (st == PB_OK)
         st = remove_background(&e);
+    e.pool = pbe_pool_create();
     e.iterations = o.iterations ? o.iterations : 12;
     e.fwhm = o.fwhm_mm;
     for (int a = 0; a < 3; a++)
@@ -1087,7 +1101,7 @@ pb_status pb_motion_estimate(pb_context *ctx, const pb_geometry *geometry, const
     for (size_t l = 0; l < e.levels && st == PB_OK; l++) {
         if (l > 0)
             pbe_coarser(&e.level[l - 1].g, &g);
-        st = pbe_level_init(ctx, &e.level[l], &g);
+        st = pbe_level_init(ctx, &e.level[l], &g, e.pool);
         if (st == PB_OK && !(e.frames[l] = malloc(sizeof(float) * e.level[l].n * count)))
             st = PB_ERR_OUT_OF_MEMORY;
     }
@@ -1115,6 +1129,7 @@ pb_status pb_motion_estimate(pb_context *ctx, const pb_geometry *geometry, const
     free(e.owned);
     free(e.flat);
     free(e.tmp);
+    pbe_pool_destroy(e.pool);
     ctx->dev.progress = e.progress;
     ctx->dev.progress_user = e.progress_user;
     if (st == PB_OK && e.progress)

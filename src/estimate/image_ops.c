@@ -1,6 +1,6 @@
 /* Host image operations of the estimate: the resolution pyramid, smoothing and
- * the derivative images of a reference. Plain loops: each runs once per frame
- * and level, beside hundreds of blurs on the device. */
+ * the derivative images of a reference, the last two on the estimate's
+ * threads (a plane each). */
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -44,31 +44,41 @@ void pbe_downsample(const pb_geometry *fine, const float *in, const pb_geometry 
             }
 }
 
-/* One axis of the Gaussian: stride between neighbours, n along the axis,
- * lines of that axis enumerated by (outer, inner). */
-static void smooth_axis(float *v, float *tmp, size_t n, size_t stride, size_t lines_outer, size_t outer_stride,
-                        size_t lines_inner, size_t inner_stride, const double *w, int radius)
+/* One axis of the Gaussian: n along the axis, stride between neighbours;
+ * its lines are (outer, inner) for outer < lines_outer, inner <
+ * lines_inner, and `lines` holds a line for each outer (or one, used by
+ * every outer where the caller runs them alone). */
+typedef struct smooth_job {
+    float *v, *lines;
+    size_t n, stride, lines_inner, outer_stride, inner_stride;
+    int shared_line;
+    const double *w;
+    int radius;
+} smooth_job;
+
+static void smooth_lines(void *arg, size_t o)
 {
-    for (size_t o = 0; o < lines_outer; o++)
-        for (size_t l = 0; l < lines_inner; l++) {
-            float *line = v + o * outer_stride + l * inner_stride;
-            for (size_t i = 0; i < n; i++) {
-                double s = 0.0, ws = 0.0;
-                for (int d = -radius; d <= radius; d++) {
-                    long p = (long)i + d;
-                    if (p < 0 || p >= (long)n)
-                        continue;
-                    s += w[d + radius] * (double)line[(size_t)p * stride];
-                    ws += w[d + radius];
-                }
-                tmp[i] = (float)(s / ws);
+    const smooth_job *s = arg;
+    float *tmp = s->lines + (s->shared_line ? 0 : o * s->n);
+    for (size_t l = 0; l < s->lines_inner; l++) {
+        float *line = s->v + o * s->outer_stride + l * s->inner_stride;
+        for (size_t i = 0; i < s->n; i++) {
+            double sum = 0.0, ws = 0.0;
+            for (int d = -s->radius; d <= s->radius; d++) {
+                long p = (long)i + d;
+                if (p < 0 || p >= (long)s->n)
+                    continue;
+                sum += s->w[d + s->radius] * (double)line[(size_t)p * s->stride];
+                ws += s->w[d + s->radius];
             }
-            for (size_t i = 0; i < n; i++)
-                line[i * stride] = tmp[i];
+            tmp[i] = (float)(sum / ws);
         }
+        for (size_t i = 0; i < s->n; i++)
+            line[i * s->stride] = tmp[i];
+    }
 }
 
-void pbe_smooth(const pb_geometry *g, float *v, double fwhm_mm, float *tmp)
+void pbe_smooth(pbe_pool *pool, const pb_geometry *g, float *v, double fwhm_mm, float *tmp)
 {
     const size_t nx = g->dims[0], ny = g->dims[1], nz = g->dims[2];
     for (int a = 0; a < 3; a++) {
@@ -84,38 +94,60 @@ void pbe_smooth(const pb_geometry *g, float *v, double fwhm_mm, float *tmp)
             return;
         for (int d = -radius; d <= radius; d++)
             w[d + radius] = exp(-0.5 * d * d / (sigma * sigma));
-        if (a == 0)
-            smooth_axis(v, tmp, nx, 1, nz, nx * ny, ny, nx, w, radius);
-        else if (a == 1)
-            smooth_axis(v, tmp, ny, nx, nz, nx * ny, nx, 1, w, radius);
-        else
-            smooth_axis(v, tmp, nz, nx * ny, ny, nx, nx, 1, w, radius);
+        /* x and y: a plane of z each; z: a plane of y */
+        const size_t outer = a < 2 ? nz : ny;
+        smooth_job s = {v, NULL, n, a == 0 ? 1 : a == 1 ? nx : nx * ny, a == 0 ? ny : nx, a < 2 ? nx * ny : nx,
+                        a == 0 ? nx : 1, 0, w, radius};
+        s.lines = pool ? malloc(sizeof(float) * n * outer) : NULL;
+        if (!s.lines) {
+            s.lines = tmp;
+            s.shared_line = 1;
+        }
+        pbe_pool_for(s.shared_line ? NULL : pool, outer, smooth_lines, &s);
+        if (!s.shared_line)
+            free(s.lines);
         free(w);
     }
 }
 
-void pbe_pose_gradients(const pb_geometry *g, const float *x, const double c[3], float *const out[6])
+typedef struct gradient_job {
+    const pb_geometry *g;
+    const float *x;
+    const double *c;
+    float *const *out;
+} gradient_job;
+
+static void gradient_plane(void *arg, size_t k)
 {
-    const size_t nx = g->dims[0], ny = g->dims[1], nz = g->dims[2];
+    const gradient_job *s = arg;
+    const pb_geometry *g = s->g;
+    const float *x = s->x;
+    const size_t nx = g->dims[0], ny = g->dims[1];
     const size_t step[3] = {1, nx, nx * ny};
-    for (size_t k = 0; k < nz; k++)
-        for (size_t j = 0; j < ny; j++)
-            for (size_t i = 0; i < nx; i++) {
-                const size_t idx[3] = {i, j, k}, at = i + nx * (j + ny * k);
-                double grad[3], r[3];
-                for (int a = 0; a < 3; a++) {
-                    double lo = idx[a] > 0 ? (double)x[at - step[a]] : 0.0;
-                    double hi = idx[a] + 1 < g->dims[a] ? (double)x[at + step[a]] : 0.0;
-                    grad[a] = (hi - lo) / (2.0 * g->voxel_size[a]);
-                    r[a] = ((double)idx[a] + 0.5) * g->voxel_size[a] - c[a];
-                }
-                out[0][at] = (float)grad[0];
-                out[1][at] = (float)grad[1];
-                out[2][at] = (float)grad[2];
-                out[3][at] = (float)(r[1] * grad[2] - r[2] * grad[1]);
-                out[4][at] = (float)(r[2] * grad[0] - r[0] * grad[2]);
-                out[5][at] = (float)(r[0] * grad[1] - r[1] * grad[0]);
+    for (size_t j = 0; j < ny; j++)
+        for (size_t i = 0; i < nx; i++) {
+            const size_t idx[3] = {i, j, k}, at = i + nx * (j + ny * k);
+            double grad[3], r[3];
+            for (int a = 0; a < 3; a++) {
+                double lo = idx[a] > 0 ? (double)x[at - step[a]] : 0.0;
+                double hi = idx[a] + 1 < g->dims[a] ? (double)x[at + step[a]] : 0.0;
+                grad[a] = (hi - lo) / (2.0 * g->voxel_size[a]);
+                r[a] = ((double)idx[a] + 0.5) * g->voxel_size[a] - s->c[a];
             }
+            s->out[0][at] = (float)grad[0];
+            s->out[1][at] = (float)grad[1];
+            s->out[2][at] = (float)grad[2];
+            s->out[3][at] = (float)(r[1] * grad[2] - r[2] * grad[1]);
+            s->out[4][at] = (float)(r[2] * grad[0] - r[0] * grad[2]);
+            s->out[5][at] = (float)(r[0] * grad[1] - r[1] * grad[0]);
+        }
+}
+
+void pbe_pose_gradients(pbe_pool *pool, const pb_geometry *g, const float *x, const double c[3],
+                        float *const out[6])
+{
+    gradient_job s = {g, x, c, out};
+    pbe_pool_for(pool, g->dims[2], gradient_plane, &s);
 }
 
 pb_status pb_pose_gradient_images(const pb_geometry *geometry, const float *x, const double center[3],
@@ -131,7 +163,7 @@ pb_status pb_pose_gradient_images(const pb_geometry *geometry, const float *x, c
         return pb_error(NULL, PB_ERR_NOT_FINITE, "the centre holds NaN or infinity");
     pb_status st = pb_geometry_check(NULL, geometry, &count);
     if (st == PB_OK)
-        pbe_pose_gradients(geometry, x, center, out);
+        pbe_pose_gradients(NULL, geometry, x, center, out);
     return st;
 }
 

@@ -8,6 +8,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "error.h"
 #include "estimate.h"
 #include "motion.h"
 
@@ -38,13 +39,57 @@ void pbe_nnls(const double *gram, const double *h, size_t n, size_t n_nonneg, do
     }
 }
 
+/* The dwell's sums: the views' Gram matrix with the offset's column (upper
+ * triangle, row by row) and their products with the frame. */
+typedef struct dwell_job {
+    const float *const *views;
+    const float *frame;
+    size_t m;
+    const double *u; /* for the residual */
+} dwell_job;
+
+static void dwell_sums(void *arg, size_t begin, size_t end, double *s)
+{
+    const dwell_job *j = arg;
+    const size_t m = j->m;
+    for (size_t v = begin; v < end; v++) {
+        double f = (double)j->frame[v];
+        double *up = s;
+        for (size_t i = 0; i < m; i++) {
+            double a = (double)j->views[i][v];
+            for (size_t k = i; k < m; k++)
+                *up++ += a * (double)j->views[k][v];
+            *up++ += a;
+        }
+        for (size_t i = 0; i < m; i++)
+            up[i] += (double)j->views[i][v] * f;
+        up[m] += f;
+    }
+}
+
+/* The residual summed directly: u'Gu - 2 h'u + f'f cancels badly. */
+static void dwell_residual(void *arg, size_t begin, size_t end, double *s)
+{
+    const dwell_job *j = arg;
+    for (size_t v = begin; v < end; v++) {
+        double model = j->u[j->m];
+        for (size_t i = 0; i < j->m; i++)
+            model += j->u[i] * (double)j->views[i][v];
+        s[0] += (model - (double)j->frame[v]) * (model - (double)j->frame[v]);
+    }
+}
+
 pb_status pbe_dwell(pb_context *ctx, pbe_level *level, const float *frame, const double c[3], const pb_pose *s,
                     const pb_pose *e, size_t m, double *u, double *sse)
 {
     const size_t n = level->n, k = m + 1; /* the views, and the offset */
+    const size_t terms = m * (m + 1) / 2 + m + k;
+    if (terms > PBE_MOST_SUMS)
+        return pb_error(NULL, PB_ERR_INVALID_ARGUMENT, "a dwell of %zu points has more sums than %d", m,
+                        (int)PBE_MOST_SUMS);
     double *gram = calloc(k * k, sizeof(double)), *h = calloc(k, sizeof(double));
-    float **views = calloc(m, sizeof(float *));
-    pb_status st = gram && h && views ? PB_OK : PB_ERR_OUT_OF_MEMORY;
+    float **views = calloc(m, sizeof(float *)), *room = pbe_level_views(level, m);
+    pb_status st = gram && h && views && room ? PB_OK : PB_ERR_OUT_OF_MEMORY;
     for (size_t i = 0; i < m && st == PB_OK; i++) {
         pb_pose p;
         double times[2];
@@ -52,41 +97,30 @@ pb_status pbe_dwell(pb_context *ctx, pbe_level *level, const float *frame, const
         pb_motion mo;
         pb_pose_interpolate(s, e, (double)i / (double)(m - 1), &p);
         pbe_static_motion(&p, c, times, poses, &mo);
-        st = pbe_blur_reference(ctx, level, &mo);
-        if (st == PB_OK && !(views[i] = malloc(sizeof(float) * n)))
-            st = PB_ERR_OUT_OF_MEMORY;
-        if (st == PB_OK)
-            memcpy(views[i], level->host[0], sizeof(float) * n);
+        views[i] = room + i * n;
+        st = pbe_blur_reference_to(ctx, level, &mo, views[i]);
     }
     if (st == PB_OK) {
-        for (size_t v = 0; v < n; v++) {
-            double f = (double)frame[v];
-            for (size_t i = 0; i < m; i++) {
-                double a = (double)views[i][v];
-                h[i] += a * f;
-                for (size_t j = i; j < m; j++)
-                    gram[i * k + j] += a * (double)views[j][v];
-                gram[i * k + m] += a;
-            }
-            h[m] += f;
+        double sums[PBE_MOST_SUMS];
+        dwell_job job = {(const float *const *)views, frame, m, u};
+        pbe_pool_sums(level->pool, n, terms, dwell_sums, &job, sums);
+        const double *up = sums;
+        for (size_t i = 0; i < m; i++) {
+            for (size_t j = i; j < m; j++)
+                gram[i * k + j] = *up++;
+            gram[i * k + m] = *up++;
         }
+        for (size_t i = 0; i < k; i++)
+            h[i] = up[i];
         gram[m * k + m] = (double)n;
         for (size_t i = 0; i < k; i++)
             for (size_t j = 0; j < i; j++)
                 gram[i * k + j] = gram[j * k + i];
         pbe_nnls(gram, h, k, m, u);
-        /* the residual summed directly: u'Gu - 2 h'u + f'f cancels badly */
-        double r = 0.0;
-        for (size_t v = 0; v < n; v++) {
-            double model = u[m];
-            for (size_t i = 0; i < m; i++)
-                model += u[i] * (double)views[i][v];
-            r += (model - (double)frame[v]) * (model - (double)frame[v]);
-        }
+        double r;
+        pbe_pool_sums(level->pool, n, 1, dwell_residual, &job, &r);
         *sse = r > 0 ? r : 0.0;
     }
-    for (size_t i = 0; views && i < m; i++)
-        free(views[i]);
     free(views);
     free(gram);
     free(h);

@@ -79,11 +79,23 @@ static double band_at(const double *band, size_t i, size_t j)
     return i <= j ? band[i * (PBE_REFERENCE_OTHERS + 1) + (j - i)] : band[j * (PBE_REFERENCE_OTHERS + 1) + (i - j)];
 }
 
-void pbe_gram_band(const float *moved, size_t n, size_t frames, double *band)
+typedef struct band_job {
+    const float *moved;
+    size_t n, frames;
+    double *band;
+} band_job;
+
+static void band_row(void *arg, size_t i)
 {
-    for (size_t i = 0; i < frames; i++)
-        for (size_t d = 0; d <= PBE_REFERENCE_OTHERS && i + d < frames; d++)
-            band[i * (PBE_REFERENCE_OTHERS + 1) + d] = pbe_dot(moved + i * n, moved + (i + d) * n, n);
+    const band_job *j = arg;
+    for (size_t d = 0; d <= PBE_REFERENCE_OTHERS && i + d < j->frames; d++)
+        j->band[i * (PBE_REFERENCE_OTHERS + 1) + d] = pbe_dot(j->moved + i * j->n, j->moved + (i + d) * j->n, j->n);
+}
+
+void pbe_gram_band(pbe_pool *pool, const float *moved, size_t n, size_t frames, double *band)
+{
+    band_job j = {moved, n, frames, band};
+    pbe_pool_for(pool, frames, band_row, &j);
 }
 
 double pbe_dot(const float *a, const float *b, size_t n)
@@ -101,8 +113,30 @@ void pbe_gram(const float *moved, size_t n, size_t frames, double *gram)
             gram[i * frames + j] = gram[j * frames + i] = pbe_dot(moved + i * n, moved + j * n, n);
 }
 
-pb_status pbe_frame_reference(const float *moved, size_t n, size_t frames, const double *band, size_t k,
-                              float *out)
+/* The reference's voxels of one chunk: the other frames weighed. */
+typedef struct weigh_job {
+    const float *moved;
+    size_t n, m;
+    const size_t *other;
+    const double *coef;
+    float *out;
+} weigh_job;
+
+static void weigh_chunk(void *arg, size_t c)
+{
+    const weigh_job *j = arg;
+    const size_t begin = c * PBE_CHUNK, end = begin + PBE_CHUNK < j->n ? begin + PBE_CHUNK : j->n;
+    memset(j->out + begin, 0, sizeof(float) * (end - begin));
+    for (size_t i = 0; i < j->m; i++) {
+        const float *g = j->moved + j->other[i] * j->n;
+        float w = (float)j->coef[i];
+        for (size_t p = begin; p < end; p++)
+            j->out[p] += w * g[p];
+    }
+}
+
+pb_status pbe_frame_reference(pbe_pool *pool, const float *moved, size_t n, size_t frames, const double *band,
+                              size_t k, float *out)
 {
     size_t first, end;
     pbe_reference_window(frames, k, &first, &end);
@@ -146,13 +180,8 @@ pb_status pbe_frame_reference(const float *moved, size_t n, size_t frames, const
         for (size_t i = 0; i < m; i++)
             coef[i] += v[i * m + best] * dot / w[best];
     }
-    memset(out, 0, sizeof(float) * n);
-    for (size_t i = 0; i < m; i++) {
-        const float *g = moved + other[i] * n;
-        float c = (float)coef[i];
-        for (size_t p = 0; p < n; p++)
-            out[p] += c * g[p];
-    }
+    weigh_job job = {moved, n, m, other, coef, out};
+    pbe_pool_for(pool, pbe_chunks(n), weigh_chunk, &job);
     free(used);
     free(a), free(v), free(w), free(coef), free(other);
     return PB_OK;

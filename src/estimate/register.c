@@ -3,7 +3,8 @@
  * (the least-squares form of normalised cross-correlation, which tolerates
  * tracer uptake that changes from frame to frame). The Jacobian comes from
  * the blurs of the reference's derivative images (pbe_pose_gradients), so
- * each step is seven blurs on the device and one pass over the voxels here. */
+ * each step is seven blurs on the device and one pass over the voxels here,
+ * on the estimate's threads. */
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -13,10 +14,11 @@
 
 static const pb_blur_options blur_options = {.method = PB_METHOD_AB, .filter = PB_FILTER_EXACT};
 
-pb_status pbe_level_init(pb_context *ctx, pbe_level *level, const pb_geometry *g)
+pb_status pbe_level_init(pb_context *ctx, pbe_level *level, const pb_geometry *g, pbe_pool *pool)
 {
     memset(level, 0, sizeof *level);
     level->g = *g;
+    level->pool = pool;
     level->n = g->dims[0] * g->dims[1] * g->dims[2];
     for (int i = 0; i < 7; i++) {
         pb_status st = pb_volume_create(ctx, g, &level->in[i]);
@@ -37,6 +39,7 @@ void pbe_level_free(pbe_level *level)
         pb_volume_destroy(level->out[i]);
         free(level->host[i]);
     }
+    free(level->views);
     memset(level, 0, sizeof *level);
 }
 
@@ -45,7 +48,7 @@ pb_status pbe_level_set_reference(pbe_level *level, const float *x, const double
     float *d[6];
     for (int j = 0; j < 6; j++)
         d[j] = scratch + (size_t)j * level->n;
-    pbe_pose_gradients(&level->g, x, c, d);
+    pbe_pose_gradients(level->pool, &level->g, x, c, d);
     pb_status st = pb_volume_upload(level->in[0], x);
     for (int j = 0; j < 6 && st == PB_OK; j++)
         st = pb_volume_upload(level->in[1 + j], d[j]);
@@ -67,9 +70,10 @@ void pbe_static_motion(const pb_pose *pose, const double c[3], double times[2], 
     memcpy(m->center, c, sizeof m->center);
 }
 
-static pb_status blur_images(pb_context *ctx, pbe_level *level, const pb_motion *m, int count)
+/* Images [first, end) of the level blurred under m and downloaded. */
+static pb_status blur_images(pb_context *ctx, pbe_level *level, const pb_motion *m, int first, int end)
 {
-    for (int i = 0; i < count; i++) {
+    for (int i = first; i < end; i++) {
         pb_status st = pb_blur(ctx, level->in[i], m, &blur_options, level->out[i]);
         if (st == PB_OK)
             st = pb_volume_download(level->out[i], level->host[i]);
@@ -81,26 +85,57 @@ static pb_status blur_images(pb_context *ctx, pbe_level *level, const pb_motion 
 
 pb_status pbe_blur_reference(pb_context *ctx, pbe_level *level, const pb_motion *m)
 {
-    return blur_images(ctx, level, m, 1);
+    return blur_images(ctx, level, m, 0, 1);
 }
 
-void pbe_fit_scale(const float *a, const float *f, size_t n, double *scale, double *offset, double *sse)
+pb_status pbe_blur_reference_to(pb_context *ctx, pbe_level *level, const pb_motion *m, float *out)
 {
-    double sa = 0, sf = 0, saa = 0, saf = 0, sff = 0;
-    for (size_t i = 0; i < n; i++) {
-        double x = (double)a[i], y = (double)f[i];
-        sa += x;
-        sf += y;
-        saa += x * x;
-        saf += x * y;
-        sff += y * y;
+    pb_status st = pb_blur(ctx, level->in[0], m, &blur_options, level->out[0]);
+    return st == PB_OK ? pb_volume_download(level->out[0], out) : st;
+}
+
+float *pbe_level_views(pbe_level *level, size_t m)
+{
+    if (level->views_held < m) {
+        float *more = realloc(level->views, sizeof(float) * level->n * m);
+        if (!more)
+            return NULL;
+        level->views = more;
+        level->views_held = m;
     }
+    return level->views;
+}
+
+typedef struct scale_job {
+    const float *a, *f;
+} scale_job;
+
+static void scale_sums(void *arg, size_t begin, size_t end, double *s)
+{
+    const scale_job *j = arg;
+    for (size_t i = begin; i < end; i++) {
+        double x = (double)j->a[i], y = (double)j->f[i];
+        s[0] += x;
+        s[1] += y;
+        s[2] += x * x;
+        s[3] += x * y;
+        s[4] += y * y;
+    }
+}
+
+void pbe_fit_scale(pbe_pool *pool, const float *a, const float *f, size_t n, double *scale, double *offset,
+                   double *sse)
+{
+    scale_job j = {a, f};
+    double s[5];
+    pbe_pool_sums(pool, n, 5, scale_sums, &j, s);
+    const double sa = s[0], sf = s[1], saa = s[2], saf = s[3], sff = s[4];
     double N = (double)n, var = saa - sa * sa / N, cov = saf - sa * sf / N;
-    double s = var > 0 ? cov / var : 0.0;
-    *scale = s;
-    *offset = (sf - s * sa) / N;
+    double sc = var > 0 ? cov / var : 0.0;
+    *scale = sc;
+    *offset = (sf - sc * sa) / N;
     /* |f - s a - b|^2 at the optimum: the variance of f not explained by a */
-    double rest = (sff - sf * sf / N) - s * cov;
+    double rest = (sff - sf * sf / N) - sc * cov;
     *sse = rest > 0 ? rest : 0.0;
 }
 
@@ -141,7 +176,35 @@ static int solve(double *a, double *b, int n, double *x)
     return 1;
 }
 
-enum { NP = 8 };
+enum { NP = 8, NORMAL_SUMS = NP * (NP + 1) / 2 + NP };
+
+/* The normal equations' sums at scale a and offset b: A's upper triangle
+ * row by row, then g. */
+typedef struct normal_job {
+    const float *const *h;
+    const float *frame;
+    double a, b;
+} normal_job;
+
+static void normal_sums(void *arg, size_t begin, size_t end, double *s)
+{
+    const normal_job *j = arg;
+    const float *const *h = j->h;
+    for (size_t i = begin; i < end; i++) {
+        double J[NP];
+        for (int k = 0; k < 6; k++)
+            J[k] = j->a * (double)h[1 + k][i];
+        J[6] = (double)h[0][i];
+        J[7] = 1.0;
+        double r = j->a * (double)h[0][i] + j->b - (double)j->frame[i];
+        double *up = s;
+        for (int p = 0; p < NP; p++)
+            for (int q = p; q < NP; q++)
+                *up++ += J[p] * J[q];
+        for (int p = 0; p < NP; p++)
+            up[p] += J[p] * r;
+    }
+}
 
 /* The pose's information from the normal equations A (NP x NP, the last two
  * rows scale and offset) at the fit's end: the Schur complement of the scale
@@ -176,31 +239,24 @@ pb_status pbe_register(pb_context *ctx, pbe_level *level, const float *frame, co
     fit->iterations = 0;
     for (unsigned it = 0; it <= iterations; it++) {
         pbe_static_motion(&trial, c, times, poses, &m);
-        pb_status st = blur_images(ctx, level, &m, 7);
+        /* the derivative images only for a step that is taken */
+        pb_status st = blur_images(ctx, level, &m, 0, 1);
         if (st != PB_OK)
             return st;
         double a, b, sse;
-        pbe_fit_scale(level->host[0], frame, n, &a, &b, &sse);
+        pbe_fit_scale(level->pool, level->host[0], frame, n, &a, &b, &sse);
         if (sse < best_sse) {
             /* accepted: the normal equations at this pose */
-            double A[NP * NP] = {0}, g[NP] = {0};
-            const float *const *h = (const float *const *)level->host;
-            for (size_t i = 0; i < n; i++) {
-                double J[NP];
-                for (int j = 0; j < 6; j++)
-                    J[j] = a * (double)h[1 + j][i];
-                J[6] = (double)h[0][i];
-                J[7] = 1.0;
-                double r = a * (double)h[0][i] + b - (double)frame[i];
-                for (int p = 0; p < NP; p++) {
-                    g[p] += J[p] * r;
-                    for (int q = p; q < NP; q++)
-                        A[p * NP + q] += J[p] * J[q];
-                }
-            }
+            if ((st = blur_images(ctx, level, &m, 1, 7)) != PB_OK)
+                return st;
+            double A[NP * NP], g[NP], sums[NORMAL_SUMS];
+            normal_job job = {(const float *const *)level->host, frame, a, b};
+            pbe_pool_sums(level->pool, n, NORMAL_SUMS, normal_sums, &job, sums);
+            const double *up = sums;
             for (int p = 0; p < NP; p++)
-                for (int q = 0; q < p; q++)
-                    A[p * NP + q] = A[q * NP + p];
+                for (int q = p; q < NP; q++)
+                    A[p * NP + q] = A[q * NP + p] = *up++;
+            memcpy(g, up, sizeof g);
             double gain = best_sse - sse;
             best_sse = sse;
             best_pose = trial;
