@@ -158,12 +158,16 @@ typedef struct chunked {
     double *partial;
 } chunked;
 
-/* Chunk c's sums into out (k of them). */
+/* Chunk c's sums into out (k of them). They are added up on the thread's
+ * own stack: neighbouring chunks' sums share cache lines, and a thread that
+ * adds into them at every voxel stalls the others. */
 static void chunk_sums(const chunked *s, size_t c, double *out)
 {
     size_t begin = c * PBE_CHUNK, end = begin + PBE_CHUNK < s->n ? begin + PBE_CHUNK : s->n;
-    memset(out, 0, sizeof(double) * s->k);
-    s->fn(s->user, begin, end, out);
+    double own[PBE_MOST_SUMS];
+    memset(own, 0, sizeof(double) * s->k);
+    s->fn(s->user, begin, end, own);
+    memcpy(out, own, sizeof(double) * s->k);
 }
 
 static void sum_chunk(void *arg, size_t c)
