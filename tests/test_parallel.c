@@ -1,10 +1,12 @@
-/* The estimate's host loops on threads (src/estimate/parallel.c), on fresh
+/* Loops on threads (src/core/parallel.c) as the estimate runs them, on fresh
  * random sizes and volumes each run: every item runs once; sums, smoothing,
  * derivative images and the references' inner products are the same bits on
  * the pool as on the caller alone, and right against closed forms (an
  * impulse smoothed is the product of its Gaussian's weights; a linear ramp's
  * gradient is its slope). */
+#define _GNU_SOURCE /* sched_setaffinity: the host forward on one core */
 #include <math.h>
+#include <sched.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -17,13 +19,13 @@ static void count_item(void *user, size_t i)
     ((int *)user)[i]++;
 }
 
-static void test_every_item_once(pbe_pool *pool)
+static void test_every_item_once(pb_pool *pool)
 {
     const size_t counts[] = {0, 1, 2, 7, (size_t)pb_rand_range(100, 5000)};
     for (size_t c = 0; c < sizeof counts / sizeof counts[0]; c++) {
         int *hits = calloc(counts[c] + 1, sizeof(int));
         for (int round = 0; round < 3; round++)
-            pbe_pool_for(pool, counts[c], count_item, hits);
+            pb_pool_for(pool, counts[c], count_item, hits);
         int wrong = 0;
         for (size_t i = 0; i < counts[c]; i++)
             wrong += hits[i] != 3;
@@ -47,18 +49,18 @@ static void moments(void *user, size_t begin, size_t end, double *s)
     }
 }
 
-static void test_sums(pbe_pool *pool)
+static void test_sums(pb_pool *pool)
 {
     for (int round = 0; round < 4; round++) {
         /* sizes off and on the chunk's multiples, one under a chunk */
-        size_t n = round == 0 ? (size_t)pb_rand_range(1, PBE_CHUNK) : round == 1 ? 5 * PBE_CHUNK
-                                                                       : (size_t)pb_rand_range(PBE_CHUNK, 300000);
+        size_t n = round == 0 ? (size_t)pb_rand_range(1, PB_CHUNK) : round == 1 ? 5 * PB_CHUNK
+                                                                       : (size_t)pb_rand_range(PB_CHUNK, 300000);
         float *x = pb_random_volume(n), *y = pb_random_volume(n);
         pair p = {x, y};
         double threaded[3], alone[3];
         long double exact[3] = {0, 0, 0};
-        pbe_pool_sums(pool, n, 3, moments, &p, threaded);
-        pbe_pool_sums(NULL, n, 3, moments, &p, alone);
+        pb_pool_sums(pool, n, 3, moments, &p, threaded);
+        pb_pool_sums(NULL, n, 3, moments, &p, alone);
         for (size_t i = 0; i < n; i++) {
             exact[0] += (long double)x[i];
             exact[1] += (long double)x[i] * (long double)x[i];
@@ -66,7 +68,7 @@ static void test_sums(pbe_pool *pool)
         }
         for (int k = 0; k < 3; k++) {
             pb_check(memcmp(&threaded[k], &alone[k], sizeof(double)) == 0, "sum %d of %zu voxels: %.17g on %zu "
-                     "threads, %.17g alone", k, n, threaded[k], pbe_pool_threads(pool), alone[k]);
+                     "threads, %.17g alone", k, n, threaded[k], pb_pool_threads(pool), alone[k]);
             double rel = fabs(threaded[k] - (double)exact[k]) / fmax(1e-300, fabsl(exact[k]));
             pb_check(rel < 1e-12, "sum %d of %zu voxels off the long-double sum by %.3g of it", k, n, rel);
         }
@@ -85,7 +87,7 @@ static pb_geometry random_grid(void)
     return g;
 }
 
-static void test_smooth(pbe_pool *pool)
+static void test_smooth(pb_pool *pool)
 {
     pb_geometry g = random_grid();
     const size_t n = g.dims[0] * g.dims[1] * g.dims[2];
@@ -133,7 +135,7 @@ static void test_smooth(pbe_pool *pool)
     free(tmp);
 }
 
-static void test_gradients(pbe_pool *pool)
+static void test_gradients(pb_pool *pool)
 {
     pb_geometry g = random_grid();
     const size_t n = g.dims[0] * g.dims[1] * g.dims[2];
@@ -168,7 +170,7 @@ static void test_gradients(pbe_pool *pool)
     free(mem);
 }
 
-static void test_gram_band(pbe_pool *pool)
+static void test_gram_band(pb_pool *pool)
 {
     const size_t frames = (size_t)pb_rand_range(2, 40), n = (size_t)pb_rand_range(1000, 40000);
     float *moved = pb_random_volume(frames * n);
@@ -187,19 +189,72 @@ static void test_gram_band(pbe_pool *pool)
     free(alone);
 }
 
+/* The host backend's forward on the machine's cores gives the bits it gives
+ * on one core (the affinity narrowed to one CPU: its pool is then none). */
+static void test_host_forward(void)
+{
+    cpu_set_t all, one;
+    if (sched_getaffinity(0, sizeof all, &all) != 0 || CPU_COUNT(&all) < 2) {
+        printf("host forward on threads: one core here, nothing to compare\n");
+        return;
+    }
+    pb_geometry g = {{(size_t)pb_rand_range(32, 40), (size_t)pb_rand_range(32, 40), (size_t)pb_rand_range(32, 40)},
+                     {pb_rand_range(1.5, 3.0), pb_rand_range(1.5, 3.0), pb_rand_range(1.5, 3.0)}};
+    const size_t n = g.dims[0] * g.dims[1] * g.dims[2];
+    double axis[3] = {pb_rand_range(-1, 1), pb_rand_range(-1, 1), 1.0};
+    pb_pose a = pb_test_pose(0, 0, 0, axis, 0), b = pb_test_pose(pb_rand_range(-6, 6), pb_rand_range(-6, 6),
+                                                                  pb_rand_range(-6, 6), axis, pb_rand_range(-8, 8));
+    pb_test_motion tm;
+    pb_test_motion_init(&tm, &a, &b);
+    float *x = pb_random_volume(n), *threaded = malloc(sizeof(float) * n), *alone = malloc(sizeof(float) * n);
+    pb_context *ctx = NULL;
+    pb_context_options host = {.backend = PB_BACKEND_HOST};
+    pb_status st = pb_context_create(&host, &ctx);
+    pb_test_progress_log progress = {0};
+    if (st == PB_OK) {
+        pb_context_set_progress(ctx, pb_test_record_progress, &progress);
+        for (size_t i = 0; i < n; i++)
+            threaded[i] = alone[i] = NAN;
+        st = pb_test_blur(ctx, &g, x, &tm.motion, NULL, threaded);
+        pb_context_set_progress(ctx, NULL, NULL);
+    }
+    CPU_ZERO(&one);
+    for (int c = 0; c < CPU_SETSIZE; c++)
+        if (CPU_ISSET(c, &all)) {
+            CPU_SET(c, &one);
+            break;
+        }
+    if (st == PB_OK && sched_setaffinity(0, sizeof one, &one) == 0) {
+        st = pb_test_blur(ctx, &g, x, &tm.motion, NULL, alone);
+        sched_setaffinity(0, sizeof all, &all);
+        pb_check(st == PB_OK && memcmp(threaded, alone, sizeof(float) * n) == 0, "the host forward of %zu x %zu x "
+                 "%zu on %d cores differs from one core's by %.3g", g.dims[0], g.dims[1], g.dims[2], CPU_COUNT(&all),
+                 pb_max_abs_diff(threaded, alone, n));
+        pb_check(pb_max_abs(threaded, n) > 0.0 && !isnan(pb_sum(threaded, n)), "the host forward wrote no values");
+        pb_check(progress.calls > 0 && progress.bad == 0, "the threaded forward's progress: %d calls, %d out of "
+                 "order", progress.calls, progress.bad);
+    } else
+        pb_check(0, "the host forward or the affinity failed (status %d)", (int)st);
+    pb_context_destroy(ctx);
+    free(x);
+    free(threaded);
+    free(alone);
+}
+
 int main(void)
 {
     pb_test_seed();
     pb_test_deadline(120, "test_parallel");
-    pbe_pool *pool = pbe_pool_create();
-    printf("pool: %zu threads\n", pbe_pool_threads(pool));
+    pb_pool *pool = pb_pool_create();
+    printf("pool: %zu threads\n", pb_pool_threads(pool));
     test_every_item_once(pool);
     test_every_item_once(NULL);
     test_sums(pool);
     test_smooth(pool);
     test_gradients(pool);
     test_gram_band(pool);
-    pbe_pool_destroy(pool);
-    pbe_pool_destroy(NULL);
+    test_host_forward();
+    pb_pool_destroy(pool);
+    pb_pool_destroy(NULL);
     return pb_test_finish();
 }

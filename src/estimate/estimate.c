@@ -77,7 +77,7 @@ typedef struct estimate {
     float *frames[8];       /* per level: every frame, smoothed */
     pbe_level level[8];
     float *scratch, *tmp;   /* six volumes of level 0; one line */
-    pbe_pool *pool;         /* threads for the loops over voxels (parallel.c) */
+    pb_pool *pool;         /* threads for the loops over voxels (parallel.c) */
     pb_progress_fn progress;
     void *progress_user;
     double done, total;
@@ -1068,7 +1068,7 @@ pb_status pb_motion_estimate(pb_context *ctx, const pb_geometry *geometry, const
         st = PB_ERR_OUT_OF_MEMORY;
     if (st == PB_OK)
         st = remove_background(&e);
-    e.pool = pbe_pool_create();
+    e.pool = pb_pool_create();
     e.iterations = o.iterations ? o.iterations : 12;
     e.fwhm = o.fwhm_mm;
     for (int a = 0; a < 3; a++)
@@ -1129,7 +1129,7 @@ pb_status pb_motion_estimate(pb_context *ctx, const pb_geometry *geometry, const
     free(e.owned);
     free(e.flat);
     free(e.tmp);
-    pbe_pool_destroy(e.pool);
+    pb_pool_destroy(e.pool);
     ctx->dev.progress = e.progress;
     ctx->dev.progress_user = e.progress_user;
     if (st == PB_OK && e.progress)

@@ -5,30 +5,8 @@
 #ifndef PB_ESTIMATE_H
 #define PB_ESTIMATE_H
 
+#include "parallel.h"
 #include "petblur.h"
-
-/* ---- parallel.c: host loops on the machine's cores -------------------------- */
-
-typedef struct pbe_pool pbe_pool;
-/* Voxels a chunk of a sum: partial sums are added in chunk order, so that a
- * sum is the same whatever the threads; a sum has at most PBE_MOST_SUMS terms. */
-enum { PBE_CHUNK = 16384, PBE_MOST_SUMS = 128 };
-/* Threads on the cores this process may run on (at most 32), the caller one
- * of them; NULL where there is one core or no thread starts: every loop then
- * runs on the caller. */
-pbe_pool *pbe_pool_create(void);
-void pbe_pool_destroy(pbe_pool *pool);
-/* The threads that run a loop, the caller's included. */
-size_t pbe_pool_threads(const pbe_pool *pool);
-/* fn(user, i) for every i in [0, count), on the pool's threads (NULL: in
- * order on the caller); returns when every call has returned. */
-void pbe_pool_for(pbe_pool *pool, size_t count, void (*fn)(void *user, size_t i), void *user);
-/* The chunks of n voxels. */
-size_t pbe_chunks(size_t n);
-/* sums[0..k) = the sums fn adds into its sums (zeroed) over voxels [begin,
- * end), taken chunk by chunk (k <= PBE_MOST_SUMS). */
-void pbe_pool_sums(pbe_pool *pool, size_t n, size_t k,
-                   void (*fn)(void *user, size_t begin, size_t end, double *sums), void *user, double *sums);
 
 /* ---- image_ops.c: host image operations -------------------------------------- */
 
@@ -52,10 +30,10 @@ void pbe_downsample(const pb_geometry *fine, const float *in, const pb_geometry 
  * grid, renormalised at the edges so that a constant stays constant. tmp
  * holds the grid's longest line (the loop runs on the caller alone where
  * memory for the threads' lines is short). */
-void pbe_smooth(pbe_pool *pool, const pb_geometry *g, float *v, double fwhm_mm, float *tmp);
+void pbe_smooth(pb_pool *pool, const pb_geometry *g, float *v, double fwhm_mm, float *tmp);
 /* The object's six derivative images about centre c (mm): dx/dp_j, and
  * ((p - c) x grad x)_j, by central differences with zero outside the grid. */
-void pbe_pose_gradients(pbe_pool *pool, const pb_geometry *g, const float *x, const double c[3],
+void pbe_pose_gradients(pb_pool *pool, const pb_geometry *g, const float *x, const double c[3],
                         float *const out[6]);
 
 /* ---- register.c: one frame against a reference ------------------------------ */
@@ -68,12 +46,12 @@ typedef struct pbe_level {
     pb_volume *in[7];    /* x, then its derivative images */
     pb_volume *out[7];   /* B of each */
     float *host[7];      /* out downloaded */
-    pbe_pool *pool;      /* the estimate's threads (NULL: the caller's alone) */
+    pb_pool *pool;      /* the estimate's threads (NULL: the caller's alone) */
     float *views;        /* the dwell's views (pbe_level_views), kept between frames */
     size_t views_held;
 } pbe_level;
 
-pb_status pbe_level_init(pb_context *ctx, pbe_level *level, const pb_geometry *g, pbe_pool *pool);
+pb_status pbe_level_init(pb_context *ctx, pbe_level *level, const pb_geometry *g, pb_pool *pool);
 /* Uploads a reference x and its derivative images about c. scratch holds six volumes. */
 pb_status pbe_level_set_reference(pbe_level *level, const float *x, const double c[3], float *scratch);
 void pbe_level_free(pbe_level *level);
@@ -104,7 +82,7 @@ float *pbe_level_views(pbe_level *level, size_t m);
 pb_status pbe_register(pb_context *ctx, pbe_level *level, const float *frame, const double c[3],
                        unsigned iterations, pbe_fit *fit);
 /* Least squares of f on [a, 1]: the scale, offset and residual. */
-void pbe_fit_scale(pbe_pool *pool, const float *a, const float *f, size_t n, double *scale, double *offset,
+void pbe_fit_scale(pb_pool *pool, const float *a, const float *f, size_t n, double *scale, double *offset,
                    double *sse);
 
 /* ---- references.c: a reference per frame ---------------------------------- */
@@ -128,10 +106,10 @@ double pbe_dot(const float *a, const float *b, size_t n);
 void pbe_gram(const float *moved, size_t n, size_t frames, double *gram);
 /* The inner products of frames within a window of one another: band[i (B +
  * 1) + d] = g_i . g_(i+d) for d <= B = PBE_REFERENCE_OTHERS. */
-void pbe_gram_band(pbe_pool *pool, const float *moved, size_t n, size_t frames, double *band);
+void pbe_gram_band(pb_pool *pool, const float *moved, size_t n, size_t frames, double *band);
 /* Frame k's reference: its projection onto the leading principal images of
  * the other frames of its window. */
-pb_status pbe_frame_reference(pbe_pool *pool, const float *moved, size_t n, size_t frames, const double *band,
+pb_status pbe_frame_reference(pb_pool *pool, const float *moved, size_t n, size_t frames, const double *band,
                               size_t k, float *out);
 
 /* ---- intra_frame.c: motion inside a frame ---------------------------------------- */

@@ -78,7 +78,7 @@ static void smooth_lines(void *arg, size_t o)
     }
 }
 
-void pbe_smooth(pbe_pool *pool, const pb_geometry *g, float *v, double fwhm_mm, float *tmp)
+void pbe_smooth(pb_pool *pool, const pb_geometry *g, float *v, double fwhm_mm, float *tmp)
 {
     const size_t nx = g->dims[0], ny = g->dims[1], nz = g->dims[2];
     for (int a = 0; a < 3; a++) {
@@ -103,7 +103,7 @@ void pbe_smooth(pbe_pool *pool, const pb_geometry *g, float *v, double fwhm_mm, 
             s.lines = tmp;
             s.shared_line = 1;
         }
-        pbe_pool_for(s.shared_line ? NULL : pool, outer, smooth_lines, &s);
+        pb_pool_for(s.shared_line ? NULL : pool, outer, smooth_lines, &s);
         if (!s.shared_line)
             free(s.lines);
         free(w);
@@ -143,11 +143,11 @@ static void gradient_plane(void *arg, size_t k)
         }
 }
 
-void pbe_pose_gradients(pbe_pool *pool, const pb_geometry *g, const float *x, const double c[3],
+void pbe_pose_gradients(pb_pool *pool, const pb_geometry *g, const float *x, const double c[3],
                         float *const out[6])
 {
     gradient_job s = {g, x, c, out};
-    pbe_pool_for(pool, g->dims[2], gradient_plane, &s);
+    pb_pool_for(pool, g->dims[2], gradient_plane, &s);
 }
 
 pb_status pb_pose_gradient_images(const pb_geometry *geometry, const float *x, const double center[3],

@@ -84,9 +84,9 @@ pb_status pbe_dwell(pb_context *ctx, pbe_level *level, const float *frame, const
 {
     const size_t n = level->n, k = m + 1; /* the views, and the offset */
     const size_t terms = m * (m + 1) / 2 + m + k;
-    if (terms > PBE_MOST_SUMS)
+    if (terms > PB_MOST_SUMS)
         return pb_error(NULL, PB_ERR_INVALID_ARGUMENT, "a dwell of %zu points has more sums than %d", m,
-                        (int)PBE_MOST_SUMS);
+                        (int)PB_MOST_SUMS);
     double *gram = calloc(k * k, sizeof(double)), *h = calloc(k, sizeof(double));
     float **views = calloc(m, sizeof(float *)), *room = pbe_level_views(level, m);
     pb_status st = gram && h && views && room ? PB_OK : PB_ERR_OUT_OF_MEMORY;
@@ -101,9 +101,9 @@ pb_status pbe_dwell(pb_context *ctx, pbe_level *level, const float *frame, const
         st = pbe_blur_reference_to(ctx, level, &mo, views[i]);
     }
     if (st == PB_OK) {
-        double sums[PBE_MOST_SUMS];
+        double sums[PB_MOST_SUMS];
         dwell_job job = {(const float *const *)views, frame, m, u};
-        pbe_pool_sums(level->pool, n, terms, dwell_sums, &job, sums);
+        pb_pool_sums(level->pool, n, terms, dwell_sums, &job, sums);
         const double *up = sums;
         for (size_t i = 0; i < m; i++) {
             for (size_t j = i; j < m; j++)
@@ -118,7 +118,7 @@ pb_status pbe_dwell(pb_context *ctx, pbe_level *level, const float *frame, const
                 gram[i * k + j] = gram[j * k + i];
         pbe_nnls(gram, h, k, m, u);
         double r;
-        pbe_pool_sums(level->pool, n, 1, dwell_residual, &job, &r);
+        pb_pool_sums(level->pool, n, 1, dwell_residual, &job, &r);
         *sse = r > 0 ? r : 0.0;
     }
     free(views);

@@ -92,10 +92,10 @@ static void band_row(void *arg, size_t i)
         j->band[i * (PBE_REFERENCE_OTHERS + 1) + d] = pbe_dot(j->moved + i * j->n, j->moved + (i + d) * j->n, j->n);
 }
 
-void pbe_gram_band(pbe_pool *pool, const float *moved, size_t n, size_t frames, double *band)
+void pbe_gram_band(pb_pool *pool, const float *moved, size_t n, size_t frames, double *band)
 {
     band_job j = {moved, n, frames, band};
-    pbe_pool_for(pool, frames, band_row, &j);
+    pb_pool_for(pool, frames, band_row, &j);
 }
 
 double pbe_dot(const float *a, const float *b, size_t n)
@@ -125,7 +125,7 @@ typedef struct weigh_job {
 static void weigh_chunk(void *arg, size_t c)
 {
     const weigh_job *j = arg;
-    const size_t begin = c * PBE_CHUNK, end = begin + PBE_CHUNK < j->n ? begin + PBE_CHUNK : j->n;
+    const size_t begin = c * PB_CHUNK, end = begin + PB_CHUNK < j->n ? begin + PB_CHUNK : j->n;
     memset(j->out + begin, 0, sizeof(float) * (end - begin));
     for (size_t i = 0; i < j->m; i++) {
         const float *g = j->moved + j->other[i] * j->n;
@@ -135,7 +135,7 @@ static void weigh_chunk(void *arg, size_t c)
     }
 }
 
-pb_status pbe_frame_reference(pbe_pool *pool, const float *moved, size_t n, size_t frames, const double *band,
+pb_status pbe_frame_reference(pb_pool *pool, const float *moved, size_t n, size_t frames, const double *band,
                               size_t k, float *out)
 {
     size_t first, end;
@@ -181,7 +181,7 @@ pb_status pbe_frame_reference(pbe_pool *pool, const float *moved, size_t n, size
             coef[i] += v[i * m + best] * dot / w[best];
     }
     weigh_job job = {moved, n, m, other, coef, out};
-    pbe_pool_for(pool, pbe_chunks(n), weigh_chunk, &job);
+    pb_pool_for(pool, pb_chunks(n), weigh_chunk, &job);
     free(used);
     free(a), free(v), free(w), free(coef), free(other);
     return PB_OK;

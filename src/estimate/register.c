@@ -14,7 +14,7 @@
 
 static const pb_blur_options blur_options = {.method = PB_METHOD_AB, .filter = PB_FILTER_EXACT};
 
-pb_status pbe_level_init(pb_context *ctx, pbe_level *level, const pb_geometry *g, pbe_pool *pool)
+pb_status pbe_level_init(pb_context *ctx, pbe_level *level, const pb_geometry *g, pb_pool *pool)
 {
     memset(level, 0, sizeof *level);
     level->g = *g;
@@ -123,12 +123,12 @@ static void scale_sums(void *arg, size_t begin, size_t end, double *s)
     }
 }
 
-void pbe_fit_scale(pbe_pool *pool, const float *a, const float *f, size_t n, double *scale, double *offset,
+void pbe_fit_scale(pb_pool *pool, const float *a, const float *f, size_t n, double *scale, double *offset,
                    double *sse)
 {
     scale_job j = {a, f};
     double s[5];
-    pbe_pool_sums(pool, n, 5, scale_sums, &j, s);
+    pb_pool_sums(pool, n, 5, scale_sums, &j, s);
     const double sa = s[0], sf = s[1], saa = s[2], saf = s[3], sff = s[4];
     double N = (double)n, var = saa - sa * sa / N, cov = saf - sa * sf / N;
     double sc = var > 0 ? cov / var : 0.0;
@@ -251,7 +251,7 @@ pb_status pbe_register(pb_context *ctx, pbe_level *level, const float *frame, co
                 return st;
             double A[NP * NP], g[NP], sums[NORMAL_SUMS];
             normal_job job = {(const float *const *)level->host, frame, a, b};
-            pbe_pool_sums(level->pool, n, NORMAL_SUMS, normal_sums, &job, sums);
+            pb_pool_sums(level->pool, n, NORMAL_SUMS, normal_sums, &job, sums);
             const double *up = sums;
             for (int p = 0; p < NP; p++)
                 for (int q = p; q < NP; q++)

@@ -1,10 +1,7 @@
-/* The estimate's host loops on the machine's cores. On a GPU the blurs take
- * a small part of an estimate: at 24 frames of 128^3 on an H200, 41 s of
- * the 45 s were loops over the voxels here (the normal equations, the
- * references' smoothing and derivative images, the dwell's sums;
- * docs/motion.md, "What bounds its time"). A pool of threads made once per
- * estimate runs them; sums are taken in chunks of fixed size added in chunk
- * order, so that the results do not depend on how many threads ran them. */
+/* Loops on the machine's cores (parallel.h). The estimate's host loops (on
+ * a GPU its blurs take a small part of it: at 24 frames of 128^3 on an H200,
+ * 41 s of 45 were loops over voxels on one core; docs/motion.md, "What
+ * bounds its time") and the host backend's forward run on them. */
 #define _GNU_SOURCE /* sched_getaffinity: the cores this process may run on */
 #include <pthread.h>
 #include <sched.h>
@@ -12,12 +9,12 @@
 #include <string.h>
 #include <unistd.h>
 
-#include "estimate.h"
+#include "parallel.h"
 
 /* More threads than this find the loops bound by memory, not cores. */
 enum { MOST_THREADS = 32 };
 
-struct pbe_pool {
+struct pb_pool {
     pthread_t threads[MOST_THREADS];
     size_t count; /* threads started, besides the caller */
     pthread_mutex_t lock;
@@ -31,7 +28,7 @@ struct pbe_pool {
 };
 
 /* Takes the job's items until none is left; called and returns with the lock held. */
-static void take_items(pbe_pool *p)
+static void take_items(pb_pool *p)
 {
     while (p->next < p->total) {
         size_t i = p->next++;
@@ -44,7 +41,7 @@ static void take_items(pbe_pool *p)
 
 static void *worker(void *arg)
 {
-    pbe_pool *p = arg;
+    pb_pool *p = arg;
     unsigned long seen = 0;
     pthread_mutex_lock(&p->lock);
     for (;;) {
@@ -73,14 +70,14 @@ static size_t cores(void)
     return n > 0 ? (size_t)n : 1;
 }
 
-pbe_pool *pbe_pool_create(void)
+pb_pool *pb_pool_create(void)
 {
     size_t want = cores();
     if (want > MOST_THREADS)
         want = MOST_THREADS;
     if (want < 2)
         return NULL;
-    pbe_pool *p = calloc(1, sizeof *p);
+    pb_pool *p = calloc(1, sizeof *p);
     if (!p)
         return NULL;
     if (pthread_mutex_init(&p->lock, NULL) != 0) {
@@ -99,13 +96,13 @@ pbe_pool *pbe_pool_create(void)
         p->count++;
     }
     if (p->count == 0) {
-        pbe_pool_destroy(p);
+        pb_pool_destroy(p);
         return NULL;
     }
     return p;
 }
 
-void pbe_pool_destroy(pbe_pool *p)
+void pb_pool_destroy(pb_pool *p)
 {
     if (!p)
         return;
@@ -121,12 +118,12 @@ void pbe_pool_destroy(pbe_pool *p)
     free(p);
 }
 
-size_t pbe_pool_threads(const pbe_pool *p)
+size_t pb_pool_threads(const pb_pool *p)
 {
     return p ? p->count + 1 : 1;
 }
 
-void pbe_pool_for(pbe_pool *p, size_t count, void (*fn)(void *user, size_t i), void *user)
+void pb_pool_for(pb_pool *p, size_t count, void (*fn)(void *user, size_t i), void *user)
 {
     if (!p || count < 2) {
         for (size_t i = 0; i < count; i++)
@@ -146,9 +143,9 @@ void pbe_pool_for(pbe_pool *p, size_t count, void (*fn)(void *user, size_t i), v
     pthread_mutex_unlock(&p->lock);
 }
 
-size_t pbe_chunks(size_t n)
+size_t pb_chunks(size_t n)
 {
-    return (n + PBE_CHUNK - 1) / PBE_CHUNK;
+    return (n + PB_CHUNK - 1) / PB_CHUNK;
 }
 
 typedef struct chunked {
@@ -163,8 +160,8 @@ typedef struct chunked {
  * adds into them at every voxel stalls the others. */
 static void chunk_sums(const chunked *s, size_t c, double *out)
 {
-    size_t begin = c * PBE_CHUNK, end = begin + PBE_CHUNK < s->n ? begin + PBE_CHUNK : s->n;
-    double own[PBE_MOST_SUMS];
+    size_t begin = c * PB_CHUNK, end = begin + PB_CHUNK < s->n ? begin + PB_CHUNK : s->n;
+    double own[PB_MOST_SUMS];
     memset(own, 0, sizeof(double) * s->k);
     s->fn(s->user, begin, end, own);
     memcpy(out, own, sizeof(double) * s->k);
@@ -176,14 +173,14 @@ static void sum_chunk(void *arg, size_t c)
     chunk_sums(s, c, s->partial + c * s->k);
 }
 
-void pbe_pool_sums(pbe_pool *p, size_t n, size_t k, void (*fn)(void *user, size_t begin, size_t end, double *sums),
+void pb_pool_sums(pb_pool *p, size_t n, size_t k, void (*fn)(void *user, size_t begin, size_t end, double *sums),
                    void *user, double *sums)
 {
-    const size_t chunks = pbe_chunks(n);
+    const size_t chunks = pb_chunks(n);
     chunked s = {n, k, fn, user, p && chunks > 1 ? malloc(sizeof(double) * k * chunks) : NULL};
     memset(sums, 0, sizeof(double) * k);
     if (s.partial) {
-        pbe_pool_for(p, chunks, sum_chunk, &s);
+        pb_pool_for(p, chunks, sum_chunk, &s);
         for (size_t c = 0; c < chunks; c++)
             for (size_t j = 0; j < k; j++)
                 sums[j] += s.partial[c * k + j];
@@ -191,7 +188,7 @@ void pbe_pool_sums(pbe_pool *p, size_t n, size_t k, void (*fn)(void *user, size_
         return;
     }
     /* on the caller, a chunk at a time: the same sums added in the same order */
-    double one[PBE_MOST_SUMS];
+    double one[PB_MOST_SUMS];
     for (size_t c = 0; c < chunks; c++) {
         chunk_sums(&s, c, one);
         for (size_t j = 0; j < k; j++)
