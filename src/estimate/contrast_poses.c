@@ -16,10 +16,8 @@
  * path (pass 3) are not one pose's view and stay out of the sum; they are
  * corrected with the rest, by their neighbours' contrast. */
 #include <math.h>
-#include <pthread.h>
 #include <stdlib.h>
 #include <string.h>
-#include <unistd.h>
 
 #include "estimate.h"
 #include "motion.h"
@@ -30,7 +28,6 @@ enum { NG = 6 };
  * whole series, and voxels of about 6 mm keep it, at a cost per evaluation
  * that grows as the padded volume times its longest line. */
 #define LONGEST_SIDE 40
-enum { MAX_THREADS = 32 };
 /* The still frames in the sum at most, spread evenly over the series: each
  * evaluation's cost grows as their square (and its eigenvalues as their
  * cube), and six numbers for the whole series are found from a few dozen
@@ -42,7 +39,8 @@ enum { MAX_SUM_FRAMES = 24 };
 
 typedef struct collective {
     pb_geometry g;          /* the grid the frames are compared on */
-    size_t n, pad[3], padded, count, used, rank, threads;
+    size_t n, pad[3], padded, count, used, rank;
+    pb_pool *pool;          /* the estimate's threads: a frame moved on each */
     double c[3], radius;
     float *frames;          /* every frame on g */
     float *moved;           /* the used frames moved back, padded */
@@ -94,57 +92,36 @@ static double energy_beyond(collective *cv)
     return trace - top;
 }
 
-/* One thread's share of the frames to move: every stride-th from first. */
+/* The frames moved back under one correction. */
 typedef struct mover {
     collective *cv;
     const double *p;
-    size_t first, stride;
-    pb_status st;
+    pb_status *st; /* one a frame of the sum */
 } mover;
 
-static void *move_frames(void *arg)
+static void move_frame(void *arg, size_t i)
 {
-    mover *mv = arg;
+    const mover *mv = arg;
     collective *cv = mv->cv;
-    mv->st = PB_OK;
-    for (size_t i = mv->first; i < cv->used && mv->st == PB_OK; i += mv->stride) {
-        size_t k = cv->use[i];
-        /* frame k shows the object x at T x: moved back, it is f_k(T x) */
-        pb_pose pose;
-        corrected(cv, cv->weight[k], mv->p, &cv->poses[k].pose, &pose);
-        mv->st = pbe_move_unitary(&cv->g, cv->frames + k * cv->n, cv->pad, &pose, cv->c, cv->moved + i * cv->padded);
-    }
-    return NULL;
+    size_t k = cv->use[i];
+    /* frame k shows the object x at T x: moved back, it is f_k(T x) */
+    pb_pose pose;
+    corrected(cv, cv->weight[k], mv->p, &cv->poses[k].pose, &pose);
+    mv->st[i] = pbe_move_unitary(&cv->g, cv->frames + k * cv->n, cv->pad, &pose, cv->c, cv->moved + i * cv->padded);
 }
 
 /* The energy the frames moved back under correction p hold beyond their
- * leading principal images. The frames are moved on the host's cores, one
- * thread a core (the caller's among them). */
+ * leading principal images. The frames are moved on the estimate's threads,
+ * a frame each. */
 static pb_status residual(collective *cv, const double p[NG], double *out)
 {
-    mover mv[MAX_THREADS];
-    pthread_t thread[MAX_THREADS];
-    int started[MAX_THREADS] = {0};
-    size_t threads = cv->threads < cv->used ? cv->threads : cv->used;
-    for (size_t t = 0; t < threads; t++) {
-        mv[t] = (mover){cv, p, t, threads, PB_OK};
-        if (t > 0)
-            started[t] = pthread_create(&thread[t], NULL, move_frames, &mv[t]) == 0;
-    }
-    /* a thread that did not start leaves its frames to the caller */
-    for (size_t t = 0; t < threads; t++)
-        if (t == 0 || !started[t])
-            move_frames(&mv[t]);
-    pb_status st = PB_OK;
-    for (size_t t = 0; t < threads; t++) {
-        if (started[t])
-            pthread_join(thread[t], NULL);
-        if (mv[t].st != PB_OK)
-            st = mv[t].st;
-    }
-    if (st != PB_OK)
-        return st;
-    pbe_gram(cv->moved, cv->padded, cv->used, cv->gram);
+    pb_status st[MAX_SUM_FRAMES];
+    mover mv = {cv, p, st};
+    pb_pool_for(cv->pool, cv->used, move_frame, &mv);
+    for (size_t i = 0; i < cv->used; i++)
+        if (st[i] != PB_OK)
+            return st[i];
+    pbe_gram(cv->pool, cv->moved, cv->padded, cv->used, cv->gram);
     *out = energy_beyond(cv);
     if (cv->tick)
         cv->tick(cv->tick_user);
@@ -384,8 +361,9 @@ static void pick_still(const pbe_collective_pose *poses, size_t count, size_t st
     }
 }
 
-pb_status pbe_collective(const pb_geometry *fine, const float *raw, size_t count, size_t ref, const double c[3],
-                         pbe_collective_pose *poses, double *moved_mm, void (*tick)(void *), void *tick_user)
+pb_status pbe_collective(pb_pool *pool, const pb_geometry *fine, const float *raw, size_t count, size_t ref,
+                         const double c[3], pbe_collective_pose *poses, double *moved_mm, void (*tick)(void *),
+                         void *tick_user)
 {
     collective cv;
     memset(&cv, 0, sizeof cv);
@@ -417,8 +395,7 @@ pb_status pbe_collective(const pb_geometry *fine, const float *raw, size_t count
         still += !poses[k].moving;
     cv.used = still < MAX_SUM_FRAMES ? still : MAX_SUM_FRAMES;
     cv.rank = pbe_reference_rank(count);
-    long cores = sysconf(_SC_NPROCESSORS_ONLN);
-    cv.threads = cores < 1 ? 1 : cores > MAX_THREADS ? MAX_THREADS : (size_t)cores;
+    cv.pool = pool;
     /* Measured on series of 24 frames, whose references have three images:
      * with fewer, the energy beyond them holds tissue curves the references
      * cannot, and a correction along the contrast would trade one for the

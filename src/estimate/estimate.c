@@ -721,7 +721,7 @@ static pb_status correct_together(estimate *e, size_t ref, pbe_fit *fits, frame_
         }
     }
     double moved_mm, given = e->done;
-    pb_status st = pbe_collective(&e->g, e->raw, e->count, ref, e->c, p, &moved_mm, together_tick, e);
+    pb_status st = pbe_collective(e->pool, &e->g, e->raw, e->count, ref, e->c, p, &moved_mm, together_tick, e);
     for (size_t k = 0; k < e->count && st == PB_OK; k++) {
         fits[k].pose = p[k].pose;
         if (moving[k]) {

@@ -103,7 +103,7 @@ void pbe_reference_window(size_t frames, size_t k, size_t *first, size_t *end);
 double pbe_dot(const float *a, const float *b, size_t n);
 /* The frames' inner products (frames x frames, row-major), frames moved back
  * onto the reference, n voxels each, frame after frame. */
-void pbe_gram(const float *moved, size_t n, size_t frames, double *gram);
+void pbe_gram(pb_pool *pool, const float *moved, size_t n, size_t frames, double *gram);
 /* The inner products of frames within a window of one another: band[i (B +
  * 1) + d] = g_i . g_(i+d) for d <= B = PBE_REFERENCE_OTHERS. */
 void pbe_gram_band(pb_pool *pool, const float *moved, size_t n, size_t frames, double *band);
@@ -178,7 +178,8 @@ enum { PBE_COLLECTIVE_EVALUATIONS = 48 };
  * reference; raw: the frames on the fine grid. *moved_mm: the correction's
  * size (0: none taken). tick (may be NULL) hears each evaluation of the
  * residual, for progress. */
-pb_status pbe_collective(const pb_geometry *fine, const float *raw, size_t count, size_t ref, const double c[3],
-                         pbe_collective_pose *poses, double *moved_mm, void (*tick)(void *), void *tick_user);
+pb_status pbe_collective(pb_pool *pool, const pb_geometry *fine, const float *raw, size_t count, size_t ref,
+                         const double c[3], pbe_collective_pose *poses, double *moved_mm, void (*tick)(void *),
+                         void *tick_user);
 
 #endif

@@ -106,11 +106,24 @@ double pbe_dot(const float *a, const float *b, size_t n)
     return s;
 }
 
-void pbe_gram(const float *moved, size_t n, size_t frames, double *gram)
+typedef struct gram_job {
+    const float *moved;
+    size_t n, frames;
+    double *gram;
+} gram_job;
+
+static void gram_row(void *arg, size_t i)
 {
-    for (size_t i = 0; i < frames; i++)
-        for (size_t j = i; j < frames; j++)
-            gram[i * frames + j] = gram[j * frames + i] = pbe_dot(moved + i * n, moved + j * n, n);
+    const gram_job *j = arg;
+    for (size_t k = i; k < j->frames; k++)
+        j->gram[i * j->frames + k] = j->gram[k * j->frames + i] =
+            pbe_dot(j->moved + i * j->n, j->moved + k * j->n, j->n);
+}
+
+void pbe_gram(pb_pool *pool, const float *moved, size_t n, size_t frames, double *gram)
+{
+    gram_job j = {moved, n, frames, gram};
+    pb_pool_for(pool, frames, gram_row, &j);
 }
 
 /* The reference's voxels of one chunk: the other frames weighed. */
