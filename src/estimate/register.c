@@ -3,8 +3,8 @@
  * (the least-squares form of normalised cross-correlation, which tolerates
  * tracer uptake that changes from frame to frame). The Jacobian comes from
  * the blurs of the reference's derivative images (pbe_pose_gradients), so
- * each step is seven blurs on the device and one pass over the voxels here,
- * on the estimate's threads. */
+ * a step taken is seven blurs on the device (a step refused, one) and a pass
+ * over the voxels here, on the estimate's threads. */
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
