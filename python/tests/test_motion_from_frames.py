@@ -13,6 +13,7 @@ frame before, the rest that of the frame after, 8 mm and 8 degrees on."""
 
 import ast
 import json
+import os
 import pickle
 import re
 import subprocess
@@ -253,6 +254,26 @@ def test_orders_and_dtypes_agree(rng):
     np.testing.assert_array_equal(a.times, b.times)
     np.testing.assert_allclose(a.translations, b.translations, rtol=0, atol=1e-9)
     np.testing.assert_allclose(a.quaternions, b.quaternions, rtol=0, atol=1e-12)
+
+
+@pytest.mark.skipif(len(os.sched_getaffinity(0)) < 2, reason="one core here: nothing to narrow the threads to")
+def test_the_same_track_on_one_core_and_many(rng):
+    """The estimate's host loops and the host backend's forward run on the
+    cores the process may run on, with sums taken in chunks of fixed size: the
+    track is the same bits with the affinity narrowed to one CPU. The grid
+    holds three chunks of voxels, so that the sums are split."""
+    s = Series(rng, (40, 40, 24), (4.0, 4.0, 4.0), 5, jerk=2)
+    many = petblur.Motion.from_frames(s.frames, s.affine, s.starts, s.durations, device="host")
+    cores = os.sched_getaffinity(0)
+    os.sched_setaffinity(0, {min(cores)})
+    try:
+        one = petblur.Motion.from_frames(s.frames, s.affine, s.starts, s.durations, device="host")
+    finally:
+        os.sched_setaffinity(0, cores)
+    assert len(many.times) >= 6
+    np.testing.assert_array_equal(many.times, one.times)
+    np.testing.assert_array_equal(many.translations, one.translations)
+    np.testing.assert_array_equal(many.quaternions, one.quaternions)
 
 
 def test_voxel_size_is_the_grid_frame(rng):
