@@ -853,9 +853,10 @@ typedef struct pb_estimate_report {
  * pull every pose towards the grid's), and frames that show no structure
  * above their noise, which take their nearest structured frame's pose (the
  * identity where none has any). ctx's progress report, if any, hears the
- * whole call's progress. The host's loops over voxels run on threads, one per
- * core this process may run on (its CPU affinity; at most 32), made and
- * joined within the call; the track is the same bits whatever their number. */
+ * whole call's progress. The host's loops over voxels (on grids of 2^15
+ * voxels or more) run on threads, one per core this process may run on (its
+ * CPU affinity; at most 32), made and joined within the call; the track is the
+ * same bits whatever their number. */
 PB_API pb_status pb_motion_estimate(pb_context *ctx, const pb_geometry *geometry, const double affine[16],
                                     const float *frames, size_t count, const double *bounds,
                                     const pb_estimate_options *options, pb_track **track,

@@ -77,7 +77,7 @@ typedef struct estimate {
     float *frames[8];       /* per level: every frame, smoothed */
     pbe_level level[8];
     float *scratch, *tmp;   /* six volumes of level 0; one line */
-    pb_pool *pool;         /* threads for the loops over voxels (parallel.c) */
+    pb_pool *pool;         /* threads: pass 4's frames; each level's loops where it is large enough (pbe_level's) */
     pb_progress_fn progress;
     void *progress_user;
     double done, total;
@@ -106,7 +106,7 @@ static void pyramid(estimate *e, const float *src, float *const *out)
         double fwhm = e->fwhm > 0 ? e->fwhm : 2.0 * fmax(e->level[l].g.voxel_size[0],
                                                            fmax(e->level[l].g.voxel_size[1],
                                                                 e->level[l].g.voxel_size[2]));
-        pbe_smooth(e->pool, &e->level[l].g, out[l], fwhm, e->tmp);
+        pbe_smooth(e->level[l].pool, &e->level[l].g, out[l], fwhm, e->tmp);
     }
 }
 
@@ -216,7 +216,7 @@ static pb_status move_back(estimate *e, const pbe_fit *fits, float *moved)
 /* Frame k's own reference (references.c) on every level. */
 static pb_status frame_reference(estimate *e, const float *moved, const double *gram, size_t k, float *reference)
 {
-    pb_status st = pbe_frame_reference(e->pool, moved, e->level[0].n, e->count, gram, k, reference);
+    pb_status st = pbe_frame_reference(e->level[0].pool, moved, e->level[0].n, e->count, gram, k, reference);
     return st == PB_OK ? set_reference(e, reference) : st;
 }
 
@@ -231,7 +231,7 @@ static pb_status register_own(estimate *e, pbe_fit *fits, float *moved, double *
     for (size_t k = 0; k < e->count; k++)
         if (e->flat[k])
             memset(moved + k * e->level[0].n, 0, sizeof(float) * e->level[0].n);
-    pbe_gram_band(e->pool, moved, e->level[0].n, e->count, gram);
+    pbe_gram_band(e->level[0].pool, moved, e->level[0].n, e->count, gram);
     for (size_t k = 0; k < e->count && st == PB_OK; k++) {
         st = frame_reference(e, moved, gram, k, reference);
         if (st == PB_OK)

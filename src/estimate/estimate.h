@@ -8,6 +8,11 @@
 #include "parallel.h"
 #include "petblur.h"
 
+/* The voxels from which a grid's loops run on the estimate's threads: two
+ * chunks of a sum. Below it a loop is a few milliseconds, and waking the
+ * threads for each (thousands in an estimate) costs more than they save. */
+#define PBE_THREADS_FROM (2 * PB_CHUNK)
+
 /* ---- image_ops.c: host image operations -------------------------------------- */
 
 /* The grid of the next coarser level: ceil(n / 2) voxels of twice the size,
