@@ -1,7 +1,6 @@
-/* Loops on the machine's cores (parallel.h). The estimate's host loops (on
- * a GPU its blurs take a small part of it: at 24 frames of 128^3 on an H200,
- * 41 s of 45 were loops over voxels on one core; docs/motion.md, "What
- * bounds its time") and the host backend's forward run on them. */
+/* Loops on the machine's cores (parallel.h): the estimate's host loops,
+ * which on a GPU are most of an estimate's time (docs/motion.md, "What
+ * bounds its time"), and the host backend's forward. */
 #define _GNU_SOURCE /* sched_getaffinity: the cores this process may run on */
 #include <pthread.h>
 #include <sched.h>

@@ -102,8 +102,8 @@ static void chord_offset(const double *t, const double *o, size_t j, int c, doub
  * (a 1 Hz drift) is not taken for noise, and a tremor of frequency f has
  * products in the ratios cos(2 pi f l dt). Those match white noise's within
  * the margins below at lags 0 to 3 for 2 pi f dt in [2.549, 2.574] (8.11 to
- * 8.19 Hz in a 20 Hz log: test_world's tremor was taken for noise there, a
- * CI draw at 8.15 Hz), and at lags 0 to 5 nowhere. The test's margins allow
+ * 8.19 Hz in a 20 Hz log), and at lags 0 to 5 nowhere (docs/methods.md,
+ * "Tracker noise"). The test's margins allow
  * the products' own scatter over a few hundred samples (lag 2's, the widest,
  * to 0.25x: a 232-sample still log fell below 0.5x; lags 3 to 5 to 0.75
  * sigma^2, about 3 of their standard deviations there); a shorter log, or
