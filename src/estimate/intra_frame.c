@@ -42,9 +42,9 @@ void pbe_nnls(const double *gram, const double *h, size_t n, size_t n_nonneg, do
 /* The dwell's sums: the views' Gram matrix with the offset's column (upper
  * triangle, row by row) and their products with the frame. */
 typedef struct dwell_job {
-    const float *const *views;
+    const float *views; /* m of them, n voxels each, one after another */
     const float *frame;
-    size_t m;
+    size_t n, m;
     const double *u; /* for the residual */
 } dwell_job;
 
@@ -56,13 +56,13 @@ static void dwell_sums(void *arg, size_t begin, size_t end, double *s)
         double f = (double)j->frame[v];
         double *up = s;
         for (size_t i = 0; i < m; i++) {
-            double a = (double)j->views[i][v];
+            double a = (double)j->views[i * j->n + v];
             for (size_t k = i; k < m; k++)
-                *up++ += a * (double)j->views[k][v];
+                *up++ += a * (double)j->views[k * j->n + v];
             *up++ += a;
         }
         for (size_t i = 0; i < m; i++)
-            up[i] += (double)j->views[i][v] * f;
+            up[i] += (double)j->views[i * j->n + v] * f;
         up[m] += f;
     }
 }
@@ -74,7 +74,7 @@ static void dwell_residual(void *arg, size_t begin, size_t end, double *s)
     for (size_t v = begin; v < end; v++) {
         double model = j->u[j->m];
         for (size_t i = 0; i < j->m; i++)
-            model += j->u[i] * (double)j->views[i][v];
+            model += j->u[i] * (double)j->views[i * j->n + v];
         s[0] += (model - (double)j->frame[v]) * (model - (double)j->frame[v]);
     }
 }
@@ -88,8 +88,8 @@ pb_status pbe_dwell(pb_context *ctx, pbe_level *level, const float *frame, const
         return pb_error(NULL, PB_ERR_INVALID_ARGUMENT, "a dwell of %zu points has more sums than %d", m,
                         (int)PB_MOST_SUMS);
     double *gram = calloc(k * k, sizeof(double)), *h = calloc(k, sizeof(double));
-    float **views = calloc(m, sizeof(float *)), *room = pbe_level_views(level, m);
-    pb_status st = gram && h && views && room ? PB_OK : PB_ERR_OUT_OF_MEMORY;
+    float *views = pbe_level_views(level, m);
+    pb_status st = gram && h && views ? PB_OK : PB_ERR_OUT_OF_MEMORY;
     for (size_t i = 0; i < m && st == PB_OK; i++) {
         pb_pose p;
         double times[2];
@@ -97,12 +97,11 @@ pb_status pbe_dwell(pb_context *ctx, pbe_level *level, const float *frame, const
         pb_motion mo;
         pb_pose_interpolate(s, e, (double)i / (double)(m - 1), &p);
         pbe_static_motion(&p, c, times, poses, &mo);
-        views[i] = room + i * n;
-        st = pbe_blur_reference_to(ctx, level, &mo, views[i]);
+        st = pbe_blur_reference_to(ctx, level, &mo, views + i * n);
     }
     if (st == PB_OK) {
         double sums[PB_MOST_SUMS];
-        dwell_job job = {(const float *const *)views, frame, m, u};
+        dwell_job job = {views, frame, n, m, u};
         pb_pool_sums(level->pool, n, terms, dwell_sums, &job, sums);
         const double *up = sums;
         for (size_t i = 0; i < m; i++) {
@@ -121,7 +120,6 @@ pb_status pbe_dwell(pb_context *ctx, pbe_level *level, const float *frame, const
         pb_pool_sums(level->pool, n, 1, dwell_residual, &job, &r);
         *sse = r > 0 ? r : 0.0;
     }
-    free(views);
     free(gram);
     free(h);
     return st;

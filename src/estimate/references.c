@@ -79,22 +79,24 @@ static double band_at(const double *band, size_t i, size_t j)
     return i <= j ? band[i * (PBE_REFERENCE_OTHERS + 1) + (j - i)] : band[j * (PBE_REFERENCE_OTHERS + 1) + (i - j)];
 }
 
-typedef struct band_job {
+/* The inner products of frames, n voxels each, a row of them per item of
+ * a loop on the pool: into a band (pbe_gram_band) or a square (pbe_gram). */
+typedef struct products_job {
     const float *moved;
     size_t n, frames;
-    double *band;
-} band_job;
+    double *out;
+} products_job;
 
 static void band_row(void *arg, size_t i)
 {
-    const band_job *j = arg;
+    const products_job *j = arg;
     for (size_t d = 0; d <= PBE_REFERENCE_OTHERS && i + d < j->frames; d++)
-        j->band[i * (PBE_REFERENCE_OTHERS + 1) + d] = pbe_dot(j->moved + i * j->n, j->moved + (i + d) * j->n, j->n);
+        j->out[i * (PBE_REFERENCE_OTHERS + 1) + d] = pbe_dot(j->moved + i * j->n, j->moved + (i + d) * j->n, j->n);
 }
 
 void pbe_gram_band(pb_pool *pool, const float *moved, size_t n, size_t frames, double *band)
 {
-    band_job j = {moved, n, frames, band};
+    products_job j = {moved, n, frames, band};
     pb_pool_for(pool, frames, band_row, &j);
 }
 
@@ -106,23 +108,17 @@ double pbe_dot(const float *a, const float *b, size_t n)
     return s;
 }
 
-typedef struct gram_job {
-    const float *moved;
-    size_t n, frames;
-    double *gram;
-} gram_job;
-
 static void gram_row(void *arg, size_t i)
 {
-    const gram_job *j = arg;
+    const products_job *j = arg;
     for (size_t k = i; k < j->frames; k++)
-        j->gram[i * j->frames + k] = j->gram[k * j->frames + i] =
+        j->out[i * j->frames + k] = j->out[k * j->frames + i] =
             pbe_dot(j->moved + i * j->n, j->moved + k * j->n, j->n);
 }
 
 void pbe_gram(pb_pool *pool, const float *moved, size_t n, size_t frames, double *gram)
 {
-    gram_job j = {moved, n, frames, gram};
+    products_job j = {moved, n, frames, gram};
     pb_pool_for(pool, frames, gram_row, &j);
 }
 

@@ -83,15 +83,15 @@ static pb_status blur_images(pb_context *ctx, pbe_level *level, const pb_motion 
     return PB_OK;
 }
 
-pb_status pbe_blur_reference(pb_context *ctx, pbe_level *level, const pb_motion *m)
-{
-    return blur_images(ctx, level, m, 0, 1);
-}
-
 pb_status pbe_blur_reference_to(pb_context *ctx, pbe_level *level, const pb_motion *m, float *out)
 {
     pb_status st = pb_blur(ctx, level->in[0], m, &blur_options, level->out[0]);
     return st == PB_OK ? pb_volume_download(level->out[0], out) : st;
+}
+
+pb_status pbe_blur_reference(pb_context *ctx, pbe_level *level, const pb_motion *m)
+{
+    return pbe_blur_reference_to(ctx, level, m, level->host[0]);
 }
 
 float *pbe_level_views(pbe_level *level, size_t m)
