@@ -49,8 +49,17 @@
  *    norm's RMS): the first-order error, where a jerk's few samples leave
  *    the line at the short scales and a slow drift at the long one.
  * A track without noise (or whose noise fails the test) has s = 0: every
- * sample within E of its piece. The bound, the default's or the caller's, is
- * on the motion, and the noise is not motion; the logged polyline itself,
+ * sample within E of its piece, and their RMS residual within 0.35 E. The
+ * blur of a sharp edge is first-order sensitive to that RMS, not second: the
+ * interpolated image bends at every voxel centre, and a voxel whose chord
+ * passes near one averages |residual| there. A run that keeps within E but
+ * wanders about its line all along (one chord for a slow drift of a third of
+ * a voxel) stood at up to 0.64 % RMS of the dense reference; at 0.35 E the
+ * worst of 200 such drifts at 0.12 % (docs/methods.md, "Where the merged
+ * chords' error comes from"). A noisy run's floor is its noise's own mean,
+ * which more cuts do not lower (they followed the noise, at 4x the segments):
+ * there the mean square keeps E^2 plus the noise's. The bound, the
+ * default's or the caller's, is on the motion, and the noise is not motion; the logged polyline itself,
  * noise and all, is PB_PATH_TRACKED's. pb_path_fit's sigma_mm, the tracker's
  * noise per axis where a caller knows it, is a floor under the measured one. */
 #include <math.h>
@@ -69,6 +78,9 @@ enum { PB_FIT_ROUNDS = 32 };
  * the noise's (the header says why). */
 enum { PB_FIT_SCATTER_RUN = 64 };
 static const double PB_FIT_SCATTER_Z = 3.0;
+/* A noise-free run's residual may have an RMS of at most this share of E
+ * (the header says why). */
+static const double PB_FIT_RMS_SHARE = 0.35;
 
 typedef struct fit_ctx {
     size_t n;
@@ -147,11 +159,12 @@ static void tracker_noise(size_t n, const double *t, const double *o, double noi
  * the bounds (the header's two tests)? */
 static int line_holds(const fit_ctx *f, size_t i, size_t e, const double *a, const double *b)
 {
-    /* Without noise every sample within E implies both the mean square and
-     * every longer window's mean within E: single samples only. */
+    /* Without noise every sample within E implies every longer window's
+     * mean within E: single samples, and the mean square within
+     * (PB_FIT_RMS_SHARE E)^2 as well. */
     int noisy = f->sigma > 0.0;
     size_t len = e - i + 1, top = noisy ? len : 1;
-    for (int c = 0; noisy && c < 8; c++) {
+    for (int c = 0; c < 8; c++) {
         double ms = 0.0;
         for (size_t m = i; m <= e; m++)
             for (int j = 0; j < 3; j++) {
@@ -163,7 +176,8 @@ static int line_holds(const fit_ctx *f, size_t i, size_t e, const double *a, con
          * s^2 sqrt(2 / (3 len)) (chi-square of 3 len degrees). */
         double s2 = f->noise[c] * f->noise[c];
         double scatter = len >= PB_FIT_SCATTER_RUN ? PB_FIT_SCATTER_Z * s2 * sqrt(2.0 * (double)len / 3.0) : 0.0;
-        if (ms > (f->e * f->e + s2) * (double)len + scatter)
+        double share = noisy ? f->e : PB_FIT_RMS_SHARE * f->e;
+        if (ms > (share * share + s2) * (double)len + scatter)
             return 0;
     }
     for (size_t k = 1;; k = 2 * k < top ? 2 * k : top) {
