@@ -151,19 +151,21 @@ def test_default_bound_fitted(rng, kind):
     (bench/results/2026-11-29_cpu2_fit-main): drifts at most 0.27 % RMS and
     0.65 % max, translations 0.10 % and 0.16 %, rotations 0.30 % and 0.55 %
     (through the samples, 10 seeds: up to 0.71 / 1.29, 1.29 / 1.65 and
-    0.57 / 1.17). A rotation's worst draw (seed 909: 0.304 % RMS) is not the
-    fit's: pb_path_split cuts a turn into chords, which lie inside its arc, on
-    one side. A drift's tail reaches the target too: CI's seed 387157710 (a
-    0.33-voxel drift of sharp spheres logged at 1 Hz for 32 s) stood at
-    0.322 % RMS and 0.69 % max; 36 more seeds (201-236) at most 0.259 / 0.687.
-    So drifts and rotations are held within 0.35 % RMS, translations 0.3 %:
-    issue 46's 0.3 % is met on all but about one draw in 70."""
+    0.57 / 1.17). The tails of drifts and rotations were still the fit's:
+    a piece within the bound of every sample but wandering about it all
+    along (a slow drift of a third of a voxel on one chord: CI's seeds
+    387157710 and 2940284256 at 0.32 and 0.355 % RMS, seed 5035 at 0.64 %; a
+    rotation, seed 909, at 0.304 %). A noise-free run's RMS residual is now
+    within 0.35 of the bound too: on fresh seeds 8000-8099
+    (bench/results/2026-11-30_cpu2_rms-share) drifts at most 0.12 % RMS and
+    0.35 % max where they had stood at 0.30 / 0.92 %, rotations (8000-8029)
+    0.11 / 0.25 % where 0.31 / 0.68 %; seed 909 at 0.10 %. So every kind is
+    held to issue 46's 0.3 % RMS and 1.0 % max."""
     import petblur
     pc = _cases()
     case = pc.draw_case(kind, rng, small=True)
     ref = pc.reference(case, "logged", times=min(pc.reference_times(case, "logged"), 1500))
     x = np.asfortranarray(case.x)
-    rms_bound = 0.3 if kind == "translation" else 0.35
     for method in ("ab", "rm"):
         op = petblur.BlurOperator(case.shape, case.voxel, case.logged, frame=case.frame, method=method,
                                   filter="exact", affine=case.affine, device="host")
@@ -172,4 +174,4 @@ def test_default_bound_fitted(rng, kind):
         e = pc.errors(ref, y)
         msg = f"{method}, {pc.describe(case)}: {e['rms_pct']:.3f} % RMS {e['max_pct']:.3f} % max"
         print(msg)
-        assert e["rms_pct"] < rms_bound and e["max_pct"] < 1.0, msg
+        assert e["rms_pct"] < 0.3 and e["max_pct"] < 1.0, msg
