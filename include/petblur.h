@@ -647,9 +647,11 @@ PB_API pb_status pb_path_segments(const pb_geometry *geometry, const pb_motion *
  * (NULL: the defaults) treats as noise and does not follow: the RMS of the 3D
  * scatter of the grid's corners about the motion, mm, the largest corner's,
  * measured from the frame's tracked poses (docs/methods.md, "Tracker noise").
- * 0 where every tracked pose is followed: fewer than 64 in the frame, a
- * scatter that is not white (a tremor is motion), PB_PATH_TRACKED, or CL and
- * REF, which follow the track itself. segments (may be NULL): what
+ * A frame of fewer than 64 tracked poses is measured on the 512 of the whole
+ * track about it. 0 where every tracked pose is followed: fewer than 64 in
+ * the whole track, a scatter that is not white (a tremor is motion, and so
+ * is a jerk beside a short frame), PB_PATH_TRACKED, or CL and REF, which
+ * follow the track itself. segments (may be NULL): what
  * pb_path_segments gives, from the same plan, so that a report of both
  * plans the frame once. */
 PB_API pb_status pb_path_noise(const pb_geometry *geometry, const pb_motion *motion,

@@ -109,8 +109,10 @@ pb_status pb_path_split(struct pb_context *ctx, pb_path *plan, double max_error,
  * polyline fitted to them by least squares, its knots where the samples
  * leave a line by more than max_error voxels beyond the tracker's noise:
  * sigma_mm per axis where the caller knows it, and what the track's own
- * samples show of white noise. */
-pb_status pb_path_fit(struct pb_context *ctx, pb_path *plan, double sigma_mm, double max_error);
+ * samples show of white noise (the frame's, or where it holds too few, those
+ * of track, the whole log, about the frame; track may be NULL). */
+pb_status pb_path_fit(struct pb_context *ctx, pb_path *plan, const pb_motion *track, double sigma_mm,
+                      double max_error);
 
 /* Walks clipped to the grid (path_clip.c): each segment cut to the part of it
  * during which a sample can land in the object grid, the rest marked skip,

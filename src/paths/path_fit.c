@@ -30,7 +30,8 @@
  * Tracker noise (tracker_noise below). A log's samples scatter about the
  * motion by the tracker's noise, white from sample to sample, and what is
  * noise is not motion: a chord need not follow it. Each corner's noise is
- * measured from the whole track, where it passes a test of whiteness (a
+ * measured from the frame's samples (a frame of fewer than 64: from the 512
+ * of the log about it, window_noise), where it passes a test of whiteness (a
  * tremor is a motion, however fast); a run's line then holds where
  *  - each corner's residual has a mean square within E^2 plus the noise's:
  *    what the run drops of each voxel's spread of positions beyond the noise
@@ -77,6 +78,12 @@ enum { PB_FIT_ROUNDS = 32 };
  * up to PB_FIT_SCATTER_Z standard deviations of the noise's own above E^2 plus
  * the noise's (the header says why). */
 enum { PB_FIT_SCATTER_RUN = 64 };
+/* The fewest samples whose chord offsets measure the tracker's noise, and the
+ * samples of the log about a shorter frame that measure it instead: over
+ * fewer, white noise's own scatter fails the whiteness test now and then (of
+ * 400 short frames of still noisy logs, 6 on 128 samples, 2 on 256, none on
+ * 512; bench/results/2026-11-30_cpu2_short-frames). */
+enum { PB_NOISE_SAMPLES = 64, PB_NOISE_WINDOW = 512 };
 static const double PB_FIT_SCATTER_Z = 3.0;
 /* A noise-free run's residual may have an RMS of at most this share of E
  * (the header says why). */
@@ -103,7 +110,7 @@ static void chord_offset(const double *t, const double *o, size_t j, int c, doub
     }
 }
 
-/* Each corner's noise, the RMS of its 3D norm, from the whole track, or 0
+/* Each corner's noise, the RMS of its 3D norm, from the samples given, or 0
  * where the track does not look like a motion plus white noise (tested on
  * the corners' mean products, whose scatter is smaller than one corner's).
  * For white noise of sigma per axis (times equally spaced), the mean of
@@ -126,7 +133,7 @@ static void tracker_noise(size_t n, const double *t, const double *o, double noi
     double p[8][LAGS] = {{0}}, all[LAGS] = {0};
     for (int c = 0; c < 8; c++)
         noise[c] = 0.0;
-    if (n < 64)
+    if (n < PB_NOISE_SAMPLES)
         return;
     for (int c = 0; c < 8; c++) {
         /* lags 0 to 3, the noise's measure, over the n - 5 samples that
@@ -354,7 +361,41 @@ static void corners_of(const pb_path *plan, const pb_pose *pose, double *o)
     }
 }
 
-pb_status pb_path_fit(struct pb_context *ctx, pb_path *plan, double sigma_mm, double max_error)
+/* The noise of a frame with too few samples of its own to measure it
+ * (tracker_noise's 64), from the PB_NOISE_WINDOW samples of the whole log
+ * centred on the frame: a 2 s frame of a 20 Hz log holds 40, and following
+ * their noise took 42 segments where the motion took one (docs/methods.md,
+ * "Tracker noise"). The window's motion must pass the same whiteness test,
+ * so a jerk or a tremor beside the frame leaves it followed as before. */
+static int window_noise(const pb_path *plan, const pb_motion *track, double noise[8])
+{
+    size_t first = 0, inside = 0, n = track->count;
+    double t0 = plan->poses[0].time, t1 = plan->poses[plan->count - 1].time;
+    while (first < n && !(track->times[first] > t0))
+        first++;
+    while (first + inside < n && track->times[first + inside] < t1)
+        inside++;
+    size_t w = n < PB_NOISE_WINDOW ? n : PB_NOISE_WINDOW, mid = first + inside / 2;
+    size_t lo = mid > w / 2 ? mid - w / 2 : 0;
+    if (lo + w > n)
+        lo = n - w;
+    double *t = malloc(w * 25 * sizeof *t);
+    if (!t)
+        return 0;
+    double *o = t + w;
+    for (size_t j = 0; j < w; j++) {
+        pb_pose p;
+        pb_pose_normalized(&track->poses[lo + j], &p);
+        t[j] = track->times[lo + j] - track->times[lo];
+        corners_of(plan, &p, &o[24 * j]);
+    }
+    tracker_noise(w, t, o, noise);
+    free(t);
+    return 1;
+}
+
+pb_status pb_path_fit(struct pb_context *ctx, pb_path *plan, const pb_motion *track, double sigma_mm,
+                      double max_error)
 {
     size_t n = plan->count;
     const double *v = plan->geometry.voxel_size;
@@ -390,7 +431,16 @@ pb_status pb_path_fit(struct pb_context *ctx, pb_path *plan, double sigma_mm, do
             so[24 * (j + 1) + q] = so[24 * j + q] + o[24 * j + q];
     }
     fit_ctx f = {n, t, o, st, so, e_mm, {0}, 0.0};
-    tracker_noise(n, t, o, f.noise);
+    if (n < PB_NOISE_SAMPLES && track && track->count >= PB_NOISE_SAMPLES) {
+        if (!window_noise(plan, track, f.noise)) {
+            free(buf);
+            free(knot);
+            free(kx);
+            return pb_error(ctx, PB_ERR_OUT_OF_MEMORY, "out of host memory measuring the tracker's noise");
+        }
+    } else {
+        tracker_noise(n, t, o, f.noise);
+    }
     for (int c = 0; c < 8; c++) {
         f.noise[c] = fmax(f.noise[c], sqrt(3.0) * sigma_mm);
         f.sigma = fmax(f.sigma, f.noise[c] / sqrt(3.0));

@@ -120,7 +120,7 @@ pb_status pb_path_create(struct pb_context *ctx, const pb_geometry *g, const pb_
     if ((opt->method == PB_METHOD_AB || opt->method == PB_METHOD_RM) && opt->path != PB_PATH_TRACKED) {
         double bound = opt->path == PB_PATH_BOUNDED ? opt->max_path_error : PB_DEFAULT_MAX_PATH_ERROR;
         int fit = plan->count >= 3;
-        st = fit ? pb_path_fit(ctx, plan, 0.0, bound) : PB_OK;
+        st = fit ? pb_path_fit(ctx, plan, m, 0.0, bound) : PB_OK;
         /* Fitted knots are cut, not merged again: a merge keeps a chord
          * within the bound of the fitted polyline, and such a chord through
          * fitted knots leaves it on one side as a chord through samples left
