@@ -86,10 +86,16 @@ pb_status pb_path_create_gate(struct pb_context *ctx, const pb_geometry *g, cons
     if (st != PB_OK)
         return st;
     for (size_t i = 0; i < intervals && st == PB_OK; i++) {
-        pb_motion part;
+        pb_motion part, whole = *track;
         pb_path piece;
+        /* Checked as a frame is cut, but planned on the whole track, as a
+         * frame is: the plan reads only the samples inside and those about
+         * its ends, and a short interval's tracker noise is measured on the
+         * log about it (path_fit.c), which the cut would not hold. */
+        whole.frame_start = iv[2 * i];
+        whole.frame_end = iv[2 * i + 1];
         if ((st = pb_motion_frame(track, iv[2 * i], iv[2 * i + 1], &part)) == PB_OK &&
-            (st = pb_path_create(ctx, g, &part, opt, &piece)) == PB_OK) {
+            (st = pb_path_create(ctx, g, &whole, opt, &piece)) == PB_OK) {
             if (intervals == 1) { /* a plain frame: the very plan pb_path_create made */
                 *plan = piece;
                 return PB_OK;
