@@ -60,8 +60,8 @@
  * chords' error comes from"). A noisy run's floor is its noise's own mean,
  * which more cuts do not lower (they followed the noise, at 4x the segments):
  * there the mean square keeps E^2 plus the noise's. The bound, the
- * default's or the caller's, is on the motion, and the noise is not motion; the logged polyline itself,
- * noise and all, is PB_PATH_TRACKED's. pb_path_fit's sigma_mm, the tracker's
+ * default's or the caller's, is on the motion, and the noise is not motion;
+ * the logged polyline itself, noise and all, is PB_PATH_TRACKED's. pb_path_fit's sigma_mm, the tracker's
  * noise per axis where a caller knows it, is a floor under the measured one. */
 #include <math.h>
 #include <stdlib.h>
