@@ -18,8 +18,8 @@ pb_status pbe_level_init(pb_context *ctx, pbe_level *level, const pb_geometry *g
 {
     memset(level, 0, sizeof *level);
     level->g = *g;
-    level->pool = g->dims[0] * g->dims[1] * g->dims[2] >= PBE_THREADS_FROM ? pool : NULL;
     level->n = g->dims[0] * g->dims[1] * g->dims[2];
+    level->pool = level->n >= PBE_THREADS_FROM ? pool : NULL;
     for (int i = 0; i < 7; i++) {
         pb_status st = pb_volume_create(ctx, g, &level->in[i]);
         if (st == PB_OK)

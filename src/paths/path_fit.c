@@ -171,6 +171,7 @@ static int line_holds(const fit_ctx *f, size_t i, size_t e, const double *a, con
      * (PB_FIT_RMS_SHARE E)^2 as well. */
     int noisy = f->sigma > 0.0;
     size_t len = e - i + 1, top = noisy ? len : 1;
+    double share = noisy ? f->e : PB_FIT_RMS_SHARE * f->e;
     for (int c = 0; c < 8; c++) {
         double ms = 0.0;
         for (size_t m = i; m <= e; m++)
@@ -183,7 +184,6 @@ static int line_holds(const fit_ctx *f, size_t i, size_t e, const double *a, con
          * s^2 sqrt(2 / (3 len)) (chi-square of 3 len degrees). */
         double s2 = f->noise[c] * f->noise[c];
         double scatter = len >= PB_FIT_SCATTER_RUN ? PB_FIT_SCATTER_Z * s2 * sqrt(2.0 * (double)len / 3.0) : 0.0;
-        double share = noisy ? f->e : PB_FIT_RMS_SHARE * f->e;
         if (ms > (share * share + s2) * (double)len + scatter)
             return 0;
     }
@@ -366,15 +366,17 @@ static void corners_of(const pb_path *plan, const pb_pose *pose, double *o)
  * centred on the frame: a 2 s frame of a 20 Hz log holds 40, and following
  * their noise took 42 segments where the motion took one (docs/methods.md,
  * "Tracker noise"). The window's motion must pass the same whiteness test,
- * so a jerk or a tremor beside the frame leaves it followed as before. */
+ * so a jerk or a tremor beside the frame leaves it followed as before.
+ * Returns 0 where host memory runs out. */
 static int window_noise(const pb_path *plan, const pb_motion *track, double noise[8])
 {
-    size_t first = 0, inside = 0, n = track->count;
-    double t0 = plan->poses[0].time, t1 = plan->poses[plan->count - 1].time;
-    while (first < n && !(track->times[first] > t0))
-        first++;
-    while (first + inside < n && track->times[first + inside] < t1)
-        inside++;
+    /* part: from the last sample at or before the frame's start to the
+     * first at or after its end (a validated track covers the frame), so the
+     * samples inside are the ones between; noise stays 0 should it fail */
+    pb_motion part;
+    if (pb_motion_frame(track, plan->poses[0].time, plan->poses[plan->count - 1].time, &part) != PB_OK)
+        return 1;
+    size_t n = track->count, first = (size_t)(part.times - track->times) + 1, inside = part.count - 2;
     size_t w = n < PB_NOISE_WINDOW ? n : PB_NOISE_WINDOW, mid = first + inside / 2;
     size_t lo = mid > w / 2 ? mid - w / 2 : 0;
     if (lo + w > n)
