@@ -211,8 +211,8 @@ int pbc_cmd_motion(int argc, char **argv)
                 printf("-: no path at the default bound; %s\n", unplanned);
             if (!rc)
                 printf("noise mm: the tracker's noise a blur measures in the frame and does not follow as motion (RMS "
-                       "of the grid corners' 3-D scatter; 0: every sample followed, as below 64 samples or where the "
-                       "scatter is not white); segments: what the default path walks (docs/methods.md, \"Tracker "
+                       "of the grid corners' 3-D scatter, on the 512 samples about a frame of fewer than 64; 0: every "
+                       "sample followed, as in a log of fewer than 64 or where the scatter is not white); segments: what the default path walks (docs/methods.md, \"Tracker "
                        "noise\")\n");
             if (png && !rc)
                 rc = pbc_motion_plot(png, &m, b, frames + 1);
