@@ -75,6 +75,7 @@ typedef struct estimate {
     int *flat;              /* per frame: shows no structure above its noise */
     pb_warnings *warnings;
     float *frames[8];       /* per level: every frame, smoothed */
+    unsigned char *known;   /* per frame, level 0: where its move back onto the reference reads inside its grid (/255) */
     pbe_level level[8];
     float *scratch, *tmp;   /* six volumes of level 0; one line */
     pb_pool *pool;         /* threads: pass 4's frames; each level's loops where it is large enough (pbe_level's) */
@@ -191,11 +192,17 @@ static pb_status register_chain(estimate *e, size_t ref, pbe_fit *fits)
     return st;
 }
 
-/* The raw frames moved back onto the reference: B(T_k^-1) f_k, level 0. */
+/* The raw frames moved back onto the reference: B(T_k^-1) f_k, level 0;
+ * and where each is known (e->known: the grid's box moved back alike). */
 static pb_status move_back(estimate *e, const pbe_fit *fits, float *moved)
 {
     const size_t n = e->level[0].n;
     pbe_level *lv = &e->level[0];
+    if (!e->known && !(e->known = malloc(n * e->count)))
+        return PB_ERR_OUT_OF_MEMORY;
+    pb_status box = pbe_level_set_support(lv, NULL);
+    if (box != PB_OK)
+        return box;
     for (size_t k = 0; k < e->count; k++) {
         pb_pose inverse, poses[2];
         double times[2];
@@ -207,17 +214,56 @@ static pb_status move_back(estimate *e, const pbe_fit *fits, float *moved)
             st = pb_blur(e->ctx, lv->in[0], &m, NULL, lv->out[0]);
         if (st == PB_OK)
             st = pb_volume_download(lv->out[0], moved + k * n);
+        if (st == PB_OK)
+            st = pb_blur(e->ctx, lv->in[PBE_SUPPORT], &m, NULL, lv->out[PBE_SUPPORT]);
+        if (st == PB_OK)
+            st = pb_volume_download(lv->out[PBE_SUPPORT], lv->host[PBE_SUPPORT]);
         if (st != PB_OK)
             return st;
+        for (size_t i = 0; i < n; i++)
+            e->known[k * n + i] = (unsigned char)lrint(255.0 * fmin(1.0, fmax(0.0, (double)lv->host[PBE_SUPPORT][i])));
     }
     return PB_OK;
 }
 
-/* Frame k's own reference (references.c) on every level. */
+/* Where frame k's reference is known: where every frame of its window
+ * that shows structure was, moved back (the reference is a sum of them),
+ * on every level. */
+static pb_status set_frame_support(estimate *e, size_t k)
+{
+    const size_t n = e->level[0].n;
+    size_t first, end;
+    pbe_reference_window(e->count, k, &first, &end);
+    float *s[8];
+    pb_status st = PB_OK;
+    for (size_t l = 0; l < e->levels; l++)
+        if (!(s[l] = malloc(sizeof(float) * e->level[l].n)))
+            st = PB_ERR_OUT_OF_MEMORY;
+    if (st == PB_OK) {
+        for (size_t i = 0; i < n; i++) {
+            unsigned char least = 255;
+            for (size_t f = first; f < end; f++)
+                if (!e->flat[f] && e->known[f * n + i] < least)
+                    least = e->known[f * n + i];
+            s[0][i] = (float)least / 255.0f;
+        }
+        for (size_t l = 1; l < e->levels; l++)
+            pbe_downsample(&e->level[l - 1].g, s[l - 1], &e->level[l].g, s[l]);
+        for (size_t l = 0; l < e->levels && st == PB_OK; l++)
+            st = pbe_level_set_support(&e->level[l], s[l]);
+    }
+    for (size_t l = 0; l < e->levels; l++)
+        free(s[l]);
+    return st;
+}
+
+/* Frame k's own reference (references.c) on every level, with its support. */
 static pb_status frame_reference(estimate *e, const float *moved, const double *gram, size_t k, float *reference)
 {
     pb_status st = pbe_frame_reference(e->level[0].pool, moved, e->level[0].n, e->count, gram, k, reference);
-    return st == PB_OK ? set_reference(e, reference) : st;
+    if (st == PB_OK)
+        st = set_reference(e, reference);
+    return st == PB_OK ? set_frame_support(e, k) : st;
 }
 
 /* Passes 2 and on: every frame against its own reference, from its pose. */
@@ -443,6 +489,24 @@ static pb_status side_evidence(estimate *e, const pbe_fit *fits, size_t k, const
     return st;
 }
 
+/* Frame k's weights for its paths (level 0's host[PBE_SUPPORT]: its
+ * reference's support blurred at its own pose, as pbe_register's) and one
+ * pose's weighted residual under them, which a path's must beat. */
+static pb_status one_pose_weighted(estimate *e, const pb_pose *own, const float *frame, double *sse)
+{
+    pbe_level *level = &e->level[0];
+    double times[2];
+    pb_pose poses[2];
+    pb_motion m;
+    pbe_static_motion(own, e->c, times, poses, &m);
+    pb_status st = pbe_blur_reference(e->ctx, level, &m);
+    if (st == PB_OK)
+        st = pbe_blur_support(e->ctx, level, &m);
+    if (st == PB_OK)
+        *sse = pbe_weighted_sse(level->pool, level->host[0], frame, level->host[PBE_SUPPORT], level->n);
+    return st;
+}
+
 static pb_status inside_frames(estimate *e, const pbe_fit *fits, size_t reference, const float *moved,
                                const double *gram, float *own, frame_path *paths, int *moving, size_t *moving_count,
                                double *sides)
@@ -463,6 +527,7 @@ static pb_status inside_frames(estimate *e, const pbe_fit *fits, size_t referenc
         far[i] = e->c[i] + 0.5 * ext;
     for (size_t k = 0; k < e->count && st == PB_OK; k++) {
         int referenced = 0;
+        double one = 0.0; /* one pose's weighted residual */
         for (int kind = 0; kind < PATHS && st == PB_OK && k != reference && !e->flat[k]; kind++) {
             frame_path *p = &paths[k * PATHS + (size_t)kind];
             if (!path_defined(k, e->count, kind))
@@ -472,14 +537,16 @@ static pb_status inside_frames(estimate *e, const pbe_fit *fits, size_t referenc
                 continue;
             if (!referenced) {
                 st = frame_reference(e, moved, gram, k, own);
+                if (st == PB_OK)
+                    st = one_pose_weighted(e, &fits[k].pose, e->frames[0] + k * e->level[0].n, &one);
                 referenced = 1;
             }
             double sse;
             if (st == PB_OK)
                 st = pbe_dwell(e->ctx, &e->level[0], e->frames[0] + k * e->level[0].n, e->c, &p->start, &p->end,
                                DWELL_POINTS, p->dwell, &sse);
-            if (st == PB_OK && fits[k].sse > 0)
-                p->gain = 1.0 - sse / fits[k].sse;
+            if (st == PB_OK && one > 0)
+                p->gain = 1.0 - sse / one;
             tried[k] = 1;
         }
         /* ramps or steps at its boundaries, against the same reference */
@@ -1127,6 +1194,7 @@ pb_status pb_motion_estimate(pb_context *ctx, const pb_geometry *geometry, const
     }
     free(e.scratch);
     free(e.owned);
+    free(e.known);
     free(e.flat);
     free(e.tmp);
     pb_pool_destroy(e.pool);

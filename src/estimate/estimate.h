@@ -43,14 +43,25 @@ void pbe_pose_gradients(pb_pool *pool, const pb_geometry *g, const float *x, con
 
 /* ---- register.c: one frame against a reference ------------------------------ */
 
-/* A reference on one level, on the device: the image and its six derivative
- * images, and seven outputs for their blurs (with host copies). */
+/* The level's images: the reference, its six derivative images, and where
+ * the reference is known (PBE_SUPPORT). */
+enum { PBE_SUPPORT = 7, PBE_IMAGES = 8 };
+
+/* A reference on one level, on the device: the image, its six derivative
+ * images and its support, and outputs for their blurs (with host copies).
+ * The support is 1 on the grid's voxels but its outer layer, 0 there and
+ * beyond: blurred under a pose it weighs each voxel of a frame by whether
+ * the reference is known where that voxel's view reads it. Activity that a
+ * pose moves in across the grid's faces is no evidence against the pose
+ * (the grid cut the body, not the head moved), and the outer layer's
+ * gradient reads the zeros beyond it. */
 typedef struct pbe_level {
     pb_geometry g;
     size_t n;
-    pb_volume *in[7];    /* x, then its derivative images */
-    pb_volume *out[7];   /* B of each */
-    float *host[7];      /* out downloaded */
+    pb_volume *in[PBE_IMAGES];    /* x, its derivative images, its support */
+    pb_volume *out[PBE_IMAGES];   /* B of each */
+    float *host[PBE_IMAGES];      /* out downloaded */
+    float *box;                   /* the grid's own support (host) */
     pb_pool *pool;      /* the estimate's threads (NULL: the caller's alone) */
     float *views;        /* the dwell's views (pbe_level_views), kept between frames */
     size_t views_held;
@@ -60,6 +71,9 @@ pb_status pbe_level_init(pb_context *ctx, pbe_level *level, const pb_geometry *g
 /* Uploads a reference x and its derivative images about c. scratch holds six volumes. */
 pb_status pbe_level_set_reference(pbe_level *level, const float *x, const double c[3], float *scratch);
 void pbe_level_free(pbe_level *level);
+/* Uploads where the reference is known, in [0, 1] (NULL: the grid's box,
+ * which pbe_level_set_reference sets too). */
+pb_status pbe_level_set_support(pbe_level *level, const float *support);
 
 /* The rigid fit of one frame: f ~ scale * B(pose) x + offset. */
 typedef struct pbe_fit {
@@ -80,12 +94,20 @@ void pbe_static_motion(const pb_pose *pose, const double c[3], double times[2], 
 pb_status pbe_blur_reference(pb_context *ctx, pbe_level *level, const pb_motion *m);
 /* The same into out (n floats). */
 pb_status pbe_blur_reference_to(pb_context *ctx, pbe_level *level, const pb_motion *m, float *out);
+/* The blur of the level's support under motion m (level->host[PBE_SUPPORT]):
+ * the weights of pbe_register and pbe_dwell. */
+pb_status pbe_blur_support(pb_context *ctx, pbe_level *level, const pb_motion *m);
 /* Room for m views of the level's grid, kept with the level (NULL: no memory). */
 float *pbe_level_views(pbe_level *level, size_t m);
 /* Levenberg-Marquardt on the pose (scale and offset refitted each step) from
- * fit->pose, at most iterations steps. */
+ * fit->pose, at most iterations steps, on the voxels whose view reads the
+ * reference inside its support (weighted by the support's blur at the
+ * starting pose). fit->sse is the residual over every voxel at the pose
+ * found. */
 pb_status pbe_register(pb_context *ctx, pbe_level *level, const float *frame, const double c[3],
                        unsigned iterations, pbe_fit *fit);
+/* The weighted residual of f on [a, 1] (weights w), least squares. */
+double pbe_weighted_sse(pb_pool *pool, const float *a, const float *f, const float *w, size_t n);
 /* Least squares of f on [a, 1]: the scale, offset and residual. */
 void pbe_fit_scale(pb_pool *pool, const float *a, const float *f, size_t n, double *scale, double *offset,
                    double *sse);
@@ -121,8 +143,9 @@ pb_status pbe_frame_reference(pb_pool *pool, const float *moved, size_t n, size_
 
 /* The frame's dwell along the path from pose s to pose e: weights u[0..m-1]
  * of the poses at s + (e - s) i / (m - 1), non-negative, with an offset,
- * fitted by least squares to the frame; *sse is the fit's residual. The
- * level's reference must be set. */
+ * fitted by least squares to the frame, each voxel weighed by
+ * level->host[PBE_SUPPORT] (pbe_frame_weights); *sse is the fit's weighted
+ * residual. The level's reference must be set. */
 pb_status pbe_dwell(pb_context *ctx, pbe_level *level, const float *frame, const double c[3], const pb_pose *s,
                     const pb_pose *e, size_t m, double *u, double *sse);
 

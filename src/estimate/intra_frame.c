@@ -39,11 +39,13 @@ void pbe_nnls(const double *gram, const double *h, size_t n, size_t n_nonneg, do
     }
 }
 
-/* The dwell's sums: the views' Gram matrix with the offset's column (upper
- * triangle, row by row) and their products with the frame. */
+/* The dwell's sums, each voxel by its weight: the views' Gram matrix with
+ * the offset's column (upper triangle, row by row), their products with the
+ * frame, and the weights' sum. */
 typedef struct dwell_job {
     const float *views; /* m of them, n voxels each, one after another */
     const float *frame;
+    const float *w;
     size_t n, m;
     const double *u; /* for the residual */
 } dwell_job;
@@ -53,10 +55,13 @@ static void dwell_sums(void *arg, size_t begin, size_t end, double *s)
     const dwell_job *j = arg;
     const size_t m = j->m;
     for (size_t v = begin; v < end; v++) {
-        double f = (double)j->frame[v];
+        const double w = (double)j->w[v];
+        if (!(w > 0.0))
+            continue;
+        double f = w * (double)j->frame[v];
         double *up = s;
         for (size_t i = 0; i < m; i++) {
-            double a = (double)j->views[i * j->n + v];
+            double a = w * (double)j->views[i * j->n + v];
             for (size_t k = i; k < m; k++)
                 *up++ += a * (double)j->views[k * j->n + v];
             *up++ += a;
@@ -64,6 +69,7 @@ static void dwell_sums(void *arg, size_t begin, size_t end, double *s)
         for (size_t i = 0; i < m; i++)
             up[i] += (double)j->views[i * j->n + v] * f;
         up[m] += f;
+        up[m + 1] += w;
     }
 }
 
@@ -75,7 +81,7 @@ static void dwell_residual(void *arg, size_t begin, size_t end, double *s)
         double model = j->u[j->m];
         for (size_t i = 0; i < j->m; i++)
             model += j->u[i] * (double)j->views[i * j->n + v];
-        s[0] += (model - (double)j->frame[v]) * (model - (double)j->frame[v]);
+        s[0] += (double)j->w[v] * (model - (double)j->frame[v]) * (model - (double)j->frame[v]);
     }
 }
 
@@ -83,7 +89,7 @@ pb_status pbe_dwell(pb_context *ctx, pbe_level *level, const float *frame, const
                     const pb_pose *e, size_t m, double *u, double *sse)
 {
     const size_t n = level->n, k = m + 1; /* the views, and the offset */
-    const size_t terms = m * (m + 1) / 2 + m + k;
+    const size_t terms = m * (m + 1) / 2 + m + k + 1;
     if (terms > PB_MOST_SUMS)
         return pb_error(NULL, PB_ERR_INVALID_ARGUMENT, "a dwell of %zu points has more sums than %d", m,
                         (int)PB_MOST_SUMS);
@@ -101,7 +107,7 @@ pb_status pbe_dwell(pb_context *ctx, pbe_level *level, const float *frame, const
     }
     if (st == PB_OK) {
         double sums[PB_MOST_SUMS];
-        dwell_job job = {views, frame, n, m, u};
+        dwell_job job = {views, frame, level->host[PBE_SUPPORT], n, m, u};
         pb_pool_sums(level->pool, n, terms, dwell_sums, &job, sums);
         const double *up = sums;
         for (size_t i = 0; i < m; i++) {
@@ -111,7 +117,7 @@ pb_status pbe_dwell(pb_context *ctx, pbe_level *level, const float *frame, const
         }
         for (size_t i = 0; i < k; i++)
             h[i] = up[i];
-        gram[m * k + m] = (double)n;
+        gram[m * k + m] = up[k];
         for (size_t i = 0; i < k; i++)
             for (size_t j = 0; j < i; j++)
                 gram[i * k + j] = gram[j * k + i];
