@@ -228,7 +228,7 @@ static pb_status move_back(estimate *e, const pbe_fit *fits, float *moved)
 
 /* Where frame k's reference is known: where every frame of its window
  * that shows structure was, moved back (the reference is a sum of them),
- * on every level. */
+ * and never beyond the grid's own box, on every level. */
 static pb_status set_frame_support(estimate *e, size_t k)
 {
     const size_t n = e->level[0].n;
@@ -245,7 +245,7 @@ static pb_status set_frame_support(estimate *e, size_t k)
             for (size_t f = first; f < end; f++)
                 if (!e->flat[f] && e->known[f * n + i] < least)
                     least = e->known[f * n + i];
-            s[0][i] = (float)least / 255.0f;
+            s[0][i] = fminf((float)least / 255.0f, e->level[0].box[i]);
         }
         for (size_t l = 1; l < e->levels; l++)
             pbe_downsample(&e->level[l - 1].g, s[l - 1], &e->level[l].g, s[l]);

@@ -144,7 +144,7 @@ pb_status pbe_frame_reference(pb_pool *pool, const float *moved, size_t n, size_
 /* The frame's dwell along the path from pose s to pose e: weights u[0..m-1]
  * of the poses at s + (e - s) i / (m - 1), non-negative, with an offset,
  * fitted by least squares to the frame, each voxel weighed by
- * level->host[PBE_SUPPORT] (pbe_frame_weights); *sse is the fit's weighted
+ * level->host[PBE_SUPPORT] (pbe_blur_support); *sse is the fit's weighted
  * residual. The level's reference must be set. */
 pb_status pbe_dwell(pb_context *ctx, pbe_level *level, const float *frame, const double c[3], const pb_pose *s,
                     const pb_pose *e, size_t m, double *u, double *sse);

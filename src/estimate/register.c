@@ -2,15 +2,17 @@
  * pose, the residual f - (a B(T) x + b) with a and b refitted at every step
  * (the least-squares form of normalised cross-correlation, which tolerates
  * tracer uptake that changes from frame to frame), each voxel weighed by the
- * blur of the reference's support: where its view reads beyond the
- * reference's grid, the grid cut the object and the zeros there are not the
- * object's (a body, or a head at the axial field's edge, moves activity in
- * across the faces). The steps are taken on the weighted residual's share of
- * the frame's weighted variance, which a pose cannot lower by moving voxels
- * out of the support. The Jacobian comes from
- * the blurs of the reference's derivative images (pbe_pose_gradients), so
- * a step taken is seven blurs on the device (a step refused, one) and a pass
- * over the voxels here, on the estimate's threads. */
+ * blur of the reference's support at the fit's starting pose: where its view
+ * reads beyond the reference's grid, the grid cut the object and the zeros
+ * there are not the object's (a body, or a head at the axial field's edge,
+ * moves activity in across the faces). The weights are held through the fit
+ * (weights that followed the trial pose would let it lower the residual by
+ * moving the voxels it fits worst out of them); the steps are taken on the
+ * weighted residual's share of the frame's weighted variance. The Jacobian
+ * comes from the blurs of the reference's derivative images
+ * (pbe_pose_gradients), so a step taken is seven blurs on the device (a step
+ * refused, one; the weights one a fit) and a pass over the voxels here, on
+ * the estimate's threads. */
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
