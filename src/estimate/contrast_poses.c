@@ -36,6 +36,10 @@ enum { MAX_SUM_FRAMES = 24 };
 /* When a series shows a contrast to correct along (contrast_weights). */
 #define CONTRAST_OVER_NOISE 10.0
 #define CONTRAST_ROUGHNESS 0.5
+/* The share of the weights' range that one step between neighbouring frames
+ * of the sum may take where the head jumped between them (weights_follow_
+ * uptake) */
+#define JUMP_STEP_SHARE 0.5
 
 typedef struct collective {
     pb_geometry g;          /* the grid the frames are compared on */
@@ -218,11 +222,39 @@ static int contrast_near_reference(collective *cv, size_t ref)
     return shows;
 }
 
+/* Whether the weights change as uptake does, not where the head jumped:
+ * between neighbouring frames of the sum that lie more than a voxel apart
+ * (at the grid's corners), the weights may not step by JUMP_STEP_SHARE of
+ * their range. Frames far apart are sampled differently, and moved back
+ * their differences are an image of their own whose scores step at the
+ * jump: issue 47's draw 2935784270 (a late scan, a 5.8 degree jerk) had
+ * weights 0 before its jerk and 0.98-1.00 after (the step 0.99 of the
+ * range), and the correction moved every frame after it 1.8 mm off; pass
+ * 4's own series, from injection, rise smoothly (0.29, 0.50, 0.64 ... in
+ * the first frames) and step by 0.007 at a 30 mm jerk. */
+static int weights_follow_uptake(const collective *cv)
+{
+    const size_t m = cv->used;
+    double voxel = fmax(cv->g.voxel_size[0], fmax(cv->g.voxel_size[1], cv->g.voxel_size[2]));
+    double lo = HUGE_VAL, hi = -HUGE_VAL;
+    for (size_t i = 0; i < m; i++) {
+        lo = fmin(lo, cv->weight[cv->use[i]]);
+        hi = fmax(hi, cv->weight[cv->use[i]]);
+    }
+    for (size_t i = 1; i < m; i++) {
+        const size_t a = cv->use[i - 1], b = cv->use[i];
+        if (corner_distance(cv, &cv->poses[a].pose, &cv->poses[b].pose) > voxel &&
+            fabs(cv->weight[b] - cv->weight[a]) >= JUMP_STEP_SHARE * (hi - lo))
+            return 0;
+    }
+    return 1;
+}
+
 /* Each frame's contrast against the reference frame's: the ratio of its
  * second principal score to its first, as a share of the series' widest; a
  * frame out of the sum takes its nearest neighbour's in the sum. 0 when
  * the series shows no second image, or only frames far from the reference
- * frame's pose show it. */
+ * frame's pose show it, or its weights step where the head jumped. */
 static int contrast_weights(collective *cv, size_t ref)
 {
     const size_t m = cv->used;
@@ -260,7 +292,7 @@ static int contrast_weights(collective *cv, size_t ref)
             steps += (cv->weight[cv->use[i]] - cv->weight[cv->use[i - 1]]) *
                      (cv->weight[cv->use[i]] - cv->weight[cv->use[i - 1]]);
     }
-    return steps <= CONTRAST_ROUGHNESS * spread;
+    return steps <= CONTRAST_ROUGHNESS * spread && weights_follow_uptake(cv);
 }
 
 /* Solves h x = -g with h's eigenvalues held above a floor: the valley's flat
