@@ -37,8 +37,8 @@ enum { MAX_SUM_FRAMES = 24 };
 #define CONTRAST_OVER_NOISE 10.0
 #define CONTRAST_ROUGHNESS 0.5
 /* The share of the weights' range that one step between neighbouring frames
- * of the sum may take where the head jumped between them (weights_follow_
- * uptake) */
+ * of the sum may take where the head jumped between them
+ * (weights_follow_uptake). */
 #define JUMP_STEP_SHARE 0.5
 
 typedef struct collective {
@@ -228,7 +228,7 @@ static int contrast_near_reference(collective *cv, size_t ref)
  * their range. Frames far apart are sampled differently, and moved back
  * their differences are an image of their own whose scores step at the
  * jump: issue 47's draw 2935784270 (a late scan, a 5.8 degree jerk) had
- * weights 0 before its jerk and 0.98-1.00 after (the step 0.99 of the
+ * weights 0 before its jerk and 0.78-1.00 after (the step 0.99 of the
  * range), and the correction moved every frame after it 1.8 mm off; pass
  * 4's own series, from injection, rise smoothly (0.29, 0.50, 0.64 ... in
  * the first frames) and step by 0.007 at a 30 mm jerk. */
