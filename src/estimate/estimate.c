@@ -77,7 +77,7 @@ typedef struct estimate {
     float *frames[8];       /* per level: every frame, smoothed */
     unsigned char *known;   /* per frame, level 0: where its move back onto the reference reads inside its grid (/255) */
     pbe_level level[8];
-    float *scratch, *tmp;   /* six volumes of level 0; one line */
+    float *scratch, *tmp;   /* six volumes of level 0 (a reference's derivative images, then its supports); one line */
     pb_pool *pool;         /* threads: pass 4's frames; each level's loops where it is large enough (pbe_level's) */
     pb_progress_fn progress;
     void *progress_user;
@@ -228,32 +228,30 @@ static pb_status move_back(estimate *e, const pbe_fit *fits, float *moved)
 
 /* Where frame k's reference is known: where every frame of its window
  * that shows structure was, moved back (the reference is a sum of them),
- * and never beyond the grid's own box, on every level. */
+ * and never beyond the grid's own box, on every level. The levels' supports
+ * lie one after another in e->scratch (at most twice level 0 in all), which
+ * set_reference has done with. */
 static pb_status set_frame_support(estimate *e, size_t k)
 {
     const size_t n = e->level[0].n;
     size_t first, end;
     pbe_reference_window(e->count, k, &first, &end);
     float *s[8];
-    pb_status st = PB_OK;
-    for (size_t l = 0; l < e->levels; l++)
-        if (!(s[l] = malloc(sizeof(float) * e->level[l].n)))
-            st = PB_ERR_OUT_OF_MEMORY;
-    if (st == PB_OK) {
-        for (size_t i = 0; i < n; i++) {
-            unsigned char least = 255;
-            for (size_t f = first; f < end; f++)
-                if (!e->flat[f] && e->known[f * n + i] < least)
-                    least = e->known[f * n + i];
-            s[0][i] = fminf((float)least / 255.0f, e->level[0].box[i]);
-        }
-        for (size_t l = 1; l < e->levels; l++)
-            pbe_downsample(&e->level[l - 1].g, s[l - 1], &e->level[l].g, s[l]);
-        for (size_t l = 0; l < e->levels && st == PB_OK; l++)
-            st = pbe_level_set_support(&e->level[l], s[l]);
+    s[0] = e->scratch;
+    for (size_t l = 1; l < e->levels; l++)
+        s[l] = s[l - 1] + e->level[l - 1].n;
+    for (size_t i = 0; i < n; i++) {
+        unsigned char least = 255;
+        for (size_t f = first; f < end; f++)
+            if (!e->flat[f] && e->known[f * n + i] < least)
+                least = e->known[f * n + i];
+        s[0][i] = fminf((float)least / 255.0f, e->level[0].box[i]);
     }
-    for (size_t l = 0; l < e->levels; l++)
-        free(s[l]);
+    for (size_t l = 1; l < e->levels; l++)
+        pbe_downsample(&e->level[l - 1].g, s[l - 1], &e->level[l].g, s[l]);
+    pb_status st = PB_OK;
+    for (size_t l = 0; l < e->levels && st == PB_OK; l++)
+        st = pbe_level_set_support(&e->level[l], s[l]);
     return st;
 }
 
