@@ -58,11 +58,22 @@ PB_FN void pb_trilinear_scatter(PB_GLOBAL float *out, pb_kparams prm, float x, f
  * sample leaves it (and at the end of the path). Under a sub-voxel path (a
  * still or drifting head) the exact chord's samples fall in one or two cells,
  * and scattered one by one each cost eight atomic adds: the adds, not the
- * reads, bound the adjoint of a dense input (docs/performance.md). The same
- * products are added to the same voxels, in another order. */
+ * reads, bound the adjoint of a dense input (docs/performance.md).
+ * The cell sums its samples' moments, not their eight weights: with f the
+ * fractions (rounded as the forward's texture unit rounds them), m holds the
+ * sums of v, v fx, v fy, v fz, v fx fy, v fx fz, v fy fz and v fx fy fz
+ * (three products and eight adds a sample, four of them fused, where the
+ * weights took twelve products, three subtractions and eight adds), and the
+ * flush turns them into the eight weights (w[7] is the sum of v fx fy fz,
+ * w[0] that of v (1 - fx)(1 - fy)(1 - fz)): the same sums to float rounding.
+ * On a dense input the scatter is bound by issuing instructions, not by its
+ * adds (docs/performance.md). The origin is held as the floored floats it is
+ * found from, so that a piece's cell is told by three compares; the flush
+ * alone makes the voxel indices. */
 typedef struct pb_cell {
-    int i, j, k, live;
-    float w[8];
+    float x0, y0, z0;
+    int live;
+    float m[8];
 } pb_cell;
 
 PB_FN void pb_cell_flush(PB_GLOBAL float *out, pb_kparams prm, pb_cell *cell)
@@ -70,47 +81,63 @@ PB_FN void pb_cell_flush(PB_GLOBAL float *out, pb_kparams prm, pb_cell *cell)
     if (!cell->live)
         return;
     cell->live = 0;
+    const float *m = cell->m;
+    float w[8];
+    w[7] = m[7];
+    w[3] = m[4] - m[7];
+    w[5] = m[5] - m[7];
+    w[6] = m[6] - m[7];
+    w[1] = (m[1] - m[4]) - w[5];
+    w[2] = (m[2] - m[4]) - w[6];
+    w[4] = (m[3] - m[5]) - w[6];
+    w[0] = ((m[0] - m[1]) - (m[2] - m[4])) - ((m[3] - m[5]) - (m[6] - m[7]));
+    const int i = pb_voxel_index(cell->x0), j = pb_voxel_index(cell->y0), k = pb_voxel_index(cell->z0);
     /* The usual case, the whole cell inside the grid: one bounds check and
-     * one address for its eight adds, not eight (the same adds at the same
-     * addresses; docs/methods.md has what the checks cost). */
-    if (cell->i >= 0 && cell->j >= 0 && cell->k >= 0 && cell->i + 1 < prm.dims[0] && cell->j + 1 < prm.dims[1] &&
-        cell->k + 1 < prm.dims[2]) {
+     * one address for its eight adds, not eight (docs/methods.md has what the
+     * checks cost). A weight that came to 0 is added as 0 rather than tested
+     * for: the test's branch cost every add its issue slots. */
+    if (i >= 0 && j >= 0 && k >= 0 && i + 1 < prm.dims[0] && j + 1 < prm.dims[1] && k + 1 < prm.dims[2]) {
         const int sy = prm.dims[0], sz = prm.dims[0] * prm.dims[1];
-        PB_GLOBAL float *p = out + (cell->i + sy * (cell->j + prm.dims[1] * cell->k));
+        PB_GLOBAL float *p = out + (i + sy * (j + prm.dims[1] * k));
         for (int c = 0; c < 8; c++)
-            if (cell->w[c] != 0.0f)
-                PB_ATOMIC_ADD(p + ((c & 1) + ((c >> 1) & 1) * sy + (c >> 2) * sz), cell->w[c]);
+            PB_ATOMIC_ADD(p + ((c & 1) + ((c >> 1) & 1) * sy + (c >> 2) * sz), w[c]);
         return;
     }
     for (int c = 0; c < 8; c++)
-        pb_scatter(out, prm, cell->i + (c & 1), cell->j + ((c >> 1) & 1), cell->k + (c >> 2), cell->w[c]);
+        pb_scatter(out, prm, i + (c & 1), j + ((c >> 1) & 1), k + (c >> 2), w[c]);
 }
 
 /* The cell whose eight voxels are (i..i+1, j..j+1, k..k+1), from its
  * floored origin: the one held, or a new one (the held one added first). */
 PB_FN void pb_cell_enter(PB_GLOBAL float *out, pb_kparams prm, pb_cell *cell, float x0, float y0, float z0)
 {
-    int i = pb_voxel_index(x0), j = pb_voxel_index(y0), k = pb_voxel_index(z0);
-    if (!cell->live || i != cell->i || j != cell->j || k != cell->k) {
+    if (!cell->live || x0 != cell->x0 || y0 != cell->y0 || z0 != cell->z0) {
         pb_cell_flush(out, prm, cell);
-        cell->i = i;
-        cell->j = j;
-        cell->k = k;
+        cell->x0 = x0;
+        cell->y0 = y0;
+        cell->z0 = z0;
         cell->live = 1;
         for (int c = 0; c < 8; c++)
-            cell->w[c] = 0.0f;
+            cell->m[c] = 0.0f;
     }
 }
 
-/* v at (x, y, z) into the held cell of origin (x0, y0, z0): the weights
- * pb_trilinear_scatter gives where the point lies in that cell. */
+/* v at (x, y, z) into the held cell of origin (x0, y0, z0): the moments of
+ * the weights pb_trilinear_scatter gives where the point lies in that cell. */
 PB_FN void pb_cell_add(pb_kparams prm, pb_cell *cell, float x0, float y0, float z0, float x, float y, float z,
                        float v)
 {
-    float fx = pb_texture_weight(x - 0.5f - x0, prm), fy = pb_texture_weight(y - 0.5f - y0, prm);
-    float fz = pb_texture_weight(z - 0.5f - z0, prm);
-    for (int c = 0; c < 8; c++)
-        cell->w[c] += v * (((c & 1) ? fx : 1.0f - fx) * ((c & 2) ? fy : 1.0f - fy) * ((c & 4) ? fz : 1.0f - fz));
+    const float fx = pb_texture_weight(x - 0.5f - x0, prm), fy = pb_texture_weight(y - 0.5f - y0, prm);
+    const float fz = pb_texture_weight(z - 0.5f - z0, prm);
+    const float vx = v * fx, vy = v * fy, vxy = vx * fy;
+    cell->m[0] += v;
+    cell->m[1] += vx;
+    cell->m[2] += vy;
+    cell->m[3] += v * fz;
+    cell->m[4] += vxy;
+    cell->m[5] += vx * fz;
+    cell->m[6] += vy * fz;
+    cell->m[7] += vxy * fz;
 }
 
 /* pb_trilinear_scatter through the cell. */
