@@ -94,13 +94,17 @@ PB_FN void pb_cell_flush(PB_GLOBAL float *out, pb_kparams prm, pb_cell *cell)
     const int i = pb_voxel_index(cell->x0), j = pb_voxel_index(cell->y0), k = pb_voxel_index(cell->z0);
     /* The usual case, the whole cell inside the grid: one bounds check and
      * one address for its eight adds, not eight (docs/methods.md has what the
-     * checks cost). A weight that came to 0 is added as 0 rather than tested
-     * for: the test's branch cost every add its issue slots. */
+     * checks cost). A weight of exactly 0 is not added: under a turn about an
+     * axis every sample lies on a slice centre along it, half the weights
+     * are 0, and their adds doubled the scatter's time (bench/gpu.sh
+     * adjoints; a fraction of exactly 0 or 1 gives weights of exactly 0
+     * from the moments too). */
     if (i >= 0 && j >= 0 && k >= 0 && i + 1 < prm.dims[0] && j + 1 < prm.dims[1] && k + 1 < prm.dims[2]) {
         const int sy = prm.dims[0], sz = prm.dims[0] * prm.dims[1];
         PB_GLOBAL float *p = out + (i + sy * (j + prm.dims[1] * k));
         for (int c = 0; c < 8; c++)
-            PB_ATOMIC_ADD(p + ((c & 1) + ((c >> 1) & 1) * sy + (c >> 2) * sz), w[c]);
+            if (w[c] != 0.0f)
+                PB_ATOMIC_ADD(p + ((c & 1) + ((c >> 1) & 1) * sy + (c >> 2) * sz), w[c]);
         return;
     }
     for (int c = 0; c < 8; c++)
