@@ -57,15 +57,16 @@ PB_FN void pb_trilinear_scatter(PB_GLOBAL float *out, pb_kparams prm, float x, f
  * while its samples stay in that cell, and added to the object once when a
  * sample leaves it (and at the end of the path). Under a sub-voxel path (a
  * still or drifting head) the exact chord's samples fall in one or two cells,
- * and scattered one by one each cost eight atomic adds: the adds, not the
- * reads, bound the adjoint of a dense input (docs/performance.md).
+ * and scattered one by one each cost eight atomic adds (issue 46's drift,
+ * a dense input: 38.4 ms so, 15.9 ms by cells; docs/performance.md).
  * The cell sums its samples' moments, not their eight weights: with f the
  * fractions (rounded as the forward's texture unit rounds them), m holds the
  * sums of v, v fx, v fy, v fz, v fx fy, v fx fz, v fy fz and v fx fy fz
  * (three products and eight adds a sample, four of them fused, where the
  * weights took twelve products, three subtractions and eight adds), and the
  * flush turns them into the eight weights (w[7] is the sum of v fx fy fz,
- * w[0] that of v (1 - fx)(1 - fy)(1 - fz)): the same sums to float rounding.
+ * w[0] that of v (1 - fx)(1 - fy)(1 - fz)): the same sums to float rounding
+ * of the cell's total (a small weight is a difference of larger sums).
  * On a dense input the scatter is bound by issuing instructions, not by its
  * adds (docs/performance.md). The origin is held as the floored floats it is
  * found from, so that a piece's cell is told by three compares; the flush

@@ -4,7 +4,8 @@
 # new, old, new (REF with 4 points: its errors are rough, the times are what
 # is asked), and adjoints.md takes each row's better adjoint time of the two
 # rounds, with the forward's kernel time beside it as the control.
-# Back through $OUT: machine.txt, adjoints.md, the four results.csv.
+# Back through $OUT: machine.txt, adjoints.md, and each run's results.csv as
+# old-1.csv, new-1.csv, old-2.csv and new-2.csv.
 #   PB_OLD=<commit> PB_COMMIT=<commit> bash bench/gpu.sh adjoints .base   (carry .device .base)
 # shellcheck shell=bash disable=SC2154 # meson and the helpers: bench/gpu/lib.sh
 mode_adjoints() (
@@ -17,11 +18,12 @@ mode_adjoints() (
     build "$old" "$PWD/build-adj-old" &
     build "$PWD" "$PWD/build-adj-new" &
     wait
-    mkdir -p "$OUT"/{old,new}-{1,2}
+    work=$(mktemp -d)
     for round in 1 2; do
         for which in old new; do
             ./build-adj-$which/src/cli/petblur bench --device cuda --phantoms homogeneity --points 4 --runs 10 \
-                --out-dir "$OUT/$which-$round" -q >/dev/null || { echo "gpu.sh adjoints: $which's bench failed"; exit 1; }
+                --out-dir "$work/$which-$round" -q >/dev/null || { echo "gpu.sh adjoints: $which's bench failed"; exit 1; }
+            cp "$work/$which-$round/results.csv" "$OUT/$which-$round.csv"
         done
     done
     python3 - "$OUT" <<'PY' | tee "$OUT/adjoints.md"
@@ -30,7 +32,7 @@ out = sys.argv[1]
 best = {}
 for which in ("old", "new"):
     for r in (1, 2):
-        for row in csv.DictReader(open(f"{out}/{which}-{r}/results.csv")):
+        for row in csv.DictReader(open(f"{out}/{which}-{r}.csv")):
             key = (row["scenario"], row["method"], row["filter"])
             for col in ("adjoint_ms", "kernel_ms"):
                 v = float(row[col]) if row[col] else float("nan")
