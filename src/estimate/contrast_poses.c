@@ -24,10 +24,20 @@
 
 enum { NG = 6 };
 
-/* The coarsest grid used: what the correction finds is six numbers for the
- * whole series, and voxels of about 6 mm keep it, at a cost per evaluation
- * that grows as the padded volume times its longest line. */
+/* The grid the frames are compared on: halved until its longest side is at
+ * most LONGEST_SIDE, as the cost of an evaluation grows as the padded volume
+ * times its longest line and six numbers for the whole series are found on
+ * voxels of about 6 mm; but not to voxels coarser than COARSEST_MM along
+ * every axis while the longest side is at most MOST_SIDE. The bias is a
+ * fraction of a millimetre: issue 47's heads on 2-4 mm grids of 60-90 voxels
+ * a side were halved twice, to voxels of 8-16 mm, where the pass took
+ * corrections of 1-2 mm that lowered its residual by a thousandth and made
+ * two draws from injection 0.4-0.7 mm worse (docs/motion.md); halved once
+ * (voxels of 4-8 mm) its own checks refused them. The grids halved once before
+ * (their coarser voxels 6.1-7.3 mm at the smallest) stay so. */
 #define LONGEST_SIDE 40
+#define MOST_SIDE 64
+#define COARSEST_MM 7.5
 /* The still frames in the sum at most, spread evenly over the series: each
  * evaluation's cost grows as their square (and its eigenvalues as their
  * cube), and six numbers for the whole series are found from a few dozen
@@ -378,6 +388,12 @@ static pb_status minimise(collective *cv, double p[NG], double e0)
     return st;
 }
 
+static size_t longest_side(const pb_geometry *g)
+{
+    size_t n = g->dims[0] > g->dims[1] ? g->dims[0] : g->dims[1];
+    return n > g->dims[2] ? n : g->dims[2];
+}
+
 /* m of the still frames (of `still`), spread evenly from the first to the
  * last, in order. */
 static void pick_still(const pbe_collective_pose *poses, size_t count, size_t still, size_t *use, size_t m)
@@ -406,18 +422,27 @@ pb_status pbe_collective(pb_pool *pool, const pb_geometry *fine, const float *ra
     cv.count = count;
     cv.poses = poses;
     memcpy(cv.c, c, sizeof cv.c);
+    /* PETBLUR_ESTIMATE_CONTRAST=0 leaves the poses as registered, =coarse
+     * halves the grid to LONGEST_SIDE whatever its voxels, for comparisons */
+    const char *env = getenv("PETBLUR_ESTIMATE_CONTRAST");
+    if (env && strcmp(env, "0") == 0)
+        return PB_OK;
+    const int any_voxel = env && strcmp(env, "coarse") == 0;
     size_t levels = 0;
-    while (cv.g.dims[0] > LONGEST_SIDE || cv.g.dims[1] > LONGEST_SIDE || cv.g.dims[2] > LONGEST_SIDE) {
+    while (longest_side(&cv.g) > LONGEST_SIDE) {
         pb_geometry coarse;
         pbe_coarser(&cv.g, &coarse);
         if (coarse.dims[0] < 8 || coarse.dims[1] < 8 || coarse.dims[2] < 8)
+            break;
+        if (!any_voxel && longest_side(&cv.g) <= MOST_SIDE &&
+            fmin(coarse.voxel_size[0], fmin(coarse.voxel_size[1], coarse.voxel_size[2])) > COARSEST_MM)
             break;
         cv.g = coarse;
         levels++;
     }
     /* a grid that cannot be coarsened far enough (a thin slab) would cost
      * hours here: left as registered */
-    if (cv.g.dims[0] > LONGEST_SIDE || cv.g.dims[1] > LONGEST_SIDE || cv.g.dims[2] > LONGEST_SIDE)
+    if (longest_side(&cv.g) > MOST_SIDE)
         return PB_OK;
     cv.n = cv.g.dims[0] * cv.g.dims[1] * cv.g.dims[2];
     pbe_unitary_dims(&cv.g, cv.pad);
@@ -433,10 +458,6 @@ pb_status pbe_collective(pb_pool *pool, const pb_geometry *fine, const float *ra
      * cannot, and a correction along the contrast would trade one for the
      * other. */
     if (cv.rank < 3 || cv.used < cv.rank + 3 || poses[ref].moving)
-        return PB_OK;
-    /* PETBLUR_ESTIMATE_CONTRAST=0 leaves the poses as registered, for comparisons */
-    const char *env = getenv("PETBLUR_ESTIMATE_CONTRAST");
-    if (env && strcmp(env, "0") == 0)
         return PB_OK;
     const size_t m = cv.used;
     cv.frames = malloc(sizeof(float) * cv.n * count);
