@@ -64,9 +64,9 @@ PB_FN void pb_trilinear_scatter(PB_GLOBAL float *out, pb_kparams prm, float x, f
  * sums of v, v fx, v fy, v fz, v fx fy, v fx fz, v fy fz and v fx fy fz
  * (three products and eight adds a sample, four of them fused, where the
  * weights took twelve products, three subtractions and eight adds), and the
- * flush turns them into the eight weights (w[7] is the sum of v fx fy fz,
- * w[0] that of v (1 - fx)(1 - fy)(1 - fz)): the same sums to float rounding
- * of the cell's total (a small weight is a difference of larger sums).
+ * flush turns them into the eight weights as the forward's exact piece does
+ * (pb_moment_weights): the same sums to float rounding of the cell's total
+ * (a small weight is a difference of larger sums).
  * On a dense input the scatter is bound by issuing instructions, not by its
  * adds (docs/performance.md). The origin is held as the floored floats it is
  * found from, so that a piece's cell is told by three compares; the flush
@@ -82,16 +82,8 @@ PB_FN void pb_cell_flush(PB_GLOBAL float *out, pb_kparams prm, pb_cell *cell)
     if (!cell->live)
         return;
     cell->live = 0;
-    const float *m = cell->m;
     float w[8];
-    w[7] = m[7];
-    w[3] = m[4] - m[7];
-    w[5] = m[5] - m[7];
-    w[6] = m[6] - m[7];
-    w[1] = (m[1] - m[4]) - w[5];
-    w[2] = (m[2] - m[4]) - w[6];
-    w[4] = (m[3] - m[5]) - w[6];
-    w[0] = ((m[0] - m[1]) - (m[2] - m[4])) - ((m[3] - m[5]) - (m[6] - m[7]));
+    pb_moment_weights(cell->m, w);
     const int i = pb_voxel_index(cell->x0), j = pb_voxel_index(cell->y0), k = pb_voxel_index(cell->z0);
     /* The usual case, the whole cell inside the grid: one bounds check and
      * one address for its eight adds, not eight (docs/methods.md has what the

@@ -89,6 +89,26 @@ PB_FN void pb_kinks_pass(float t1, float *next, float step)
         BODY;                                                                                                          \
     })
 
+/* A trilinear cell's eight weights (texel c at (i + (c & 1), j + (c >> 1 & 1),
+ * k + (c >> 2))) from the moments of the fractions over what it averages or
+ * scatters: m the sums of v, v fx, v fy, v fz, v fx fy, v fx fz, v fy fz and
+ * v fx fy fz (v the time or the values), w[0] that of v (1 - fx)(1 - fy)(1 - fz)
+ * and so on. The forward's exact piece (total 1) and the adjoint's cells
+ * (pb_adjoint.cl) both take their weights here, so the two stay alike; the
+ * differences of neighbouring sums are taken first, a small weight being a
+ * difference of larger sums. */
+PB_FN void pb_moment_weights(const float *m, float *w)
+{
+    w[7] = m[7];
+    w[3] = m[4] - m[7];
+    w[5] = m[5] - m[7];
+    w[6] = m[6] - m[7];
+    w[1] = (m[1] - m[4]) - w[5];
+    w[2] = (m[2] - m[4]) - w[6];
+    w[4] = (m[3] - m[5]) - w[6];
+    w[0] = ((m[0] - m[1]) - (m[2] - m[4])) - ((m[3] - m[5]) - (m[6] - m[7]));
+}
+
 /* One piece's exact time average with the EXACT filter: inside the
  * trilinear cell of texels (i..i+1, j..j+1, k..k+1) that holds it the filter
  * is a polynomial in the fractions (x, y, z) with the terms 1, x, y, z, xy,
@@ -113,17 +133,10 @@ PB_FN float pb_piece_exact(pb_image img, const pb_place *pl, const float *a, con
     z -= oz + 0.5f;
     const float l2 = l * l * (1.0f / 12.0f);
     const float cxy = d[0] * d[1] * l2, cxz = d[0] * d[2] * l2, cyz = d[1] * d[2] * l2;
-    const float mxy = x * y + cxy, mxz = x * z + cxz, myz = y * z + cyz;
-    const float mxyz = x * y * z + x * cyz + y * cxz + z * cxy;
+    const float m[8] = {1.0f, x, y, z, x * y + cxy, x * z + cxz, y * z + cyz,
+                        x * y * z + x * cyz + y * cxz + z * cxy};
     float w[8];
-    w[7] = mxyz;
-    w[3] = mxy - mxyz;
-    w[5] = mxz - mxyz;
-    w[6] = myz - mxyz;
-    w[1] = x - mxy - mxz + mxyz;
-    w[2] = y - mxy - myz + mxyz;
-    w[4] = z - mxz - myz + mxyz;
-    w[0] = 1.0f - x - y - z + mxy + mxz + myz - mxyz;
+    pb_moment_weights(m, w);
     float sum = 0.0f;
     for (int c = 0; c < 8; c++)
         sum += w[c] * PB_FETCH_NEAREST(img, ox + (float)(c & 1) + 0.5f, oy + (float)((c >> 1) & 1) + 0.5f,
