@@ -11,13 +11,11 @@
 mode_adjoints() (
     old=$(realpath "${1:?usage: bench/gpu.sh adjoints OLD_TREE}")
     echo "old: ${PB_OLD:-unknown}" | write_machine "$OUT/machine.txt"
-    build() { # source dir, build dir
-        (cd "$1" && "${meson[@]}" setup "$2" --buildtype=release -Dcuda=enabled -Dopencl=disabled -Dgpu_archs=90 \
-            >/dev/null && ninja -C "$2" src/cli/petblur >/dev/null) || { echo "gpu.sh adjoints: building $1 failed"; exit 1; }
-    }
-    build "$old" "$PWD/build-adj-old" &
-    build "$PWD" "$PWD/build-adj-new" &
-    wait
+    build_tree "$old" "$PWD/build-adj-old" -Dopencl=disabled -- src/cli/petblur &
+    p1=$!
+    build_tree "$PWD" "$PWD/build-adj-new" -Dopencl=disabled -- src/cli/petblur &
+    p2=$!
+    wait $p1 && wait $p2 || exit 1
     work=$(mktemp -d)
     for round in 1 2; do
         for which in old new; do

@@ -21,18 +21,13 @@ mode_cells() (
     work=$(mktemp -d)
     status=0
     export PYTHONUNBUFFERED=1
-    bench_build() { # source dir, build dir
-        (cd "$1" && "${meson[@]}" setup "$2" --buildtype=release -Dcuda=enabled -Dopencl=disabled \
-            -Dgpu_archs=90 >/dev/null && ninja -C "$2" bench/pb_bench >/dev/null) ||
-            { echo "gpu.sh cells: building pb_bench in $1 failed"; exit 1; }
-    }
     package_into "$old" "$work/old" -Dopencl=disabled &
     p1=$!
     package_into . "$work/new" -Dopencl=disabled &
     p2=$!
-    bench_build "$old" "$work/build-old" &
+    build_tree "$old" "$work/build-old" -Dopencl=disabled -- bench/pb_bench &
     b1=$!
-    bench_build "$PWD" "$work/build-new" &
+    build_tree "$PWD" "$work/build-new" -Dopencl=disabled -- bench/pb_bench &
     b2=$!
     wait $p1 && wait $p2 && wait $b1 && wait $b2 || { echo "gpu.sh cells: a build failed"; exit 1; }
     root=$PWD

@@ -12,13 +12,11 @@
 # shellcheck shell=bash disable=SC2154 # meson and the helpers: bench/gpu/lib.sh
 mode_compare() (
     OLD=${1:?usage: bench/gpu.sh compare OLD_TREE}
-    build() { # source dir, build dir
-        (cd "$1" && "${meson[@]}" setup "$2" --buildtype=release -Dcuda=enabled -Dopencl=enabled >/dev/null &&
-            ninja -C "$2" bench/pb_bench src/cli/petblur >/dev/null) || { echo "gpu.sh compare: building $1 failed"; exit 1; }
-    }
-    build "$OLD" "$PWD/build-old" &
-    build "$PWD" "$PWD/build-new" &
-    wait
+    build_tree "$OLD" "$PWD/build-old" -Dopencl=enabled -- bench/pb_bench src/cli/petblur &
+    p1=$!
+    build_tree "$PWD" "$PWD/build-new" -Dopencl=enabled -- bench/pb_bench src/cli/petblur &
+    p2=$!
+    wait $p1 && wait $p2 || exit 1
     nv=$(icd_folder nvidia)
     for round in 1 2; do
         for which in old new; do

@@ -105,6 +105,24 @@ build_gpu() {
     ninja -C build-gpu ${targets[@]+"${targets[@]}"} >"$logs/build.log" 2>&1 || { tail -30 "$logs/build.log"; exit 1; }
 }
 
+# Another tree's build beside build-gpu, for the modes that compare an old
+# tree with this one: the source at SRC built into DIR (release, CUDA for the
+# H200) with the meson options before "--" and the ninja targets after it;
+# returns 1, with the log's tail, when it does not build, so that two builds
+# may run in the background and be waited for.
+#   build_tree SRC DIR -Dopencl=disabled -- src/cli/petblur
+build_tree() {
+    local src=$1 dir=$2 opts=() log
+    shift 2
+    while [ $# -gt 0 ] && [ "$1" != -- ]; do opts+=("$1"); shift; done
+    [ $# -gt 0 ] && shift
+    log=$(mktemp)
+    (cd "$src" && "${meson[@]}" setup "$dir" --buildtype=release -Dcuda=enabled -Dgpu_archs=90 \
+        ${opts[@]+"${opts[@]}"} && ninja -C "$dir" "$@") >"$log" 2>&1 ||
+        { echo "gpu.sh: building $src into $dir failed:"; tail -30 "$log"; rm -f "$log"; return 1; }
+    rm -f "$log"
+}
+
 # The host, cuda and opencl suites of build-gpu, OpenCL on NVIDIA's driver
 # alone; their lines and largest differences appended to $OUT/tests.txt (a
 # failed suite's log tail too) and shown; the pose derivative's errors, where
