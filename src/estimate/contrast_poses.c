@@ -32,7 +32,7 @@ enum { NG = 6 };
  * fraction of a millimetre: issue 47's heads on 2-4 mm grids of 60-90 voxels
  * a side were halved twice, to voxels of 8-16 mm, where the pass took
  * corrections of 1-2 mm that lowered its residual by a thousandth and made
- * two draws from injection 0.4-0.7 mm worse (docs/motion.md); halved once
+ * three draws from injection 0.3-0.7 mm worse (docs/motion.md); halved once
  * (voxels of 4-8 mm) its own checks refused them. The grids halved once before
  * (their coarser voxels 6.1-7.3 mm at the smallest) stay so. */
 #define LONGEST_SIDE 40
@@ -429,11 +429,14 @@ pb_status pbe_collective(pb_pool *pool, const pb_geometry *fine, const float *ra
         return PB_OK;
     const int any_voxel = env && strcmp(env, "coarse") == 0;
     size_t levels = 0;
+    int slab = 0;
     while (longest_side(&cv.g) > LONGEST_SIDE) {
         pb_geometry coarse;
         pbe_coarser(&cv.g, &coarse);
-        if (coarse.dims[0] < 8 || coarse.dims[1] < 8 || coarse.dims[2] < 8)
+        if (coarse.dims[0] < 8 || coarse.dims[1] < 8 || coarse.dims[2] < 8) {
+            slab = 1;
             break;
+        }
         if (!any_voxel && longest_side(&cv.g) <= MOST_SIDE &&
             fmin(coarse.voxel_size[0], fmin(coarse.voxel_size[1], coarse.voxel_size[2])) > COARSEST_MM)
             break;
@@ -442,7 +445,7 @@ pb_status pbe_collective(pb_pool *pool, const pb_geometry *fine, const float *ra
     }
     /* a grid that cannot be coarsened far enough (a thin slab) would cost
      * hours here: left as registered */
-    if (longest_side(&cv.g) > MOST_SIDE)
+    if (slab || longest_side(&cv.g) > MOST_SIDE)
         return PB_OK;
     cv.n = cv.g.dims[0] * cv.g.dims[1] * cv.g.dims[2];
     pbe_unitary_dims(&cv.g, cv.pad);
