@@ -388,12 +388,6 @@ static pb_status minimise(collective *cv, double p[NG], double e0)
     return st;
 }
 
-static size_t longest_side(const pb_geometry *g)
-{
-    size_t n = g->dims[0] > g->dims[1] ? g->dims[0] : g->dims[1];
-    return n > g->dims[2] ? n : g->dims[2];
-}
-
 /* m of the still frames (of `still`), spread evenly from the first to the
  * last, in order. */
 static void pick_still(const pbe_collective_pose *poses, size_t count, size_t still, size_t *use, size_t m)
@@ -430,14 +424,14 @@ pb_status pbe_collective(pb_pool *pool, const pb_geometry *fine, const float *ra
     const int any_voxel = env && strcmp(env, "coarse") == 0;
     size_t levels = 0;
     int slab = 0;
-    while (longest_side(&cv.g) > LONGEST_SIDE) {
+    while (pbe_longest_side(&cv.g) > LONGEST_SIDE) {
         pb_geometry coarse;
         pbe_coarser(&cv.g, &coarse);
         if (coarse.dims[0] < 8 || coarse.dims[1] < 8 || coarse.dims[2] < 8) {
             slab = 1;
             break;
         }
-        if (!any_voxel && longest_side(&cv.g) <= MOST_SIDE &&
+        if (!any_voxel && pbe_longest_side(&cv.g) <= MOST_SIDE &&
             fmin(coarse.voxel_size[0], fmin(coarse.voxel_size[1], coarse.voxel_size[2])) > COARSEST_MM)
             break;
         cv.g = coarse;
@@ -445,7 +439,7 @@ pb_status pbe_collective(pb_pool *pool, const pb_geometry *fine, const float *ra
     }
     /* a grid that cannot be coarsened far enough (a thin slab) would cost
      * hours here: left as registered */
-    if (slab || longest_side(&cv.g) > MOST_SIDE)
+    if (slab)
         return PB_OK;
     cv.n = cv.g.dims[0] * cv.g.dims[1] * cv.g.dims[2];
     pbe_unitary_dims(&cv.g, cv.pad);

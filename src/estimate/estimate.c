@@ -1170,13 +1170,8 @@ pb_status pb_motion_estimate(pb_context *ctx, const pb_geometry *geometry, const
         if (st == PB_OK && !(e.frames[l] = malloc(sizeof(float) * e.level[l].n * count)))
             st = PB_ERR_OUT_OF_MEMORY;
     }
-    size_t longest = geometry->dims[0];
-    if (geometry->dims[1] > longest)
-        longest = geometry->dims[1];
-    if (geometry->dims[2] > longest)
-        longest = geometry->dims[2];
     if (st == PB_OK && (!(e.scratch = malloc(sizeof(float) * 6 * e.level[0].n)) ||
-                        !(e.tmp = malloc(sizeof(float) * longest))))
+                        !(e.tmp = malloc(sizeof(float) * pbe_longest_side(geometry)))))
         st = PB_ERR_OUT_OF_MEMORY;
     for (size_t k = 0; k < count && st == PB_OK; k++) {
         float *levels[8];

@@ -19,6 +19,8 @@
  * from the same corner, so that a position in mm means the same point on
  * every level. */
 void pbe_coarser(const pb_geometry *fine, pb_geometry *coarse);
+/* The grid's most voxels along one axis. */
+size_t pbe_longest_side(const pb_geometry *g);
 /* Corner `corner` (0-7; bit a: the far face along axis a) of the grid's box,
  * mm from its first voxel's outer corner: where the passes measure how far a
  * pose moves the grid. */

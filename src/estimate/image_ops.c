@@ -16,6 +16,12 @@ void pbe_coarser(const pb_geometry *fine, pb_geometry *coarse)
     }
 }
 
+size_t pbe_longest_side(const pb_geometry *g)
+{
+    size_t n = g->dims[0] > g->dims[1] ? g->dims[0] : g->dims[1];
+    return n > g->dims[2] ? n : g->dims[2];
+}
+
 void pbe_grid_corner(const pb_geometry *g, int corner, double p[3])
 {
     for (int a = 0; a < 3; a++)
