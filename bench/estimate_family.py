@@ -240,6 +240,22 @@ def frame_means(truth: Truth, bounds, samples: int = 40):
     return np.concatenate([[bounds[0]], mids, [bounds[-1]]]), np.array([maps[0]] + maps + [maps[-1]])
 
 
+def frame_table(out: str, frames: int) -> dict:
+    """What the program's table a frame says: moving (a path followed) and unfollowed (the share of one pose's
+    residual a path it does not follow explains, 0 where it names none)."""
+    lines = out.splitlines()
+    head = next(i for i, line in enumerate(lines) if line.split()[:2] == ["frame", "start"])
+    moving, unfollowed = [], []
+    for k, line in enumerate(lines[head + 1:head + 1 + frames]):
+        f, _, _, _, _, said = line.split(maxsplit=5)
+        if int(f) != k:
+            raise RuntimeError(f"the frame table's line {k} is {line!r}")
+        moving.append(said.startswith("from "))
+        unfollowed.append(float(said.split("explains ")[1].split()[0]) / 100 if said.startswith("not followed")
+                          else 0.0)
+    return {"moving": moving, "unfollowed": unfollowed}
+
+
 def one(petblur: str, seed: int, device: str, metric: str, threads: int, variants: dict = None,
         sitk: dict = None) -> dict:
     """Draw `seed`, simulate it, estimate with petblur and SimpleITK: a dict of the draw and both errors; with
@@ -272,13 +288,14 @@ def one(petblur: str, seed: int, device: str, metric: str, threads: int, variant
         if petblur is None:  # SimpleITK alone (--sitk-only), for a GPU run to take with --sitk-from
             row["petblur"] = {"mean_mm": float("nan"), "max_mm": float("nan"), "seconds": 0.0}
         else:
-            r = subprocess.run([petblur, "motion", "estimate", nii, "--frames-from", side, "-o", csv, "-q",
+            r = subprocess.run([petblur, "motion", "estimate", nii, "--frames-from", side, "-o", csv,
                                 "--device", device], capture_output=True, text=True)
             if r.returncode:
                 raise RuntimeError(f"seed {seed}: petblur motion estimate exited {r.returncode}: "
                                    f"{r.stderr[-2000:]}")
             row["petblur"] = dict(errors(*hf.read_matrix_csv(csv)),
-                                  seconds=round(time.perf_counter() - started, 1))
+                                  seconds=round(time.perf_counter() - started, 1),
+                                  frames=frame_table(r.stdout, len(bounds) - 1))
         for name, env in (variants or {}).items():
             os.remove(csv)  # a variant that writes nothing must not be scored on the run before
             started = time.perf_counter()
@@ -295,6 +312,33 @@ def one(petblur: str, seed: int, device: str, metric: str, threads: int, variant
     row["sitk"] = dict(errors(*ev.sitk_track(frames, affine, bounds, threads, metric)),
                        seconds=round(time.perf_counter() - started, 1))
     return row
+
+
+def trust_summary(rows: list) -> list:
+    """The frames the program's report says to trust less (motion shown inside that the track does not follow)
+    beside the others, by their error: whether the report points at the frames that are off."""
+    rows = [r for r in rows if "frames" in r["petblur"]]
+    if not rows:
+        return []
+    kinds = {"followed (a path inside)": [], "not followed (reported)": [], "held still, none reported": []}
+    worst_flagged, over1, over1_flagged = 0, 0, 0
+    for r in rows:
+        e, t = r["petblur"]["per_frame_mm"], r["petblur"]["frames"]
+        for k, x in enumerate(e):
+            flagged = t["unfollowed"][k] > 0
+            kinds["followed (a path inside)" if t["moving"][k] else "not followed (reported)" if flagged
+                  else "held still, none reported"].append(x)
+            over1 += x > 1.0
+            over1_flagged += x > 1.0 and flagged
+        worst_flagged += t["unfollowed"][int(np.argmax(e))] > 0
+    lines = ["", "Frames by what the report says of them (petblur's error a frame, mm):", "",
+             "| frames | count | median | 90th percentile | worst |", "|---|---|---|---|---|"]
+    for name, v in kinds.items():
+        lines.append("| %s | %d | %s |" % (name, len(v), " | ".join("%.3f" % x for x in np.percentile(v, [50, 90, 100]))
+                                          if v else "- | - | -"))
+    lines += ["", "Frames reported not followed: the draw's worst frame in %d of %d draws; %d of the %d frames over "
+              "1 mm." % (worst_flagged, len(rows), over1_flagged, over1)]
+    return lines
 
 
 def summary(rows: list, metric: str) -> str:
@@ -331,6 +375,7 @@ def summary(rows: list, metric: str) -> str:
                      "above 0.6 mm mean (%s); every draw at or below SimpleITK's mean (%d of %d)." % (
                          "met" if np.median(pm) <= 0.4 else "NOT met", "met" if np.median(pw) <= 1.0 else "NOT met",
                          "met" if pm.max() <= 0.6 else "NOT met", int(np.sum(pm <= sm)), len(rows)))
+    lines += trust_summary(rows)
     names = sorted({n for r in rows for n in r.get("variants", {})})
     if names:
         inj = np.array([r["from_injection"] for r in rows])

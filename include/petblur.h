@@ -802,6 +802,10 @@ typedef struct pb_estimate_frame {
     int moving;            /* nonzero: the track follows a path inside the frame (a jerk, or a nod held across its end) */
     int jumped_at_start;   /* nonzero: the head jumped at the frame's start, so the track holds the frame before's pose
                             * to it and this frame's from it (where both frames show their poses held) */
+    double unfollowed;     /* a frame the track holds still (not moving) that shows motion inside it: the share of its
+                            * one pose's residual that a path inside it explains, 0 to 1, which the track does not
+                            * follow (the neighbours' poses do not show where the motion went); its pose is a mean
+                            * of poses the frame held, to be trusted less. 0: no motion shows (or frame_poses_only) */
 } pb_estimate_frame;
 
 /* How pb_motion_estimate works. Zero-initialised: the defaults. */

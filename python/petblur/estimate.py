@@ -15,7 +15,8 @@ from .operator import VOXEL_MAX, VOXEL_MIN, _affine4, _voxel3
 
 class EstimateFrame(ctypes.Structure):
     _fields_ = [("explained", ctypes.c_double), ("motion_from", ctypes.c_double), ("motion_to", ctypes.c_double),
-                ("structure", ctypes.c_int), ("moving", ctypes.c_int), ("jumped_at_start", ctypes.c_int)]
+                ("structure", ctypes.c_int), ("moving", ctypes.c_int), ("jumped_at_start", ctypes.c_int),
+                ("unfollowed", ctypes.c_double)]
 
 
 class EstimateOptions(ctypes.Structure):
@@ -159,6 +160,7 @@ def estimate(frames, affine, voxel_size, bounds, reference, device, frame_poses_
     frames_report = [{"frame": k, "start": float(b[k]), "end": float(b[k + 1]),
                       "explained": float(per_frame[k].explained), "structure": bool(per_frame[k].structure),
                       "motion_inside": (float(per_frame[k].motion_from), float(per_frame[k].motion_to))
-                      if per_frame[k].moving else None, "jumped_at_start": bool(per_frame[k].jumped_at_start)}
+                      if per_frame[k].moving else None, "jumped_at_start": bool(per_frame[k].jumped_at_start),
+                      "unfollowed": float(per_frame[k].unfollowed)}
                      for k in range(nt)]
     return track, report, frames_report

@@ -279,7 +279,10 @@ class Motion:
         took a neighbour's pose; ``motion_inside`` (from, to) in seconds where
         the track moves inside the frame, else None; ``jumped_at_start`` True
         where the head jumped at the frame's start (the track steps there
-        from the frame before's pose to this frame's)."""
+        from the frame before's pose to this frame's); ``unfollowed`` above 0
+        where the frame shows motion inside it that the track does not
+        follow (the share of its one pose's residual a path inside it
+        explains): its pose is a mean over that motion, to be trusted less."""
         from . import estimate
         if bounds is None:
             if starts is None or durations is None:
@@ -586,11 +589,13 @@ def _frame_report(v):
     out = []
     for k, f in enumerate(v):
         inside = f.get("motion_inside", 0) if isinstance(f, dict) else 0
-        if isinstance(f, dict) and "jumped_at_start" not in f:  # pickled before the report had it
-            f = dict(f, jumped_at_start=False)
+        for name, before in (("jumped_at_start", False), ("unfollowed", 0.0)):
+            if isinstance(f, dict) and name not in f:  # pickled before the report had it
+                f = dict(f, **{name: before})
         if not (isinstance(f, dict) and set(f) == {"frame", "start", "end", "explained", "structure",
-                                                   "motion_inside", "jumped_at_start"} and
-                isinstance(f["jumped_at_start"], bool) and _whole(f["frame"]) and f["frame"] == k and
+                                                   "motion_inside", "jumped_at_start", "unfollowed"} and
+                isinstance(f["jumped_at_start"], bool) and real(f["unfollowed"]) and
+                0.0 <= f["unfollowed"] <= 1.0 and _whole(f["frame"]) and f["frame"] == k and
                 real(f["start"]) and real(f["end"]) and f["start"] < f["end"] and real(f["explained"]) and
                 0.0 <= f["explained"] <= 1.0 and isinstance(f["structure"], bool) and
                 (inside is None or isinstance(inside, tuple) and len(inside) == 2 and all(map(real, inside)) and

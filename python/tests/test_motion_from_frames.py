@@ -424,6 +424,8 @@ def test_recovers_known_motion(rng, device):
     np.testing.assert_allclose([[f["start"], f["end"]] for f in rep], np.stack([s.starts, s.starts + s.durations], 1))
     assert all(0.0 < f["explained"] <= 1.0 and f["structure"] for f in rep), rep
     assert [f["frame"] for f in rep if f["motion_inside"]] == [j], rep
+    # the jerk followed, no frame is reported as holding motion the track does not follow
+    assert all(f["unfollowed"] == 0.0 for f in rep), rep
     a, b = rep[j]["motion_inside"]
     assert s.starts[j] <= a <= b <= s.starts[j] + s.durations[j], rep[j]
     # the span reported held the jerk on every series tried (its start at 0.15, 0.4, 0.5 and 0.8 of the frame)
@@ -438,10 +440,13 @@ def test_recovers_known_motion(rng, device):
         petblur.Motion.__new__(petblur.Motion).__setstate__(bad)
     # a motion pickled before the report said where the head jumped at a boundary reads it as nowhere
     older = m.__getstate__()
-    older["frame_report"] = [{k: v for k, v in f.items() if k != "jumped_at_start"} for f in rep]
+    older["frame_report"] = [{k: v for k, v in f.items() if k not in ("jumped_at_start", "unfollowed")} for f in rep]
     back = petblur.Motion.__new__(petblur.Motion)
     back.__setstate__(older)
-    assert back.frame_report == [dict(f, jumped_at_start=False) for f in rep]
+    assert back.frame_report == [dict(f, jumped_at_start=False, unfollowed=0.0) for f in rep]
+    bad["frame_report"] = rep[:1] + [dict(rep[1], unfollowed=1.5)]
+    with pytest.raises(petblur.ArgumentError, match=r"frame_report\[1\]"):
+        petblur.Motion.__new__(petblur.Motion).__setstate__(bad)
 
 
 def test_frames_held_still_take_no_path_in_a_longer_series(rng, monkeypatch):
@@ -643,6 +648,55 @@ def _moving_series(rng, nf, pose_at, seconds=10.0, shape=(28, 28, 28), voxel=(4.
             v += phantom(world @ inv[:3, :3].T + inv[:3, 3], k / (nf - 1)).reshape(shape)
         frames[..., k] = rng.poisson(v * (counts / v.sum()))
     return frames, affine, np.arange(nf) * seconds, np.full(nf, seconds), phantom
+
+
+def test_a_nod_that_turns_back_inside_a_frame(rng, monkeypatch):
+    """A head held still but for a nod of 6-10 degrees and 4-8 mm inside one
+    frame, out and back, so that both neighbours hold one pose. No path
+    between poses the frames hold follows it, and a path on through the
+    frame's own pose would carry the nod into a neighbour; the frame's path
+    goes out and comes back (PATH_BACK), each point held half its dwell each
+    way. Its error over the frame must be well below one pose's, and no frame
+    is reported as holding motion the track does not follow. Without it
+    (PETBLUR_ESTIMATE_BACK=0) the frame keeps one pose, the mean of poses it
+    held, and the report must say so for that frame (`unfollowed`, the share
+    of one pose's residual a path inside it explains) and no other."""
+    nf, seconds = 7, 10.0
+    k = int(rng.integers(2, nf - 1))
+    nod = _rigid(rng, float(rng.uniform(6.0, 10.0)), 0.0)
+    v = rng.normal(size=3)
+    nod[:3, 3] = rng.uniform(4.0, 8.0) * v / np.linalg.norm(v)
+    out, back = (k + rng.uniform(0.2, 0.35)) * seconds, (k + rng.uniform(0.65, 0.8)) * seconds
+
+    def truth(t):
+        return nod if out <= t < back else np.eye(4)
+
+    frames, affine, starts, durations, phantom = _moving_series(rng, nf, truth, seconds=seconds, steps=40)
+    points = phantom.inside(rng)
+    runs = {}
+    for name in ("back", "off"):
+        monkeypatch.setenv("PETBLUR_ESTIMATE_BACK", "1" if name == "back" else "0")
+        m = petblur.Motion.from_frames(frames, affine, starts, durations, device="host")
+        rep = m.frame_report
+        runs[name] = (_frame_errors(m, truth, points, starts, durations),
+                      [f["frame"] for f in rep if f["motion_inside"]],
+                      [(f["frame"], round(f["unfollowed"], 3)) for f in rep if f["unfollowed"] > 0], rep)
+    msg = (f"the nod in frame {k} from {out:.2f} to {back:.2f} s; " + "; ".join(
+        f"{n}: errors {np.round(e, 3)} mm, moving {mv}, reported not followed {nf_}"
+        for n, (e, mv, nf_, _) in runs.items()))
+    print(msg)
+    err, moving, shown, rep = runs["back"]
+    off, moving_off, shown_off, rep_off = runs["off"]
+    assert moving == [k] and shown == [], msg
+    a, b = rep[k]["motion_inside"]
+    assert starts[k] <= a < b <= starts[k] + durations[k], msg
+    assert err[k] < 0.5 * off[k] and err.mean() < off.mean(), msg
+    assert moving_off == [] and [f for f, _ in shown_off] == [k], msg
+    assert all(0.0 <= f["unfollowed"] <= 1.0 for f in rep_off), msg
+    # the report points at the frame that is off: its error above every other frame's
+    assert off[k] > np.delete(off, k).max(), msg
+    one = petblur.Motion.from_frames(frames, affine, starts, durations, device="host", frame_poses_only=True)
+    assert all(f["unfollowed"] == 0.0 for f in one.frame_report), one.frame_report
 
 
 def _frame_errors(motion, truth, points, starts, durations):

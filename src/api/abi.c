@@ -46,7 +46,7 @@ const char *pb_abi_layout(void)
     F(pb_estimate_report, warnings);
     S(pb_estimate_frame); F(pb_estimate_frame, explained); F(pb_estimate_frame, motion_from);
     F(pb_estimate_frame, motion_to); F(pb_estimate_frame, structure); F(pb_estimate_frame, moving);
-    F(pb_estimate_frame, jumped_at_start);
+    F(pb_estimate_frame, jumped_at_start); F(pb_estimate_frame, unfollowed);
     S(pb_comparison); F(pb_comparison, rms_percent); F(pb_comparison, max_percent);
     F(pb_comparison, max_difference); F(pb_comparison, worst); F(pb_comparison, eq5_percent);
     S(pb_frame_summary); F(pb_frame_summary, samples); F(pb_frame_summary, max_turn_deg);

@@ -40,6 +40,9 @@ enum { DWELL_POINTS = 9 };
  * that gained 0.07-0.08 laid a jump inside slow nods (0.73 -> 0.82 mm and
  * 2.30 -> 2.41 mm), those that gained 0.20-0.83 were jerks (docs/motion.md). */
 #define UNSUPPORTED_GAIN (3 * DWELL_GAIN)
+/* A frame's neighbours hold one pose, for PATH_BACK, where they are apart by
+ * at most this share of the frame's own pose's distance from either. */
+#define BACK_RETURN 0.25
 /* The bar a series sets itself (series_gain). */
 #define SERIES_GAIN_TIMES 8.0
 #define SERIES_GAIN_FLOOR 0.01
@@ -290,8 +293,11 @@ static pb_status register_own(estimate *e, pbe_fit *fits, float *moved, double *
  * through the frame's own pose as far again (the motion went on into the
  * other neighbour, which then moves too: a nod held across a frame's end;
  * or, in the series' first or last frame, which has one neighbour, the
- * motion that the frame holds after or before it). */
-enum { PATH_BETWEEN, PATH_ON, PATH_FROM, PATHS };
+ * motion that the frame holds after or before it). A frame whose neighbours
+ * hold one pose, its own away from it, went out and came back inside it (a
+ * nod): PATH_BACK, the path on from a neighbour through its own pose, its
+ * dwell laid out and back (back_path). */
+enum { PATH_BETWEEN, PATH_ON, PATH_FROM, PATH_BACK, PATHS };
 
 typedef struct frame_path {
     double gain;       /* 1 - its residual / one pose's; 0: not tried */
@@ -305,6 +311,18 @@ typedef struct frame_path {
 static int path_defined(size_t k, size_t count, int kind)
 {
     return (kind == PATH_FROM || k > 0) && (kind == PATH_ON || k + 1 < count);
+}
+
+/* Whether a path of a kind starts at the frame before's pose, ends at the
+ * frame after's (so that frame may not move itself). */
+static int starts_at_before(int kind)
+{
+    return kind != PATH_FROM;
+}
+
+static int ends_at_after(int kind)
+{
+    return kind == PATH_BETWEEN || kind == PATH_FROM || kind == PATH_BACK;
 }
 
 /* The path of a kind for frame k (path_defined), from its neighbours' and
@@ -371,8 +389,8 @@ static int motion_went_on(const estimate *e, const pbe_fit *fits, size_t k, int 
  * moving[k] is 1 + the kind a frame follows, 0 for a still one. */
 static int path_free(const int *moving, const int *anchor, size_t k, size_t count, int kind)
 {
-    return path_defined(k, count, kind) && !moving[k] && !anchor[k] && (kind == PATH_FROM || !moving[k - 1]) &&
-           (kind == PATH_ON || !moving[k + 1]);
+    return path_defined(k, count, kind) && !moving[k] && !anchor[k] && (!starts_at_before(kind) || !moving[k - 1]) &&
+           (!ends_at_after(kind) || !moving[k + 1]);
 }
 
 /* The gain a path must show in this series to be taken (a neighbour shows
@@ -505,9 +523,61 @@ static pb_status one_pose_weighted(estimate *e, const pb_pose *own, const float 
     return st;
 }
 
+/* Squared distance between two poses, summed over the grid's corners. */
+static double corners_apart2(const estimate *e, const pb_pose *a, const pb_pose *b)
+{
+    double d = 0.0;
+    for (int corner = 0; corner < 8; corner++) {
+        double p[3], pa[3], pb[3];
+        pbe_grid_corner(&e->g, corner, p);
+        pb_pose_apply(a, e->c, p, pa);
+        pb_pose_apply(b, e->c, p, pb);
+        for (int i = 0; i < 3; i++)
+            d += (pa[i] - pb[i]) * (pa[i] - pb[i]);
+    }
+    return d;
+}
+
+/* PATH_BACK for a frame whose still neighbours hold one pose (apart by at
+ * most BACK_RETURN of the frame's own distance from either) while a path on
+ * from one of them through the frame's own pose gains UNSUPPORTED_GAIN:
+ * the motion went out and came back inside the frame, which the path on
+ * would carry into the neighbour (motion_went_on refuses it). The better of
+ * the two paths' dwells, from the neighbour's end (index 0) to its far end,
+ * is laid out and back (back_keys). PETBLUR_ESTIMATE_BACK=0 turns it off,
+ * for comparisons. */
+static void back_paths(const estimate *e, const pbe_fit *fits, frame_path *paths, const int *moves)
+{
+    const char *env = getenv("PETBLUR_ESTIMATE_BACK");
+    if (env && strcmp(env, "0") == 0)
+        return;
+    for (size_t k = 1; k + 1 < e->count; k++) {
+        const frame_path *on = &paths[k * PATHS + PATH_ON], *from = &paths[k * PATHS + PATH_FROM];
+        frame_path *back = &paths[k * PATHS + PATH_BACK];
+        if (moves[k - 1] || moves[k + 1] || fmax(on->gain, from->gain) <= UNSUPPORTED_GAIN)
+            continue;
+        double between = corners_apart2(e, &fits[k - 1].pose, &fits[k + 1].pose);
+        double out = fmin(corners_apart2(e, &fits[k - 1].pose, &fits[k].pose),
+                          corners_apart2(e, &fits[k + 1].pose, &fits[k].pose));
+        if (!(between <= BACK_RETURN * BACK_RETURN * out))
+            continue;
+        if (on->gain >= from->gain) {
+            *back = *on;
+        }
+        else { /* FROM runs from its far end to the frame after's pose */
+            back->gain = from->gain;
+            back->start = from->end;
+            back->end = from->start;
+            for (int i = 0; i < DWELL_POINTS; i++)
+                back->dwell[i] = from->dwell[DWELL_POINTS - 1 - i];
+            back->dwell[DWELL_POINTS] = from->dwell[DWELL_POINTS];
+        }
+    }
+}
+
 static pb_status inside_frames(estimate *e, const pbe_fit *fits, size_t reference, const float *moved,
                                const double *gram, float *own, frame_path *paths, int *moving, size_t *moving_count,
-                               double *sides)
+                               double *sides, double *unfollowed)
 {
     int *anchor = calloc(e->count, sizeof(int)), *moves = calloc(e->count, sizeof(int));
     unsigned char *tried = calloc(e->count, 1);
@@ -578,10 +648,14 @@ static pb_status inside_frames(estimate *e, const pbe_fit *fits, size_t referenc
      * own, test_frames_held_still_take_no_path_in_a_longer_series), and two
      * such neighbours would support each other. */
     double dwell_gain = series_gain(paths, tried, e->count);
+    for (size_t k = 0; k < e->count; k++)
+        for (int kind = 0; kind < PATHS; kind++)
+            unfollowed[k] = fmax(unfollowed[k], paths[k * PATHS + (size_t)kind].gain);
     for (size_t k = 1; k + 1 < e->count; k++) {
         for (int kind = 0; kind < PATHS; kind++)
             moves[k] |= paths[k * PATHS + (size_t)kind].gain > DWELL_GAIN;
     }
+    back_paths(e, fits, paths, moves);
     for (size_t k = 0; k < e->count; k++) {
         frame_path *on = &paths[k * PATHS + PATH_ON], *from = &paths[k * PATHS + PATH_FROM];
         int between = paths[k * PATHS + PATH_BETWEEN].gain > dwell_gain;
@@ -607,12 +681,18 @@ static pb_status inside_frames(estimate *e, const pbe_fit *fits, size_t referenc
         size_t k = best / PATHS;
         int kind = (int)(best % PATHS);
         moving[k] = 1 + kind;
-        if (kind != PATH_FROM)
+        if (starts_at_before(kind))
             anchor[k - 1] = 1;
-        if (kind != PATH_ON)
+        if (ends_at_after(kind))
             anchor[k + 1] = 1;
         ++*moving_count;
     }
+    /* what the series' bar calls motion, in a frame the track holds still
+     * (its path refused, or its neighbour's taken): the frame's pose is the
+     * mean of poses it does not show */
+    for (size_t k = 0; k < e->count; k++)
+        if (moving[k] || !(unfollowed[k] > dwell_gain))
+            unfollowed[k] = 0.0;
     free(anchor);
     free(moves);
     free(tried);
@@ -820,14 +900,11 @@ static void key(keys *k, double t, const pb_pose *p)
     k->p[k->n++] = *p;
 }
 
-/* A moving frame's poses: it holds each point of the path for its dwell, in
- * path order, stepping between them in STEP_FRACTION of the frame. *from and
- * *to: when the first pose held ends and the last begins, the report's
- * motion inside the frame (both the frame's middle where one pose is held). */
-static void path_keys(keys *out, double t0, double t1, const pb_pose *s, const pb_pose *e, const double *u,
-                      double *from, double *to)
+/* A path's dwell as shares of the frame: each point's share of the total,
+ * 0 below twice STEP_FRACTION (a point held for less than its steps take). */
+static void dwell_shares(const double *u, double w[DWELL_POINTS])
 {
-    double total = 0.0, w[DWELL_POINTS];
+    double total = 0.0;
     for (int i = 0; i < DWELL_POINTS; i++)
         total += u[i];
     for (int i = 0; i < DWELL_POINTS; i++)
@@ -835,17 +912,26 @@ static void path_keys(keys *out, double t0, double t1, const pb_pose *s, const p
     total = 0.0;
     for (int i = 0; i < DWELL_POINTS; i++)
         total += w[i];
+    for (int i = 0; i < DWELL_POINTS; i++)
+        w[i] = total > 0 ? w[i] / total : 0.0;
+}
+
+/* A moving frame's poses: it holds each of n poses for its share w of the
+ * frame in turn, stepping between them in STEP_FRACTION of the frame. *from
+ * and *to: when the first pose held ends and the last begins, the report's
+ * motion inside the frame (both the frame's middle where one pose is held). */
+static void hold_keys(keys *out, double t0, double t1, const pb_pose *p, const double *w, int n, double *from,
+                      double *to)
+{
     double len = t1 - t0, step = STEP_FRACTION * len, at = t0;
     int held = 0;
-    for (int i = 0; i < DWELL_POINTS; i++) {
+    for (int i = 0; i < n; i++) {
         if (w[i] <= 0)
             continue;
-        pb_pose p;
-        pb_pose_interpolate(s, e, (double)i / (DWELL_POINTS - 1), &p);
-        double hold = w[i] / total * len;
+        double hold = w[i] * len;
         double a = at == t0 ? t0 : at + 0.5 * step, b = at + hold >= t1 - 1e-9 * len ? t1 : at + hold - 0.5 * step;
-        key(out, a, &p);
-        key(out, b, &p);
+        key(out, a, &p[i]);
+        key(out, b, &p[i]);
         if (held++ == 0)
             *from = b;
         *to = a;
@@ -853,6 +939,39 @@ static void path_keys(keys *out, double t0, double t1, const pb_pose *s, const p
     }
     if (held < 2)
         *from = *to = mid_time(t0, t1);
+}
+
+/* The points of a path from s to e in path order, each for its dwell u. */
+static void path_keys(keys *out, double t0, double t1, const pb_pose *s, const pb_pose *e, const double *u,
+                      double *from, double *to)
+{
+    double w[DWELL_POINTS];
+    pb_pose p[DWELL_POINTS];
+    dwell_shares(u, w);
+    for (int i = 0; i < DWELL_POINTS; i++)
+        pb_pose_interpolate(s, e, (double)i / (DWELL_POINTS - 1), &p[i]);
+    hold_keys(out, t0, t1, p, w, DWELL_POINTS, from, to);
+}
+
+/* PATH_BACK's poses: out from s towards the far end e and back to r (the
+ * frame after's pose), each point of the path held half its dwell on the
+ * way out and half on the way back, the far end once: a time average holds
+ * no order, and a nod centred in the frame is the guess that errs least
+ * over where in the frame it came. */
+static void back_keys(keys *out, double t0, double t1, const pb_pose *s, const pb_pose *e, const pb_pose *r,
+                      const double *u, double *from, double *to)
+{
+    enum { N = 2 * DWELL_POINTS - 1 };
+    double share[DWELL_POINTS], w[N];
+    pb_pose p[N];
+    dwell_shares(u, share);
+    for (int i = 0; i < DWELL_POINTS; i++) {
+        double f = (double)i / (DWELL_POINTS - 1), half = i == DWELL_POINTS - 1 ? 1.0 : 0.5;
+        pb_pose_interpolate(s, e, f, &p[i]);
+        pb_pose_interpolate(r, e, f, &p[N - 1 - i]);
+        w[i] = w[N - 1 - i] = half * share[i];
+    }
+    hold_keys(out, t0, t1, p, w, N, from, to);
 }
 
 /* Whether a frame's side (g, h: side_evidence) is not nearer a ramp than a
@@ -997,13 +1116,16 @@ static pb_status estimate_run(estimate *e, const double *bounds, const pb_estima
     double *sides = calloc(4 * count, sizeof *sides);
     unsigned char *steps = calloc(count + 1, 1);
     int *jumped = calloc(count, sizeof(int));
+    double *unfollowed = calloc(count, sizeof(double));
     float *moved = malloc(sizeof(float) * e->level[0].n * count), *own = malloc(sizeof(float) * e->level[0].n);
     double *gram = malloc(sizeof(double) * count * (PBE_REFERENCE_OTHERS + 1));
-    keys k = {malloc(sizeof(double) * (count * 2 * DWELL_POINTS + 4)),
-              malloc(sizeof(pb_pose) * (count * 2 * DWELL_POINTS + 4)), 0};
+    keys k = {malloc(sizeof(double) * (count * 4 * DWELL_POINTS + 4)),
+              malloc(sizeof(pb_pose) * (count * 4 * DWELL_POINTS + 4)), 0};
     size_t moving_count = 0;
-    pb_status st = fits && moving && paths && sides && steps && jumped && moved && own && gram && k.t && k.p ? PB_OK
-                                                                                      : PB_ERR_OUT_OF_MEMORY;
+    pb_status st = fits && moving && paths && sides && steps && jumped && unfollowed && moved && own && gram && k.t &&
+                           k.p
+                       ? PB_OK
+                       : PB_ERR_OUT_OF_MEMORY;
     for (size_t i = 0; i < count && fits; i++) {
         fits[i].pose.rotation[0] = 1.0;
         fits[i].scale = 1.0;
@@ -1024,7 +1146,7 @@ static pb_status estimate_run(estimate *e, const double *bounds, const pb_estima
         st = smooth_still_poses(e, fits, bounds, ref, jumped);
     /* 3: inside frames, against the same references */
     if (st == PB_OK && !o->frame_poses_only)
-        st = inside_frames(e, fits, ref, moved, gram, own, paths, moving, &moving_count, sides);
+        st = inside_frames(e, fits, ref, moved, gram, own, paths, moving, &moving_count, sides, unfollowed);
     if (st == PB_OK && !o->frame_poses_only)
         boundary_steps(e, moving, jumped, sides, steps);
     /* 4: every pose corrected along the contrast, together */
@@ -1040,7 +1162,11 @@ static pb_status estimate_run(estimate *e, const double *bounds, const pb_estima
             if (moving[f]) {
                 const frame_path *p = &paths[f * PATHS + (size_t)(moving[f] - 1)];
                 double from = 0.0, to = 0.0;
-                path_keys(&k, bounds[f], bounds[f + 1], &p->start, &p->end, p->dwell, &from, &to);
+                if (moving[f] - 1 == PATH_BACK)
+                    back_keys(&k, bounds[f], bounds[f + 1], &p->start, &p->end, &fits[f + 1].pose, p->dwell, &from,
+                              &to);
+                else
+                    path_keys(&k, bounds[f], bounds[f + 1], &p->start, &p->end, p->dwell, &from, &to);
                 if (o->frames) {
                     o->frames[f].motion_from = from;
                     o->frames[f].motion_to = to;
@@ -1075,6 +1201,7 @@ static pb_status estimate_run(estimate *e, const double *bounds, const pb_estima
         r->structure = !e->flat[f];
         r->moving = moving[f] != 0;
         r->jumped_at_start = steps[f] != 0;
+        r->unfollowed = unfollowed[f];
         if (!moving[f]) /* a moving frame's times come with its keys */
             r->motion_from = r->motion_to = mid_time(bounds[f], bounds[f + 1]);
     }
@@ -1084,6 +1211,7 @@ static pb_status estimate_run(estimate *e, const double *bounds, const pb_estima
     free(sides);
     free(steps);
     free(jumped);
+    free(unfollowed);
     free(moved);
     free(own);
     free(gram);

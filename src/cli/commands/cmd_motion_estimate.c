@@ -152,7 +152,9 @@ static int options_from_args(const pbc_args *args, pb_estimate_options *o, int *
 
 /* The summary, then a line a frame: how much of it the fit explains (a
  * frame of few counts, or of a contrast unlike the others', less: its pose
- * deserves less trust), and where the track moves inside it. */
+ * deserves less trust), and where the track moves inside it, or where motion
+ * shows inside it that the track does not follow (its pose is a mean over
+ * that motion). */
 static void print_summary(pb_context *ctx, const char *out_path, const pb_track *track, size_t frames, int csv,
                           const double *bounds, const pb_estimate_frame *per_frame, const pb_estimate_report *report)
 {
@@ -169,6 +171,12 @@ static void print_summary(pb_context *ctx, const char *out_path, const pb_track 
            report->seconds);
     if (!per_frame)
         return;
+    size_t unfollowed = 0;
+    for (size_t f = 0; f < frames; f++)
+        unfollowed += per_frame[f].unfollowed > 0;
+    if (unfollowed)
+        printf("  %zu %s motion inside that the track does not follow: %s a mean over it (below)\n", unfollowed,
+               unfollowed == 1 ? "frame shows" : "frames show", unfollowed == 1 ? "its pose is" : "their poses are");
     printf("  frame       start s      end s  fit explains  motion inside the frame\n");
     for (size_t f = 0; f < frames; f++) {
         const pb_estimate_frame *r = &per_frame[f];
@@ -177,6 +185,9 @@ static void print_summary(pb_context *ctx, const char *out_path, const pb_track 
             printf("no structure above the noise: a neighbour's pose");
         else if (r->moving)
             printf("from %.3f to %.3f s", r->motion_from, r->motion_to);
+        else if (r->unfollowed > 0)
+            printf("not followed: a path explains %.0f %% of one pose's residual (trust its pose less)",
+                   100.0 * r->unfollowed);
         else
             printf("-");
         printf("%s\n", r->jumped_at_start ? " (the head jumped at its start)" : "");
