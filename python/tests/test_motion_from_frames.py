@@ -660,7 +660,14 @@ def test_a_nod_that_turns_back_inside_a_frame(rng, monkeypatch):
     is reported as holding motion the track does not follow. Without it
     (PETBLUR_ESTIMATE_BACK=0) the frame keeps one pose, the mean of poses it
     held, and the report must say so for that frame (`unfollowed`, the share
-    of one pose's residual a path inside it explains) and no other."""
+    of one pose's residual a path inside it explains) and no other.
+    Measured while writing this test, 19 fresh series: every nod got the
+    path, the frame's error 0.16-0.63 of one pose's (median 0.32; 0.60 and
+    0.63 where the path gained 5-7 %, a short nod), the series' mean error
+    at most 0.68 of it; without the path each nod's frame was the worst and
+    the only one reported (its path's gain 0.05-0.94). A first bar of 15 %
+    left a nod of 3.4 s (seed 1213781347, 6.8 %) at one pose, 1.43 mm off
+    where the path takes it to 0.85."""
     nf, seconds = 7, 10.0
     k = int(rng.integers(2, nf - 1))
     nod = _rigid(rng, float(rng.uniform(6.0, 10.0)), 0.0)
@@ -690,7 +697,7 @@ def test_a_nod_that_turns_back_inside_a_frame(rng, monkeypatch):
     assert moving == [k] and shown == [], msg
     a, b = rep[k]["motion_inside"]
     assert starts[k] <= a < b <= starts[k] + durations[k], msg
-    assert err[k] < 0.5 * off[k] and err.mean() < off.mean(), msg
+    assert err[k] < 0.75 * off[k] and err.mean() < off.mean(), msg
     assert moving_off == [] and [f for f, _ in shown_off] == [k], msg
     assert all(0.0 <= f["unfollowed"] <= 1.0 for f in rep_off), msg
     # the report points at the frame that is off: its error above every other frame's

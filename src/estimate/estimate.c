@@ -40,9 +40,6 @@ enum { DWELL_POINTS = 9 };
  * that gained 0.07-0.08 laid a jump inside slow nods (0.73 -> 0.82 mm and
  * 2.30 -> 2.41 mm), those that gained 0.20-0.83 were jerks (docs/motion.md). */
 #define UNSUPPORTED_GAIN (3 * DWELL_GAIN)
-/* A frame's neighbours hold one pose, for PATH_BACK, where they are apart by
- * at most this share of the frame's own pose's distance from either. */
-#define BACK_RETURN 0.25
 /* The bar a series sets itself (series_gain). */
 #define SERIES_GAIN_TIMES 8.0
 #define SERIES_GAIN_FLOOR 0.01
@@ -523,29 +520,20 @@ static pb_status one_pose_weighted(estimate *e, const pb_pose *own, const float 
     return st;
 }
 
-/* Squared distance between two poses, summed over the grid's corners. */
-static double corners_apart2(const estimate *e, const pb_pose *a, const pb_pose *b)
-{
-    double d = 0.0;
-    for (int corner = 0; corner < 8; corner++) {
-        double p[3], pa[3], pb[3];
-        pbe_grid_corner(&e->g, corner, p);
-        pb_pose_apply(a, e->c, p, pa);
-        pb_pose_apply(b, e->c, p, pb);
-        for (int i = 0; i < 3; i++)
-            d += (pa[i] - pb[i]) * (pa[i] - pb[i]);
-    }
-    return d;
-}
-
-/* PATH_BACK for a frame whose still neighbours hold one pose (apart by at
- * most BACK_RETURN of the frame's own distance from either) while a path on
- * from one of them through the frame's own pose gains UNSUPPORTED_GAIN:
- * the motion went out and came back inside the frame, which the path on
- * would carry into the neighbour (motion_went_on refuses it). The better of
+/* PATH_BACK for a frame between still neighbours whose poses show that its
+ * motion went on into neither (motion_went_on, both ways: its own pose lies
+ * off the line between theirs, where for a pose on it one of the two holds)
+ * while a path on from one of them through its own pose gains DWELL_GAIN:
+ * the motion went out and came back inside the frame, all the way or part of
+ * it (a nod, or two jerks). Taken as it is, the path on would carry the
+ * motion into the neighbour. The poses are its support, as a moving
+ * neighbour is a path into it's; the bar is the fixed one, as for such paths
+ * (a series' own bar can be 1 %, which a frame held still reaches with a
+ * mixture of views; a short nod out and back gained 6.8 %,
+ * test_a_nod_that_turns_back_inside_a_frame's seed 1213781347). The better of
  * the two paths' dwells, from the neighbour's end (index 0) to its far end,
- * is laid out and back (back_keys). PETBLUR_ESTIMATE_BACK=0 turns it off,
- * for comparisons. */
+ * is laid out and back (back_keys). PETBLUR_ESTIMATE_BACK=0 turns it off, for
+ * comparisons. */
 static void back_paths(const estimate *e, const pbe_fit *fits, frame_path *paths, const int *moves)
 {
     const char *env = getenv("PETBLUR_ESTIMATE_BACK");
@@ -554,19 +542,17 @@ static void back_paths(const estimate *e, const pbe_fit *fits, frame_path *paths
     for (size_t k = 1; k + 1 < e->count; k++) {
         const frame_path *on = &paths[k * PATHS + PATH_ON], *from = &paths[k * PATHS + PATH_FROM];
         frame_path *back = &paths[k * PATHS + PATH_BACK];
-        if (moves[k - 1] || moves[k + 1] || fmax(on->gain, from->gain) <= UNSUPPORTED_GAIN)
+        if (moves[k - 1] || moves[k + 1] || fmax(on->gain, from->gain) <= DWELL_GAIN)
             continue;
-        double between = corners_apart2(e, &fits[k - 1].pose, &fits[k + 1].pose);
-        double out = fmin(corners_apart2(e, &fits[k - 1].pose, &fits[k].pose),
-                          corners_apart2(e, &fits[k + 1].pose, &fits[k].pose));
-        if (!(between <= BACK_RETURN * BACK_RETURN * out))
+        if (motion_went_on(e, fits, k, +1) || motion_went_on(e, fits, k, -1))
             continue;
         if (on->gain >= from->gain) {
             *back = *on;
         }
-        else { /* FROM runs from its far end to the frame after's pose */
+        else { /* FROM runs from its far end to the frame after's pose; the
+                * frame still starts at the frame before's (back_keys) */
             back->gain = from->gain;
-            back->start = from->end;
+            back->start = fits[k - 1].pose;
             back->end = from->start;
             for (int i = 0; i < DWELL_POINTS; i++)
                 back->dwell[i] = from->dwell[DWELL_POINTS - 1 - i];
@@ -953,11 +939,12 @@ static void path_keys(keys *out, double t0, double t1, const pb_pose *s, const p
     hold_keys(out, t0, t1, p, w, DWELL_POINTS, from, to);
 }
 
-/* PATH_BACK's poses: out from s towards the far end e and back to r (the
- * frame after's pose), each point of the path held half its dwell on the
- * way out and half on the way back, the far end once: a time average holds
- * no order, and a nod centred in the frame is the guess that errs least
- * over where in the frame it came. */
+/* PATH_BACK's poses: out from s (the frame before's pose) towards the far
+ * end e and back to r (the frame after's), the dwell u from the neighbour's
+ * end (0) to the far end: each point held half its dwell on the way out, at
+ * its place between s and e, and half on the way back, between r and e, the
+ * far end once. A time average holds no order, and a nod centred in the
+ * frame is the guess that errs least over where in the frame it came. */
 static void back_keys(keys *out, double t0, double t1, const pb_pose *s, const pb_pose *e, const pb_pose *r,
                       const double *u, double *from, double *to)
 {

@@ -36,12 +36,14 @@ static const pbc_command command = {
     "the poses are then smoothed in time, each weighed by how sure its fit is (a few counts' early frame\n"
     "little, a sharp late one much), jumps between frames kept; a frame whose blur along a path from or\n"
     "between its neighbours' poses fits it better than one pose (a jerk inside it, the first and last frames\n"
-    "too) gets that path, timed; and in a series of 12 frames or more every pose gets one correction along the\n"
-    "contrast, against the bias changing uptake leaves (docs/motion.md, \"Motion from the frames\"). TRACK says\n"
-    "where a point of the reference frame's object is at each time, in the world coordinates of FRAMES' affine:\n"
-    "give it to petblur blur --motion and petblur.Motion.from_file as it is. It prints, a line a frame, the share\n"
-    "of the frame's variance its fit explains (a frame of few counts, or of a contrast unlike the others', has\n"
-    "less: trust its pose less) and when the track moves inside it.",
+    "too, or a nod out and back) gets that path, timed; and in a series of 12 frames or more every pose gets one\n"
+    "correction along the contrast, against the bias changing uptake leaves (docs/motion.md, \"Motion from the\n"
+    "frames\"). TRACK says where a point of the reference frame's object is at each time, in the world\n"
+    "coordinates of FRAMES' affine: give it to petblur blur --motion and petblur.Motion.from_file as it is. It\n"
+    "prints, a line a frame, the share of the frame's variance its fit explains (a frame of few counts, or of a\n"
+    "contrast unlike the others', has less: trust its pose less), when the track moves inside it, and where the\n"
+    "frame shows motion inside it that the track does not follow (its pose is a mean over that motion: trust it\n"
+    "less).",
     options, (int)(sizeof options / sizeof options[0]), 1, 1,
     "examples:\n"
     "  petblur motion estimate sub-01_pet.nii.gz --frames-from sub-01_pet.json -o motion.csv\n"
