@@ -34,6 +34,8 @@
  * pose (relative residual) a dwell must explain a frame to be believed:
  * docs/motion.md, "Motion from the frames", gives the measurement. */
 enum { DWELL_POINTS = 9 };
+/* PATH_BACK's points: each leg's, the far end shared. */
+enum { BACK_LEG = 7, BACK_POINTS = 2 * BACK_LEG - 1 };
 #define DWELL_GAIN 0.05
 /* A path into a neighbour that shows no motion of its own, where the path
  * between fails, must gain three times that: on issue 47's draws such paths
@@ -299,7 +301,7 @@ enum { PATH_BETWEEN, PATH_ON, PATH_FROM, PATH_BACK, PATHS };
 typedef struct frame_path {
     double gain;       /* 1 - its residual / one pose's; 0: not tried */
     pb_pose start, end;
-    double dwell[DWELL_POINTS + 1];
+    double dwell[PBE_DWELL_MOST + 1]; /* DWELL_POINTS, PATH_BACK's BACK_POINTS, and the offset */
 } frame_path;
 
 /* Whether frame k of count has the neighbours a path of a kind starts or
@@ -520,45 +522,75 @@ static pb_status one_pose_weighted(estimate *e, const pb_pose *own, const float 
     return st;
 }
 
+/* PATH_BACK's poses: from the frame before's pose s out to the far end f
+ * and on to the frame after's r, BACK_LEG points a leg, f shared. */
+static void back_poses(const pb_pose *s, const pb_pose *f, const pb_pose *r, pb_pose p[BACK_POINTS])
+{
+    for (int i = 0; i < BACK_LEG; i++) {
+        double t = (double)i / (BACK_LEG - 1);
+        pb_pose_interpolate(s, f, t, &p[i]);
+        pb_pose_interpolate(r, f, t, &p[BACK_POINTS - 1 - i]);
+    }
+}
+
 /* PATH_BACK for a frame between still neighbours whose poses show that its
  * motion went on into neither (motion_went_on, both ways: its own pose lies
  * off the line between theirs, where for a pose on it one of the two holds)
  * while a path on from one of them through its own pose gains DWELL_GAIN:
  * the motion went out and came back inside the frame, all the way or part of
- * it (a nod, or two jerks). Taken as it is, the path on would carry the
- * motion into the neighbour. The poses are its support, as a moving
- * neighbour is a path into it's; the bar is the fixed one, as for such paths
- * (a series' own bar can be 1 %, which a frame held still reaches with a
- * mixture of views; a short nod out and back gained 6.8 %,
- * test_a_nod_that_turns_back_inside_a_frame's seed 1213781347). The better of
- * the two paths' dwells, from the neighbour's end (index 0) to its far end,
- * is laid out and back (back_keys). PETBLUR_ESTIMATE_BACK=0 turns it off, for
- * comparisons. */
-static void back_paths(const estimate *e, const pbe_fit *fits, frame_path *paths, const int *moves)
+ * it (a nod, or two jerks), and the path on, taken as it is, would carry it
+ * into the neighbour. The poses are its support, as a moving neighbour is a
+ * path into it's; the bar is the fixed one, as for such paths (a series'
+ * own bar can be 1 %, which a frame held still reaches with a mixture of
+ * views; a short nod out and back gained 6.8 %,
+ * test_a_nod_that_turns_back_inside_a_frame's seed 1213781347). The frame
+ * is fitted as a dwell along two legs: from the frame before's pose out to
+ * that path's far end, and from there to the frame after's, in that order,
+ * so that a head that went out at the frame's start and came part of the
+ * way back near its end (issue 47's 668173037) dwells where it did. Where
+ * the legs' points pair up (each within a voxel of its twin at the far
+ * corner: their views nearly alike, their dwells split between them by the
+ * noise; the neighbours holding one pose, give or take their fits' noise)
+ * a time average cannot tell the way out from the way back: each pair's
+ * dwell is split evenly, a nod centred in the frame, the guess that errs
+ * least over where it came (with twins within a tenth of a voxel, the nods
+ * of that test stood at 0.7-1.05 of one pose's error where an even split
+ * put them at 0.16-0.63).
+ * PETBLUR_ESTIMATE_BACK=0 turns it off, for comparisons. */
+static pb_status back_paths(estimate *e, const pbe_fit *fits, const float *moved, const double *gram, float *own,
+                            frame_path *paths, const int *moves, const double far[3])
 {
     const char *env = getenv("PETBLUR_ESTIMATE_BACK");
     if (env && strcmp(env, "0") == 0)
-        return;
-    for (size_t k = 1; k + 1 < e->count; k++) {
+        return PB_OK;
+    pb_status st = PB_OK;
+    for (size_t k = 1; k + 1 < e->count && st == PB_OK; k++) {
         const frame_path *on = &paths[k * PATHS + PATH_ON], *from = &paths[k * PATHS + PATH_FROM];
         frame_path *back = &paths[k * PATHS + PATH_BACK];
-        if (moves[k - 1] || moves[k + 1] || fmax(on->gain, from->gain) <= DWELL_GAIN)
+        if (moves[k - 1] || moves[k + 1] || fmax(on->gain, from->gain) <= DWELL_GAIN ||
+            motion_went_on(e, fits, k, +1) || motion_went_on(e, fits, k, -1))
             continue;
-        if (motion_went_on(e, fits, k, +1) || motion_went_on(e, fits, k, -1))
+        pb_pose p[BACK_POINTS];
+        back->start = fits[k - 1].pose;
+        back->end = on->gain >= from->gain ? on->end : from->start;
+        back_poses(&back->start, &back->end, &fits[k + 1].pose, p);
+        double one = 0.0, sse = 0.0;
+        const float *frame = e->frames[0] + k * e->level[0].n;
+        st = frame_reference(e, moved, gram, k, own);
+        if (st == PB_OK)
+            st = one_pose_weighted(e, &fits[k].pose, frame, &one);
+        if (st == PB_OK)
+            st = pbe_dwell_at(e->ctx, &e->level[0], frame, e->c, p, BACK_POINTS, back->dwell, &sse);
+        if (st != PB_OK || !(one > 0))
             continue;
-        if (on->gain >= from->gain) {
-            *back = *on;
-        }
-        else { /* FROM runs from its far end to the frame after's pose; the
-                * frame still starts at the frame before's (back_keys) */
-            back->gain = from->gain;
-            back->start = fits[k - 1].pose;
-            back->end = from->start;
-            for (int i = 0; i < DWELL_POINTS; i++)
-                back->dwell[i] = from->dwell[DWELL_POINTS - 1 - i];
-            back->dwell[DWELL_POINTS] = from->dwell[DWELL_POINTS];
+        back->gain = 1.0 - sse / one;
+        for (int i = 0; i + 1 < BACK_LEG; i++) {
+            double *a = &back->dwell[i], *b = &back->dwell[BACK_POINTS - 1 - i];
+            if (path_span(e, far, &p[i], &p[BACK_POINTS - 1 - i]) < e->g.voxel_size[0])
+                *a = *b = 0.5 * (*a + *b);
         }
     }
+    return st;
 }
 
 static pb_status inside_frames(estimate *e, const pbe_fit *fits, size_t reference, const float *moved,
@@ -641,7 +673,8 @@ static pb_status inside_frames(estimate *e, const pbe_fit *fits, size_t referenc
         for (int kind = 0; kind < PATHS; kind++)
             moves[k] |= paths[k * PATHS + (size_t)kind].gain > DWELL_GAIN;
     }
-    back_paths(e, fits, paths, moves);
+    if (st == PB_OK)
+        st = back_paths(e, fits, moved, gram, own, paths, moves, far);
     for (size_t k = 0; k < e->count; k++) {
         frame_path *on = &paths[k * PATHS + PATH_ON], *from = &paths[k * PATHS + PATH_FROM];
         int between = paths[k * PATHS + PATH_BETWEEN].gain > dwell_gain;
@@ -888,40 +921,54 @@ static void key(keys *k, double t, const pb_pose *p)
 
 /* A path's dwell as shares of the frame: each point's share of the total,
  * 0 below twice STEP_FRACTION (a point held for less than its steps take). */
-static void dwell_shares(const double *u, double w[DWELL_POINTS])
+static void dwell_shares(const double *u, int n, double *w)
 {
     double total = 0.0;
-    for (int i = 0; i < DWELL_POINTS; i++)
+    for (int i = 0; i < n; i++)
         total += u[i];
-    for (int i = 0; i < DWELL_POINTS; i++)
+    for (int i = 0; i < n; i++)
         w[i] = total > 0 && u[i] / total >= 2.0 * STEP_FRACTION ? u[i] / total : 0.0;
     total = 0.0;
-    for (int i = 0; i < DWELL_POINTS; i++)
+    for (int i = 0; i < n; i++)
         total += w[i];
-    for (int i = 0; i < DWELL_POINTS; i++)
+    for (int i = 0; i < n; i++)
         w[i] = total > 0 ? w[i] / total : 0.0;
 }
 
 /* A moving frame's poses: it holds each of n poses for its share w of the
- * frame in turn, stepping between them in STEP_FRACTION of the frame. *from
- * and *to: when the first pose held ends and the last begins, the report's
- * motion inside the frame (both the frame's middle where one pose is held). */
-static void hold_keys(keys *out, double t0, double t1, const pb_pose *p, const double *w, int n, double *from,
-                      double *to)
+ * frame in turn, stepping between them in STEP_FRACTION of the frame; where
+ * before (after) is given, the frame starts (ends) with a step from (to)
+ * that pose, its neighbour's, which the frame does not dwell at. *from and
+ * *to: when the first pose held ends and the last begins (the frame's ends
+ * where it steps there), the report's motion inside the frame (both the
+ * frame's middle where one pose is held). */
+static void hold_keys(keys *out, double t0, double t1, const pb_pose *p, const double *w, int n,
+                      const pb_pose *before, const pb_pose *after, double *from, double *to)
 {
     double len = t1 - t0, step = STEP_FRACTION * len, at = t0;
     int held = 0;
+    if (before) {
+        key(out, t0, before);
+        *from = t0;
+        held++;
+    }
     for (int i = 0; i < n; i++) {
         if (w[i] <= 0)
             continue;
         double hold = w[i] * len;
-        double a = at == t0 ? t0 : at + 0.5 * step, b = at + hold >= t1 - 1e-9 * len ? t1 : at + hold - 0.5 * step;
+        double a = at == t0 && !before ? t0 : at + 0.5 * step;
+        double b = at + hold >= t1 - 1e-9 * len && !after ? t1 : at + hold - 0.5 * step;
         key(out, a, &p[i]);
         key(out, b, &p[i]);
         if (held++ == 0)
             *from = b;
         *to = a;
         at += hold;
+    }
+    if (after) {
+        key(out, t1, after);
+        *to = t1;
+        held++;
     }
     if (held < 2)
         *from = *to = mid_time(t0, t1);
@@ -933,32 +980,26 @@ static void path_keys(keys *out, double t0, double t1, const pb_pose *s, const p
 {
     double w[DWELL_POINTS];
     pb_pose p[DWELL_POINTS];
-    dwell_shares(u, w);
+    dwell_shares(u, DWELL_POINTS, w);
     for (int i = 0; i < DWELL_POINTS; i++)
         pb_pose_interpolate(s, e, (double)i / (DWELL_POINTS - 1), &p[i]);
-    hold_keys(out, t0, t1, p, w, DWELL_POINTS, from, to);
+    hold_keys(out, t0, t1, p, w, DWELL_POINTS, NULL, NULL, from, to);
 }
 
-/* PATH_BACK's poses: out from s (the frame before's pose) towards the far
- * end e and back to r (the frame after's), the dwell u from the neighbour's
- * end (0) to the far end: each point held half its dwell on the way out, at
- * its place between s and e, and half on the way back, between r and e, the
- * far end once. A time average holds no order, and a nod centred in the
- * frame is the guess that errs least over where in the frame it came. */
-static void back_keys(keys *out, double t0, double t1, const pb_pose *s, const pb_pose *e, const pb_pose *r,
+/* PATH_BACK's points (back_poses) in order, each for its dwell u. Where it
+ * dwells at neither neighbour's pose, the head went out at (came back at)
+ * the boundary, and the still neighbour holds its pose to it: the frame
+ * steps from (to) that pose (668173037's frame 14, out as it began: the
+ * frame before, ramping to the path's first pose held over its second half,
+ * stood 2.74 mm off where it had stood 0.21). */
+static void back_keys(keys *out, double t0, double t1, const pb_pose *s, const pb_pose *f, const pb_pose *r,
                       const double *u, double *from, double *to)
 {
-    enum { N = 2 * DWELL_POINTS - 1 };
-    double share[DWELL_POINTS], w[N];
-    pb_pose p[N];
-    dwell_shares(u, share);
-    for (int i = 0; i < DWELL_POINTS; i++) {
-        double f = (double)i / (DWELL_POINTS - 1), half = i == DWELL_POINTS - 1 ? 1.0 : 0.5;
-        pb_pose_interpolate(s, e, f, &p[i]);
-        pb_pose_interpolate(r, e, f, &p[N - 1 - i]);
-        w[i] = w[N - 1 - i] = half * share[i];
-    }
-    hold_keys(out, t0, t1, p, w, N, from, to);
+    double w[BACK_POINTS];
+    pb_pose p[BACK_POINTS];
+    dwell_shares(u, BACK_POINTS, w);
+    back_poses(s, f, r, p);
+    hold_keys(out, t0, t1, p, w, BACK_POINTS, w[0] > 0 ? NULL : s, w[BACK_POINTS - 1] > 0 ? NULL : r, from, to);
 }
 
 /* Whether a frame's side (g, h: side_evidence) is not nearer a ramp than a

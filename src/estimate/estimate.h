@@ -143,6 +143,10 @@ pb_status pbe_frame_reference(pb_pool *pool, const float *moved, size_t n, size_
 
 /* ---- intra_frame.c: motion inside a frame ---------------------------------------- */
 
+/* The most poses a dwell fits: its sums (a Gram matrix with the offset's
+ * column, the products with the frame) within PB_MOST_SUMS. */
+enum { PBE_DWELL_MOST = 13 };
+
 /* The frame's dwell along the path from pose s to pose e: weights u[0..m-1]
  * of the poses at s + (e - s) i / (m - 1), non-negative, with an offset,
  * fitted by least squares to the frame, each voxel weighed by
@@ -150,6 +154,11 @@ pb_status pbe_frame_reference(pb_pool *pool, const float *moved, size_t n, size_
  * residual. The level's reference must be set. */
 pb_status pbe_dwell(pb_context *ctx, pbe_level *level, const float *frame, const double c[3], const pb_pose *s,
                     const pb_pose *e, size_t m, double *u, double *sse);
+
+/* The same at m poses given (a path of several legs), m at most
+ * PBE_DWELL_MOST. */
+pb_status pbe_dwell_at(pb_context *ctx, pbe_level *level, const float *frame, const double c[3],
+                       const pb_pose *poses, size_t m, double *u, double *sse);
 
 /* Non-negative least squares on normal equations: minimises
  * |A u - f|^2 given G = A^T A (n x n, row-major), h = A^T f, with u[j] >= 0

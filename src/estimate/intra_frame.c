@@ -88,6 +88,19 @@ static void dwell_residual(void *arg, size_t begin, size_t end, double *s)
 pb_status pbe_dwell(pb_context *ctx, pbe_level *level, const float *frame, const double c[3], const pb_pose *s,
                     const pb_pose *e, size_t m, double *u, double *sse)
 {
+    pb_pose *poses = malloc(m * sizeof *poses);
+    if (!poses)
+        return PB_ERR_OUT_OF_MEMORY;
+    for (size_t i = 0; i < m; i++)
+        pb_pose_interpolate(s, e, (double)i / (double)(m - 1), &poses[i]);
+    pb_status st = pbe_dwell_at(ctx, level, frame, c, poses, m, u, sse);
+    free(poses);
+    return st;
+}
+
+pb_status pbe_dwell_at(pb_context *ctx, pbe_level *level, const float *frame, const double c[3],
+                       const pb_pose *poses, size_t m, double *u, double *sse)
+{
     const size_t n = level->n, k = m + 1; /* the views, and the offset */
     const size_t terms = m * (m + 1) / 2 + m + k + 1;
     if (terms > PB_MOST_SUMS)
@@ -97,12 +110,10 @@ pb_status pbe_dwell(pb_context *ctx, pbe_level *level, const float *frame, const
     float *views = pbe_level_views(level, m);
     pb_status st = gram && h && views ? PB_OK : PB_ERR_OUT_OF_MEMORY;
     for (size_t i = 0; i < m && st == PB_OK; i++) {
-        pb_pose p;
         double times[2];
-        pb_pose poses[2];
+        pb_pose held[2];
         pb_motion mo;
-        pb_pose_interpolate(s, e, (double)i / (double)(m - 1), &p);
-        pbe_static_motion(&p, c, times, poses, &mo);
+        pbe_static_motion(&poses[i], c, times, held, &mo);
         st = pbe_blur_reference_to(ctx, level, &mo, views + i * n);
     }
     if (st == PB_OK) {
