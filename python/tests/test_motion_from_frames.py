@@ -655,19 +655,23 @@ def test_a_nod_that_turns_back_inside_a_frame(rng, monkeypatch):
     frame, out and back, so that both neighbours hold one pose. No path
     between poses the frames hold follows it, and a path on through the
     frame's own pose would carry the nod into a neighbour; the frame's path
-    goes out and comes back (PATH_BACK), each point held half its dwell each
-    way. Its error over the frame must be well below one pose's, and no frame
+    goes out and comes back (PATH_BACK: a dwell along two legs, from the
+    frame before's pose out and on to the frame after's, a point and its
+    twin on the other leg, within a voxel of each other, held alike). Its error over the frame must be well below one pose's, and no frame
     is reported as holding motion the track does not follow. Without it
     (PETBLUR_ESTIMATE_BACK=0) the frame keeps one pose, the mean of poses it
     held, and the report must say so for that frame (`unfollowed`, the share
     of one pose's residual a path inside it explains) and no other.
-    Measured while writing this test, 19 fresh series: every nod got the
-    path, the frame's error 0.16-0.63 of one pose's (median 0.32; 0.60 and
-    0.63 where the path gained 5-7 %, a short nod), the series' mean error
-    at most 0.68 of it; without the path each nod's frame was the worst and
-    the only one reported (its path's gain 0.05-0.94). A first bar of 15 %
-    left a nod of 3.4 s (seed 1213781347, 6.8 %) at one pose, 1.43 mm off
-    where the path takes it to 0.85."""
+    Measured while writing this test, 19 fresh series with one leg laid out
+    and back: every nod got the path, the frame's error 0.16-0.63 of one
+    pose's (median 0.32; 0.60 and 0.63 where the path gained 5-7 %, a short
+    nod), the series' mean error at most 0.68 of it; without the path each
+    nod's frame was the worst and the only one reported (its path's gain
+    0.05-0.94). A first bar of 15 % left a nod of 3.4 s (seed 1213781347,
+    6.8 %) at one pose, 1.43 mm off where the path takes it to 0.85. With
+    the two legs, 14 fresh series: 0.22-0.58 (twins within a tenth of a
+    voxel held alike instead of within one: up to 1.05, the dwell at the
+    neighbours' poses put at the frame's start or end by the noise)."""
     nf, seconds = 7, 10.0
     k = int(rng.integers(2, nf - 1))
     nod = _rigid(rng, float(rng.uniform(6.0, 10.0)), 0.0)

@@ -10,8 +10,9 @@
  *     from frame to frame) and the noise of its window's counts;
  *  3. inside frames (intra_frame.c): a frame between two neighbours is fitted as
  *     a dwell along a path that starts or ends at a still neighbour's pose
- *     (between the two, or from one on through its own pose); where that
- *     explains it clearly better than one pose, the frame gets the path;
+ *     (between the two, from one on through its own pose, or out from one
+ *     and back to the other); where that explains it clearly better than one
+ *     pose, the frame gets the path;
  *  4. together (contrast_poses.c): one rigid correction for every pose, scaled
  *     by each frame's contrast against the reference frame's, which takes
  *     out the bias that uptake changing leaves the frames of passes 2 and 3.
@@ -292,10 +293,10 @@ static pb_status register_own(estimate *e, pbe_fit *fits, float *moved, double *
  * through the frame's own pose as far again (the motion went on into the
  * other neighbour, which then moves too: a nod held across a frame's end;
  * or, in the series' first or last frame, which has one neighbour, the
- * motion that the frame holds after or before it). A frame whose neighbours
- * hold one pose, its own away from it, went out and came back inside it (a
- * nod): PATH_BACK, the path on from a neighbour through its own pose, its
- * dwell laid out and back (back_path). */
+ * motion that the frame holds after or before it). A frame whose own pose
+ * lies off the line between its still neighbours' went out and came back
+ * inside it (a nod, or two jerks): PATH_BACK, from the frame before's pose
+ * out and on to the frame after's (back_paths). */
 enum { PATH_BETWEEN, PATH_ON, PATH_FROM, PATH_BACK, PATHS };
 
 typedef struct frame_path {
