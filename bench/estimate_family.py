@@ -334,8 +334,8 @@ def trust_summary(rows: list) -> list:
     lines = ["", "Frames by what the report says of them (petblur's error a frame, mm):", "",
              "| frames | count | median | 90th percentile | worst |", "|---|---|---|---|---|"]
     for name, v in kinds.items():
-        lines.append("| %s | %d | %s |" % (name, len(v), " | ".join("%.3f" % x for x in np.percentile(v, [50, 90, 100]))
-                                          if v else "- | - | -"))
+        spread = " | ".join("%.3f" % x for x in np.percentile(v, [50, 90, 100])) if v else "- | - | -"
+        lines.append("| %s | %d | %s |" % (name, len(v), spread))
     lines += ["", "Frames reported not followed: the draw's worst frame in %d of %d draws; %d of the %d frames over "
               "1 mm." % (worst_flagged, len(rows), over1_flagged, over1)]
     return lines

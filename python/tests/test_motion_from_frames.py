@@ -438,7 +438,8 @@ def test_recovers_known_motion(rng, device):
     bad["frame_report"] = rep[:1] + [dict(rep[1], explained=float("nan"))]
     with pytest.raises(petblur.ArgumentError, match=r"frame_report\[1\]"):
         petblur.Motion.__new__(petblur.Motion).__setstate__(bad)
-    # a motion pickled before the report said where the head jumped at a boundary reads it as nowhere
+    # a motion pickled before the report said where the head jumped at a boundary, or which frames hold motion the
+    # track does not follow, reads them as nowhere and none
     older = m.__getstate__()
     older["frame_report"] = [{k: v for k, v in f.items() if k not in ("jumped_at_start", "unfollowed")} for f in rep]
     back = petblur.Motion.__new__(petblur.Motion)
@@ -657,8 +658,9 @@ def test_a_nod_that_turns_back_inside_a_frame(rng, monkeypatch):
     frame's own pose would carry the nod into a neighbour; the frame's path
     goes out and comes back (PATH_BACK: a dwell along two legs, from the
     frame before's pose out and on to the frame after's, a point and its
-    twin on the other leg, within a voxel of each other, held alike). Its error over the frame must be well below one pose's, and no frame
-    is reported as holding motion the track does not follow. Without it
+    twin on the other leg, within a voxel of each other, held alike). Its
+    error over the frame must be well below one pose's, and no frame is
+    reported as holding motion the track does not follow. Without it
     (PETBLUR_ESTIMATE_BACK=0) the frame keeps one pose, the mean of poses it
     held, and the report must say so for that frame (`unfollowed`, the share
     of one pose's residual a path inside it explains) and no other.
