@@ -37,6 +37,8 @@
 enum { DWELL_POINTS = 9 };
 /* PATH_BACK's points: each leg's, the far end shared. */
 enum { BACK_LEG = 7, BACK_POINTS = 2 * BACK_LEG - 1 };
+_Static_assert((int)DWELL_POINTS <= (int)PBE_DWELL_MOST && (int)BACK_POINTS <= (int)PBE_DWELL_MOST,
+               "a dwell of more poses than it has sums for");
 #define DWELL_GAIN 0.05
 /* A path into a neighbour that shows no motion of its own, where the path
  * between fails, must gain three times that: on issue 47's draws such paths
@@ -296,7 +298,7 @@ static pb_status register_own(estimate *e, pbe_fit *fits, float *moved, double *
  * motion that the frame holds after or before it). A frame whose own pose
  * lies off the line between its still neighbours' went out and came back
  * inside it (a nod, or two jerks): PATH_BACK, from the frame before's pose
- * out and on to the frame after's (back_paths). */
+ * out and on to the frame after's (back_path). */
 enum { PATH_BETWEEN, PATH_ON, PATH_FROM, PATH_BACK, PATHS };
 
 typedef struct frame_path {
@@ -557,41 +559,35 @@ static void back_poses(const pb_pose *s, const pb_pose *f, const pb_pose *r, pb_
  * least over where it came (with twins within a tenth of a voxel, the nods
  * of that test stood at 0.7-1.05 of one pose's error where an even split
  * put them at 0.16-0.63).
- * PETBLUR_ESTIMATE_BACK=0 turns it off, for comparisons. */
-static pb_status back_paths(estimate *e, const pbe_fit *fits, const float *moved, const double *gram, float *own,
-                            frame_path *paths, const int *moves, const double far[3])
+ * PETBLUR_ESTIMATE_BACK=0 turns it off, for comparisons. Fitted for frame k
+ * against its reference as its other paths were (one: one pose's weighted
+ * residual there); whether its neighbours hold still is known only once
+ * every frame's paths are (inside_frames). */
+static pb_status back_path(estimate *e, const pbe_fit *fits, size_t k, double one, const double far[3],
+                           frame_path *paths)
 {
     const char *env = getenv("PETBLUR_ESTIMATE_BACK");
-    if (env && strcmp(env, "0") == 0)
+    const frame_path *on = &paths[k * PATHS + PATH_ON], *from = &paths[k * PATHS + PATH_FROM];
+    frame_path *back = &paths[k * PATHS + PATH_BACK];
+    if ((env && strcmp(env, "0") == 0) || !path_defined(k, e->count, PATH_BACK) || !(one > 0) ||
+        fmax(on->gain, from->gain) <= DWELL_GAIN || motion_went_on(e, fits, k, +1) || motion_went_on(e, fits, k, -1))
         return PB_OK;
-    pb_status st = PB_OK;
-    for (size_t k = 1; k + 1 < e->count && st == PB_OK; k++) {
-        const frame_path *on = &paths[k * PATHS + PATH_ON], *from = &paths[k * PATHS + PATH_FROM];
-        frame_path *back = &paths[k * PATHS + PATH_BACK];
-        if (moves[k - 1] || moves[k + 1] || fmax(on->gain, from->gain) <= DWELL_GAIN ||
-            motion_went_on(e, fits, k, +1) || motion_went_on(e, fits, k, -1))
-            continue;
-        pb_pose p[BACK_POINTS];
-        back->start = fits[k - 1].pose;
-        back->end = on->gain >= from->gain ? on->end : from->start;
-        back_poses(&back->start, &back->end, &fits[k + 1].pose, p);
-        double one = 0.0, sse = 0.0;
-        const float *frame = e->frames[0] + k * e->level[0].n;
-        st = frame_reference(e, moved, gram, k, own);
-        if (st == PB_OK)
-            st = one_pose_weighted(e, &fits[k].pose, frame, &one);
-        if (st == PB_OK)
-            st = pbe_dwell_at(e->ctx, &e->level[0], frame, e->c, p, BACK_POINTS, back->dwell, &sse);
-        if (st != PB_OK || !(one > 0))
-            continue;
-        back->gain = 1.0 - sse / one;
-        for (int i = 0; i + 1 < BACK_LEG; i++) {
-            double *a = &back->dwell[i], *b = &back->dwell[BACK_POINTS - 1 - i];
-            if (path_span(e, far, &p[i], &p[BACK_POINTS - 1 - i]) < e->g.voxel_size[0])
-                *a = *b = 0.5 * (*a + *b);
-        }
+    pb_pose p[BACK_POINTS];
+    back->start = fits[k - 1].pose;
+    back->end = on->gain >= from->gain ? on->end : from->start;
+    back_poses(&back->start, &back->end, &fits[k + 1].pose, p);
+    double sse = 0.0;
+    pb_status st = pbe_dwell_at(e->ctx, &e->level[0], e->frames[0] + k * e->level[0].n, e->c, p, BACK_POINTS,
+                                back->dwell, &sse);
+    if (st != PB_OK)
+        return st;
+    back->gain = 1.0 - sse / one;
+    for (int i = 0; i + 1 < BACK_LEG; i++) {
+        double *a = &back->dwell[i], *b = &back->dwell[BACK_POINTS - 1 - i];
+        if (path_span(e, far, &p[i], &p[BACK_POINTS - 1 - i]) < e->g.voxel_size[0])
+            *a = *b = 0.5 * (*a + *b);
     }
-    return st;
+    return PB_OK;
 }
 
 static pb_status inside_frames(estimate *e, const pbe_fit *fits, size_t reference, const float *moved,
@@ -615,7 +611,8 @@ static pb_status inside_frames(estimate *e, const pbe_fit *fits, size_t referenc
     for (size_t k = 0; k < e->count && st == PB_OK; k++) {
         int referenced = 0;
         double one = 0.0; /* one pose's weighted residual */
-        for (int kind = 0; kind < PATHS && st == PB_OK && k != reference && !e->flat[k]; kind++) {
+        /* the paths along one line; PATH_BACK after them (back_path) */
+        for (int kind = 0; kind < PATH_BACK && st == PB_OK && k != reference && !e->flat[k]; kind++) {
             frame_path *p = &paths[k * PATHS + (size_t)kind];
             if (!path_defined(k, e->count, kind))
                 continue;
@@ -636,6 +633,8 @@ static pb_status inside_frames(estimate *e, const pbe_fit *fits, size_t referenc
                 p->gain = 1.0 - sse / one;
             tried[k] = 1;
         }
+        if (st == PB_OK && referenced)
+            st = back_path(e, fits, k, one, far, paths);
         /* ramps or steps at its boundaries, against the same reference */
         if (st == PB_OK && !e->flat[k] && (side_defined(e, fits, k, 0, far) || side_defined(e, fits, k, 1, far))) {
             if (!referenced)
@@ -674,8 +673,10 @@ static pb_status inside_frames(estimate *e, const pbe_fit *fits, size_t referenc
         for (int kind = 0; kind < PATHS; kind++)
             moves[k] |= paths[k * PATHS + (size_t)kind].gain > DWELL_GAIN;
     }
-    if (st == PB_OK)
-        st = back_paths(e, fits, moved, gram, own, paths, moves, far);
+    /* PATH_BACK ends at both neighbours' poses, which must hold still */
+    for (size_t k = 1; k + 1 < e->count; k++)
+        if (moves[k - 1] || moves[k + 1])
+            paths[k * PATHS + PATH_BACK].gain = 0.0;
     for (size_t k = 0; k < e->count; k++) {
         frame_path *on = &paths[k * PATHS + PATH_ON], *from = &paths[k * PATHS + PATH_FROM];
         int between = paths[k * PATHS + PATH_BETWEEN].gain > dwell_gain;
@@ -1148,8 +1149,10 @@ static pb_status estimate_run(estimate *e, const double *bounds, const pb_estima
     double *unfollowed = calloc(count, sizeof(double));
     float *moved = malloc(sizeof(float) * e->level[0].n * count), *own = malloc(sizeof(float) * e->level[0].n);
     double *gram = malloc(sizeof(double) * count * (PBE_REFERENCE_OTHERS + 1));
-    keys k = {malloc(sizeof(double) * (count * 4 * DWELL_POINTS + 4)),
-              malloc(sizeof(pb_pose) * (count * 4 * DWELL_POINTS + 4)), 0};
+    /* a frame's keys: at most two a point of PATH_BACK, its steps from and
+     * to its neighbours, and two at its end's jump; the series' ends */
+    const size_t most_keys = count * (2 * BACK_POINTS + 4) + 2;
+    keys k = {malloc(sizeof(double) * most_keys), malloc(sizeof(pb_pose) * most_keys), 0};
     size_t moving_count = 0;
     pb_status st = fits && moving && paths && sides && steps && jumped && unfollowed && moved && own && gram && k.t &&
                            k.p
