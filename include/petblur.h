@@ -805,7 +805,8 @@ typedef struct pb_estimate_frame {
     double unfollowed;     /* a frame the track holds still (not moving) that shows motion inside it: the share of its
                             * one pose's residual that a path inside it explains, 0 to 1, which the track does not
                             * follow (the neighbours' poses do not show where the motion went); its pose is a mean
-                            * of poses the frame held, to be trusted less. 0: no motion shows (or frame_poses_only) */
+                            * of poses the frame held, to be trusted less. 0: no motion shows (or frame_poses_only;
+                            * the series' first and last frames: under the 15 % their one path must gain) */
 } pb_estimate_frame;
 
 /* How pb_motion_estimate works. Zero-initialised: the defaults. */
