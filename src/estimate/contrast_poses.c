@@ -10,6 +10,12 @@
  * contrast lies from the reference frame's, chosen to leave the least energy
  * beyond the moved-back frames' leading principal images.
  *
+ * Each frame counts by its noise: its energy beyond the leading images is
+ * divided by that energy at the registered poses. Frames of 3 s and of 60 s
+ * differ tenfold in noise, and unweighted the sum is the noisiest frames'
+ * (docs/motion.md: a draw from injection whose short frames held 30-47 of
+ * the energy beyond, its long ones 4-5, took a correction 1.3 mm wrong).
+ *
  * The frames are moved by a resampler that keeps their energy (sinc_shears.c):
  * under trilinear resampling the noise's energy falls with the pose and the
  * minimum follows it (docs/motion.md gives the runs). Frames that follow a
@@ -61,6 +67,7 @@ typedef struct collective {
     size_t *use;            /* the frames in the sum */
     const pbe_collective_pose *poses;
     double *weight, *gram, *a, *w, *v;
+    double *scale;          /* per frame of the sum: 1 / its noise's RMS; NULL: 1 */
     void (*tick)(void *);   /* each evaluation of the residual, for progress */
     void *tick_user;
 } collective;
@@ -136,6 +143,10 @@ static pb_status residual(collective *cv, const double p[NG], double *out)
         if (st[i] != PB_OK)
             return st[i];
     pbe_gram(cv->pool, cv->moved, cv->padded, cv->used, cv->gram);
+    if (cv->scale)
+        for (size_t i = 0; i < cv->used; i++)
+            for (size_t j = 0; j < cv->used; j++)
+                cv->gram[i * cv->used + j] *= cv->scale[i] * cv->scale[j];
     *out = energy_beyond(cv);
     if (cv->tick)
         cv->tick(cv->tick_user);
@@ -388,6 +399,34 @@ static pb_status minimise(collective *cv, double p[NG], double e0)
     return st;
 }
 
+/* Each frame's scale, 1 / sqrt of its energy beyond the leading `rank`
+ * images of the Gram matrix in cv->gram (what the references cannot hold:
+ * at the registered poses its noise, give or take the bias sought, which is
+ * a fraction of it). Weighted once, not iterated: a frame weighted up
+ * becomes a leading image of its own, its energy beyond them falls to
+ * nothing and its weight without bound (an early frame of blood alone went
+ * from 1.4 to 1e-4 of the others' in a second round). Frames whose energy
+ * beyond is none keep a scale of 1. */
+static void noise_scales(collective *cv)
+{
+    const size_t m = cv->used;
+    memcpy(cv->a, cv->gram, sizeof(double) * m * m);
+    pbe_eigen(cv->a, m, cv->w, cv->v);
+    for (size_t i = 0; i < m; i++)
+        cv->scale[i] = cv->gram[i * m + i];
+    for (size_t r = 0; r < cv->rank && r < m; r++) {
+        size_t best = 0;
+        for (size_t j = 1; j < m; j++)
+            if (cv->w[j] > cv->w[best])
+                best = j;
+        for (size_t i = 0; i < m; i++)
+            cv->scale[i] -= cv->w[best] * cv->v[i * m + best] * cv->v[i * m + best];
+        cv->w[best] = -(double)INFINITY;
+    }
+    for (size_t i = 0; i < m; i++)
+        cv->scale[i] = cv->scale[i] > 0 ? 1.0 / sqrt(cv->scale[i]) : 1.0;
+}
+
 /* m of the still frames (of `still`), spread evenly from the first to the
  * last, in order. */
 static void pick_still(const pbe_collective_pose *poses, size_t count, size_t still, size_t *use, size_t m)
@@ -417,11 +456,13 @@ pb_status pbe_collective(pb_pool *pool, const pb_geometry *fine, const float *ra
     cv.poses = poses;
     memcpy(cv.c, c, sizeof cv.c);
     /* PETBLUR_ESTIMATE_CONTRAST=0 leaves the poses as registered, =coarse
-     * halves the grid to LONGEST_SIDE whatever its voxels, for comparisons */
+     * halves the grid to LONGEST_SIDE whatever its voxels, =unweighted counts
+     * every frame alike, for comparisons */
     const char *env = getenv("PETBLUR_ESTIMATE_CONTRAST");
     if (env && strcmp(env, "0") == 0)
         return PB_OK;
     const int any_voxel = env && strcmp(env, "coarse") == 0;
+    const int unweighted = env && strcmp(env, "unweighted") == 0;
     size_t levels = 0;
     int slab = 0;
     while (pbe_longest_side(&cv.g) > LONGEST_SIDE) {
@@ -465,9 +506,11 @@ pb_status pbe_collective(pb_pool *pool, const pb_geometry *fine, const float *ra
     cv.a = malloc(sizeof(double) * m * m);
     cv.w = malloc(sizeof(double) * m);
     cv.v = malloc(sizeof(double) * m * m);
+    cv.scale = unweighted ? NULL : malloc(sizeof(double) * m);
     size_t fine_n = fine->dims[0] * fine->dims[1] * fine->dims[2];
     float *x = malloc(sizeof(float) * fine_n), *y = malloc(sizeof(float) * fine_n);
-    pb_status st = cv.frames && cv.moved && cv.use && cv.weight && cv.gram && cv.a && cv.w && cv.v && x && y
+    pb_status st = cv.frames && cv.moved && cv.use && cv.weight && cv.gram && cv.a && cv.w && cv.v &&
+                           (cv.scale || unweighted) && x && y
                        ? PB_OK
                        : PB_ERR_OUT_OF_MEMORY;
     /* the frames as block means, unsmoothed: smoothing is the same for every
@@ -490,10 +533,18 @@ pb_status pbe_collective(pb_pool *pool, const pb_geometry *fine, const float *ra
     for (int i = 0; i < 3; i++)
         cv.radius = fmax(cv.radius, 0.5 * (double)cv.g.dims[i] * cv.g.voxel_size[i]);
     /* at p = 0 every weight moves nothing: this residual, which the
-     * contrast weights are read from, is also minimise's start */
+     * contrast weights are read from, is also minimise's start; the frames'
+     * noise is read from it unweighted */
     double p[NG] = {0}, e0;
+    double *scale = cv.scale;
+    cv.scale = NULL;
     if (st == PB_OK)
         st = residual(&cv, p, &e0);
+    if (st == PB_OK && scale) {
+        cv.scale = scale;
+        noise_scales(&cv);
+        st = residual(&cv, p, &e0);
+    }
     /* the bias is a fraction of a voxel: a correction beyond one voxel of
      * the frames' grid (a turn measured at the radius) is not this bias */
     double voxel = fmax(fine->voxel_size[0], fmax(fine->voxel_size[1], fine->voxel_size[2]));
@@ -519,6 +570,7 @@ pb_status pbe_collective(pb_pool *pool, const pb_geometry *fine, const float *ra
     free(cv.a);
     free(cv.w);
     free(cv.v);
+    free(scale);
     free(x);
     free(y);
     return st;
