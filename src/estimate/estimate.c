@@ -559,6 +559,15 @@ static void back_poses(const pb_pose *s, const pb_pose *f, const pb_pose *r, pb_
  * least over where it came (with twins within a tenth of a voxel, the nods
  * of that test stood at 0.7-1.05 of one pose's error where an even split
  * put them at 0.16-0.63).
+ * Where the neighbours' poses lie a voxel apart or more (at the far corner),
+ * the head did not come back to where it was, and the path must gain
+ * UNSUPPORTED_GAIN, as a path into a neighbour that shows no motion does: a
+ * frame held still at a pose of its own off the line between its moving
+ * neighbours' (a random walk turning) gained 6.5 % on a dwell straddling its
+ * pose, 1.9 mm wrong (test_jerk_in_the_series_first_or_last_frame's seed
+ * 654568544, neighbours 5.3 mm apart on 4 mm voxels), where the frames that
+ * came part of the way back gained 19.5 % and 77 % (issue 47's 668173037 and
+ * 2014871130, neighbours 10.2 and 15.9 mm apart).
  * PETBLUR_ESTIMATE_BACK=0 turns it off, for comparisons. Fitted for frame k
  * against its reference as its other paths were (one: one pose's weighted
  * residual there); whether its neighbours hold still is known only once
@@ -582,6 +591,9 @@ static pb_status back_path(estimate *e, const pbe_fit *fits, size_t k, double on
     if (st != PB_OK)
         return st;
     back->gain = 1.0 - sse / one;
+    if (path_span(e, far, &fits[k - 1].pose, &fits[k + 1].pose) >= e->g.voxel_size[0] &&
+        back->gain <= UNSUPPORTED_GAIN)
+        back->gain = 0.0;
     for (int i = 0; i + 1 < BACK_LEG; i++) {
         double *a = &back->dwell[i], *b = &back->dwell[BACK_POINTS - 1 - i];
         if (path_span(e, far, &p[i], &p[BACK_POINTS - 1 - i]) < e->g.voxel_size[0])
