@@ -45,6 +45,9 @@ _Static_assert((int)DWELL_POINTS <= (int)PBE_DWELL_MOST && (int)BACK_POINTS <= (
  * that gained 0.07-0.08 laid a jump inside slow nods (0.73 -> 0.82 mm and
  * 2.30 -> 2.41 mm), those that gained 0.20-0.83 were jerks (docs/motion.md). */
 #define UNSUPPORTED_GAIN (3 * DWELL_GAIN)
+/* How near each other a frame's neighbours must lie, against its own pose's
+ * distance from them, for PATH_BACK to call its motion a return (back_path). */
+#define BACK_RETURN 0.5
 /* The bar a series sets itself (series_gain). */
 #define SERIES_GAIN_TIMES 8.0
 #define SERIES_GAIN_FLOOR 0.01
@@ -559,15 +562,19 @@ static void back_poses(const pb_pose *s, const pb_pose *f, const pb_pose *r, pb_
  * least over where it came (with twins within a tenth of a voxel, the nods
  * of that test stood at 0.7-1.05 of one pose's error where an even split
  * put them at 0.16-0.63).
- * Where the neighbours' poses lie a voxel apart or more (at the far corner),
- * the head did not come back to where it was, and the path must gain
- * UNSUPPORTED_GAIN, as a path into a neighbour that shows no motion does: a
- * frame held still at a pose of its own off the line between its moving
- * neighbours' (a random walk turning) gained 6.5 % on a dwell straddling its
- * pose, 1.9 mm wrong (test_jerk_in_the_series_first_or_last_frame's seed
- * 654568544, neighbours 5.3 mm apart on 4 mm voxels), where the frames that
- * came part of the way back gained 19.5 % and 77 % (issue 47's 668173037 and
- * 2014871130, neighbours 10.2 and 15.9 mm apart).
+ * A frame held still at a pose of its own off the line between its
+ * neighbours' (each frame at a pose of its own) gains on a dwell straddling
+ * its pose: test_jerk_in_the_series_first_or_last_frame's seed 654568544,
+ * neighbours 5.3 mm apart on 4 mm voxels, 6.5 %, and seed 2013452446,
+ * neighbours 2.7 mm apart and the frame 2.9 mm from the nearer, 17.6 %, each
+ * 1.9 mm off where one pose stood 0.06-0.22. So where the neighbours lie
+ * within a voxel of each other (at the far corner) the head came back only
+ * if they lie within BACK_RETURN of the frame's distance from the nearer
+ * (the nods of test_a_nod_that_turns_back_inside_a_frame: at most 0.31, seed
+ * 1306324391); where they lie further apart it came part of the way back,
+ * and the path must gain UNSUPPORTED_GAIN, as a path into a neighbour that
+ * shows no motion does (issue 47's 668173037 and 2014871130, neighbours 10.2
+ * and 15.9 mm apart, gained 19.5 % and 77 %).
  * PETBLUR_ESTIMATE_BACK=0 turns it off, for comparisons. Fitted for frame k
  * against its reference as its other paths were (one: one pose's weighted
  * residual there); whether its neighbours hold still is known only once
@@ -591,8 +598,10 @@ static pb_status back_path(estimate *e, const pbe_fit *fits, size_t k, double on
     if (st != PB_OK)
         return st;
     back->gain = 1.0 - sse / one;
-    if (path_span(e, far, &fits[k - 1].pose, &fits[k + 1].pose) >= e->g.voxel_size[0] &&
-        back->gain <= UNSUPPORTED_GAIN)
+    const double apart = path_span(e, far, &fits[k - 1].pose, &fits[k + 1].pose),
+                 out = fmin(path_span(e, far, &fits[k].pose, &fits[k - 1].pose),
+                            path_span(e, far, &fits[k].pose, &fits[k + 1].pose));
+    if (apart < e->g.voxel_size[0] ? apart > BACK_RETURN * out : back->gain <= UNSUPPORTED_GAIN)
         back->gain = 0.0;
     for (int i = 0; i + 1 < BACK_LEG; i++) {
         double *a = &back->dwell[i], *b = &back->dwell[BACK_POINTS - 1 - i];
