@@ -7,7 +7,10 @@
  * principal images of the other frames: its own contrast, the others'
  * counts, none of its own noise. The others are its nearest in time, at most
  * PBE_REFERENCE_OTHERS: uptake changes slowly against a frame, and a window
- * keeps each frame's work fixed however long the series. */
+ * keeps each frame's work fixed however long the series. Each other frame
+ * counts by its noise (noise_scales), as in pass 4 (contrast_poses.c): a
+ * frame of 3 s holds ten times the noise of one of 60 s, and unweighted the
+ * principal images after the first are the short frames' noise. */
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -144,6 +147,39 @@ static void weigh_chunk(void *arg, size_t c)
     }
 }
 
+/* Each of the m frames' scale, 1 / sqrt of its energy beyond the leading
+ * r images of theirs (noise, mostly: a frame's own at its registered pose);
+ * 1 where it has none, and for all with PETBLUR_ESTIMATE_REFERENCES=unweighted
+ * (for comparisons). a, v and w are scratch. */
+static void noise_scales(const double *band, const size_t *other, size_t m, size_t r, double *a, double *v, double *w,
+                         double *scale)
+{
+    const char *env = getenv("PETBLUR_ESTIMATE_REFERENCES");
+    for (size_t i = 0; i < m; i++)
+        scale[i] = 1.0;
+    if (env && strcmp(env, "unweighted") == 0)
+        return;
+    for (size_t i = 0; i < m; i++)
+        for (size_t j = 0; j < m; j++)
+            a[i * m + j] = band_at(band, other[i], other[j]);
+    pbe_eigen(a, m, w, v);
+    double *beyond = a;
+    for (size_t i = 0; i < m; i++)
+        beyond[i] = band_at(band, other[i], other[i]);
+    for (size_t c = 0; c < r && c < m; c++) {
+        size_t best = 0;
+        for (size_t j = 1; j < m; j++)
+            if (w[j] > w[best])
+                best = j;
+        for (size_t i = 0; i < m; i++)
+            beyond[i] -= w[best] * v[i * m + best] * v[i * m + best];
+        w[best] = -(double)INFINITY;
+    }
+    for (size_t i = 0; i < m; i++)
+        if (beyond[i] > 0)
+            scale[i] = 1.0 / sqrt(beyond[i]);
+}
+
 pb_status pbe_frame_reference(pb_pool *pool, const float *moved, size_t n, size_t frames, const double *band,
                               size_t k, float *out)
 {
@@ -160,15 +196,22 @@ pb_status pbe_frame_reference(pb_pool *pool, const float *moved, size_t n, size_
     for (size_t i = first, j = 0; i < end; i++)
         if (i != k)
             other[j++] = i;
+    double *scale = malloc(sizeof(double) * m);
+    if (!scale) {
+        free(a), free(v), free(w), free(coef), free(other);
+        return PB_ERR_OUT_OF_MEMORY;
+    }
+    noise_scales(band, other, m, r, a, v, w, scale);
     for (size_t i = 0; i < m; i++)
         for (size_t j = 0; j < m; j++)
-            a[i * m + j] = band_at(band, other[i], other[j]);
+            a[i * m + j] = scale[i] * scale[j] * band_at(band, other[i], other[j]);
     pbe_eigen(a, m, w, v);
     /* The principal images are U_j = G v_j / sqrt(w_j); frame k's projection
      * onto them is sum_j U_j (U_j . g_k) = G (sum_j v_j (v_j . G^T g_k) / w_j),
      * a weight per other frame. */
     int *used = calloc(m, sizeof(int));
     if (!used) {
+        free(scale);
         free(a), free(v), free(w), free(coef), free(other);
         return PB_ERR_OUT_OF_MEMORY;
     }
@@ -185,13 +228,14 @@ pb_status pbe_frame_reference(pb_pool *pool, const float *moved, size_t n, size_
             continue;
         double dot = 0.0; /* v_j . G^T g_k */
         for (size_t i = 0; i < m; i++)
-            dot += v[i * m + best] * band_at(band, other[i], k);
+            dot += v[i * m + best] * scale[i] * band_at(band, other[i], k);
         for (size_t i = 0; i < m; i++)
-            coef[i] += v[i * m + best] * dot / w[best];
+            coef[i] += scale[i] * v[i * m + best] * dot / w[best];
     }
     weigh_job job = {moved, n, m, other, coef, out};
     pb_pool_for(pool, pb_chunks(n), weigh_chunk, &job);
     free(used);
+    free(scale);
     free(a), free(v), free(w), free(coef), free(other);
     return PB_OK;
 }
