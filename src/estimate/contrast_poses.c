@@ -399,32 +399,15 @@ static pb_status minimise(collective *cv, double p[NG], double e0)
     return st;
 }
 
-/* Each frame's scale, 1 / sqrt of its energy beyond the leading `rank`
- * images of the Gram matrix in cv->gram (what the references cannot hold:
- * at the registered poses its noise, give or take the bias sought, which is
- * a fraction of it). Weighted once, not iterated: a frame weighted up
- * becomes a leading image of its own, its energy beyond them falls to
- * nothing and its weight without bound (an early frame of blood alone went
- * from 1.4 to 1e-4 of the others' in a second round). Frames whose energy
- * beyond is none keep a scale of 1. */
+/* Each frame's scale, by its energy beyond the leading `rank` images of the
+ * Gram matrix in cv->gram (pbe_noise_scales: at the registered poses its
+ * noise, give or take the bias sought, which is a fraction of it). Weighted
+ * once, not iterated: a frame weighted up becomes a leading image of its
+ * own, its energy beyond them falls and its weight grows (an early frame of
+ * blood alone went from 1.4 to 1e-4 of the others' in a second round). */
 static void noise_scales(collective *cv)
 {
-    const size_t m = cv->used;
-    memcpy(cv->a, cv->gram, sizeof(double) * m * m);
-    pbe_eigen(cv->a, m, cv->w, cv->v);
-    for (size_t i = 0; i < m; i++)
-        cv->scale[i] = cv->gram[i * m + i];
-    for (size_t r = 0; r < cv->rank && r < m; r++) {
-        size_t best = 0;
-        for (size_t j = 1; j < m; j++)
-            if (cv->w[j] > cv->w[best])
-                best = j;
-        for (size_t i = 0; i < m; i++)
-            cv->scale[i] -= cv->w[best] * cv->v[i * m + best] * cv->v[i * m + best];
-        cv->w[best] = -(double)INFINITY;
-    }
-    for (size_t i = 0; i < m; i++)
-        cv->scale[i] = cv->scale[i] > 0 ? 1.0 / sqrt(cv->scale[i]) : 1.0;
+    pbe_noise_scales(cv->gram, cv->used, cv->rank, cv->a, cv->w, cv->v, cv->scale);
 }
 
 /* m of the still frames (of `still`), spread evenly from the first to the

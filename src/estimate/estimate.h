@@ -126,6 +126,11 @@ void pbe_eigen(double *a, size_t n, double *w, double *v);
 enum { PBE_REFERENCE_OTHERS = 32 };
 /* How many principal images a window of frames gives each frame's reference. */
 size_t pbe_reference_rank(size_t frames);
+/* Each of m frames' weight by its noise, 1 / sqrt of its energy beyond the
+ * leading `rank` images of their Gram matrix gram (m x m, kept), that energy
+ * held to at least NOISE_FLOOR_SHARE of the frames' median; a, w and v are
+ * scratch of m x m, m and m x m. */
+void pbe_noise_scales(const double *gram, size_t m, size_t rank, double *a, double *w, double *v, double *scale);
 /* Frame k's window, [*first, *end): it and its nearest frames, at most
  * PBE_REFERENCE_OTHERS + 1 in all. */
 void pbe_reference_window(size_t frames, size_t k, size_t *first, size_t *end);

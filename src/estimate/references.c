@@ -16,6 +16,7 @@
 #include <string.h>
 
 #include "estimate.h"
+#include "motion.h"
 
 void pbe_eigen(double *a, size_t n, double *w, double *v)
 {
@@ -147,37 +148,35 @@ static void weigh_chunk(void *arg, size_t c)
     }
 }
 
-/* Each of the m frames' scale, 1 / sqrt of its energy beyond the leading
- * r images of theirs (noise, mostly: a frame's own at its registered pose);
- * 1 where it has none, and for all with PETBLUR_ESTIMATE_REFERENCES=unweighted
- * (for comparisons). a, v and w are scratch. */
-static void noise_scales(const double *band, const size_t *other, size_t m, size_t r, double *a, double *v, double *w,
-                         double *scale)
+/* A frame's energy beyond the leading images is its noise where the frames
+ * differ by their noise alone; where two frames share theirs (a frame given
+ * twice) or have none (a series without noise) it is rounding, and its
+ * weight would be without bound. Held to this share of the median, no frame
+ * weighs more than ten times the median frame (frames of 2 s and 60 s
+ * differ about fivefold). */
+#define NOISE_FLOOR_SHARE 0.01
+
+void pbe_noise_scales(const double *gram, size_t m, size_t rank, double *a, double *w, double *v, double *scale)
 {
-    const char *env = getenv("PETBLUR_ESTIMATE_REFERENCES");
-    for (size_t i = 0; i < m; i++)
-        scale[i] = 1.0;
-    if (env && strcmp(env, "unweighted") == 0)
-        return;
-    for (size_t i = 0; i < m; i++)
-        for (size_t j = 0; j < m; j++)
-            a[i * m + j] = band_at(band, other[i], other[j]);
+    memcpy(a, gram, sizeof(double) * m * m);
     pbe_eigen(a, m, w, v);
-    double *beyond = a;
     for (size_t i = 0; i < m; i++)
-        beyond[i] = band_at(band, other[i], other[i]);
-    for (size_t c = 0; c < r && c < m; c++) {
+        scale[i] = gram[i * m + i];
+    for (size_t c = 0; c < rank && c < m; c++) {
         size_t best = 0;
         for (size_t j = 1; j < m; j++)
             if (w[j] > w[best])
                 best = j;
         for (size_t i = 0; i < m; i++)
-            beyond[i] -= w[best] * v[i * m + best] * v[i * m + best];
+            scale[i] -= w[best] * v[i * m + best] * v[i * m + best];
         w[best] = -(double)INFINITY;
     }
+    /* the median, on a copy in w */
+    memcpy(w, scale, sizeof(double) * m);
+    qsort(w, m, sizeof(double), pb_compare_doubles);
+    const double floor = NOISE_FLOOR_SHARE * w[m / 2];
     for (size_t i = 0; i < m; i++)
-        if (beyond[i] > 0)
-            scale[i] = 1.0 / sqrt(beyond[i]);
+        scale[i] = floor > 0 ? 1.0 / sqrt(fmax(scale[i], floor)) : 1.0;
 }
 
 pb_status pbe_frame_reference(pb_pool *pool, const float *moved, size_t n, size_t frames, const double *band,
@@ -196,19 +195,32 @@ pb_status pbe_frame_reference(pb_pool *pool, const float *moved, size_t n, size_
     for (size_t i = first, j = 0; i < end; i++)
         if (i != k)
             other[j++] = i;
-    double *scale = malloc(sizeof(double) * m);
-    if (!scale) {
+    /* the other frames weighed by their noise (pbe_noise_scales), or alike
+     * with PETBLUR_ESTIMATE_REFERENCES=unweighted, for comparisons */
+    const char *env = getenv("PETBLUR_ESTIMATE_REFERENCES");
+    double *scale = malloc(sizeof(double) * m), *gram = malloc(sizeof(double) * m * m);
+    if (!scale || !gram) {
+        free(scale), free(gram);
         free(a), free(v), free(w), free(coef), free(other);
         return PB_ERR_OUT_OF_MEMORY;
     }
-    noise_scales(band, other, m, r, a, v, w, scale);
     for (size_t i = 0; i < m; i++)
         for (size_t j = 0; j < m; j++)
-            a[i * m + j] = scale[i] * scale[j] * band_at(band, other[i], other[j]);
+            gram[i * m + j] = band_at(band, other[i], other[j]);
+    if (env && strcmp(env, "unweighted") == 0)
+        for (size_t i = 0; i < m; i++)
+            scale[i] = 1.0;
+    else
+        pbe_noise_scales(gram, m, r, a, w, v, scale);
+    for (size_t i = 0; i < m; i++)
+        for (size_t j = 0; j < m; j++)
+            a[i * m + j] = scale[i] * scale[j] * gram[i * m + j];
+    free(gram);
     pbe_eigen(a, m, w, v);
-    /* The principal images are U_j = G v_j / sqrt(w_j); frame k's projection
-     * onto them is sum_j U_j (U_j . g_k) = G (sum_j v_j (v_j . G^T g_k) / w_j),
-     * a weight per other frame. */
+    /* The principal images of the frames g_i weighed by s_i are
+     * U_j = sum_i s_i g_i v_ij / sqrt(w_j); frame k's projection onto them is
+     * sum_j U_j (U_j . g_k), a weight per other frame:
+     * s_i sum_j v_ij (sum_l v_lj s_l g_l . g_k) / w_j. */
     int *used = calloc(m, sizeof(int));
     if (!used) {
         free(scale);
