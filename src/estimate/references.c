@@ -152,8 +152,8 @@ static void weigh_chunk(void *arg, size_t c)
  * differ by their noise alone; where two frames share theirs (a frame given
  * twice) or have none (a series without noise) it is rounding, and its
  * weight would be without bound. Held to this share of the median, no frame
- * weighs more than ten times the median frame (frames of 2 s and 60 s
- * differ about fivefold). */
+ * weighs more than ten times the median frame (the weights of frames of
+ * 2 s and of 60 s differ about fivefold). */
 #define NOISE_FLOOR_SHARE 0.01
 
 void pbe_noise_scales(const double *gram, size_t m, size_t rank, double *a, double *w, double *v, double *scale)
@@ -174,9 +174,9 @@ void pbe_noise_scales(const double *gram, size_t m, size_t rank, double *a, doub
     /* the median, on a copy in w */
     memcpy(w, scale, sizeof(double) * m);
     qsort(w, m, sizeof(double), pb_compare_doubles);
-    const double floor = NOISE_FLOOR_SHARE * w[m / 2];
+    const double least = NOISE_FLOOR_SHARE * w[m / 2];
     for (size_t i = 0; i < m; i++)
-        scale[i] = floor > 0 ? 1.0 / sqrt(fmax(scale[i], floor)) : 1.0;
+        scale[i] = least > 0 ? 1.0 / sqrt(fmax(scale[i], least)) : 1.0;
 }
 
 pb_status pbe_frame_reference(pb_pool *pool, const float *moved, size_t n, size_t frames, const double *band,
