@@ -399,17 +399,6 @@ static pb_status minimise(collective *cv, double p[NG], double e0)
     return st;
 }
 
-/* Each frame's scale, by its energy beyond the leading `rank` images of the
- * Gram matrix in cv->gram (pbe_noise_scales: at the registered poses its
- * noise, give or take the bias sought, which is a fraction of it). Weighted
- * once, not iterated: a frame weighted up becomes a leading image of its
- * own, its energy beyond them falls and its weight grows (an early frame of
- * blood alone went from 1.4 to 1e-4 of the others' in a second round). */
-static void noise_scales(collective *cv)
-{
-    pbe_noise_scales(cv->gram, cv->used, cv->rank, cv->a, cv->w, cv->v, cv->scale);
-}
-
 /* m of the still frames (of `still`), spread evenly from the first to the
  * last, in order. */
 static void pick_still(const pbe_collective_pose *poses, size_t count, size_t still, size_t *use, size_t m)
@@ -489,11 +478,11 @@ pb_status pbe_collective(pb_pool *pool, const pb_geometry *fine, const float *ra
     cv.a = malloc(sizeof(double) * m * m);
     cv.w = malloc(sizeof(double) * m);
     cv.v = malloc(sizeof(double) * m * m);
-    cv.scale = unweighted ? NULL : malloc(sizeof(double) * m);
+    double *scale = unweighted ? NULL : malloc(sizeof(double) * m);
     size_t fine_n = fine->dims[0] * fine->dims[1] * fine->dims[2];
     float *x = malloc(sizeof(float) * fine_n), *y = malloc(sizeof(float) * fine_n);
     pb_status st = cv.frames && cv.moved && cv.use && cv.weight && cv.gram && cv.a && cv.w && cv.v &&
-                           (cv.scale || unweighted) && x && y
+                           (scale || unweighted) && x && y
                        ? PB_OK
                        : PB_ERR_OUT_OF_MEMORY;
     /* the frames as block means, unsmoothed: smoothing is the same for every
@@ -516,16 +505,19 @@ pb_status pbe_collective(pb_pool *pool, const pb_geometry *fine, const float *ra
     for (int i = 0; i < 3; i++)
         cv.radius = fmax(cv.radius, 0.5 * (double)cv.g.dims[i] * cv.g.voxel_size[i]);
     /* at p = 0 every weight moves nothing: this residual, which the
-     * contrast weights are read from, is also minimise's start; the frames'
-     * noise is read from it unweighted */
+     * contrast weights are read from, is also minimise's start. The frames'
+     * noise is read from it unweighted (pbe_noise_scales: at the registered
+     * poses each frame's energy beyond is its noise, give or take the bias
+     * sought, a fraction of it), and weighted once, not iterated: a frame
+     * weighted up becomes a leading image of its own, its energy beyond
+     * them falls and its weight grows (an early frame of blood alone went
+     * from 1.4 to 1e-4 of the others' in a second round). */
     double p[NG] = {0}, e0;
-    double *scale = cv.scale;
-    cv.scale = NULL;
     if (st == PB_OK)
         st = residual(&cv, p, &e0);
     if (st == PB_OK && scale) {
+        pbe_noise_scales(cv.gram, m, cv.rank, cv.a, cv.w, cv.v, scale);
         cv.scale = scale;
-        noise_scales(&cv);
         st = residual(&cv, p, &e0);
     }
     /* the bias is a fraction of a voxel: a correction beyond one voxel of

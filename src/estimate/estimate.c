@@ -588,6 +588,11 @@ static pb_status back_path(estimate *e, const pbe_fit *fits, size_t k, double on
     if ((env && strcmp(env, "0") == 0) || !path_defined(k, e->count, PATH_BACK) || !(one > 0) ||
         fmax(on->gain, from->gain) <= DWELL_GAIN || motion_went_on(e, fits, k, +1) || motion_went_on(e, fits, k, -1))
         return PB_OK;
+    const double apart = path_span(e, far, &fits[k - 1].pose, &fits[k + 1].pose),
+                 out = fmin(path_span(e, far, &fits[k].pose, &fits[k - 1].pose),
+                            path_span(e, far, &fits[k].pose, &fits[k + 1].pose));
+    if (apart < e->g.voxel_size[0] && apart > BACK_RETURN * out)
+        return PB_OK;
     pb_pose p[BACK_POINTS];
     back->start = fits[k - 1].pose;
     back->end = on->gain >= from->gain ? on->end : from->start;
@@ -598,10 +603,7 @@ static pb_status back_path(estimate *e, const pbe_fit *fits, size_t k, double on
     if (st != PB_OK)
         return st;
     back->gain = 1.0 - sse / one;
-    const double apart = path_span(e, far, &fits[k - 1].pose, &fits[k + 1].pose),
-                 out = fmin(path_span(e, far, &fits[k].pose, &fits[k - 1].pose),
-                            path_span(e, far, &fits[k].pose, &fits[k + 1].pose));
-    if (apart < e->g.voxel_size[0] ? apart > BACK_RETURN * out : back->gain <= UNSUPPORTED_GAIN)
+    if (apart >= e->g.voxel_size[0] && back->gain <= UNSUPPORTED_GAIN)
         back->gain = 0.0;
     for (int i = 0; i + 1 < BACK_LEG; i++) {
         double *a = &back->dwell[i], *b = &back->dwell[BACK_POINTS - 1 - i];
