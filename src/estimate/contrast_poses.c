@@ -102,14 +102,9 @@ static double energy_beyond(collective *cv)
     for (size_t k = 0; k < m; k++)
         trace += cv->gram[k * m + k];
     pbe_eigen(cv->a, m, cv->w, cv->v);
-    for (size_t r = 0; r < cv->rank && r < m; r++) {
-        size_t best = 0;
-        for (size_t j = 1; j < m; j++)
-            if (cv->w[j] > cv->w[best])
-                best = j;
-        top += cv->w[best];
-        cv->w[best] = -(double)INFINITY;
-    }
+    size_t lead[PBE_RANK_MOST];
+    for (size_t c = 0, count = pbe_leading(cv->w, m, cv->rank, lead); c < count; c++)
+        top += cv->w[lead[c]];
     return trace - top;
 }
 

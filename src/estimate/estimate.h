@@ -124,8 +124,14 @@ void pbe_eigen(double *a, size_t n, double *w, double *v);
  * frames hold the frame's contrast; the window bounds each frame's work, and
  * the series' work grows as its frames, not as their square. */
 enum { PBE_REFERENCE_OTHERS = 32 };
-/* How many principal images a window of frames gives each frame's reference. */
+/* How many principal images a window of frames gives each frame's reference:
+ * at most PBE_RANK_MOST. */
+enum { PBE_RANK_MOST = 3 };
 size_t pbe_reference_rank(size_t frames);
+/* The indices of the min(rank, m, PBE_RANK_MOST) largest of w[0..m) into
+ * out, largest first, ties to the lower index: an eigen decomposition's
+ * leading pairs. Returns how many. */
+size_t pbe_leading(const double *w, size_t m, size_t rank, size_t *out);
 /* Each of m frames' weight by its noise, 1 / sqrt of its energy beyond the
  * leading `rank` images of their Gram matrix gram (m x m, kept), that energy
  * held to at least NOISE_FLOOR_SHARE of the frames' median; a, w and v are

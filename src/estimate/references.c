@@ -64,7 +64,26 @@ void pbe_eigen(double *a, size_t n, double *w, double *v)
 size_t pbe_reference_rank(size_t frames)
 {
     size_t r = frames / 4;
-    return r < 1 ? 1 : r > 3 ? 3 : r;
+    return r < 1 ? 1 : r > PBE_RANK_MOST ? PBE_RANK_MOST : r;
+}
+
+size_t pbe_leading(const double *w, size_t m, size_t rank, size_t *out)
+{
+    size_t count = rank < m ? rank : m;
+    if (count > PBE_RANK_MOST) /* out holds that many: the ranks are pbe_reference_rank's */
+        count = PBE_RANK_MOST;
+    for (size_t c = 0; c < count; c++) {
+        size_t best = m;
+        for (size_t j = 0; j < m; j++) {
+            int taken = 0;
+            for (size_t d = 0; d < c; d++)
+                taken |= out[d] == j;
+            if (!taken && (best == m || w[j] > w[best]))
+                best = j;
+        }
+        out[c] = best;
+    }
+    return count;
 }
 
 void pbe_reference_window(size_t frames, size_t k, size_t *first, size_t *end)
@@ -162,15 +181,10 @@ void pbe_noise_scales(const double *gram, size_t m, size_t rank, double *a, doub
     pbe_eigen(a, m, w, v);
     for (size_t i = 0; i < m; i++)
         scale[i] = gram[i * m + i];
-    for (size_t c = 0; c < rank && c < m; c++) {
-        size_t best = 0;
-        for (size_t j = 1; j < m; j++)
-            if (w[j] > w[best])
-                best = j;
+    size_t lead[PBE_RANK_MOST];
+    for (size_t c = 0, count = pbe_leading(w, m, rank, lead); c < count; c++)
         for (size_t i = 0; i < m; i++)
-            scale[i] -= w[best] * v[i * m + best] * v[i * m + best];
-        w[best] = -(double)INFINITY;
-    }
+            scale[i] -= w[lead[c]] * v[i * m + lead[c]] * v[i * m + lead[c]];
     /* the median, on a copy in w */
     memcpy(w, scale, sizeof(double) * m);
     qsort(w, m, sizeof(double), pb_compare_doubles);
@@ -221,21 +235,12 @@ pb_status pbe_frame_reference(pb_pool *pool, const float *moved, size_t n, size_
      * U_j = sum_i s_i g_i v_ij / sqrt(w_j); frame k's projection onto them is
      * sum_j U_j (U_j . g_k), a weight per other frame:
      * s_i sum_j v_ij (sum_l v_lj s_l g_l . g_k) / w_j. */
-    int *used = calloc(m, sizeof(int));
-    if (!used) {
-        free(scale);
-        free(a), free(v), free(w), free(coef), free(other);
-        return PB_ERR_OUT_OF_MEMORY;
-    }
     double top = 0.0;
     for (size_t j = 0; j < m; j++)
         top = fmax(top, w[j]);
-    for (size_t c = 0; c < r && c < m; c++) {
-        size_t best = m;
-        for (size_t j = 0; j < m; j++)
-            if (!used[j] && (best == m || w[j] > w[best]))
-                best = j;
-        used[best] = 1;
+    size_t lead[PBE_RANK_MOST];
+    for (size_t c = 0, count = pbe_leading(w, m, r, lead); c < count; c++) {
+        const size_t best = lead[c];
         if (!(w[best] > 1e-12 * top))
             continue;
         double dot = 0.0; /* v_j . G^T g_k */
@@ -246,7 +251,6 @@ pb_status pbe_frame_reference(pb_pool *pool, const float *moved, size_t n, size_
     }
     weigh_job job = {moved, n, m, other, coef, out};
     pb_pool_for(pool, pb_chunks(n), weigh_chunk, &job);
-    free(used);
     free(scale);
     free(a), free(v), free(w), free(coef), free(other);
     return PB_OK;
