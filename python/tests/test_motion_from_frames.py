@@ -494,8 +494,8 @@ def test_a_frame_given_twice_and_a_series_without_noise(rng):
     a frame given twice or a series without noise may hold only as rounding
     (pbe_noise_scales floors it). Every pose must be finite, every track near
     the truth, and the frame given twice must not move the track off the
-    series as drawn. Measured on 34 seeds while writing this (bounds twice
-    the worst): every track's mean at most 0.22 of uncorrected and its worst
+    series as drawn. Measured on 34 seeds while writing this (the bounds
+    1.3 to 3.6 times the worst): every track's mean at most 0.22 of uncorrected and its worst
     frame at most 1.87 mm (971746322, as drawn); the frame given twice at most
     0.071 mm worse than as drawn (mean; 423795627) and 0.11 mm (worst frame);
     without noise worse than with it on 25 of 34 (the uptake's bias,
