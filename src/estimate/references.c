@@ -199,11 +199,12 @@ pb_status pbe_frame_reference(pb_pool *pool, const float *moved, size_t n, size_
     size_t first, end;
     pbe_reference_window(frames, k, &first, &end);
     const size_t m = end - first - 1, r = pbe_reference_rank(m + 1);
-    double *a = malloc(sizeof(double) * m * m), *v = malloc(sizeof(double) * m * m), *w = malloc(sizeof(double) * m);
+    double *gram = malloc(sizeof(double) * m * m), *a = malloc(sizeof(double) * m * m);
+    double *v = malloc(sizeof(double) * m * m), *w = malloc(sizeof(double) * m), *scale = malloc(sizeof(double) * m);
     double *coef = calloc(m, sizeof(double)); /* a weight per other frame of the window */
     size_t *other = malloc(sizeof(size_t) * m);
-    if (!a || !v || !w || !coef || !other) {
-        free(a), free(v), free(w), free(coef), free(other);
+    if (!gram || !a || !v || !w || !scale || !coef || !other) {
+        free(gram), free(a), free(v), free(w), free(scale), free(coef), free(other);
         return PB_ERR_OUT_OF_MEMORY;
     }
     for (size_t i = first, j = 0; i < end; i++)
@@ -212,12 +213,6 @@ pb_status pbe_frame_reference(pb_pool *pool, const float *moved, size_t n, size_
     /* the other frames weighed by their noise (pbe_noise_scales), or alike
      * with PETBLUR_ESTIMATE_REFERENCES=unweighted, for comparisons */
     const char *env = getenv("PETBLUR_ESTIMATE_REFERENCES");
-    double *scale = malloc(sizeof(double) * m), *gram = malloc(sizeof(double) * m * m);
-    if (!scale || !gram) {
-        free(scale), free(gram);
-        free(a), free(v), free(w), free(coef), free(other);
-        return PB_ERR_OUT_OF_MEMORY;
-    }
     for (size_t i = 0; i < m; i++)
         for (size_t j = 0; j < m; j++)
             gram[i * m + j] = band_at(band, other[i], other[j]);
@@ -229,7 +224,6 @@ pb_status pbe_frame_reference(pb_pool *pool, const float *moved, size_t n, size_
     for (size_t i = 0; i < m; i++)
         for (size_t j = 0; j < m; j++)
             a[i * m + j] = scale[i] * scale[j] * gram[i * m + j];
-    free(gram);
     pbe_eigen(a, m, w, v);
     /* The principal images of the frames g_i weighed by s_i are
      * U_j = sum_i s_i g_i v_ij / sqrt(w_j); frame k's projection onto them is
@@ -251,7 +245,6 @@ pb_status pbe_frame_reference(pb_pool *pool, const float *moved, size_t n, size_
     }
     weigh_job job = {moved, n, m, other, coef, out};
     pb_pool_for(pool, pb_chunks(n), weigh_chunk, &job);
-    free(scale);
-    free(a), free(v), free(w), free(coef), free(other);
+    free(gram), free(a), free(v), free(w), free(scale), free(coef), free(other);
     return PB_OK;
 }
