@@ -59,10 +59,11 @@ class Frames:
         self.pivot = np.array(d.pivot)
         self.scale = {}
 
-    def _render(self, m, t):
+    def _render(self, m, t, levels=None):
         inv = np.linalg.inv(m)
         coords = (((self.world @ inv[:3, :3].T + inv[:3, 3]) - self.origin) / self.fine).T
-        activity = np.tensordot(ef.uptake(self.d, t).astype(np.float32), self.tissue, axes=1)
+        levels = ef.uptake(self.d, t) if levels is None else levels
+        activity = np.tensordot(levels.astype(np.float32), self.tissue, axes=1)
         img = ndimage.map_coordinates(activity, coords, order=1, mode="constant").reshape(self.d.shape)
         return ndimage.gaussian_filter(img.astype(np.float64), self.sigma, mode="constant")
 
@@ -88,11 +89,26 @@ class Frames:
         return np.array([(self.counts(k, x + STEPS[i] * np.eye(6)[i]) - self.counts(k, x - STEPS[i] * np.eye(6)[i]))
                          / (2 * STEPS[i]) for i in range(6)])
 
+    def tissue_counts(self, k):
+        """Frame k's expected counts from each tissue alone (grey, white, blood, lesions): the derivatives by each
+        tissue's level, relative (d / d log level)."""
+        b = self.bounds
+        t = 0.5 * (b[k] + b[k + 1])
+        self.counts(k)
+        levels = ef.uptake(self.d, t)
+        return np.array([(self._render(self.truth(t), t, levels * np.eye(len(levels))[c]) * self.scale[k]).ravel()
+                         for c in range(len(levels))])
 
-def fisher(frames: Frames, k: int) -> np.ndarray:
-    """Frame k's 6 x 6 Fisher information about its pose numbers, from its Poisson counts."""
+
+def fisher(frames: Frames, k: int, uptake_unknown: bool = False) -> np.ndarray:
+    """Frame k's 6 x 6 Fisher information about its pose numbers, from its Poisson counts; with uptake_unknown, what
+    is left of it when each tissue's level in the frame is unknown too (the pose block of the information's inverse,
+    inverted: the Schur complement)."""
     lam, g = frames.counts(k), frames.jacobian(k)
-    return (g / np.maximum(lam, 1e-12)) @ g.T
+    if uptake_unknown:
+        g = np.concatenate([g, frames.tissue_counts(k)])
+    info = (g / np.maximum(lam, 1e-12)) @ g.T
+    return np.linalg.inv(np.linalg.inv(info)[:6, :6]) if uptake_unknown else info
 
 
 def point_jacobian(d: ef.Draw) -> np.ndarray:
@@ -129,9 +145,9 @@ def ml_spread(d: ef.Draw, k: int, n: int, seed: int = 12345) -> tuple:
     return rms_mm(jac, e.T @ e / n), bound
 
 
-def floor(d: ef.Draw, trials: int = 400, seed: int = 0) -> dict:
+def floor(d: ef.Draw, trials: int = 400, seed: int = 0, uptake_unknown: bool = False) -> dict:
     frames, jac = Frames(d), point_jacobian(d)
-    covs = [np.linalg.inv(fisher(frames, k)) for k in range(len(d.bounds) - 1)]
+    covs = [np.linalg.inv(fisher(frames, k, uptake_unknown)) for k in range(len(d.bounds) - 1)]
     rng = np.random.default_rng(seed)
     means, worsts = [], []
     for _ in range(trials):
@@ -153,6 +169,8 @@ def main() -> int:
                    "--sitk-only's)")
     p.add_argument("--check", type=int, nargs=3, metavar=("SEED", "FRAME", "N"),
                    help="the bound's check instead: frame FRAME of draw SEED by maximum likelihood on N count draws")
+    p.add_argument("--uptake-unknown", action="store_true",
+                   help="each tissue's level in each frame unknown too (the anatomy known, not the tracer's curves)")
     p.add_argument("--out", required=True)
     a = p.parse_args()
     if a.check:
@@ -178,7 +196,7 @@ def main() -> int:
     out = []
     with open(os.path.join(a.out, "floor.jsonl"), "w") as f:
         for r in rows:
-            b = floor(ef.draw(r["seed"]))
+            b = floor(ef.draw(r["seed"]), uptake_unknown=a.uptake_unknown)
             for who in ("petblur", "sitk", "frame_means"):
                 v = sitk.get(r["seed"]) if who == "sitk" and r["seed"] in sitk else r.get(who, {}).get("mean_mm")
                 if v is not None and np.isfinite(v):
