@@ -191,30 +191,46 @@ def _lesions(d: Draw, points: np.ndarray) -> np.ndarray:
     return 3.0 * out
 
 
+class Scene:
+    """A draw's head seen on its frames' grid: the tissues on a fine world grid, the grid's voxel centres in the
+    world, the scanner's blur (sigma, voxels) and the voxels inside the head. What simulate renders frames from, and
+    bench/estimate_floor.py its frames' expected counts."""
+
+    def __init__(self, d: Draw):
+        self.d, self.fine = d, 1.5
+        axes = [np.arange(-e, e + self.fine / 2, self.fine) for e in hf.HEAD + 12.0]
+        grid = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, 3)
+        self.tissue = np.concatenate([hf._tissues(grid), _lesions(d, grid)[None]]).reshape(
+            (4,) + tuple(len(a) for a in axes)).astype(np.float32)
+        self.origin = np.array([a[0] for a in axes])
+        affine = affine_of(d)
+        idx = np.stack(np.meshgrid(*[np.arange(n) for n in d.shape], indexing="ij"), axis=-1).reshape(-1, 3)
+        self.world = idx @ affine[:3, :3].T + affine[:3, 3]
+        self.sigma = d.fwhm_mm / 2.3548 / np.array(d.voxel)
+        self.head = np.count_nonzero(hf._tissues(self.world).sum(axis=0) > 0.5)
+
+    def sample(self, m: np.ndarray, t: float, levels: np.ndarray = None) -> np.ndarray:
+        """The activity at scan time t (each tissue at levels; default its uptake then), the head where the 4x4
+        world map m puts it, at the grid's voxels, before the scanner's blur."""
+        inv = np.linalg.inv(m)
+        coords = (((self.world @ inv[:3, :3].T + inv[:3, 3]) - self.origin) / self.fine).T
+        levels = uptake(self.d, t) if levels is None else levels
+        activity = np.tensordot(levels.astype(np.float32), self.tissue, axes=1)
+        return ndimage.map_coordinates(activity, coords, order=1, mode="constant").reshape(self.d.shape)
+
+
 def simulate(d: Draw, rng: np.random.Generator, steps: int = 4, moving_steps: int = 40):
     """Frames [x, y, z, t] float32 (Bq/mL-like: counts per second), their affine, bounds and the truth."""
-    affine, truth = affine_of(d), Truth(d)
-    fine = 1.5
-    axes = [np.arange(-e, e + fine / 2, fine) for e in hf.HEAD + 12.0]
-    grid = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, 3)
-    tissue = np.concatenate([hf._tissues(grid), _lesions(d, grid)[None]]).reshape(
-        (4,) + tuple(len(a) for a in axes)).astype(np.float32)
-    origin = np.array([a[0] for a in axes])
-    idx = np.stack(np.meshgrid(*[np.arange(n) for n in d.shape], indexing="ij"), axis=-1).reshape(-1, 3)
-    world = idx @ affine[:3, :3].T + affine[:3, 3]
-    sigma = d.fwhm_mm / 2.3548 / np.array(d.voxel)
+    affine, truth, scene = affine_of(d), Truth(d), Scene(d)
+    sigma, head = scene.sigma, scene.head
     b = np.array(d.bounds)
-    head = np.count_nonzero(hf._tissues(world).sum(axis=0) > 0.5)
     lengths = np.diff(b)
     frames = np.zeros(d.shape + (len(b) - 1,), np.float32)
     for k in range(len(b) - 1):
         n = moving_steps if truth.changes(b[k], b[k + 1]) else steps
         acc = np.zeros(d.shape, np.float64)
         for t in b[k] + (np.arange(n) + 0.5) / n * lengths[k]:
-            inv = np.linalg.inv(truth(t))
-            coords = (((world @ inv[:3, :3].T + inv[:3, 3]) - origin) / fine).T
-            activity = np.tensordot(uptake(d, t).astype(np.float32), tissue, axes=1)
-            acc += ndimage.map_coordinates(activity, coords, order=1, mode="constant").reshape(d.shape)
+            acc += scene.sample(truth(t), t)
         acc = ndimage.gaussian_filter(acc / n, sigma, mode="constant")
         # counts as the frame's length: the average frame's counts_per_voxel, a short early frame's few
         expected = acc * (d.counts_per_voxel * head * lengths[k] / lengths.mean() / acc.sum())

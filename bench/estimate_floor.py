@@ -43,29 +43,14 @@ class Frames:
     at its mid-time, the head moved further by pose numbers x (translation mm, turn degrees about the pivot)."""
 
     def __init__(self, d: ef.Draw):
-        self.d, self.truth = d, ef.Truth(d)
-        affine = ef.affine_of(d)
-        fine = 1.5
-        axes = [np.arange(-e, e + fine / 2, fine) for e in hf.HEAD + 12.0]
-        grid = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, 3)
-        self.tissue = np.concatenate([hf._tissues(grid), ef._lesions(d, grid)[None]]).reshape(
-            (4,) + tuple(len(a) for a in axes)).astype(np.float32)
-        self.origin, self.fine = np.array([a[0] for a in axes]), fine
-        idx = np.stack(np.meshgrid(*[np.arange(n) for n in d.shape], indexing="ij"), axis=-1).reshape(-1, 3)
-        self.world = idx @ affine[:3, :3].T + affine[:3, 3]
-        self.sigma = d.fwhm_mm / 2.3548 / np.array(d.voxel)
-        self.head = np.count_nonzero(hf._tissues(self.world).sum(axis=0) > 0.5)
+        self.d, self.truth, self.scene = d, ef.Truth(d), ef.Scene(d)
         self.bounds = np.array(d.bounds)
         self.pivot = np.array(d.pivot)
         self.scale = {}
 
     def _render(self, m, t, levels=None):
-        inv = np.linalg.inv(m)
-        coords = (((self.world @ inv[:3, :3].T + inv[:3, 3]) - self.origin) / self.fine).T
-        levels = ef.uptake(self.d, t) if levels is None else levels
-        activity = np.tensordot(levels.astype(np.float32), self.tissue, axes=1)
-        img = ndimage.map_coordinates(activity, coords, order=1, mode="constant").reshape(self.d.shape)
-        return ndimage.gaussian_filter(img.astype(np.float64), self.sigma, mode="constant")
+        img = self.scene.sample(m, t, levels).astype(np.float64)
+        return ndimage.gaussian_filter(img, self.scene.sigma, mode="constant")
 
     def pose(self, x):
         m = np.eye(4)
@@ -82,7 +67,7 @@ class Frames:
         if k not in self.scale:  # as simulate scales a frame: its counts as its length
             lengths = np.diff(b)
             base = img if not np.any(x) else self._render(self.truth(t), t)
-            self.scale[k] = d.counts_per_voxel * self.head * lengths[k] / lengths.mean() / base.sum()
+            self.scale[k] = d.counts_per_voxel * self.scene.head * lengths[k] / lengths.mean() / base.sum()
         return (img * self.scale[k]).ravel()
 
     def jacobian(self, k, x=np.zeros(6)):
