@@ -96,6 +96,91 @@ def fisher(frames: Frames, k: int, uptake_unknown: bool = False) -> np.ndarray:
     return np.linalg.inv(np.linalg.inv(info)[:6, :6]) if uptake_unknown else info
 
 
+def pulled_back(frames: Frames) -> tuple:
+    """Every frame's expected counts (K, N) and pose derivatives (K, 6, N) at the truth, carried back onto the head
+    as it lay in frame 0 (each frame sampled, trilinearly, where its mid-time truth puts frame 0's voxels); each
+    tissue's coefficient in each frame (K, 4): frame k's counts are sum_j a[k, j] B_j moved by its pose, B_j tissue
+    j's image after the scanner's blur (which, isotropic in mm, turns with the head); and the B_j (4, N), frame 0's
+    counts from each tissue alone."""
+    d = frames.d
+    b = frames.bounds
+    mids = 0.5 * (b[:-1] + b[1:])
+    to_index = np.linalg.inv(ef.affine_of(d))
+    world, shape = frames.scene.world, d.shape
+    back = np.linalg.inv(frames.truth(mids[0]))
+    lam, jac, a = [], [], []
+    for k in range(len(mids)):
+        m = to_index @ frames.truth(mids[k]) @ back
+        idx = (world @ m[:3, :3].T + m[:3, 3]).T
+        resample = lambda v: ndimage.map_coordinates(v.reshape(shape), idx, order=1, mode="constant")  # noqa: E731
+        lam.append(resample(frames.counts(k)))
+        jac.append([resample(g) for g in frames.jacobian(k)])
+        a.append(frames.scale[k] * ef.uptake(d, mids[k]))
+    return np.array(lam), np.array(jac), np.array(a), frames.tissue_counts(0)
+
+
+def anatomy_information(lam: np.ndarray, jac: np.ndarray, a: np.ndarray, free: np.ndarray, prior: float = 1.0,
+                        chunk: int = 4096) -> tuple:
+    """The Fisher information (6K x 6K) about all K frames' poses together when the tissues' images are unknown:
+    tissue j's blurred image at voxel n a free parameter where free[n, j] (else known), shared by all frames, the
+    curves a (frame k's counts from tissue j at its peak) known. The images are eliminated voxel by voxel (a voxel's
+    counts over the frames are independent of the other voxels', and its images are its own): the pose block's Schur
+    complement. Each image has a prior of `prior` times its own peak a voxel (a Gaussian's spread): else two tissues whose curves differ by a part in
+    10^5 (a late scan's) make an image that only a trend over the frames scales, 10^5 times the tissue's own, free to
+    take up any drift. Also the information with the anatomy known, block diagonal (each frame's own)."""
+    k_n, n = lam.shape
+    w = np.where(lam > 1e-9 * lam.max(), 1.0 / np.maximum(lam, 1e-300), 0.0)  # Poisson: 1 / variance
+    known = np.zeros((6 * k_n, 6 * k_n))
+    lost = np.zeros_like(known)
+    for lo in range(0, n, chunk):
+        ww, g, f = w[:, lo:lo + chunk], jac[:, :, lo:lo + chunk], free[lo:lo + chunk]
+        wg = g * ww[:, None, :]                                          # K, 6, n
+        for k in range(k_n):
+            known[6 * k:6 * k + 6, 6 * k:6 * k + 6] += wg[k] @ g[k].T
+        cols = a[None] * f[:, None, :]                                   # n, K, 4
+        c = np.einsum("nkr,kin->nrki", cols, wg).reshape(len(f), a.shape[1], 6 * k_n)
+        amat = np.einsum("kn,nkr,nks->nrs", ww, cols, cols) + np.eye(a.shape[1]) / prior ** 2
+        lost += np.einsum("nrk,nrl->kl", c, np.linalg.solve(amat, c))
+    return known - lost, known
+
+
+# What an estimator may assume of the tissues' images, as a prior's spread a voxel in units of each image's peak:
+# unconstrained (any image an estimator that projects frames onto images learnt from other frames could take), and
+# within its range (an image between nothing and its peak: a uniform's spread, 1 / sqrt(12))
+FREE, RANGE = 100.0, 12 ** -0.5
+
+
+def anatomy_unknown(d: ef.Draw, trials: int = 400, seed: int = 0, support: float = 0.01) -> dict:
+    """The floor when the estimator must learn the anatomy from the frames (the tissues' images unknown, their curves
+    known: a lower bound for one that knows neither), all frames' poses together and relative to frame 0's: with the
+    images unconstrained ("free"), each within its own range ("range"), free only where each tissue lies (its image
+    in frame 0 above `support` of its peak: "support", a prior that knows where each tissue is, not its image), and
+    known ("known", the oracle of floor() on the same pulled-back frames, frame 0 held)."""
+    frames, pj = Frames(d), point_jacobian(d)
+    lam, jac, a, tissues = pulled_back(frames)
+    a = a / a[0] * tissues.max(axis=1)  # each tissue's image in units of its peak
+    k_n = len(lam)
+    where = (tissues > support * tissues.max(axis=1, keepdims=True)).T.astype(float)
+    free, known = anatomy_information(lam, jac, a, np.ones_like(where), FREE)
+    infos = {"known": known, "support": anatomy_information(lam, jac, a, where, FREE)[0],
+             "range": anatomy_information(lam, jac, a, np.ones_like(where), RANGE)[0], "free": free}
+    out = {"seed": d.seed, "frames": k_n, "from_injection": d.start_s == 0.0, "counts_per_voxel": d.counts_per_voxel,
+           "contrast_singular_values": [float(x) for x in np.linalg.svd(a / np.linalg.norm(a, axis=0),
+                                                                          compute_uv=False)]}
+    rng = np.random.default_rng(seed)
+    for name, info in infos.items():
+        cov = np.linalg.inv(info[6:, 6:])
+        out[f"{name}_frame_rms_mm"] = [0.0] + [rms_mm(pj, cov[6 * i:6 * i + 6, 6 * i:6 * i + 6])
+                                               for i in range(k_n - 1)]
+        e = rng.multivariate_normal(np.zeros(len(cov)), cov, size=trials).reshape(trials, k_n - 1, 6)
+        per = np.linalg.norm(np.einsum("nai,tki->tkna", pj, e), axis=-1).mean(axis=-1)  # trials, K - 1
+        means = per.sum(axis=1) / k_n
+        out[f"{name}_mean_median"] = float(np.median(means))
+        out[f"{name}_mean_p90"] = float(np.percentile(means, 90))
+        out[f"{name}_worst_median"] = float(np.median(per.max(axis=1)))
+    return out
+
+
 def point_jacobian(d: ef.Draw) -> np.ndarray:
     """The displacement (mm) per unit pose number at the family's points inside the head."""
     points = hf.head_points(np.random.default_rng([d.seed, 1]), 1000) - np.array(d.pivot)
@@ -146,6 +231,33 @@ def floor(d: ef.Draw, trials: int = 400, seed: int = 0, uptake_unknown: bool = F
             "mean_p90": float(np.percentile(means, 90)), "worst_median": float(np.median(worsts))}
 
 
+def anatomy_table(out: list, path: str) -> int:
+    kinds = (("known", "anatomy known"), ("support", "where each tissue lies known"),
+             ("range", "images within their range"), ("free", "images unconstrained"))
+    lines = ["| draw | frames | from injection | counts a voxel | " + " | ".join(w for _, w in kinds) +
+             " | petblur | SimpleITK | one pose a frame |", "|---" * 11 + "|"]
+    cell = lambda b, k: f"{b[k]:.3f}" if k in b else ""  # noqa: E731
+    for b in out:
+        lines.append(f"| {b['seed']} | {b['frames']} | {'yes' if b['from_injection'] else 'no'} | "
+                     f"{b['counts_per_voxel']:.1f} | " + " | ".join(
+                         f"{b[m + '_mean_median']:.3f} / {b[m + '_mean_p90']:.3f}" for m, _ in kinds) +
+                     f" | {cell(b, 'petblur')} | {cell(b, 'sitk')} | {cell(b, 'frame_means')} |")
+    lines += ["", "Each floor: the median / 90th percentile of the draw's mean error (mm) over 400 draws from it.", ""]
+    for m, what in kinds:
+        v = np.array([b[m + "_mean_median"] for b in out])
+        p90 = np.array([b[m + "_mean_p90"] for b in out])
+        lines.append(f"- {what}: the floor's median {np.median(v):.3f} mm (range {v.min():.3f}-{v.max():.3f}); "
+                     f"draws whose floor's median is above 0.6 mm: {int(np.sum(v > 0.6))}, whose 90th percentile "
+                     f"is: {int(np.sum(p90 > 0.6))} of {len(v)}")
+        with_p = [b for b in out if "petblur" in b]
+        if with_p:
+            ratio = np.array([b["petblur"] / b[m + "_mean_median"] for b in with_p])
+            lines[-1] += f"; petblur over it {np.median(ratio):.2f} (median; {ratio.min():.2f}-{ratio.max():.2f})"
+    open(path, "w").write("\n".join(lines) + "\n")
+    print("\n".join(lines))
+    return 0
+
+
 def main() -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     p.add_argument("--draws", help="a family run's draws.jsonl: its seeds, with its petblur and SimpleITK beside")
@@ -156,6 +268,9 @@ def main() -> int:
                    help="the bound's check instead: frame FRAME of draw SEED by maximum likelihood on N count draws")
     p.add_argument("--uptake-unknown", action="store_true",
                    help="each tissue's level in each frame unknown too (the anatomy known, not the tracer's curves)")
+    p.add_argument("--anatomy", action="store_true",
+                   help="the floor with the tissues' images learnt from the frames instead (free, or free where each "
+                   "tissue lies), all poses together: anatomy.jsonl and anatomy.md")
     p.add_argument("--out", required=True)
     a = p.parse_args()
     if a.check:
@@ -179,9 +294,11 @@ def main() -> int:
         p.error("give --draws or --seed")
     os.makedirs(a.out, exist_ok=True)
     out = []
-    with open(os.path.join(a.out, "floor.jsonl"), "w") as f:
+    name = "anatomy" if a.anatomy else "floor"
+    with open(os.path.join(a.out, name + ".jsonl"), "w") as f:
         for r in rows:
-            b = floor(ef.draw(r["seed"]), uptake_unknown=a.uptake_unknown)
+            d = ef.draw(r["seed"])
+            b = anatomy_unknown(d) if a.anatomy else floor(d, uptake_unknown=a.uptake_unknown)
             for who in ("petblur", "sitk", "frame_means"):
                 v = sitk.get(r["seed"]) if who == "sitk" and r["seed"] in sitk else r.get(who, {}).get("mean_mm")
                 if v is not None and np.isfinite(v):
@@ -190,6 +307,8 @@ def main() -> int:
             f.flush()
             out.append(b)
             print(json.dumps(b), flush=True)
+    if a.anatomy:
+        return anatomy_table(out, os.path.join(a.out, "anatomy.md"))
     lines = ["| draw | frames | from injection | counts a voxel | frame 0 (s) | frame 0's pose, RMS mm | floor: median / "
              "90th mean mm | petblur | SimpleITK | one pose a frame |", "|---|---|---|---|---|---|---|---|---|---|"]
     for b in out:
