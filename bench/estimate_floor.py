@@ -146,14 +146,15 @@ def anatomy_information(lam: np.ndarray, jac: np.ndarray, a: np.ndarray, free: n
 
 # What an estimator may assume of the tissues' images, as a prior's spread a voxel in units of each image's peak:
 # unconstrained (any image an estimator that projects frames onto images learnt from other frames could take), and
-# within its range (an image between nothing and its peak: a uniform's spread, 1 / sqrt(12))
-FREE, RANGE = 100.0, 12 ** -0.5
+# of about its own size (a zero-mean prior of one peak covers every image a tissue can have; the floor is a van Trees
+# bound then, the data's information taken at the truth)
+FREE, RANGE = 100.0, 1.0
 
 
 def anatomy_unknown(d: ef.Draw, trials: int = 400, seed: int = 0, support: float = 0.01) -> dict:
     """The floor when the estimator must learn the anatomy from the frames (the tissues' images unknown, their curves
     known: a lower bound for one that knows neither), all frames' poses together and relative to frame 0's: with the
-    images unconstrained ("free"), each within its own range ("range"), free only where each tissue lies (its image
+    images unconstrained ("free"), each of about its own size ("range"), free only where each tissue lies (its image
     in frame 0 above `support` of its peak: "support", a prior that knows where each tissue is, not its image), and
     known ("known", the oracle of floor() on the same pulled-back frames, frame 0 held)."""
     frames, pj = Frames(d), point_jacobian(d)
@@ -233,7 +234,7 @@ def floor(d: ef.Draw, trials: int = 400, seed: int = 0, uptake_unknown: bool = F
 
 def anatomy_table(out: list, path: str) -> int:
     kinds = (("known", "anatomy known"), ("support", "where each tissue lies known"),
-             ("range", "images within their range"), ("free", "images unconstrained"))
+             ("range", "images of their own size"), ("free", "images unconstrained"))
     lines = ["| draw | frames | from injection | counts a voxel | " + " | ".join(w for _, w in kinds) +
              " | petblur | SimpleITK | one pose a frame |", "|---" * 11 + "|"]
     cell = lambda b, k: f"{b[k]:.3f}" if k in b else ""  # noqa: E731
