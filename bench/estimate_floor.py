@@ -140,7 +140,8 @@ def anatomy_information(lam: np.ndarray, jac: np.ndarray, a: np.ndarray, free: n
         cols = a[None] * f[:, None, :]                                   # n, K, 4
         c = np.einsum("nkr,kin->nrki", cols, wg).reshape(len(f), a.shape[1], 6 * k_n)
         amat = np.einsum("kn,nkr,nks->nrs", ww, cols, cols) + np.eye(a.shape[1]) / prior ** 2
-        lost += np.einsum("nrk,nrl->kl", c, np.linalg.solve(amat, c))
+        # pinv: where no frame sees a voxel, tissues of one curve leave amat singular beside the data's weights
+        lost += np.einsum("nrk,nrl->kl", c, np.linalg.pinv(amat, rcond=1e-13, hermitian=True) @ c)
     return known - lost, known
 
 
@@ -296,8 +297,15 @@ def main() -> int:
     os.makedirs(a.out, exist_ok=True)
     out = []
     name = "anatomy" if a.anatomy else "floor"
-    with open(os.path.join(a.out, name + ".jsonl"), "w") as f:
+    path = os.path.join(a.out, name + ".jsonl")
+    done = {}
+    if a.anatomy and os.path.exists(path):  # hours of CPU: a run taken up again keeps the draws it has
+        done = {b["seed"]: b for b in map(json.loads, open(path))}
+    with open(path, "a" if done else "w") as f:
         for r in rows:
+            if r["seed"] in done:
+                out.append(done[r["seed"]])
+                continue
             d = ef.draw(r["seed"])
             b = anatomy_unknown(d) if a.anatomy else floor(d, uptake_unknown=a.uptake_unknown)
             for who in ("petblur", "sitk", "frame_means"):

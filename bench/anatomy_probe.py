@@ -1,0 +1,259 @@
+#!/usr/bin/env python3
+"""A probe for issue 47: does a model of the series as a few tissue images, shared by every frame and each scaled by
+its own curve, take the early-to-late bias out of petblur's track on a family draw (bench/estimate_family.py)?
+
+bench/estimate_floor.py --anatomy bounds what an estimator can do when it learns the tissues' images from the frames:
+far above the oracle's floor when the images are unconstrained, near it when each image is held to about its own
+size. This refines petblur's own track, one pose a frame, by alternating: the frames moved back onto frame 0's head;
+a rank-r factorisation of them (curves a frame times images a voxel, weighted by the counts' noise), the images
+with a ridge of `--prior` times the activity's peak a voxel (none: unconstrained); every frame but 0 registered
+(Gauss-Newton on its pose, the sum of squares weighted by its noise) to its own model image moved by its pose.
+Scored as the family scores (bench/head_frames.py), beside petblur's track taken at the frames' middles and the
+truth's mean pose a frame.
+
+    python3 bench/anatomy_probe.py --petblur build/src/cli/petblur --seed 2128585388 --prior 1 --prior 0
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import subprocess
+import sys
+import tempfile
+
+import numpy as np
+from scipy import ndimage
+from scipy.spatial.transform import Rotation
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import estimate_family as ef  # noqa: E402
+import head_frames as hf  # noqa: E402
+
+
+def petblur_track(petblur: str, frames, affine, bounds) -> tuple:
+    import nibabel as nib
+    with tempfile.TemporaryDirectory() as tmp:
+        nii, side, csv = (os.path.join(tmp, n) for n in ("f.nii.gz", "f.json", "t.csv"))
+        nib.save(nib.Nifti1Image(frames, affine), nii)
+        json.dump({"FrameTimesStart": bounds[:-1].tolist(), "FrameDuration": np.diff(bounds).tolist()},
+                  open(side, "w"))
+        subprocess.run([petblur, "motion", "estimate", nii, "--frames-from", side, "-o", csv, "--device", "host",
+                        "-q"], check=True)
+        return hf.read_matrix_csv(csv)
+
+
+def one_pose_track(bounds, maps) -> tuple:
+    """A track through one map a frame at its middle, held from the first and last bound."""
+    mids = 0.5 * (bounds[:-1] + bounds[1:])
+    return np.concatenate([[bounds[0]], mids, [bounds[-1]]]), np.array([maps[0]] + list(maps) + [maps[-1]])
+
+
+class Model:
+    def __init__(self, frames, affine, bounds):
+        self.f = np.moveaxis(frames.astype(np.float64), -1, 0)          # K, x, y, z (counts a second)
+        self.len = np.diff(bounds)
+        self.affine, self.inv = affine, np.linalg.inv(affine)
+        shape = self.f.shape[1:]
+        idx = np.stack(np.meshgrid(*[np.arange(n) for n in shape], indexing="ij"), axis=-1).reshape(-1, 3)
+        self.idx = idx.astype(np.float64)
+        self.world = idx @ affine[:3, :3].T + affine[:3, 3]
+        self.centre = self.world.mean(axis=0)
+        self.shape = shape
+
+    def pulled_back(self, maps):
+        """Frame k sampled where its map puts frame 0's voxels: K x N."""
+        out = []
+        for k, m in enumerate(maps):
+            w = self.inv @ m
+            coords = (self.world @ w[:3, :3].T + w[:3, 3]).T
+            out.append(ndimage.map_coordinates(self.f[k], coords, order=1, mode="nearest"))
+        return np.array(out)
+
+    def factorise(self, g, rank, prior, iterations=30):
+        """Curves (K x r) and images (r x N) of the moved-back frames, weighted by the counts' noise (a frame's
+        variance is its activity over its length), the images with a ridge of prior times the peak."""
+        mean = np.maximum(np.average(g, axis=0, weights=self.len), 0.0)
+        floor = 0.02 * mean.max()
+        w = self.len[:, None] / np.maximum(mean, floor)[None]               # K x N
+        u, s, vt = np.linalg.svd(g * np.sqrt(self.len)[:, None], full_matrices=False)
+        c = u[:, :rank] * s[:rank] / np.sqrt(self.len)[:, None]
+        b = vt[:rank]
+        ridge = 0.0 if prior == 0 else 1.0 / (prior * mean.max()) ** 2
+        for _ in range(iterations):
+            scale = np.abs(c).max(axis=0)
+            c, b = c / scale, b * scale[:, None]
+            a = np.einsum("kn,kr,ks->nrs", w, c, c) + ridge * np.eye(rank)
+            b = np.linalg.solve(a, np.einsum("kn,kr,kn->nr", w, c, g)[..., None])[..., 0].T
+            a = np.einsum("kn,rn,sn->krs", w, b, b)
+            c = np.linalg.solve(a, np.einsum("kn,rn,kn->kr", w, b, g)[..., None])[..., 0]
+        return c, b, floor
+
+    def register(self, k, m, image, floor, steps=3):
+        """Frame k's map refined against image (frame 0's voxels), Gauss-Newton on a turn about the grid's centre
+        and a shift, left of m."""
+        img = image.reshape(self.shape)
+        r = self.world - self.centre
+        for _ in range(steps):
+            back = np.linalg.inv(m)
+            w = self.inv @ back @ self.affine          # frame k's voxels to frame 0's voxels
+            coords = (self.idx @ w[:3, :3].T + w[:3, 3]).T
+            model = ndimage.map_coordinates(img, coords, order=1, mode="nearest").reshape(self.shape)
+            grad = np.stack(np.gradient(model), axis=-1).reshape(-1, 3) @ self.inv[:3, :3]  # d/d world
+            jac = -np.concatenate([grad, np.cross(r, grad)], axis=1)
+            weight = self.len[k] / np.maximum(model.ravel(), floor)
+            res = self.f[k].ravel() - model.ravel()
+            step = np.linalg.solve((jac * weight[:, None]).T @ jac, (jac * weight[:, None]).T @ res)
+            e = np.eye(4)
+            e[:3, :3] = Rotation.from_rotvec(step[3:]).as_matrix()
+            e[:3, 3] = self.centre - e[:3, :3] @ self.centre + step[:3]
+            m = e @ m
+        return m
+
+
+    def frame_gradient(self, k, m, image):
+        """Frame k's model (image moved by m) and its gradient in world mm, on frame k's voxels."""
+        back = np.linalg.inv(m)
+        w = self.inv @ back @ self.affine
+        coords = (self.idx @ w[:3, :3].T + w[:3, 3]).T
+        model = ndimage.map_coordinates(image.reshape(self.shape), coords, order=1, mode="nearest").reshape(
+            self.shape)
+        return model, np.stack(np.gradient(model), axis=-1).reshape(-1, 3) @ self.inv[:3, :3]
+
+    def joint_system(self, maps, g, c, b, floor, prior_ridge):
+        """One Gauss-Newton step on every frame's pose at once (frame 0 held), the images eliminated voxel by voxel
+        (as bench/estimate_floor.py's bound): moves along the directions where alternating the images and the poses
+        crawls, a shift shared by frames of one contrast that their images take up."""
+        k_n, rank = c.shape
+        mean = np.maximum(np.average(g, axis=0, weights=self.len), floor)
+        w = self.len[:, None] / mean[None]
+        res = g - c @ b
+        jac = []
+        for k, m in enumerate(maps):
+            _, grad = self.frame_gradient(k, m, c[k] @ b)
+            x = self.world @ (self.inv @ m)[:3, :3].T + (self.inv @ m)[:3, 3]  # frame 0's voxels in frame k's
+            pulled = np.array([ndimage.map_coordinates(gr.reshape(self.shape), x.T, order=1, mode="nearest")
+                               for gr in grad.T]).T                          # N x 3
+            r = (self.world @ m[:3, :3].T + m[:3, 3]) - self.centre
+            jac.append(np.concatenate([pulled, np.cross(r, pulled)], axis=1).T)  # 6 x N
+        jac = np.array(jac)                                                   # K x 6 x N
+        h = np.zeros((6 * k_n, 6 * k_n))
+        rhs = np.zeros(6 * k_n)
+        for lo in range(0, g.shape[1], 4096):
+            sl = slice(lo, lo + 4096)
+            ww, jj, rr = w[:, sl], jac[:, :, sl], res[:, sl]
+            wj = jj * ww[:, None, :]
+            for k in range(k_n):
+                h[6 * k:6 * k + 6, 6 * k:6 * k + 6] += wj[k] @ jj[k].T
+                rhs[6 * k:6 * k + 6] -= wj[k] @ rr[k]
+            cc = np.einsum("kr,kin->nrki", c, wj).reshape(ww.shape[1], rank, 6 * k_n)
+            a = np.einsum("kn,kr,ks->nrs", ww, c, c) + prior_ridge * np.eye(rank)
+            h -= np.einsum("nrk,nrl->kl", cc, np.linalg.solve(a, cc))
+            rhs += np.einsum("nrk,nr->k", cc, np.linalg.solve(a, np.einsum("kn,kr,kn->nr", ww, c, rr)[..., None])[
+                ..., 0])
+        return h[6:, 6:], rhs[6:]
+
+    def moved(self, maps, step):
+        """Every frame's map but frame 0's moved by its six numbers (a shift, a turn about the grid's centre)."""
+        step = np.concatenate([np.zeros(6), step])
+        k_n = len(maps)
+        out = [maps[0]]
+        for k in range(1, k_n):
+            d = step[6 * k:6 * k + 6]
+            e = np.eye(4)
+            e[:3, :3] = Rotation.from_rotvec(d[3:]).as_matrix()
+            e[:3, 3] = self.centre - e[:3, :3] @ self.centre + d[:3]
+            out.append(e @ maps[k])
+        return out
+
+    def objective(self, maps, c, b, floor):
+        """The frames' weighted sum of squares against their model images moved by their maps."""
+        total = 0.0
+        for k, m in enumerate(maps):
+            model, _ = self.frame_gradient(k, m, c[k] @ b)
+            total += np.sum(self.len[k] * (self.f[k] - model) ** 2 / np.maximum(model, floor))
+        return total
+
+
+def refine(model: Model, maps, rank, prior, rounds=5, joint=False):
+    """Alternating (each frame registered to its model image), or joint: damped Gauss-Newton steps on all poses
+    at once, each kept only where it lowers the objective."""
+    maps = [m.copy() for m in maps]
+    damping = 1e-3
+    for _ in range(rounds):
+        g = model.pulled_back(maps)
+        c, b, floor = model.factorise(g, rank, prior)
+        if joint:
+            peak = np.average(g, axis=0, weights=model.len).max()
+            h, rhs = model.joint_system(maps, g, c, b, floor, 0.0 if prior == 0 else 1.0 / (prior * peak) ** 2)
+            before = model.objective(maps, c, b, floor)
+            for _ in range(6):
+                trial = model.moved(maps, np.linalg.solve(h + damping * np.diag(np.diag(h)), rhs))
+                c2, b2, floor2 = model.factorise(model.pulled_back(trial), rank, prior)  # the images follow
+                after = model.objective(trial, c2, b2, floor2)
+                print(f"    joint: {before:.1f} -> {after:.1f} (damping {damping:g})", flush=True)
+                if after < before:
+                    maps, damping = trial, damping / 3
+                    break
+                damping *= 10
+            else:
+                break
+        else:
+            for k in range(1, len(maps)):
+                maps[k] = model.register(k, maps[k], c[k] @ b, floor)
+    c, b, floor = model.factorise(model.pulled_back(maps), rank, prior)
+    return maps, model.objective(maps, c, b, floor)
+
+
+def main() -> int:
+    p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    p.add_argument("--petblur", required=True)
+    p.add_argument("--seed", type=int, action="append", required=True)
+    p.add_argument("--prior", type=float, action="append", help="the images' ridge, times the peak; 0: none")
+    p.add_argument("--rank", type=int, default=4)
+    p.add_argument("--joint-only", action="store_true", help="the joint steps from petblur's track alone")
+    p.add_argument("--rounds", type=int, default=5, help="joint rounds")
+    p.add_argument("--out")
+    a = p.parse_args()
+    lines = []
+    for seed in a.seed:
+        d = ef.draw(seed)
+        rng = np.random.default_rng([seed, 1])
+        frames, affine, bounds, truth = ef.simulate(d, rng)
+        points = hf.head_points(rng)
+
+        def score(times, maps):
+            return hf.displacement_errors(hf.track_maps(times, maps), truth, bounds, points)
+
+        times, maps = petblur_track(a.petblur, frames, affine, bounds)
+        at = hf.track_maps(times, maps)
+        mids = 0.5 * (bounds[:-1] + bounds[1:])
+        start = [at(t) for t in mids]
+        row = {"seed": seed, "from_injection": d.start_s == 0.0, "petblur": score(times, maps),
+               "petblur_one_pose": score(*one_pose_track(bounds, start)),
+               "truth_one_pose": score(*ef.frame_means(truth, bounds))}
+        model = Model(frames, affine, bounds)
+        truth_start = [ef.frame_means(truth, bounds)[1][k + 1] for k in range(len(mids))]
+        for prior in a.prior or [1.0]:
+            for start_name, s0 in (("petblur", start), ("truth", truth_start))[:1 if a.joint_only else 2]:
+                for joint in (True,) if a.joint_only else (False, True):
+                    name = f"prior {prior:g} from {start_name}{' joint' if joint else ''}"
+                    maps_out, obj = refine(model, s0, a.rank, prior, rounds=a.rounds if joint else 5, joint=joint)
+                    row[name] = score(*one_pose_track(bounds, maps_out))
+                    row[name + " objective"] = obj
+                    print(name, round(float(row[name].mean()), 3), obj, flush=True)
+        line = {k: (round(float(v.mean()), 3) if isinstance(v, np.ndarray) else v) for k, v in row.items()}
+        print(json.dumps(line), flush=True)
+        print("  per frame:", {k: " ".join(f"{x:.2f}" for x in v) for k, v in row.items()
+                               if isinstance(v, np.ndarray)}, flush=True)
+        lines.append(line)
+    if a.out:
+        os.makedirs(a.out, exist_ok=True)
+        with open(os.path.join(a.out, "probe.jsonl"), "a") as f:
+            for line in lines:
+                f.write(json.dumps(line) + "\n")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
