@@ -70,15 +70,19 @@ class Model:
             out.append(ndimage.map_coordinates(self.f[k], coords, order=1, mode="nearest"))
         return np.array(out)
 
-    def factorise(self, g, rank, prior, iterations=30):
+    def factorise(self, g, rank, prior, iterations=30, init=None):
         """Curves (K x r) and images (r x N) of the moved-back frames, weighted by the counts' noise (a frame's
         variance is its activity over its length), the images with a ridge of prior times the peak."""
         mean = np.maximum(np.average(g, axis=0, weights=self.len), 0.0)
         floor = 0.02 * mean.max()
         w = self.len[:, None] / np.maximum(mean, floor)[None]               # K x N
-        u, s, vt = np.linalg.svd(g * np.sqrt(self.len)[:, None], full_matrices=False)
-        c = u[:, :rank] * s[:rank] / np.sqrt(self.len)[:, None]
-        b = vt[:rank]
+        if init is None:
+            u, s, vt = np.linalg.svd(g * np.sqrt(self.len)[:, None], full_matrices=False)
+            c = u[:, :rank] * s[:rank] / np.sqrt(self.len)[:, None]
+            b = vt[:rank]
+        else:  # the curves of the maps before: a few rounds take them on
+            c, b = init, np.zeros((rank, g.shape[1]))
+            iterations = 8
         ridge = 0.0 if prior == 0 else 1.0 / (prior * mean.max()) ** 2
         for _ in range(iterations):
             scale = np.abs(c).max(axis=0)
@@ -212,6 +216,8 @@ def main() -> int:
     p.add_argument("--prior", type=float, action="append", help="the images' ridge, times the peak; 0: none")
     p.add_argument("--rank", type=int, default=4)
     p.add_argument("--joint-only", action="store_true", help="the joint steps from petblur's track alone")
+    p.add_argument("--alternating-only", action="store_true", help="from petblur's track and the truth's, "
+                   "alternating alone: which the objective prefers")
     p.add_argument("--rounds", type=int, default=5, help="joint rounds")
     p.add_argument("--out")
     a = p.parse_args()
@@ -236,7 +242,7 @@ def main() -> int:
         truth_start = [ef.frame_means(truth, bounds)[1][k + 1] for k in range(len(mids))]
         for prior in a.prior or [1.0]:
             for start_name, s0 in (("petblur", start), ("truth", truth_start))[:1 if a.joint_only else 2]:
-                for joint in (True,) if a.joint_only else (False, True):
+                for joint in (True,) if a.joint_only else (False,) if a.alternating_only else (False, True):
                     name = f"prior {prior:g} from {start_name}{' joint' if joint else ''}"
                     maps_out, obj = refine(model, s0, a.rank, prior, rounds=a.rounds if joint else 5, joint=joint)
                     row[name] = score(*one_pose_track(bounds, maps_out))
