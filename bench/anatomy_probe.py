@@ -179,7 +179,7 @@ class Model:
         return total
 
 
-def refine(model: Model, maps, rank, prior, rounds=5, joint=False):
+def refine(model: Model, maps, rank, prior, rounds=5, joint=False, extrapolate=False):
     """Alternating (each frame registered to its model image), or joint: damped Gauss-Newton steps on all poses
     at once, each kept only where it lowers the objective."""
     maps = [m.copy() for m in maps]
@@ -191,6 +191,22 @@ def refine(model: Model, maps, rank, prior, rounds=5, joint=False):
             peak = np.average(g, axis=0, weights=model.len).max()
             h, rhs = model.joint_system(maps, g, c, b, floor, 0.0 if prior == 0 else 1.0 / (prior * peak) ** 2)
             before = model.objective(maps, c, b, floor)
+            if extrapolate:  # the step's direction, taken 1, 2, 4 and 8 times: the best of them
+                step = np.linalg.solve(h + damping * np.diag(np.diag(h)), rhs)
+                best = (before, None)
+                for scale in (1.0, 2.0, 4.0, 8.0):
+                    trial = model.moved(maps, scale * step)
+                    c2, b2, floor2 = model.factorise(model.pulled_back(trial), rank, prior)
+                    after = model.objective(trial, c2, b2, floor2)
+                    print(f"    joint x{scale:g}: {before:.1f} -> {after:.1f}", flush=True)
+                    if after < best[0]:
+                        best = (after, trial)
+                    else:
+                        break
+                if best[1] is None:
+                    break
+                maps = best[1]
+                continue
             for _ in range(6):
                 trial = model.moved(maps, np.linalg.solve(h + damping * np.diag(np.diag(h)), rhs))
                 c2, b2, floor2 = model.factorise(model.pulled_back(trial), rank, prior)  # the images follow
@@ -219,6 +235,7 @@ def main() -> int:
     p.add_argument("--alternating-only", action="store_true", help="from petblur's track and the truth's, "
                    "alternating alone: which the objective prefers")
     p.add_argument("--rounds", type=int, default=5, help="joint rounds")
+    p.add_argument("--extrapolate", action="store_true", help="each joint step taken up to 8 times as far")
     p.add_argument("--out")
     a = p.parse_args()
     lines = []
@@ -244,7 +261,8 @@ def main() -> int:
             for start_name, s0 in (("petblur", start), ("truth", truth_start))[:1 if a.joint_only else 2]:
                 for joint in (True,) if a.joint_only else (False,) if a.alternating_only else (False, True):
                     name = f"prior {prior:g} from {start_name}{' joint' if joint else ''}"
-                    maps_out, obj = refine(model, s0, a.rank, prior, rounds=a.rounds if joint else 5, joint=joint)
+                    maps_out, obj = refine(model, s0, a.rank, prior, rounds=a.rounds if joint else 5, joint=joint,
+                                           extrapolate=a.extrapolate)
                     row[name] = score(*one_pose_track(bounds, maps_out))
                     row[name + " objective"] = obj
                     print(name, round(float(row[name].mean()), 3), obj, flush=True)

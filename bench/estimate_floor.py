@@ -18,6 +18,10 @@ petblur and SimpleITK columns: how much of a draw's error the counts explain.
     python3 bench/estimate_floor.py --draws bench/results/RUN/draws.jsonl --out /tmp/floor    # beside a run's draws
     python3 bench/estimate_floor.py --seed 123 --seed 456 --out /tmp/floor
     python3 bench/estimate_floor.py --check 123 0 16 --out /tmp/floor    # the bound against maximum likelihood
+    python3 bench/estimate_floor.py --anatomy --seed 123 --out /tmp/floor   # the images learnt from the frames
+
+With --anatomy the estimator is not given the activity: every voxel's image of each tissue is a parameter all
+frames share (anatomy_unknown says what it may assume of them), and all frames' poses are bounded together.
 """
 from __future__ import annotations
 
@@ -125,9 +129,10 @@ def anatomy_information(lam: np.ndarray, jac: np.ndarray, a: np.ndarray, free: n
     tissue j's blurred image at voxel n a free parameter where free[n, j] (else known), shared by all frames, the
     curves a (frame k's counts from tissue j at its peak) known. The images are eliminated voxel by voxel (a voxel's
     counts over the frames are independent of the other voxels', and its images are its own): the pose block's Schur
-    complement. Each image has a prior of `prior` times its own peak a voxel (a Gaussian's spread): else two tissues whose curves differ by a part in
-    10^5 (a late scan's) make an image that only a trend over the frames scales, 10^5 times the tissue's own, free to
-    take up any drift. Also the information with the anatomy known, block diagonal (each frame's own)."""
+    complement. Each image has a prior of `prior` times its own peak a voxel (a Gaussian's spread): else two tissues
+    whose curves differ by a part in 10^5 (a late scan's) make an image that only a trend over the frames scales,
+    10^5 times the tissue's own, free to take up any drift. Also the information with the anatomy known, block
+    diagonal (each frame's own)."""
     k_n, n = lam.shape
     w = np.where(lam > 1e-9 * lam.max(), 1.0 / np.maximum(lam, 1e-300), 0.0)  # Poisson: 1 / variance
     known = np.zeros((6 * k_n, 6 * k_n))
@@ -271,8 +276,8 @@ def main() -> int:
     p.add_argument("--uptake-unknown", action="store_true",
                    help="each tissue's level in each frame unknown too (the anatomy known, not the tracer's curves)")
     p.add_argument("--anatomy", action="store_true",
-                   help="the floor with the tissues' images learnt from the frames instead (free, or free where each "
-                   "tissue lies), all poses together: anatomy.jsonl and anatomy.md")
+                   help="the floor with the tissues' images learnt from the frames instead (unconstrained, of their "
+                   "own size, or free where each tissue lies), all poses together: anatomy.jsonl and anatomy.md")
     p.add_argument("--out", required=True)
     a = p.parse_args()
     if a.check:
