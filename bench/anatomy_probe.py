@@ -3,15 +3,18 @@
 its own curve, take the early-to-late bias out of petblur's track on a family draw (bench/estimate_family.py)?
 
 bench/estimate_floor.py --anatomy bounds what an estimator can do when it learns the tissues' images from the frames:
-far above the oracle's floor when the images are unconstrained, near it when each image is held to about its own
-size. This refines petblur's own track, one pose a frame, by alternating: the frames moved back onto frame 0's head;
-a rank-r factorisation of them (curves a frame times images a voxel, weighted by the counts' noise), the images
-with a ridge of `--prior` times the activity's peak a voxel (none: unconstrained); every frame but 0 registered
-(Gauss-Newton on its pose, the sum of squares weighted by its noise) to its own model image moved by its pose.
-Scored as the family scores (bench/head_frames.py), beside petblur's track taken at the frames' middles and the
-truth's mean pose a frame.
+far above the oracle's floor when the images are unconstrained, nearer it when each image is held to about its own
+size. The model: the frames moved back onto frame 0's head by their poses (one a frame), a rank-r factorisation of
+them (curves a frame times images a voxel, weighted by the counts' noise; the images with a ridge of `--prior` times
+the activity's peak a voxel, 0: none). Its objective: every frame's weighted sum of squares against its model image
+moved by its pose. From petblur's track (taken at the frames' middles) and from the truth's mean pose a frame, the
+poses are refined by alternating (the images fitted, then every frame but 0 registered to its own by Gauss-Newton),
+or (--joint-only) by damped Gauss-Newton steps on all poses at once with the images eliminated voxel by voxel, as the
+bound eliminates them, each kept only where it lowers the objective with the images fitted again. Scored as the
+family scores (bench/head_frames.py), beside petblur's own track and the truth's mean pose a frame.
 
-    python3 bench/anatomy_probe.py --petblur build/src/cli/petblur --seed 2128585388 --prior 1 --prior 0
+    python3 bench/anatomy_probe.py --petblur build/src/cli/petblur --seed 2128585388 --prior 0     # both, both starts
+    python3 bench/anatomy_probe.py --petblur build/src/cli/petblur --seed 2128585388 --prior 0 --joint-only --rounds 8
 """
 from __future__ import annotations
 
@@ -70,19 +73,15 @@ class Model:
             out.append(ndimage.map_coordinates(self.f[k], coords, order=1, mode="nearest"))
         return np.array(out)
 
-    def factorise(self, g, rank, prior, iterations=30, init=None):
+    def factorise(self, g, rank, prior, iterations=30):
         """Curves (K x r) and images (r x N) of the moved-back frames, weighted by the counts' noise (a frame's
         variance is its activity over its length), the images with a ridge of prior times the peak."""
         mean = np.maximum(np.average(g, axis=0, weights=self.len), 0.0)
         floor = 0.02 * mean.max()
         w = self.len[:, None] / np.maximum(mean, floor)[None]               # K x N
-        if init is None:
-            u, s, vt = np.linalg.svd(g * np.sqrt(self.len)[:, None], full_matrices=False)
-            c = u[:, :rank] * s[:rank] / np.sqrt(self.len)[:, None]
-            b = vt[:rank]
-        else:  # the curves of the maps before: a few rounds take them on
-            c, b = init, np.zeros((rank, g.shape[1]))
-            iterations = 8
+        u, s, vt = np.linalg.svd(g * np.sqrt(self.len)[:, None], full_matrices=False)
+        c = u[:, :rank] * s[:rank] / np.sqrt(self.len)[:, None]
+        b = vt[:rank]
         ridge = 0.0 if prior == 0 else 1.0 / (prior * mean.max()) ** 2
         for _ in range(iterations):
             scale = np.abs(c).max(axis=0)
@@ -96,24 +95,15 @@ class Model:
     def register(self, k, m, image, floor, steps=3):
         """Frame k's map refined against image (frame 0's voxels), Gauss-Newton on a turn about the grid's centre
         and a shift, left of m."""
-        img = image.reshape(self.shape)
         r = self.world - self.centre
         for _ in range(steps):
-            back = np.linalg.inv(m)
-            w = self.inv @ back @ self.affine          # frame k's voxels to frame 0's voxels
-            coords = (self.idx @ w[:3, :3].T + w[:3, 3]).T
-            model = ndimage.map_coordinates(img, coords, order=1, mode="nearest").reshape(self.shape)
-            grad = np.stack(np.gradient(model), axis=-1).reshape(-1, 3) @ self.inv[:3, :3]  # d/d world
+            model, grad = self.frame_gradient(k, m, image)
             jac = -np.concatenate([grad, np.cross(r, grad)], axis=1)
             weight = self.len[k] / np.maximum(model.ravel(), floor)
             res = self.f[k].ravel() - model.ravel()
             step = np.linalg.solve((jac * weight[:, None]).T @ jac, (jac * weight[:, None]).T @ res)
-            e = np.eye(4)
-            e[:3, :3] = Rotation.from_rotvec(step[3:]).as_matrix()
-            e[:3, 3] = self.centre - e[:3, :3] @ self.centre + step[:3]
-            m = e @ m
+            m = self.moved([m, m], step)[1]
         return m
-
 
     def frame_gradient(self, k, m, image):
         """Frame k's model (image moved by m) and its gradient in world mm, on frame k's voxels."""
