@@ -224,6 +224,7 @@ def main() -> int:
     p.add_argument("--joint-only", action="store_true", help="the joint steps from petblur's track alone")
     p.add_argument("--alternating-only", action="store_true", help="from petblur's track and the truth's, "
                    "alternating alone: which the objective prefers")
+    p.add_argument("--evaluate-only", action="store_true", help="the objective at both starts, nothing refined")
     p.add_argument("--rounds", type=int, default=5, help="joint rounds")
     p.add_argument("--extrapolate", action="store_true", help="each joint step taken up to 8 times as far")
     p.add_argument("--out")
@@ -248,6 +249,12 @@ def main() -> int:
         model = Model(frames, affine, bounds)
         truth_start = [ef.frame_means(truth, bounds)[1][k + 1] for k in range(len(mids))]
         for prior in a.prior or [1.0]:
+            if a.evaluate_only:  # the objective where each start lies, before any refinement
+                for start_name, s0 in (("petblur", start), ("truth", truth_start)):
+                    c, b, floor = model.factorise(model.pulled_back(s0), a.rank, prior)
+                    row[f"prior {prior:g} at {start_name} objective"] = model.objective(s0, c, b, floor)
+                    print(start_name, row[f"prior {prior:g} at {start_name} objective"], flush=True)
+                continue
             for start_name, s0 in (("petblur", start), ("truth", truth_start))[:1 if a.joint_only else 2]:
                 for joint in (True,) if a.joint_only else (False,) if a.alternating_only else (False, True):
                     name = f"prior {prior:g} from {start_name}{' joint' if joint else ''}"
