@@ -10,8 +10,10 @@ the activity's peak a voxel, 0: none). Its objective: every frame's weighted sum
 moved by its pose. From petblur's track (taken at the frames' middles) and from the truth's mean pose a frame, the
 poses are refined by alternating (the images fitted, then every frame but 0 registered to its own by Gauss-Newton),
 or (--joint-only) by damped Gauss-Newton steps on all poses at once with the images eliminated voxel by voxel, as the
-bound eliminates them, each kept only where it lowers the objective with the images fitted again. Scored as the
-family scores (bench/head_frames.py), beside petblur's own track and the truth's mean pose a frame.
+bound eliminates them, each kept only where it lowers the objective with the images fitted again (alternating is not
+a descent on the objective: the images are fitted to the frames moved back, not to the frames). --evaluate-only: the
+objective at both starts, nothing refined. Scored as the family scores (bench/head_frames.py), beside petblur's own
+track and the truth's mean pose a frame.
 
     python3 bench/anatomy_probe.py --petblur build/src/cli/petblur --seed 2128585388 --prior 0     # both, both starts
     python3 bench/anatomy_probe.py --petblur build/src/cli/petblur --seed 2128585388 --prior 0 --joint-only --rounds 8
