@@ -37,12 +37,9 @@ import head_frames as hf  # noqa: E402
 
 
 def petblur_track(petblur: str, frames, affine, bounds) -> tuple:
-    import nibabel as nib
     with tempfile.TemporaryDirectory() as tmp:
-        nii, side, csv = (os.path.join(tmp, n) for n in ("f.nii.gz", "f.json", "t.csv"))
-        nib.save(nib.Nifti1Image(frames, affine), nii)
-        json.dump({"FrameTimesStart": bounds[:-1].tolist(), "FrameDuration": np.diff(bounds).tolist()},
-                  open(side, "w"))
+        nii, side = hf.write_series(tmp, frames, affine, bounds, "f")
+        csv = os.path.join(tmp, "t.csv")
         subprocess.run([petblur, "motion", "estimate", nii, "--frames-from", side, "-o", csv, "--device", "host",
                         "-q"], check=True)
         return hf.read_matrix_csv(csv)

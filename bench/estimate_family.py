@@ -277,7 +277,6 @@ def one(petblur: str, seed: int, device: str, metric: str, threads: int, variant
     """Draw `seed`, simulate it, estimate with petblur and SimpleITK: a dict of the draw and both errors; with
     variants ({name: {VARIABLE: value}}), petblur again under each variant's environment, in row["variants"]; with
     sitk (a row of an earlier run's draws.jsonl for the same seed), its SimpleITK result instead of running it."""
-    import nibabel as nib
     d = draw(seed)
     rng = np.random.default_rng([seed, 1])
     frames, affine, bounds, truth = simulate(d, rng)
@@ -296,10 +295,8 @@ def one(petblur: str, seed: int, device: str, metric: str, threads: int, variant
     row["none"] = errors(np.array([bounds[0], bounds[-1]]), np.array([np.eye(4)] * 2))
     row["frame_means"] = errors(*frame_means(truth, bounds))
     with tempfile.TemporaryDirectory() as tmp:
-        nii, side, csv = (os.path.join(tmp, n) for n in ("f.nii.gz", "f.json", "t.csv"))
-        nib.save(nib.Nifti1Image(frames, affine), nii)
-        with open(side, "w") as f:
-            json.dump({"FrameTimesStart": bounds[:-1].tolist(), "FrameDuration": np.diff(bounds).tolist()}, f)
+        nii, side = hf.write_series(tmp, frames, affine, bounds, "f")
+        csv = os.path.join(tmp, "t.csv")
         started = time.perf_counter()
         if petblur is None:  # SimpleITK alone (--sitk-only), for a GPU run to take with --sitk-from
             row["petblur"] = {"mean_mm": float("nan"), "max_mm": float("nan"), "seconds": 0.0}

@@ -104,16 +104,13 @@ def main():
     ap.add_argument("--seed", type=int, default=None)
     ap.add_argument("--no-sitk", action="store_true")
     a = ap.parse_args()
-    import nibabel as nib
 
     os.makedirs(a.out, exist_ok=True)
     seed = a.seed if a.seed is not None else int(np.random.SeedSequence().entropy % 2**32)
     rng = np.random.default_rng(seed)
     s = SETUPS[a.setup]
     frames, affine, bounds, truth = hf.simulate(s, rng)
-    nib.save(nib.Nifti1Image(frames, affine), os.path.join(a.out, "frames.nii.gz"))
-    with open(os.path.join(a.out, "frames.json"), "w") as f:
-        json.dump({"FrameTimesStart": bounds[:-1].tolist(), "FrameDuration": np.diff(bounds).tolist()}, f)
+    hf.write_series(a.out, frames, affine, bounds)
     points = hf.head_points(rng)
     results = {"setup": a.setup, "seed": seed, "frames": s.frames, "shape": list(s.shape), "voxel_mm": list(s.voxel),
                "jerk_frame": s.jerk_frame, "methods": {}}

@@ -202,6 +202,20 @@ def displacement_errors(track, truth, bounds, points, samples: int = 40) -> np.n
     return np.array(out)
 
 
+def write_series(directory, frames, affine, bounds, name: str = "frames") -> tuple:
+    """The frames [x, y, z, t] as NIfTI (name.nii.gz) and their BIDS-PET sidecar (name.json: FrameTimesStart,
+    FrameDuration) in directory, as petblur motion estimate --frames-from reads them: their two paths."""
+    import json
+    import os
+
+    import nibabel as nib  # here: the module's other users need no nibabel
+    nii, side = os.path.join(directory, name + ".nii.gz"), os.path.join(directory, name + ".json")
+    nib.save(nib.Nifti1Image(frames, affine), nii)
+    with open(side, "w") as f:
+        json.dump({"FrameTimesStart": bounds[:-1].tolist(), "FrameDuration": np.diff(bounds).tolist()}, f)
+    return nii, side
+
+
 def read_matrix_csv(path) -> tuple:
     """A matrix-csv track (t, r00, r01, r02, tx, ...) read with numpy, not petblur."""
     rows = np.loadtxt(path, delimiter=",", skiprows=1, ndmin=2)

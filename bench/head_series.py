@@ -9,7 +9,6 @@ import json
 import os
 import sys
 
-import nibabel as nib
 import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
@@ -26,9 +25,7 @@ s = dataclasses.replace(s, **override)
 rng = np.random.default_rng(seed)
 frames, affine, bounds, truth = hf.simulate(s, rng)
 os.makedirs(out, exist_ok=True)
-nib.save(nib.Nifti1Image(frames, affine), os.path.join(out, "frames.nii.gz"))
-with open(os.path.join(out, "frames.json"), "w") as f:
-    json.dump({"FrameTimesStart": bounds[:-1].tolist(), "FrameDuration": np.diff(bounds).tolist()}, f)
+hf.write_series(out, frames, affine, bounds)
 np.save(os.path.join(out, "points.npy"), hf.head_points(rng))
 with open(os.path.join(out, "meta.json"), "w") as f:
     json.dump({"seed": seed, "setup": setup, "ovr": override}, f)

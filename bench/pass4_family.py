@@ -31,16 +31,12 @@ SETUP = hf.Setup(frames=24, shape=(40, 40, 36), voxel=(4.5, 4.5, 4.5), jerk_fram
 def one(petblur: str, seed: int, device: str | None = None) -> dict:
     """Series `seed` estimated with pass 4 on and off: each track's errors per frame (mm) and whether the pass moved
     the track."""
-    import nibabel as nib
     rng = np.random.default_rng(seed)
     frames, affine, bounds, truth = hf.simulate(SETUP, rng, steps=4, jerk_steps=40)
     points = hf.head_points(rng)
     out = {"seed": seed}
     with tempfile.TemporaryDirectory() as d:
-        nii, side = os.path.join(d, "f.nii.gz"), os.path.join(d, "f.json")
-        nib.save(nib.Nifti1Image(frames, affine), nii)
-        with open(side, "w") as f:
-            json.dump({"FrameTimesStart": bounds[:-1].tolist(), "FrameDuration": np.diff(bounds).tolist()}, f)
+        nii, side = hf.write_series(d, frames, affine, bounds, "f")
         for on in ("1", "0"):
             csv = os.path.join(d, f"t{on}.csv")
             env = dict(os.environ, PETBLUR_ESTIMATE_CONTRAST=on)
