@@ -83,7 +83,8 @@ class Frames:
         tissue's level, relative (d / d log level)."""
         b = self.bounds
         t = 0.5 * (b[k] + b[k + 1])
-        self.counts(k)
+        if k not in self.scale:  # the frame's scale, as counts sets it
+            self.counts(k)
         levels = ef.uptake(self.d, t)
         return np.array([(self._render(self.truth(t), t, levels * np.eye(len(levels))[c]) * self.scale[k]).ravel()
                          for c in range(len(levels))])
@@ -123,31 +124,34 @@ def pulled_back(frames: Frames) -> tuple:
     return np.array(lam), np.array(jac), np.array(a), frames.tissue_counts(0)
 
 
-def anatomy_information(lam: np.ndarray, jac: np.ndarray, a: np.ndarray, free: np.ndarray, prior: float = 1.0,
-                        chunk: int = 4096) -> tuple:
-    """The Fisher information (6K x 6K) about all K frames' poses together when the tissues' images are unknown:
-    tissue j's blurred image at voxel n a free parameter where free[n, j] (else known), shared by all frames, the
-    curves a (frame k's counts from tissue j at its peak) known. The images are eliminated voxel by voxel (a voxel's
-    counts over the frames are independent of the other voxels', and its images are its own): the pose block's Schur
-    complement. Each image has a prior of `prior` times its own peak a voxel (a Gaussian's spread): else two tissues
-    whose curves differ by a part in 10^5 (a late scan's) make an image that only a trend over the frames scales,
-    10^5 times the tissue's own, free to take up any drift. Also the information with the anatomy known, block
-    diagonal (each frame's own)."""
+def anatomy_information(lam: np.ndarray, jac: np.ndarray, a: np.ndarray, variants: dict, chunk: int = 4096) -> tuple:
+    """The Fisher information (6K x 6K) about all K frames' poses together when the tissues' images are unknown, for
+    each of variants ({name: (free, prior)}): tissue j's blurred image at voxel n a free parameter where free[n, j]
+    (else known), shared by all frames, the curves a (frame k's counts from tissue j at its peak) known. The images
+    are eliminated voxel by voxel (a voxel's counts over the frames are independent of the other voxels', and its
+    images are its own): the pose block's Schur complement. Each image has a prior of `prior` times its own peak a
+    voxel (a Gaussian's spread): else two tissues whose curves differ by a part in 10^5 (a late scan's) make an image
+    that only a trend over the frames scales, 10^5 times the tissue's own, free to take up any drift. Also the
+    information with the anatomy known, block diagonal (each frame's own). One pass over the voxels serves every
+    variant: a tissue held where it is not free drops out of a voxel's cross terms and of its images' information."""
     k_n, n = lam.shape
     w = np.where(lam > 1e-9 * lam.max(), 1.0 / np.maximum(lam, 1e-300), 0.0)  # Poisson: 1 / variance
     known = np.zeros((6 * k_n, 6 * k_n))
-    lost = np.zeros_like(known)
+    lost = {name: np.zeros_like(known) for name in variants}
     for lo in range(0, n, chunk):
-        ww, g, f = w[:, lo:lo + chunk], jac[:, :, lo:lo + chunk], free[lo:lo + chunk]
+        ww, g = w[:, lo:lo + chunk], jac[:, :, lo:lo + chunk]
         wg = g * ww[:, None, :]                                          # K, 6, n
         for k in range(k_n):
             known[6 * k:6 * k + 6, 6 * k:6 * k + 6] += wg[k] @ g[k].T
-        cols = a[None] * f[:, None, :]                                   # n, K, 4
-        c = np.einsum("nkr,kin->nrki", cols, wg).reshape(len(f), a.shape[1], 6 * k_n)
-        amat = np.einsum("kn,nkr,nks->nrs", ww, cols, cols) + np.eye(a.shape[1]) / prior ** 2
-        # pinv: where no frame sees a voxel, tissues of one curve leave amat singular beside the data's weights
-        lost += np.einsum("nrk,nrl->kl", c, np.linalg.pinv(amat, rcond=1e-13, hermitian=True) @ c)
-    return known - lost, known
+        cross = np.einsum("kr,kin->nrki", a, wg).reshape(ww.shape[1], a.shape[1], 6 * k_n)
+        images = np.einsum("kn,kr,ks->nrs", ww, a, a)
+        for name, (free, prior) in variants.items():
+            f = free[lo:lo + chunk]
+            c = cross * f[:, :, None]
+            amat = images * f[:, :, None] * f[:, None, :] + np.eye(a.shape[1]) / prior ** 2
+            # pinv: where no frame sees a voxel, tissues of one curve leave amat singular beside the data's weights
+            lost[name] += np.einsum("nrk,nrl->kl", c, np.linalg.pinv(amat, rcond=1e-13, hermitian=True) @ c)
+    return {name: known - lost[name] for name in variants}, known
 
 
 # What an estimator may assume of the tissues' images, as a prior's spread a voxel in units of each image's peak:
@@ -168,9 +172,10 @@ def anatomy_unknown(d: ef.Draw, trials: int = 400, seed: int = 0, support: float
     a = a / a[0] * tissues.max(axis=1)  # each tissue's image in units of its peak
     k_n = len(lam)
     where = (tissues > support * tissues.max(axis=1, keepdims=True)).T.astype(float)
-    free, known = anatomy_information(lam, jac, a, np.ones_like(where), FREE)
-    infos = {"known": known, "support": anatomy_information(lam, jac, a, where, FREE)[0],
-             "range": anatomy_information(lam, jac, a, np.ones_like(where), RANGE)[0], "free": free}
+    everywhere = np.ones_like(where)
+    unknown, known = anatomy_information(lam, jac, a, {"support": (where, FREE), "range": (everywhere, RANGE),
+                                                       "free": (everywhere, FREE)})
+    infos = {"known": known, **unknown}
     out = {"seed": d.seed, "frames": k_n, "from_injection": d.start_s == 0.0, "counts_per_voxel": d.counts_per_voxel,
            "contrast_singular_values": [float(x) for x in np.linalg.svd(a / np.linalg.norm(a, axis=0),
                                                                           compute_uv=False)]}
