@@ -21,6 +21,7 @@ track and the truth's mean pose a frame.
 from __future__ import annotations
 
 import argparse
+import collections
 import json
 import os
 import subprocess
@@ -51,6 +52,11 @@ def one_pose_track(bounds, maps) -> tuple:
     return np.concatenate([[bounds[0]], mids, [bounds[-1]]]), np.array([maps[0]] + list(maps) + [maps[-1]])
 
 
+# A factorisation of the moved-back frames: curves (K x r), images (r x N), the noise's weights (K x N) and their
+# floor, and the images' ridge
+Fit = collections.namedtuple("Fit", "c b w floor ridge")
+
+
 class Model:
     def __init__(self, frames, affine, bounds):
         self.f = np.moveaxis(frames.astype(np.float64), -1, 0)          # K, x, y, z (counts a second)
@@ -63,16 +69,17 @@ class Model:
         self.centre = self.world.mean(axis=0)
         self.shape = shape
 
+    def where(self, m):
+        """Frame 0's voxels in the index of a frame whose map is m: 3 x N."""
+        w = self.inv @ m
+        return (self.world @ w[:3, :3].T + w[:3, 3]).T
+
     def pulled_back(self, maps):
         """Frame k sampled where its map puts frame 0's voxels: K x N."""
-        out = []
-        for k, m in enumerate(maps):
-            w = self.inv @ m
-            coords = (self.world @ w[:3, :3].T + w[:3, 3]).T
-            out.append(ndimage.map_coordinates(self.f[k], coords, order=1, mode="nearest"))
-        return np.array(out)
+        return np.array([ndimage.map_coordinates(self.f[k], self.where(m), order=1, mode="nearest")
+                         for k, m in enumerate(maps)])
 
-    def factorise(self, g, rank, prior, iterations=30):
+    def factorise(self, g, rank, prior, iterations=30) -> Fit:
         """Curves (K x r) and images (r x N) of the moved-back frames, weighted by the counts' noise (a frame's
         variance is its activity over its length), the images with a ridge of prior times the peak."""
         mean = np.maximum(np.average(g, axis=0, weights=self.len), 0.0)
@@ -89,7 +96,12 @@ class Model:
             b = np.linalg.solve(a, np.einsum("kn,kr,kn->nr", w, c, g)[..., None])[..., 0].T
             a = np.einsum("kn,rn,sn->krs", w, b, b)
             c = np.linalg.solve(a, np.einsum("kn,rn,kn->kr", w, b, g)[..., None])[..., 0]
-        return c, b, floor
+        return Fit(c, b, w, floor, ridge)
+
+    def profile(self, maps, rank, prior) -> tuple:
+        """The objective where the maps lie, the images fitted there; and that fit."""
+        fit = self.factorise(self.pulled_back(maps), rank, prior)
+        return self.objective(maps, fit), fit
 
     def register(self, k, m, image, floor, steps=3):
         """Frame k's map refined against image (frame 0's voxels), Gauss-Newton on a turn about the grid's centre
@@ -113,19 +125,18 @@ class Model:
             self.shape)
         return model, np.stack(np.gradient(model), axis=-1).reshape(-1, 3) @ self.inv[:3, :3]
 
-    def joint_system(self, maps, g, c, b, floor, prior_ridge):
+    def joint_system(self, maps, g, fit: Fit):
         """One Gauss-Newton step on every frame's pose at once (frame 0 held), the images eliminated voxel by voxel
         (as bench/estimate_floor.py's bound): moves along the directions where alternating the images and the poses
         crawls, a shift shared by frames of one contrast that their images take up."""
+        c, w = fit.c, fit.w
         k_n, rank = c.shape
-        mean = np.maximum(np.average(g, axis=0, weights=self.len), floor)
-        w = self.len[:, None] / mean[None]
-        res = g - c @ b
+        res = g - c @ fit.b
         jac = []
         for k, m in enumerate(maps):
-            _, grad = self.frame_gradient(k, m, c[k] @ b)
-            x = self.world @ (self.inv @ m)[:3, :3].T + (self.inv @ m)[:3, 3]  # frame 0's voxels in frame k's
-            pulled = np.array([ndimage.map_coordinates(gr.reshape(self.shape), x.T, order=1, mode="nearest")
+            _, grad = self.frame_gradient(k, m, c[k] @ fit.b)
+            x = self.where(m)
+            pulled = np.array([ndimage.map_coordinates(gr.reshape(self.shape), x, order=1, mode="nearest")
                                for gr in grad.T]).T                          # N x 3
             r = (self.world @ m[:3, :3].T + m[:3, 3]) - self.centre
             jac.append(np.concatenate([pulled, np.cross(r, pulled)], axis=1).T)  # 6 x N
@@ -140,7 +151,7 @@ class Model:
                 h[6 * k:6 * k + 6, 6 * k:6 * k + 6] += wj[k] @ jj[k].T
                 rhs[6 * k:6 * k + 6] -= wj[k] @ rr[k]
             cc = np.einsum("kr,kin->nrki", c, wj).reshape(ww.shape[1], rank, 6 * k_n)
-            a = np.einsum("kn,kr,ks->nrs", ww, c, c) + prior_ridge * np.eye(rank)
+            a = np.einsum("kn,kr,ks->nrs", ww, c, c) + fit.ridge * np.eye(rank)
             h -= np.einsum("nrk,nrl->kl", cc, np.linalg.solve(a, cc))
             rhs += np.einsum("nrk,nr->k", cc, np.linalg.solve(a, np.einsum("kn,kr,kn->nr", ww, c, rr)[..., None])[
                 ..., 0])
@@ -159,12 +170,12 @@ class Model:
             out.append(e @ maps[k])
         return out
 
-    def objective(self, maps, c, b, floor):
+    def objective(self, maps, fit: Fit):
         """The frames' weighted sum of squares against their model images moved by their maps."""
         total = 0.0
         for k, m in enumerate(maps):
-            model, _ = self.frame_gradient(k, m, c[k] @ b)
-            total += np.sum(self.len[k] * (self.f[k] - model) ** 2 / np.maximum(model, floor))
+            model, _ = self.frame_gradient(k, m, fit.c[k] @ fit.b)
+            total += np.sum(self.len[k] * (self.f[k] - model) ** 2 / np.maximum(model, fit.floor))
         return total
 
 
@@ -175,43 +186,39 @@ def refine(model: Model, maps, rank, prior, rounds=5, joint=False, extrapolate=F
     damping = 1e-3
     for _ in range(rounds):
         g = model.pulled_back(maps)
-        c, b, floor = model.factorise(g, rank, prior)
-        if joint:
-            peak = np.average(g, axis=0, weights=model.len).max()
-            h, rhs = model.joint_system(maps, g, c, b, floor, 0.0 if prior == 0 else 1.0 / (prior * peak) ** 2)
-            before = model.objective(maps, c, b, floor)
-            if extrapolate:  # the step's direction, taken 1, 2, 4 and 8 times: the best of them
-                step = np.linalg.solve(h + damping * np.diag(np.diag(h)), rhs)
-                best = (before, None)
-                for scale in (1.0, 2.0, 4.0, 8.0):
-                    trial = model.moved(maps, scale * step)
-                    c2, b2, floor2 = model.factorise(model.pulled_back(trial), rank, prior)
-                    after = model.objective(trial, c2, b2, floor2)
-                    print(f"    joint x{scale:g}: {before:.1f} -> {after:.1f}", flush=True)
-                    if after < best[0]:
-                        best = (after, trial)
-                    else:
-                        break
-                if best[1] is None:
-                    break
-                maps = best[1]
-                continue
-            for _ in range(6):
-                trial = model.moved(maps, np.linalg.solve(h + damping * np.diag(np.diag(h)), rhs))
-                c2, b2, floor2 = model.factorise(model.pulled_back(trial), rank, prior)  # the images follow
-                after = model.objective(trial, c2, b2, floor2)
-                print(f"    joint: {before:.1f} -> {after:.1f} (damping {damping:g})", flush=True)
-                if after < before:
-                    maps, damping = trial, damping / 3
-                    break
-                damping *= 10
-            else:
-                break
-        else:
+        fit = model.factorise(g, rank, prior)
+        if not joint:
             for k in range(1, len(maps)):
-                maps[k] = model.register(k, maps[k], c[k] @ b, floor)
-    c, b, floor = model.factorise(model.pulled_back(maps), rank, prior)
-    return maps, model.objective(maps, c, b, floor)
+                maps[k] = model.register(k, maps[k], fit.c[k] @ fit.b, fit.floor)
+            continue
+        h, rhs = model.joint_system(maps, g, fit)
+        before = model.objective(maps, fit)
+        if extrapolate:  # the step's direction, taken 1, 2, 4 and 8 times: the best of them
+            step = np.linalg.solve(h + damping * np.diag(np.diag(h)), rhs)
+            best = (before, None)
+            for scale in (1.0, 2.0, 4.0, 8.0):
+                trial = model.moved(maps, scale * step)
+                after, _ = model.profile(trial, rank, prior)  # the images follow
+                print(f"    joint x{scale:g}: {before:.1f} -> {after:.1f}", flush=True)
+                if after < best[0]:
+                    best = (after, trial)
+                else:
+                    break
+            if best[1] is None:
+                break
+            maps = best[1]
+            continue
+        for _ in range(6):
+            trial = model.moved(maps, np.linalg.solve(h + damping * np.diag(np.diag(h)), rhs))
+            after, _ = model.profile(trial, rank, prior)  # the images follow
+            print(f"    joint: {before:.1f} -> {after:.1f} (damping {damping:g})", flush=True)
+            if after < before:
+                maps, damping = trial, damping / 3
+                break
+            damping *= 10
+        else:
+            break
+    return maps, model.profile(maps, rank, prior)[0]
 
 
 def main() -> int:
@@ -242,16 +249,16 @@ def main() -> int:
         at = hf.track_maps(times, maps)
         mids = 0.5 * (bounds[:-1] + bounds[1:])
         start = [at(t) for t in mids]
+        truth_times, truth_maps = ef.frame_means(truth, bounds)
         row = {"seed": seed, "from_injection": d.start_s == 0.0, "petblur": score(times, maps),
                "petblur_one_pose": score(*one_pose_track(bounds, start)),
-               "truth_one_pose": score(*ef.frame_means(truth, bounds))}
+               "truth_one_pose": score(truth_times, truth_maps)}
         model = Model(frames, affine, bounds)
-        truth_start = [ef.frame_means(truth, bounds)[1][k + 1] for k in range(len(mids))]
+        truth_start = list(truth_maps[1:-1])  # one map a frame, without the bounds' copies
         for prior in a.prior or [1.0]:
             if a.evaluate_only:  # the objective where each start lies, before any refinement
                 for start_name, s0 in (("petblur", start), ("truth", truth_start)):
-                    c, b, floor = model.factorise(model.pulled_back(s0), a.rank, prior)
-                    row[f"prior {prior:g} at {start_name} objective"] = model.objective(s0, c, b, floor)
+                    row[f"prior {prior:g} at {start_name} objective"] = model.profile(s0, a.rank, prior)[0]
                     print(start_name, row[f"prior {prior:g} at {start_name} objective"], flush=True)
                 continue
             for start_name, s0 in (("petblur", start), ("truth", truth_start))[:1 if a.joint_only else 2]:
