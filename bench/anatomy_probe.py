@@ -227,7 +227,10 @@ def main() -> int:
     p.add_argument("--seed", type=int, action="append", required=True)
     p.add_argument("--prior", type=float, action="append", help="the images' ridge, times the peak; 0: none")
     p.add_argument("--rank", type=int, default=4)
-    p.add_argument("--joint-only", action="store_true", help="the joint steps from petblur's track alone")
+    p.add_argument("--joint-only", action="store_true", help="the joint steps alone")
+    p.add_argument("--start", choices=("petblur", "truth", "both"), default=None,
+                   help="where refinement starts: petblur's track, the truth's mean poses, or both (the default; "
+                   "petblur alone with --joint-only)")
     p.add_argument("--alternating-only", action="store_true", help="from petblur's track and the truth's, "
                    "alternating alone: which the objective prefers")
     p.add_argument("--evaluate-only", action="store_true", help="the objective at both starts, nothing refined")
@@ -261,7 +264,10 @@ def main() -> int:
                     row[f"prior {prior:g} at {start_name} objective"] = model.profile(s0, a.rank, prior)[0]
                     print(start_name, row[f"prior {prior:g} at {start_name} objective"], flush=True)
                 continue
-            for start_name, s0 in (("petblur", start), ("truth", truth_start))[:1 if a.joint_only else 2]:
+            which = a.start or ("petblur" if a.joint_only else "both")
+            for start_name, s0 in (("petblur", start), ("truth", truth_start)):
+                if which not in (start_name, "both"):
+                    continue
                 for joint in (True,) if a.joint_only else (False,) if a.alternating_only else (False, True):
                     name = f"prior {prior:g} from {start_name}{' joint' if joint else ''}"
                     maps_out, obj = refine(model, s0, a.rank, prior, rounds=a.rounds if joint else 5, joint=joint,

@@ -219,9 +219,10 @@ class Scene:
         return ndimage.map_coordinates(activity, coords, order=1, mode="constant").reshape(self.d.shape)
 
 
-def simulate(d: Draw, rng: np.random.Generator, steps: int = 4, moving_steps: int = 40):
-    """Frames [x, y, z, t] float32 (Bq/mL-like: counts per second), their affine, bounds and the truth."""
-    affine, truth, scene = affine_of(d), Truth(d), Scene(d)
+def simulate(d: Draw, rng: np.random.Generator, steps: int = 4, moving_steps: int = 40, truth: Truth = None):
+    """Frames [x, y, z, t] float32 (Bq/mL-like: counts per second), their affine, bounds and the truth (the draw's
+    own unless given)."""
+    affine, truth, scene = affine_of(d), truth or Truth(d), Scene(d)
     sigma, head = scene.sigma, scene.head
     b = np.array(d.bounds)
     lengths = np.diff(b)

@@ -1,0 +1,236 @@
+#!/usr/bin/env python3
+"""A probe for issue 47: the shared-anatomy model of bench/anatomy_probe.py fitted where the frames are, with every
+unknown at once.
+
+anatomy_probe.py fits the tissue images to the frames moved back onto frame 0's head, and scores the poses by the
+frames against those images moved forward: two criteria, so its joint steps are not steps on the objective they are
+judged by (from the truth's mean poses on 4208755960 not even a step of damping 333 lowered it). Here one weighted
+sum of squares, on each frame's own voxels, is all there is: frame k is modelled as sum_r c[k, r] T_k b[r], b the r
+tissue images on frame 0's grid, c the curves and T_k the trilinear map of frame 0's grid to frame k's voxels under
+its pose (one pose a frame, frame 0 held). The weights are fixed, a frame's length over its smoothed activity (the
+counts' variance), so that every objective compared is the same function. Levenberg-Marquardt steps on images, curves
+and poses together, each solved by LSQR on the whole Jacobian (columns scaled to unit norm); a step is kept only
+where it lowers the objective. --images-only holds the poses: the objective at a start with its images and curves
+fitted, which is what compares two starts fairly.
+
+    python3 bench/anatomy_joint.py --petblur build/src/cli/petblur --seed 4208755960 --start truth --start petblur
+"""
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import json
+import os
+import sys
+import time
+
+import numpy as np
+from scipy import ndimage, sparse
+from scipy.sparse import linalg as splinalg
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import anatomy_probe as ap  # noqa: E402
+import estimate_family as ef  # noqa: E402
+import head_frames as hf  # noqa: E402
+
+
+class FrameSpace:
+    """The series, its fixed weights and the trilinear maps of frame 0's grid to each frame's voxels."""
+
+    def __init__(self, model: ap.Model):
+        self.m = model
+        self.shape = model.shape
+        self.n = int(np.prod(self.shape))
+        self.k = model.f.shape[0]
+        self.f = model.f.reshape(self.k, -1)
+        smooth = np.array([ndimage.gaussian_filter(fk, 1.0) for fk in model.f]).reshape(self.k, -1)
+        mean = np.average(smooth, axis=0, weights=model.len)
+        floor = 0.02 * mean.max()
+        self.s = np.sqrt(model.len[:, None] / np.maximum(smooth, floor))          # K x N
+        self.r = model.world - model.centre                                        # N x 3
+
+    def warp(self, m):
+        """T (N x N) and its derivatives along frame 0's index axes, for a frame whose map is m; and the chain
+        from frame 0's index to the frame's world (3 x 3)."""
+        inv = self.m.inv @ np.linalg.inv(m)
+        x = (self.m.world @ inv[:3, :3].T + inv[:3, 3])                           # N x 3, frame 0's index
+        dims = np.array(self.shape)
+        inside = np.all((x >= 0) & (x <= dims - 1), axis=1)
+        x = np.clip(x, 0, dims - 1)
+        i0 = np.minimum(np.floor(x).astype(np.int64), dims - 2)
+        fr = x - i0
+        rows, cols, w, dw = [], [], [], [[], [], []]
+        strides = np.array([self.shape[1] * self.shape[2], self.shape[2], 1])
+        for corner in range(8):
+            o = np.array([(corner >> 2) & 1, (corner >> 1) & 1, corner & 1])
+            f1 = np.where(o, fr, 1 - fr)                                            # N x 3
+            sign = np.where(o, 1.0, -1.0)
+            rows.append(np.arange(self.n))
+            cols.append((i0 + o) @ strides)
+            w.append(f1.prod(axis=1))
+            for a in range(3):
+                others = np.prod(np.delete(f1, a, axis=1), axis=1)
+                dw[a].append(sign[a] * others * inside)
+        rows, cols = np.concatenate(rows), np.concatenate(cols)
+        t = sparse.csr_matrix((np.concatenate(w), (rows, cols)), shape=(self.n, self.n))
+        d = [sparse.csr_matrix((np.concatenate(v), (rows, cols)), shape=(self.n, self.n)) for v in dw]
+        return t, d, inv[:3, :3]
+
+    def state(self, maps, b, c):
+        """What every evaluation needs: each frame's warp, model image and residual (weighted)."""
+        warps = [self.warp(m) for m in maps]
+        model = np.array([warps[k][0] @ (c[k] @ b) for k in range(self.k)])
+        return warps, model, self.s * (self.f - model)
+
+    def objective(self, maps, b, c) -> float:
+        return float(np.sum(self.state(maps, b, c)[2] ** 2))
+
+    def pose_columns(self, warps, b, c):
+        """d(model)/d(pose) of every frame but 0, unweighted: K x N x 6 (frame 0's zero)."""
+        out = np.zeros((self.k, self.n, 6))
+        for k in range(1, self.k):
+            t, d, chain = warps[k]
+            image = c[k] @ b
+            g_idx = np.stack([dk @ image for dk in d], axis=1)                      # N x 3, along frame 0's index
+            g = g_idx @ chain                                                        # along the frame's world
+            out[k] = -np.concatenate([g, np.cross(self.r, g)], axis=1)
+        return out
+
+
+class Stepwise(ef.Truth):
+    """The draw's motion held at its pose at each frame's middle over the whole frame: a series that one pose a frame
+    describes exactly, so that what the model cannot hold (motion inside frames) is out of the comparison."""
+
+    def __call__(self, t: float) -> np.ndarray:
+        b = np.asarray(self.d.bounds)
+        k = int(np.clip(np.searchsorted(b, t, side="right") - 1, 0, len(b) - 2))
+        return super().__call__(0.5 * (b[k] + b[k + 1]))
+
+    def changes(self, t0: float, t1: float) -> bool:
+        return False
+
+
+def lm(fs: FrameSpace, maps, b, c, rounds, images_only=False, log=print, iterations=200):
+    """Levenberg-Marquardt on images, curves and (unless images_only) poses; each step by LSQR."""
+    rank = b.shape[0]
+    nb, nc, npz = rank * fs.n, fs.k * rank, 0 if images_only else 6 * (fs.k - 1)
+    damp = 1e-2
+    warps, model, res = fs.state(maps, b, c)
+    obj = float(np.sum(res ** 2))
+    log(f"    start {obj:.1f}")
+    for rnd in range(rounds):
+        pose = None if images_only else fs.pose_columns(warps, b, c)
+        tb = np.array([[warps[k][0] @ b[r] for r in range(rank)] for k in range(fs.k)])  # K x r x N
+        # column scales: unit norm of each weighted column
+        sb = np.zeros((rank, fs.n))
+        for k in range(fs.k):
+            sq = warps[k][0].multiply(warps[k][0]).T @ (fs.s[k] ** 2)
+            sb += (c[k] ** 2)[:, None] * sq[None]
+        sb = 1.0 / np.sqrt(np.maximum(sb, 1e-30))
+        sc = 1.0 / np.sqrt(np.maximum(np.einsum("krn,kn->kr", tb ** 2, fs.s ** 2), 1e-30))
+        sp = None if images_only else 1.0 / np.sqrt(np.maximum(np.einsum("knp,kn->kp", pose ** 2, fs.s ** 2)[1:],
+                                                                  1e-30))
+
+        def matvec(x):
+            xb = x[:nb].reshape(rank, fs.n) * sb
+            xc = x[nb:nb + nc].reshape(fs.k, rank) * sc
+            y = np.empty((fs.k, fs.n))
+            for k in range(fs.k):
+                y[k] = warps[k][0] @ (c[k] @ xb) + xc[k] @ tb[k]
+                if not images_only and k:
+                    y[k] += pose[k] @ (x[nb + nc + 6 * (k - 1):nb + nc + 6 * k] * sp[k - 1])
+            return (fs.s * y).ravel()
+
+        def rmatvec(y):
+            y = y.reshape(fs.k, fs.n) * fs.s
+            xb = np.zeros((rank, fs.n))
+            xc = np.zeros((fs.k, rank))
+            xp = np.zeros((max(fs.k - 1, 0), 6))
+            for k in range(fs.k):
+                back = warps[k][0].T @ y[k]
+                xb += c[k][:, None] * back[None]
+                xc[k] = tb[k] @ y[k]
+                if not images_only and k:
+                    xp[k - 1] = pose[k].T @ y[k]
+            out = [(xb * sb).ravel(), (xc * sc).ravel()]
+            if not images_only:
+                out.append((xp * sp).ravel())
+            return np.concatenate(out)
+
+        op = splinalg.LinearOperator((fs.k * fs.n, nb + nc + npz), matvec=matvec, rmatvec=rmatvec)
+        for attempt in range(6):
+            t0 = time.time()
+            x = splinalg.lsqr(op, res.ravel(), damp=damp, iter_lim=iterations, atol=1e-8, btol=1e-8)[0]
+            nb_ = b + x[:nb].reshape(rank, fs.n) * sb
+            nc_ = c + x[nb:nb + nc].reshape(fs.k, rank) * sc
+            nm = maps if images_only else fs.m.moved(maps, (x[nb + nc:].reshape(fs.k - 1, 6) * sp).ravel())
+            new = fs.objective(nm, nb_, nc_)
+            log(f"    round {rnd} damp {damp:g}: {obj:.1f} -> {new:.1f} ({time.time() - t0:.0f} s)")
+            if new < obj:
+                maps, b, c, damp = nm, nb_, nc_, damp / 3
+                warps, model, res = fs.state(maps, b, c)
+                obj = float(np.sum(res ** 2))
+                break
+            damp *= 10
+        else:
+            break
+    return maps, b, c, obj
+
+
+def main() -> int:
+    p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    p.add_argument("--petblur", required=True)
+    p.add_argument("--seed", type=int, action="append", required=True)
+    p.add_argument("--start", choices=("petblur", "truth"), action="append")
+    p.add_argument("--rank", type=int, default=4)
+    p.add_argument("--image-rounds", type=int, default=6, help="rounds with the poses held, at each start")
+    p.add_argument("--rounds", type=int, default=10, help="rounds on every unknown")
+    p.add_argument("--stepwise", action="store_true", help="the head held still inside every frame (Stepwise)")
+    p.add_argument("--counts", type=float, help="counts a voxel in an average frame instead of the draw's")
+    p.add_argument("--out")
+    a = p.parse_args()
+    for seed in a.seed:
+        d = ef.draw(seed)
+        if a.counts:
+            d = dataclasses.replace(d, counts_per_voxel=a.counts)
+        rng = np.random.default_rng([seed, 1])
+        frames, affine, bounds, truth = ef.simulate(d, rng, truth=Stepwise(d) if a.stepwise else None)
+        points = hf.head_points(rng)
+
+        def score(maps):
+            return hf.displacement_errors(hf.track_maps(*ap.one_pose_track(bounds, maps)), truth, bounds, points)
+
+        model = ap.Model(frames, affine, bounds)
+        fs = FrameSpace(model)
+        row = {"seed": seed, "from_injection": d.start_s == 0.0, "stepwise": a.stepwise,
+               "counts_per_voxel": d.counts_per_voxel}
+        starts = {}
+        if "petblur" in (a.start or ["petblur", "truth"]):
+            times, tmaps = ap.petblur_track(a.petblur, frames, affine, bounds)
+            at = hf.track_maps(times, tmaps)
+            starts["petblur"] = [at(t) for t in 0.5 * (bounds[:-1] + bounds[1:])]
+            row["petblur"] = float(hf.displacement_errors(at, truth, bounds, points).mean())
+        if "truth" in (a.start or ["petblur", "truth"]):
+            starts["truth"] = list(ef.frame_means(truth, bounds)[1][1:-1])
+        for name, maps in starts.items():
+            fit = model.factorise(model.pulled_back(maps), a.rank, 0.0)
+            print(f"{seed} from {name}: {score(maps).mean():.3f} mm", flush=True)
+            maps, b, c, obj = lm(fs, maps, fit.b, fit.c, a.image_rounds, images_only=True)
+            row[f"{name} images fitted"] = obj
+            print(f"  images fitted: {obj:.1f}", flush=True)
+            maps, b, c, obj = lm(fs, maps, b, c, a.rounds)
+            e = score(maps)
+            row[f"from {name}"] = float(e.mean())
+            row[f"from {name} objective"] = obj
+            row[f"from {name} per frame"] = " ".join(f"{v:.2f}" for v in e)
+            print(f"  joint: {e.mean():.3f} mm, {obj:.1f}; per frame {row[f'from {name} per frame']}", flush=True)
+        print(json.dumps(row), flush=True)
+        if a.out:
+            os.makedirs(a.out, exist_ok=True)
+            with open(os.path.join(a.out, "joint.jsonl"), "a") as f:
+                f.write(json.dumps(row) + "\n")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
