@@ -10,10 +10,16 @@ tissue images on frame 0's grid, c the curves and T_k the trilinear map of frame
 its pose (one pose a frame, frame 0 held). The weights are fixed, a frame's length over its smoothed activity (the
 counts' variance), so that every objective compared is the same function. Levenberg-Marquardt steps on images, curves
 and poses together, each solved by LSQR on the whole Jacobian (columns scaled to unit norm); a step is kept only
-where it lowers the objective. --images-only holds the poses: the objective at a start with its images and curves
-fitted, which is what compares two starts fairly.
+where it lowers the objective: first --image-rounds with the poses held, then --rounds on every unknown. Those
+steps leave the images far from fitted (LSQR stops at its iteration limit, and free curves crawl), so the objectives
+they reach do not compare poses. --evaluate does: at petblur's track, the truth's mean poses and where an earlier
+run's refinements ended, the images fitted by conjugate gradients with the curves' shapes known (fit_images).
+--stepwise holds the head still inside every frame, so that one pose a frame describes the series exactly.
 
     python3 bench/anatomy_joint.py --petblur build/src/cli/petblur --seed 4208755960 --start truth --start petblur
+    python3 bench/anatomy_joint.py --petblur build/src/cli/petblur --seed 4208755960 --stepwise --out DIR
+    python3 bench/anatomy_joint.py --petblur build/src/cli/petblur --seed 4208755960 --stepwise \
+        --evaluate DIR/joint.jsonl --out DIR
 """
 from __future__ import annotations
 

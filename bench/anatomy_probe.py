@@ -12,7 +12,9 @@ poses are refined by alternating (the images fitted, then every frame but 0 regi
 or (--joint-only) by damped Gauss-Newton steps on all poses at once with the images eliminated voxel by voxel, as the
 bound eliminates them, each kept only where it lowers the objective with the images fitted again (alternating is not
 a descent on the objective: the images are fitted to the frames moved back, not to the frames). --evaluate-only: the
-objective at both starts, nothing refined. Scored as the family scores (bench/head_frames.py), beside petblur's own
+objective at both starts, nothing refined; --start picks the start refined. The joint steps are linearised on the
+frames moved back but judged on the frames, so they are not a descent on that objective: bench/anatomy_joint.py has
+one objective. Scored as the family scores (bench/head_frames.py), beside petblur's own
 track and the truth's mean pose a frame.
 
     python3 bench/anatomy_probe.py --petblur build/src/cli/petblur --seed 2128585388 --prior 0     # both, both starts
