@@ -91,6 +91,11 @@ class FrameSpace:
     def objective(self, maps, b, c) -> float:
         return float(np.sum(self.state(maps, b, c)[2] ** 2))
 
+    def squared_columns(self, ts):
+        """Each frame's weighted squared norm of every column of its T (N a frame): the images' columns' scales
+        (lm) and the images' Jacobi preconditioner (fit_images)."""
+        return [t.multiply(t).T @ self.s[k] ** 2 for k, t in enumerate(ts)]
+
     def pose_columns(self, warps, b, c):
         """d(model)/d(pose) of every frame but 0, unweighted: K x N x 6 (frame 0's zero)."""
         out = np.zeros((self.k, self.n, 6))
@@ -116,18 +121,17 @@ class Stepwise(ef.Truth):
         return False
 
 
-def fit_images(fs: FrameSpace, maps, b, shapes, outer=6, iterations=400, log=print):
-    """The images that fit the frames best with the poses held, the curves' shapes given (shapes: K x r, each frame's
-    mean level of each tissue) and each frame's scale free: alternating, the images by conjugate gradients on their
-    normal equations (Jacobi-preconditioned, at most `iterations` a round: on 4208755960 that cap binds before the 1e-7
-relative residual) and the scales exactly. With the curves'
-    shapes known the images are a linear least-squares problem, which a rank-r factorisation with free curves (the
-    Levenberg-Marquardt steps) only crawls towards. What the objective at a set of poses is, compared fairly: as
-    bench/estimate_floor.py --anatomy bounds it (curves known, images free)."""
+def fit_images(fs: FrameSpace, warps, b, shapes, outer=6, iterations=400, log=print):
+    """The images that fit the frames best with the poses held (warps: each frame's T), the curves' shapes given
+    (shapes: K x r, each frame's mean level of each tissue) and each frame's scale free: alternating, the images by
+    conjugate gradients on their normal equations (Jacobi-preconditioned, at most `iterations` a round: on 4208755960
+    that cap binds before the 1e-7 relative residual) and the scales exactly. With the curves' shapes known the images
+    are a linear least-squares problem, which a rank-r factorisation with free curves (the Levenberg-Marquardt steps)
+    only crawls towards. What the objective at a set of poses is, compared fairly: as bench/estimate_floor.py
+    --anatomy bounds it (curves known, images free)."""
     rank = b.shape[0]
-    warps = [fs.warp(m)[0] for m in maps]
     w2 = fs.s ** 2
-    sq = [t.multiply(t).T @ w2[k] for k, t in enumerate(warps)]                  # N a frame
+    sq = fs.squared_columns(warps)
     back = np.array([warps[k].T @ (w2[k] * fs.f[k]) for k in range(fs.k)])        # K x N
     scale = np.ones(fs.k)
     for it in range(outer):
@@ -149,7 +153,7 @@ relative residual) and the scales exactly. With the curves'
         b = b.reshape(rank, fs.n)
         model = np.array([warps[k] @ (shapes[k] @ b) for k in range(fs.k)])
         new = np.sum(w2 * model * fs.f, axis=1) / np.sum(w2 * model * model, axis=1)
-        obj = fs.objective(maps, b, shapes * new[:, None])
+        obj = float(np.sum(w2 * (fs.f - new[:, None] * model) ** 2))
         log(f"    images and scales {it}: {obj:.1f} (cg {'converged' if info == 0 else info}; scales moved "
             f"{np.abs(new / scale - 1).max():.1e})")
         scale = new
@@ -160,24 +164,23 @@ def alternate(fs: FrameSpace, maps, b, shapes, rounds, pose_errors, log=print):
     """Descent on the one objective with the curves' shapes known: the images and scales fitted (fit_images, warm),
     then each frame's pose by Gauss-Newton against its own model image, kept where its frame's squares fall."""
     for rnd in range(rounds):
-        b, c, obj = fit_images(fs, maps, b, shapes, outer=2, log=lambda *_: None)
-        warps, model, res = fs.state(maps, b, c)
+        warps = [fs.warp(m) for m in maps]
+        b, c, obj = fit_images(fs, [w[0] for w in warps], b, shapes, outer=2, log=lambda *_: None)
+        res = fs.s * (fs.f - np.array([warps[k][0] @ (c[k] @ b) for k in range(fs.k)]))
         pose = fs.pose_columns(warps, b, c)
         new = list(maps)
         for k in range(1, fs.k):
             j = pose[k] * fs.s[k][:, None]
             step = np.linalg.solve(j.T @ j, j.T @ res[k])
-            full = np.zeros(6 * (fs.k - 1))
             for scale in (1.0, 0.5, 0.25):
-                full[6 * (k - 1):6 * k] = scale * step
-                trial = fs.m.moved(maps, full)[k]
+                trial = fs.m.moved([maps[0], maps[k]], scale * step)[1]
                 t = fs.warp(trial)[0]
                 if np.sum((fs.s[k] * (fs.f[k] - t @ (c[k] @ b))) ** 2) < np.sum(res[k] ** 2):
                     new[k] = trial
                     break
         maps = new
         log(f"    round {rnd}: objective {obj:.1f} before the poses; poses {pose_errors(maps).mean():.3f} mm")
-    b, c, obj = fit_images(fs, maps, b, shapes, outer=2, log=lambda *_: None)
+    b, c, obj = fit_images(fs, [fs.warp(m)[0] for m in maps], b, shapes, outer=2, log=lambda *_: None)
     return maps, obj
 
 
@@ -193,10 +196,8 @@ def lm(fs: FrameSpace, maps, b, c, rounds, images_only=False, log=print, iterati
         pose = None if images_only else fs.pose_columns(warps, b, c)
         tb = np.array([[warps[k][0] @ b[r] for r in range(rank)] for k in range(fs.k)])  # K x r x N
         # column scales: unit norm of each weighted column
-        sb = np.zeros((rank, fs.n))
-        for k in range(fs.k):
-            sq = warps[k][0].multiply(warps[k][0]).T @ (fs.s[k] ** 2)
-            sb += (c[k] ** 2)[:, None] * sq[None]
+        sq = fs.squared_columns([w[0] for w in warps])
+        sb = sum((c[k] ** 2)[:, None] * sq[k][None] for k in range(fs.k))
         sb = 1.0 / np.sqrt(np.maximum(sb, 1e-30))
         sc = 1.0 / np.sqrt(np.maximum(np.einsum("krn,kn->kr", tb ** 2, fs.s ** 2), 1e-30))
         sp = None if images_only else 1.0 / np.sqrt(np.maximum(np.einsum("knp,kn->kp", pose ** 2, fs.s ** 2)[1:],
@@ -260,7 +261,8 @@ def main() -> int:
     p.add_argument("--counts", type=float, help="counts a voxel in an average frame instead of the draw's")
     p.add_argument("--evaluate", help="a joint.jsonl of an earlier run: the objective with the images fitted "
                    "exactly (fit_images) at petblur's track, the truth and where each start's refinement ended")
-    p.add_argument("--alternate", type=int, help="with --evaluate: this many rounds of alternate() from each start")
+    p.add_argument("--alternate", type=int,
+                   help="with --evaluate: this many rounds of alternate() from petblur's track")
     p.add_argument("--out")
     a = p.parse_args()
     for seed in a.seed:
@@ -301,6 +303,7 @@ def main() -> int:
                     for name in ("petblur", "truth"):
                         if f"from {name} maps" in old:
                             starts[f"{name} refined"] = [np.array(m) for m in old[f"from {name} maps"]]
+
             def mean_uptake(k):  # as simulate averages the frame: 40 instants where the head moves, else 4
                 n = 40 if truth.changes(bounds[k], bounds[k + 1]) else 4
                 return np.mean([ef.uptake(d, t) for t in bounds[k] + (np.arange(n) + 0.5) / n * (
@@ -313,15 +316,15 @@ def main() -> int:
             root = np.sqrt(model.len)[:, None]
             shapes = np.linalg.qr(shapes * root)[0] / root
             for name, maps in starts.items():
+                if a.alternate and name != "petblur":
+                    continue
                 fit = model.factorise(model.pulled_back(maps), a.rank, 0.0)
                 b0 = np.linalg.lstsq(shapes, fit.c @ fit.b, rcond=None)[0]             # a start near the images
                 if a.alternate:
-                    if name != "petblur":
-                        continue
                     maps, obj = alternate(fs, maps, b0, shapes, a.alternate, pose_errors)
                     name = f"{name} alternated"
                 else:
-                    b, c, obj = fit_images(fs, maps, b0, shapes)
+                    obj = fit_images(fs, [fs.warp(m)[0] for m in maps], b0, shapes)[2]
                 row[f"{name} profiled"] = obj
                 row[f"{name} poses"] = float(pose_errors(maps).mean())
                 row[f"{name} poses per frame"] = " ".join(f"{v:.2f}" for v in pose_errors(maps))
