@@ -15,11 +15,19 @@ steps leave the images far from fitted (LSQR stops at its iteration limit, and f
 they reach do not compare poses. --evaluate does: at petblur's track, the truth's mean poses and where an earlier
 run's refinements ended, the images fitted by conjugate gradients with the curves' shapes known (fit_images).
 --stepwise holds the head still inside every frame, so that one pose a frame describes the series exactly.
+--alternate descends on that objective from each --start (the images fitted, then each frame's pose).
+--known-curves gives each frame's scale as well (the curves known, as the floor has them), so that the images are
+one linear least-squares problem, which conjugate gradients preconditioned by each voxel's block solve (to 5e-5 of
+the objective at 400 iterations on 4208755960); with the scales free and a diagonal preconditioner they had not
+converged, and a descent's objective mixed the images' progress with the poses'. --prior and --blur constrain the
+images (a prior of each tissue's own size, as the floor's "range"; the images blurred).
 
     python3 bench/anatomy_joint.py --petblur build/src/cli/petblur --seed 4208755960 --start truth --start petblur
     python3 bench/anatomy_joint.py --petblur build/src/cli/petblur --seed 4208755960 --stepwise --out DIR
     python3 bench/anatomy_joint.py --petblur build/src/cli/petblur --seed 4208755960 --stepwise \
         --evaluate DIR/joint.jsonl --out DIR
+    python3 bench/anatomy_joint.py --petblur build/src/cli/petblur --seed 4208755960 --stepwise --start truth \
+        --known-curves --alternate 8 --out DIR
 """
 from __future__ import annotations
 
@@ -37,6 +45,7 @@ from scipy.sparse import linalg as splinalg
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import anatomy_probe as ap  # noqa: E402
 import estimate_family as ef  # noqa: E402
+import estimate_floor as ef_floor  # noqa: E402
 import head_frames as hf  # noqa: E402
 
 
@@ -121,51 +130,95 @@ class Stepwise(ef.Truth):
         return False
 
 
-def fit_images(fs: FrameSpace, warps, b, shapes, outer=6, iterations=400, log=print):
+def fit_images(fs: FrameSpace, warps, x, shapes, outer=6, iterations=400, log=print, prior=None, blur=None,
+               scales=None):
     """The images that fit the frames best with the poses held (warps: each frame's T), the curves' shapes given
     (shapes: K x r, each frame's mean level of each tissue) and each frame's scale free: alternating, the images by
-    conjugate gradients on their normal equations (Jacobi-preconditioned, at most `iterations` a round: on 4208755960
-    that cap binds before the 1e-7 relative residual) and the scales exactly. With the curves' shapes known the images
+    conjugate gradients on their normal equations (preconditioned by each voxel's block, at most `iterations` a
+    round) and the scales exactly. With the curves' shapes known the images
     are a linear least-squares problem, which a rank-r factorisation with free curves (the Levenberg-Marquardt steps)
     only crawls towards. What the objective at a set of poses is, compared fairly: as bench/estimate_floor.py
-    --anatomy bounds it (curves known, images free)."""
-    rank = b.shape[0]
+    --anatomy bounds it (curves known, images free). prior (r x r, or None): a Gaussian prior on the images, the
+    term b[:, n]' prior b[:, n] a voxel added to the objective; the scales are then held at median 1, the images
+    taking the factor, since a prior on the images alone would trade them for ever larger scales. blur (a symmetric
+    linear map of one image, or None): the images are blur(u), u free (the scanner's resolution known), where
+    else they may hold detail finer than it, and with it the frames' noise. x: the unknowns to start from (b, or u
+    with a blur); returns the images, the curves, the objective and the unknowns. scales (K, or None): each
+    frame's scale known (the curves known, as the floor has them): the images then a linear least-squares problem
+    with nothing to alternate with."""
+    rank = x.shape[0]
     w2 = fs.s ** 2
     sq = fs.squared_columns(warps)
     back = np.array([warps[k].T @ (w2[k] * fs.f[k]) for k in range(fs.k)])        # K x N
-    scale = np.ones(fs.k)
+    scale = np.ones(fs.k) if scales is None else np.asarray(scales, float)
+    g = (lambda v: np.array([blur(vr) for vr in v])) if blur else (lambda v: v)
+    shrink = blur.shrink if blur else 1.0  # the blur's effect on the diagonal, for the preconditioner
     for it in range(outer):
         c = shapes * scale[:, None]
-        diag = sum((c[k] ** 2)[:, None] * sq[k][None] for k in range(fs.k)).ravel()
-        ridge = 1e-9 * diag.mean()
+        # block Jacobi: each voxel's r x r block of the normal matrix, whose curves the frames' weights make
+        # ill-conditioned voxel by voxel (the early frames' counts are the blood's) where a diagonal left conjugate
+        # gradients at their iteration cap
+        block = np.einsum("kn,kr,ks->nrs", np.array(sq), c, c)
+        if prior is not None:
+            block = block + prior[None]
+        block = block * shrink
+        ridge = 1e-9 * np.trace(block, axis1=1, axis2=2).mean() / rank
+        inverse = np.linalg.inv(block + ridge * np.eye(rank)[None])
 
-        def normal(x):
-            x = x.reshape(rank, fs.n)
+        def normal(v):
+            b = g(v.reshape(rank, fs.n))
             out = np.zeros((rank, fs.n))
             for k in range(fs.k):
-                out += c[k][:, None] * (warps[k].T @ (w2[k] * (warps[k] @ (c[k] @ x))))[None]
-            return out.ravel() + ridge * x.ravel()
+                out += c[k][:, None] * (warps[k].T @ (w2[k] * (warps[k] @ (c[k] @ b))))[None]
+            if prior is not None:
+                out += prior @ b
+            return g(out).ravel() + ridge * v
 
-        rhs = (c.T @ back).ravel()
+        rhs = g(c.T @ back).ravel()
         op = splinalg.LinearOperator((rank * fs.n,) * 2, matvec=normal)
-        pre = splinalg.LinearOperator((rank * fs.n,) * 2, matvec=lambda x: x / (diag + ridge))
-        b, info = splinalg.cg(op, rhs, x0=b.ravel(), rtol=1e-7, maxiter=iterations, M=pre)
-        b = b.reshape(rank, fs.n)
+        pre = splinalg.LinearOperator((rank * fs.n,) * 2, matvec=lambda v: np.einsum(
+            "nrs,sn->rn", inverse, v.reshape(rank, fs.n)).ravel())
+        x, info = splinalg.cg(op, rhs, x0=x.ravel(), rtol=1e-7, maxiter=iterations, M=pre)
+        x = x.reshape(rank, fs.n)
+        b = g(x)
         model = np.array([warps[k] @ (shapes[k] @ b) for k in range(fs.k)])
         new = np.sum(w2 * model * fs.f, axis=1) / np.sum(w2 * model * model, axis=1)
         obj = float(np.sum(w2 * (fs.f - new[:, None] * model) ** 2))
+        if scales is not None:
+            new = scale
+            obj = float(np.sum(w2 * (fs.f - scale[:, None] * model) ** 2))
+        elif prior is not None:
+            norm = np.median(new)
+            new, b, x = new / norm, b * norm, x * norm
+        if prior is not None:
+            obj += float(np.sum(b * (prior @ b)))
         log(f"    images and scales {it}: {obj:.1f} (cg {'converged' if info == 0 else info}; scales moved "
             f"{np.abs(new / scale - 1).max():.1e})")
         scale = new
-    return b, shapes * scale[:, None], obj
+    return b, shapes * scale[:, None], obj, x
 
 
-def alternate(fs: FrameSpace, maps, b, shapes, rounds, pose_errors, log=print):
+class Blur:
+    """The scanner's blur (a Gaussian, sigma in voxels a axis) on one flat image: symmetric, as zero padding keeps
+    it. shrink: the sum of the kernel's squares, what it scales a column's squared norm by."""
+
+    def __init__(self, shape, sigma):
+        self.shape, self.sigma = shape, np.asarray(sigma, float)
+        self.shrink = float(np.prod([np.sum(ndimage.gaussian_filter1d(np.eye(1, 41, 20)[0], s) ** 2)
+                                     for s in self.sigma]))
+
+    def __call__(self, v):
+        return ndimage.gaussian_filter(v.reshape(self.shape), self.sigma, mode="constant").ravel()
+
+
+def alternate(fs: FrameSpace, maps, x, shapes, rounds, pose_errors, log=print, prior=None, blur=None, scales=None,
+              outer=2, iterations=400):
     """Descent on the one objective with the curves' shapes known: the images and scales fitted (fit_images, warm),
     then each frame's pose by Gauss-Newton against its own model image, kept where its frame's squares fall."""
     for rnd in range(rounds):
         warps = [fs.warp(m) for m in maps]
-        b, c, obj = fit_images(fs, [w[0] for w in warps], b, shapes, outer=2, log=lambda *_: None)
+        b, c, obj, x = fit_images(fs, [w[0] for w in warps], x, shapes, outer, iterations, lambda *_: None, prior,
+                                  blur, scales)
         res = fs.s * (fs.f - np.array([warps[k][0] @ (c[k] @ b) for k in range(fs.k)]))
         pose = fs.pose_columns(warps, b, c)
         new = list(maps)
@@ -180,7 +233,8 @@ def alternate(fs: FrameSpace, maps, b, shapes, rounds, pose_errors, log=print):
                     break
         maps = new
         log(f"    round {rnd}: objective {obj:.1f} before the poses; poses {pose_errors(maps).mean():.3f} mm")
-    b, c, obj = fit_images(fs, [fs.warp(m)[0] for m in maps], b, shapes, outer=2, log=lambda *_: None)
+    obj = fit_images(fs, [fs.warp(m)[0] for m in maps], x, shapes, outer, iterations, lambda *_: None, prior, blur,
+                     scales)[2]
     return maps, obj
 
 
@@ -249,6 +303,44 @@ def lm(fs: FrameSpace, maps, b, c, rounds, images_only=False, log=print, iterati
     return maps, b, c, obj
 
 
+def frame_scales(d: ef.Draw, bounds, truth) -> np.ndarray:
+    """Each frame's scale as simulate sets it (its counts as its length over its activity's sum), in the units
+    where frame k is scale[k] times sum_r levels[k, r] times tissue r's image at unit level: with the curves' shapes,
+    the curves known (what the floor assumes). The frames held still inside (--stepwise), as simulate takes 4
+    instants there."""
+    scene, lens = ef.Scene(d), np.diff(bounds)
+    out = []
+    for k in range(len(lens)):
+        n = 40 if truth.changes(bounds[k], bounds[k + 1]) else 4
+        acc = np.mean([scene.sample(truth(t), t) for t in bounds[k] + (np.arange(n) + 0.5) / n * lens[k]], axis=0)
+        total = ndimage.gaussian_filter(acc.astype(np.float64), scene.sigma, mode="constant").sum()
+        out.append(d.counts_per_voxel * scene.head / lens.mean() / total)
+    return np.array(out)
+
+
+def tissue_peaks(d: ef.Draw, bounds, unit=False) -> np.ndarray:
+    """With unit, each tissue's image's peak at unit level (frame_scales' units). Else Each tissue's peak a voxel in the units its image takes when the frames' scales have median 1 (fit_images
+    with a prior): frame k's noise-free rate from it at its peak voxel over its level is the peak times frame k's
+    scale, so the median over frames is the peak at the median scale. What a prior of an image's own size is
+    measured against; only its order of magnitude matters."""
+    if unit:
+        scene = ef.Scene(d)
+        t = 0.5 * (bounds[0] + bounds[1])
+        m = ef.Truth(d)(t)
+        return np.array([ndimage.gaussian_filter(scene.sample(m, t, np.eye(len(ef.uptake(d, t)))[r]).astype(
+            np.float64), scene.sigma, mode="constant").max() for r in range(len(ef.uptake(d, t)))])
+    frames = ef_floor.Frames(d)
+    lens = np.diff(bounds)
+    per = []
+    for k in range(len(lens)):
+        tc = frames.tissue_counts(k)                                          # r x N, frame k's counts
+        levels = ef.uptake(d, 0.5 * (bounds[k] + bounds[k + 1]))
+        rate = tc.max(axis=1) / lens[k]
+        per.append(np.where(levels > 1e-3 * levels.max(), rate / np.maximum(levels, 1e-300), np.nan))
+    per = np.array(per)
+    return np.nanmedian(per, axis=0)
+
+
 def main() -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     p.add_argument("--petblur", required=True)
@@ -262,7 +354,16 @@ def main() -> int:
     p.add_argument("--evaluate", help="a joint.jsonl of an earlier run: the objective with the images fitted "
                    "exactly (fit_images) at petblur's track, the truth and where each start's refinement ended")
     p.add_argument("--alternate", type=int,
-                   help="with --evaluate: this many rounds of alternate() from petblur's track")
+                   help="instead of --evaluate: this many rounds of alternate() from each --start")
+    p.add_argument("--prior", type=float,
+                   help="with --evaluate or --alternate: a Gaussian prior on each tissue's image, this many times its peak a voxel "
+                   "(bench/estimate_floor.py's 'range' is 1)")
+    p.add_argument("--blur", type=float,
+                   help="with --evaluate or --alternate: the images blurred (Blur) by a Gaussian of this sigma in "
+                   "voxels; 0: the scanner's own")
+    p.add_argument("--known-curves", action="store_true",
+                   help="with --evaluate or --alternate: each frame's scale known as well (frame_scales)")
+    p.add_argument("--cg", type=int, default=400, help="conjugate gradients' iterations a fit")
     p.add_argument("--out")
     a = p.parse_args()
     for seed in a.seed:
@@ -296,8 +397,8 @@ def main() -> int:
             row["petblur"] = float(hf.displacement_errors(at, truth, bounds, points).mean())
         if "truth" in (a.start or ["petblur", "truth"]):
             starts["truth"] = list(truth_maps)
-        if a.evaluate:
-            for line in open(a.evaluate):
+        if a.evaluate or a.alternate:
+            for line in open(a.evaluate) if a.evaluate else []:
                 old = json.loads(line)
                 if old["seed"] == seed and old.get("stepwise", False) == a.stepwise:
                     for name in ("petblur", "truth"):
@@ -314,20 +415,37 @@ def main() -> int:
             # curves' fourth singular value is 1e-4 of the first, which conjugate gradients on the tissues' own
             # images do not converge under
             root = np.sqrt(model.len)[:, None]
-            shapes = np.linalg.qr(shapes * root)[0] / root
+            q, rmat = np.linalg.qr(shapes * root)
+            shapes = q / root
+            prior, scales, outer = None, None, 2
+            if a.known_curves:
+                scales, outer = frame_scales(d, bounds, truth), 1
+                row["known curves"] = True
+            blur = None
+            if a.blur is not None:
+                blur = Blur(model.shape, a.blur * np.ones(3) if a.blur else ef.Scene(d).sigma)
+                row["blur"] = [float(v) for v in blur.sigma]
+            if a.prior:
+                # the images in the orthonormal span are rmat times the tissues' own: the prior on those
+                spread = a.prior * tissue_peaks(d, bounds, scales is not None)
+                inv = np.linalg.inv(rmat)
+                prior = inv.T @ np.diag(1.0 / spread ** 2) @ inv
+                row["prior"] = a.prior
+                row["tissue peaks"] = [float(v) for v in spread / a.prior]
             for name, maps in starts.items():
-                if a.alternate and name != "petblur":
-                    continue
                 fit = model.factorise(model.pulled_back(maps), a.rank, 0.0)
                 b0 = np.linalg.lstsq(shapes, fit.c @ fit.b, rcond=None)[0]             # a start near the images
                 if a.alternate:
-                    maps, obj = alternate(fs, maps, b0, shapes, a.alternate, pose_errors)
+                    maps, obj = alternate(fs, maps, b0, shapes, a.alternate, pose_errors, prior=prior, blur=blur,
+                                          scales=scales, outer=outer, iterations=a.cg)
                     name = f"{name} alternated"
                 else:
-                    obj = fit_images(fs, [fs.warp(m)[0] for m in maps], b0, shapes)[2]
+                    obj = fit_images(fs, [fs.warp(m)[0] for m in maps], b0, shapes, 6 if scales is None else 1, a.cg,
+                                     prior=prior, blur=blur, scales=scales)[2]
                 row[f"{name} profiled"] = obj
                 row[f"{name} poses"] = float(pose_errors(maps).mean())
                 row[f"{name} poses per frame"] = " ".join(f"{v:.2f}" for v in pose_errors(maps))
+                row[f"{name} maps"] = np.round(np.array(maps), 6).tolist()
                 print(f"{seed} {name}: poses {row[f'{name} poses']:.3f} mm, objective {obj:.1f}", flush=True)
             print(json.dumps(row), flush=True)
             if a.out:
