@@ -303,6 +303,20 @@ def lm(fs: FrameSpace, maps, b, c, rounds, images_only=False, log=print, iterati
     return maps, b, c, obj
 
 
+def profile(fs: FrameSpace, maps, b, c, spec: str) -> list:
+    """One frame's weighted squares along a line of translations through its pose, the images and curves held: how
+    the objective looks to that frame's pose alone (spec: 'K:x,y,z', mm in the world)."""
+    k, v = spec.split(":")
+    k, v = int(k), np.array([float(x) for x in v.split(",")])
+    out = []
+    for step in np.linspace(-1.5, 1.5, 13):
+        m = maps[k].copy()
+        m[:3, 3] += step * v
+        t = fs.warp(m)[0]
+        out.append([round(float(step), 3), round(float(np.sum((fs.s[k] * (fs.f[k] - t @ (c[k] @ b))) ** 2)), 2)])
+    return out
+
+
 def frame_scales(d: ef.Draw, bounds, truth) -> np.ndarray:
     """Each frame's scale as simulate sets it (its counts as its length over its activity's sum), in the units
     where frame k is scale[k] times sum_r levels[k, r] times tissue r's image at unit level: with the curves' shapes,
@@ -364,6 +378,8 @@ def main() -> int:
     p.add_argument("--known-curves", action="store_true",
                    help="with --evaluate or --alternate: each frame's scale known as well (frame_scales)")
     p.add_argument("--cg", type=int, default=400, help="conjugate gradients' iterations a fit")
+    p.add_argument("--profile", help="with --evaluate: K:x,y,z (mm), frame K's weighted squares with the images "
+                   "held as fitted, its pose moved by s times that translation, s from -1.5 to 1.5 (profile)")
     p.add_argument("--out")
     a = p.parse_args()
     for seed in a.seed:
@@ -440,8 +456,11 @@ def main() -> int:
                                           scales=scales, outer=outer, iterations=a.cg)
                     name = f"{name} alternated"
                 else:
-                    obj = fit_images(fs, [fs.warp(m)[0] for m in maps], b0, shapes, 6 if scales is None else 1, a.cg,
-                                     prior=prior, blur=blur, scales=scales)[2]
+                    b, c, obj, _ = fit_images(fs, [fs.warp(m)[0] for m in maps], b0, shapes,
+                                              6 if scales is None else 1, a.cg, prior=prior, blur=blur, scales=scales)
+                    if a.profile:
+                        row[f"{name} profile"] = profile(fs, maps, b, c, a.profile)
+                        print(f"{seed} {name} profile of frame {a.profile}: {row[f'{name} profile']}", flush=True)
                 row[f"{name} profiled"] = obj
                 row[f"{name} poses"] = float(pose_errors(maps).mean())
                 row[f"{name} poses per frame"] = " ".join(f"{v:.2f}" for v in pose_errors(maps))
