@@ -52,17 +52,20 @@ import head_frames as hf  # noqa: E402
 class FrameSpace:
     """The series, its fixed weights and the trilinear maps of frame 0's grid to each frame's voxels."""
 
-    def __init__(self, model: ap.Model):
+    def __init__(self, model: ap.Model, smooth=None):
         self.m = model
         self.shape = model.shape
         self.n = int(np.prod(self.shape))
         self.k = model.f.shape[0]
         self.f = model.f.reshape(self.k, -1)
-        smooth = np.array([ndimage.gaussian_filter(fk, 1.0) for fk in model.f]).reshape(self.k, -1)
-        mean = np.average(smooth, axis=0, weights=model.len)
+        self.smooth = smooth
+        activity = np.array([ndimage.gaussian_filter(fk, 1.0) for fk in model.f]).reshape(self.k, -1)
+        mean = np.average(activity, axis=0, weights=model.len)
         floor = 0.02 * mean.max()
-        self.s = np.sqrt(model.len[:, None] / np.maximum(smooth, floor))          # K x N
+        self.s = np.sqrt(model.len[:, None] / np.maximum(activity, floor))        # K x N
         self.r = model.world - model.centre                                        # N x 3
+        if smooth is not None:  # the frames and the model compared after the same smoothing (Smoothed)
+            self.f = np.array([smooth(fk) for fk in self.f])
 
     def warp(self, m):
         """T (N x N) and its derivatives along frame 0's index axes, for a frame whose map is m; and the chain
@@ -89,6 +92,8 @@ class FrameSpace:
         rows, cols = np.concatenate(rows), np.concatenate(cols)
         t = sparse.csr_matrix((np.concatenate(w), (rows, cols)), shape=(self.n, self.n))
         d = [sparse.csr_matrix((np.concatenate(v), (rows, cols)), shape=(self.n, self.n)) for v in dw]
+        if self.smooth is not None:
+            t, d = Smoothed(t, self.smooth), [Smoothed(v, self.smooth) for v in d]
         return t, d, inv[:3, :3]
 
     def state(self, maps, b, c):
@@ -103,6 +108,8 @@ class FrameSpace:
     def squared_columns(self, ts):
         """Each frame's weighted squared norm of every column of its T (N a frame): the images' columns' scales
         (lm) and the images' Jacobi preconditioner (fit_images)."""
+        if self.smooth is not None:  # for preconditioners only: the smoothing's effect on a column taken as its shrink
+            return [self.smooth.shrink * (t.raw.multiply(t.raw).T @ self.s[k] ** 2) for k, t in enumerate(ts)]
         return [t.multiply(t).T @ self.s[k] ** 2 for k, t in enumerate(ts)]
 
     def pose_columns(self, warps, b, c):
@@ -111,10 +118,34 @@ class FrameSpace:
         for k in range(1, self.k):
             t, d, chain = warps[k]
             image = c[k] @ b
-            g_idx = np.stack([dk @ image for dk in d], axis=1)                      # N x 3, along frame 0's index
+            raw = [getattr(dk, "raw", dk) for dk in d]
+            g_idx = np.stack([dk @ image for dk in raw], axis=1)                    # N x 3, along frame 0's index
             g = g_idx @ chain                                                        # along the frame's world
             out[k] = -np.concatenate([g, np.cross(self.r, g)], axis=1)
+            if self.smooth is not None:
+                out[k] = np.stack([self.smooth(col) for col in out[k].T], axis=1)
         return out
+
+
+class Smoothed:
+    """A frame's map followed by a smoothing (Blur): the model compared with the frames smoothed alike, so that the
+    map's own averaging at a fractional offset, which on noisy frames gives the objective a cusp wherever a map
+    crosses the grid (bench/results/2026-12-01_cpu2_anatomy-prior), is small beside the smoothing's."""
+
+    def __init__(self, raw, smooth):
+        self.raw, self.smooth = raw, smooth
+
+    def __matmul__(self, x):
+        return self.smooth(self.raw @ x)
+
+    @property
+    def T(self):
+        outer = self
+
+        class Transposed:
+            def __matmul__(self, y):
+                return outer.raw.T @ outer.smooth(y)
+        return Transposed()
 
 
 class Stepwise(ef.Truth):
@@ -380,6 +411,8 @@ def main() -> int:
     p.add_argument("--cg", type=int, default=400, help="conjugate gradients' iterations a fit")
     p.add_argument("--profile", help="with --evaluate: K:x,y,z (mm), frame K's weighted squares with the images "
                    "held as fitted, its pose moved by s times that translation, s from -1.5 to 1.5 (profile)")
+    p.add_argument("--smooth", type=float, help="the frames and the model compared after a Gaussian of this sigma "
+                   "in voxels (Smoothed)")
     p.add_argument("--out")
     a = p.parse_args()
     for seed in a.seed:
@@ -402,9 +435,9 @@ def main() -> int:
                              for m, t in zip(maps, truth_maps)])
 
         model = ap.Model(frames, affine, bounds)
-        fs = FrameSpace(model)
+        fs = FrameSpace(model, Blur(model.shape, a.smooth * np.ones(3)) if a.smooth else None)
         row = {"seed": seed, "from_injection": d.start_s == 0.0, "stepwise": a.stepwise,
-               "counts_per_voxel": d.counts_per_voxel}
+               "counts_per_voxel": d.counts_per_voxel, "smooth": a.smooth}
         starts = {}
         if "petblur" in (a.start or ["petblur", "truth"]):
             times, tmaps = ap.petblur_track(a.petblur, frames, affine, bounds)
