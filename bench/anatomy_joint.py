@@ -20,7 +20,10 @@ run's refinements ended, the images fitted by conjugate gradients with the curve
 one linear least-squares problem, which conjugate gradients preconditioned by each voxel's block solve (to 5e-5 of
 the objective at 400 iterations on 4208755960); with the scales free and a diagonal preconditioner they had not
 converged, and a descent's objective mixed the images' progress with the poses'. --prior and --blur constrain the
-images (a prior of each tissue's own size, as the floor's "range"; the images blurred).
+images (a prior of each tissue's own size, as the floor's "range"; the images blurred). With trilinear maps the
+objective has a cusp wherever a frame's map crosses the grid on noisy frames (--profile shows one frame's squares
+along a line); --smooth compares the frames and the model after one Gaussian, which removes it
+(bench/results/2026-12-01_cpu2_anatomy-prior).
 
     python3 bench/anatomy_joint.py --petblur build/src/cli/petblur --seed 4208755960 --start truth --start petblur
     python3 bench/anatomy_joint.py --petblur build/src/cli/petblur --seed 4208755960 --stepwise --out DIR
@@ -364,10 +367,11 @@ def frame_scales(d: ef.Draw, bounds, truth) -> np.ndarray:
 
 
 def tissue_peaks(d: ef.Draw, bounds, unit=False) -> np.ndarray:
-    """With unit, each tissue's image's peak at unit level (frame_scales' units). Else Each tissue's peak a voxel in the units its image takes when the frames' scales have median 1 (fit_images
-    with a prior): frame k's noise-free rate from it at its peak voxel over its level is the peak times frame k's
-    scale, so the median over frames is the peak at the median scale. What a prior of an image's own size is
-    measured against; only its order of magnitude matters."""
+    """Each tissue's peak a voxel, what a prior of an image's own size is measured against (only its order of
+    magnitude matters). With unit, its image's peak at unit level (frame_scales' units); else in the units its image
+    takes when the frames' scales have median 1 (fit_images with a prior and free scales): frame k's noise-free rate
+    from it at its peak voxel over its level is the peak times frame k's scale, so the median over frames is the peak
+    at the median scale."""
     if unit:
         scene = ef.Scene(d)
         t = 0.5 * (bounds[0] + bounds[1])
@@ -401,8 +405,8 @@ def main() -> int:
     p.add_argument("--alternate", type=int,
                    help="instead of --evaluate: this many rounds of alternate() from each --start")
     p.add_argument("--prior", type=float,
-                   help="with --evaluate or --alternate: a Gaussian prior on each tissue's image, this many times its peak a voxel "
-                   "(bench/estimate_floor.py's 'range' is 1)")
+                   help="with --evaluate or --alternate: a Gaussian prior on each tissue's image, this many times "
+                   "its peak a voxel (bench/estimate_floor.py's 'range' is 1)")
     p.add_argument("--blur", type=float,
                    help="with --evaluate or --alternate: the images blurred (Blur) by a Gaussian of this sigma in "
                    "voxels; 0: the scanner's own")
