@@ -105,6 +105,10 @@ class FrameSpace:
         model = np.array([warps[k][0] @ (c[k] @ b) for k in range(self.k)])
         return warps, model, self.s * (self.f - model)
 
+    def frame_squares(self, k, t, image) -> float:
+        """Frame k's weighted squares against image moved by its map t."""
+        return float(np.sum((self.s[k] * (self.f[k] - t @ image)) ** 2))
+
     def objective(self, maps, b, c) -> float:
         return float(np.sum(self.state(maps, b, c)[2] ** 2))
 
@@ -216,12 +220,12 @@ def fit_images(fs: FrameSpace, warps, x, shapes, outer=6, iterations=400, log=pr
         x = x.reshape(rank, fs.n)
         b = g(x)
         model = np.array([warps[k] @ (shapes[k] @ b) for k in range(fs.k)])
-        new = np.sum(w2 * model * fs.f, axis=1) / np.sum(w2 * model * model, axis=1)
-        obj = float(np.sum(w2 * (fs.f - new[:, None] * model) ** 2))
         if scales is not None:
             new = scale
-            obj = float(np.sum(w2 * (fs.f - scale[:, None] * model) ** 2))
-        elif prior is not None:
+        else:
+            new = np.sum(w2 * model * fs.f, axis=1) / np.sum(w2 * model * model, axis=1)
+        obj = float(np.sum(w2 * (fs.f - new[:, None] * model) ** 2))
+        if scales is None and prior is not None:
             norm = np.median(new)
             new, b, x = new / norm, b * norm, x * norm
         if prior is not None:
@@ -262,7 +266,7 @@ def alternate(fs: FrameSpace, maps, x, shapes, rounds, pose_errors, log=print, p
             for scale in (1.0, 0.5, 0.25):
                 trial = fs.m.moved([maps[0], maps[k]], scale * step)[1]
                 t = fs.warp(trial)[0]
-                if np.sum((fs.s[k] * (fs.f[k] - t @ (c[k] @ b))) ** 2) < np.sum(res[k] ** 2):
+                if fs.frame_squares(k, t, c[k] @ b) < np.sum(res[k] ** 2):
                     new[k] = trial
                     break
         maps = new
@@ -347,20 +351,18 @@ def profile(fs: FrameSpace, maps, b, c, spec: str) -> list:
         m = maps[k].copy()
         m[:3, 3] += step * v
         t = fs.warp(m)[0]
-        out.append([round(float(step), 3), round(float(np.sum((fs.s[k] * (fs.f[k] - t @ (c[k] @ b))) ** 2)), 2)])
+        out.append([round(float(step), 3), round(fs.frame_squares(k, t, c[k] @ b), 2)])
     return out
 
 
 def frame_scales(d: ef.Draw, bounds, truth) -> np.ndarray:
     """Each frame's scale as simulate sets it (its counts as its length over its activity's sum), in the units
     where frame k is scale[k] times sum_r levels[k, r] times tissue r's image at unit level: with the curves' shapes,
-    the curves known (what the floor assumes). The frames held still inside (--stepwise), as simulate takes 4
-    instants there."""
+    the curves known (what the floor assumes), at the instants simulate renders."""
     scene, lens = ef.Scene(d), np.diff(bounds)
     out = []
     for k in range(len(lens)):
-        n = 40 if truth.changes(bounds[k], bounds[k + 1]) else 4
-        acc = np.mean([scene.sample(truth(t), t) for t in bounds[k] + (np.arange(n) + 0.5) / n * lens[k]], axis=0)
+        acc = np.mean([scene.sample(truth(t), t) for t in ef.instants(truth, bounds[k], bounds[k + 1])], axis=0)
         total = ndimage.gaussian_filter(acc.astype(np.float64), scene.sigma, mode="constant").sum()
         out.append(d.counts_per_voxel * scene.head / lens.mean() / total)
     return np.array(out)
@@ -458,10 +460,8 @@ def main() -> int:
                         if f"from {name} maps" in old:
                             starts[f"{name} refined"] = [np.array(m) for m in old[f"from {name} maps"]]
 
-            def mean_uptake(k):  # as simulate averages the frame: 40 instants where the head moves, else 4
-                n = 40 if truth.changes(bounds[k], bounds[k + 1]) else 4
-                return np.mean([ef.uptake(d, t) for t in bounds[k] + (np.arange(n) + 0.5) / n * (
-                    bounds[k + 1] - bounds[k])], axis=0)
+            def mean_uptake(k):  # at the instants simulate renders the frame at
+                return np.mean([ef.uptake(d, t) for t in ef.instants(truth, bounds[k], bounds[k + 1])], axis=0)
 
             shapes = np.array([mean_uptake(k) for k in range(len(bounds) - 1)])
             # the same span with orthonormal columns, weighted by the frames' lengths (the counts' weights): the

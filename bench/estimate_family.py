@@ -219,6 +219,13 @@ class Scene:
         return ndimage.map_coordinates(activity, coords, order=1, mode="constant").reshape(self.d.shape)
 
 
+def instants(truth: Truth, t0: float, t1: float, steps: int = 4, moving_steps: int = 40) -> np.ndarray:
+    """The instants a frame from t0 to t1 is rendered at: moving_steps where the head moves inside it, else steps
+    (the uptake's change alone)."""
+    n = moving_steps if truth.changes(t0, t1) else steps
+    return t0 + (np.arange(n) + 0.5) / n * (t1 - t0)
+
+
 def simulate(d: Draw, rng: np.random.Generator, steps: int = 4, moving_steps: int = 40, truth: Truth = None):
     """Frames [x, y, z, t] float32 (Bq/mL-like: counts per second), their affine, bounds and the truth (the draw's
     own unless given)."""
@@ -228,11 +235,11 @@ def simulate(d: Draw, rng: np.random.Generator, steps: int = 4, moving_steps: in
     lengths = np.diff(b)
     frames = np.zeros(d.shape + (len(b) - 1,), np.float32)
     for k in range(len(b) - 1):
-        n = moving_steps if truth.changes(b[k], b[k + 1]) else steps
+        ts = instants(truth, b[k], b[k + 1], steps, moving_steps)
         acc = np.zeros(d.shape, np.float64)
-        for t in b[k] + (np.arange(n) + 0.5) / n * lengths[k]:
+        for t in ts:
             acc += scene.sample(truth(t), t)
-        acc = ndimage.gaussian_filter(acc / n, sigma, mode="constant")
+        acc = ndimage.gaussian_filter(acc / len(ts), sigma, mode="constant")
         # counts as the frame's length: the average frame's counts_per_voxel, a short early frame's few
         expected = acc * (d.counts_per_voxel * head * lengths[k] / lengths.mean() / acc.sum())
         noisy = ndimage.gaussian_filter(rng.poisson(np.maximum(expected, 0.0)).astype(np.float64), 0.5 * sigma,
