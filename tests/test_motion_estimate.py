@@ -158,7 +158,11 @@ class Together(unittest.TestCase):
     13-71 % off the mean (median 44 %) and never made the worst frame worse; on one series CI drew (seed 432804490,
     host and PoCL alike) it added 4 % to the mean (0.890 -> 0.925 mm) and 0.01 mm to the worst frame. So one draw
     asserts what holds on every series seen: the pass may not add more than a tenth to the mean nor 0.1 mm to the
-    worst frame, and the track stays within the bounds below; the gain itself is the family's to show."""
+    worst frame, and the track stays within the bounds below; the gain itself is the family's to show. The bounds:
+    on 48 fresh series at d690735 (bench/results/2026-12-02_H200_d690735_pass4-family) the mean with the pass
+    0.257-0.883 mm and without it 0.863-1.087, the worst frame at most 1.80 mm; CI drew seed 1700318083, where the
+    pass takes 1.003 to 0.994 mm on the CPU and on CUDA alike, above the 0.95 mm this bound was then. So the mean
+    within 1.2 mm, above every series seen with the pass or without it: a sanity bound on the estimate."""
 
     def test_pass_4(self):
         seed = int(os.environ.get("PETBLUR_TEST_SEED_24") or np.random.SeedSequence().entropy % 2**32)
@@ -170,7 +174,7 @@ class Together(unittest.TestCase):
         if r["moved"]:
             self.assertLess(e.mean(), 1.1 * off.mean(), msg)
         self.assertLessEqual(e.max(), off.max() + 0.1, msg)
-        self.assertLess(e.mean(), 0.95, msg)
+        self.assertLess(e.mean(), 1.2, msg)
         self.assertLess(e.max(), 2.2, msg)
 
 
