@@ -43,14 +43,14 @@
  *    nested lengths, and 2 at every length cut 3 of 30 still heads, up to
  *    11 segments; 3 at every length let the nods' bends through, 60 fresh
  *    nods at 0.48 % RMS median against 0.40). The runs are then merged
- *    where their union holds (below). Before the scatter, CI drew a noisy drift at 84 segments
- *    against the true motion's 16, and a still head took 24 against 1
- *    (bench/results/2026-11-29_cpu2_noise-scatter). A noisy run once kept E^2
- *    where a noise-free one keeps (0.35 E)^2, so a log with a trace of noise
- *    let three times the bias through: on fresh draws 60 nods stood at
- *    0.476 % RMS (median) from the true motion's blur, now 0.403, 30 drifts
- *    at 0.253, now 0.169, the medians of 30 stills and 30 seizures the same
- *    (bench/results/2026-12-02_cpu2_noisy-share);
+ *    where their union holds (below). Before the scatter, CI drew a noisy
+ *    drift at 84 segments against the true motion's 16, and a still head
+ *    took 24 against 1 (bench/results/2026-11-29_cpu2_noise-scatter). A
+ *    noisy run once kept E^2 where a noise-free one keeps (0.35 E)^2, so a
+ *    log with a trace of noise let three times the bias through: on fresh
+ *    draws 60 nods stood at 0.476 % RMS (median) from the true motion's
+ *    blur, now 0.403, 30 drifts at 0.253, now 0.169, the medians of 30
+ *    stills and 30 seizures the same (bench/results/2026-12-02_cpu2_noisy-share);
  *  - the mean residual of every k consecutive samples, k = 1, 2, 4, ... up to
  *    the run, is within E + 3 s / sqrt(k), s the corner's noise (the 3D
  *    norm's RMS): the first-order error, where a jerk's few samples leave
