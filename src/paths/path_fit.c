@@ -36,9 +36,18 @@
  *  - each corner's residual has a mean square within (0.35 E)^2, as a
  *    noise-free run's (below), plus the noise's: what the run drops of each
  *    voxel's spread of positions beyond the noise bounds the blur's
- *    second-order error. Plus the scatter of the noise's own mean square,
- *    which a run's noise alone would otherwise exceed now and then wherever
- *    the noise is several times 0.35 E: 3 standard deviations on a run of
+ *    second-order error. Plus the scatter of that mean square less the
+ *    noise's as measured, which a run's noise alone would otherwise exceed
+ *    now and then wherever the noise is several times 0.35 E: for white
+ *    Gaussian noise its variance is 2 len + (17/8) len^2 / m times the sum
+ *    of the squared eigenvalues of the noise's covariance, the second term
+ *    the measure's own error over its m lag-1 products, less its covariance
+ *    with the run's (whose samples are among those that measured it);
+ *    without it a still head's whole frame failed now and then (a measure's
+ *    8 % scatter at 323 samples against the mean square's 4.5 %: fresh still
+ *    5023 took 9 segments against 1, 0.50 -> 1.21 % RMS from the true
+ *    motion's blur; bench/results/2026-12-02_cpu2_measure-scatter). Of that
+ *    scatter 3 standard deviations on a run of
  *    64 samples or more, 2 on a shorter one (a still run is tested at many
  *    nested lengths, and 2 at every length cut 3 of 30 still heads, up to
  *    11 segments; 3 at every length let the nods' bends through, 60 fresh
@@ -51,6 +60,16 @@
  *    draws 60 nods stood at 0.476 % RMS (median) from the true motion's
  *    blur, now 0.403, 30 drifts at 0.253, now 0.169, the medians of 30
  *    stills and 30 seizures the same (bench/results/2026-12-02_cpu2_noisy-share);
+ *  - the sum of the residual's lag-1 products is within (0.35 E)^2 (len - 1)
+ *    plus as many standard deviations of its scatter, the square root of
+ *    (len - 1) times the same sum of squared eigenvalues: white noise's
+ *    products average zero, so it measures the residual's smooth part (a
+ *    nod's arc about its line) without the noise's mean square or its
+ *    measure's error. With the measure's error in the mean square alone
+ *    the nods' arcs went through (60 nods, 20 better and 40 worse); with
+ *    this test as well, on 120 fresh noisy nods and 60 drifts as many better
+ *    as worse, no still head cut, and issue 46's 20 Hz log with 0.05 mm of
+ *    noise 6.2 segments a frame where it took 8.7;
  *  - the mean residual of every k consecutive samples, k = 1, 2, 4, ... up to
  *    the run, is within E + 3 s / sqrt(k), s the corner's noise (the 3D
  *    norm's RMS): the first-order error, where a jerk's few samples leave
@@ -92,6 +111,11 @@ enum { PB_FIT_SCATTER_RUN = 64 };
  * 512; bench/results/2026-11-30_cpu2_short-frames). */
 enum { PB_NOISE_SAMPLES = 64, PB_NOISE_WINDOW = 512 };
 static const double PB_FIT_SCATTER_Z = 3.0, PB_FIT_SCATTER_Z_SHORT = 2.0;
+/* A run's mean square less the noise's as measured over m lag-1 products
+ * of the chord offsets the run is among: per squared eigenvalue of the
+ * noise's covariance, its variance is 2 len + (17/8) len^2 / m for white
+ * Gaussian noise (header, "The noise's own measure"). */
+static const double PB_NOISE_MEASURE_VAR = 17.0 / 8.0;
 /* A noise-free run's residual may have an RMS of at most this share of E
  * (the header says why). */
 static const double PB_FIT_RMS_SHARE = 0.35;
@@ -103,6 +127,8 @@ typedef struct fit_ctx {
     const double *st, *so; /* prefix sums: t, and per corner o (24 each) */
     double e;             /* bound, mm */
     double noise[8];      /* per corner, the RMS of the noise's 3D norm, mm */
+    double fourth[8];     /* per corner, the sum of the squared eigenvalues of the noise's covariance, mm^4 */
+    double per_product[8]; /* per corner, 1 / the lag-1 products that measured the noise (0: given) */
     double sigma;         /* per axis, the largest corner's, mm (run_flat) */
 } fit_ctx;
 
@@ -134,14 +160,14 @@ static void chord_offset(const double *t, const double *o, size_t j, int c, doub
  * to 0.25x: a 232-sample still log fell below 0.5x; lags 3 to 5 to 0.75
  * sigma^2, about 3 of their standard deviations there); a shorter log, or
  * one that fails, is followed sample by sample. */
-static void tracker_noise(size_t n, const double *t, const double *o, double noise[8])
+static size_t tracker_noise(size_t n, const double *t, const double *o, double noise[8], double fourth[8])
 {
     enum { LAGS = 6 };
-    double p[8][LAGS] = {{0}}, all[LAGS] = {0};
+    double p[8][LAGS] = {{0}}, all[LAGS] = {0}, cross[8][3][3] = {{{0}}};
     for (int c = 0; c < 8; c++)
-        noise[c] = 0.0;
+        noise[c] = fourth[c] = 0.0;
     if (n < PB_NOISE_SAMPLES)
-        return;
+        return 0;
     for (int c = 0; c < 8; c++) {
         /* lags 0 to 3, the noise's measure, over the n - 5 samples that
          * have lag 3; lags 4 and 5, which only test whiteness, over their
@@ -154,6 +180,9 @@ static void tracker_noise(size_t n, const double *t, const double *o, double noi
             for (int l = 0; l < lags; l++)
                 p[c][l] += (u[0][0] * u[l][0] + u[0][1] * u[l][1] + u[0][2] * u[l][2]) /
                            (double)(l < 4 ? n - 5 : n - LAGS - 1);
+            for (int a = 0; a < 3; a++)
+                for (int b = 0; b < 3; b++)
+                    cross[c][a][b] += u[0][a] * u[1][b] / (double)(n - 5);
         }
         for (int l = 0; l < LAGS; l++)
             all[l] += p[c][l] / 8.0;
@@ -161,12 +190,21 @@ static void tracker_noise(size_t n, const double *t, const double *o, double noi
     double s2 = -all[1] / 3.0; /* sigma^2 per axis, from lag 1, over the corners */
     if (!(s2 > 0.0) || all[0] > 2.0 * 4.5 * s2 || all[0] < 0.5 * 4.5 * s2 || all[2] > 2.0 * 0.75 * s2 ||
         all[2] < 0.25 * 0.75 * s2)
-        return;
+        return 0;
     for (int l = 3; l < LAGS; l++)
         if (fabs(all[l]) > 0.25 * 3.0 * s2)
-            return;
-    for (int c = 0; c < 8; c++)
+            return 0;
+    for (int c = 0; c < 8; c++) {
         noise[c] = p[c][1] < 0.0 ? sqrt(-p[c][1]) : 0.0;
+        /* the noise's covariance, -(lag 1's cross products), symmetrized:
+         * the sum of its squared entries, that of its eigenvalues */
+        for (int a = 0; a < 3; a++)
+            for (int b = 0; b < 3; b++) {
+                double cab = 0.5 * (cross[c][a][b] + cross[c][b][a]);
+                fourth[c] += cab * cab;
+            }
+    }
+    return n - 5;
 }
 
 /* Do the lines a[c] + b[c] t (c: corner, 3 each) keep key poses i..e within
@@ -180,19 +218,25 @@ static int line_holds(const fit_ctx *f, size_t i, size_t e, const double *a, con
     size_t len = e - i + 1, top = noisy ? len : 1;
     double share = PB_FIT_RMS_SHARE * f->e;
     for (int c = 0; c < 8; c++) {
-        double ms = 0.0;
+        double ms = 0.0, lag1 = 0.0, prev[3] = {0};
         for (size_t m = i; m <= e; m++)
             for (int j = 0; j < 3; j++) {
                 size_t q = 3 * c + j;
                 double d = f->o[24 * m + q] - (a[q] + b[q] * f->t[m]);
                 ms += d * d;
+                if (m > i)
+                    lag1 += d * prev[j];
+                prev[j] = d;
             }
-        /* The noise's mean square over len samples of 3 axes scatters by
-         * s^2 sqrt(2 / (3 len)) (chi-square of 3 len degrees). */
-        double s2 = f->noise[c] * f->noise[c];
+        /* The noise's scatter (the header's first two tests): of the mean
+         * square less the noise's as measured, and of the residual's lag-1
+         * products, whose mean is the smooth part's mean square alone */
+        double s2 = f->noise[c] * f->noise[c], L = (double)len;
         double z = len >= PB_FIT_SCATTER_RUN ? PB_FIT_SCATTER_Z : PB_FIT_SCATTER_Z_SHORT;
-        double scatter = z * s2 * sqrt(2.0 * (double)len / 3.0);
-        if (ms > (share * share + s2) * (double)len + scatter)
+        double scatter = z * sqrt(f->fourth[c] * (2.0 * L + PB_NOISE_MEASURE_VAR * L * L * f->per_product[c]));
+        if (ms > (share * share + s2) * L + scatter)
+            return 0;
+        if (noisy && lag1 > share * share * (L - 1.0) + z * sqrt(f->fourth[c] * (L - 1.0)))
             return 0;
     }
     for (size_t k = 1;; k = 2 * k < top ? 2 * k : top) {
@@ -376,7 +420,8 @@ static void corners_of(const pb_path *plan, const pb_pose *pose, double *o)
  * "Tracker noise"). The window's motion must pass the same whiteness test,
  * so a jerk or a tremor beside the frame leaves it followed as before.
  * Returns 0 where host memory runs out. */
-static int window_noise(const pb_path *plan, const pb_motion *track, double noise[8])
+static int window_noise(const pb_path *plan, const pb_motion *track, double noise[8], double fourth[8],
+                        size_t *products)
 {
     /* part: from the last sample at or before the frame's start to the
      * first at or after its end (a validated track covers the frame), so the
@@ -399,7 +444,7 @@ static int window_noise(const pb_path *plan, const pb_motion *track, double nois
         t[j] = track->times[lo + j] - track->times[lo];
         corners_of(plan, &p, &o[24 * j]);
     }
-    tracker_noise(w, t, o, noise);
+    *products = tracker_noise(w, t, o, noise, fourth);
     free(t);
     return 1;
 }
@@ -440,19 +485,25 @@ pb_status pb_path_fit(struct pb_context *ctx, pb_path *plan, const pb_motion *tr
         for (int q = 0; q < 24; q++)
             so[24 * (j + 1) + q] = so[24 * j + q] + o[24 * j + q];
     }
-    fit_ctx f = {n, t, o, st, so, e_mm, {0}, 0.0};
+    fit_ctx f = {n, t, o, st, so, e_mm, {0}, {0}, {0}, 0.0};
+    size_t products = 0;
     if (n < PB_NOISE_SAMPLES && track && track->count >= PB_NOISE_SAMPLES) {
-        if (!window_noise(plan, track, f.noise)) {
+        if (!window_noise(plan, track, f.noise, f.fourth, &products)) {
             free(buf);
             free(knot);
             free(kx);
             return pb_error(ctx, PB_ERR_OUT_OF_MEMORY, "out of host memory measuring the tracker's noise");
         }
     } else {
-        tracker_noise(n, t, o, f.noise);
+        products = tracker_noise(n, t, o, f.noise, f.fourth);
     }
     for (int c = 0; c < 8; c++) {
-        f.noise[c] = fmax(f.noise[c], sqrt(3.0) * sigma_mm);
+        if (products && f.noise[c] > sqrt(3.0) * sigma_mm) {
+            f.per_product[c] = 1.0 / (double)products;
+        } else {
+            f.noise[c] = fmax(f.noise[c], sqrt(3.0) * sigma_mm);
+            f.fourth[c] = f.noise[c] * f.noise[c] * f.noise[c] * f.noise[c] / 3.0;
+        }
         f.sigma = fmax(f.sigma, f.noise[c] / sqrt(3.0));
         plan->noise_mm = fmax(plan->noise_mm, f.noise[c]);
     }
