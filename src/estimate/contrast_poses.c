@@ -22,6 +22,7 @@
  * path (pass 3) are not one pose's view and stay out of the sum; they are
  * corrected with the rest, by their neighbours' contrast. */
 #include <math.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -394,6 +395,42 @@ static pb_status minimise(collective *cv, double p[NG], double e0)
     return st;
 }
 
+/* A frame's noise from the frame alone: the median absolute finest Haar
+ * detail (+-+- over each 2x2x2 block, which a smooth image and a plane edge
+ * leave near zero) over the blocks brighter than the frame's mean. The
+ * residual's energy at the registered poses holds the bias sought as well
+ * as the noise. Returns 0 where no block qualifies or host memory runs out. */
+static double frame_noise(const float *f, const size_t d[3])
+{
+    size_t bx = d[0] / 2, by = d[1] / 2, bz = d[2] / 2, n = d[0] * d[1] * d[2], used = 0;
+    double mean = 0.0;
+    for (size_t i = 0; i < n; i++)
+        mean += (double)f[i];
+    mean /= (double)n;
+    double *det = malloc(sizeof(double) * (bx * by * bz + 1));
+    if (!det)
+        return 0.0;
+    for (size_t z = 0; z < bz; z++)
+        for (size_t y = 0; y < by; y++)
+            for (size_t x = 0; x < bx; x++) {
+                double sum = 0.0, hhh = 0.0;
+                for (int c = 0; c < 8; c++) {
+                    size_t i = (2 * x + (c & 1)) + d[0] * ((2 * y + (c >> 1 & 1)) + d[1] * (2 * z + (c >> 2 & 1)));
+                    sum += (double)f[i];
+                    hhh += ((c & 1) ^ (c >> 1 & 1) ^ (c >> 2 & 1)) ? -(double)f[i] : (double)f[i];
+                }
+                if (sum > 8.0 * mean)
+                    det[used++] = fabs(hhh);
+            }
+    double med = 0.0;
+    if (used) {
+        qsort(det, used, sizeof(double), pb_compare_doubles);
+        med = det[used / 2];
+    }
+    free(det);
+    return med;
+}
+
 /* m of the still frames (of `still`), spread evenly from the first to the
  * last, in order. */
 static void pick_still(const pbe_collective_pose *poses, size_t count, size_t still, size_t *use, size_t m)
@@ -512,6 +549,14 @@ pb_status pbe_collective(pb_pool *pool, const pb_geometry *fine, const float *ra
         st = residual(&cv, p, &e0);
     if (st == PB_OK && scale) {
         pbe_noise_scales(cv.gram, m, cv.rank, cv.a, cv.w, cv.v, scale);
+        if (env && strcmp(env, "mad") == 0) {
+            for (size_t i = 0; i < m; i++) {
+                double s = frame_noise(cv.frames + cv.use[i] * cv.n, cv.g.dims);
+                scale[i] = s > 0.0 ? 1.0 / s : 0.0;
+                if (getenv("PB_DEBUG_SCALE"))
+                    fprintf(stderr, "frame %zu scale %g\n", cv.use[i], scale[i]);
+            }
+        }
         cv.scale = scale;
         st = residual(&cv, p, &e0);
     }
