@@ -11,10 +11,16 @@
  * beyond the moved-back frames' leading principal images.
  *
  * Each frame counts by its noise: its energy beyond the leading images is
- * divided by that energy at the registered poses. Frames of 3 s and of 60 s
- * differ tenfold in noise, and unweighted the sum is the noisiest frames'
- * (docs/motion.md: a draw from injection whose short frames held 30-47 of
- * the energy beyond, its long ones 4-5, took a correction 1.3 mm wrong).
+ * divided by its noise's variance. Frames of 3 s and of 60 s differ tenfold
+ * in noise, and unweighted the sum is the noisiest frames' (docs/motion.md:
+ * a draw from injection whose short frames held 30-47 of the energy beyond,
+ * its long ones 4-5, took a correction 1.3 mm wrong). The noise is measured
+ * from each frame alone (frame_noise). Measured as the energy beyond at the
+ * registered poses, it held the bias sought as well: the frames most off
+ * weighed least, and on CI's series 3179720955 the pass took the track from
+ * 0.932 to 0.990 mm, where it now takes it to 0.537 (on 24 fresh series on
+ * CUDA, the mean 0.542 -> 0.469 mm median, 16 better and 8 worse;
+ * bench/results/2026-12-02_H200_537f1cc_pass4-noise).
  *
  * The frames are moved by a resampler that keeps their energy (sinc_shears.c):
  * under trilinear resampling the noise's energy falls with the pose and the
@@ -22,7 +28,6 @@
  * path (pass 3) are not one pose's view and stay out of the sum; they are
  * corrected with the rest, by their neighbours' contrast. */
 #include <math.h>
-#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -396,10 +401,11 @@ static pb_status minimise(collective *cv, double p[NG], double e0)
 }
 
 /* A frame's noise from the frame alone: the median absolute finest Haar
- * detail (+-+- over each 2x2x2 block, which a smooth image and a plane edge
- * leave near zero) over the blocks brighter than the frame's mean. The
- * residual's energy at the registered poses holds the bias sought as well
- * as the noise. Returns 0 where no block qualifies or host memory runs out. */
+ * detail (the 2x2x2 block's voxels with alternating signs, which a smooth
+ * image and a plane edge leave near zero, so a misregistration does not
+ * change it) over the blocks brighter than the frame's mean (the head: the
+ * air outside holds no counts and no noise). 0 where no block qualifies,
+ * -1 where host memory runs out. */
 static double frame_noise(const float *f, const size_t d[3])
 {
     size_t bx = d[0] / 2, by = d[1] / 2, bz = d[2] / 2, n = d[0] * d[1] * d[2], used = 0;
@@ -409,7 +415,7 @@ static double frame_noise(const float *f, const size_t d[3])
     mean /= (double)n;
     double *det = malloc(sizeof(double) * (bx * by * bz + 1));
     if (!det)
-        return 0.0;
+        return -1.0;
     for (size_t z = 0; z < bz; z++)
         for (size_t y = 0; y < by; y++)
             for (size_t x = 0; x < bx; x++) {
@@ -461,12 +467,14 @@ pb_status pbe_collective(pb_pool *pool, const pb_geometry *fine, const float *ra
     memcpy(cv.c, c, sizeof cv.c);
     /* PETBLUR_ESTIMATE_CONTRAST=0 leaves the poses as registered, =coarse
      * halves the grid to LONGEST_SIDE whatever its voxels, =unweighted counts
-     * every frame alike, for comparisons */
+     * every frame alike, =residual weighs them by their energy beyond at the
+     * registered poses (before frame_noise), for comparisons */
     const char *env = getenv("PETBLUR_ESTIMATE_CONTRAST");
     if (env && strcmp(env, "0") == 0)
         return PB_OK;
     const int any_voxel = env && strcmp(env, "coarse") == 0;
     const int unweighted = env && strcmp(env, "unweighted") == 0;
+    const int residual_weights = env && strcmp(env, "residual") == 0;
     size_t levels = 0;
     int slab = 0;
     while (pbe_longest_side(&cv.g) > LONGEST_SIDE) {
@@ -537,28 +545,38 @@ pb_status pbe_collective(pb_pool *pool, const pb_geometry *fine, const float *ra
     for (int i = 0; i < 3; i++)
         cv.radius = fmax(cv.radius, 0.5 * (double)cv.g.dims[i] * cv.g.voxel_size[i]);
     /* at p = 0 every weight moves nothing: this residual, which the
-     * contrast weights are read from, is also minimise's start. The frames'
-     * noise is read from it unweighted (pbe_noise_scales: at the registered
-     * poses each frame's energy beyond is its noise, give or take the bias
-     * sought, a fraction of it), and weighted once, not iterated: a frame
-     * weighted up becomes a leading image of its own, its energy beyond
-     * them falls and its weight grows (an early frame of blood alone went
-     * from 1.4 to 1e-4 of the others' in a second round). */
+     * contrast weights are read from, is also minimise's start, once the
+     * frames are weighed by their noise (frame_noise). Under
+     * PETBLUR_ESTIMATE_CONTRAST=residual the noise is read from it
+     * unweighted instead (pbe_noise_scales: each frame's energy beyond,
+     * which holds the bias sought as well), and weighted once, not iterated:
+     * a frame weighted up becomes a leading image of its own, its energy
+     * beyond them falls and its weight grows (an early frame of blood alone
+     * went from 1.4 to 1e-4 of the others' in a second round). */
     double p[NG] = {0}, e0;
     if (st == PB_OK)
         st = residual(&cv, p, &e0);
     if (st == PB_OK && scale) {
-        pbe_noise_scales(cv.gram, m, cv.rank, cv.a, cv.w, cv.v, scale);
-        if (env && strcmp(env, "mad") == 0) {
-            for (size_t i = 0; i < m; i++) {
-                double s = frame_noise(cv.frames + cv.use[i] * cv.n, cv.g.dims);
-                scale[i] = s > 0.0 ? 1.0 / s : 0.0;
-                if (getenv("PB_DEBUG_SCALE"))
-                    fprintf(stderr, "frame %zu scale %g\n", cv.use[i], scale[i]);
+        if (residual_weights) {
+            pbe_noise_scales(cv.gram, m, cv.rank, cv.a, cv.w, cv.v, scale);
+        } else {
+            for (size_t i = 0; i < m && st == PB_OK; i++)
+                if ((scale[i] = frame_noise(cv.frames + cv.use[i] * cv.n, cv.g.dims)) < 0.0)
+                    st = PB_ERR_OUT_OF_MEMORY;
+            /* a frame without noise (given twice, or simulated without)
+             * would weigh without bound: held to a tenth of the median's
+             * noise, as pbe_noise_scales holds its energy to a hundredth */
+            if (st == PB_OK) {
+                memcpy(cv.w, scale, sizeof(double) * m);
+                qsort(cv.w, m, sizeof(double), pb_compare_doubles);
+                const double least = 0.1 * cv.w[m / 2];
+                for (size_t i = 0; i < m; i++)
+                    scale[i] = least > 0.0 ? 1.0 / fmax(scale[i], least) : 1.0;
             }
         }
         cv.scale = scale;
-        st = residual(&cv, p, &e0);
+        if (st == PB_OK)
+            st = residual(&cv, p, &e0);
     }
     /* the bias is a fraction of a voxel: a correction beyond one voxel of
      * the frames' grid (a turn measured at the radius) is not this bias */
