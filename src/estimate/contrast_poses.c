@@ -563,7 +563,7 @@ pb_status pbe_collective(pb_pool *pool, const pb_geometry *fine, const float *ra
             for (size_t i = 0; i < m && st == PB_OK; i++)
                 if ((scale[i] = frame_noise(cv.frames + cv.use[i] * cv.n, cv.g.dims)) < 0.0)
                     st = PB_ERR_OUT_OF_MEMORY;
-            /* a frame without noise (given twice, or simulated without)
+            /* a frame without noise (simulated without)
              * would weigh without bound: held to a tenth of the median's
              * noise, as pbe_noise_scales holds its energy to a hundredth */
             if (st == PB_OK) {

@@ -45,10 +45,10 @@
  *    with the run's (whose samples are among those that measured it);
  *    without it a still head's whole frame failed now and then (a measure's
  *    8 % scatter at 323 samples against the mean square's 4.5 %: fresh still
- *    5023 took 9 segments against 1, 0.50 -> 1.21 % RMS from the true
- *    motion's blur; bench/results/2026-12-02_cpu2_measure-scatter). Of that
- *    scatter 3 standard deviations on a run of
- *    64 samples or more, 2 on a shorter one (a still run is tested at many
+ *    5023 took 9 segments against 1, 1.21 % RMS from the true motion's
+ *    blur where one line stands at 0.50;
+ *    bench/results/2026-12-02_cpu2_measure-scatter). Of that scatter 3
+ *    standard deviations on a run of 64 samples or more, 2 on a shorter one (a still run is tested at many
  *    nested lengths, and 2 at every length cut 3 of 30 still heads, up to
  *    11 segments; 3 at every length let the nods' bends through, 60 fresh
  *    nods at 0.48 % RMS median against 0.40). The runs are then merged
@@ -115,7 +115,7 @@ static const double PB_FIT_SCATTER_Z = 3.0, PB_FIT_SCATTER_Z_SHORT = 2.0;
 /* A run's mean square less the noise's as measured over m lag-1 products
  * of the chord offsets the run is among: per squared eigenvalue of the
  * noise's covariance, its variance is 2 len + (17/8) len^2 / m for white
- * Gaussian noise (header, "The noise's own measure"). */
+ * Gaussian noise (the header's first test). */
 static const double PB_NOISE_MEASURE_VAR = 17.0 / 8.0;
 /* A noise-free run's residual may have an RMS of at most this share of E
  * (the header says why). */
