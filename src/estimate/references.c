@@ -8,7 +8,9 @@
  * counts, none of its own noise. The others are its nearest in time, at most
  * PBE_REFERENCE_OTHERS: uptake changes slowly against a frame, and a window
  * keeps each frame's work fixed however long the series. Each other frame
- * counts by its noise (pbe_noise_scales), as in pass 4 (contrast_poses.c): a
+ * counts by its noise (pbe_noise_scales, its energy beyond the leading images,
+ * which holds a frame's misregistration too; pass 4, contrast_poses.c, now
+ * measures each frame's noise from the frame alone instead): a
  * frame of 3 s holds ten times the noise of one of 60 s, and unweighted the
  * principal images after the first are the short frames' noise. */
 #include <math.h>
