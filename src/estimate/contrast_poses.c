@@ -554,29 +554,24 @@ pb_status pbe_collective(pb_pool *pool, const pb_geometry *fine, const float *ra
      * beyond them falls and its weight grows (an early frame of blood alone
      * went from 1.4 to 1e-4 of the others' in a second round). */
     double p[NG] = {0}, e0;
+    if (st == PB_OK && scale && !residual_weights) {
+        for (size_t i = 0; i < m && st == PB_OK; i++) {
+            double s = frame_noise(cv.frames + cv.use[i] * cv.n, cv.g.dims);
+            if (s < 0.0)
+                st = PB_ERR_OUT_OF_MEMORY;
+            scale[i] = s * s;
+        }
+        if (st == PB_OK) {
+            pbe_weights_of_variances(scale, m, cv.w);
+            cv.scale = scale;
+        }
+    }
     if (st == PB_OK)
         st = residual(&cv, p, &e0);
-    if (st == PB_OK && scale) {
-        if (residual_weights) {
-            pbe_noise_scales(cv.gram, m, cv.rank, cv.a, cv.w, cv.v, scale);
-        } else {
-            for (size_t i = 0; i < m && st == PB_OK; i++)
-                if ((scale[i] = frame_noise(cv.frames + cv.use[i] * cv.n, cv.g.dims)) < 0.0)
-                    st = PB_ERR_OUT_OF_MEMORY;
-            /* a frame without noise (simulated without)
-             * would weigh without bound: held to a tenth of the median's
-             * noise, as pbe_noise_scales holds its energy to a hundredth */
-            if (st == PB_OK) {
-                memcpy(cv.w, scale, sizeof(double) * m);
-                qsort(cv.w, m, sizeof(double), pb_compare_doubles);
-                const double least = 0.1 * cv.w[m / 2];
-                for (size_t i = 0; i < m; i++)
-                    scale[i] = least > 0.0 ? 1.0 / fmax(scale[i], least) : 1.0;
-            }
-        }
+    if (st == PB_OK && scale && residual_weights) {
+        pbe_noise_scales(cv.gram, m, cv.rank, cv.a, cv.w, cv.v, scale);
         cv.scale = scale;
-        if (st == PB_OK)
-            st = residual(&cv, p, &e0);
+        st = residual(&cv, p, &e0);
     }
     /* the bias is a fraction of a voxel: a correction beyond one voxel of
      * the frames' grid (a turn measured at the radius) is not this bias */

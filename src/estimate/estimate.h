@@ -137,6 +137,10 @@ size_t pbe_leading(const double *w, size_t m, size_t rank, size_t *out);
  * held to at least NOISE_FLOOR_SHARE of the frames' median; a, w and v are
  * scratch of m x m, m and m x m. */
 void pbe_noise_scales(const double *gram, size_t m, size_t rank, double *a, double *w, double *v, double *scale);
+/* The weights of m frames from their noise's variances (in scale, replaced):
+ * 1 / sqrt of each, held to at least NOISE_FLOOR_SHARE of the median; all 1
+ * where the median is 0. sorted is scratch of m. */
+void pbe_weights_of_variances(double *scale, size_t m, double *sorted);
 /* Frame k's window, [*first, *end): it and its nearest frames, at most
  * PBE_REFERENCE_OTHERS + 1 in all. */
 void pbe_reference_window(size_t frames, size_t k, size_t *first, size_t *end);

@@ -172,9 +172,10 @@ static void weigh_chunk(void *arg, size_t c)
 /* A frame's energy beyond the leading images is its noise where the frames
  * differ by their noise alone; where two frames share theirs (a frame given
  * twice) or have none (a series without noise) it is rounding, and its
- * weight would be without bound. Held to this share of the median, no frame
- * weighs more than ten times the median frame (the weights of frames of
- * 2 s and of 60 s differ about fivefold). */
+ * weight would be without bound; so would a frame's whose noise measured
+ * alone is none (contrast_poses.c). Held to this share of the median, no
+ * frame weighs more than ten times the median frame (the weights of frames
+ * of 2 s and of 60 s differ about fivefold). */
 #define NOISE_FLOOR_SHARE 0.01
 
 void pbe_noise_scales(const double *gram, size_t m, size_t rank, double *a, double *w, double *v, double *scale)
@@ -187,10 +188,14 @@ void pbe_noise_scales(const double *gram, size_t m, size_t rank, double *a, doub
     for (size_t c = 0, count = pbe_leading(w, m, rank, lead); c < count; c++)
         for (size_t i = 0; i < m; i++)
             scale[i] -= w[lead[c]] * v[i * m + lead[c]] * v[i * m + lead[c]];
-    /* the median, on a copy in w */
-    memcpy(w, scale, sizeof(double) * m);
-    qsort(w, m, sizeof(double), pb_compare_doubles);
-    const double least = NOISE_FLOOR_SHARE * w[m / 2];
+    pbe_weights_of_variances(scale, m, w);
+}
+
+void pbe_weights_of_variances(double *scale, size_t m, double *sorted)
+{
+    memcpy(sorted, scale, sizeof(double) * m);
+    qsort(sorted, m, sizeof(double), pb_compare_doubles);
+    const double least = NOISE_FLOOR_SHARE * sorted[m / 2];
     for (size_t i = 0; i < m; i++)
         scale[i] = least > 0 ? 1.0 / sqrt(fmax(scale[i], least)) : 1.0;
 }

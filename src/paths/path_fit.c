@@ -101,8 +101,8 @@
  * (which are not tested) within this many. */
 enum { PB_FIT_ROUNDS = 32 };
 /* A run of at least PB_FIT_SCATTER_RUN noisy samples may have a mean square
- * up to PB_FIT_SCATTER_Z standard deviations of the noise's own above
- * (PB_FIT_RMS_SHARE E)^2 plus the noise's, a shorter one
+ * (and a sum of lag-1 products) up to PB_FIT_SCATTER_Z standard deviations
+ * of the noise's scatter above what the bound allows, a shorter one
  * PB_FIT_SCATTER_Z_SHORT (the header says why). */
 enum { PB_FIT_SCATTER_RUN = 64 };
 /* The fewest samples whose chord offsets measure the tracker's noise, and the
