@@ -5,7 +5,7 @@
  * information overconfident by an unknown common factor, as registrations'
  * are. Smoothed, the poses stand nearer the truth than the sightings; the
  * jump stays a jump; a series of sharp sightings keeps its drift (within
- * 2x of its sightings' tiny error; docs/motion.md). */
+ * 2x of its sightings' tiny error; docs/estimate-log.md). */
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>

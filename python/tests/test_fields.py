@@ -254,7 +254,8 @@ def test_jacobian_conserves_activity(rng, device):
         # Smooth on the grid (4.5 to 5.5 of its coarsest voxel): a narrow one's
         # trilinear samples alone change its total by a percent under a
         # scaling (CI's seed 1267203603: 11.1 mm on 2.85 mm voxels, 3.9 of
-        # them, kept 1.0113; tied to the voxel, 80 fresh cases within 0.52 %).
+        # them, kept 1.0113; tied to the voxel, 80 fresh cases within 0.52 %:
+        # bench/results/2026-11-30_cpu2_jacobian-width).
         x = np.exp(-(((r - centre) / (rng.uniform(4.5, 5.5) * voxel.max())) ** 2).sum(-1)).astype(np.float32)
         scale = np.diag(rng.uniform(0.8, 0.9, 3) if rng.random() < 0.5 else rng.uniform(1.1, 1.25, 3))
         still = (r - centre) @ (scale - np.eye(3)).T

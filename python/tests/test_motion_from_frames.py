@@ -455,7 +455,7 @@ def test_frames_held_still_take_no_path_in_a_longer_series(rng, monkeypatch):
     head moved between frames, never inside one), at 2e5 to 2e6 counts a
     frame. From 8 frames on the gain a path must show to be taken is set by
     the series' own frames (8 times the upper quartile of their best gains,
-    at least 1 %, where it was 5 % for every series; docs/motion.md): it must
+    at least 1 %, where it was 5 % for every series; docs/estimate-log.md): it must
     give no frame held still a path that 5 % for every series
     (PETBLUR_ESTIMATE_DWELL=fixed) does not."""
     nf = int(rng.integers(9, 15))
@@ -475,12 +475,12 @@ def test_frames_held_still_take_no_path_in_a_longer_series(rng, monkeypatch):
     print(msg)
     assert set(moving) <= set(moving_fixed), msg
     # Measured while writing this test: the mean error at most 0.15 of the uncorrected (30 seeds), the worst frame at
-    # most 0.70 mm (70 seeds; the error grows along the series with the phantom's uptake, as docs/motion.md's bias
+    # most 0.70 mm (70 seeds; the error grows along the series with the phantom's uptake, as docs/estimate-log.md's bias
     # from injection). The series' bar gave a frame held still a path on 1 seed of 70, and 5 % for every series the
     # same path (981255980: frames 1 and 2, beside the reference frame, each gained 6-7 % on a path into the other):
-    # docs/motion.md, "Not yet". CI's seed 2095620605 (14 frames, the blobs reaching the 24^3 grid's faces) stood at
+    # docs/estimate-log.md, "Not yet". CI's seed 2095620605 (14 frames, the blobs reaching the 24^3 grid's faces) stood at
     # 1.45 mm, 1.09 mm without noise or uptake change, until the registration weighed each voxel by whether its view
-    # reads the reference inside its support: 0.92 mm (docs/motion.md, "How").
+    # reads the reference inside its support: 0.92 mm (docs/estimate-log.md, "How, in full").
     assert err.mean() < 0.25 * none.mean() and err.max() < 1.2, msg
 
 
@@ -501,7 +501,7 @@ def test_a_frame_given_twice_and_a_series_without_noise(rng):
     0.57 mm (worst frame), both on 193938399, whose frame 1, beside the
     reference frame, was given twice (the next worst 0.071 and 0.25 mm);
     without noise worse than with it on most seeds (the uptake's bias,
-    docs/motion.md)."""
+    docs/estimate-log.md)."""
     nf = int(rng.integers(12, 15))
     maps = [np.eye(4)] + [_rigid(rng, 3.0, 3.0) for _ in range(nf - 1)]
     seed = int(rng.integers(2**31))

@@ -12,7 +12,7 @@
  *
  * Each frame counts by its noise: its energy beyond the leading images is
  * divided by its noise's variance. Frames of 3 s and of 60 s differ tenfold
- * in noise, and unweighted the sum is the noisiest frames' (docs/motion.md:
+ * in noise, and unweighted the sum is the noisiest frames' (docs/estimate-log.md:
  * a draw from injection whose short frames held 30-47 of the energy beyond,
  * its long ones 4-5, took a correction 1.3 mm wrong). The noise is measured
  * from each frame alone (frame_noise). Measured as the energy beyond at the
@@ -24,7 +24,7 @@
  *
  * The frames are moved by a resampler that keeps their energy (sinc_shears.c):
  * under trilinear resampling the noise's energy falls with the pose and the
- * minimum follows it (docs/motion.md gives the runs). Frames that follow a
+ * minimum follows it (docs/estimate-log.md gives the runs). Frames that follow a
  * path (pass 3) are not one pose's view and stay out of the sum; they are
  * corrected with the rest, by their neighbours' contrast. */
 #include <math.h>
@@ -44,7 +44,7 @@ enum { NG = 6 };
  * fraction of a millimetre: issue 47's heads on 2-4 mm grids of 60-90 voxels
  * a side were halved twice, to voxels of 8-16 mm, where the pass took
  * corrections of 1-2 mm that lowered its residual by a thousandth and made
- * three draws from injection 0.3-0.7 mm worse (docs/motion.md); halved once
+ * three draws from injection 0.3-0.7 mm worse (docs/estimate-log.md); halved once
  * (voxels of 4-8 mm) its own checks refused them. The grids halved once before
  * (their coarser voxels 6.1-7.3 mm at the smallest) stay so. */
 #define LONGEST_SIDE 40
@@ -216,7 +216,7 @@ static double corner_distance(const collective *cv, const pb_pose *a, const pb_p
  * frames far from the reference carry is how the grid samples a head turned
  * far, moved back (a 15 degree, 10 mm jerk on 6 mm voxels: one 15 times the
  * noise's, its scores stepping at the jerk), and a correction along it moved
- * every frame after the jerk by 4 mm (docs/motion.md). Too few frames near
+ * every frame after the jerk by 4 mm (docs/estimate-log.md). Too few frames near
  * the reference to tell (fewer than the whole series' test asks): the whole
  * series decides, as before. A series from injection whose early jerk left
  * 5 of 16 frames near it kept a correction along its contrast that took it

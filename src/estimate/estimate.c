@@ -33,7 +33,7 @@
 
 /* The points of a path a frame may dwell at, and how much better than one
  * pose (relative residual) a dwell must explain a frame to be believed:
- * docs/motion.md, "Motion from the frames", gives the measurement. */
+ * docs/estimate-log.md, "How, in full" (pass 3), gives the measurement. */
 enum { DWELL_POINTS = 9 };
 /* PATH_BACK's points: each leg's, the far end shared. */
 enum { BACK_LEG = 7, BACK_POINTS = 2 * BACK_LEG - 1 };
@@ -43,7 +43,7 @@ _Static_assert((int)DWELL_POINTS <= (int)PBE_DWELL_MOST && (int)BACK_POINTS <= (
 /* A path into a neighbour that shows no motion of its own, where the path
  * between fails, must gain three times that: on issue 47's draws such paths
  * that gained 0.07-0.08 laid a jump inside slow nods (0.73 -> 0.82 mm and
- * 2.30 -> 2.41 mm), those that gained 0.20-0.83 were jerks (docs/motion.md). */
+ * 2.30 -> 2.41 mm), those that gained 0.20-0.83 were jerks (docs/estimate-log.md). */
 #define UNSUPPORTED_GAIN (3 * DWELL_GAIN)
 /* How near each other a frame's neighbours must lie, against its own pose's
  * distance from them, for PATH_BACK to call its motion a return (back_path). */
@@ -58,7 +58,7 @@ enum { SERIES_GAIN_FRAMES = 8 };
  * a step and a ramp. At 4 three of 44 draws of issue 47's family got steps
  * inside slow nods, where the frames' evidence stood at 17-22 (a ramp
  * between frame poses is not a nod's curve, so neither model fits there),
- * while their jumps at boundaries stood at 100-1100 (docs/motion.md). */
+ * while their jumps at boundaries stood at 100-1100 (docs/estimate-log.md). */
 #define SEPARATION 6.0
 /* The shortest time a path's step takes, as a fraction of its frame. */
 #define STEP_FRACTION 0.01
@@ -408,7 +408,7 @@ static int path_free(const int *moving, const int *anchor, size_t k, size_t coun
  * frames of a series are still), within SERIES_GAIN_FLOOR and DWELL_GAIN;
  * a series of fewer than SERIES_GAIN_FRAMES frames with paths tried keeps
  * DWELL_GAIN, as does PETBLUR_ESTIMATE_DWELL=fixed (for comparisons).
- * docs/motion.md gives the measurement. */
+ * docs/estimate-log.md gives the measurement. */
 static double series_gain(const frame_path *paths, const unsigned char *tried, size_t count)
 {
     const char *env = getenv("PETBLUR_ESTIMATE_DWELL");

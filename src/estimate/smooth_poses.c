@@ -40,7 +40,7 @@ enum { D = 6 };
  * steps of 10^0.05. On issue 47's family the sightings chose 1 to 14
  * (bench/results/2026-11-30_H200_8b318f4_smooth-scale); a head that moves to
  * and fro between frames looks to a random walk like noise, and a scale of
- * 63 moved frames fitted to 5 um by 0.9 mm (docs/motion.md). */
+ * 63 moved frames fitted to 5 um by 0.9 mm (docs/estimate-log.md). */
 #define NOISE_STEP 0.05 /* decades of the noise's spread */
 #define NOISE_STEPS 27 /* to 10^1.3 */
 /* PETBLUR_ESTIMATE_SMOOTH=wide: to 1000, as before, for comparisons */
