@@ -474,13 +474,14 @@ def test_frames_held_still_take_no_path_in_a_longer_series(rng, monkeypatch):
            f"{np.round(err, 3)} mm, uncorrected {np.round(none, 2)} mm")
     print(msg)
     assert set(moving) <= set(moving_fixed), msg
-    # Measured while writing this test: the mean error at most 0.15 of the uncorrected (30 seeds), the worst frame at
-    # most 0.70 mm (70 seeds; the error grows along the series with the phantom's uptake, as docs/estimate-log.md's bias
-    # from injection). The series' bar gave a frame held still a path on 1 seed of 70, and 5 % for every series the
-    # same path (981255980: frames 1 and 2, beside the reference frame, each gained 6-7 % on a path into the other):
-    # docs/estimate-log.md, "Not yet". CI's seed 2095620605 (14 frames, the blobs reaching the 24^3 grid's faces) stood at
-    # 1.45 mm, 1.09 mm without noise or uptake change, until the registration weighed each voxel by whether its view
-    # reads the reference inside its support: 0.92 mm (docs/estimate-log.md, "How, in full").
+    # Measured while writing this test: the mean error at most 0.15 of the uncorrected (30 seeds), the worst frame
+    # at most 0.70 mm (70 seeds; the error grows along the series with the phantom's uptake, as
+    # docs/estimate-log.md's bias from injection). The series' bar gave a frame held still a path on 1 seed of 70,
+    # and 5 % for every series the same path (981255980: frames 1 and 2, beside the reference frame, each gained
+    # 6-7 % on a path into the other): docs/estimate-log.md, "Not yet". CI's seed 2095620605 (14 frames, the blobs
+    # reaching the 24^3 grid's faces) stood at 1.45 mm, 1.09 mm without noise or uptake change, until the
+    # registration weighed each voxel by whether its view reads the reference inside its support: 0.92 mm
+    # (docs/estimate-log.md, "How, in full").
     assert err.mean() < 0.25 * none.mean() and err.max() < 1.2, msg
 
 
