@@ -253,11 +253,6 @@ PB_FN void pb_ab_walked_adjoint(PB_GLOBAL float *out, pb_kparams prm, int sweep,
 PB_FN void pb_ab_segment_adjoint(PB_GLOBAL float *out, pb_kparams prm, pb_cell *cell, int sweep, const float *a,
                                   const float *b, float v)
 {
-    if (pb_chord_one_piece(a, b)) {
-        const float d[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]};
-        pb_cell_piece(out, prm, cell, a, d, 0.0f, 1.0f, v);
-        return;
-    }
     float walk = pb_ab_walk_weight(a, b);
     if (walk < 1.0f)
         PB_CHORD_PIECES(a, b, pb_cell_piece(out, prm, cell, a, pb_d, pb_t0, pb_l, v * (1.0f - walk)));
@@ -280,11 +275,6 @@ PB_FN void pb_segment_adjoint(PB_GLOBAL float *out, pb_kparams prm, pb_cell *cel
         return;
     }
     int n = prm.steps;
-    if (n <= 0 && pb_chord_one_piece(a, b)) {
-        const float d[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]};
-        pb_cell_piece(out, prm, cell, a, d, 0.0f, 1.0f, v);
-        return;
-    }
     if (n <= 0) { /* pb_rm_sampled's rule by length */
         float walk = pb_ab_walk_weight(a, b);
         if (walk < 1.0f)

@@ -440,8 +440,6 @@ PB_FN float pb_ab_walked(pb_image img, int exact, int sweep, const pb_place *pl,
  * (pb_ab_walk_weight). */
 PB_FN float pb_ab_segment(pb_image img, int exact, int sweep, const pb_place *pl, const float *a, const float *b)
 {
-    if (pb_chord_one_piece(a, b))
-        return pb_chord_piece(img, exact, pl, a, b);
     float walk = pb_ab_walk_weight(a, b);
     if (walk == 1.0f)
         return pb_ab_walked(img, exact, sweep, pl, a, b);
@@ -532,8 +530,6 @@ PB_FN float pb_rm_sampled(pb_image img, pb_kparams prm, int exact, const pb_plac
 {
     if (prm.steps > 0)
         return pb_rm_equidistant(img, prm.steps, exact, pl, a, b);
-    if (pb_chord_one_piece(a, b))
-        return pb_chord_piece(img, exact, pl, a, b);
     float walk = pb_ab_walk_weight(a, b);
     if (walk == 1.0f)
         return pb_rm_equidistant(img, pb_ab_slices(a, b), exact, pl, a, b);

@@ -144,36 +144,6 @@ PB_FN float pb_piece_exact(pb_image img, const pb_place *pl, const float *a, con
     return sum;
 }
 
-/* Whether the chord a-b is one piece that is no point: it moves (at least
- * pb_ab_walk_weight's 1e-4 voxels along some axis, below which a segment is
- * read as a point) and crosses no texel centre along any axis, so it lies
- * inside one trilinear cell and PB_CHORD_PIECES would find no kink in it (its
- * gap passes kinks over, and no centre lies between the ends). Such a chord is
- * read as that one piece without the kinks' set-up: a slow drift's segments
- * are hundredths to tenths of a voxel, and most of them are so
- * (docs/methods.md, "A chord inside one cell"). */
-PB_FN int pb_chord_one_piece(const float *a, const float *b)
-{
-    const float along = fmax(fabs(b[0] - a[0]), fmax(fabs(b[1] - a[1]), fabs(b[2] - a[2])));
-    return (along >= 1e-4f) & (floor(a[0] - 0.5f) == floor(b[0] - 0.5f)) & (floor(a[1] - 0.5f) == floor(b[1] - 0.5f)) &
-           (floor(a[2] - 0.5f) == floor(b[2] - 0.5f));
-}
-
-/* pb_chord of a chord that is one piece (pb_chord_one_piece): the same
- * samples or the same cell, t0 = 0 and l = 1. */
-PB_FN float pb_chord_piece(pb_image img, int exact, const pb_place *pl, const float *a, const float *b)
-{
-    const float d[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]};
-    if (exact)
-        return pb_piece_exact(img, pl, a, d, 0.0f, 1.0f);
-    float sum = 0.0f;
-    for (int g = -1; g <= 1; g += 2) {
-        const float t = 0.5f + (float)g * PB_GAUSS_OFFSET;
-        sum += 0.5f * pb_placed_trilinear(img, 0, pl, a[0] + t * d[0], a[1] + t * d[1], a[2] + t * d[2]);
-    }
-    return sum;
-}
-
 /* The filter's exact time average over the chord a-b: with the EXACT
  * filter each piece's eight texels (pb_piece_exact); with HARDWARE the
  * texture unit's two samples a piece (PB_CHORD_SAMPLES), two trilinear
