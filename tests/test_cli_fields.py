@@ -10,6 +10,7 @@ turn of the vectors or in a convention's signs shows.
 usage: test_cli_fields.py PATH/TO/petblur
 """
 import os
+import subprocess
 import sys
 import unittest
 
@@ -270,6 +271,38 @@ class Fields(Case):
         self.refused(self.p("noheader.csv"), ["header 'time,path'"])
         self.refused(self.table([(0, "good.nii.gz"), (0, "good.nii.gz")]), ["is not after"])
 
+    def test_what_leaves_the_grid_or_float32_is_refused(self):
+        """A field in micrometres read as mm moves every voxel out of the grid: refused at once, naming the units
+        (its walk follows the displacement's length, so it would run for minutes). A result beyond float32's range,
+        the mass-preserving blur of values near its top or the frames' back projections summed, is not written: an
+        image of infinities would pass for a result."""
+        good = smooth_field(2.0)
+        save_field(self.p("good.nii.gz"), good, self.fa)
+        save_field(self.p("micro.nii.gz"), good * 1000.0, self.fa)
+        self.refused(self.table([(0, "good.nii.gz"), (1, "micro.nii.gz")]),
+                     ["micro.nii.gz", "twice the image grid's diagonal", "micrometres"])
+        # An expansion about the field grid's centre: det(I + dD/dr) = 1.5^3, within the grid's reach.
+        ijk = np.indices(FIELD_DIMS).reshape(3, -1).T.astype(float)
+        world = nib.affines.apply_affine(self.fa, ijk)
+        grow = (0.5 * (world - world.mean(axis=0))).reshape(FIELD_DIMS + (3,)).astype(np.float32)
+        save_field(self.p("grow.nii.gz"), grow, self.fa)
+        table = self.table([(0, "grow.nii.gz"), (1, "grow.nii.gz")])
+        top = np.full(DIMS, 3.0e38, np.float32)
+        save_volume(self.p("top.nii.gz"), top, self.a)
+        self.blur(table, inp="top.nii.gz")  # a mean of values under float32's top stays under it
+        self.assertTrue(np.isfinite(self.out()).all())
+        os.remove(self.p("out.nii.gz"))
+        err = self.blur(table, "--jacobian", inp="top.nii.gz", expect=2)
+        for w in ("not written", "float32's range", "--jacobian", "rescale"):
+            self.assertIn(w, err)
+        self.assert_clean("out.nii.gz")
+        save_volume(self.p("tops.nii.gz"), np.stack([top, top], axis=-1), self.a)
+        table = self.table([(0, "good.nii.gz"), (1, "good.nii.gz")])
+        err = self.blur(table, "--frames", "0,0.5,1", "--adjoint", "--sum-frames", inp="tops.nii.gz", expect=2)
+        for w in ("not written", "float32's range", "--sum-frames"):
+            self.assertIn(w, err)
+        self.assert_clean("out.nii.gz")
+
     def test_fold_is_a_warning(self):
         fold = np.zeros(FIELD_DIMS + (3,), np.float32)
         fold[4, :, :, :] = self.fa[:3, 0] * 3.0  # the plane x = 4 of the field grid jumps past x = 5 and 6
@@ -429,6 +462,44 @@ class Gates(Case):
         self.refused(["header 'time,value'"], "--signal", self.table)
         _, err = run("motion", "--fields", self.table, expect=2)
         self.assertIn("petblur blur --signal", err)
+
+
+class LongBelts(Case):
+    """Gating a long belt costs its samples, not its samples times its gates' intervals (a 4-hour belt and ten
+    gates were planned for minutes), and a gate's edge at a field's value is not refused for the rounding of the
+    signal's value where it crosses the edge."""
+
+    def setUp(self):
+        super().setUp()
+        self.a = image_affine()
+        self.fa = field_affine(self.a)
+        save_volume(self.p("act.nii.gz"), smooth_volume(), self.a)
+        for i, amp in enumerate((0.0, 3.0)):
+            save_field(self.p(f"v{i}.nii.gz"), smooth_field(amp) if amp else np.zeros(FIELD_DIMS + (3,)), self.fa)
+        with open(self.p("values.csv"), "w") as f:
+            f.write("value,path\n0,v0.nii.gz\n1,v1.nii.gz\n")
+
+    def gate(self, t, s, edges, timeout):
+        with open(self.p("belt.csv"), "w") as f:
+            f.write("time,value\n" + "".join(f"{a:.3f},{b:.6f}\n" for a, b in zip(t, s)))
+        p = subprocess.run([test_cli.PETBLUR, "blur", "-i", self.p("act.nii.gz"), "-o", self.p("out.nii.gz"),
+                            "--fields", self.p("values.csv"), "--signal", self.p("belt.csv"), "--gates",
+                            ",".join(map(str, edges)), *HOST], capture_output=True, text=True, timeout=timeout)
+        self.assertEqual(p.returncode, 0, p.stderr)
+        out = np.asarray(nib.load(self.p("out.nii.gz")).dataobj, dtype=np.float64)
+        self.assertEqual(out.shape, DIMS + ((len(edges) - 1,) if len(edges) > 2 else ()))
+        self.assertTrue(np.isfinite(out).all())
+        return out
+
+    def test_a_long_belt_and_an_edge_at_a_fields_value(self):
+        t = np.arange(0.0, 4 * 3600.0, 0.04)
+        s = 0.5 - 0.5 * np.cos(2 * np.pi * t / RNG.uniform(3.5, 4.5)) + 0.01 * RNG.standard_normal(t.size)
+        s = np.clip(s, 0.0, 1.0)  # the fields' values: every sample inside them, the crossings of 0 and 1 at them
+        out = self.gate(t, s, np.linspace(0.0, 1.0, 11), timeout=60)
+        # The gates are told apart: the lowest and the highest amplitudes are blurred differently.
+        self.assertGreater(np.abs(out[..., 0] - out[..., -1]).max(), 1e-3 * np.abs(out).max())
+        # The signal dipping below 0 between samples, outside every gate: a crossing of the edge at 0 rounds past it.
+        self.gate([103.04, 103.08, 103.12], [0.0448, -0.00629, 0.07799], [0.0, 1.0], timeout=60)
 
 
 def reference_track_gates(vol, affine, shift, axis, turn, t, s, edges, span, dt=0.002):

@@ -42,6 +42,9 @@ def _affine4(a, what):
     if m.shape != (4, 4) or not np.all(np.isfinite(m)):
         raise ArgumentError(f"{what} must be a finite 4x4 voxel-to-world matrix (nibabel's img.affine), not one "
                             f"of shape {m.shape}")
+    if not np.array_equal(m[3], [0.0, 0.0, 0.0, 1.0]):
+        raise ArgumentError(f"{what}'s last row is {m[3].tolist()}; a voxel-to-world affine's is 0 0 0 1 "
+                            "(nibabel's img.affine)")
     if abs(np.linalg.det(m[:3, :3])) < 1e-12 * max(1.0, np.abs(m[:3, :3]).max()) ** 3:
         raise ArgumentError(f"{what} is singular: it collapses an axis of the grid; check the file's sform/qform")
     return m
@@ -71,6 +74,10 @@ class FieldMotion:
                                 "time, the vector last")
         if d.shape[0] != t.size:
             raise ArgumentError(f"{t.size} times (or values) for {d.shape[0]} fields; give one per field")
+        if t.size < 2:
+            raise ArgumentError(f"{t.size} field{'' if t.size == 1 else 's'}; give at least two, at or before a "
+                                "frame's start and at or after its end (the same field twice for a still "
+                                "deformation)")
         if not np.issubdtype(d.dtype, np.number) or np.iscomplexobj(d):
             raise ArgumentError(f"displacements are {d.dtype}; give real numbers (mm)")
         self.times = t

@@ -80,6 +80,9 @@ def _affine4(affine):
     if a is None or a.shape != (4, 4) or not np.all(np.isfinite(a)):
         raise ArgumentError("affine must be a finite 4x4 voxel-to-world matrix (nibabel's img.affine), not " +
                             (shown(affine) if a is None or a.shape == (4, 4) else f"of shape {a.shape}"))
+    if not np.array_equal(a[3], [0.0, 0.0, 0.0, 1.0]):
+        raise ArgumentError(f"affine's last row is {a[3].tolist()}; a voxel-to-world affine's is 0 0 0 1 "
+                            "(nibabel's img.affine)")
     return a
 
 

@@ -322,6 +322,18 @@ def test_bad_fields_refused(rng):
                              device="host", jacobian=True)
     with pytest.raises(petblur.ArgumentError, match="singular"):
         petblur.FieldMotion(times, d, affine=np.diag([1.0, 0.0, 1.0, 1.0]))
+    projective = np.eye(4)
+    projective[3, int(rng.integers(0, 3))] = rng.uniform(0.1, 1.0)
+    with pytest.raises(petblur.ArgumentError, match="last row .* 0 0 0 1"):
+        petblur.FieldMotion(times, d, affine=projective)
+    with pytest.raises(petblur.ArgumentError, match="last row .* 0 0 0 1"):
+        petblur.BlurOperator(n, voxel, petblur.FieldMotion(times, d), frame=(1, 9), affine=projective,
+                             device="host")
+    with pytest.raises(petblur.ArgumentError, match="0 fields; give at least two"):
+        petblur.FieldMotion([], np.zeros((0,) + n + (3,)))
+    # A field in micrometres read as mm takes every voxel out of the grid: refused, naming the units.
+    with pytest.raises(petblur.ArgumentError, match="twice the image grid's diagonal.*micrometres"):
+        petblur.BlurOperator(n, voxel, petblur.FieldMotion(times, d * 1000.0), frame=(1, 9), device="host")
 
 
 def test_folds_found(rng):

@@ -20,6 +20,8 @@ static pb_status plan_field_entered(pb_context *ctx, const pb_geometry *geometry
         st = pb_error(ctx, PB_ERR_INVALID_ARGUMENT, "no frames: give at least one");
     if (st == PB_OK)
         st = pb_field_validate(ctx, geometry, field);
+    if (st == PB_OK)
+        st = pb_field_check_reach(ctx, geometry, field);
     pb_plan *p = NULL;
     if (st == PB_OK)
         st = pb_plan_new(ctx, geometry, options, frames, &p);

@@ -23,6 +23,37 @@ size_t pb_field_voxels(const pb_field_motion *f)
     return f->dims[0] * f->dims[1] * f->dims[2];
 }
 
+/* A displacement longer than the image grid's diagonal takes every voxel out
+ * of the grid (any two points of it lie closer), so no field a body's motion
+ * makes holds one; twice that is refused, naming the likely cause (a field
+ * in micrometres, or in the wrong convention). It also bounds the time a
+ * blur takes: a field's walk is not clipped to the grid as a track's is, so
+ * a chord's slices, and REF's steps, follow the displacement's length. */
+#define PB_FIELD_REACH 2.0
+
+pb_status pb_field_check_reach(struct pb_context *ctx, const pb_geometry *g, const pb_field_motion *f)
+{
+    size_t n = pb_field_voxels(f);
+    double diagonal = 0.0;
+    for (int c = 0; c < 3; c++)
+        diagonal += ((double)g->dims[c] * g->voxel_size[c]) * ((double)g->dims[c] * g->voxel_size[c]);
+    diagonal = sqrt(diagonal);
+    for (size_t k = 0; k < f->count; k++) {
+        const float *d = f->displacements + k * n * 3;
+        for (size_t v = 0; v < n; v++) {
+            const double x = d[3 * v], y = d[3 * v + 1], z = d[3 * v + 2], len = sqrt(x * x + y * y + z * z);
+            if (len > PB_FIELD_REACH * diagonal) {
+                size_t i = v % f->dims[0], j = v / f->dims[0] % f->dims[1], l = v / f->dims[0] / f->dims[1];
+                return pb_error(ctx, PB_ERR_INVALID_ARGUMENT, "field %zu moves voxel (%zu, %zu, %zu) by %g mm, more "
+                                "than twice the image grid's diagonal (%g mm), out of the grid wherever it starts. "
+                                "Displacements are mm: check the field's units (micrometres?) and its convention",
+                                k, i, j, l, len, diagonal);
+            }
+        }
+    }
+    return PB_OK;
+}
+
 static pb_status check_values(struct pb_context *ctx, const pb_field_motion *f)
 {
     size_t n = pb_field_voxels(f);
@@ -164,7 +195,14 @@ pb_status pb_field_locate(struct pb_context *ctx, const pb_field_motion *f, doub
         /* Kept between its two samples: a flat stretch at a field's value
          * must not round an ulp past it. */
         v = s0 == s1 ? s0 : fmin(fmax((1.0 - a) * s0 + a * s1, fmin(s0, s1)), fmax(s0, s1));
-        if (v < f->times[0] || v > f->times[f->count - 1])
+        /* A gate's interval ends where the signal crosses an edge, and the
+         * value there, found again from that time, may round past a field's
+         * value at the edge (-8.6e-15 for an edge at 0): within a billionth
+         * of the fields' span it is that value. */
+        const double lo = f->times[0], hi = f->times[f->count - 1], near = 1e-9 * (hi - lo);
+        if (v >= lo - near && v <= hi + near)
+            v = fmin(fmax(v, lo), hi);
+        if (v < lo || v > hi)
             return pb_error(ctx, PB_ERR_TRACK_GAP, "the surrogate is %s at %s s, outside the fields' values [%s, %s]; "
                             "add a field for that amplitude, or leave that time out of the frames", PB_NUM(v),
                             PB_NUM(t), PB_NUM(f->times[0]), PB_NUM(f->times[f->count - 1]));

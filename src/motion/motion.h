@@ -78,6 +78,10 @@ size_t pb_field_voxels(const pb_field_motion *field);
 /* Checks a field motion against the image grid: every problem its own
  * status and message. */
 pb_status pb_field_validate(struct pb_context *ctx, const pb_geometry *geometry, const pb_field_motion *field);
+/* Refuses a field that moves a voxel farther than twice the image grid's
+ * diagonal (field_motion.c says why); after pb_field_validate, with the
+ * image's geometry. */
+pb_status pb_field_check_reach(struct pb_context *ctx, const pb_geometry *geometry, const pb_field_motion *field);
 /* Checks that frame [t0, t1] lies inside a validated field motion's times. */
 pb_status pb_field_frame_check(struct pb_context *ctx, const pb_field_motion *field, double t0, double t1);
 /* The field at time t inside the motion's span: (1 - alpha) D_f0 + alpha

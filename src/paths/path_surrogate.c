@@ -139,8 +139,9 @@ pb_status pb_path_surrogate_knots(struct pb_context *ctx, const pb_field_motion 
         size_t f0, f1;
         double a;
         pb_status st = pb_field_locate(ctx, f, iv[2 * i], &f0, &f1, &a);
-        for (size_t j = 0; j < f->signal_count && st == PB_OK; j++)
-            if (f->signal_times[j] > iv[2 * i] && f->signal_times[j] < iv[2 * i + 1])
+        for (size_t j = pb_path_first_sample(f->signal_times, f->signal_count, iv[2 * i]);
+             j < f->signal_count && f->signal_times[j] < iv[2 * i + 1] && st == PB_OK; j++)
+            if (f->signal_times[j] > iv[2 * i])
                 st = pb_field_locate(ctx, f, f->signal_times[j], &f0, &f1, &a);
         if (st == PB_OK)
             st = pb_field_locate(ctx, f, iv[2 * i + 1], &f0, &f1, &a);
@@ -154,7 +155,8 @@ pb_status pb_path_surrogate_knots(struct pb_context *ctx, const pb_field_motion 
     double smin = HUGE_VAL, smax = -HUGE_VAL;
     const double *st = f->signal_times, *sv = f->signal;
     for (size_t i = 0; i < intervals; i++)
-        for (size_t j = 0; j + 1 < f->signal_count; j++) {
+        for (size_t j = pb_path_first_sample(st, f->signal_count, iv[2 * i]);
+             j + 1 < f->signal_count && st[j] <= iv[2 * i + 1]; j++) {
             double ta = fmax(st[j], iv[2 * i]), tb = fmin(st[j + 1], iv[2 * i + 1]);
             if (!(tb >= ta))
                 continue;
@@ -186,7 +188,8 @@ pb_status pb_path_surrogate_knots(struct pb_context *ctx, const pb_field_motion 
     }
     /* The time spent in each bin, from every piece of the signal inside the frame's intervals. */
     for (size_t i = 0; i < intervals; i++)
-        for (size_t j = 0; j + 1 < f->signal_count; j++) {
+        for (size_t j = pb_path_first_sample(st, f->signal_count, iv[2 * i]);
+             j + 1 < f->signal_count && st[j] <= iv[2 * i + 1]; j++) {
             double ta = fmax(st[j], iv[2 * i]), tb = fmin(st[j + 1], iv[2 * i + 1]);
             if (!(tb > ta))
                 continue;

@@ -245,6 +245,32 @@ static int place_motion(pbc_motion *motion, pbc_fields *fields, const pbc_image 
     return rc ? rc : pbc_motion_check_frames(motion, bounds, frames, 1);
 }
 
+/* A blur is a weighted mean of the input's values, but a mass-preserving
+ * blur (--jacobian) weighs them by how much the fields compress, and a
+ * summed back projection adds the frames': near float32's top either can
+ * leave its range. Such a result is not written (an image of infinities
+ * with exit 0 would pass for one). */
+static int check_result(const char *out_path, const pbc_image *in, const pbc_image *out, int jacobian, int sum)
+{
+    size_t n = out->dims[0] * out->dims[1] * out->dims[2] * pbc_image_frame_count(out), bad = 0, first = 0;
+    for (size_t i = 0; i < n; i++)
+        if (!isfinite(out->data[i]) && bad++ == 0)
+            first = i;
+    if (!bad)
+        return 0;
+    size_t m = in->dims[0] * in->dims[1] * in->dims[2] * pbc_image_frame_count(in);
+    double top = 0.0;
+    for (size_t i = 0; i < m; i++)
+        top = fmax(top, fabs((double)in->data[i]));
+    size_t nv = out->dims[0] * out->dims[1] * out->dims[2], v = first % nv;
+    return pbc_fail(PBC_EXIT_USAGE, "%s: not written: the result leaves float32's range at %zu voxel%s (the first "
+                    "at (%zu, %zu, %zu)), where the input's largest magnitude is %g%s; rescale the input (e.g. Bq/ml "
+                    "to kBq/ml) and the result back", out_path, bad, bad == 1 ? "" : "s", v % out->dims[0],
+                    v / out->dims[0] % out->dims[1], v / out->dims[0] / out->dims[1], top,
+                    jacobian ? ", weighed by the fields' Jacobian determinants (--jacobian)"
+                             : sum ? ", the frames' back projections summed (--sum-frames)" : "");
+}
+
 static int run(const pbc_args *args, pbc_fields *fields, const char *in_path, const char *out_path, const char *png)
 {
     pb_blur_options opt;
@@ -288,6 +314,8 @@ static int run(const pbc_args *args, pbc_fields *fields, const char *in_path, co
         else
             rc = pbc_blur_image(ctx, &in, &motion.motion, &opt, adjoint, label, out.data, &ms);
     }
+    if (!rc)
+        rc = check_result(out_path, &in, &out, opt.jacobian, sum);
     if (!rc)
         rc = pbc_image_write(out_path, &out);
     if (!rc && png)
