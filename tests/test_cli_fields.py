@@ -270,6 +270,21 @@ class Fields(Case):
             f.write("0,good.nii.gz\n1,good.nii.gz\n")
         self.refused(self.p("noheader.csv"), ["header 'time,path'"])
         self.refused(self.table([(0, "good.nii.gz"), (0, "good.nii.gz")]), ["is not after"])
+        # A row naming no file, or a folder: named as such, not as a damaged NIfTI.
+        self.refused(self.table([(0, "good.nii.gz"), (1, "gone.nii.gz")]), ["gone.nii.gz", "cannot read it"])
+        self.refused(self.table([(0, "good.nii.gz"), (1, ".")]), ["is a folder"])
+        # NiftyReg's mark with an intent_p1 of NaN (which nifti_clib reads as 0, a deformation): none of its kinds.
+        save_field(self.p("nan_p1.nii.gz"), good, self.fa, "niftyreg-disp")
+        img = nib.load(self.p("nan_p1.nii.gz"))
+        img.header["intent_p1"] = np.nan
+        nib.save(img, self.p("nan_p1.nii.gz"))
+        self.refused(self.table([(0, "nan_p1.nii.gz"), (1, "nan_p1.nii.gz")]), ["intent_p1 nan", "NiftyReg"])
+        # A field whose header says metres beside one in mm, the numbers alike: the units named, not only
+        # "different grids".
+        img = nib.load(self.p("good.nii.gz"))
+        img.header.set_xyzt_units("meter")
+        nib.save(img, self.p("metres.nii.gz"))
+        self.refused(self.table([(0, "good.nii.gz"), (1, "metres.nii.gz")]), ["xyz_units", "in mm"])
 
     def test_what_leaves_the_grid_or_float32_is_refused(self):
         """A field in micrometres read as mm moves every voxel out of the grid: refused at once, naming the units
@@ -448,7 +463,7 @@ class Gates(Case):
         _, err = run("blur", "-i", self.p("act.nii.gz"), "-o", self.p("out.nii.gz"), "--gates", "0,1", *HOST,
                      expect=2)
         self.assertIn("--signal", err)
-        self.refused(["gate 3", "[2, 3)", "never visited", "--frame"], "--signal", belt_csv, "--gates",
+        self.refused(["gate 3", "[2, 3]", "never visited", "--frame"], "--signal", belt_csv, "--gates",
                      "0.1,0.5,0.9,2,3")
         narrow = self.p("narrow.csv")
         with open(narrow, "w") as f:
@@ -500,6 +515,8 @@ class LongBelts(Case):
         self.assertGreater(np.abs(out[..., 0] - out[..., -1]).max(), 1e-3 * np.abs(out).max())
         # The signal dipping below 0 between samples, outside every gate: a crossing of the edge at 0 rounds past it.
         self.gate([103.04, 103.08, 103.12], [0.0448, -0.00629, 0.07799], [0.0, 1.0], timeout=60)
+        # The top gate is closed, as Python's amplitude_gates makes it: a breath held at its top edge is in it.
+        self.gate([0.0, 1.0, 2.0], [1.0, 1.0, 1.0], [0.5, 1.0], timeout=60)
 
 
 def reference_track_gates(vol, affine, shift, axis, turn, t, s, edges, span, dt=0.002):
@@ -585,7 +602,7 @@ class TrackGates(Case):
         err = self.blur("--signal", belt_csv, expect=2)
         self.assertIn("--gates", err)
         err = self.blur("--signal", belt_csv, "--gates", "0.1,0.5,0.9,2,3", expect=2)
-        for w in ("gate 3", "[2, 3)", "never visited", "--frame"):
+        for w in ("gate 3", "[2, 3]", "never visited", "--frame"):
             self.assertIn(w, err)
         err = self.blur("--signal", belt_csv, "--gates", "0.1,0.5", "--frame", "-1,5", expect=2)
         self.assertIn("the signal", err)

@@ -136,6 +136,9 @@ class Estimate(unittest.TestCase):
         self.refused(self.write("three.nii", f[..., 0]), "--frames", "0,10", words=("4-D",))
         self.refused(self.write("one.nii", f[..., :1]), "--frames", "0,10", words=("4-D",))
         self.refused(self.nii, "--frames", "0,10,20,30", words=("8 frames",))
+        # Each frame measurable, the series not: a track over it would hold times no blur can subtract.
+        far = ",".join(["-1e308"] + [str(10 * i) for i in range(7)] + ["1e308"])
+        self.refused(self.nii, "--frames", far, words=("too long to measure",))
         bad = f.copy()
         bad[3, 4, 5, 2] = np.nan
         self.refused(self.write("nan.nii", bad), "--frames-from", self.json, words=("NaN",))

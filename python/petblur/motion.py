@@ -16,6 +16,7 @@ affine= (voxel to world, 4x4, as nibabel's img.affine) in the scanner's world
 mm, where tracker logs live (--coords world)."""
 
 import ctypes
+import errno
 import numbers
 import os
 import secrets
@@ -466,6 +467,12 @@ class Motion:
         if source and os.path.exists(path) and os.path.exists(source) and os.path.samefile(path, source):
             raise ArgumentError(f"{path} is the file this motion was read from: save it under another name")
         folder = os.path.dirname(os.path.abspath(path))
+        # named here: the temporary below would otherwise be the file an OSError names
+        if os.path.isdir(path):
+            raise IsADirectoryError(errno.EISDIR, "a folder: give the track file's name", path)
+        if not os.path.isdir(folder):
+            raise FileNotFoundError(errno.ENOENT, f"its folder {folder} does not exist; make it, or save elsewhere",
+                                    path)
         # a fresh name beside the file, made with the modes a new file gets (mkstemp's are 0600)
         temp = os.path.join(folder, f".petblur-{os.getpid()}-{secrets.token_hex(6)}.csv")
         fd = os.open(temp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666)

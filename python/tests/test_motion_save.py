@@ -144,6 +144,10 @@ def test_refusals_leave_nothing(rng, tmp_path):
                         "1,1,0,0,5,0,1,0,0,0,0,1,0\n")
     with pytest.raises(ArgumentError, match="format='matrix-csv'"):
         petblur.Motion.from_file(matrices).save(tmp_path / "b.csv", format="csv")
-    with pytest.raises(FileNotFoundError):
+    with pytest.raises(FileNotFoundError, match="missing does not exist") as e:
         m.save(tmp_path / "missing" / "c.csv")
+    assert e.value.filename == str(tmp_path / "missing" / "c.csv")  # the path given, not a temporary's
+    with pytest.raises(IsADirectoryError) as e:
+        m.save(tmp_path)
+    assert e.value.filename == str(tmp_path)
     assert sorted(p.name for p in tmp_path.iterdir()) == ["mat.csv", "src.csv"]

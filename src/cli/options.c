@@ -167,6 +167,9 @@ int pbc_parse_bounds(const char *option, const char *text, double **v, size_t *c
         return 0;
     free(*v);
     *v = NULL;
+    if (!strcmp(option, "--gates"))
+        return pbc_fail(PBC_EXIT_USAGE, "%s %s: give the gates' edges in the signal's units, at least two, "
+                        "increasing, separated by commas, e.g. 0,0.25,0.5,0.75,1 for four gates", option, text);
     return pbc_fail(PBC_EXIT_USAGE, "%s %s: give the frames' boundaries in seconds, at least two, increasing, "
                     "separated by commas, e.g. 0,30,60,120 for three frames", option, text);
 }

@@ -120,8 +120,9 @@ pb_status pb_field_validate(struct pb_context *ctx, const pb_geometry *g, const 
                             "fields by time and drop repeated times", i, PB_NUM(f->times[i]), i - 1,
                             PB_NUM(f->times[i - 1]));
         if (i > 0 && !isfinite(f->times[i] - f->times[i - 1]))
-            return pb_error(ctx, PB_ERR_NOT_FINITE, "field times %zu and %zu are too far apart to subtract; give "
-                            "seconds of a scan", i - 1, i);
+            return pb_error(ctx, PB_ERR_NOT_FINITE, "field times %zu and %zu (%s and %s s) are too far apart to "
+                            "subtract; give seconds of a scan", i - 1, i, PB_NUM(f->times[i - 1]),
+                            PB_NUM(f->times[i]));
     }
     if (f->signal_count == 1 || (f->signal_count && (!f->signal_times || !f->signal)))
         return pb_error(ctx, PB_ERR_INVALID_ARGUMENT, "the surrogate signal has %zu sample%s%s; give at least two "
@@ -157,6 +158,9 @@ pb_status pb_field_frame_check(struct pb_context *ctx, const pb_field_motion *f,
     if (!(t1 > t0))
         return pb_error(ctx, PB_ERR_BAD_FRAME, "the frame ends at %s s, not after its start at %s s; give end > "
                         "start", PB_NUM(t1), PB_NUM(t0));
+    if (!isfinite(t1 - t0))
+        return pb_error(ctx, PB_ERR_NOT_FINITE, "the frame [%s, %s] s is too long to measure in double precision; "
+                        "give seconds of a scan", PB_NUM(t0), PB_NUM(t1));
     if (lo > t0 || hi < t1)
         return pb_error(ctx, PB_ERR_TRACK_GAP, "the %s cover [%s, %s] s but the frame is [%s, %s] s; %s",
                         f->signal_count ? "surrogate signal's samples" : "fields",

@@ -18,6 +18,11 @@ pb_status pb_frame_bounds_check(struct pb_context *ctx, const double *bounds, si
         if (!(bounds[i + 1] > bounds[i]))
             return pb_error(ctx, PB_ERR_BAD_FRAME, "frame %zu ends at %s s, not after its start %s s; frame "
                             "bounds must increase", i, PB_NUM(bounds[i + 1]), PB_NUM(bounds[i]));
+    /* Each frame may be measurable and the series not: a track over it would
+     * hold times no blur can subtract. */
+    if (!isfinite(bounds[frames] - bounds[0]))
+        return pb_error(ctx, PB_ERR_NOT_FINITE, "the frames span [%s, %s] s, too long to measure in double precision; "
+                        "give seconds of a scan", PB_NUM(bounds[0]), PB_NUM(bounds[frames]));
     return PB_OK;
 }
 

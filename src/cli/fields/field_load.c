@@ -121,6 +121,10 @@ static int check_headers(pbc_fields *f, size_t count, field_kind *kinds)
                             "field's vectors are world mm on its grid; write it with its image's affine", path);
         if (k == 0)
             f->grid = h;
+        else if (!same_grid(&f->grid, &h) && h.unit_mm != f->grid.unit_mm)
+            return pbc_fail(PBC_EXIT_USAGE, "%s and %s differ in their units (xyz_units: %g and %g mm a unit), so "
+                            "their grids differ; the fields of one table share one grid in one unit: write them "
+                            "alike, in mm", f->paths[f->first], path, f->grid.unit_mm, h.unit_mm);
         else if (!same_grid(&f->grid, &h))
             return pbc_fail(PBC_EXIT_USAGE, "%s and %s lie on different grids (%zux%zux%zu and %zux%zux%zu, or other "
                             "affines); the fields of one table share one grid: resample them onto one, or register "

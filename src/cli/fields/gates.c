@@ -1,7 +1,8 @@
 /* Amplitude gates of a breathing surrogate, as a gated reconstruction bins
  * its counts (python/petblur/fields.py's amplitude_gates, the same rule):
  * gate g is every interval of [t0, t1] where the signal, linear between its
- * samples, lies in [edges[g], edges[g+1]). Pure: no I/O, no allocation. */
+ * samples, lies in [edges[g], edges[g+1]) (the last gate closed). Pure: no
+ * I/O, no allocation. */
 #include <math.h>
 #include <stddef.h>
 
@@ -32,9 +33,9 @@ size_t pbc_amplitude_gates(const double *t, const double *s, size_t n, const dou
             double b = k < n && t[k] < t1 ? t[k] : t1;
             double sb = signal_at(t, s, n, b, &j);
             double p, q;
-            if (sa == sb) {
+            if (sa == sb) { /* the top gate is closed: a plateau at its top edge is in it */
                 p = a;
-                q = lo <= sa && sa < hi ? b : a;
+                q = (lo <= sa && sa < hi) || (g + 1 == gates && sa == hi) ? b : a;
             } else { /* where s crosses lo and hi in the piece */
                 double ta = a + (lo - sa) / (sb - sa) * (b - a), tb = a + (hi - sa) / (sb - sa) * (b - a);
                 p = fmax(a, fmin(ta, tb));

@@ -68,6 +68,7 @@ typedef struct pbc_nifti_facts {
     double qfac, quatern[3], qoffset[3], srow[12];
     /* The scaling as written: nifti_clib turns NaN and infinity into 0. */
     double scl_slope, scl_inter;
+    double intent_p1; /* as written: nifti_clib turns NaN and infinity into 0 */
 } pbc_nifti_facts;
 int pbc_nifti_check_header(const char *path, pbc_nifti_facts *facts);
 /* The grid's place in the world as nibabel chooses it (image_nifti_orientation.c):

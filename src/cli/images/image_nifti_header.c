@@ -125,6 +125,13 @@ static void orientation_facts(const unsigned char *b, int v2, int swap, pbc_nift
 
 int pbc_nifti_check_header(const char *path, pbc_nifti_facts *facts)
 {
+    /* A file that is not there, or a folder, is named as such (a field
+     * table's row reaches here without the input's checks). */
+    struct stat st;
+    if (stat(path, &st) != 0)
+        return pbc_fail(PBC_EXIT_USAGE, "%s: cannot read it (%s); check the path", path, strerror(errno));
+    if (S_ISDIR(st.st_mode))
+        return pbc_fail(PBC_EXIT_USAGE, "%s: is a folder, not an image; give the image file's path", path);
     unsigned char b[sizeof(nifti_2_header)];
     memset(b, 0, sizeof b);
     size_t n = read_some(path, b, sizeof b);
@@ -200,7 +207,6 @@ int pbc_nifti_check_header(const char *path, pbc_nifti_facts *facts)
                         "between the header's %d and 2^30; the header is damaged", path, (int)size);
     /* What the file must hold; a .nii.gz tells its size modulo 2^32 only. */
     uint64_t need = (uint64_t)offset + voxels * (uint64_t)bytes;
-    struct stat st;
     int64_t have = nifti_is_gzfile(path) ? gzip_size(path) : (stat(path, &st) == 0 ? (int64_t)st.st_size : -1);
     if (have >= 0 && (!nifti_is_gzfile(path) || need < (UINT64_C(1) << 32)) && need > (uint64_t)have &&
         !(nifti_is_gzfile(path) && gzip_holds(path, need)))
@@ -217,5 +223,6 @@ int pbc_nifti_check_header(const char *path, pbc_nifti_facts *facts)
     orientation_facts(b, v2, swap, facts);
     facts->scl_slope = real_at(b, v2, swap, FIELD(scl_slope), 0);
     facts->scl_inter = real_at(b, v2, swap, FIELD(scl_inter), 0);
+    facts->intent_p1 = real_at(b, v2, swap, FIELD(intent_p1), 0);
     return 0;
 }

@@ -55,7 +55,7 @@ static void take_header(const nifti_image *nim, const pbc_nifti_facts *facts, co
     h->intent_code = nim->intent_code;
     memcpy(h->intent_name, nim->intent_name, 16);
     h->intent_name[16] = '\0';
-    h->intent_p1 = (double)nim->intent_p1;
+    h->intent_p1 = facts->intent_p1; /* as written: a NaN is none of NiftyReg's kinds, not its 0 */
 }
 
 /* The header checked and parsed; *nim (nifti_image_free) on success. */
