@@ -295,7 +295,7 @@ class Fields(Case):
         save_field(self.p("good.nii.gz"), good, self.fa)
         save_field(self.p("micro.nii.gz"), good * 1000.0, self.fa)
         self.refused(self.table([(0, "good.nii.gz"), (1, "micro.nii.gz")]),
-                     ["micro.nii.gz", "twice the image grid's diagonal", "micrometres"])
+                     ["field 1", "twice the image grid's diagonal", "micrometres"])
         # An expansion about the field grid's centre: det(I + dD/dr) = 1.5^3, within the grid's reach.
         ijk = np.indices(FIELD_DIMS).reshape(3, -1).T.astype(float)
         world = nib.affines.apply_affine(self.fa, ijk)
@@ -513,7 +513,7 @@ class LongBelts(Case):
         out = self.gate(t, s, np.linspace(0.0, 1.0, 11), timeout=60)
         # The gates are told apart: the lowest and the highest amplitudes are blurred differently.
         self.assertGreater(np.abs(out[..., 0] - out[..., -1]).max(), 1e-3 * np.abs(out).max())
-        # The signal dipping below 0 between samples, outside every gate: a crossing of the edge at 0 rounds past it.
+        # A sample below 0, outside every gate: the crossings of the edge at 0 beside it round past it.
         self.gate([103.04, 103.08, 103.12], [0.0448, -0.00629, 0.07799], [0.0, 1.0], timeout=60)
         # The top gate is closed, as Python's amplitude_gates makes it: a breath held at its top edge is in it.
         self.gate([0.0, 1.0, 2.0], [1.0, 1.0, 1.0], [0.5, 1.0], timeout=60)

@@ -374,3 +374,29 @@ def test_frames_streamed_past_the_budget(rng, device, monkeypatch):
     assert np.abs(want[0]).max() > 0
     one = petblur.BlurOperator(n, voxel, fm, frame=(bounds[1], bounds[2]), device=device)  # streamed too
     assert np.abs(one(x) - want[0][1]).max() <= 1e-5 * np.abs(want[0][1]).max()
+
+
+def test_reach_counts_the_field_under_the_image(rng):
+    """A field that moves a voxel more than twice the image grid's diagonal is refused only where the blur reads it:
+    a body-wide field with a wild region far from a small image is blurred, the same region under the image is not."""
+    n, voxel = (12, 12, 12), np.full(3, 2.0)
+    image = np.diag([2.0, 2.0, 2.0, 1.0])
+    image[:3, 3] = rng.uniform(-5.0, 5.0, 3)
+    fdims = (40, 40, 40)
+    field = np.diag([5.0, 5.0, 5.0, 1.0])
+    field[:3, 3] = image[:3, 3] + 12.0 - 5.0 * 19.5  # the image's centre at the field grid's
+    d = np.zeros((2,) + fdims + (3,))
+    d[1] = 0.5 * rng.standard_normal(3)  # a small uniform move
+    far = d.copy()
+    far[1, :3, :3, :3] = [500.0, 0.0, 0.0]  # a corner 90 mm from the image, beyond twice its 42 mm diagonal
+    B = petblur.BlurOperator(n, voxel, petblur.FieldMotion([0.0, 1.0], far, affine=field), frame=(0, 1),
+                             affine=image, device="host")
+    near = d.copy()
+    near[1, 19:21, 19:21, 19:21] = [500.0, 0.0, 0.0]  # under the image
+    x = rng.random(n).astype(np.float32)
+    ref = petblur.BlurOperator(n, voxel, petblur.FieldMotion([0.0, 1.0], d, affine=field), frame=(0, 1),
+                               affine=image, device="host")
+    np.testing.assert_array_equal(B(x), ref(x))  # the far region is never read
+    with pytest.raises(petblur.ArgumentError, match="twice the image grid's diagonal"):
+        petblur.BlurOperator(n, voxel, petblur.FieldMotion([0.0, 1.0], near, affine=field), frame=(0, 1),
+                             affine=image, device="host")

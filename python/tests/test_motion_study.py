@@ -10,7 +10,7 @@ estimated from the data's own short frames (g) within 5 % of the tracker's
 (e), as issue 30 asks (seeds 1-3: (g) 0.999-1.004 times (e)'s NRMSE; its track 0.64-0.77 mm
 off on the mean frame, 2.8-3.2 mm at the worst; 16 fresh seeds on PoCL, bench/study_family.py:
 (g) 0.998-1.003 times (e), bench/results/2026-11-29_H200_329547b_study-family; seed 98836322 at 1.075 until pass 4
-took a sampling difference after the jerk for contrast, docs/motion.md). And the data's
+took a sampling difference after the jerk for contrast, docs/estimate-log.md). And the data's
 resampling moves a volume as petblur's poses do."""
 
 import argparse

@@ -158,7 +158,7 @@ int pbc_parse_bounds(const char *option, const char *text, double **v, size_t *c
         n += *c == ',';
     *v = malloc(n * sizeof **v);
     if (!*v)
-        return pbc_fail(PBC_EXIT_RUNTIME, "%s: out of memory for %zu times", option, n);
+        return pbc_fail(PBC_EXIT_RUNTIME, "%s: out of memory for %zu numbers", option, n);
     *count = n;
     int ok = n >= 2 && numbers(text, (int)n, *v) == 0;
     for (size_t i = 0; ok && i + 1 < n; i++)

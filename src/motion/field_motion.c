@@ -3,6 +3,7 @@
  * point (the host reference's and the planner's), and where it folds. */
 #include "motion.h"
 
+#include <float.h>
 #include <math.h>
 #include <stdlib.h>
 
@@ -31,25 +32,56 @@ size_t pb_field_voxels(const pb_field_motion *f)
  * a chord's slices, and REF's steps, follow the displacement's length. */
 #define PB_FIELD_REACH 2.0
 
+/* The field voxels an image voxel's reading can reach, per axis [lo, hi]:
+ * with a map, the box of the image grid's corners in field voxels, one voxel
+ * wider for the trilinear reading; without one, the grids are the same. */
+static void field_reach_box(const pb_geometry *g, const pb_field_motion *f, size_t lo[3], size_t hi[3])
+{
+    for (int a = 0; a < 3; a++) {
+        lo[a] = 0;
+        hi[a] = f->dims[a] - 1;
+    }
+    if (!f->has_map)
+        return;
+    double mn[3] = {HUGE_VAL, HUGE_VAL, HUGE_VAL}, mx[3] = {-HUGE_VAL, -HUGE_VAL, -HUGE_VAL};
+    for (int c = 0; c < 8; c++) {
+        const double u[3] = {c & 1 ? (double)g->dims[0] - 1.0 : 0.0, c & 2 ? (double)g->dims[1] - 1.0 : 0.0,
+                             c & 4 ? (double)g->dims[2] - 1.0 : 0.0};
+        for (int a = 0; a < 3; a++) {
+            const double *m = f->field_from_grid + 4 * a, q = m[0] * u[0] + m[1] * u[1] + m[2] * u[2] + m[3];
+            mn[a] = fmin(mn[a], q);
+            mx[a] = fmax(mx[a], q);
+        }
+    }
+    for (int a = 0; a < 3; a++) {
+        const double top = (double)f->dims[a] - 1.0;
+        lo[a] = (size_t)fmin(top, fmax(0.0, floor(mn[a]) - 1.0));
+        hi[a] = (size_t)fmin(top, fmax(0.0, ceil(mx[a]) + 1.0));
+    }
+}
+
 pb_status pb_field_check_reach(struct pb_context *ctx, const pb_geometry *g, const pb_field_motion *f)
 {
-    size_t n = pb_field_voxels(f);
+    size_t n = pb_field_voxels(f), lo[3], hi[3];
     double diagonal = 0.0;
     for (int c = 0; c < 3; c++)
         diagonal += ((double)g->dims[c] * g->voxel_size[c]) * ((double)g->dims[c] * g->voxel_size[c]);
     diagonal = sqrt(diagonal);
+    field_reach_box(g, f, lo, hi);
     for (size_t k = 0; k < f->count; k++) {
         const float *d = f->displacements + k * n * 3;
-        for (size_t v = 0; v < n; v++) {
-            const double x = d[3 * v], y = d[3 * v + 1], z = d[3 * v + 2], len = sqrt(x * x + y * y + z * z);
-            if (len > PB_FIELD_REACH * diagonal) {
-                size_t i = v % f->dims[0], j = v / f->dims[0] % f->dims[1], l = v / f->dims[0] / f->dims[1];
-                return pb_error(ctx, PB_ERR_INVALID_ARGUMENT, "field %zu moves voxel (%zu, %zu, %zu) by %g mm, more "
-                                "than twice the image grid's diagonal (%g mm), out of the grid wherever it starts. "
-                                "Displacements are mm: check the field's units (micrometres?) and its convention",
-                                k, i, j, l, len, diagonal);
-            }
-        }
+        for (size_t l = lo[2]; l <= hi[2]; l++)
+            for (size_t j = lo[1]; j <= hi[1]; j++)
+                for (size_t i = lo[0]; i <= hi[0]; i++) {
+                    const size_t v = i + f->dims[0] * (j + f->dims[1] * l);
+                    const double x = (double)d[3 * v], y = (double)d[3 * v + 1], z = (double)d[3 * v + 2];
+                    const double len = sqrt(x * x + y * y + z * z);
+                    if (len > PB_FIELD_REACH * diagonal)
+                        return pb_error(ctx, PB_ERR_INVALID_ARGUMENT, "field %zu moves voxel (%zu, %zu, %zu) by %g "
+                                        "mm, more than twice the image grid's diagonal (%g mm), out of the grid "
+                                        "wherever it starts; displacements are mm: check the field's units "
+                                        "(micrometres?) and its convention", k, i, j, l, len, diagonal);
+                }
     }
     return PB_OK;
 }
@@ -202,8 +234,12 @@ pb_status pb_field_locate(struct pb_context *ctx, const pb_field_motion *f, doub
         /* A gate's interval ends where the signal crosses an edge, and the
          * value there, found again from that time, may round past a field's
          * value at the edge (-8.6e-15 for an edge at 0): within a billionth
-         * of the fields' span it is that value. */
-        const double lo = f->times[0], hi = f->times[f->count - 1], near = 1e-9 * (hi - lo);
+         * of the fields' span, and the slope times the time's own rounding (a
+         * belt logged in epoch seconds), it is that value; never beyond a
+         * millionth of the span, which moves no voxel a nanometre. */
+        const double lo = f->times[0], hi = f->times[f->count - 1];
+        const double slope = (s1 - s0) / (f->signal_times[j + 1] - f->signal_times[j]);
+        const double near = fmin(1e-9 * (hi - lo) + 8.0 * DBL_EPSILON * fabs(t) * fabs(slope), 1e-6 * (hi - lo));
         if (v >= lo - near && v <= hi + near)
             v = fmin(fmax(v, lo), hi);
         if (v < lo || v > hi)

@@ -151,7 +151,8 @@ pb_status pb_path_surrogate_knots(struct pb_context *ctx, const pb_field_motion 
     bins b = {v, f->count, calloc(f->count, sizeof(size_t)), NULL};
     if (!b.first)
         return pb_error(ctx, PB_ERR_OUT_OF_MEMORY, "out of host memory planning a surrogate's frame");
-    /* The values the frame visits, and bins over the field intervals they touch. */
+    /* The values the frame visits, and bins over the field intervals they touch (an interval starting on a
+     * sample takes its value there from the piece after it, not from the empty end of the one before). */
     double smin = HUGE_VAL, smax = -HUGE_VAL;
     const double *st = f->signal_times, *sv = f->signal;
     for (size_t i = 0; i < intervals; i++)

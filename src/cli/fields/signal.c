@@ -124,8 +124,7 @@ static int compute_gates(const char *text, pbc_fields *f)
             return pbc_fail(PBC_EXIT_USAGE, "--gates: gate %zu, [%s, %s%c, is never visited by the signal from %s to "
                             "%s s (its samples there span %s to %s); give edges inside the signal's range, or a longer "
                             "--frame", g, PBC_NUM(f->edges[g]), PBC_NUM(f->edges[g + 1]), g + 1 == f->gates ? ']' : ')',
-                            PBC_NUM(f->frame[0]),
-                            PBC_NUM(f->frame[1]), PBC_NUM(lo), PBC_NUM(hi));
+                            PBC_NUM(f->frame[0]), PBC_NUM(f->frame[1]), PBC_NUM(lo), PBC_NUM(hi));
     if (!(f->intervals = malloc(2 * total * sizeof *f->intervals)))
         return pbc_fail(PBC_EXIT_RUNTIME, "--gates: out of memory for %zu intervals", total);
     pbc_amplitude_gates(t, s, n, f->edges, f->gates, f->frame[0], f->frame[1], f->intervals, f->counts);
