@@ -515,6 +515,9 @@ class LongBelts(Case):
         self.assertGreater(np.abs(out[..., 0] - out[..., -1]).max(), 1e-3 * np.abs(out).max())
         # A sample below 0, outside every gate: the crossings of the edge at 0 beside it round past it.
         self.gate([103.04, 103.08, 103.12], [0.0448, -0.00629, 0.07799], [0.0, 1.0], timeout=60)
+        # The same in epoch seconds, where the crossing time's own rounding moves the value more.
+        self.gate([1.7e9 + 103.04, 1.7e9 + 103.08, 1.7e9 + 103.12], [0.0448, -0.00629, 0.07799], [0.0, 1.0],
+                  timeout=60)
         # The top gate is closed, as Python's amplitude_gates makes it: a breath held at its top edge is in it.
         self.gate([0.0, 1.0, 2.0], [1.0, 1.0, 1.0], [0.5, 1.0], timeout=60)
 
