@@ -518,6 +518,12 @@ class LongBelts(Case):
         # The same in epoch seconds, where the crossing time's own rounding moves the value more.
         self.gate([1.7e9 + 103.04, 1.7e9 + 103.08, 1.7e9 + 103.12], [0.0448, -0.00629, 0.07799], [0.0, 1.0],
                   timeout=60)
+        # A belt logged in epoch seconds that dips below the lowest field's value between the gates: the dips stay
+        # outside every gate (a join of two intervals as wide as a millisecond there took them in, and was refused).
+        t = 1.7e9 + np.arange(0.0, 600.0, 0.04)
+        s = 0.48 - 0.5 * np.cos(2 * np.pi * (t - 1.7e9) / RNG.uniform(3.5, 4.5)) + 0.01 * RNG.standard_normal(t.size)
+        self.assertLess(s.min(), 0.0)
+        self.gate(t, np.clip(s, -1.0, 1.0), [0.0, 0.25, 0.5, 0.75, 1.0], timeout=60)
         # The top gate is closed, as Python's amplitude_gates makes it: a breath held at its top edge is in it.
         self.gate([0.0, 1.0, 2.0], [1.0, 1.0, 1.0], [0.5, 1.0], timeout=60)
 

@@ -286,6 +286,9 @@ class FieldMotion:
                           stacklevel=stacklevel)
 
 
+_EPS = float(np.finfo(np.float64).eps)
+
+
 def amplitude_gates(signal_times, signal, edges, span=None):
     """Amplitude gates of a breathing surrogate, as a gated reconstruction
     bins its counts: gate g is every visit of the signal (linear between its
@@ -319,7 +322,8 @@ def amplitude_gates(signal_times, signal, edges, span=None):
                 tb = a + (hi - sa) / (sb - sa) * (b - a)
                 p, q = max(a, min(ta, tb)), min(b, max(ta, tb))
             if q > p:
-                if out and abs(out[-1][1] - p) <= 1e-12 * max(1.0, abs(p)):
+                # joined where the two meet at a sample, up to the crossing's rounding (gates.c says why)
+                if out and abs(out[-1][1] - p) <= 8 * _EPS * (abs(p) + (b - a)):
                     out[-1] = (out[-1][0], q)
                 else:
                     out.append((p, q))

@@ -3,6 +3,7 @@
  * gate g is every interval of [t0, t1] where the signal, linear between its
  * samples, lies in [edges[g], edges[g+1]) (the last gate closed). Pure: no
  * I/O, no allocation. */
+#include <float.h>
 #include <math.h>
 #include <stddef.h>
 
@@ -42,7 +43,10 @@ size_t pbc_amplitude_gates(const double *t, const double *s, size_t n, const dou
                 q = fmin(b, fmax(ta, tb));
             }
             if (q > p) {
-                if (here && fabs(last_end - p) <= 1e-12 * fmax(1.0, fabs(p))) { /* continues the one before */
+                /* Continues the one before where the two meet at a sample, up to the crossing's rounding (a
+                 * few ulps of the time and of the piece): a wider join would take a dip outside the gate, of
+                 * a millisecond in a belt logged in epoch seconds, for part of it. */
+                if (here && fabs(last_end - p) <= 8.0 * DBL_EPSILON * (fabs(p) + (b - a))) {
                     if (intervals)
                         intervals[2 * (total - 1) + 1] = q;
                 } else {
