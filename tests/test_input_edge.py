@@ -93,6 +93,21 @@ class BoundedWork(Case):
                         expect=2)
         self.assertIn("NIfTI-1 holds at most 32767 entries", err)
 
+    def test_phantom_and_demo_refuse_what_the_other_commands_would(self):
+        """A phantom's voxel size outside what blur reads (a header of infinities at 1e300), and demo's --out-dir
+        naming a file: exit 2 (bad input, not a runtime failure), nothing written."""
+        for v in (10 ** RNG.uniform(4.1, 300), 10 ** -RNG.uniform(4.1, 300)):
+            _, err, _ = run("phantom", "--kind", "brain", "--dims", "8,8,8", "--voxel-size", f"{v:.6g},2,2", "-o",
+                            self.p("v.nii"), "-q", expect=2)
+            self.assertIn("from 0.0001 to 10000 mm", err)
+            self.assertFalse(os.path.exists(self.p("v.nii")))
+        with open(self.p("afile"), "w") as f:
+            f.write("mine")
+        _, err, _ = run("demo", "--out-dir", self.p("afile"), "--size", "16", "-q", expect=2)
+        self.assertIn("is a file, not a folder", err)
+        with open(self.p("afile")) as f:
+            self.assertEqual(f.read(), "mine")
+
 
 class NumbersSurvive(Case):
     def test_every_image_format_at_the_edges_of_the_range(self):

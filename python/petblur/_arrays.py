@@ -96,7 +96,7 @@ class Array:
         (C order)."""
         x = self.data
         if not self.on_gpu:
-            _check_finite(x, self.what, self.wide)
+            _check_finite(x, self.what, self.wide, largest=LARGEST)
         parts = [x] if x.ndim == 3 else [x[f] for f in range(x.shape[0])]
         out = []
         for v in parts:
@@ -146,17 +146,31 @@ def _narrow(x):
         return x.astype(np.float32, order="K")
 
 
-def _check_finite(x, what, wide=None):
+# The largest magnitude an operator reads. A blur is a mean of the values,
+# but its transpose adds each voxel's weights (more than 1 where the motion
+# compresses), REF and CL sum their samples before dividing, and a frames'
+# adjoint sums the frames: near float32's top (3.4e38) those leave its range
+# and return infinities. No activity, count or ratio comes near 1e30.
+LARGEST = 1e30
+
+
+def _check_finite(x, what, wide=None, largest=None):
     """Host arrays: one NaN would spread through every blur that reads it;
     refused here, where the voxel can be named in the array's own axes. wide:
     the float64 array x was narrowed from, whose finite values beyond
-    float32's range x holds as infinite. (CUDA arrays are not read on the host
+    float32's range x holds as infinite. largest: a bound on the magnitudes
+    besides (the operators', LARGEST). (CUDA arrays are not read on the host
     for this, as the C library's device-memory calls do not check them.)"""
-    finite = np.isfinite(x)
+    with np.errstate(invalid="ignore"):
+        finite = np.isfinite(x) if largest is None else np.abs(x) <= largest
     if not finite.all():
         where = tuple(int(i) for i in np.argwhere(~finite)[0])
         axes = f"(axes {'frame, ' if x.ndim == 4 else ''}x, y, z)"
         given = x[where] if wide is None else wide[where]
+        if np.isfinite(given) and np.isfinite(x[where]):
+            raise ArgumentError(f"the {what} is {float(given)!r} at {list(where)} {axes}, beyond {largest:g}, where "
+                                "an adjoint's or a reference's sums leave float32's range; scale the values first, "
+                                "e.g. x / abs(x).max()", -4)
         if np.isfinite(given):
             raise ArgumentError(f"the {what} is {float(given)!r} at {list(where)} {axes}, beyond float32's range "
                                 f"(magnitudes up to {float(np.finfo(np.float32).max):.4g}), in which petblur "

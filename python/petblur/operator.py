@@ -24,6 +24,7 @@ import copy
 import ctypes
 import inspect
 import pickle
+import threading
 import weakref
 
 import numpy as np
@@ -96,6 +97,7 @@ class _Handles:
         self.plans = {}  # order: (plan, geometry)
         self.volumes = {}  # order: [input, output]
         self._made = []  # (destroy, handle) of every C object, in the order made
+        self.hearing = None  # the thread running the progress callable of a call on these objects
         weakref.finalize(self, _release, ctx, self._made)
 
     def made(self, destroy, handle):
@@ -338,6 +340,9 @@ class _Operator:
     def _run(self, arr, jobs, adjoint):
         """jobs: (frame, input view, output view, accumulate), of one memory
         order each; runs them in order."""
+        if self._handles.hearing == threading.get_ident():
+            raise ArgumentError("the operator was called from its own progress callable, while its buffers hold the "
+                                "call in progress; make a second operator for work inside progress")
         ctx = self._ctx
         if arr.on_gpu:
             if ctx.backend != _lib.BACKEND_CUDA:
@@ -362,12 +367,30 @@ class _Operator:
         if self._progress is None:
             yield
             return
-        fn = _lib.ProgressFn(lambda fraction, user: self._progress(float(fraction)))
+        # An exception inside progress is kept and raised when the calls
+        # return (ctypes would only print it); while progress runs, this
+        # operator's buffers are in use, and a call to it (or to a copy, which
+        # shares them) from there is refused rather than let overwrite them.
+        raised, handles = [], self._handles
+
+        def hear(fraction, user):
+            if raised:
+                return
+            handles.hearing = threading.get_ident()
+            try:
+                self._progress(float(fraction))
+            except BaseException as e:  # noqa: B036 - re-raised below, whatever it is
+                raised.append(e)
+            finally:
+                handles.hearing = None
+        fn = _lib.ProgressFn(hear)
         _lib.check(_lib.lib.pb_context_set_progress(self._ctx.handle, fn, None), self._ctx.handle)
         try:
             yield
         finally:
             _lib.lib.pb_context_set_progress(self._ctx.handle, _lib.ProgressFn(), None)
+        if raised:
+            raise raised[0]
 
     def _call_device(self, plan, frame, xp, yp, acc, adjoint):
         lib, ctx = _lib.lib, self._ctx
@@ -597,6 +620,9 @@ class FramesOperator(_Operator):
                          progress, ab_sampling, jacobian)
         self.bounds = b if gates is None else gates
         self.frames = b.size - 1 if gates is None else len(gates)
+        for name, flag in (("per_frame", per_frame), ("frames_last", frames_last)):
+            if not isinstance(flag, (bool, np.bool_)):
+                raise ArgumentError(f"{name} {shown(flag)}: give True or False")
         self.per_frame = bool(per_frame)
         self.frames_last = bool(frames_last)
 
@@ -639,6 +665,9 @@ class FramesOperator(_Operator):
         the default unless per_frame), else one per frame."""
         if sum is None:
             sum = not self.per_frame
+        if not isinstance(sum, (bool, np.bool_)):
+            raise ArgumentError(f"sum {shown(sum)}: give True (the frames' transposes summed), False (one a frame) or "
+                                "None (not per_frame)")
         arr = Array(y, "frames")
         _check_shape(arr, [self._frames_shape()], "frames")
         arr.move(self._first)

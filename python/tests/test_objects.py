@@ -313,6 +313,46 @@ def test_progress_and_pickles(device, rng, kind):
     assert bar.seen and bar.seen[-1] == 1.0
 
 
+@KINDS
+def test_progress_raises_and_reenters(device, rng, kind):
+    """An exception inside progress is raised when the call returns (ctypes alone printed it, and a KeyboardInterrupt
+    never stopped the call's caller), and the operator called from its own progress, whose buffers hold the call in
+    progress, is refused (on OpenCL the outer call returned the inner's result)."""
+    shape = (12, 11, 10)
+    x = rng.random(shape, dtype=np.float32)
+
+    def stop(fraction):
+        raise KeyboardInterrupt("stop")
+    with pytest.raises(KeyboardInterrupt, match="stop"):
+        _operator(kind, device, rng, shape, progress=stop)(x)
+    holder = []
+
+    def again(fraction):
+        holder[0](x)
+    op = _operator(kind, device, rng, shape, progress=again)
+    holder.append(copy.copy(op))  # a shallow copy shares the operator's buffers
+    with pytest.raises(petblur.ArgumentError, match="its own progress"):
+        op(x)
+    # and afterwards the operator works as before, its progress left as it was
+    quiet = copy.copy(_operator(kind, device, rng, shape))
+    assert np.isfinite(quiet(x)).all()
+
+
+@KINDS
+def test_values_an_operator_reads_are_bounded(device, rng, kind):
+    """An adjoint adds each voxel's weights and a frames' adjoint the frames: near float32's top they left its range
+    and returned infinities for finite input. The operators read magnitudes up to 1e30, and name the voxel beyond."""
+    shape = (12, 11, 10)
+    op = _operator(kind, device, rng, shape)
+    y = op(rng.random(shape, dtype=np.float32))
+    big = (y * 1e29).astype(np.float32)
+    assert np.isfinite(op.adjoint(big)).all()
+    at = tuple(int(rng.integers(0, n)) for n in big.shape)
+    big[at] = rng.uniform(2e30, 3e38)
+    with pytest.raises(petblur.ArgumentError, match=r"beyond 1e\+30.*scale the values"):
+        op.adjoint(big)
+
+
 def test_motion_copies(tmp_path, rng):
     """Arrays and conventions (centre, calibration, reference time, inverse)
     survive deepcopy and pickle: the same poses."""

@@ -2,6 +2,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 
+#include "petblur.h"
 #include "cli.h"
 #include "commands.h"
 #include "image_io.h"
@@ -61,6 +62,12 @@ static int geometry(const pbc_args *args, pbc_phantom_kind kind, size_t dims[3],
     int rc = 0;
     if ((d && (rc = pbc_parse_dims("--dims", d, dims))) || (v && (rc = pbc_parse_vec3("--voxel-size", v, 1, vs))))
         return rc;
+    /* the sizes every other command reads: a phantom the blur refuses, or a
+     * header of infinities, is no phantom */
+    for (int i = 0; i < 3; i++)
+        if (!(vs[i] >= PB_MIN_VOXEL_MM && vs[i] <= PB_MAX_VOXEL_MM))
+            return pbc_fail(PBC_EXIT_USAGE, "--voxel-size %s: voxel size %c is %s mm; give sizes from %s to %s mm", v,
+                            "xyz"[i], PBC_NUM(vs[i]), PBC_NUM(PB_MIN_VOXEL_MM), PBC_NUM(PB_MAX_VOXEL_MM));
     return 0;
 }
 

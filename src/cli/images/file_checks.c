@@ -232,8 +232,15 @@ int pbc_hints_from_args(const pbc_command *cmd, const pbc_args *args, size_t dim
 
 int pbc_make_dir(const char *option, const char *dir)
 {
-    if (mkdir(dir, 0777) != 0 && errno != EEXIST)
-        return pbc_fail(PBC_EXIT_RUNTIME, "%s %s: cannot create the folder (%s); choose another with %s", option, dir,
-                        strerror(errno), option);
-    return 0;
+    struct stat st;
+    if (!*dir)
+        return pbc_fail(PBC_EXIT_USAGE, "%s: the folder's name is empty; give one", option);
+    if (mkdir(dir, 0777) == 0 || (errno == EEXIST && stat(dir, &st) == 0 && S_ISDIR(st.st_mode)))
+        return 0;
+    if (errno == EEXIST)
+        return pbc_fail(PBC_EXIT_USAGE, "%s %s: is a file, not a folder; choose a folder with %s", option, dir, option);
+    /* a missing parent, no permission, a read-only disk: the name the user gave; anything else: the machine */
+    int user = errno == ENOENT || errno == EACCES || errno == ENOTDIR || errno == EROFS || errno == ENAMETOOLONG;
+    return pbc_fail(user ? PBC_EXIT_USAGE : PBC_EXIT_RUNTIME, "%s %s: cannot create the folder (%s); choose another "
+                    "with %s", option, dir, strerror(errno), option);
 }

@@ -196,8 +196,9 @@ static int check_finite(const char *path, const pbc_image *img)
         return 0;
     char where[96];
     voxel_place(img, first, where, sizeof where);
-    return pbc_fail(PBC_EXIT_USAGE, "%s: %zu voxel%s not finite (NaN or infinite), the first at %s; the blur would "
-                    "spread them; replace them (e.g. by 0) first", path, bad, bad == 1 ? " is" : "s are", where);
+    return pbc_fail(PBC_EXIT_USAGE, "%s: %zu voxel%s not finite (NaN or infinite), the first at %s; petblur reads "
+                    "finite volumes only (a blur would spread them); replace them (e.g. by 0) first", path, bad,
+                    bad == 1 ? " is" : "s are", where);
 }
 
 static int check_input_file(const char *path)
