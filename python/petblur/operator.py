@@ -203,6 +203,12 @@ class _Operator:
         """<B x, y> against <x, B^T y> for random x and y (numpy, float64
         sums): returns their relative difference, or raises AssertionError
         beyond rtol."""
+        try:
+            tol = float(rtol)
+        except (TypeError, ValueError):
+            tol = float("nan")
+        if not (tol >= 0.0):  # NaN would fail every test with an AssertionError that is not about the operator
+            raise ArgumentError(f"rtol {shown(rtol)}: give a relative tolerance of 0 or more, e.g. 1e-4")
         rng = np.random.default_rng(seed)
         x = rng.random(self.in_shape, dtype=np.float32)
         y = rng.random(self.out_shape, dtype=np.float32)
@@ -211,8 +217,8 @@ class _Operator:
         a = float(np.dot(bx.ravel().astype(np.float64), y.ravel().astype(np.float64)))
         b = float(np.dot(x.ravel().astype(np.float64), bty.ravel().astype(np.float64)))
         rel = abs(a - b) / max(abs(a), abs(b), np.finfo(np.float64).tiny)
-        if not rel <= rtol:
-            raise AssertionError(f"<Bx, y> = {a!r} but <x, B^T y> = {b!r}: relative difference {rel:.3g} > {rtol:g}")
+        if not rel <= tol:
+            raise AssertionError(f"<Bx, y> = {a!r} but <x, B^T y> = {b!r}: relative difference {rel:.3g} > {tol:g}")
         return rel
 
     # ---- copies and pickles ----
