@@ -161,9 +161,15 @@ def _check_finite(x, what, wide=None, largest=None):
     float32's range x holds as infinite. largest: a bound on the magnitudes
     besides (the operators', LARGEST). (CUDA arrays are not read on the host
     for this, as the C library's device-memory calls do not check them.)"""
-    with np.errstate(invalid="ignore"):
-        finite = np.isfinite(x) if largest is None else np.abs(x) <= largest
-    if not finite.all():
+    if largest is None:
+        finite = np.isfinite(x)
+        ok = finite.all()
+    else:  # two reductions, no array as large as x (a NaN fails both)
+        ok = x.size == 0 or (float(x.max()) <= largest and float(x.min()) >= -largest)
+        if not ok:
+            with np.errstate(invalid="ignore"):
+                finite = np.abs(x) <= largest
+    if not ok:
         where = tuple(int(i) for i in np.argwhere(~finite)[0])
         axes = f"(axes {'frame, ' if x.ndim == 4 else ''}x, y, z)"
         given = x[where] if wide is None else wide[where]
