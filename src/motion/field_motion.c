@@ -206,14 +206,9 @@ pb_status pb_field_frame_check(struct pb_context *ctx, const pb_field_motion *f,
  * of samples j and j + 1. */
 static void bracket(const double *x, size_t n, double v, size_t *j, double *a)
 {
-    size_t lo = 0, hi = n - 1;
-    while (hi - lo > 1) {
-        size_t mid = lo + (hi - lo) / 2;
-        if (x[mid] <= v)
-            lo = mid;
-        else
-            hi = mid;
-    }
+    size_t lo = pb_sample_before(x, n, v);
+    if (lo > n - 2)
+        lo = n - 2;
     double s = (v - x[lo]) / (x[lo + 1] - x[lo]);
     *j = lo;
     *a = s < 0.0 ? 0.0 : (s > 1.0 ? 1.0 : s);

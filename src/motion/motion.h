@@ -70,6 +70,10 @@ void pb_motion_interpolate(const pb_motion *motion, double t, pb_pose *pose);
 /* Frame bounds bounds[0..frames]: at least one frame, finite, increasing;
  * the one check of them that plans and the track checks share. */
 pb_status pb_frame_bounds_check(struct pb_context *ctx, const double *bounds, size_t frames);
+/* The last of n increasing samples x at or before v, by bisection; 0 where
+ * none is (or v is NaN). Tracks, fields, surrogates and gates' intervals
+ * find their samples with it. */
+size_t pb_sample_before(const double *x, size_t n, double v);
 
 /* ---- field_motion.c: motion from deformation fields ----------------------- */
 

@@ -26,20 +26,25 @@ pb_status pb_frame_bounds_check(struct pb_context *ctx, const double *bounds, si
     return PB_OK;
 }
 
+size_t pb_sample_before(const double *x, size_t n, double v)
+{
+    size_t lo = 0, hi = n; /* x[lo] <= v < x[hi], x[n] beyond every v */
+    while (hi - lo > 1) {
+        size_t mid = lo + (hi - lo) / 2;
+        if (x[mid] <= v)
+            lo = mid;
+        else
+            hi = mid;
+    }
+    return lo;
+}
+
 pb_status pb_motion_frame(const pb_motion *track, double t0, double t1, pb_motion *part)
 {
     if (!track || !part || !track->times || !track->poses || track->count < 2)
         return pb_error(NULL, PB_ERR_INVALID_ARGUMENT, "a track of at least two poses and part must not be NULL");
-    size_t a = 0, b = track->count - 1;
-    while (a < b) { /* the last sample at or before t0 */
-        size_t mid = a + (b - a + 1) / 2;
-        if (track->times[mid] <= t0)
-            a = mid;
-        else
-            b = mid - 1;
-    }
+    size_t a = pb_sample_before(track->times, track->count, t0), b = track->count - 1;
     size_t lo = a;
-    b = track->count - 1;
     while (a < b) { /* the first sample at or after t1 */
         size_t mid = a + (b - a) / 2;
         if (track->times[mid] >= t1)

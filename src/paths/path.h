@@ -78,12 +78,6 @@ pb_status pb_path_create_gate(struct pb_context *ctx, const pb_geometry *geometr
  * dense time steps. */
 pb_status pb_path_create_field(struct pb_context *ctx, const pb_geometry *geometry, const pb_field_motion *field,
                                const double *intervals, size_t count, const pb_blur_options *options, pb_path *plan);
-/* The last of n sorted sample times at or before a (0 where none is): where
- * an interval's signal pieces start, found by bisection so that planning a
- * gate of many intervals over a long belt walks its pieces, not every sample
- * for every interval (path_field.c). */
-size_t pb_path_first_sample(const double *t, size_t n, double a);
-
 /* A surrogate's frame planned by value (path_surrogate.c): a segment per bin
  * of surrogate values the frame visits, each bin inside one interval between
  * fields and no voxel moving more than max_move voxels across it, weighed by

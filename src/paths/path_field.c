@@ -134,20 +134,6 @@ static void emit(double *times, size_t *n, double t, double *last)
     *last = t;
 }
 
-/* path.h says what it is for. */
-size_t pb_path_first_sample(const double *t, size_t n, double a)
-{
-    size_t lo = 0, hi = n;
-    while (hi - lo > 1) {
-        size_t mid = lo + (hi - lo) / 2;
-        if (t[mid] <= a)
-            lo = mid;
-        else
-            hi = mid;
-    }
-    return lo;
-}
-
 /* The key times of one interval [t0, t1], increasing: its ends and, strictly
  * inside, the field times; or with a surrogate its sample times and the
  * times between them where the signal crosses a field's value, where the
@@ -163,7 +149,7 @@ static void interval_times(const pb_field_motion *f, double t0, double t1, doubl
                 emit(times, n, f->times[i], &last);
     } else {
         const double *st = f->signal_times, *sv = f->signal;
-        for (size_t i = pb_path_first_sample(st, f->signal_count, t0); i + 1 < f->signal_count && st[i] < t1; i++) {
+        for (size_t i = pb_sample_before(st, f->signal_count, t0); i + 1 < f->signal_count && st[i] < t1; i++) {
             double ta = st[i], tb = st[i + 1], sa = sv[i], sb = sv[i + 1];
             if (tb <= t0)
                 continue;

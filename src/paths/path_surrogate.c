@@ -58,17 +58,9 @@ typedef struct bins {
  * a field's value, the last at the top). */
 static size_t bin_of(const bins *b, double s)
 {
-    size_t lo = 0, hi = b->fields - 1; /* v[lo] <= s < v[hi] */
-    if (s >= b->v[hi - 1])
-        lo = hi - 1;
-    else
-        while (hi - lo > 1) {
-            size_t mid = (lo + hi) / 2;
-            if (s >= b->v[mid])
-                lo = mid;
-            else
-                hi = mid;
-        }
+    size_t lo = pb_sample_before(b->v, b->fields, s); /* v[lo] <= s < v[lo + 1] */
+    if (lo > b->fields - 2)
+        lo = b->fields - 2;
     size_t n = b->first[lo + 1] - b->first[lo];
     double u = (s - b->v[lo]) / (b->v[lo + 1] - b->v[lo]) * (double)n;
     size_t i = u <= 0.0 ? 0 : (size_t)u;
@@ -139,7 +131,7 @@ pb_status pb_path_surrogate_knots(struct pb_context *ctx, const pb_field_motion 
         size_t f0, f1;
         double a;
         pb_status st = pb_field_locate(ctx, f, iv[2 * i], &f0, &f1, &a);
-        for (size_t j = pb_path_first_sample(f->signal_times, f->signal_count, iv[2 * i]);
+        for (size_t j = pb_sample_before(f->signal_times, f->signal_count, iv[2 * i]);
              j < f->signal_count && f->signal_times[j] < iv[2 * i + 1] && st == PB_OK; j++)
             if (f->signal_times[j] > iv[2 * i])
                 st = pb_field_locate(ctx, f, f->signal_times[j], &f0, &f1, &a);
@@ -156,7 +148,7 @@ pb_status pb_path_surrogate_knots(struct pb_context *ctx, const pb_field_motion 
     double smin = HUGE_VAL, smax = -HUGE_VAL;
     const double *st = f->signal_times, *sv = f->signal;
     for (size_t i = 0; i < intervals; i++)
-        for (size_t j = pb_path_first_sample(st, f->signal_count, iv[2 * i]);
+        for (size_t j = pb_sample_before(st, f->signal_count, iv[2 * i]);
              j + 1 < f->signal_count && st[j] <= iv[2 * i + 1]; j++) {
             double ta = fmax(st[j], iv[2 * i]), tb = fmin(st[j + 1], iv[2 * i + 1]);
             if (!(tb >= ta))
@@ -189,7 +181,7 @@ pb_status pb_path_surrogate_knots(struct pb_context *ctx, const pb_field_motion 
     }
     /* The time spent in each bin, from every piece of the signal inside the frame's intervals. */
     for (size_t i = 0; i < intervals; i++)
-        for (size_t j = pb_path_first_sample(st, f->signal_count, iv[2 * i]);
+        for (size_t j = pb_sample_before(st, f->signal_count, iv[2 * i]);
              j + 1 < f->signal_count && st[j] <= iv[2 * i + 1]; j++) {
             double ta = fmax(st[j], iv[2 * i]), tb = fmin(st[j + 1], iv[2 * i + 1]);
             if (!(tb > ta))
