@@ -520,11 +520,12 @@ static pb_status one_pose_weighted(estimate *e, const pb_pose *own, const float 
     pb_pose poses[2];
     pb_motion m;
     pbe_static_motion(own, e->c, times, poses, &m);
-    pb_status st = pbe_blur_reference(e->ctx, level, &m);
+    float *view = pbe_level_views(level, 1);
+    pb_status st = view ? pbe_view(e->ctx, level, own, e->c, view) : PB_ERR_OUT_OF_MEMORY;
     if (st == PB_OK)
         st = pbe_blur_support(e->ctx, level, &m);
     if (st == PB_OK)
-        *sse = pbe_weighted_sse(level->pool, level->host[0], frame, level->host[PBE_SUPPORT], level->n);
+        *sse = pbe_weighted_sse(level->pool, view, frame, level->host[PBE_SUPPORT], level->n);
     return st;
 }
 

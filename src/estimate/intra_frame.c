@@ -85,6 +85,78 @@ static void dwell_residual(void *arg, size_t begin, size_t end, double *s)
     }
 }
 
+/* The smoothing, voxel^2 an axis, that trilinear sampling gives a view
+ * where its points fall a fraction f of a voxel past one: f (1 - f), 0 on
+ * the grid, 1/4 halfway; over every f alike, 1/6. */
+#define MEAN_SAMPLING_SMOOTHING (1.0 / 6.0)
+
+/* The mean over the grid of f (1 - f), each axis, for the view at pose:
+ * from a lattice of voxels, each read at P^-1 of its centre. */
+static void sampling_smoothing(const pb_geometry *g, const pb_pose *pose, const double c[3], double s[3])
+{
+    enum { LATTICE = 16 };
+    s[0] = s[1] = s[2] = 0.0;
+    for (int i = 0; i < LATTICE; i++)
+        for (int j = 0; j < LATTICE; j++)
+            for (int k = 0; k < LATTICE; k++) {
+                const int at[3] = {i, j, k};
+                double x[3], p[3];
+                for (int a = 0; a < 3; a++)
+                    x[a] = (floor(((double)at[a] + 0.5) * (double)g->dims[a] / LATTICE) + 0.5) * g->voxel_size[a];
+                pb_pose_apply_inverse(pose, c, x, p);
+                for (int a = 0; a < 3; a++) {
+                    double d = (p[a] - x[a]) / g->voxel_size[a], f = d - floor(d);
+                    s[a] += f * (1.0 - f);
+                }
+            }
+    for (int a = 0; a < 3; a++)
+        s[a] /= (double)LATTICE * LATTICE * LATTICE;
+}
+
+/* v smoothed along one axis by the taps (w/2, 1 - w, w/2), of variance w,
+ * the grid's edge voxels repeated beyond it. */
+static pb_status smooth_axis(const pb_geometry *g, float *v, int axis, double w)
+{
+    const size_t len = g->dims[axis], stride = axis == 0 ? 1 : axis == 1 ? g->dims[0] : g->dims[0] * g->dims[1];
+    const size_t lines = g->dims[0] * g->dims[1] * g->dims[2] / len;
+    float *line = malloc(sizeof(float) * len);
+    if (!line)
+        return PB_ERR_OUT_OF_MEMORY;
+    for (size_t l = 0; l < lines; l++) {
+        /* the line's first voxel: l counts the other two axes, the lower first */
+        const size_t low = axis == 0 ? 1 : g->dims[0];
+        const size_t first = axis == 1 ? (l % low) + (l / low) * g->dims[0] * g->dims[1] : axis == 0 ? l * len : l;
+        float *p = v + first;
+        for (size_t i = 0; i < len; i++)
+            line[i] = p[i * stride];
+        for (size_t i = 0; i < len; i++) {
+            double before = (double)line[i > 0 ? i - 1 : 0], after = (double)line[i + 1 < len ? i + 1 : i];
+            p[i * stride] = (float)((1.0 - w) * (double)line[i] + 0.5 * w * (before + after));
+        }
+    }
+    free(line);
+    return PB_OK;
+}
+
+pb_status pbe_view(pb_context *ctx, pbe_level *level, const pb_pose *pose, const double c[3], float *out)
+{
+    double times[2];
+    pb_pose held[2];
+    pb_motion mo;
+    pbe_static_motion(pose, c, times, held, &mo);
+    pb_status st = pbe_blur_reference_to(ctx, level, &mo, out);
+    /* PETBLUR_ESTIMATE_VIEWS=sampled leaves each view as sampled, for comparisons */
+    const char *env = getenv("PETBLUR_ESTIMATE_VIEWS");
+    if (env && strcmp(env, "sampled") == 0)
+        return st;
+    double s[3];
+    sampling_smoothing(&level->g, pose, c, s);
+    for (int a = 0; a < 3 && st == PB_OK; a++)
+        if (s[a] < MEAN_SAMPLING_SMOOTHING && level->g.dims[a] > 1)
+            st = smooth_axis(&level->g, out, a, MEAN_SAMPLING_SMOOTHING - s[a]);
+    return st;
+}
+
 pb_status pbe_dwell(pb_context *ctx, pbe_level *level, const float *frame, const double c[3], const pb_pose *s,
                     const pb_pose *e, size_t m, double *u, double *sse)
 {
@@ -109,13 +181,8 @@ pb_status pbe_dwell_at(pb_context *ctx, pbe_level *level, const float *frame, co
     double *gram = calloc(k * k, sizeof(double)), *h = calloc(k, sizeof(double));
     float *views = pbe_level_views(level, m);
     pb_status st = gram && h && views ? PB_OK : PB_ERR_OUT_OF_MEMORY;
-    for (size_t i = 0; i < m && st == PB_OK; i++) {
-        double times[2];
-        pb_pose held[2];
-        pb_motion mo;
-        pbe_static_motion(&poses[i], c, times, held, &mo);
-        st = pbe_blur_reference_to(ctx, level, &mo, views + i * n);
-    }
+    for (size_t i = 0; i < m && st == PB_OK; i++)
+        st = pbe_view(ctx, level, &poses[i], c, views + i * n);
     if (st == PB_OK) {
         double sums[PB_MOST_SUMS];
         dwell_job job = {views, frame, level->host[PBE_SUPPORT], n, m, u};
