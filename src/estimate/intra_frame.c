@@ -152,8 +152,8 @@ pb_status pbe_view(pb_context *ctx, pbe_level *level, const pb_pose *pose, const
     double s[3];
     sampling_smoothing(&level->g, pose, c, s);
     for (int a = 0; a < 3 && st == PB_OK; a++)
-        if (s[a] < MEAN_SAMPLING_SMOOTHING && level->g.dims[a] > 1)
-            st = smooth_axis(&level->g, out, a, MEAN_SAMPLING_SMOOTHING - s[a]);
+        if (s[a] > 0.0 && level->g.dims[a] > 1)
+            st = smooth_axis(&level->g, out, a, -s[a]);
     return st;
 }
 
