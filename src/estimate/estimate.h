@@ -159,13 +159,12 @@ pb_status pbe_frame_reference(pb_pool *pool, const float *moved, size_t n, size_
 /* ---- intra_frame.c: motion inside a frame ---------------------------------------- */
 
 /* The reference's view at a pose as the dwell and its one pose compare
- * them, into out: trilinear sampling smooths a view by f (1 - f) voxel^2
- * an axis, f where between voxels its points fall, 0 at the reference
- * frame's own pose (its points fall on the grid) and 1/6 over a rotated
- * grid's points. A mixture with the sharper view fitted still frames beside
- * the reference frame better than their own pose did (docs/estimate-log.md,
- * "The reference frame's sharp view"), so a view smoothed less than 1/6 on
- * an axis, over the grid, is smoothed by the rest. */
+ * them, into out. Trilinear sampling smooths a view by f (1 - f) voxel^2
+ * an axis, f where between voxels its points fall: 0 at the reference
+ * frame's own pose (its points fall on the grid), 1/6 over a rotated grid's
+ * points. With PETBLUR_ESTIMATE_VIEWS=sharpened each view is sharpened
+ * along each axis by that smoothing, its mean over the grid
+ * (docs/estimate-log.md, "The reference frame's sharp view"). */
 pb_status pbe_view(pb_context *ctx, pbe_level *level, const pb_pose *pose, const double c[3], float *out);
 
 /* The most poses a dwell fits: its sums (a Gram matrix with the offset's
