@@ -525,6 +525,18 @@ class BadInput(Case):
             with self.subTest(cmd=cmd):
                 text, _ = run(cmd, "--help")
                 self.assertIn(f"usage: petblur {cmd}", text)
+        # petblur motion takes the track as its argument: its help lists no
+        # option it refuses (the poses of --translate/--rotate, --motion)
+        text, _ = run("motion", "--help")
+        self.assertIn("usage: petblur motion", text)
+        self.assertIn("--calibration", text)
+        for refused in ("--translate", "--rotate", "--axis", "--motion "):
+            self.assertNotIn(f"  {refused}", text)
+        track = self.p("track.csv")
+        with open(track, "w") as f:
+            f.write("t,tx,ty,tz,qw,qx,qy,qz\n0,0,0,0,1,0,0,0\n1,1,0,0,1,0,0,0\n")
+        self.fails(2, ["unknown option '--translate'"], "motion", track, "--dims", "8,8,8", "--translate", "1,0,0")
+        self.fails(2, ["drop --motion"], "motion", track, "--dims", "8,8,8", "--motion", track)
 
 
 class Demo(Case):

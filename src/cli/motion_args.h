@@ -9,16 +9,23 @@
 #include "petblur.h"
 
 /* The option rows every command that takes a motion shares. */
+/* The options of a motion: the poses --translate/--rotate make, the track
+ * file (--motion) and the conventions of both (PBC_TRACK_OPTIONS). A
+ * command that takes the track as its argument lists PBC_TRACK_OPTIONS and
+ * --motion with no help (pbc_print_help leaves it out). */
 #define PBC_MOTION_OPTIONS                                                                                            \
     {"--translate", NULL, "TX,TY,TZ", "translation at the frame's end, mm (world axes; see --coords)"},               \
     {"--rotate", NULL, "DEG", "rotation at the frame's end, degrees, right-hand rule about --axis; beyond 180 the "  \
                               "arc asked for is followed"},                                                           \
     {"--axis", NULL, "AX,AY,AZ", "rotation axis (default 0,0,1: world z, the scanner axis)"},                        \
+    {"--motion", NULL, "TRACK", "pose track: csv (t,tx,ty,tz,qw,qx,qy,qz), matrix-csv or a Polaris log"},           \
+    PBC_TRACK_OPTIONS
+
+#define PBC_TRACK_OPTIONS                                                                                             \
     {"--center", NULL, "CX,CY,CZ", "rotation centre of --rotate and csv tracks, world mm (grid mm with --coords " \
-                                   "grid; default the grid's centre)"},                                                                        \
+                                   "grid; default the grid's centre)"},                                           \
     {"--coords", NULL, "world|grid", "world (default where the input has a placement: NIfTI sform/qform, "           \
                                      "Interfile): RAS+ mm; grid (.raw): mm from the grid's corner along its axes"},   \
-    {"--motion", NULL, "TRACK", "pose track: csv (t,tx,ty,tz,qw,qx,qy,qz), matrix-csv or a Polaris log"},           \
     {"--motion-format", NULL, "FMT", "csv, matrix-csv (t,r00,r01,r02,tx,...,tz; yrt-pet) or polaris (.mt, "          \
                                      "Toolviewer CSV); default: told from the content"},                             \
     {"--time-unit", NULL, "s|ms", "the track's time unit (csv, matrix-csv; default s)"},                             \

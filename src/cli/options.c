@@ -16,6 +16,8 @@ void pbc_print_help(const pbc_command *cmd)
         puts("\noptions:");
     for (int i = 0; i < cmd->option_count; i++) {
         const pbc_option *o = &cmd->options[i];
+        if (!o->help)
+            continue; /* read by the command, not typed (petblur motion's --motion) */
         char head[96];
         snprintf(head, sizeof head, "%s%s%s%s%s", o->alias ? o->alias : "", o->alias ? ", " : "", o->name,
                  o->metavar ? " " : "", o->metavar ? o->metavar : "");

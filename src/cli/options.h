@@ -9,7 +9,7 @@ typedef struct pbc_option {
     const char *name;    /* "--dims" */
     const char *alias;   /* "-o", or NULL */
     const char *metavar; /* "NX,NY,NZ"; NULL for a flag */
-    const char *help;
+    const char *help;    /* NULL: read by the command, left out of --help */
 } pbc_option;
 
 enum { PBC_MAX_OPTIONS = 48, PBC_MAX_POSITIONAL = 4 };

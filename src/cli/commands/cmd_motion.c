@@ -16,7 +16,8 @@ static const pbc_option options[] = {
     {"--voxel-size", NULL, "DX,DY,DZ", "voxel size in mm (default 1,1,1)"},
     {"--frames", NULL, "T0,T1,...", "frame boundaries, seconds (default: the --frame, else the whole track)"},
     {"--frames-from", NULL, "SIDECAR.json", "the frames from a BIDS-PET sidecar (FrameTimesStart, FrameDuration)"},
-    PBC_MOTION_OPTIONS,
+    {"--motion", NULL, "TRACK", NULL}, /* the argument, read as --motion; not typed */
+    PBC_TRACK_OPTIONS,
     PBC_FIELD_OPTIONS,
     {"--png", NULL, "PICTURE.png", "translation and rotation against time, with the frames' boundaries"},
 };
