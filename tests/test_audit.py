@@ -208,6 +208,25 @@ class FourD(Case):
         self.assertAlmostEqual(got, expect, delta=1e-4 * expect)
         _, err = test_cli.run("compare", self.p("a.nii"), self.p("in.nii"), expect=2)
         self.assertIn("has 3 frames and", err)
+        # the same grid placed elsewhere compares nothing: refused, naming how far apart
+        img = nib.load(self.p("a.nii"))
+        data = np.asarray(img.dataobj)
+        for name, move, refused in (("flip", np.diag([-1.0, 1, 1, 1]), True), ("shift", None, True),
+                                    ("rounding", None, False)):
+            aff = img.affine.copy()
+            if move is not None:
+                aff = move @ aff
+            elif name == "shift":
+                aff[:3, 3] += [0.0, 0.5, 0.0]
+            else:
+                aff[:3, 3] += [1e-4, 0.0, 0.0]
+            nib.save(nib.Nifti1Image(data, aff), self.p(f"{name}.nii"))
+            out, err = test_cli.run("compare", self.p("a.nii"), self.p(f"{name}.nii"), expect=2 if refused else 0)
+            if refused:
+                self.assertIn("placed", err)
+                self.assertIn("resampling one onto the other", err)
+            else:
+                self.assertIn("rms% = 0 ", out)
 
 
 class Interrupted(Case):

@@ -46,6 +46,32 @@ static int read_both(const pbc_args *args, pbc_image *ref, pbc_image *test)
                             ref->dims[1], ref->dims[2], ref->voxel_size[0], ref->voxel_size[1], ref->voxel_size[2],
                             args->positional[1], test->dims[0], test->dims[1], test->dims[2], test->voxel_size[0],
                             test->voxel_size[1], test->voxel_size[2]);
+    /* The same grid placed elsewhere (an axis flipped, a shift) holds other
+     * places in the same voxels: the numbers would compare nothing. Grids
+     * with no placement (.raw) are taken as placed alike. */
+    double a[16], b[16], apart = 0.0;
+    if (pbc_image_affine(ref, a) && pbc_image_affine(test, b)) {
+        for (int corner = 0; corner < 8; corner++) {
+            double idx[3], d = 0.0;
+            for (int i = 0; i < 3; i++)
+                idx[i] = (corner >> i & 1) ? (double)ref->dims[i] - 1.0 : 0.0;
+            for (int r = 0; r < 3; r++) {
+                double pa = a[4 * r + 3], pb = b[4 * r + 3];
+                for (int i = 0; i < 3; i++) {
+                    pa += a[4 * r + i] * idx[i];
+                    pb += b[4 * r + i] * idx[i];
+                }
+                d += (pa - pb) * (pa - pb);
+            }
+            apart = fmax(apart, sqrt(d));
+        }
+        double least = fmin(ref->voxel_size[0], fmin(ref->voxel_size[1], ref->voxel_size[2]));
+        if (!(apart <= 0.01 * least))
+            return pbc_fail(PBC_EXIT_USAGE, "%s and %s are the same grid placed %g mm apart in the world (a corner "
+                            "voxel's centre, by their headers' affines: an axis flipped or a shift); compare volumes "
+                            "placed alike, resampling one onto the other first", args->positional[0],
+                            args->positional[1], apart);
+    }
     return 0;
 }
 
