@@ -160,11 +160,14 @@ pb_status pbe_frame_reference(pb_pool *pool, const float *moved, size_t n, size_
 
 /* The reference's view at a pose as the dwell and its one pose compare
  * them, into out. Trilinear sampling smooths a view by f (1 - f) voxel^2
- * an axis, f where between voxels its points fall: 0 at the reference
- * frame's own pose (its points fall on the grid), 1/6 over a rotated grid's
- * points. With PETBLUR_ESTIMATE_VIEWS=sharpened each view is sharpened
- * along each axis by that smoothing, its mean over the grid
- * (docs/estimate-log.md, "The reference frame's sharp view"). */
+ * an axis, f where between voxels a voxel's point falls: 0 at the
+ * reference frame's own pose (its points fall on the grid), up to 1/4
+ * elsewhere, while the frames are not resampled at all. A mixture with the
+ * sharper view fitted still frames beside the reference frame better than
+ * their own pose did, and the smoothing left every view further from the
+ * frames than its pose alone made it (docs/estimate-log.md, "The reference
+ * frame's sharp view"), so each voxel of a view is sharpened along each
+ * axis by what its sampling smoothed it. */
 pb_status pbe_view(pb_context *ctx, pbe_level *level, const pb_pose *pose, const double c[3], float *out);
 
 /* The most poses a dwell fits: its sums (a Gram matrix with the offset's

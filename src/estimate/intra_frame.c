@@ -85,56 +85,51 @@ static void dwell_residual(void *arg, size_t begin, size_t end, double *s)
     }
 }
 
-/* The smoothing, voxel^2 an axis, that trilinear sampling gives a view
- * where its points fall a fraction f of a voxel past one: f (1 - f), 0 on
- * the grid, 1/4 halfway; over every f alike, 1/6. */
-#define MEAN_SAMPLING_SMOOTHING (1.0 / 6.0)
-
-/* The mean over the grid of f (1 - f), each axis, for the view at pose:
- * from a lattice of voxels, each read at P^-1 of its centre. */
-static void sampling_smoothing(const pb_geometry *g, const pb_pose *pose, const double c[3], double s[3])
+/* v sharpened along each axis by the smoothing trilinear sampling gave each
+ * voxel, f (1 - f) for its own f: taps (-s/2, 1 + s, -s/2), the grid's edge
+ * voxels repeated beyond it. Where a voxel's centre x is read, P^-1(x), is
+ * affine in x, so each axis's offset in voxels, (P^-1(x) - x) / voxel, is
+ * its value at the first voxel plus a step an index. */
+static pb_status sharpen_each_voxel(const pb_geometry *g, const pb_pose *pose, const double c[3], float *v)
 {
-    enum { LATTICE = 16 };
-    s[0] = s[1] = s[2] = 0.0;
-    for (int i = 0; i < LATTICE; i++)
-        for (int j = 0; j < LATTICE; j++)
-            for (int k = 0; k < LATTICE; k++) {
-                const int at[3] = {i, j, k};
-                double x[3], p[3];
-                for (int a = 0; a < 3; a++)
-                    x[a] = (floor(((double)at[a] + 0.5) * (double)g->dims[a] / LATTICE) + 0.5) * g->voxel_size[a];
-                pb_pose_apply_inverse(pose, c, x, p);
-                for (int a = 0; a < 3; a++) {
-                    double d = (p[a] - x[a]) / g->voxel_size[a], f = d - floor(d);
-                    s[a] += f * (1.0 - f);
-                }
-            }
-    for (int a = 0; a < 3; a++)
-        s[a] /= (double)LATTICE * LATTICE * LATTICE;
-}
-
-/* v smoothed along one axis by the taps (w/2, 1 - w, w/2), of variance w,
- * the grid's edge voxels repeated beyond it. */
-static pb_status smooth_axis(const pb_geometry *g, float *v, int axis, double w)
-{
-    const size_t len = g->dims[axis], stride = axis == 0 ? 1 : axis == 1 ? g->dims[0] : g->dims[0] * g->dims[1];
-    const size_t lines = g->dims[0] * g->dims[1] * g->dims[2] / len;
-    float *line = malloc(sizeof(float) * len);
-    if (!line)
+    const size_t nx = g->dims[0], ny = g->dims[1], nz = g->dims[2], n = nx * ny * nz;
+    float *copy = malloc(sizeof(float) * n);
+    if (!copy)
         return PB_ERR_OUT_OF_MEMORY;
-    for (size_t l = 0; l < lines; l++) {
-        /* the line's first voxel: l counts the other two axes, the lower first */
-        const size_t low = axis == 0 ? 1 : g->dims[0];
-        const size_t first = axis == 1 ? (l % low) + (l / low) * g->dims[0] * g->dims[1] : axis == 0 ? l * len : l;
-        float *p = v + first;
-        for (size_t i = 0; i < len; i++)
-            line[i] = p[i * stride];
-        for (size_t i = 0; i < len; i++) {
-            double before = (double)line[i > 0 ? i - 1 : 0], after = (double)line[i + 1 < len ? i + 1 : i];
-            p[i * stride] = (float)((1.0 - w) * (double)line[i] + 0.5 * w * (before + after));
+    const size_t stride[3] = {1, nx, nx * ny};
+    double first[3], step[3][3]; /* the offsets at voxel 0; their change a step along each index */
+    {
+        double x[3], p[3];
+        for (int b = 0; b < 3; b++)
+            x[b] = 0.5 * g->voxel_size[b];
+        pb_pose_apply_inverse(pose, c, x, p);
+        for (int a = 0; a < 3; a++)
+            first[a] = (p[a] - x[a]) / g->voxel_size[a];
+        for (int b = 0; b < 3; b++) {
+            double y[3] = {x[0], x[1], x[2]}, q[3];
+            y[b] += g->voxel_size[b];
+            pb_pose_apply_inverse(pose, c, y, q);
+            for (int a = 0; a < 3; a++)
+                step[a][b] = (q[a] - y[a]) / g->voxel_size[a] - first[a];
         }
     }
-    free(line);
+    for (int a = 0; a < 3; a++) {
+        if (g->dims[a] < 2)
+            continue;
+        memcpy(copy, v, sizeof(float) * n);
+        for (size_t k = 0; k < nz; k++)
+            for (size_t j = 0; j < ny; j++) {
+                double d = first[a] + (double)j * step[a][1] + (double)k * step[a][2];
+                for (size_t i = 0; i < nx; i++, d += step[a][0]) {
+                    const size_t at[3] = {i, j, k}, idx = i + nx * (j + ny * k);
+                    const double f = d - floor(d), sm = f * (1.0 - f);
+                    const size_t lo = at[a] > 0 ? idx - stride[a] : idx;
+                    const size_t hi = at[a] + 1 < g->dims[a] ? idx + stride[a] : idx;
+                    v[idx] = (float)((1.0 + sm) * (double)copy[idx] - 0.5 * sm * ((double)copy[lo] + (double)copy[hi]));
+                }
+            }
+    }
+    free(copy);
     return PB_OK;
 }
 
@@ -145,20 +140,11 @@ pb_status pbe_view(pb_context *ctx, pbe_level *level, const pb_pose *pose, const
     pb_motion mo;
     pbe_static_motion(pose, c, times, held, &mo);
     pb_status st = pbe_blur_reference_to(ctx, level, &mo, out);
-    /* PETBLUR_ESTIMATE_VIEWS=sharpened sharpens each view by what its
-     * sampling smoothed it (docs/estimate-log.md, "The reference frame's
-     * sharp view": better on the family, but it raises still frames' gains
-     * past the report's bar in short series); by default views are as
-     * sampled */
+    /* PETBLUR_ESTIMATE_VIEWS=sampled leaves each view as sampled, for comparisons */
     const char *env = getenv("PETBLUR_ESTIMATE_VIEWS");
-    if (!env || strcmp(env, "sharpened") != 0)
+    if (st != PB_OK || (env && strcmp(env, "sampled") == 0))
         return st;
-    double s[3];
-    sampling_smoothing(&level->g, pose, c, s);
-    for (int a = 0; a < 3 && st == PB_OK; a++)
-        if (s[a] > 0.0 && level->g.dims[a] > 1)
-            st = smooth_axis(&level->g, out, a, -s[a]);
-    return st;
+    return sharpen_each_voxel(&level->g, pose, c, out);
 }
 
 pb_status pbe_dwell(pb_context *ctx, pbe_level *level, const float *frame, const double c[3], const pb_pose *s,
