@@ -90,44 +90,57 @@ static void dwell_residual(void *arg, size_t begin, size_t end, double *s)
  * voxels repeated beyond it. Where a voxel's centre x is read, P^-1(x), is
  * affine in x, so each axis's offset in voxels, (P^-1(x) - x) / voxel, is
  * its value at the first voxel plus a step an index. */
-static pb_status sharpen_each_voxel(const pb_geometry *g, const pb_pose *pose, const double c[3], float *v)
+typedef struct sharpen_job {
+    const pb_geometry *g;
+    const float *copy;
+    float *v;
+    int axis;
+    double first, step[3]; /* the axis's offset at voxel 0, its change a step along each index */
+} sharpen_job;
+
+static void sharpen_slice(void *arg, size_t k)
 {
-    const size_t nx = g->dims[0], ny = g->dims[1], nz = g->dims[2], n = nx * ny * nz;
+    const sharpen_job *job = arg;
+    const pb_geometry *g = job->g;
+    const size_t nx = g->dims[0], ny = g->dims[1], len = g->dims[job->axis];
+    const size_t stride = job->axis == 0 ? 1 : job->axis == 1 ? nx : nx * ny;
+    for (size_t j = 0; j < ny; j++) {
+        double d = job->first + (double)j * job->step[1] + (double)k * job->step[2];
+        for (size_t i = 0; i < nx; i++, d += job->step[0]) {
+            const size_t at = job->axis == 0 ? i : job->axis == 1 ? j : k, idx = i + nx * (j + ny * k);
+            const double f = d - floor(d), sm = f * (1.0 - f);
+            const size_t lo = at > 0 ? idx - stride : idx, hi = at + 1 < len ? idx + stride : idx;
+            job->v[idx] = (float)((1.0 + sm) * (double)job->copy[idx] -
+                                  0.5 * sm * ((double)job->copy[lo] + (double)job->copy[hi]));
+        }
+    }
+}
+
+static pb_status sharpen_each_voxel(pb_pool *pool, const pb_geometry *g, const pb_pose *pose, const double c[3],
+                                    float *v)
+{
+    const size_t n = g->dims[0] * g->dims[1] * g->dims[2];
     float *copy = malloc(sizeof(float) * n);
     if (!copy)
         return PB_ERR_OUT_OF_MEMORY;
-    const size_t stride[3] = {1, nx, nx * ny};
-    double first[3], step[3][3]; /* the offsets at voxel 0; their change a step along each index */
-    {
-        double x[3], p[3];
-        for (int b = 0; b < 3; b++)
-            x[b] = 0.5 * g->voxel_size[b];
-        pb_pose_apply_inverse(pose, c, x, p);
-        for (int a = 0; a < 3; a++)
-            first[a] = (p[a] - x[a]) / g->voxel_size[a];
+    double x[3], p[3], first[3];
+    for (int b = 0; b < 3; b++)
+        x[b] = 0.5 * g->voxel_size[b];
+    pb_pose_apply_inverse(pose, c, x, p);
+    for (int a = 0; a < 3; a++)
+        first[a] = (p[a] - x[a]) / g->voxel_size[a];
+    for (int a = 0; a < 3; a++) {
+        if (g->dims[a] < 2)
+            continue;
+        sharpen_job job = {g, copy, v, a, first[a], {0.0, 0.0, 0.0}};
         for (int b = 0; b < 3; b++) {
             double y[3] = {x[0], x[1], x[2]}, q[3];
             y[b] += g->voxel_size[b];
             pb_pose_apply_inverse(pose, c, y, q);
-            for (int a = 0; a < 3; a++)
-                step[a][b] = (q[a] - y[a]) / g->voxel_size[a] - first[a];
+            job.step[b] = (q[a] - y[a]) / g->voxel_size[a] - first[a];
         }
-    }
-    for (int a = 0; a < 3; a++) {
-        if (g->dims[a] < 2)
-            continue;
         memcpy(copy, v, sizeof(float) * n);
-        for (size_t k = 0; k < nz; k++)
-            for (size_t j = 0; j < ny; j++) {
-                double d = first[a] + (double)j * step[a][1] + (double)k * step[a][2];
-                for (size_t i = 0; i < nx; i++, d += step[a][0]) {
-                    const size_t at[3] = {i, j, k}, idx = i + nx * (j + ny * k);
-                    const double f = d - floor(d), sm = f * (1.0 - f);
-                    const size_t lo = at[a] > 0 ? idx - stride[a] : idx;
-                    const size_t hi = at[a] + 1 < g->dims[a] ? idx + stride[a] : idx;
-                    v[idx] = (float)((1.0 + sm) * (double)copy[idx] - 0.5 * sm * ((double)copy[lo] + (double)copy[hi]));
-                }
-            }
+        pb_pool_for(pool, g->dims[2], sharpen_slice, &job);
     }
     free(copy);
     return PB_OK;
@@ -144,7 +157,7 @@ pb_status pbe_view(pb_context *ctx, pbe_level *level, const pb_pose *pose, const
     const char *env = getenv("PETBLUR_ESTIMATE_VIEWS");
     if (st != PB_OK || (env && strcmp(env, "sampled") == 0))
         return st;
-    return sharpen_each_voxel(&level->g, pose, c, out);
+    return sharpen_each_voxel(level->pool, &level->g, pose, c, out);
 }
 
 pb_status pbe_dwell(pb_context *ctx, pbe_level *level, const float *frame, const double c[3], const pb_pose *s,
