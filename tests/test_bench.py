@@ -168,7 +168,13 @@ class Bench(unittest.TestCase):
         empty = os.path.join(self.tmp.name, "empty")
         os.makedirs(empty, exist_ok=True)
         target = os.path.join(self.tmp.name, "bad")
+        zeros = os.path.join(empty, "zeros.raw")
+        with open(zeros, "wb") as f:
+            f.write(bytes(8 * 8 * 8 * 4))
         for args, words in (
+                (("--scenarios", "2,3,2"), "'2' is listed twice"),
+                (("--phantoms", "homogeneity", "--brain", zeros, "--dims", "8,8,8"), "--phantoms leaves out"),
+                (("--phantoms", "brain", "--brain", zeros, "--dims", "8,8,8"), "zero everywhere"),
                 (("--reference", empty), "make them first"),
                 (("--reference", self.dir, "--keep-volumes"), "--keep-volumes"),
                 (("--phantoms", "brain,foo"), "unknown phantom"),

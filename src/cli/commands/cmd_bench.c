@@ -121,6 +121,8 @@ static int take_scenario(const char *tok, void *user)
     bench_config *c = user;
     unsigned long s;
     int rc = pbc_parse_count("--scenarios", tok, 1, 8, &s);
+    if (!rc && c->scenario[s - 1])
+        return pbc_fail(PBC_EXIT_USAGE, "--scenarios: '%s' is listed twice", tok);
     if (!rc)
         c->scenario[s - 1] = 1;
     return rc;
@@ -169,10 +171,22 @@ static int parse_config(const pbc_args *args, bench_config *c)
                         "are in %s/volumes already", c->reference);
     /* A bad --brain file fails now, not after the other phantoms' minutes. */
     if (c->brain) {
+        int brain = 0;
+        for (int i = 0; i < c->phantom_count; i++)
+            brain |= c->phantoms[i] == PBC_PHANTOM_BRAIN;
+        if (!brain)
+            return pbc_fail(PBC_EXIT_USAGE, "--brain %s replaces the brain phantom, which --phantoms leaves out; add "
+                            "brain to --phantoms or drop --brain", c->brain);
         pbc_image probe;
         if ((rc = pbc_image_read(c->brain, &c->hints, &probe)))
             return rc;
+        size_t n = probe.dims[0] * probe.dims[1] * probe.dims[2], nonzero = 0;
+        for (size_t i = 0; i < n && !nonzero; i++)
+            nonzero = probe.data[i] != 0.0f;
         pbc_image_free(&probe);
+        if (!nonzero)
+            return pbc_fail(PBC_EXIT_USAGE, "--brain %s is zero everywhere: its blur has no relative error; give a head "
+                            "volume with activity", c->brain);
     }
     return 0;
 }
