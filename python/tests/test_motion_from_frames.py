@@ -405,10 +405,12 @@ def test_recovers_known_motion(rng, device):
     # Measured while writing this test, 24 fresh series (12 on the host, 12 with PoCL; 32^3 voxels of about 4 mm,
     # 7 frames, 1e6 counts a frame): frames held still 0.08-0.33 mm mean over the frames (worst frame 0.62 mm)
     # against 3.2-7.4 mm uncorrected, a ratio of at most 0.07; the jerk's frame 0.68-1.53 mm against 2.49-3.22 mm
-    # with one pose per frame, a ratio of at most 0.53; one moving frame every time.
+    # with one pose per frame, a ratio of at most 0.53; one moving frame every time. With the dwell's views sharpened
+    # by what their sampling smoothed them (docs/estimate-log.md, "The reference frame's sharp view"), the jerk's
+    # frame 0.29-0.94 mm on 50 fresh series on the host, against 0.54-1.45 mm as sampled (7 of them above 1.3 mm).
     assert err.mean() < 0.6 and err.mean() < 0.15 * none.mean(), msg
     assert err.max() < 1.2, msg
-    assert e_jerk < 2.5 and e_jerk < 0.75 * e_jerk_one, msg
+    assert e_jerk < 1.3 and e_jerk < 0.5 * e_jerk_one, msg
     # the reference frame's pose is the identity; the jerk's frame, alone, gets motion inside
     np.testing.assert_allclose(_map(m, mids[ref]), np.eye(4), rtol=0, atol=1e-9)
     np.testing.assert_allclose(_map(one, mids[ref]), np.eye(4), rtol=0, atol=1e-9)
