@@ -8,11 +8,11 @@
 #include "options.h"
 #include "petblur.h"
 
-/* The option rows every command that takes a motion shares. */
-/* The options of a motion: the poses --translate/--rotate make, the track
- * file (--motion) and the conventions of both (PBC_TRACK_OPTIONS). A
- * command that takes the track as its argument lists PBC_TRACK_OPTIONS and
- * --motion with no help (pbc_print_help leaves it out). */
+/* The option rows every command that takes a motion shares: the poses
+ * --translate/--rotate make, the track file (--motion) and the conventions
+ * of both (PBC_TRACK_OPTIONS). A command that takes the track as its
+ * argument lists PBC_TRACK_OPTIONS and --motion with no help
+ * (pbc_print_help leaves it out). */
 #define PBC_MOTION_OPTIONS                                                                                            \
     {"--translate", NULL, "TX,TY,TZ", "translation at the frame's end, mm (world axes; see --coords)"},               \
     {"--rotate", NULL, "DEG", "rotation at the frame's end, degrees, right-hand rule about --axis; beyond 180 the "  \

@@ -690,21 +690,9 @@ static pb_status inside_frames(estimate *e, const pbe_fit *fits, size_t referenc
      * own, test_frames_held_still_take_no_path_in_a_longer_series), and two
      * such neighbours would support each other. */
     double dwell_gain = series_gain(paths, tried, e->count);
-    /* What a frame shows, for the report (below): in a series too short to
-     * set its own bar, a path into a neighbour counts only above
-     * UNSUPPORTED_GAIN, as it does to be taken without the neighbour's
-     * support: on the test's family of 7 frames, still frames gained
-     * 0.07-0.10 on such paths (3 of 70 fresh series; docs/estimate-log.md,
-     * "The reference frame's sharp view"). */
-    size_t tried_count = 0;
     for (size_t k = 0; k < e->count; k++)
-        tried_count += tried[k];
-    for (size_t k = 0; k < e->count; k++)
-        for (int kind = 0; kind < PATHS; kind++) {
-            double gain = paths[k * PATHS + (size_t)kind].gain;
-            if (tried_count >= SERIES_GAIN_FRAMES || (kind != PATH_ON && kind != PATH_FROM) || gain > UNSUPPORTED_GAIN)
-                unfollowed[k] = fmax(unfollowed[k], gain);
-        }
+        for (int kind = 0; kind < PATHS; kind++)
+            unfollowed[k] = fmax(unfollowed[k], paths[k * PATHS + (size_t)kind].gain);
     for (size_t k = 1; k + 1 < e->count; k++) {
         for (int kind = 0; kind < PATHS; kind++)
             moves[k] |= paths[k * PATHS + (size_t)kind].gain > DWELL_GAIN;
