@@ -167,7 +167,8 @@ pb_status pbe_frame_reference(pb_pool *pool, const float *moved, size_t n, size_
  * their own pose did, and the smoothing left every view further from the
  * frames than its pose alone made it (docs/estimate-log.md, "The reference
  * frame's sharp view"), so each voxel of a view is sharpened along each
- * axis by what its sampling smoothed it. */
+ * axis by what its sampling smoothed it. The level's host[0] is
+ * overwritten (the view as sampled). */
 pb_status pbe_view(pb_context *ctx, pbe_level *level, const pb_pose *pose, const double c[3], float *out);
 
 /* The most poses a dwell fits: its sums (a Gram matrix with the offset's

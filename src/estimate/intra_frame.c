@@ -85,19 +85,19 @@ static void dwell_residual(void *arg, size_t begin, size_t end, double *s)
     }
 }
 
-/* v sharpened along each axis by the smoothing trilinear sampling gave each
- * voxel, f (1 - f) for its own f: v + sum over the axes of f (1 - f) (v -
- * the mean of its two neighbours along the axis), the grid's edge voxels
- * repeated beyond it. (One pass of the three axes' taps (-s/2, 1 + s,
- * -s/2) together; in turn they would differ by their products, at most
- * 1/16 of a second difference, for three passes' time.) Where a voxel's
- * centre x is read, P^-1(x), is affine in x, so each axis's offset in
- * voxels, (P^-1(x) - x) / voxel, is its value at the first voxel plus a
- * step an index. */
+/* in sharpened along each axis by the smoothing trilinear sampling gave each
+ * voxel, f (1 - f) for its own f, into out: in + sum over the axes of
+ * f (1 - f) (in - the mean of its two neighbours along the axis), the
+ * grid's edge voxels repeated beyond it. (One pass of the three axes' taps
+ * (-s/2, 1 + s, -s/2) together; in turn they would differ by their
+ * products, at most 1/16 of a second difference, for three passes' time.)
+ * Where a voxel is read is affine in its index (pb_pose_texel_map), so each
+ * axis's offset in voxels is its value at the first voxel plus a step an
+ * index. */
 typedef struct sharpen_job {
     const pb_geometry *g;
-    const float *copy;
-    float *v;
+    const float *in;
+    float *out;
     double first[3], step[3][3]; /* each axis's offset at voxel 0; its change a step along each index */
 } sharpen_job;
 
@@ -112,7 +112,7 @@ static void sharpen_slice(void *arg, size_t k)
             d[a] = job->first[a] + (double)j * job->step[a][1] + (double)k * job->step[a][2];
         for (size_t i = 0; i < n[0]; i++) {
             const size_t at[3] = {i, j, k}, idx = i + n[0] * (j + n[1] * k);
-            const double here = (double)job->copy[idx];
+            const double here = (double)job->in[idx];
             double out = here;
             for (int a = 0; a < 3; a++) {
                 const double f = d[a] - floor(d[a]), sm = f * (1.0 - f);
@@ -120,38 +120,27 @@ static void sharpen_slice(void *arg, size_t k)
                 if (n[a] < 2 || sm == 0.0)
                     continue;
                 const size_t lo = at[a] > 0 ? idx - stride[a] : idx, hi = at[a] + 1 < n[a] ? idx + stride[a] : idx;
-                out += sm * (here - 0.5 * ((double)job->copy[lo] + (double)job->copy[hi]));
+                out += sm * (here - 0.5 * ((double)job->in[lo] + (double)job->in[hi]));
             }
-            job->v[idx] = (float)out;
+            job->out[idx] = (float)out;
         }
     }
 }
 
-static pb_status sharpen_each_voxel(pb_pool *pool, const pb_geometry *g, const pb_pose *pose, const double c[3],
-                                    float *v)
+static void sharpen_each_voxel(pb_pool *pool, const pb_geometry *g, const pb_pose *pose, const double c[3],
+                               const float *in, float *out)
 {
-    const size_t n = g->dims[0] * g->dims[1] * g->dims[2];
-    float *copy = malloc(sizeof(float) * n);
-    if (!copy)
-        return PB_ERR_OUT_OF_MEMORY;
-    sharpen_job job = {g, copy, v, {0.0, 0.0, 0.0}, {{0.0}}};
-    double x[3], p[3];
-    for (int b = 0; b < 3; b++)
-        x[b] = 0.5 * g->voxel_size[b];
-    pb_pose_apply_inverse(pose, c, x, p);
-    for (int a = 0; a < 3; a++)
-        job.first[a] = (p[a] - x[a]) / g->voxel_size[a];
-    for (int b = 0; b < 3; b++) {
-        double y[3] = {x[0], x[1], x[2]}, q[3];
-        y[b] += g->voxel_size[b];
-        pb_pose_apply_inverse(pose, c, y, q);
-        for (int a = 0; a < 3; a++)
-            job.step[a][b] = (q[a] - y[a]) / g->voxel_size[a] - job.first[a];
+    double m[12]; /* object texel = m[:, 0:3] tomograph texel + m[:, 3], texel i's centre at i + 0.5 */
+    pb_pose_texel_map(pose, c, g->voxel_size, m);
+    sharpen_job job = {g, in, out, {0.0, 0.0, 0.0}, {{0.0}}};
+    for (int a = 0; a < 3; a++) {
+        job.first[a] = m[4 * a + 3] - 0.5;
+        for (int b = 0; b < 3; b++) {
+            job.step[a][b] = m[4 * a + b] - (a == b);
+            job.first[a] += 0.5 * m[4 * a + b];
+        }
     }
-    memcpy(copy, v, sizeof(float) * n);
     pb_pool_for(pool, g->dims[2], sharpen_slice, &job);
-    free(copy);
-    return PB_OK;
 }
 
 pb_status pbe_view(pb_context *ctx, pbe_level *level, const pb_pose *pose, const double c[3], float *out)
@@ -160,12 +149,14 @@ pb_status pbe_view(pb_context *ctx, pbe_level *level, const pb_pose *pose, const
     pb_pose held[2];
     pb_motion mo;
     pbe_static_motion(pose, c, times, held, &mo);
-    pb_status st = pbe_blur_reference_to(ctx, level, &mo, out);
     /* PETBLUR_ESTIMATE_VIEWS=sampled leaves each view as sampled, for comparisons */
     const char *env = getenv("PETBLUR_ESTIMATE_VIEWS");
-    if (st != PB_OK || (env && strcmp(env, "sampled") == 0))
-        return st;
-    return sharpen_each_voxel(level->pool, &level->g, pose, c, out);
+    if (env && strcmp(env, "sampled") == 0)
+        return pbe_blur_reference_to(ctx, level, &mo, out);
+    pb_status st = pbe_blur_reference(ctx, level, &mo);
+    if (st == PB_OK)
+        sharpen_each_voxel(level->pool, &level->g, pose, c, level->host[0], out);
+    return st;
 }
 
 pb_status pbe_dwell(pb_context *ctx, pbe_level *level, const float *frame, const double c[3], const pb_pose *s,

@@ -180,7 +180,7 @@ static int parse_config(const pbc_args *args, bench_config *c)
         pbc_image probe;
         if ((rc = pbc_image_read(c->brain, &c->hints, &probe)))
             return rc;
-        size_t n = probe.dims[0] * probe.dims[1] * probe.dims[2], nonzero = 0;
+        size_t n = pbc_image_frame_voxels(&probe), nonzero = 0;
         for (size_t i = 0; i < n && !nonzero; i++)
             nonzero = probe.data[i] != 0.0f;
         pbc_image_free(&probe);
