@@ -416,6 +416,10 @@ class BadInput(Case):
         self.fails(2, ["--dims"], "blur", "-i", self.p("in.raw"), "-o", self.p("out.nii"), "--translate", "1,0,0")
         self.fails(2, ["8,8,9"], "blur", "-i", self.p("in.raw"), "--dims", "8,8,9", "-o", self.p("out.nii"),
                    "--translate", "1,0,0")
+        # a count of voxels in digits alone: 8.0 or 8e0 is as often a size in mm slipped into the wrong option
+        for dims in ("8.0,8,8", "8,8e0,8", "8,8,+8", "8, 8,8"):
+            self.fails(2, ["--dims", dims, "whole numbers"], "blur", "-i", self.p("in.raw"), "--dims", dims, "-o",
+                       self.p("out.nii"), "--translate", "1,0,0")
         self.fails(2, [".xyz"], *self.blur("--translate", "1,0,0")[:5], "-o", self.p("out.xyz"), "--translate",
                    "1,0,0", out="out.xyz")
         self.fails(2, ["folder", "nowhere"], *self.blur("--translate", "1,0,0")[:5], "-o",

@@ -122,8 +122,9 @@ static int numbers(const char *text, int n, double *v)
 
 int pbc_parse_dims(const char *option, const char *text, size_t dims[3])
 {
+    /* digits alone: a count written 1e2 or 64.0 is a slip for a size in mm as often as a count */
     double v[3];
-    int ok = numbers(text, 3, v) == 0;
+    int ok = strspn(text, "0123456789,") == strlen(text) && numbers(text, 3, v) == 0;
     for (int i = 0; ok && i < 3; i++) {
         ok = v[i] >= 1 && v[i] <= 65536 && v[i] == floor(v[i]);
         dims[i] = ok ? (size_t)v[i] : 0;
