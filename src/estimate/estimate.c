@@ -200,6 +200,21 @@ static pb_status register_chain(estimate *e, size_t ref, pbe_fit *fits)
     return st;
 }
 
+/* One chunk of a frame's support moved back, as a share of 255. */
+typedef struct known_job {
+    const float *moved;
+    unsigned char *known;
+    size_t n;
+} known_job;
+
+static void known_chunk(void *arg, size_t c)
+{
+    const known_job *j = arg;
+    const size_t begin = c * PB_CHUNK, end = begin + PB_CHUNK < j->n ? begin + PB_CHUNK : j->n;
+    for (size_t i = begin; i < end; i++)
+        j->known[i] = (unsigned char)lrint(255.0 * fmin(1.0, fmax(0.0, (double)j->moved[i])));
+}
+
 /* The raw frames moved back onto the reference: B(T_k^-1) f_k, level 0;
  * and where each is known (e->known: the grid's box moved back alike). */
 static pb_status move_back(estimate *e, const pbe_fit *fits, float *moved)
@@ -228,10 +243,37 @@ static pb_status move_back(estimate *e, const pbe_fit *fits, float *moved)
             st = pb_volume_download(lv->out[PBE_SUPPORT], lv->host[PBE_SUPPORT]);
         if (st != PB_OK)
             return st;
-        for (size_t i = 0; i < n; i++)
-            e->known[k * n + i] = (unsigned char)lrint(255.0 * fmin(1.0, fmax(0.0, (double)lv->host[PBE_SUPPORT][i])));
+        known_job job = {lv->host[PBE_SUPPORT], e->known + k * n, n};
+        pb_pool_for(lv->pool, pb_chunks(n), known_chunk, &job);
     }
     return PB_OK;
+}
+
+/* One chunk of a window's support: the least of its frames' known shares
+ * (frames of noise alone left out), within the grid's box. */
+typedef struct support_job {
+    const unsigned char *known;
+    const int *flat;
+    const float *box;
+    float *out;
+    size_t n, first, end;
+} support_job;
+
+static void support_chunk(void *arg, size_t c)
+{
+    const support_job *j = arg;
+    const size_t begin = c * PB_CHUNK, end = begin + PB_CHUNK < j->n ? begin + PB_CHUNK : j->n;
+    unsigned char least[PB_CHUNK];
+    memset(least, 255, end - begin);
+    for (size_t f = j->first; f < j->end; f++) {
+        if (j->flat[f])
+            continue;
+        const unsigned char *known = j->known + f * j->n + begin;
+        for (size_t i = 0; i < end - begin; i++)
+            least[i] = known[i] < least[i] ? known[i] : least[i];
+    }
+    for (size_t i = begin; i < end; i++)
+        j->out[i] = fminf((float)least[i - begin] / 255.0f, j->box[i]);
 }
 
 /* Where frame k's reference is known: where every frame of its window
@@ -248,13 +290,8 @@ static pb_status set_frame_support(estimate *e, size_t k)
     s[0] = e->scratch;
     for (size_t l = 1; l < e->levels; l++)
         s[l] = s[l - 1] + e->level[l - 1].n;
-    for (size_t i = 0; i < n; i++) {
-        unsigned char least = 255;
-        for (size_t f = first; f < end; f++)
-            if (!e->flat[f] && e->known[f * n + i] < least)
-                least = e->known[f * n + i];
-        s[0][i] = fminf((float)least / 255.0f, e->level[0].box[i]);
-    }
+    support_job job = {e->known, e->flat, e->level[0].box, s[0], n, first, end};
+    pb_pool_for(e->level[0].pool, pb_chunks(n), support_chunk, &job);
     for (size_t l = 1; l < e->levels; l++)
         pbe_downsample(&e->level[l - 1].g, s[l - 1], &e->level[l].g, s[l]);
     pb_status st = PB_OK;

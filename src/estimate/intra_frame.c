@@ -101,6 +101,16 @@ typedef struct sharpen_job {
     double first[3], step[3][3]; /* each axis's offset at voxel 0; its change a step along each index */
 } sharpen_job;
 
+/* floor(x): libm's is a call on x86-64 without SSE4.1, a fifth of the
+ * sharpening's time at 128^3; a conversion is inline. */
+static inline double whole_below(double x)
+{
+    if (!(fabs(x) < 0x1p52))
+        return floor(x);
+    const double t = (double)(long long)x;
+    return t > x ? t - 1.0 : t;
+}
+
 static void sharpen_slice(void *arg, size_t k)
 {
     const sharpen_job *job = arg;
@@ -115,7 +125,7 @@ static void sharpen_slice(void *arg, size_t k)
             const double here = (double)job->in[idx];
             double out = here;
             for (int a = 0; a < 3; a++) {
-                const double f = d[a] - floor(d[a]), sm = f * (1.0 - f);
+                const double f = d[a] - whole_below(d[a]), sm = f * (1.0 - f);
                 d[a] += job->step[a][0];
                 if (n[a] < 2 || sm == 0.0)
                     continue;
