@@ -172,16 +172,22 @@ static int shows_structure(const estimate *e, size_t k, double sse)
 static pb_status register_chain(estimate *e, size_t ref, pbe_fit *fits)
 {
     pb_status st = PB_OK;
+    /* PETBLUR_ESTIMATE_CHAIN=star registers every frame to the reference
+     * frame itself, from its neighbour's pose, for comparisons */
+    const char *env = getenv("PETBLUR_ESTIMATE_CHAIN");
+    const int star = env && strcmp(env, "star") == 0;
     for (int side = 0; side < 2 && st == PB_OK; side++) {
         size_t j = ref;
         for (size_t k = side ? ref : ref + 1; (side ? k-- > 0 : k < e->count) && st == PB_OK; k += side ? 0 : 1) {
             pbe_fit step = fits[k];
             memset(&step.pose, 0, sizeof step.pose);
             step.pose.rotation[0] = 1.0;
+            if (star)
+                step.pose = fits[j].pose;
             /* frame j's pyramid, made once at the start */
             const float *levels[8];
             for (size_t l = 0; l < e->levels; l++)
-                levels[l] = e->frames[l] + j * e->level[l].n;
+                levels[l] = e->frames[l] + (star ? ref : j) * e->level[l].n;
             st = set_reference_levels(e, levels);
             if (st == PB_OK)
                 st = register_frame(e, k, &step);
@@ -192,7 +198,10 @@ static pb_status register_chain(estimate *e, size_t ref, pbe_fit *fits)
                 fits[k].pose = fits[j].pose;
                 continue;
             }
-            pb_pose_compose(&step.pose, &fits[j].pose, &fits[k].pose);
+            if (star)
+                fits[k].pose = step.pose;
+            else
+                pb_pose_compose(&step.pose, &fits[j].pose, &fits[k].pose);
             pb_pose_normalized(&fits[k].pose, &fits[k].pose);
             j = k;
         }
@@ -310,17 +319,25 @@ static pb_status frame_reference(estimate *e, const float *moved, const double *
 }
 
 /* Passes 2 and on: every frame against its own reference, from its pose. */
-static pb_status register_own(estimate *e, pbe_fit *fits, float *moved, double *gram, float *reference)
+/* The frames moved back onto the reference by their poses, those of noise
+ * alone zeroed (they add only noise to the others' references, and at a
+ * higher level than theirs would be their leading image), and the band of
+ * their inner products the references are built from. */
+static pb_status frames_moved_back(estimate *e, const pbe_fit *fits, float *moved, double *gram)
 {
     pb_status st = move_back(e, fits, moved);
     if (st != PB_OK)
         return st;
-    /* a frame of noise alone adds only noise to the others' references, and
-     * at a higher level than theirs it would be their leading image */
     for (size_t k = 0; k < e->count; k++)
         if (e->flat[k])
             memset(moved + k * e->level[0].n, 0, sizeof(float) * e->level[0].n);
     pbe_gram_band(e->level[0].pool, moved, e->level[0].n, e->count, gram);
+    return PB_OK;
+}
+
+static pb_status register_own(estimate *e, pbe_fit *fits, float *moved, double *gram, float *reference)
+{
+    pb_status st = frames_moved_back(e, fits, moved, gram);
     for (size_t k = 0; k < e->count && st == PB_OK; k++) {
         st = frame_reference(e, moved, gram, k, reference);
         if (st == PB_OK)
@@ -1234,8 +1251,15 @@ static pb_status estimate_run(estimate *e, const double *bounds, const pb_estima
     /* 2: each frame against its own reference, twice (the second from
      * references moved back by better poses); the reference frame gets a
      * pose too, which is then taken out */
-    for (int round = 0; round < 2 && st == PB_OK; round++)
+    /* PETBLUR_ESTIMATE_OWN=0 or 1 runs this pass so many times, for
+     * comparisons (at 0 the later passes' references are built from the
+     * chain's poses) */
+    const char *own_env = getenv("PETBLUR_ESTIMATE_OWN");
+    const int rounds = own_env && (!strcmp(own_env, "0") || !strcmp(own_env, "1")) ? own_env[0] - '0' : 2;
+    for (int round = 0; round < rounds && st == PB_OK; round++)
         st = register_own(e, fits, moved, gram, own);
+    if (rounds == 0 && st == PB_OK)
+        st = frames_moved_back(e, fits, moved, gram);
     /* frames of noise alone: their poses are noise's, and their neighbours' paths are not to be built on them */
     if (st == PB_OK)
         st = hold_flat_frames(e, fits);
