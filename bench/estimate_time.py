@@ -1,8 +1,9 @@
 #!/usr/bin/env python3
 """The motion estimate's time, one build against another on one series.
 
-Makes one series of bench/estimate_validation.py's setups (bench/head_frames.py)
-and times `petblur motion estimate` on it with each program given, in turn,
+Makes one series of bench/estimate_validation.py's setups (bench/head_frames.py;
+its points inside the head drawn from seed + 1, so the errors differ from
+estimate_validation.py's for the same seed in the third digit) and times `petblur motion estimate` on it with each program given, in turn,
 --reps rounds, so that a machine whose speed drifts (the GPU machine's cores are
 shared) weighs on every program alike. Prints each run's wall seconds (the
 program's whole run, the 4-D NIfTI read included, as users time it) and each
@@ -61,7 +62,7 @@ def main():
                            check=True, env={**os.environ, **extra})
             runs[name].append(time.perf_counter() - started)
             err = hf.displacement_errors(hf.track_maps(*hf.read_matrix_csv(track)), truth, bounds, points)
-            errors[name] = [float(err.mean()), float(err.max())]
+            errors[name] = [float(err.mean()), float(err.max())]  # the same every round: the track is
             print("round %d  %-12s %6.1f s  mean %.3f mm  worst frame %.3f mm" % (
                 rep, name, runs[name][-1], err.mean(), err.max()), flush=True)
     for name, t in runs.items():

@@ -8,7 +8,11 @@
 #   PB_OLD=<commit> PB_COMMIT=<commit> bash bench/gpu.sh esttime .base   (carry .device .whl .base)
 # shellcheck shell=bash disable=SC2154 # the helpers: bench/gpu/lib.sh
 mode_esttime() (
-    old=$(realpath "${1:?usage: bench/gpu.sh esttime OLD_TREE}")
+    if [ $# -lt 1 ] || [ ! -d "$1" ]; then
+        echo "usage: bench/gpu.sh esttime OLD_TREE [estimate_time.py options]" >&2
+        exit 2
+    fi
+    old=$(realpath "$1")
     shift
     echo "old: ${PB_OLD:-unknown}" | write_machine "$OUT/machine.txt"
     work=$(mktemp -d)

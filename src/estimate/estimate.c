@@ -169,7 +169,7 @@ static int shows_structure(const estimate *e, size_t k, double sse)
  * for the neighbour j makes T_k = D T_j. A frame of noise alone would pass
  * its noise's pose on down the chain: the frames beyond it register to the
  * last frame that showed structure, and it holds that frame's pose. */
-static pb_status register_chain(estimate *e, size_t ref, pbe_fit *fits)
+static pb_status register_chain(estimate *e, size_t ref, pbe_fit *fits, int keep_fits)
 {
     pb_status st = PB_OK;
     /* PETBLUR_ESTIMATE_CHAIN=star registers every frame to the reference
@@ -198,6 +198,10 @@ static pb_status register_chain(estimate *e, size_t ref, pbe_fit *fits)
                 fits[k].pose = fits[j].pose;
                 continue;
             }
+            /* without pass 2 the smoothing weighs each pose by this fit
+             * (a chained pose by its last link's alone) */
+            if (keep_fits)
+                fits[k] = step;
             if (star)
                 fits[k].pose = step.pose;
             else
@@ -318,7 +322,6 @@ static pb_status frame_reference(estimate *e, const float *moved, const double *
     return st == PB_OK ? set_frame_support(e, k) : st;
 }
 
-/* Passes 2 and on: every frame against its own reference, from its pose. */
 /* The frames moved back onto the reference by their poses, those of noise
  * alone zeroed (they add only noise to the others' references, and at a
  * higher level than theirs would be their leading image), and the band of
@@ -335,6 +338,7 @@ static pb_status frames_moved_back(estimate *e, const pbe_fit *fits, float *move
     return PB_OK;
 }
 
+/* Passes 2 and on: every frame against its own reference, from its pose. */
 static pb_status register_own(estimate *e, pbe_fit *fits, float *moved, double *gram, float *reference)
 {
     pb_status st = frames_moved_back(e, fits, moved, gram);
@@ -1245,17 +1249,17 @@ static pb_status estimate_run(estimate *e, const double *bounds, const pb_estima
         fits[i].pose.rotation[0] = 1.0;
         fits[i].scale = 1.0;
     }
+    /* PETBLUR_ESTIMATE_OWN=0 or 1 runs pass 2 so many times, for
+     * comparisons (at 0 the later passes' references are built from the
+     * chain's poses, and the smoothing weighs them by the chain's fits) */
+    const char *own_env = getenv("PETBLUR_ESTIMATE_OWN");
+    const int rounds = own_env && (!strcmp(own_env, "0") || !strcmp(own_env, "1")) ? own_env[0] - '0' : 2;
     /* 1: along the chain of neighbours */
     if (st == PB_OK)
-        st = register_chain(e, ref, fits);
+        st = register_chain(e, ref, fits, rounds == 0);
     /* 2: each frame against its own reference, twice (the second from
      * references moved back by better poses); the reference frame gets a
      * pose too, which is then taken out */
-    /* PETBLUR_ESTIMATE_OWN=0 or 1 runs this pass so many times, for
-     * comparisons (at 0 the later passes' references are built from the
-     * chain's poses) */
-    const char *own_env = getenv("PETBLUR_ESTIMATE_OWN");
-    const int rounds = own_env && (!strcmp(own_env, "0") || !strcmp(own_env, "1")) ? own_env[0] - '0' : 2;
     for (int round = 0; round < rounds && st == PB_OK; round++)
         st = register_own(e, fits, moved, gram, own);
     if (rounds == 0 && st == PB_OK)
