@@ -126,7 +126,7 @@ int pbc_parse_dims(const char *option, const char *text, size_t dims[3])
     double v[3];
     int ok = strspn(text, "0123456789,") == strlen(text) && numbers(text, 3, v) == 0;
     for (int i = 0; ok && i < 3; i++) {
-        ok = v[i] >= 1 && v[i] <= 65536 && v[i] == floor(v[i]);
+        ok = v[i] >= 1 && v[i] <= 65536;
         dims[i] = ok ? (size_t)v[i] : 0;
     }
     if (!ok)

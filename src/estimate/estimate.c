@@ -176,6 +176,7 @@ static pb_status register_chain(estimate *e, size_t ref, pbe_fit *fits, int keep
      * frame itself, from its neighbour's pose, for comparisons */
     const char *env = getenv("PETBLUR_ESTIMATE_CHAIN");
     const int star = env && strcmp(env, "star") == 0;
+    size_t held = SIZE_MAX; /* the frame whose pyramid the levels hold (a fit leaves them as they were) */
     for (int side = 0; side < 2 && st == PB_OK; side++) {
         size_t j = ref;
         for (size_t k = side ? ref : ref + 1; (side ? k-- > 0 : k < e->count) && st == PB_OK; k += side ? 0 : 1) {
@@ -184,11 +185,16 @@ static pb_status register_chain(estimate *e, size_t ref, pbe_fit *fits, int keep
             step.pose.rotation[0] = 1.0;
             if (star)
                 step.pose = fits[j].pose;
-            /* frame j's pyramid, made once at the start */
-            const float *levels[8];
-            for (size_t l = 0; l < e->levels; l++)
-                levels[l] = e->frames[l] + (star ? ref : j) * e->level[l].n;
-            st = set_reference_levels(e, levels);
+            /* frame j's pyramid, made once at the start, set where the
+             * levels hold another's */
+            const size_t against = star ? ref : j;
+            if (against != held) {
+                const float *levels[8];
+                for (size_t l = 0; l < e->levels; l++)
+                    levels[l] = e->frames[l] + against * e->level[l].n;
+                st = set_reference_levels(e, levels);
+                held = against;
+            }
             if (st == PB_OK)
                 st = register_frame(e, k, &step);
             if (st != PB_OK)
