@@ -62,13 +62,6 @@ enum { MAX_SUM_FRAMES = 24 };
  * of the sum may take where the head jumped between them
  * (weights_follow_uptake). */
 #define JUMP_STEP_SHARE 0.5
-/* PETBLUR_ESTIMATE_CONTRAST=held: the sum only of frames whose poses lie
- * within HELD_SHARE of a voxel (at the grid's corners) of each neighbour's.
- * A slow nod over several frames, which pass 3 takes for frames held still,
- * blurs them, and their blur is a second image whose scores grow with time
- * as a washout's do (issue 47's draw 2820446639: a correction of 2 mm built
- * on it moved its still frames up to 1.4 mm off). */
-#define HELD_SHARE 0.5
 
 typedef struct collective {
     pb_geometry g;          /* the grid the frames are compared on */
@@ -444,12 +437,12 @@ static double frame_noise(const float *f, const size_t d[3])
     return med;
 }
 
-/* m of the frames in the sum (in[k]; `still` of them), spread evenly from
- * the first to the last, in order. */
-static void pick_still(const int *in, size_t count, size_t still, size_t *use, size_t m)
+/* m of the still frames (of `still`), spread evenly from the first to the
+ * last, in order. */
+static void pick_still(const pbe_collective_pose *poses, size_t count, size_t still, size_t *use, size_t m)
 {
     for (size_t k = 0, s = 0, i = 0; k < count && i < m; k++) {
-        if (!in[k])
+        if (poses[k].moving)
             continue;
         /* the i-th pick is still frame round(i (still - 1) / (m - 1)) */
         size_t want = m > 1 ? (i * (still - 1) + (m - 1) / 2) / (m - 1) : 0;
@@ -475,8 +468,7 @@ pb_status pbe_collective(pb_pool *pool, const pb_geometry *fine, const float *ra
     /* PETBLUR_ESTIMATE_CONTRAST=0 leaves the poses as registered, =coarse
      * halves the grid to LONGEST_SIDE whatever its voxels, =unweighted counts
      * every frame alike, =residual weighs them by their energy beyond at the
-     * registered poses (before frame_noise), =held sums only frames held
- * still beside their neighbours (HELD_SHARE), for comparisons */
+     * registered poses (before frame_noise), for comparisons */
     const char *env = getenv("PETBLUR_ESTIMATE_CONTRAST");
     if (env && strcmp(env, "0") == 0)
         return PB_OK;
@@ -505,21 +497,9 @@ pb_status pbe_collective(pb_pool *pool, const pb_geometry *fine, const float *ra
     cv.n = cv.g.dims[0] * cv.g.dims[1] * cv.g.dims[2];
     pbe_unitary_dims(&cv.g, cv.pad);
     cv.padded = cv.pad[0] * cv.pad[1] * cv.pad[2];
-    for (int i = 0; i < 3; i++)
-        cv.radius = fmax(cv.radius, 0.5 * (double)cv.g.dims[i] * cv.g.voxel_size[i]);
-    int *in = malloc(sizeof(int) * count);
-    if (!in)
-        return PB_ERR_OUT_OF_MEMORY;
-    const int held_only = env && strcmp(env, "held") == 0;
-    const double fine_voxel = fmax(fine->voxel_size[0], fmax(fine->voxel_size[1], fine->voxel_size[2]));
     size_t still = 0;
-    for (size_t k = 0; k < count; k++) {
-        in[k] = !poses[k].moving;
-        if (held_only && in[k])
-            in[k] = (k == 0 || corner_distance(&cv, &poses[k - 1].pose, &poses[k].pose) <= HELD_SHARE * fine_voxel) &&
-                    (k + 1 == count || corner_distance(&cv, &poses[k].pose, &poses[k + 1].pose) <= HELD_SHARE * fine_voxel);
-        still += in[k] != 0;
-    }
+    for (size_t k = 0; k < count; k++)
+        still += !poses[k].moving;
     cv.used = still < MAX_SUM_FRAMES ? still : MAX_SUM_FRAMES;
     cv.rank = pbe_reference_rank(count);
     cv.pool = pool;
@@ -527,10 +507,8 @@ pb_status pbe_collective(pb_pool *pool, const pb_geometry *fine, const float *ra
      * with fewer, the energy beyond them holds tissue curves the references
      * cannot, and a correction along the contrast would trade one for the
      * other. */
-    if (cv.rank < 3 || cv.used < cv.rank + 3 || poses[ref].moving) {
-        free(in);
+    if (cv.rank < 3 || cv.used < cv.rank + 3 || poses[ref].moving)
         return PB_OK;
-    }
     const size_t m = cv.used;
     cv.frames = malloc(sizeof(float) * cv.n * count);
     cv.moved = malloc(sizeof(float) * cv.padded * m);
@@ -563,7 +541,9 @@ pb_status pbe_collective(pb_pool *pool, const pb_geometry *fine, const float *ra
         memcpy(cv.frames + k * cv.n, x, sizeof(float) * cv.n);
     }
     if (cv.use)
-        pick_still(in, count, still, cv.use, m);
+        pick_still(poses, count, still, cv.use, m);
+    for (int i = 0; i < 3; i++)
+        cv.radius = fmax(cv.radius, 0.5 * (double)cv.g.dims[i] * cv.g.voxel_size[i]);
     /* at p = 0 every weight moves nothing: this residual, which the
      * contrast weights are read from, is also minimise's start, once the
      * frames are weighed by their noise (frame_noise). Under
@@ -621,6 +601,5 @@ pb_status pbe_collective(pb_pool *pool, const pb_geometry *fine, const float *ra
     free(scale);
     free(x);
     free(y);
-    free(in);
     return st;
 }
