@@ -319,6 +319,16 @@ class Links(Case):
                 self.assertFalse(os.path.exists(self.p("nowhere.nii")))
                 self.assertFalse(os.path.exists(self.p("pair.hv")))
                 self.assertEqual(self.temporaries(), [])
+        # the demo's outputs, named by its folder, as every other command's
+        os.mkdir(self.p("demo"))
+        os.symlink(self.p("victim.txt"), self.p("demo", "ab.nii.gz"))
+        r = petblur("demo", "--size", "16", "--points", "4", "--out-dir", self.p("demo"), "--device", "host", "-q")
+        self.assertEqual(r.returncode, 2, r.stderr)
+        self.assertIn("symbolic link", r.stderr)
+        self.assertTrue(os.path.islink(self.p("demo", "ab.nii.gz")))
+        self.assertEqual(sorted(os.listdir(self.p("demo"))), ["ab.nii.gz"])
+        with open(self.p("victim.txt")) as f:
+            self.assertEqual(f.read(), "precious")
 
     def race(self, args, outputs, rounds=3):
         """Runs petblur `rounds` times while a thread swaps every '.petblur-' file in the output folder for a link

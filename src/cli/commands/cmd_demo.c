@@ -144,14 +144,17 @@ static int demo(pb_context *ctx, const pbc_args *args, const pbc_image *phantom,
 }
 
 /* The demo's outputs (phantom, one volume per method, the picture) need files
- * of their own (pbc_files_check); it reads nothing. */
+ * of their own (pbc_files_check) that petblur may replace, as every other
+ * command's outputs (no link written through or replaced); it reads nothing.
+ * The folder may not exist yet: pbc_make_dir makes it. */
 static int check_files(const char *dir)
 {
     pbc_files f = {0};
     char path[4096];
     for (int r = -1; r <= RUNS && !f.status; r++) {
         const char *name = r < 0 ? "phantom" : r < RUNS ? runs[r].file : "demo";
-        if (!(f.status = out_path(path, sizeof path, dir, name, r < RUNS ? ".nii.gz" : ".png")))
+        if (!(f.status = out_path(path, sizeof path, dir, name, r < RUNS ? ".nii.gz" : ".png")) &&
+            !(f.status = pbc_check_replaceable("--out-dir", path)))
             pbc_files_write(&f, "--out-dir", path);
     }
     return pbc_files_check(&f);

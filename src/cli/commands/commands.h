@@ -23,6 +23,9 @@ int pbc_cmd_motion_estimate(int argc, char **argv);
  * a link, a write-protected file) (before any work). kind: 0 an image, 1 a
  * picture (.png), 2 a table (.csv: a track). */
 int pbc_check_output(const char *option, const char *path, int kind);
+/* 0 where path is absent or a file petblur may replace; else the error (a
+ * folder, a symbolic link, a write-protected file). */
+int pbc_check_replaceable(const char *option, const char *path);
 
 /* Every file a command reads and every file it writes, for the one rule that
  * no output names a file the command reads, nor another output (by path,

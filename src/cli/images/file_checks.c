@@ -18,7 +18,7 @@
 /* An output that exists is replaced by a new file that keeps its mode; a
  * folder, a symbolic link, or a file its owner made read-only is not
  * petblur's to replace. */
-static int replaceable(const char *option, const char *path)
+int pbc_check_replaceable(const char *option, const char *path)
 {
     struct stat st;
     if (lstat(path, &st) != 0)
@@ -56,9 +56,9 @@ int pbc_check_output(const char *option, const char *path, int kind)
         return pbc_fail(PBC_EXIT_USAGE, "%s %s: the file name is too long to write beside a temporary of it (at most "
                         "%d characters); choose a shorter one", option, path, (int)(NAME_MAX - strlen(ext) - 32));
     char data[4096];
-    int rc = replaceable(option, path);
+    int rc = pbc_check_replaceable(option, path);
     if (!rc && !strcmp(ext, ".hv") && !pbc_interfile_data_name(path, data, sizeof data))
-        rc = replaceable(option, data);
+        rc = pbc_check_replaceable(option, data);
     return rc;
 }
 
