@@ -163,6 +163,42 @@ class TrackSummary(ctypes.Structure):
 
 ProgressFn = ctypes.CFUNCTYPE(None, ctypes.c_double, ctypes.c_void_p)
 
+
+@contextlib.contextmanager
+def progress_reported(handle, progress, hearing=None):
+    """progress(fraction) called by the library during the block's calls on
+    context handle (nothing where progress is None). Yields a list that holds
+    the exception progress raised, if it did: ctypes would only print it, so
+    it is kept (later reports are then not passed on) and raised when the
+    block ends, after the caller has freed what a call made. hearing, where
+    given, is an object whose .hearing is this thread's id while progress
+    runs (the operators refuse calls from inside it)."""
+    raised = []
+    if progress is None:
+        yield raised
+        return
+
+    def hear(fraction, user):
+        if raised:
+            return
+        if hearing is not None:
+            hearing.hearing = threading.get_ident()
+        try:
+            progress(float(fraction))
+        except BaseException as e:  # noqa: B036 - re-raised below, whatever it is
+            raised.append(e)
+        finally:
+            if hearing is not None:
+                hearing.hearing = None
+    fn = ProgressFn(hear)
+    check(lib.pb_context_set_progress(handle, fn, None), handle)
+    try:
+        yield raised
+    finally:
+        lib.pb_context_set_progress(handle, ProgressFn(), None)
+    if raised:
+        raise raised[0]
+
 # The structs above, as the library lays them out (checked at import by
 # check_layout against pb_abi_layout) and the enums' values it reports.
 STRUCTS = {"pb_geometry": Geometry, "pb_pose": Pose, "pb_motion": CMotion, "pb_blur_options": BlurOptions,

@@ -133,29 +133,11 @@ def estimate(frames, affine, voxel_size, bounds, reference, device, frame_poses_
     track, report = ctypes.c_void_p(), EstimateReport()
     ctx = _lib.context(_estimate_device(device))
     with ctx.use():
-        # the callback lives as long as the call; an exception inside it is
-        # kept and raised after the library returns (ctypes would only print it)
-        raised = []
-
-        def hear(fraction, user):
-            if not raised:
-                try:
-                    progress(float(fraction))
-                except BaseException as e:  # noqa: B036 - re-raised below, whatever it is
-                    raised.append(e)
-        fn = _lib.ProgressFn(hear) if progress is not None else None
-        if fn is not None:
-            _lib.check(_lib.lib.pb_context_set_progress(ctx.handle, fn, None), ctx.handle)
-        try:
+        with _lib.progress_reported(ctx.handle, progress) as raised:
             status = _lib.lib.pb_motion_estimate(ctx.handle, ctypes.byref(g), flat, x.ctypes.data, nt, cb,
                                                  ctypes.byref(opts), ctypes.byref(track), ctypes.byref(report))
-        finally:
-            if fn is not None:
-                _lib.lib.pb_context_set_progress(ctx.handle, _lib.ProgressFn(), None)
-        if raised:
-            if status == 0:
+            if raised and status == 0:  # progress raised: its exception, not the track
                 _lib.lib.pb_track_free(track)
-            raise raised[0]
         _lib.check(status, ctx.handle)
     frames_report = [{"frame": k, "start": float(b[k]), "end": float(b[k + 1]),
                       "explained": float(per_frame[k].explained), "structure": bool(per_frame[k].structure),

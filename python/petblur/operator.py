@@ -19,7 +19,6 @@ copy.deepcopy and pickle rebuild the operator from its description, on the
 device its spec names where it is loaded (docs/python.md, "Copies, pickling
 and Dask")."""
 
-import contextlib
 import copy
 import ctypes
 import inspect
@@ -366,37 +365,13 @@ class _Operator:
         else:
             self._run_volumes(jobs, adjoint)
 
-    @contextlib.contextmanager
     def _reporting(self):
         """progress(fraction) called during the block's calls (under the
-        context's lock): each call's own fraction, 1 at its end."""
-        if self._progress is None:
-            yield
-            return
-        # An exception inside progress is kept and raised when the calls
-        # return (ctypes would only print it); while progress runs, this
-        # operator's buffers are in use, and a call to it (or to a copy, which
-        # shares them) from there is refused rather than let overwrite them.
-        raised, handles = [], self._handles
-
-        def hear(fraction, user):
-            if raised:
-                return
-            handles.hearing = threading.get_ident()
-            try:
-                self._progress(float(fraction))
-            except BaseException as e:  # noqa: B036 - re-raised below, whatever it is
-                raised.append(e)
-            finally:
-                handles.hearing = None
-        fn = _lib.ProgressFn(hear)
-        _lib.check(_lib.lib.pb_context_set_progress(self._ctx.handle, fn, None), self._ctx.handle)
-        try:
-            yield
-        finally:
-            _lib.lib.pb_context_set_progress(self._ctx.handle, _lib.ProgressFn(), None)
-        if raised:
-            raise raised[0]
+        context's lock): each call's own fraction, 1 at its end. While
+        progress runs, this operator's buffers are in use, and a call to it
+        (or to a copy, which shares them) from there is refused rather than
+        let overwrite them."""
+        return _lib.progress_reported(self._ctx.handle, self._progress, self._handles)
 
     def _call_device(self, plan, frame, xp, yp, acc, adjoint):
         lib, ctx = _lib.lib, self._ctx
