@@ -52,17 +52,13 @@ static int read_both(const pbc_args *args, pbc_image *ref, pbc_image *test)
     double a[16], b[16], apart = 0.0;
     if (pbc_image_affine(ref, a) && pbc_image_affine(test, b)) {
         for (int corner = 0; corner < 8; corner++) {
-            double idx[3], d = 0.0;
+            double idx[3], pa[3], pb[3], d = 0.0;
             for (int i = 0; i < 3; i++)
                 idx[i] = (corner >> i & 1) ? (double)ref->dims[i] - 1.0 : 0.0;
-            for (int r = 0; r < 3; r++) {
-                double pa = a[4 * r + 3], pb = b[4 * r + 3];
-                for (int i = 0; i < 3; i++) {
-                    pa += a[4 * r + i] * idx[i];
-                    pb += b[4 * r + i] * idx[i];
-                }
-                d += (pa - pb) * (pa - pb);
-            }
+            pbc_affine_point(a, idx, pa);
+            pbc_affine_point(b, idx, pb);
+            for (int r = 0; r < 3; r++)
+                d += (pa[r] - pb[r]) * (pa[r] - pb[r]);
             apart = fmax(apart, sqrt(d));
         }
         double least = fmin(ref->voxel_size[0], fmin(ref->voxel_size[1], ref->voxel_size[2]));

@@ -58,16 +58,6 @@ static int check_files(const pbc_args *args, const char *out)
     return pbc_files_check(&f);
 }
 
-/* The world position of the grid's centre: a csv track's poses turn about it. */
-static void grid_center(const pbc_image *img, const double a[16], double c[3])
-{
-    for (int r = 0; r < 3; r++) {
-        c[r] = a[4 * r + 3];
-        for (int k = 0; k < 3; k++)
-            c[r] += a[4 * r + k] * 0.5 * ((double)img->dims[k] - 1.0);
-    }
-}
-
 static int write_track(const char *path, const pb_track *track, int csv, const double center[3])
 {
     pbc_temp t;
@@ -237,7 +227,7 @@ static int run(const pbc_args *args, const char *in_path, const char *out_path)
                              {img.voxel_size[0], img.voxel_size[1], img.voxel_size[2]}};
             pb_geometry_grid_affine(&g, affine);
         }
-        grid_center(&img, affine, center);
+        pbc_grid_centre(affine, img.dims, center); /* a csv track's poses turn about it */
         rc = open_device(pbc_arg(&command, args, "--device"), &ctx);
     }
     if (!rc) {

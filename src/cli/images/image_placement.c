@@ -28,6 +28,20 @@ static const stir_position positions[] = {
     {"feet_in", "prone", {-1, 1, 1}},    /* FFP: LPS = (x, -y, z) */
 };
 
+void pbc_affine_point(const double a[16], const double idx[3], double out[3])
+{
+    for (int r = 0; r < 3; r++)
+        out[r] = a[4 * r + 3] + a[4 * r] * idx[0] + a[4 * r + 1] * idx[1] + a[4 * r + 2] * idx[2];
+}
+
+void pbc_grid_centre(const double a[16], const size_t dims[3], double out[3])
+{
+    double idx[3];
+    for (int k = 0; k < 3; k++)
+        idx[k] = 0.5 * ((double)dims[k] - 1.0);
+    pbc_affine_point(a, idx, out);
+}
+
 int pbc_image_affine(const pbc_image *img, double a[16])
 {
     const pbc_orientation *o = &img->orientation;

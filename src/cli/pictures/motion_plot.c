@@ -5,6 +5,7 @@
 #include <stdlib.h>
 
 #include "cli.h"
+#include "image_io.h"
 #include "motion_plot.h"
 #include "picture_canvas.h"
 #include "picture_font.h"
@@ -84,11 +85,7 @@ int pbc_motion_plot(const char *path, const pbc_motion *m, const double *bounds,
     /* The poses in the world, about wm.center, as placing made them. */
     pb_track_world(m->track, &m->conventions, &m->geometry, m->affine, world, &wm, NULL);
     double c[3]; /* the grid's centre, world mm */
-    for (int r = 0; r < 3; r++) {
-        c[r] = m->affine[4 * r + 3];
-        for (int k = 0; k < 3; k++)
-            c[r] += m->affine[4 * r + k] * 0.5 * ((double)m->geometry.dims[k] - 1.0);
-    }
+    pbc_grid_centre(m->affine, m->geometry.dims, c);
     panel pt = {TOP + 20, (double)INFINITY, -(double)INFINITY}, pr = {TOP + 20 + PANEL + GAP, 0.0, -(double)INFINITY};
     for (size_t k = 0; k < n; k++) {
         double moved[3];
