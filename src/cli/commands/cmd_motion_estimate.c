@@ -227,7 +227,7 @@ static int run(const pbc_args *args, const char *in_path, const char *out_path)
                              {img.voxel_size[0], img.voxel_size[1], img.voxel_size[2]}};
             pb_geometry_grid_affine(&g, affine);
         }
-        pbc_grid_centre(affine, img.dims, center); /* a csv track's poses turn about it */
+        pbc_grid_center(affine, img.dims, center); /* a csv track's poses turn about it */
         rc = open_device(pbc_arg(&command, args, "--device"), &ctx);
     }
     if (!rc) {

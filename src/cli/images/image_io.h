@@ -46,7 +46,7 @@ int pbc_image_affine(const pbc_image *img, double affine[16]);
 /* out = the world mm of voxel index idx (fractional) under affine a. */
 void pbc_affine_point(const double a[16], const double idx[3], double out[3]);
 /* The world mm of the centre of a grid of dims under affine a. */
-void pbc_grid_centre(const double a[16], const size_t dims[3], double out[3]);
+void pbc_grid_center(const double a[16], const size_t dims[3], double out[3]);
 /* Places an image by an affine (both codes 1, scanner-based). */
 void pbc_orientation_set_affine(pbc_orientation *o, const double affine[16]);
 

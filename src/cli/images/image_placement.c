@@ -34,7 +34,7 @@ void pbc_affine_point(const double a[16], const double idx[3], double out[3])
         out[r] = a[4 * r + 3] + a[4 * r] * idx[0] + a[4 * r + 1] * idx[1] + a[4 * r + 2] * idx[2];
 }
 
-void pbc_grid_centre(const double a[16], const size_t dims[3], double out[3])
+void pbc_grid_center(const double a[16], const size_t dims[3], double out[3])
 {
     double idx[3];
     for (int k = 0; k < 3; k++)

@@ -85,7 +85,7 @@ int pbc_motion_plot(const char *path, const pbc_motion *m, const double *bounds,
     /* The poses in the world, about wm.center, as placing made them. */
     pb_track_world(m->track, &m->conventions, &m->geometry, m->affine, world, &wm, NULL);
     double c[3]; /* the grid's centre, world mm */
-    pbc_grid_centre(m->affine, m->geometry.dims, c);
+    pbc_grid_center(m->affine, m->geometry.dims, c);
     panel pt = {TOP + 20, (double)INFINITY, -(double)INFINITY}, pr = {TOP + 20 + PANEL + GAP, 0.0, -(double)INFINITY};
     for (size_t k = 0; k < n; k++) {
         double moved[3];
