@@ -468,7 +468,8 @@ pb_status pbe_collective(pb_pool *pool, const pb_geometry *fine, const float *ra
     /* PETBLUR_ESTIMATE_CONTRAST=0 leaves the poses as registered, =coarse
      * halves the grid to LONGEST_SIDE whatever its voxels, =unweighted counts
      * every frame alike, =residual weighs them by their energy beyond at the
-     * registered poses (before frame_noise), for comparisons */
+     * registered poses (before frame_noise), =half takes a correction only
+     * within half a voxel, for comparisons */
     const char *env = getenv("PETBLUR_ESTIMATE_CONTRAST");
     if (env && strcmp(env, "0") == 0)
         return PB_OK;
@@ -576,6 +577,8 @@ pb_status pbe_collective(pb_pool *pool, const pb_geometry *fine, const float *ra
     /* the bias is a fraction of a voxel: a correction beyond one voxel of
      * the frames' grid (a turn measured at the radius) is not this bias */
     double voxel = fmax(fine->voxel_size[0], fmax(fine->voxel_size[1], fine->voxel_size[2]));
+    if (env && strcmp(env, "half") == 0)
+        voxel *= 0.5;
     if (st == PB_OK && contrast_weights(&cv, ref) && (st = minimise(&cv, p, e0)) == PB_OK &&
         sqrt(p[0] * p[0] + p[1] * p[1] + p[2] * p[2]) <= voxel &&
         sqrt(p[3] * p[3] + p[4] * p[4] + p[5] * p[5]) <= voxel) {
