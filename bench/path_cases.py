@@ -203,6 +203,20 @@ def reference(case, which="true", times=None, check=False, doubling=False):
     return ref, out
 
 
+def noise_floor(case, times=400):
+    """The dense blur of the true motion moved by the logged noise's mean
+    over the frame (translations' and rotations' means of the log against
+    the true motion, both interpolated over `times` midpoints): what no
+    reading of a noisy log removes, since white noise's mean over a frame
+    is indistinguishable from a motion still within it. A frame of n
+    samples keeps it at sigma / sqrt(n) a axis."""
+    t0, t1 = case.frame
+    ts = t0 + (np.arange(times) + 0.5) * (t1 - t0) / times
+    rt, tt = case.poses("true", ts)
+    rl, tl = case.poses("logged", ts)
+    return mean_resampled(case.x, case.affine, case.center, (rl * rt.inv()).mean() * rt, tt + (tl - tt).mean(0))
+
+
 def _motion(times, rot, tr, center):
     import petblur
     q = rot.as_quat()

@@ -192,9 +192,17 @@ def test_short_frame_noise_measured_about_it(rng, kind):
     40 draws 1.1 and 1.4 segments on average (at most 15 of 45 samples: a
     run shorter than 64 samples fails its noise's mean square now and then),
     0.64 / 0.55 % (bench/results/2026-11-30_cpu2_short-frames). What is left
-    is the noise's mean over the frame's few samples, which on a short drift
-    stood up to 1.16x (max 1.19x) what following the noise gives, on a still
-    head at most 0.54x. AB on the host."""
+    is the noise's mean over the frame's few samples, which no reading of the
+    log removes (white noise's mean over a frame is a motion still within
+    it): the error is held to that floor, the true motion moved by the
+    log's mean noise over the frame (path_cases.noise_floor), not to a share
+    of following the noise, which a mean 4.2 standard errors out (seed
+    1885628044: 0.068 mm in y over 47 samples) exceeded, at the floor. On 40
+    fresh draws of each kind the default stood at 0.998-1.004x the floor's
+    RMS and max errors on a still head; on a drift at 0.978-1.041x its RMS
+    and 0.943-1.097x its max, but for one whose floor was 0.027 %, at
+    0.093 % (bench/results/2026-12-03_cpu2_short-frame-floor). AB on the
+    host."""
     import petblur
     pc = _cases()
     case = pc.draw_case(kind, rng, small=True)
@@ -203,6 +211,7 @@ def test_short_frame_noise_measured_about_it(rng, kind):
     case.frame = (start, start + length)
     true = pc.reference(case, "true", times=400)
     follow = pc.errors(true, pc.reference(case, "logged", times=400))
+    floor = pc.errors(true, pc.noise_floor(case, times=400))
     op = petblur.BlurOperator(case.shape, case.voxel, case.logged, frame=case.frame, method="ab",
                               filter="exact", affine=case.affine, device="host")
     y = np.full(case.shape, np.nan, np.float32, order="F")
@@ -212,12 +221,16 @@ def test_short_frame_noise_measured_about_it(rng, kind):
     noise = case.logged.summary(list(case.frame), case.shape, case.voxel, affine=case.affine)["frames"][0]["noise_mm"]
     msg = (f"{pc.describe(case)}, frame {case.frame[0]:.2f}-{case.frame[1]:.2f} s: {segments} segments (true motion "
            f"{true_segments}), noise {noise:.3f} mm measured, {e['rms_pct']:.3f} % RMS {e['max_pct']:.3f} % max from "
-           f"the true motion's blur, following the noise {follow['rms_pct']:.3f} % and {follow['max_pct']:.3f} %")
+           f"the true motion's blur, following the noise {follow['rms_pct']:.3f} % and {follow['max_pct']:.3f} %, the "
+           f"noise's mean alone {floor['rms_pct']:.3f} % and {floor['max_pct']:.3f} %")
     print(msg)
     # the corners' 3-D scatter: sqrt(3) of the translations' sigma and the rotations' share (1.90-2.57 of it measured)
     assert 1.5 * case.noise_mm < noise < 3.5 * case.noise_mm, msg
     samples = int(np.sum((case.log_times > case.frame[0]) & (case.log_times < case.frame[1])))
     assert segments <= samples // 2, msg
-    share = 0.7 if kind == "still" else 1.3
-    assert e["rms_pct"] < max(1.0 if kind == "still" else 1.5, share * follow["rms_pct"]), msg
-    assert e["max_pct"] < max(2.5 if kind == "still" else 3.0, share * follow["max_pct"]), msg
+    # a still head's one flat piece is the noise's mean itself; a drift's
+    # line also takes the noise's slope over the frame
+    (rms_share, rms_add), (max_share, max_add) = ((1.02, 0.02), (1.02, 0.05)) if kind == "still" else \
+        ((1.2, 0.1), (1.3, 0.15))
+    assert e["rms_pct"] < rms_share * floor["rms_pct"] + rms_add, msg
+    assert e["max_pct"] < max_share * floor["max_pct"] + max_add, msg
