@@ -199,10 +199,12 @@ def test_short_frame_noise_measured_about_it(rng, kind):
     of following the noise, which a mean 4.2 standard errors out (seed
     1885628044: 0.068 mm in y over 47 samples) exceeded, at the floor. On 40
     fresh draws of each kind the default stood at 0.998-1.004x the floor's
-    RMS and max errors on a still head; on a drift at 0.978-1.041x its RMS
-    and 0.943-1.097x its max, but for one whose floor was 0.027 %, at
-    0.093 % (bench/results/2026-12-03_cpu2_short-frame-floor). AB on the
-    host."""
+    RMS error (0.998-1.006x its max) on a still head; on a drift at
+    0.978-1.042x its RMS and 0.943-1.097x its max, but for one whose floor
+    was 0.027 %, at 0.093 %, the line's own fit to the drift
+    (bench/results/2026-12-03_cpu2_short-frame-floor). On a drift, following
+    the noise stands near the floor too: there the segments' bound is what
+    tells a path that follows it. AB on the host."""
     import petblur
     pc = _cases()
     case = pc.draw_case(kind, rng, small=True)
@@ -231,6 +233,6 @@ def test_short_frame_noise_measured_about_it(rng, kind):
     # a still head's one flat piece is the noise's mean itself; a drift's
     # line also takes the noise's slope over the frame
     (rms_share, rms_add), (max_share, max_add) = ((1.02, 0.02), (1.02, 0.05)) if kind == "still" else \
-        ((1.2, 0.1), (1.3, 0.15))
+        ((1.2, 0.15), (1.3, 0.25))
     assert e["rms_pct"] < rms_share * floor["rms_pct"] + rms_add, msg
     assert e["max_pct"] < max_share * floor["max_pct"] + max_add, msg
