@@ -25,8 +25,9 @@
  * The frames are moved by a resampler that keeps their energy (sinc_shears.c):
  * under trilinear resampling the noise's energy falls with the pose and the
  * minimum follows it (docs/estimate-log.md gives the runs). The contrast
- * must show in the earlier half of the frames alone (contrast_early): a
- * second image that only later frames make is slow nods' blur, not uptake's.
+ * must show in the earlier half of the frames alone (contrast_early): the
+ * bias is the earliest frames', and a second image that only later frames
+ * make was, where it was traced, slow nods' blur.
  * Frames that follow a path (pass 3) are not one pose's view and stay out of
  * the sum; they are corrected with the rest, by their neighbours' contrast. */
 #include <math.h>
@@ -276,19 +277,20 @@ static int weights_follow_uptake(const collective *cv)
     return 1;
 }
 
-/* Whether the earlier half of the frames in the sum (in time) shows the
- * second image by itself, at EARLY_OVER_NOISE; too few frames there to tell
- * (as contrast_near_reference), the whole series decides. Uptake from
- * injection changes fastest in the first minutes, and the bias this pass
- * corrects is there: on 8 series of its own kind the earlier half showed
- * the second image at 9.8-10.9 times the noise's eigenvalue, the later half
- * at 1.2, and 8 more kept their corrections. On the five draws of issue
- * 47's family on which the pass acted (each with a nod of 53-190 s) the
- * earlier half stood at 1.3-2.1, the later at 5.0-13.8: their second image
- * is made by the later frames, where the nods are (docs/estimate-log.md).
- * That refuses the two of those corrections that helped as well (0.663
- * against 1.053 mm, 0.495 against 0.613) with the three that harmed (1.014
- * against 0.382, 1.243 against 0.743, 0.568 against 0.559). */
+/* Whether the earlier half of the frames in the sum (by count, in time)
+ * shows the second image by itself, at EARLY_OVER_NOISE; too few frames
+ * there to tell (as contrast_near_reference), the whole series decides.
+ * Uptake from injection changes fastest in the first minutes, and the bias
+ * this pass corrects is there: on 8 series of its own kind (equal frames of
+ * 10 s) the earlier half showed the second image at 9.8-10.9 times the
+ * noise's eigenvalue, the later half at 1.2, and 8 more kept their
+ * corrections. On the five draws of issue 47's family on which the pass
+ * acted (each with a nod of 53-186 s) the earlier half, their short frames
+ * of the first 48-105 s, stood at 1.3-2.1 and the later at 5.0-13.8; on
+ * one the nods' frames were shown to make it (docs/estimate-log.md). That
+ * refuses the two of those corrections that helped (0.663 against 1.053
+ * mm, 0.495 against 0.613) with the three that harmed (1.014 against
+ * 0.382, 1.243 against 0.743, 0.568 against 0.559). */
 static int contrast_early(collective *cv)
 {
     const size_t m = cv->used, n = m / 2;
