@@ -214,6 +214,27 @@ static double corner_distance(const collective *cv, const pb_pose *a, const pb_p
     return most;
 }
 
+/* Whether the n frames of the sum at indices part show the second image by
+ * themselves at bar times the noise's; too few of them to tell (fewer than
+ * the whole series' test asks), the whole series decides: 1. 0 where host
+ * memory runs out. */
+static int part_shows(collective *cv, const size_t *part, size_t n, double bar)
+{
+    const size_t m = cv->used;
+    size_t first, second;
+    if (n < cv->rank + 3)
+        return 1;
+    double *sub = malloc(sizeof(double) * n * n);
+    if (!sub)
+        return 0;
+    for (size_t i = 0; i < n; i++)
+        for (size_t j = 0; j < n; j++)
+            sub[i * n + j] = cv->gram[part[i] * m + part[j]];
+    int shows = second_image(cv, sub, n, &first, &second, bar);
+    free(sub);
+    return shows;
+}
+
 /* Whether the frames that sit where the reference frame does (within a
  * voxel of the grid compared on, at its corners) show the second image too,
  * where there are enough of them to tell.
@@ -232,20 +253,14 @@ static int contrast_near_reference(collective *cv, size_t ref)
 {
     const size_t m = cv->used;
     double voxel = fmax(cv->g.voxel_size[0], fmax(cv->g.voxel_size[1], cv->g.voxel_size[2]));
-    size_t *near = malloc(sizeof(size_t) * m), n = 0, first, second;
-    double *sub = malloc(sizeof(double) * m * m);
-    int shows = 0;
-    if (near && sub) {
-        for (size_t i = 0; i < m; i++)
-            if (corner_distance(cv, &cv->poses[cv->use[i]].pose, &cv->poses[ref].pose) <= voxel)
-                near[n++] = i;
-        for (size_t i = 0; i < n; i++)
-            for (size_t j = 0; j < n; j++)
-                sub[i * n + j] = cv->gram[near[i] * m + near[j]];
-        shows = n < cv->rank + 3 || second_image(cv, sub, n, &first, &second, CONTRAST_OVER_NOISE);
-    }
+    size_t *near = malloc(sizeof(size_t) * m), n = 0;
+    if (!near)
+        return 0;
+    for (size_t i = 0; i < m; i++)
+        if (corner_distance(cv, &cv->poses[cv->use[i]].pose, &cv->poses[ref].pose) <= voxel)
+            near[n++] = i;
+    int shows = part_shows(cv, near, n, CONTRAST_OVER_NOISE);
     free(near);
-    free(sub);
     return shows;
 }
 
@@ -293,18 +308,14 @@ static int weights_follow_uptake(const collective *cv)
  * 0.382, 1.243 against 0.743, 0.568 against 0.559). */
 static int contrast_early(collective *cv)
 {
-    const size_t m = cv->used, n = m / 2;
-    size_t first, second;
-    if (n < cv->rank + 3)
-        return 1;
-    double *sub = malloc(sizeof(double) * n * n);
-    if (!sub)
+    const size_t n = cv->used / 2;
+    size_t *early = malloc(sizeof(size_t) * (n + 1));
+    if (!early)
         return 0;
     for (size_t i = 0; i < n; i++)
-        for (size_t j = 0; j < n; j++)
-            sub[i * n + j] = cv->gram[i * m + j];
-    int shows = second_image(cv, sub, n, &first, &second, EARLY_OVER_NOISE);
-    free(sub);
+        early[i] = i;
+    int shows = part_shows(cv, early, n, EARLY_OVER_NOISE);
+    free(early);
     return shows;
 }
 
