@@ -203,6 +203,18 @@ def reference(case, which="true", times=None, check=False, doubling=False):
     return ref, out
 
 
+def draw_short_frame(kind, rng):
+    """A small case of `kind` whose frame is cut to 1.5-3 s inside its log,
+    as the first frames of a dynamic protocol: too few samples of a 20 Hz
+    log to measure the tracker's noise in (src/paths/path_fit.c,
+    window_noise)."""
+    case = draw_case(kind, rng, small=True)
+    length = rng.uniform(1.5, 3.0)
+    start = rng.uniform(case.frame[0], case.frame[1] - length)
+    case.frame = (start, start + length)
+    return case
+
+
 def noise_floor(case, times=400):
     """The dense blur of the true motion moved by the logged noise's mean
     over the frame (translations' and rotations' means of the log against

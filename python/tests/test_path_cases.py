@@ -198,21 +198,17 @@ def test_short_frame_noise_measured_about_it(rng, kind):
     (path_cases.noise_floor). A mean 4.2 standard errors out (seed
     1885628044: 0.068 mm in y over 47 samples) put the default, at the
     floor, above the share of following the noise it was held to, so the
-    floor is a bound too. On 40
-    fresh draws of each kind the default stood at 0.998-1.004x the floor's
-    RMS error (0.998-1.006x its max) on a still head; on 40 more, 38 at
-    the floor and two held on lines (below); on a drift at
-    0.978-1.042x its RMS and 0.943-1.097x its max, but for one whose floor
+    floor is a bound too. On 40 fresh draws of each kind the default stood
+    at 0.998-1.004x the floor's RMS error (0.998-1.006x its max) on a still
+    head (on 40 more, 38 at the floor and two held on lines, below); on a
+    drift at 0.978-1.042x its RMS and 0.943-1.097x its max, but for one whose floor
     was 0.027 %, at 0.093 %, the line's own fit to the drift
     (bench/results/2026-12-03_cpu2_short-frame-floor). On a drift, following
     the noise stands near the floor too: there the segments' bound is what
     tells a path that follows it. AB on the host."""
     import petblur
     pc = _cases()
-    case = pc.draw_case(kind, rng, small=True)
-    length = rng.uniform(1.5, 3.0)
-    start = rng.uniform(case.frame[0], case.frame[1] - length)
-    case.frame = (start, start + length)
+    case = pc.draw_short_frame(kind, rng)
     true = pc.reference(case, "true", times=400)
     follow = pc.errors(true, pc.reference(case, "logged", times=400))
     floor = pc.errors(true, pc.noise_floor(case, times=400))

@@ -15,11 +15,7 @@ import repo_scripts  # noqa: E402
 
 pc = repo_scripts.load("bench/path_cases.py", "path_cases")
 seed, kind = int(sys.argv[1]), sys.argv[2]
-rng = np.random.default_rng(seed)
-case = pc.draw_case(kind, rng, small=True)
-length = rng.uniform(1.5, 3.0)
-start = rng.uniform(case.frame[0], case.frame[1] - length)
-case.frame = (start, start + length)
+case = pc.draw_short_frame(kind, np.random.default_rng(seed))
 true = pc.reference(case, "true", times=400)
 follow = pc.errors(true, pc.reference(case, "logged", times=400))
 floor = pc.errors(true, pc.noise_floor(case, times=400))
