@@ -177,8 +177,12 @@ class Together(unittest.TestCase):
         msg = f"seed {seed} (PETBLUR_TEST_SEED_24): with pass 4 {np.round(e, 2)} (mean {e.mean():.3f}), " \
               f"without {np.round(off, 2)} (mean {off.mean():.3f})"
         print(msg)
-        if r["moved"]:
-            self.assertLess(e.mean(), 1.1 * off.mean(), msg)
+        # the pass acts on its own kind: under the earlier-half check (c59959d) on 14 fresh series on the host
+        # (bench/results/2026-12-03_cpu2_pass4-early) and 16 on CUDA (bench/results/2026-12-03_H200_cb89977_family-early),
+        # every one (where traced, 8 series, the earlier half showed the second image at 9.8-10.9 times the noise;
+        # the check asks 5)
+        self.assertTrue(r["moved"], msg)
+        self.assertLess(e.mean(), 1.1 * off.mean(), msg)
         self.assertLessEqual(e.max(), off.max() + 0.1, msg)
         self.assertLess(e.mean(), 1.2, msg)
         self.assertLess(e.max(), 2.2, msg)
