@@ -179,8 +179,8 @@ class Together(unittest.TestCase):
         print(msg)
         # the pass acts on its own kind: under the earlier-half check (c59959d) on 14 fresh series on the host
         # (bench/results/2026-12-03_cpu2_pass4-early) and 16 on CUDA (bench/results/2026-12-03_H200_cb89977_family-early),
-        # every one (where traced, 8 series, the earlier half showed the second image at 9.8-10.9 times the noise;
-        # the check asks 5)
+        # every one (traced on 8 other series, seeds 11-18, the earlier half showed the second image at 9.8-10.9 times
+        # the noise; the check asks 5)
         self.assertTrue(r["moved"], msg)
         self.assertLess(e.mean(), 1.1 * off.mean(), msg)
         self.assertLessEqual(e.max(), off.max() + 0.1, msg)
