@@ -63,11 +63,6 @@ typedef struct pb_kparams {
  * them, their reads of the input in flight together. */
 #define PB_TAP_RUN 8
 
-/* The taps of one column (one offset across z) a work item reads from one
- * window of PB_TAP_RUN + span input voxels along z: span, the column's offsets
- * along z from least to most, below PB_TAP_SPAN. */
-#define PB_TAP_SPAN 4
-
 /* The two axes across the layers of axis m, in their own order: a layer's x
  * and y. Along y or z a layer's rows run along x, as a warp's work items do;
  * along x they run along y, as pb_shift_ab_layers_x's warps do. */
@@ -104,15 +99,11 @@ typedef struct pb_kknot {
 
 /* One weight of the convolution that a motion of translations is
  * (cl/pb_taps.cl): tomograph voxel W reads object voxel W + offset, `linear`
- * places apart in the grid's memory. The taps come in columns, runs that share
- * offset[0] and offset[1], offset[2] rising; a column's first tap holds its
- * taps' count and span (its offsets along z, most less least), the others 0,
- * and each tap its offset along z less the column's least, `rise`. */
+ * places apart in the grid's memory. */
 typedef struct pb_ktap {
     int offset[3];
     int linear;
     float weight;
-    int column, span, rise;
 } pb_ktap;
 
 /* One REF time step. */

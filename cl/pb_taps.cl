@@ -13,8 +13,7 @@
  * forward's cost. Outside the grid the object is zero, as through the
  * texture's border; voxels whose every tap lands inside (all but a rim
  * prm.tap_reach wide) skip the checks. A work item makes PB_TAP_RUN voxels
- * along z, reading each tap once for all of them, and inside the rim each input
- * voxel once for every tap of a column (pb_ktap). */
+ * along z, reading each tap once for all of them. */
 PB_KERNEL void pb_shift_taps(PB_GLOBAL_RO float *in, PB_GLOBAL_RO pb_ktap *taps, pb_kparams prm,
                              PB_GLOBAL float *out)
 {
@@ -30,37 +29,11 @@ PB_KERNEL void pb_shift_taps(PB_GLOBAL_RO float *in, PB_GLOBAL_RO pb_ktap *taps,
     if (run == PB_TAP_RUN && ix >= prm.tap_reach[0] && ix < prm.dims[0] - prm.tap_reach[0] &&
         iy >= prm.tap_reach[1] && iy < prm.dims[1] - prm.tap_reach[1] && iz >= prm.tap_reach[2] &&
         iz + PB_TAP_RUN - 1 < prm.dims[2] - prm.tap_reach[2]) {
-        /* A column's taps read one window along z, each input voxel once:
-         * a diagonal path's taps come two or three to a column. Its least
-         * address is the least offset's forward, the most's mirrored. */
-        for (int t = 0; t < prm.taps;) {
-            int span = taps[t].span, end = t + taps[t].column;
-            int at = prm.mirror ? here - taps[t].linear - span * plane : here + taps[t].linear;
-            float win[PB_TAP_RUN + PB_TAP_SPAN - 1];
-            for (int j = 0; j < PB_TAP_RUN + PB_TAP_SPAN - 1; j++)
-                win[j] = j < PB_TAP_RUN + span ? in[at + j * plane] : 0.0f;
-            for (; t < end; t++) {
-                float w = taps[t].weight;
-                /* the window's indices fixed in each case, so it stays in registers */
-                switch (prm.mirror ? span - taps[t].rise : taps[t].rise) {
-                case 0:
-                    for (int k = 0; k < PB_TAP_RUN; k++)
-                        sum[k] += w * win[k];
-                    break;
-                case 1:
-                    for (int k = 0; k < PB_TAP_RUN; k++)
-                        sum[k] += w * win[k + 1];
-                    break;
-                case 2:
-                    for (int k = 0; k < PB_TAP_RUN; k++)
-                        sum[k] += w * win[k + 2];
-                    break;
-                default:
-                    for (int k = 0; k < PB_TAP_RUN; k++)
-                        sum[k] += w * win[k + 3];
-                    break;
-                }
-            }
+        for (int t = 0; t < prm.taps; t++) {
+            float w = taps[t].weight;
+            int at = here + sign * taps[t].linear;
+            for (int k = 0; k < PB_TAP_RUN; k++)
+                sum[k] += w * in[at + k * plane];
         }
     } else {
         for (int t = 0; t < prm.taps; t++) {

@@ -79,7 +79,7 @@ int main(int argc, char **argv)
         size_t n = 1;
         /* The second draw's grid is large enough that every axis has voxels
          * whose taps all land inside, runs of PB_TAP_RUN along z among them:
-         * the kernel's columns (pb_ktap) are read only there. */
+         * only there does the kernel read without its checks at the rim. */
         for (int d = 0; d < 3; d++) {
             g.dims[d] = (size_t)(draw == 0 ? pb_rand_range(10, 23) : pb_rand_range(26, 34));
             g.voxel_size[d] = pb_rand_range(1.5, 3.0);

@@ -94,32 +94,6 @@ static pb_status impulse_response(pb_device *dev, const pb_plan_frame *f, const 
     return PB_OK;
 }
 
-static int tap_order(const void *a, const void *b)
-{
-    const pb_ktap *p = a, *q = b;
-    for (int r = 1; r >= 0; r--)
-        if (p->offset[r] != q->offset[r])
-            return p->offset[r] < q->offset[r] ? -1 : 1;
-    return (p->offset[2] > q->offset[2]) - (p->offset[2] < q->offset[2]);
-}
-
-/* The taps in columns (pb_ktap), in memory order across them: a run sharing
- * offset[0] and offset[1], its offsets along z rising, cut where they would
- * span PB_TAP_SPAN or more. */
-static void columns(pb_ktap *taps, size_t k)
-{
-    qsort(taps, k, sizeof *taps, tap_order);
-    for (size_t head = 0, t; head < k; head = t) {
-        for (t = head; t < k && taps[t].offset[0] == taps[head].offset[0] &&
-                       taps[t].offset[1] == taps[head].offset[1] &&
-                       taps[t].offset[2] - taps[head].offset[2] < PB_TAP_SPAN;
-             t++)
-            taps[t].rise = taps[t].offset[2] - taps[head].offset[2];
-        taps[head].column = (int)(t - head);
-        taps[head].span = taps[t - 1].rise;
-    }
-}
-
 pb_status pb_shift_taps_prepare(pb_device *dev, const pb_blur_options *opt, pb_plan_frame *f)
 {
     long limit = taps_limit(), lo[3], hi[3];
@@ -151,7 +125,7 @@ pb_status pb_shift_taps_prepare(pb_device *dev, const pb_blur_options *opt, pb_p
     }
     k = 0;
     int reach[3] = {0, 0, 0};
-    for (size_t i = 0; i < count; i++) {
+    for (size_t i = 0; i < count; i++) { /* in memory order, as the kernel's reads go best */
         if (response[i] == 0.0f)
             continue;
         size_t w[3] = {i % n[0], i / n[0] % n[1], i / (n[0] * n[1])};
@@ -173,7 +147,6 @@ pb_status pb_shift_taps_prepare(pb_device *dev, const pb_blur_options *opt, pb_p
         k++;
     }
     free(response);
-    columns(taps, k);
     void *buffer = NULL;
     size_t bytes = (k ? k : 1) * sizeof *taps;
     st = dev->ops->buffer_create(dev, bytes, &buffer);
