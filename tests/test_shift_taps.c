@@ -77,9 +77,10 @@ int main(int argc, char **argv)
     for (int draw = 0; draw < 2; draw++) {
         pb_geometry g;
         size_t n = 1;
-        /* The second draw's grid is large enough that every axis has voxels
-         * whose taps all land inside, runs of PB_TAP_RUN along z among them:
-         * only there does the kernel read without its checks at the rim. */
+        /* The second draw's grid is large enough that under the short motions
+         * below every axis has voxels whose taps all land inside, runs of
+         * PB_TAP_RUN along z among them: only there does the kernel read
+         * without its checks at the rim. */
         for (int d = 0; d < 3; d++) {
             g.dims[d] = (size_t)(draw == 0 ? pb_rand_range(10, 23) : pb_rand_range(26, 34));
             g.voxel_size[d] = pb_rand_range(1.5, 3.0);
