@@ -11,7 +11,8 @@
  *           LAYERS   SHIFT for AB HARDWARE through 2-D layers along y or z
  *           LAYERS_X the same along x, one work item per run of PB_X_RUN voxels
  *           TAPS     under translations with short paths, the convolution
- *                    they are, from taps measured once (cl/pb_taps.cl)
+ *                    they are, from taps measured once (cl/pb_taps.cl);
+ *                    its _TILE kernel where a group's input fits PB_TAP_TILE
  *           PERMUTE  lays a buffer out in layers for the copy into them
  *           FIELD    the forward gather along a deformation field's paths
  *                    (cl/pb_field.cl); CL is RM there
@@ -60,6 +61,7 @@
     X(SHIFT_AB_SWEEP_LAYERS, pb_shift_ab_sweep_layers, LAYERS, AB_SWEEP, HARDWARE, LAYERS, ROWS) \
     X(SHIFT_AB_SWEEP_LAYERS_X, pb_shift_ab_sweep_layers_x, LAYERS_X, AB_SWEEP, HARDWARE, LAYERS, ROWS) \
     X(SHIFT_TAPS,       pb_shift_taps,       TAPS,     ANY,   ANY,      BUFFER,  ROWS)      \
+    X(SHIFT_TAPS_TILE,  pb_shift_taps_tile,  TAPS,     ANY,   ANY,      BUFFER,  ROWS)      \
     X(PERMUTE,          pb_permute,          PERMUTE,  ANY,   ANY,      BUFFER,  ROWS)      \
     X(FIELD_AB,         pb_field_ab,         FIELD,    AB,    HARDWARE, LINEAR,  TILES)     \
     X(FIELD_AB_EXACT,   pb_field_ab_exact,   FIELD,    AB,    EXACT,    NEAREST, TILES)     \

@@ -34,9 +34,12 @@ typedef struct pb_kparams {
      * the caller asks for progress (src/devices/launch.c). */
     int z0;
     /* pb_shift_taps (cl/pb_taps.cl): how many taps it reads, and their
-     * largest offset along each axis either way. */
+     * largest offset along each axis either way; pb_shift_taps_tile: their
+     * offsets' least and largest along each axis (the forward's). */
     int taps;
     int tap_reach[3];
+    int tap_lo[3];
+    int tap_hi[3];
     /* The field kernels (cl/pb_field.cl): the field grid, whether it is the
      * image grid, where the fields start in the plan buffer (in knots), and
      * the map from image texel coordinates to field voxel coordinates (centre
@@ -62,6 +65,13 @@ typedef struct pb_kparams {
 /* Voxels along z per work item of pb_shift_taps: each tap read once for
  * them, their reads of the input in flight together. */
 #define PB_TAP_RUN 8
+
+/* The input a work group of pb_shift_taps_tile holds in local memory, in
+ * floats: its voxels and the taps' window about them, (32 + ex - 1) x
+ * (4 + ey - 1) x (2 PB_TAP_RUN + ez - 1) for the window's extents e and the
+ * ROWS group of 32 x 4 x 2 work items. 18 KiB, so that eight groups (2048
+ * work items) share a multiprocessor's 228 KiB on Hopper, 164 KiB on A100. */
+#define PB_TAP_TILE 4608
 
 /* The two axes across the layers of axis m, in their own order: a layer's x
  * and y. Along y or z a layer's rows run along x, as a warp's work items do;

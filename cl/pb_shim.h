@@ -12,6 +12,8 @@
  *   PB_FN              a helper, inlined
  *   PB_GLOBAL(_RO)     device memory (read-only)
  *   PB_GID_X/Y/Z       the work item's (thread's) global id
+ *   PB_LID_X/Y/Z, PB_LSIZE_X/Y/Z  its id in its group, the group's size
+ *   PB_LOCAL           memory a work group shares;  PB_BARRIER  the group's barrier on it
  *   pb_image           a 3-D float volume the texture unit filters
  *   pb_layers          the same volume as 2-D layers along one axis
  *   PB_FETCH_LINEAR    a trilinear fetch;  PB_FETCH_NEAREST  a nearest one
@@ -33,6 +35,14 @@
 #define PB_GID_X ((int)get_global_id(0))
 #define PB_GID_Y ((int)get_global_id(1))
 #define PB_GID_Z ((int)get_global_id(2))
+#define PB_LID_X ((int)get_local_id(0))
+#define PB_LID_Y ((int)get_local_id(1))
+#define PB_LID_Z ((int)get_local_id(2))
+#define PB_LSIZE_X ((int)get_local_size(0))
+#define PB_LSIZE_Y ((int)get_local_size(1))
+#define PB_LSIZE_Z ((int)get_local_size(2))
+#define PB_LOCAL __local
+#define PB_BARRIER() barrier(CLK_LOCAL_MEM_FENCE)
 /* Macros, not typedefs: PoCL 3.1 reads garbage through a typedef that carries
  * the access qualifier (every fetch returned 123). */
 #define pb_image __read_only image3d_t
@@ -96,6 +106,14 @@ static inline void pb_atomic_add(volatile __global float *p, float v)
 #define PB_GID_X ((int)(blockIdx.x * blockDim.x + threadIdx.x))
 #define PB_GID_Y ((int)(blockIdx.y * blockDim.y + threadIdx.y))
 #define PB_GID_Z ((int)(blockIdx.z * blockDim.z + threadIdx.z))
+#define PB_LID_X ((int)threadIdx.x)
+#define PB_LID_Y ((int)threadIdx.y)
+#define PB_LID_Z ((int)threadIdx.z)
+#define PB_LSIZE_X ((int)blockDim.x)
+#define PB_LSIZE_Y ((int)blockDim.y)
+#define PB_LSIZE_Z ((int)blockDim.z)
+#define PB_LOCAL __shared__
+#define PB_BARRIER() __syncthreads()
 /* A texture object carries its filter mode, where OpenCL passes a sampler per
  * read: the backend binds a linear and a point texture object to the volume's
  * array and passes the one the kernel's row of cl/pb_kernel_table.h names. */

@@ -186,7 +186,7 @@ static void check_case(pb_context *ctx, const pb_geometry *g, const pb_motion *m
         int device = pb_context_backend(ctx) != PB_BACKEND_HOST;
         /* The scatter and a short translation's taps (cl/pb_taps.cl) read no texture. */
         int reads_buffer = (adjoint && (turns || opt->method == PB_METHOD_REF)) ||
-                           plan->set.frame[0].forward_fresh == PB_KERNEL_SHIFT_TAPS;
+                           pb_kernel_table[plan->set.frame[0].forward_fresh].family == PB_FAMILY_TAPS;
         pb_check(device && !reads_buffer ? input_ms > 0.0 && input_ms < kernel_ms : input_ms == 0.0,
                  "%s %s: device time %g ms, of it the input's %g ms", what, dir, kernel_ms, input_ms);
         pb_check(dev_copy(ctx, dout, dev, bytes, 0), "%s: reading device memory back", what);

@@ -47,6 +47,13 @@ static pb_kernel_id planned_kernel(pb_context *ctx, const pb_geometry *g, const 
     return k;
 }
 
+/* Either taps kernel: the plain one, or the one whose group holds its input
+ * in local memory (where the taps' window is small enough). */
+static int is_taps(pb_kernel_id k)
+{
+    return k == PB_KERNEL_SHIFT_TAPS || k == PB_KERNEL_SHIFT_TAPS_TILE;
+}
+
 /* The taps whatever their number, past the default limit. */
 #define FORCED "100000"
 
@@ -74,6 +81,7 @@ int main(int argc, char **argv)
         pb_ab_sampling sampling;
     } runs[] = {{PB_METHOD_AB, 0, 0}, {PB_METHOD_AB, 2, 0}, {PB_METHOD_AB, 0, PB_AB_SAMPLING_SWEEP},
                 {PB_METHOD_RM, 0, 0}, {PB_METHOD_RM, 3, 0}, {PB_METHOD_CL, 0, 0}};
+    int kernels_met[2] = {0, 0}; /* the plain taps kernel's plans, the tile's */
     for (int draw = 0; draw < 2; draw++) {
         pb_geometry g;
         size_t n = 1;
@@ -87,25 +95,33 @@ int main(int argc, char **argv)
             n *= g.dims[d];
         }
         /* Up to 2.5 voxels along each axis, either way, and a track of three
-         * translations through the frame; the identity; and a still pose far
+         * translations through the frame; the identity; a still pose far
          * off, half the grid to beyond it along each axis (a short path far
-         * from the reference: taps that land partly outside, or nowhere). */
-        double t[3], s[3], far[3];
+         * from the reference: taps that land partly outside, or nowhere); and
+         * 4-5 voxels along y and z, whose taps' window is too large for the
+         * kernel that holds a group's input in local memory (PB_TAP_TILE),
+         * where the identity's one tap always fits it. */
+        double t[3], s[3], far[3], longer[3];
         for (int d = 0; d < 3; d++) {
             t[d] = pb_rand_range(-2.5, 2.5) * g.voxel_size[d];
             s[d] = pb_rand_range(-1.5, 1.5) * g.voxel_size[d];
             far[d] = (pb_rand_uniform() < 0.5 ? -1.0 : 1.0) * pb_rand_range(0.5, 1.1) * (double)g.dims[d] *
                      g.voxel_size[d];
+            longer[d] = d == 0 ? pb_rand_range(-0.5, 0.5) * g.voxel_size[d]
+                               : (pb_rand_uniform() < 0.5 ? -1.0 : 1.0) * pb_rand_range(4.0, 5.0) * g.voxel_size[d];
         }
         pb_pose away = pb_test_pose(far[0], far[1], far[2], NULL, 0);
         pb_pose still = pb_test_pose(0, 0, 0, NULL, 0);
         pb_pose poses[3] = {still, pb_test_pose(t[0], t[1], t[2], NULL, 0), pb_test_pose(s[0], s[1], s[2], NULL, 0)};
         double times[3] = {0.0, pb_rand_range(0.3, 0.7), 1.0}, unit[2] = {0.0, 1.0};
-        pb_motion motions[4] = {{times, poses, 2, 0.0, times[1], 0, {0, 0, 0}}, {times, poses, 3, 0.0, 1.0, 0, {0, 0, 0}},
+        pb_motion motions[5] = {{times, poses, 2, 0.0, times[1], 0, {0, 0, 0}}, {times, poses, 3, 0.0, 1.0, 0, {0, 0, 0}},
                                 {unit, (pb_pose[]){still, still}, 2, 0.0, 1.0, 0, {0, 0, 0}},
-                                {unit, (pb_pose[]){away, away}, 2, 0.0, 1.0, 0, {0, 0, 0}}};
-        const char *motion_names[4] = {"a translation", "a track of translations", "the identity", "a pose far off"};
-        for (int c = 0; c < 4; c++) {
+                                {unit, (pb_pose[]){away, away}, 2, 0.0, 1.0, 0, {0, 0, 0}},
+                                {unit, (pb_pose[]){still, pb_test_pose(longer[0], longer[1], longer[2], NULL, 0)}, 2,
+                                 0.0, 1.0, 0, {0, 0, 0}}};
+        const char *motion_names[5] = {"a translation", "a track of translations", "the identity", "a pose far off",
+                                       "a longer translation"};
+        for (int c = 0; c < 5; c++) {
             pb_motion m = motions[c];
             for (size_t r = 0; r < sizeof runs / sizeof runs[0]; r++)
                 for (int filter = 0; filter < 2; filter++) {
@@ -122,18 +138,19 @@ int main(int argc, char **argv)
                     pb_kernel_id k = planned_kernel(ctx, &g, &m, &opt, &taps);
                     set_limit("0");
                     pb_kernel_id walk = planned_kernel(ctx, &g, &m, &opt, &walk_taps);
-                    if (!pb_check(k == PB_KERNEL_SHIFT_TAPS && walk != PB_KERNEL_SHIFT_TAPS,
+                    kernels_met[k == PB_KERNEL_SHIFT_TAPS_TILE] += is_taps(k);
+                    if (!pb_check(is_taps(k) && !is_taps(walk),
                                   "%s: kernels %s and %s, not the taps and the walk", what,
                                   k < PB_KERNEL_COUNT ? pb_kernel_table[k].name : "none",
                                   walk < PB_KERNEL_COUNT ? pb_kernel_table[walk].name : "none"))
                         continue;
-                    pb_check((chosen == PB_KERNEL_SHIFT_TAPS) == (taps <= PB_SHIFT_TAPS_MAX),
+                    pb_check(is_taps(chosen) == (taps <= PB_SHIFT_TAPS_MAX),
                              "%s: %d taps, the default chose %s", what, taps,
                              chosen < PB_KERNEL_COUNT ? pb_kernel_table[chosen].name : "none");
                     char below[16];
                     snprintf(below, sizeof below, "%d", taps - 1);
                     set_limit(below);
-                    pb_check(taps == 0 || planned_kernel(ctx, &g, &m, &opt, &walk_taps) != PB_KERNEL_SHIFT_TAPS,
+                    pb_check(taps == 0 || !is_taps(planned_kernel(ctx, &g, &m, &opt, &walk_taps)),
                              "%s: %d taps chosen under a limit of %s", what, taps, below);
 
                     float *x = pb_random_volume(n), *y = pb_random_volume(n);
@@ -176,6 +193,8 @@ int main(int argc, char **argv)
                 }
         }
     }
+    pb_check(kernels_met[0] > 0 && kernels_met[1] > 0, "the plain taps kernel ran %d plans, the tile's %d: "
+             "both should have", kernels_met[0], kernels_met[1]);
     pb_context_destroy(ctx);
     return pb_test_finish();
 }

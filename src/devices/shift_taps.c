@@ -124,7 +124,7 @@ pb_status pb_shift_taps_prepare(pb_device *dev, const pb_blur_options *opt, pb_p
         return pb_error(pb_owner(dev), PB_ERR_OUT_OF_MEMORY, "out of host memory for a translation's taps");
     }
     k = 0;
-    int reach[3] = {0, 0, 0};
+    int reach[3] = {0, 0, 0}, least[3] = {0, 0, 0}, most[3] = {0, 0, 0};
     for (size_t i = 0; i < count; i++) { /* in memory order, as the kernel's reads go best */
         if (response[i] == 0.0f)
             continue;
@@ -141,6 +141,8 @@ pb_status pb_shift_taps_prepare(pb_device *dev, const pb_blur_options *opt, pb_p
         for (int r = 0; r < 3; r++) {
             taps[k].offset[r] = (int)d[r];
             reach[r] = (int)labs(d[r]) > reach[r] ? (int)labs(d[r]) : reach[r];
+            least[r] = k == 0 || d[r] < least[r] ? (int)d[r] : least[r];
+            most[r] = k == 0 || d[r] > most[r] ? (int)d[r] : most[r];
         }
         taps[k].linear = (int)(d[0] + (long)dims[0] * (d[1] + (long)dims[1] * d[2]));
         taps[k].weight = response[i];
@@ -160,9 +162,17 @@ pb_status pb_shift_taps_prepare(pb_device *dev, const pb_blur_options *opt, pb_p
     }
     dev->ops->buffer_release(dev, f->poses);
     f->poses = buffer;
-    f->forward = f->forward_fresh = f->adjoint = PB_KERNEL_SHIFT_TAPS;
+    /* The group's input and the taps' window about it (cl/pb_taps.cl); the
+     * mirrored window of the adjoint is as large. */
+    const unsigned *group = pb_kernel_table[PB_KERNEL_SHIFT_TAPS_TILE].group;
+    long tile = (long)(group[0] + most[0] - least[0]) * (group[1] + most[1] - least[1]) *
+                (group[2] * PB_TAP_RUN + most[2] - least[2]);
+    f->forward = f->forward_fresh = f->adjoint = tile <= PB_TAP_TILE ? PB_KERNEL_SHIFT_TAPS_TILE : PB_KERNEL_SHIFT_TAPS;
     f->forward_prm.taps = f->adjoint_prm.taps = (int)k;
-    for (int r = 0; r < 3; r++)
+    for (int r = 0; r < 3; r++) {
         f->forward_prm.tap_reach[r] = f->adjoint_prm.tap_reach[r] = reach[r];
+        f->forward_prm.tap_lo[r] = f->adjoint_prm.tap_lo[r] = least[r];
+        f->forward_prm.tap_hi[r] = f->adjoint_prm.tap_hi[r] = most[r];
+    }
     return PB_OK;
 }
