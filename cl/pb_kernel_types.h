@@ -34,12 +34,13 @@ typedef struct pb_kparams {
      * the caller asks for progress (src/devices/launch.c). */
     int z0;
     /* pb_shift_taps (cl/pb_taps.cl): how many taps it reads, and their
-     * largest offset along each axis either way; pb_shift_taps_tile: their
-     * offsets' least and largest along each axis (the forward's). */
+     * largest offset along each axis either way; pb_shift_taps_tile: the
+     * window of the offsets it reads (mirrored for the adjoint), from its
+     * least corner tap_lo, tap_size voxels along each axis. */
     int taps;
     int tap_reach[3];
     int tap_lo[3];
-    int tap_hi[3];
+    int tap_size[3];
     /* The field kernels (cl/pb_field.cl): the field grid, whether it is the
      * image grid, where the fields start in the plan buffer (in knots), and
      * the map from image texel coordinates to field voxel coordinates (centre
@@ -66,12 +67,15 @@ typedef struct pb_kparams {
  * them, their reads of the input in flight together. */
 #define PB_TAP_RUN 8
 
-/* The input a work group of pb_shift_taps_tile holds in local memory, in
- * floats: its voxels and the taps' window about them, (32 + ex - 1) x
- * (4 + ey - 1) x (2 PB_TAP_RUN + ez - 1) for the window's extents e and the
- * ROWS group of 32 x 4 x 2 work items. 18 KiB, so that eight groups (2048
- * work items) share a multiprocessor's 228 KiB on Hopper, 164 KiB on A100. */
-#define PB_TAP_TILE 4608
+/* The input a work group of pb_shift_taps_tile holds in local memory: its
+ * voxels and the taps' window about them, for the ROWS group of 32 x 4 x 2
+ * work items of PB_TAP_RUN voxels each and a window of at most 9 x 4 x 4
+ * voxels. The strides are constants, so that a tap's eight reads are one
+ * address and eight immediate offsets. 20.8 KiB: eight groups (2048 work
+ * items) fit a multiprocessor's shared memory on Hopper and Ampere. */
+#define PB_TAP_TX 40
+#define PB_TAP_TY 7
+#define PB_TAP_TZ 19
 
 /* The two axes across the layers of axis m, in their own order: a layer's x
  * and y. Along y or z a layer's rows run along x, as a warp's work items do;
@@ -114,6 +118,7 @@ typedef struct pb_ktap {
     int offset[3];
     int linear;
     float weight;
+    int tile[2]; /* pb_shift_taps_tile: its place in the tile, forward and mirrored */
 } pb_ktap;
 
 /* One REF time step. */

@@ -55,29 +55,30 @@ PB_KERNEL void pb_shift_taps(PB_GLOBAL_RO float *in, PB_GLOBAL_RO pb_ktap *taps,
     }
 }
 
-/* pb_shift_taps with the group's input read once into local memory: its
- * voxels and the taps' window about them (zero outside the grid), each input
- * voxel read from the device's memory once a group where the plain kernel
- * reads it once a tap, its reads at most tap offsets off the 128-byte lines.
- * The taps are summed in the same order, so the result is the plain kernel's
- * bit for bit (a tap outside the grid adds w * 0). The host chooses it where
- * the tile fits PB_TAP_TILE (src/devices/shift_taps.c). */
+/* pb_shift_taps with the group's input held in local memory: its voxels and
+ * the taps' window about them, zero outside the grid. Reading the input once
+ * a tap from device memory took more instructions than reads: the rim checks
+ * of the warps that straddle the rim (a quarter of them at 256 voxels a row),
+ * and a 64-bit address a read (ncu, docs/performance.md "Short
+ * translations"). Here the rim is checked once, as the tile is read, and a
+ * tap's eight reads share one address. The taps are summed in the same
+ * order as pb_shift_taps', a tap outside the grid adding w * 0. The host
+ * chooses it where the window fits (src/devices/shift_taps.c) and places
+ * each tap in the tile, forward and mirrored (pb_ktap.tile). */
 PB_KERNEL void pb_shift_taps_tile(PB_GLOBAL_RO float *in, PB_GLOBAL_RO pb_ktap *taps, pb_kparams prm,
                                   PB_GLOBAL float *out)
 {
-    PB_LOCAL float tile[PB_TAP_TILE];
-    int sign = prm.mirror ? -1 : 1;
-    /* The window of the offsets read, sign * d, from its least corner. */
-    int lo_x = prm.mirror ? -prm.tap_hi[0] : prm.tap_lo[0];
-    int lo_y = prm.mirror ? -prm.tap_hi[1] : prm.tap_lo[1];
-    int lo_z = prm.mirror ? -prm.tap_hi[2] : prm.tap_lo[2];
+    PB_LOCAL float tile[PB_TAP_TX * PB_TAP_TY * PB_TAP_TZ];
     int lx = PB_LID_X, ly = PB_LID_Y, lz = PB_LID_Z;
-    int tx = PB_LSIZE_X + prm.tap_hi[0] - prm.tap_lo[0];
-    int ty = PB_LSIZE_Y + prm.tap_hi[1] - prm.tap_lo[1];
-    int tz = PB_LSIZE_Z * PB_TAP_RUN + prm.tap_hi[2] - prm.tap_lo[2];
-    int x0 = PB_GID_X - lx + lo_x, y0 = PB_GID_Y - ly + lo_y;
-    int z0 = (PB_GID_Z - lz) * PB_TAP_RUN + prm.z0 + lo_z;
-    /* Rows of the tile along x, a row to each line of PB_LSIZE_X work items. */
+    /* The tile's extent and its least corner in the grid. */
+    int tx = PB_LSIZE_X + prm.tap_size[0] - 1, ty = PB_LSIZE_Y + prm.tap_size[1] - 1;
+    int tz = PB_LSIZE_Z * PB_TAP_RUN + prm.tap_size[2] - 1;
+    int x0 = PB_GID_X - lx + prm.tap_lo[0], y0 = PB_GID_Y - ly + prm.tap_lo[1];
+    int z0 = (PB_GID_Z - lz) * PB_TAP_RUN + prm.z0 + prm.tap_lo[2];
+    int inside = x0 >= 0 && y0 >= 0 && z0 >= 0 && x0 + tx <= prm.dims[0] && y0 + ty <= prm.dims[1] &&
+                 z0 + tz <= prm.dims[2];
+    /* Rows along x, one to each line of PB_LSIZE_X work items in turn (a
+     * row's y and z kept by steps: a division a row cost as much as its reads). */
     int lines = PB_LSIZE_Y * PB_LSIZE_Z, y = ly + PB_LSIZE_Y * lz, z = 0;
     for (;; y += lines) {
         while (y >= ty) {
@@ -86,31 +87,37 @@ PB_KERNEL void pb_shift_taps_tile(PB_GLOBAL_RO float *in, PB_GLOBAL_RO pb_ktap *
         }
         if (z >= tz)
             break;
-        int gy = y0 + y, gz = z0 + z;
-        int row_in = gy >= 0 && gy < prm.dims[1] && gz >= 0 && gz < prm.dims[2];
-        int from = prm.dims[0] * (gy + prm.dims[1] * gz);
-        for (int x = lx; x < tx; x += PB_LSIZE_X) {
-            int gx = x0 + x;
-            tile[x + tx * (y + ty * z)] = row_in && gx >= 0 && gx < prm.dims[0] ? in[from + gx] : 0.0f;
+        int gy = y0 + y, gz = z0 + z, row = PB_TAP_TX * (y + PB_TAP_TY * z);
+        int from = x0 + prm.dims[0] * (gy + prm.dims[1] * gz);
+        if (inside) {
+            for (int x = lx; x < tx; x += PB_LSIZE_X)
+                tile[row + x] = in[from + x];
+        } else {
+            int row_in = gy >= 0 && gy < prm.dims[1] && gz >= 0 && gz < prm.dims[2];
+            for (int x = lx; x < tx; x += PB_LSIZE_X)
+                tile[row + x] = row_in && x0 + x >= 0 && x0 + x < prm.dims[0] ? in[from + x] : 0.0f;
         }
     }
     PB_BARRIER();
     int ix = PB_GID_X, iy = PB_GID_Y, iz = PB_GID_Z * PB_TAP_RUN + prm.z0;
     if (!PB_IN_GRID(ix, iy, iz))
         return;
-    int here = lx + tx * (ly + ty * lz * PB_TAP_RUN), plane = tx * ty;
+    int here = lx + PB_TAP_TX * (ly + PB_TAP_TY * lz * PB_TAP_RUN), mirror = prm.mirror;
     float sum[PB_TAP_RUN];
     for (int k = 0; k < PB_TAP_RUN; k++)
         sum[k] = 0.0f;
     for (int t = 0; t < prm.taps; t++) {
         float w = taps[t].weight;
-        int at = here + sign * taps[t].offset[0] - lo_x +
-                 tx * (sign * taps[t].offset[1] - lo_y + ty * (sign * taps[t].offset[2] - lo_z));
+        int at = here + taps[t].tile[mirror];
         for (int k = 0; k < PB_TAP_RUN; k++)
-            sum[k] += w * tile[at + k * plane];
+            sum[k] += w * tile[at + k * PB_TAP_TX * PB_TAP_TY];
     }
     int run = prm.dims[2] - iz < PB_TAP_RUN ? prm.dims[2] - iz : PB_TAP_RUN;
-    int v = ix + prm.dims[0] * iy + prm.dims[0] * prm.dims[1] * iz;
-    for (int k = 0; k < run; k++, v += prm.dims[0] * prm.dims[1])
-        out[v] = prm.accumulate ? out[v] + sum[k] : sum[k];
+    int plane = prm.dims[0] * prm.dims[1], v = ix + prm.dims[0] * iy + plane * iz;
+    if (prm.accumulate)
+        for (int k = 0; k < run; k++)
+            out[v + k * plane] += sum[k];
+    else
+        for (int k = 0; k < run; k++)
+            out[v + k * plane] = sum[k];
 }

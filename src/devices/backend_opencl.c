@@ -180,13 +180,16 @@ static pb_status ocl_launch(pb_device *dev, const pb_launch *l)
     e |= pb_cl.clSetKernelArg(k, 3, sizeof(cl_mem), &out);
     if (e != CL_SUCCESS)
         return pb_cl_fail(dev, PB_ERR_LAUNCH, "clSetKernelArg", e);
+    /* On a CPU the implementation picks the group, except for a kernel
+     * whose local memory is laid out for the table's (pb_shift_taps_tile). */
+    int grouped = cl->is_gpu || l->kernel == PB_KERNEL_SHIFT_TAPS_TILE;
     size_t local[3], global[3];
     for (int d = 0; d < 3; d++) {
         local[d] = info->group[d];
-        global[d] = cl->is_gpu ? (l->extent[d] + local[d] - 1) / local[d] * local[d] : l->extent[d];
+        global[d] = grouped ? (l->extent[d] + local[d] - 1) / local[d] * local[d] : l->extent[d];
     }
     cl_event *ev = timed_slot(dev);
-    e = pb_cl.clEnqueueNDRangeKernel(cl->queue, k, 3, NULL, global, cl->is_gpu ? local : NULL, 0, NULL, ev);
+    e = pb_cl.clEnqueueNDRangeKernel(cl->queue, k, 3, NULL, global, grouped ? local : NULL, 0, NULL, ev);
     if (e != CL_SUCCESS)
         return pb_cl_fail(dev, PB_ERR_LAUNCH, "clEnqueueNDRangeKernel", e);
     timed_queued(dev, ev);

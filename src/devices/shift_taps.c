@@ -149,6 +149,16 @@ pb_status pb_shift_taps_prepare(pb_device *dev, const pb_blur_options *opt, pb_p
         k++;
     }
     free(response);
+    /* pb_shift_taps_tile where the window fits its tile, the same size
+     * mirrored; each tap's place in the tile, forward and mirrored. */
+    const unsigned *group = pb_kernel_table[PB_KERNEL_SHIFT_TAPS_TILE].group;
+    int tiled = group[0] + most[0] - least[0] <= PB_TAP_TX && group[1] + most[1] - least[1] <= PB_TAP_TY &&
+                group[2] * PB_TAP_RUN + most[2] - least[2] <= PB_TAP_TZ;
+    for (size_t t = 0; t < k; t++) {
+        const int *d = taps[t].offset;
+        taps[t].tile[0] = d[0] - least[0] + PB_TAP_TX * (d[1] - least[1] + PB_TAP_TY * (d[2] - least[2]));
+        taps[t].tile[1] = most[0] - d[0] + PB_TAP_TX * (most[1] - d[1] + PB_TAP_TY * (most[2] - d[2]));
+    }
     void *buffer = NULL;
     size_t bytes = (k ? k : 1) * sizeof *taps;
     st = dev->ops->buffer_create(dev, bytes, &buffer);
@@ -162,17 +172,13 @@ pb_status pb_shift_taps_prepare(pb_device *dev, const pb_blur_options *opt, pb_p
     }
     dev->ops->buffer_release(dev, f->poses);
     f->poses = buffer;
-    /* The group's input and the taps' window about it (cl/pb_taps.cl); the
-     * mirrored window of the adjoint is as large. */
-    const unsigned *group = pb_kernel_table[PB_KERNEL_SHIFT_TAPS_TILE].group;
-    long tile = (long)(group[0] + most[0] - least[0]) * (group[1] + most[1] - least[1]) *
-                (group[2] * PB_TAP_RUN + most[2] - least[2]);
-    f->forward = f->forward_fresh = f->adjoint = tile <= PB_TAP_TILE ? PB_KERNEL_SHIFT_TAPS_TILE : PB_KERNEL_SHIFT_TAPS;
+    f->forward = f->forward_fresh = f->adjoint = tiled ? PB_KERNEL_SHIFT_TAPS_TILE : PB_KERNEL_SHIFT_TAPS;
     f->forward_prm.taps = f->adjoint_prm.taps = (int)k;
     for (int r = 0; r < 3; r++) {
         f->forward_prm.tap_reach[r] = f->adjoint_prm.tap_reach[r] = reach[r];
-        f->forward_prm.tap_lo[r] = f->adjoint_prm.tap_lo[r] = least[r];
-        f->forward_prm.tap_hi[r] = f->adjoint_prm.tap_hi[r] = most[r];
+        f->forward_prm.tap_lo[r] = least[r];
+        f->adjoint_prm.tap_lo[r] = -most[r];
+        f->forward_prm.tap_size[r] = f->adjoint_prm.tap_size[r] = most[r] - least[r] + 1;
     }
     return PB_OK;
 }
