@@ -76,6 +76,14 @@ typedef struct pb_kparams {
 #define PB_TAP_TX 40
 #define PB_TAP_TY 7
 #define PB_TAP_TZ 19
+/* How the group of 256 (PB_TAP_LINES lines of 32) reads it: the rows' first
+ * 32 voxels a line a row, PB_TAP_BODY_STEPS rows each; the PB_TAP_RIM past
+ * them, PB_TAP_RIM_STEPS voxels each work item. */
+#define PB_TAP_GROUP 256
+#define PB_TAP_LINES 8
+#define PB_TAP_RIM (PB_TAP_TX - 32)
+#define PB_TAP_BODY_STEPS ((PB_TAP_TY * PB_TAP_TZ + PB_TAP_LINES - 1) / PB_TAP_LINES)
+#define PB_TAP_RIM_STEPS ((PB_TAP_RIM * PB_TAP_TY * PB_TAP_TZ + PB_TAP_GROUP - 1) / PB_TAP_GROUP)
 
 /* The two axes across the layers of axis m, in their own order: a layer's x
  * and y. Along y or z a layer's rows run along x, as a warp's work items do;

@@ -77,26 +77,36 @@ PB_KERNEL void pb_shift_taps_tile(PB_GLOBAL_RO float *in, PB_GLOBAL_RO pb_ktap *
     int z0 = (PB_GID_Z - lz) * PB_TAP_RUN + prm.z0 + prm.tap_lo[2];
     int inside = x0 >= 0 && y0 >= 0 && z0 >= 0 && x0 + tx <= prm.dims[0] && y0 + ty <= prm.dims[1] &&
                  z0 + tz <= prm.dims[2];
-    /* Rows along x, one to each line of PB_LSIZE_X work items in turn (a
-     * row's y and z kept by steps: a division a row cost as much as its reads). */
-    int lines = PB_LSIZE_Y * PB_LSIZE_Z, y = ly + PB_LSIZE_Y * lz, z = 0;
-    for (;; y += lines) {
-        while (y >= ty) {
-            y -= ty;
-            z++;
-        }
-        if (z >= tz)
-            break;
-        int gy = y0 + y, gz = z0 + z, row = PB_TAP_TX * (y + PB_TAP_TY * z);
-        int from = x0 + prm.dims[0] * (gy + prm.dims[1] * gz);
-        if (inside) {
-            for (int x = lx; x < tx; x += PB_LSIZE_X)
-                tile[row + x] = in[from + x];
-        } else {
-            int row_in = gy >= 0 && gy < prm.dims[1] && gz >= 0 && gz < prm.dims[2];
-            for (int x = lx; x < tx; x += PB_LSIZE_X)
-                tile[row + x] = row_in && x0 + x >= 0 && x0 + x < prm.dims[0] ? in[from + x] : 0.0f;
-        }
+    /* The tile's rows (y, z), r = y + PB_TAP_TY z: x below 32 read by the
+     * eight lines of 32 work items a row each in turn, the rest of x (at
+     * most 8) by all in turn. Every read is issued before any is stored, so
+     * that a group waits for the device's memory once; a row outside the
+     * window (y >= ty or z >= tz) is not read. */
+    int line = ly + PB_LSIZE_Y * lz, me = lx + PB_LSIZE_X * line;
+    float body[PB_TAP_BODY_STEPS], rim[PB_TAP_RIM_STEPS];
+    for (int j = 0; j < PB_TAP_BODY_STEPS; j++) {
+        int r = line + PB_TAP_LINES * j, y = r % PB_TAP_TY, z = r / PB_TAP_TY;
+        int gx = x0 + lx, gy = y0 + y, gz = z0 + z;
+        int use = y < ty && z < tz &&
+                  (inside || (gx >= 0 && gx < prm.dims[0] && gy >= 0 && gy < prm.dims[1] && gz >= 0 && gz < prm.dims[2]));
+        body[j] = use ? in[gx + prm.dims[0] * (gy + prm.dims[1] * gz)] : 0.0f;
+    }
+    for (int j = 0; j < PB_TAP_RIM_STEPS; j++) {
+        int i = me + PB_TAP_GROUP * j, r = i / PB_TAP_RIM, y = r % PB_TAP_TY, z = r / PB_TAP_TY;
+        int gx = x0 + PB_LSIZE_X + i % PB_TAP_RIM, gy = y0 + y, gz = z0 + z;
+        int use = PB_LSIZE_X + i % PB_TAP_RIM < tx && y < ty && z < tz &&
+                  (inside || (gx >= 0 && gx < prm.dims[0] && gy >= 0 && gy < prm.dims[1] && gz >= 0 && gz < prm.dims[2]));
+        rim[j] = use ? in[gx + prm.dims[0] * (gy + prm.dims[1] * gz)] : 0.0f;
+    }
+    for (int j = 0; j < PB_TAP_BODY_STEPS; j++) {
+        int r = line + PB_TAP_LINES * j;
+        if (r < PB_TAP_TY * PB_TAP_TZ)
+            tile[PB_TAP_TX * r + lx] = body[j];
+    }
+    for (int j = 0; j < PB_TAP_RIM_STEPS; j++) {
+        int i = me + PB_TAP_GROUP * j;
+        if (i < PB_TAP_RIM * PB_TAP_TY * PB_TAP_TZ)
+            tile[PB_TAP_TX * (i / PB_TAP_RIM) + PB_LSIZE_X + i % PB_TAP_RIM] = rim[j];
     }
     PB_BARRIER();
     int ix = PB_GID_X, iy = PB_GID_Y, iz = PB_GID_Z * PB_TAP_RUN + prm.z0;

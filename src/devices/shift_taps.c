@@ -152,7 +152,8 @@ pb_status pb_shift_taps_prepare(pb_device *dev, const pb_blur_options *opt, pb_p
     /* pb_shift_taps_tile where the window fits its tile, the same size
      * mirrored; each tap's place in the tile, forward and mirrored. */
     const unsigned *group = pb_kernel_table[PB_KERNEL_SHIFT_TAPS_TILE].group;
-    int tiled = group[0] + most[0] - least[0] <= PB_TAP_TX && group[1] + most[1] - least[1] <= PB_TAP_TY &&
+    int tiled = group[0] == 32 && group[0] * group[1] * group[2] == PB_TAP_GROUP &&
+                group[0] + most[0] - least[0] <= PB_TAP_TX && group[1] + most[1] - least[1] <= PB_TAP_TY &&
                 group[2] * PB_TAP_RUN + most[2] - least[2] <= PB_TAP_TZ;
     for (size_t t = 0; t < k; t++) {
         const int *d = taps[t].offset;
