@@ -55,6 +55,29 @@ PB_KERNEL void pb_shift_taps(PB_GLOBAL_RO float *in, PB_GLOBAL_RO pb_ktap *taps,
     }
 }
 
+/* The reads of pb_shift_taps_tile's tile by work item (lx, line), into
+ * registers, without a branch: a voxel is read where it lies in the window
+ * and, checked, in the grid; zero elsewhere. */
+PB_FN void pb_tile_reads(PB_GLOBAL_RO float *in, const int *dims, int x0, int y0, int z0, int tx, int ty, int tz,
+                         int lx, int line, int me, float *body, float *rim, int checked)
+{
+    for (int j = 0; j < PB_TAP_BODY_STEPS; j++) {
+        int r = line + PB_TAP_LINES * j, y = r % PB_TAP_TY, z = r / PB_TAP_TY;
+        int gx = x0 + lx, gy = y0 + y, gz = z0 + z, use = (y < ty) & (z < tz);
+        if (checked)
+            use &= (gx >= 0) & (gx < dims[0]) & (gy >= 0) & (gy < dims[1]) & (gz >= 0) & (gz < dims[2]);
+        body[j] = use ? in[gx + dims[0] * (gy + dims[1] * gz)] : 0.0f;
+    }
+    for (int j = 0; j < PB_TAP_RIM_STEPS; j++) {
+        int i = me + PB_TAP_GROUP * j, r = i / PB_TAP_RIM, y = r % PB_TAP_TY, z = r / PB_TAP_TY;
+        int x = 32 + i % PB_TAP_RIM, gx = x0 + x, gy = y0 + y, gz = z0 + z;
+        int use = (x < tx) & (y < ty) & (z < tz);
+        if (checked)
+            use &= (gx >= 0) & (gx < dims[0]) & (gy >= 0) & (gy < dims[1]) & (gz >= 0) & (gz < dims[2]);
+        rim[j] = use ? in[gx + dims[0] * (gy + dims[1] * gz)] : 0.0f;
+    }
+}
+
 /* pb_shift_taps with the group's input held in local memory: its voxels and
  * the taps' window about them, zero outside the grid. Reading the input once
  * a tap from device memory took more instructions than reads: the rim checks
@@ -81,23 +104,14 @@ PB_KERNEL void pb_shift_taps_tile(PB_GLOBAL_RO float *in, PB_GLOBAL_RO pb_ktap *
      * eight lines of 32 work items a row each in turn, the rest of x (at
      * most 8) by all in turn. Every read is issued before any is stored, so
      * that a group waits for the device's memory once; a row outside the
-     * window (y >= ty or z >= tz) is not read. */
+     * window (y >= ty or z >= tz) is not read, and the grid's bounds are
+     * checked only where the tile reaches past them. */
     int line = ly + PB_LSIZE_Y * lz, me = lx + PB_LSIZE_X * line;
     float body[PB_TAP_BODY_STEPS], rim[PB_TAP_RIM_STEPS];
-    for (int j = 0; j < PB_TAP_BODY_STEPS; j++) {
-        int r = line + PB_TAP_LINES * j, y = r % PB_TAP_TY, z = r / PB_TAP_TY;
-        int gx = x0 + lx, gy = y0 + y, gz = z0 + z;
-        int use = y < ty && z < tz &&
-                  (inside || (gx >= 0 && gx < prm.dims[0] && gy >= 0 && gy < prm.dims[1] && gz >= 0 && gz < prm.dims[2]));
-        body[j] = use ? in[gx + prm.dims[0] * (gy + prm.dims[1] * gz)] : 0.0f;
-    }
-    for (int j = 0; j < PB_TAP_RIM_STEPS; j++) {
-        int i = me + PB_TAP_GROUP * j, r = i / PB_TAP_RIM, y = r % PB_TAP_TY, z = r / PB_TAP_TY;
-        int gx = x0 + PB_LSIZE_X + i % PB_TAP_RIM, gy = y0 + y, gz = z0 + z;
-        int use = PB_LSIZE_X + i % PB_TAP_RIM < tx && y < ty && z < tz &&
-                  (inside || (gx >= 0 && gx < prm.dims[0] && gy >= 0 && gy < prm.dims[1] && gz >= 0 && gz < prm.dims[2]));
-        rim[j] = use ? in[gx + prm.dims[0] * (gy + prm.dims[1] * gz)] : 0.0f;
-    }
+    if (inside)
+        pb_tile_reads(in, prm.dims, x0, y0, z0, tx, ty, tz, lx, line, me, body, rim, 0);
+    else
+        pb_tile_reads(in, prm.dims, x0, y0, z0, tx, ty, tz, lx, line, me, body, rim, 1);
     for (int j = 0; j < PB_TAP_BODY_STEPS; j++) {
         int r = line + PB_TAP_LINES * j;
         if (r < PB_TAP_TY * PB_TAP_TZ)
@@ -106,7 +120,7 @@ PB_KERNEL void pb_shift_taps_tile(PB_GLOBAL_RO float *in, PB_GLOBAL_RO pb_ktap *
     for (int j = 0; j < PB_TAP_RIM_STEPS; j++) {
         int i = me + PB_TAP_GROUP * j;
         if (i < PB_TAP_RIM * PB_TAP_TY * PB_TAP_TZ)
-            tile[PB_TAP_TX * (i / PB_TAP_RIM) + PB_LSIZE_X + i % PB_TAP_RIM] = rim[j];
+            tile[PB_TAP_TX * (i / PB_TAP_RIM) + 32 + i % PB_TAP_RIM] = rim[j];
     }
     PB_BARRIER();
     int ix = PB_GID_X, iy = PB_GID_Y, iz = PB_GID_Z * PB_TAP_RUN + prm.z0;
