@@ -84,6 +84,9 @@ typedef struct pb_kparams {
 #define PB_TAP_RIM (PB_TAP_TX - 32)
 #define PB_TAP_BODY_STEPS ((PB_TAP_TY * PB_TAP_TZ + PB_TAP_LINES - 1) / PB_TAP_LINES)
 #define PB_TAP_RIM_STEPS ((PB_TAP_RIM * PB_TAP_TY * PB_TAP_TZ + PB_TAP_GROUP - 1) / PB_TAP_GROUP)
+#if PB_TAP_LINES != PB_TAP_TY + 1
+#error "a line's rows step by PB_TAP_TY + 1 (cl/pb_taps.cl, pb_tile_reads)"
+#endif
 
 /* The two axes across the layers of axis m, in their own order: a layer's x
  * and y. Along y or z a layer's rows run along x, as a warp's work items do;

@@ -57,24 +57,32 @@ PB_KERNEL void pb_shift_taps(PB_GLOBAL_RO float *in, PB_GLOBAL_RO pb_ktap *taps,
 
 /* The reads of pb_shift_taps_tile's tile by work item (lx, line), into
  * registers, without a branch: a voxel is read where it lies in the window
- * and, checked, in the grid; zero elsewhere. */
+ * and, checked, in the grid; zero elsewhere. A line's rows step by
+ * PB_TAP_LINES = PB_TAP_TY + 1, so its row's y and z and its place in the
+ * grid step without a division. */
 PB_FN void pb_tile_reads(PB_GLOBAL_RO float *in, const int *dims, int x0, int y0, int z0, int tx, int ty, int tz,
                          int lx, int line, int me, float *body, float *rim, int checked)
 {
+    int plane = dims[0] * dims[1], y = line % PB_TAP_TY, z = line / PB_TAP_TY, gx = x0 + lx;
+    int at = gx + dims[0] * (y0 + y) + plane * (z0 + z), x_in = (gx >= 0) & (gx < dims[0]);
     for (int j = 0; j < PB_TAP_BODY_STEPS; j++) {
-        int r = line + PB_TAP_LINES * j, y = r % PB_TAP_TY, z = r / PB_TAP_TY;
-        int gx = x0 + lx, gy = y0 + y, gz = z0 + z, use = (y < ty) & (z < tz);
+        int use = (y < ty) & (z < tz);
         if (checked)
-            use &= (gx >= 0) & (gx < dims[0]) & (gy >= 0) & (gy < dims[1]) & (gz >= 0) & (gz < dims[2]);
-        body[j] = use ? in[gx + dims[0] * (gy + dims[1] * gz)] : 0.0f;
+            use &= x_in & (y0 + y >= 0) & (y0 + y < dims[1]) & (z0 + z >= 0) & (z0 + z < dims[2]);
+        body[j] = use ? in[at] : 0.0f;
+        /* The next row: y + 1 and z + 1, y wrapping past PB_TAP_TY - 1. */
+        int wraps = y == PB_TAP_TY - 1;
+        y = wraps ? 0 : y + 1;
+        z += 1 + wraps;
+        at += wraps ? 2 * plane - (PB_TAP_TY - 1) * dims[0] : plane + dims[0];
     }
     for (int j = 0; j < PB_TAP_RIM_STEPS; j++) {
-        int i = me + PB_TAP_GROUP * j, r = i / PB_TAP_RIM, y = r % PB_TAP_TY, z = r / PB_TAP_TY;
-        int x = 32 + i % PB_TAP_RIM, gx = x0 + x, gy = y0 + y, gz = z0 + z;
-        int use = (x < tx) & (y < ty) & (z < tz);
+        unsigned i = (unsigned)(me + PB_TAP_GROUP * j), r = i / PB_TAP_RIM; /* unsigned: no sign's fix-ups */
+        int x = 32 + (int)(i % PB_TAP_RIM), ry = (int)(r % PB_TAP_TY), rz = (int)(r / PB_TAP_TY);
+        int gy = y0 + ry, gz = z0 + rz, use = (x < tx) & (ry < ty) & (rz < tz);
         if (checked)
-            use &= (gx >= 0) & (gx < dims[0]) & (gy >= 0) & (gy < dims[1]) & (gz >= 0) & (gz < dims[2]);
-        rim[j] = use ? in[gx + dims[0] * (gy + dims[1] * gz)] : 0.0f;
+            use &= (x0 + x >= 0) & (x0 + x < dims[0]) & (gy >= 0) & (gy < dims[1]) & (gz >= 0) & (gz < dims[2]);
+        rim[j] = use ? in[x0 + x + dims[0] * gy + plane * gz] : 0.0f;
     }
 }
 
