@@ -12,7 +12,7 @@
  *           LAYERS_X the same along x, one work item per run of PB_X_RUN voxels
  *           TAPS     under translations with short paths, the convolution
  *                    they are, from taps measured once (cl/pb_taps.cl);
- *                    its _TILE kernel where a group's input fits PB_TAP_TILE
+ *                    its _TILE kernel where the taps' window fits PB_TAP_TX/TY/TZ
  *           PERMUTE  lays a buffer out in layers for the copy into them
  *           FIELD    the forward gather along a deformation field's paths
  *                    (cl/pb_field.cl); CL is RM there

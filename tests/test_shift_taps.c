@@ -21,7 +21,9 @@
  *     (PB_TEX_TRILINEAR_ERROR) where it rounds its weights (NVIDIA);
  *   - the identity: one tap of weight 1, the input back bit for bit (AB, RM;
  *     CL builds each step's map from the pose in float, an ulp off the
- *     voxel's centre, and reads its neighbours at weights of that size). */
+ *     voxel's centre, and reads its neighbours at weights of that size);
+ *   - both taps kernels ran: pb_shift_taps_tile, which reads a group's input
+ *     from local memory where the taps' window fits it, and pb_shift_taps. */
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -99,7 +101,7 @@ int main(int argc, char **argv)
          * off, half the grid to beyond it along each axis (a short path far
          * from the reference: taps that land partly outside, or nowhere); and
          * 4-5 voxels along y and z, whose taps' window is too large for the
-         * kernel that holds a group's input in local memory (PB_TAP_TILE),
+         * kernel that holds a group's input in local memory (PB_TAP_TY),
          * where the identity's one tap always fits it. */
         double t[3], s[3], far[3], longer[3];
         for (int d = 0; d < 3; d++) {
