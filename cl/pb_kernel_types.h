@@ -71,8 +71,10 @@ typedef struct pb_kparams {
  * voxels and the taps' window about them, for the ROWS group of 32 x 4 x 2
  * work items of PB_TAP_RUN voxels each and a window of at most 9 x 4 x 4
  * voxels. The strides are constants, so that a tap's eight reads are one
- * address and eight immediate offsets. 20.8 KiB: eight groups (2048 work
- * items) fit a multiprocessor's shared memory on Hopper and Ampere. */
+ * address and eight immediate offsets. 20.8 KiB a group: within OpenCL's
+ * least local memory (32 KiB), ten groups of a Hopper multiprocessor's
+ * 228 KiB, seven of an A100's 164 KiB; on the H200 its 48 registers, not
+ * the tile, limit it to five groups. */
 #define PB_TAP_TX 40
 #define PB_TAP_TY 7
 #define PB_TAP_TZ 19

@@ -56,6 +56,57 @@ static int is_taps(pb_kernel_id k)
     return k == PB_KERNEL_SHIFT_TAPS || k == PB_KERNEL_SHIFT_TAPS_TILE;
 }
 
+/* The plan's other paths through the taps kernels, against the one-shot
+ * calls' bx = B x and bty = B^T y: the forward in progress slabs (a launch a
+ * slab, each from its prm.z0) bit for bit, and the adjoint added into an
+ * object volume that holds z (pb_plan_adjoint's accumulate), z + B^T y. */
+static void plan_paths(pb_context *ctx, const pb_geometry *g, const pb_motion *m, const pb_blur_options *opt,
+                       const float *x, const float *y, const float *bx, const float *bty, const char *what)
+{
+    size_t n = g->dims[0] * g->dims[1] * g->dims[2];
+    float *z = pb_random_volume(n), *got = malloc(n * sizeof *got);
+    pb_volume *object = NULL, *tomograph = NULL;
+    pb_plan *plan = NULL;
+    pb_status st = pb_volume_create(ctx, g, &object);
+    if (st == PB_OK)
+        st = pb_volume_create(ctx, g, &tomograph);
+    if (st == PB_OK)
+        st = pb_plan_create(ctx, g, m, opt, &plan);
+    pb_test_progress_log log = {0, 0, 0.0};
+    if (st == PB_OK)
+        st = pb_volume_upload(object, x);
+    if (st == PB_OK)
+        st = pb_context_set_progress(ctx, pb_test_record_progress, &log);
+    if (st == PB_OK)
+        st = pb_plan_forward(plan, 0, object, tomograph);
+    pb_context_set_progress(ctx, NULL, NULL);
+    if (st == PB_OK)
+        st = pb_volume_download(tomograph, got);
+    if (pb_check(st == PB_OK, "%s: the plan in slabs: %s", what, pb_last_error(ctx))) {
+        pb_check(log.calls >= 3 && log.bad == 0 && memcmp(got, bx, n * sizeof *got) == 0,
+                 "%s: in %d progress slabs (%d bad) the forward differs from one launch by %g", what, log.calls,
+                 log.bad, pb_max_abs_diff(got, bx, n));
+        st = pb_volume_upload(tomograph, y);
+        if (st == PB_OK)
+            st = pb_volume_upload(object, z);
+        if (st == PB_OK)
+            st = pb_plan_adjoint(plan, 0, tomograph, object, 1);
+        if (st == PB_OK)
+            st = pb_volume_download(object, got);
+        if (pb_check(st == PB_OK, "%s: the adjoint added: %s", what, pb_last_error(ctx))) {
+            for (size_t i = 0; i < n; i++)
+                z[i] += bty[i];
+            pb_check(pb_max_abs_diff(got, z, n) <= 1e-6 * pb_max_abs(z, n),
+                     "%s: the adjoint added into z is %g from z + B^T y", what, pb_max_abs_diff(got, z, n));
+        }
+    }
+    pb_plan_destroy(plan);
+    pb_volume_destroy(object);
+    pb_volume_destroy(tomograph);
+    free(z);
+    free(got);
+}
+
 /* The taps whatever their number, past the default limit. */
 #define FORCED "100000"
 
@@ -84,15 +135,20 @@ int main(int argc, char **argv)
     } runs[] = {{PB_METHOD_AB, 0, 0}, {PB_METHOD_AB, 2, 0}, {PB_METHOD_AB, 0, PB_AB_SAMPLING_SWEEP},
                 {PB_METHOD_RM, 0, 0}, {PB_METHOD_RM, 3, 0}, {PB_METHOD_CL, 0, 0}};
     int kernels_met[2] = {0, 0}; /* the plain taps kernel's plans, the tile's */
-    for (int draw = 0; draw < 2; draw++) {
+    for (int draw = 0; draw < 3; draw++) {
         pb_geometry g;
         size_t n = 1;
         /* The second draw's grid is large enough that under the short motions
          * below every axis has voxels whose taps all land inside, runs of
-         * PB_TAP_RUN along z among them: only there does the kernel read
-         * without its checks at the rim. */
+         * PB_TAP_RUN along z among them: only there does pb_shift_taps read
+         * without its checks at the rim. The third's holds work groups of
+         * pb_shift_taps_tile whose whole tile lies inside (at least 72 x 16 x
+         * 38 for any window the tile takes), read without checks, and enough
+         * slices for three progress slabs; it runs AB and RM. */
+        static const double lo[3][3] = {{10, 10, 10}, {26, 26, 26}, {72, 16, 40}};
+        static const double hi[3][3] = {{23, 23, 23}, {34, 34, 34}, {80, 24, 48}};
         for (int d = 0; d < 3; d++) {
-            g.dims[d] = (size_t)(draw == 0 ? pb_rand_range(10, 23) : pb_rand_range(26, 34));
+            g.dims[d] = (size_t)pb_rand_range(lo[draw][d], hi[draw][d]);
             g.voxel_size[d] = pb_rand_range(1.5, 3.0);
             n *= g.dims[d];
         }
@@ -126,7 +182,7 @@ int main(int argc, char **argv)
         for (int c = 0; c < 5; c++) {
             pb_motion m = motions[c];
             for (size_t r = 0; r < sizeof runs / sizeof runs[0]; r++)
-                for (int filter = 0; filter < 2; filter++) {
+                for (int filter = 0; filter < 2 && (draw < 2 || r == 0 || r == 3); filter++) {
                     pb_blur_options opt = {runs[r].method, (pb_filter)filter, runs[r].steps, 0, 0, 0,
                                            PB_PATH_DEFAULT, 0.0, runs[r].sampling, 0};
                     char what[160];
@@ -185,6 +241,11 @@ int main(int argc, char **argv)
                             pb_check(taps == 1 && memcmp(bx, x, n * sizeof *x) == 0 &&
                                          memcmp(bty, y, n * sizeof *y) == 0,
                                      "%s: %d taps, the input not returned bit for bit", what, taps);
+                        if (draw == 2 && c < 2) {
+                            set_limit(FORCED);
+                            plan_paths(ctx, &g, &m, &opt, x, y, bx, bty, what);
+                            set_limit(NULL);
+                        }
                     }
                     free(x);
                     free(y);
