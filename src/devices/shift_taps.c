@@ -124,7 +124,7 @@ pb_status pb_shift_taps_prepare(pb_device *dev, const pb_blur_options *opt, pb_p
         return pb_error(pb_owner(dev), PB_ERR_OUT_OF_MEMORY, "out of host memory for a translation's taps");
     }
     k = 0;
-    int reach[3] = {0, 0, 0}, least[3] = {0, 0, 0}, most[3] = {0, 0, 0};
+    int least[3] = {0, 0, 0}, most[3] = {0, 0, 0}; /* the offsets' bounds along each axis */
     for (size_t i = 0; i < count; i++) { /* in memory order, as the kernel's reads go best */
         if (response[i] == 0.0f)
             continue;
@@ -140,7 +140,6 @@ pb_status pb_shift_taps_prepare(pb_device *dev, const pb_blur_options *opt, pb_p
             continue;
         for (int r = 0; r < 3; r++) {
             taps[k].offset[r] = (int)d[r];
-            reach[r] = (int)labs(d[r]) > reach[r] ? (int)labs(d[r]) : reach[r];
             least[r] = k == 0 || d[r] < least[r] ? (int)d[r] : least[r];
             most[r] = k == 0 || d[r] > most[r] ? (int)d[r] : most[r];
         }
@@ -176,7 +175,8 @@ pb_status pb_shift_taps_prepare(pb_device *dev, const pb_blur_options *opt, pb_p
     f->forward = f->forward_fresh = f->adjoint = tiled ? PB_KERNEL_SHIFT_TAPS_TILE : PB_KERNEL_SHIFT_TAPS;
     f->forward_prm.taps = f->adjoint_prm.taps = (int)k;
     for (int r = 0; r < 3; r++) {
-        f->forward_prm.tap_reach[r] = f->adjoint_prm.tap_reach[r] = reach[r];
+        int reach = abs(least[r]) > abs(most[r]) ? abs(least[r]) : abs(most[r]);
+        f->forward_prm.tap_reach[r] = f->adjoint_prm.tap_reach[r] = reach;
         f->forward_prm.tap_lo[r] = least[r];
         f->adjoint_prm.tap_lo[r] = -most[r];
         f->forward_prm.tap_size[r] = f->adjoint_prm.tap_size[r] = most[r] - least[r] + 1;
