@@ -11,19 +11,9 @@
 mode_adjoints() (
     old=$(realpath "${1:?usage: bench/gpu.sh adjoints OLD_TREE}")
     echo "old: ${PB_OLD:-unknown}" | write_machine "$OUT/machine.txt"
-    build_tree "$old" "$PWD/build-adj-old" -Dopencl=disabled -- src/cli/petblur &
-    p1=$!
-    build_tree "$PWD" "$PWD/build-adj-new" -Dopencl=disabled -- src/cli/petblur &
-    p2=$!
-    wait $p1 && wait $p2 || exit 1
     work=$(mktemp -d)
-    for round in 1 2; do
-        for which in old new; do
-            ./build-adj-$which/src/cli/petblur bench --device cuda --phantoms homogeneity --points 4 --runs 10 \
-                --out-dir "$work/$which-$round" -q >/dev/null || { echo "gpu.sh adjoints: $which's bench failed"; exit 1; }
-            cp "$work/$which-$round/results.csv" "$OUT/$which-$round.csv"
-        done
-    done
+    bench_old_new "$old" adj "$work" --phantoms homogeneity --points 4 --runs 10 || exit 1
+    cp "$work"/old-1.csv "$work"/new-1.csv "$work"/old-2.csv "$work"/new-2.csv "$OUT/"
     python3 - "$OUT" <<'PY' | tee "$OUT/adjoints.md"
 import csv, sys
 out = sys.argv[1]

@@ -123,6 +123,27 @@ build_tree() {
     rm -f "$log"
 }
 
+# OLD_TREE and this tree built CUDA-only into build-NAME-old and
+# build-NAME-new, then petblur bench with the arguments given run old, new,
+# old, new; each run's results.csv copied to DIR/{old,new}-{1,2}.csv.
+#   bench_old_new OLD_TREE NAME DIR [petblur bench options]
+bench_old_new() {
+    local old=$1 name=$2 dir=$3 p1 p2 round which
+    shift 3
+    build_tree "$old" "$PWD/build-$name-old" -Dopencl=disabled -- src/cli/petblur &
+    p1=$!
+    build_tree "$PWD" "$PWD/build-$name-new" -Dopencl=disabled -- src/cli/petblur &
+    p2=$!
+    wait $p1 && wait $p2 || return 1
+    for round in 1 2; do
+        for which in old new; do
+            "./build-$name-$which/src/cli/petblur" bench --device cuda "$@" --out-dir "$dir/run-$which-$round" -q \
+                >/dev/null || { echo "gpu.sh $name: $which's bench failed"; return 1; }
+            cp "$dir/run-$which-$round/results.csv" "$dir/$which-$round.csv"
+        done
+    done
+}
+
 # The host, cuda and opencl suites of build-gpu, OpenCL on NVIDIA's driver
 # alone; their lines and largest differences appended to $OUT/tests.txt (a
 # failed suite's log tail too) and shown; the pose derivative's errors, where

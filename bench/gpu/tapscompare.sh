@@ -10,19 +10,8 @@
 mode_tapscompare() (
     old=$(realpath "${1:?usage: bench/gpu.sh tapscompare OLD_TREE}")
     echo "old: ${PB_OLD:-unknown}" | write_machine "$OUT/machine.txt"
-    build_tree "$old" "$PWD/build-taps-old" -Dopencl=disabled -- src/cli/petblur &
-    p1=$!
-    build_tree "$PWD" "$PWD/build-taps-new" -Dopencl=disabled -- src/cli/petblur &
-    p2=$!
-    wait $p1 && wait $p2 || exit 1
     work=$(mktemp -d)
-    for round in 1 2; do
-        for which in old new; do
-            ./build-taps-$which/src/cli/petblur bench --device cuda --phantoms homogeneity --scenarios 1,2 --points 4 \
-                --runs 20 --out-dir "$work/$which-$round" -q >/dev/null || { echo "tapscompare: $which failed"; exit 1; }
-            cp "$work/$which-$round/results.csv" "$work/$which-$round.csv"
-        done
-    done
+    bench_old_new "$old" taps "$work" --phantoms homogeneity --scenarios 1,2 --points 4 --runs 20 || exit 1
     python3 - "$work" <<'PY' | tee "$OUT/taps.md"
 import csv, sys
 work = sys.argv[1]
@@ -58,5 +47,5 @@ PY
                 echo "$which $k: $(grep -c '/\*[0-9a-f]\{4\}\*/' "$work/sass-$which-$k.txt") SASS instructions"
         done
     done
-    tar -C "$work" -czf "$OUT/sass.tar.gz" $(cd "$work" && ls sass-*.txt)
+    (cd "$work" && tar -czf "$OUT/sass.tar.gz" sass-*.txt)
 )
