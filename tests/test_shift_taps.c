@@ -53,7 +53,7 @@ static pb_kernel_id planned_kernel(pb_context *ctx, const pb_geometry *g, const 
  * in local memory (where the taps' window is small enough). */
 static int is_taps(pb_kernel_id k)
 {
-    return k == PB_KERNEL_SHIFT_TAPS || k == PB_KERNEL_SHIFT_TAPS_TILE;
+    return k < PB_KERNEL_COUNT && pb_kernel_table[k].family == PB_FAMILY_TAPS;
 }
 
 /* The plan's other paths through the taps kernels, against the one-shot
