@@ -21,6 +21,9 @@ s / 80 mm radians, where the kind has noise). Kinds:
                the frame, 20 Hz log with noise
   rotation     20-60 degrees over the frame about a random axis, 10 Hz log
   translation  an oblique translation of 1-3 voxels at constant speed, 1 Hz log
+  translation-long  the same of 4-12 voxels: one straight segment, longer
+               than AB reads exactly (PB_AB_EXACT_TO, 3 voxels), so the walk's
+               own error shows (docs/methods.md, "Long segments")
 
 The references (accuracy_case.py's resampling): the mean over equally spaced
 times of the frame of the activity resampled in world coordinates by scipy's
@@ -62,7 +65,7 @@ from scipy.spatial.transform import Rotation
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from accuracy_case import errors, mean_resampled, method_options, track_poses  # noqa: E402
 
-KINDS = ("still", "drift-1hz", "drift-20hz", "nod", "seizure", "rotation", "translation")
+KINDS = ("still", "drift-1hz", "drift-20hz", "nod", "seizure", "rotation", "translation", "translation-long")
 HEAD_MM = 80.0  # rotation noise of s / HEAD_MM rad moves a point this far from the centre by s mm, as the translation's
 TRUE_RATE_HZ = 100.0  # the true motion's samples for its petblur.Motion (segment counts only)
 MIN_TIMES, TIMES_PER_VOXEL, MAX_TIMES = 400, 20, 20000
@@ -299,9 +302,9 @@ def draw_case(kind, rng, small):
         params = {"turn_deg": float(np.degrees(np.linalg.norm(turn)))}
         true = lambda u: (Rotation.from_rotvec(np.outer(_smoothstep(u / seconds), turn)),  # noqa: E731
                           np.zeros((len(u), 3)))
-    elif kind == "translation":
+    elif kind in ("translation", "translation-long"):
         seconds, rate = rng.uniform(10, 30), 1.0
-        target = rng.uniform(1, 3)
+        target = rng.uniform(1, 3) if kind == "translation" else rng.uniform(4, 12)
         move = np.linalg.inv(affine[:3, :3]) @ _unit(rng)
         move = affine[:3, :3] @ (target * move / np.linalg.norm(move))  # target voxels of this grid, in mm
         center = centre

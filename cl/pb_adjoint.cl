@@ -253,7 +253,7 @@ PB_FN void pb_ab_walked_adjoint(PB_GLOBAL float *out, pb_kparams prm, int sweep,
 PB_FN void pb_ab_segment_adjoint(PB_GLOBAL float *out, pb_kparams prm, pb_cell *cell, int sweep, const float *a,
                                   const float *b, float v)
 {
-    float walk = pb_ab_walk_weight(a, b);
+    float walk = prm.chord ? 0.0f : pb_ab_walk_weight(a, b);
     if (walk < 1.0f)
         PB_CHORD_PIECES(a, b, pb_cell_piece(out, prm, cell, a, pb_d, pb_t0, pb_l, v * (1.0f - walk)));
     if (walk > 0.0f)

@@ -437,10 +437,11 @@ PB_FN float pb_ab_walked(pb_image img, int exact, int sweep, const pb_place *pl,
 }
 
 /* AB over a-b through the 3-D image: exact, walked or both by its length
- * (pb_ab_walk_weight). */
-PB_FN float pb_ab_segment(pb_image img, int exact, int sweep, const pb_place *pl, const float *a, const float *b)
+ * (pb_ab_walk_weight), or exact whatever its length (chord: prm.chord). */
+PB_FN float pb_ab_segment(pb_image img, int exact, int sweep, int chord, const pb_place *pl, const float *a,
+                          const float *b)
 {
-    float walk = pb_ab_walk_weight(a, b);
+    float walk = chord ? 0.0f : pb_ab_walk_weight(a, b);
     if (walk == 1.0f)
         return pb_ab_walked(img, exact, sweep, pl, a, b);
     float sum = pb_chord(img, exact, pl, a, b);
@@ -502,9 +503,9 @@ PB_FN float pb_ab_sampled(pb_image img, pb_kparams prm, int exact, int sweep, co
                           const float *b)
 {
     if (prm.steps == 1) /* the usual case: no pieces, no division */
-        return pb_ab_segment(img, exact, sweep, pl, a, b);
+        return pb_ab_segment(img, exact, sweep, prm.chord, pl, a, b);
     float sum = 0.0f, inv = 1.0f / (float)prm.steps;
-    PB_FOR_PIECES(prm.steps, inv, a, b, sum += pb_ab_segment(img, exact, sweep, pl, pa, pb));
+    PB_FOR_PIECES(prm.steps, inv, a, b, sum += pb_ab_segment(img, exact, sweep, prm.chord, pl, pa, pb));
     return sum * inv;
 }
 
@@ -553,7 +554,8 @@ PB_FN float pb_polyline(pb_image img, PB_GLOBAL_RO pb_kpose *poses, pb_kparams p
      * instructions, docs/methods.md). */
     if (ab && prm.steps == 1) {
         PB_FOR_SEGMENTS(poses, prm, u,
-                        total += poses[j].weight * pb_ab_segment(img, exact, ab == PB_AB_SWEEP, pl, a, b));
+                        total += poses[j].weight *
+                                 pb_ab_segment(img, exact, ab == PB_AB_SWEEP, prm.chord, pl, a, b));
         return total;
     }
     PB_FOR_SEGMENTS(poses, prm, u,

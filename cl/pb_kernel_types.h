@@ -13,6 +13,7 @@ typedef struct pb_kparams {
     int dims[3];
     int segments;    /* key poses - 1 */
     int steps;       /* CL/RM: samples per segment (0: AB's slice count, RM's short segments exact); AB: sub-segments (>= 1) */
+    int chord;       /* AB: every segment read exactly (PB_AB_SAMPLING_CHORD), never walked */
     int ref_points;  /* REF: points per voxel */
     int ref_steps;   /* REF: time steps over the frame */
     unsigned int seed;

@@ -545,16 +545,22 @@ typedef enum pb_path_model {
     PB_PATH_TRACKED = 2  /* one segment per tracked interval: the paper's polyline */
 } pb_path_model;
 
-/* How AB reads a slice its path crosses. The paper's AB reads it at one
- * point, where the path crosses the slice's centre plane, and so does not see
- * the path sweep sideways across the slice; SWEEP reads it at two points of
+/* How AB reads a segment. Short segments (up to 3 voxels along their major
+ * axis) are always read exactly, as the trilinear image's time average over
+ * the chord; long ones (6 voxels on, and in part between) by the paper's
+ * walk, which reads each slice at one point, where the path crosses the
+ * slice's centre plane, and so does not see the path sweep sideways across
+ * the slice: on sharp objects that is up to several percent
+ * (docs/methods.md, "Long segments"). SWEEP reads a slice at two points of
  * the path where it sweeps sideways by more than an eighth of a voxel a
- * slice (docs/methods.md, "AB's own sampling"). Set with RM, CL or REF, it
- * is refused. */
+ * slice ("AB's own sampling"); CHORD reads every segment exactly, whatever
+ * its length, at a cost that grows with the voxels the chord crosses. Set
+ * with RM, CL or REF, it is refused. */
 typedef enum pb_ab_sampling {
     PB_AB_SAMPLING_DEFAULT = 0, /* PB_AB_SAMPLING_SLICE */
     PB_AB_SAMPLING_SLICE = 1,   /* one point a slice: the paper's AB */
-    PB_AB_SAMPLING_SWEEP = 2    /* two points a slice where the path sweeps sideways */
+    PB_AB_SAMPLING_SWEEP = 2,   /* two points a slice where the path sweeps sideways */
+    PB_AB_SAMPLING_CHORD = 3    /* every segment read exactly, never walked */
 } pb_ab_sampling;
 
 /* Zero-initialised options are the defaults. pb_options_check states every
@@ -594,7 +600,7 @@ typedef struct pb_blur_options {
 
 /* The names the program and the bindings give these options: methods "ab",
  * "rm", "cl", "ref"; filters "hardware", "exact"; AB samplings "default",
- * "slice", "sweep". A _name call returns NULL for a value that has none; a
+ * "slice", "sweep", "chord". A _name call returns NULL for a value that has none; a
  * _parse call that does not know the name fails with PB_ERR_INVALID_ARGUMENT
  * and a message that lists every name with what it means. */
 PB_API const char *pb_method_name(pb_method method);

@@ -111,14 +111,16 @@ int main(int argc, char **argv)
     float *x = pb_random_volume(n), *y = pb_random_volume(n);
     float *bx = malloc(n * sizeof *bx), *bty = malloc(n * sizeof *bty);
 
-    /* Options: the paper's defaults, explicit sub-segments or steps, and AB
-     * read at two points a slice where its path sweeps sideways. */
+    /* Options: the paper's defaults, explicit sub-segments or steps, AB
+     * read at two points a slice where its path sweeps sideways, and AB
+     * reading every segment exactly (chord). */
     struct {
         pb_method method;
         unsigned steps;
         pb_ab_sampling sampling;
     } runs[] = {{PB_METHOD_AB, 0, 0}, {PB_METHOD_AB, 3, 0}, {PB_METHOD_AB, 0, PB_AB_SAMPLING_SWEEP},
-                {PB_METHOD_AB, 2, PB_AB_SAMPLING_SWEEP}, {PB_METHOD_RM, 0, 0}, {PB_METHOD_RM, 5, 0},
+                {PB_METHOD_AB, 2, PB_AB_SAMPLING_SWEEP}, {PB_METHOD_AB, 0, PB_AB_SAMPLING_CHORD},
+                {PB_METHOD_RM, 0, 0}, {PB_METHOD_RM, 5, 0},
                 {PB_METHOD_CL, 0, 0}, {PB_METHOD_REF, 0, 0}};
     double worst[2] = {0.0, 0.0};
     for (size_t r = 0; r < sizeof runs / sizeof runs[0]; r++)

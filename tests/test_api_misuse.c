@@ -238,8 +238,8 @@ static void test_names(void)
         pb_check(pb_filter_parse(pb_filter_name((pb_filter)f), &back) == PB_OK && back == (pb_filter)f,
                  "filter %d round trip", f);
     }
-    for (int a = PB_AB_SAMPLING_DEFAULT; a <= PB_AB_SAMPLING_SWEEP; a++) {
-        pb_ab_sampling back = PB_AB_SAMPLING_SWEEP;
+    for (int a = PB_AB_SAMPLING_DEFAULT; a <= PB_AB_SAMPLING_CHORD; a++) {
+        pb_ab_sampling back = PB_AB_SAMPLING_CHORD;
         pb_check(pb_ab_sampling_parse(pb_ab_sampling_name((pb_ab_sampling)a), &back) == PB_OK &&
                      back == (pb_ab_sampling)a, "sampling %d round trip", a);
     }

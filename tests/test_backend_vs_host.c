@@ -164,8 +164,11 @@ int main(int argc, char **argv)
                 }
                 if (method == PB_METHOD_AB && pb_rand_uniform() < 0.3)
                     opt.steps = 2;
-                if (method == PB_METHOD_AB && pb_rand_uniform() < 0.5)
-                    opt.ab_sampling = PB_AB_SAMPLING_SWEEP;
+                if (method == PB_METHOD_AB) {
+                    double u = pb_rand_uniform();
+                    opt.ab_sampling = u < 0.4 ? PB_AB_SAMPLING_SWEEP : u < 0.7 ? PB_AB_SAMPLING_CHORD
+                                                                              : PB_AB_SAMPLING_DEFAULT;
+                }
                 if (pb_test_blur(host, &g, in, &tm.motion, &opt, a) != PB_OK ||
                     pb_test_blur(dev, &g, in, &tm.motion, &opt, b) != PB_OK) {
                     pb_check(0, "blur %s failed", names[method]);

@@ -86,7 +86,7 @@ class Bench(unittest.TestCase):
 
     def test_every_method_and_filter_reported(self):
         got = {(r["scenario"], r["method"], r["filter"]) for r in self.results}
-        want = {(s, m, f) for s in ("2", "5") for m in ("AB", "RM", "CL", "AB-E", "RM-E")
+        want = {(s, m, f) for s in ("2", "5") for m in ("AB", "RM", "CL", "AB-E", "RM-E", "AB-C")
                 for f in ("hardware", "exact")}
         want |= {("2", "REF", "exact"), ("5", "REF", "exact")}
         self.assertEqual(got, want)
@@ -218,10 +218,10 @@ class Pipeline(unittest.TestCase):
                 capture_output=True, text=True, env=env, timeout=1200)
             self.assertEqual(p.returncode, 0, p.stdout[-3000:] + p.stderr[-3000:])
             res = rows(os.path.join(d, "results.csv"))
-            self.assertEqual(len(res), 3 * 8 * 11)  # phantoms x motions x (10 methods + REF)
+            self.assertEqual(len(res), 3 * 8 * 13)  # phantoms x motions x (12 methods + REF)
             for r in res:
                 self.assertTrue(math.isfinite(float(r["rms_pct"])) and math.isfinite(float(r["max_pct"])), r)
-            self.assertEqual(len(rows(os.path.join(d, "results-pocl.csv"))), 8 * 11)
+            self.assertEqual(len(rows(os.path.join(d, "results-pocl.csv"))), 8 * 13)
             peers = rows(os.path.join(d, "peers.csv"))
             self.assertEqual({(r["phantom"], r["peer"]) for r in peers}, {("brain", "scipy")})
             self.assertFalse(os.path.exists(os.path.join(d, "volumes")), "the volumes are removed at the end")

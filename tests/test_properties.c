@@ -251,6 +251,26 @@ static void test_analytic_translation(pb_context *ctx)
     }
     pb_check(prev < 1e-3, "AB with 64 sub-segments within 1e-3%% (%.3g%%)", prev);
 
+    /* AB's chord sampling reads a segment exactly whatever its length: a
+     * diagonal of 6-10 voxels along x, which the default walks, is the
+     * analytic blur up to float rounding (and the texture unit's 1/256
+     * weights with HARDWARE, as above). */
+    double longer[3] = {pb_rand_range(6, 10), pb_rand_range(-6, -2), pb_rand_range(1, 4)};
+    moved = pb_test_pose(longer[0] * g.voxel_size[0], longer[1] * g.voxel_size[1], longer[2] * g.voxel_size[2], NULL,
+                         0);
+    pb_test_motion_init(&tm, &still, &moved);
+    analytic_translation(in, g.dims, longer, exact);
+    for (int filter = 0; filter < 2; filter++) {
+        pb_blur_options opt = {PB_METHOD_AB, (pb_filter)filter, 0, 0, 0, 0, PB_PATH_DEFAULT, 0.0, PB_AB_SAMPLING_CHORD, 0};
+        pb_test_blur(ctx, &g, in, &tm.motion, &opt, out);
+        double d = pb_max_abs_diff(exact, out, n), top = 0.0;
+        for (size_t i = 0; i < n; i++)
+            top = fmax(top, fabs((double)in[i]));
+        double tol = filter == PB_FILTER_HARDWARE ? 1e-5 + top / 512.0 : 1e-5;
+        pb_check(d <= tol, "AB chord %s, shift (%.2f, %.2f, %.2f): max |AB - analytic| = %.3g > %.3g",
+                 filter ? "EXACT" : "HARDWARE", longer[0], longer[1], longer[2], d, tol);
+    }
+
     prev = (double)INFINITY;
     for (unsigned k = 4; k <= 1024; k *= 16) {
         pb_blur_options opt = {PB_METHOD_REF, PB_FILTER_EXACT, 0, k, 64, 11, PB_PATH_DEFAULT, 0.0, PB_AB_SAMPLING_DEFAULT, 0};

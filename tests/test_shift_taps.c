@@ -133,7 +133,8 @@ int main(int argc, char **argv)
         unsigned steps;
         pb_ab_sampling sampling;
     } runs[] = {{PB_METHOD_AB, 0, 0}, {PB_METHOD_AB, 2, 0}, {PB_METHOD_AB, 0, PB_AB_SAMPLING_SWEEP},
-                {PB_METHOD_RM, 0, 0}, {PB_METHOD_RM, 3, 0}, {PB_METHOD_CL, 0, 0}};
+                {PB_METHOD_AB, 0, PB_AB_SAMPLING_CHORD}, {PB_METHOD_RM, 0, 0}, {PB_METHOD_RM, 3, 0},
+                {PB_METHOD_CL, 0, 0}};
     int kernels_met[2] = {0, 0}; /* the plain taps kernel's plans, the tile's */
     for (int draw = 0; draw < 3; draw++) {
         pb_geometry g;

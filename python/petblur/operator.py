@@ -502,8 +502,11 @@ class BlurOperator(_Operator):
     library's options (0: the paper's). ``progress``: a callable given the
     fraction done of each call (REF on a CPU takes minutes), or None.
     ``ab_sampling``: how AB reads a slice its path crosses: None (the
-    default, as 'slice'), 'slice' (one point, the paper's) or 'sweep' (two
-    points where the path sweeps sideways across the slice; docs/methods.md).
+    default, as 'slice'), 'slice' (one point, the paper's), 'sweep' (two
+    points where the path sweeps sideways across the slice; docs/methods.md)
+    or 'chord' (every segment read exactly, never walked: for segments of 6
+    voxels and more, where the walk is up to several percent off on sharp
+    objects; docs/methods.md, "Long segments").
     ``jacobian``: for a FieldMotion, True weighs each voxel's reading by the
     field's Jacobian determinant (mass-preserving: images of counts);
     False (the default) blurs concentrations, as PET images hold them.

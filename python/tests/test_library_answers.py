@@ -16,7 +16,7 @@ from petblur import pose
 
 
 @pytest.mark.parametrize("kind, names", [("method", ["ab", "rm", "cl", "ref"]), ("filter", ["hardware", "exact"]),
-                                         ("ab_sampling", ["slice", "sweep"])])
+                                         ("ab_sampling", ["slice", "sweep", "chord"])])
 def test_option_names_are_the_library_s(kind, names):
     m = petblur.Motion.from_axis_angle((1.0, 0.0, 0.0))
     for name in names:

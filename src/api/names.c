@@ -20,7 +20,8 @@ static const name_row filters[] = {{"hardware", PB_FILTER_HARDWARE, "one filtere
                                    {"exact", PB_FILTER_EXACT, "nearest reads weighted in float"}};
 static const name_row samplings[] = {{"default", PB_AB_SAMPLING_DEFAULT, "slice"},
                                      {"slice", PB_AB_SAMPLING_SLICE, "one point a slice, the paper's AB"},
-                                     {"sweep", PB_AB_SAMPLING_SWEEP, "two where the path sweeps sideways"}};
+                                     {"sweep", PB_AB_SAMPLING_SWEEP, "two where the path sweeps sideways"},
+                                     {"chord", PB_AB_SAMPLING_CHORD, "every segment read exactly, never walked"}};
 
 #define COUNT(a) (sizeof(a) / sizeof((a)[0]))
 

@@ -34,9 +34,9 @@ static pb_status check_options(pb_context *ctx, const pb_blur_options *o)
     if (o->jacobian != 0 && o->jacobian != 1)
         return pb_error(ctx, PB_ERR_INVALID_ARGUMENT, "jacobian is %d; give 0 (concentrations) or 1 (mass-preserving, "
                         "for images of counts)", o->jacobian);
-    if ((unsigned)o->ab_sampling > PB_AB_SAMPLING_SWEEP)
-        return pb_error(ctx, PB_ERR_INVALID_ARGUMENT, "unknown AB sampling %d; use PB_AB_SAMPLING_DEFAULT, SLICE or "
-                        "SWEEP", (int)o->ab_sampling);
+    if ((unsigned)o->ab_sampling > PB_AB_SAMPLING_CHORD)
+        return pb_error(ctx, PB_ERR_INVALID_ARGUMENT, "unknown AB sampling %d; use PB_AB_SAMPLING_DEFAULT, SLICE, "
+                        "SWEEP or CHORD", (int)o->ab_sampling);
     if (o->ab_sampling != PB_AB_SAMPLING_DEFAULT && o->method != PB_METHOD_AB)
         return pb_error(ctx, PB_ERR_INVALID_ARGUMENT, "ab_sampling is set, but the method is %s; it is AB's alone: "
                         "leave it at the default for RM, CL and REF",

@@ -228,9 +228,11 @@ static double ab_walk_weight(const double a[3], const double b[3])
     return fmin(1.0, fmax(0.0, (along - (double)PB_AB_EXACT_TO) / (double)(PB_AB_WALK_FROM - PB_AB_EXACT_TO)));
 }
 
-static double ab_exact_or_walked(const host_io *io, const double a[3], const double b[3], int sweep, double scale)
+/* chord: every segment exact (PB_AB_SAMPLING_CHORD). */
+static double ab_exact_or_walked(const host_io *io, const double a[3], const double b[3], int sweep, int chord,
+                                 double scale)
 {
-    double walk = ab_walk_weight(a, b);
+    double walk = chord ? 0.0 : ab_walk_weight(a, b);
     double sum = 0.0;
     if (walk < 1.0)
         sum += chord_exact(io, a, b, scale * (1.0 - walk));
@@ -350,7 +352,8 @@ static double blur_voxel(const host_io *io, const pb_path *plan, const pb_blur_o
                     pa[d] = a[d] + (b[d] - a[d]) * r / parts;
                     pb[d] = a[d] + (b[d] - a[d]) * (r + 1) / parts;
                 }
-                total += ab_exact_or_walked(io, pa, pb, opt->ab_sampling == PB_AB_SAMPLING_SWEEP, seg_scale / parts);
+                total += ab_exact_or_walked(io, pa, pb, opt->ab_sampling == PB_AB_SAMPLING_SWEEP,
+                                            opt->ab_sampling == PB_AB_SAMPLING_CHORD, seg_scale / parts);
             }
         } else {
             /* RM's default (and CL's on a field, RM there): AB's rule by

@@ -31,6 +31,7 @@ void pb_kparams_from_path(const pb_path *path, const pb_blur_options *opt, pb_kp
     /* AB's steps are sub-segments, at least one; CL and RM's 0 means "as many as
      * AB's slices", decided per voxel in the kernel. */
     prm->steps = opt->method == PB_METHOD_AB && opt->steps == 0 ? 1 : (int)opt->steps;
+    prm->chord = opt->method == PB_METHOD_AB && opt->ab_sampling == PB_AB_SAMPLING_CHORD;
     prm->ref_points = (int)opt->ref_points;
     prm->ref_steps = (int)path->ref_count;
     prm->seed = opt->seed;
@@ -166,7 +167,8 @@ pb_kernel_id pb_forward_kernel(const pb_path *path, const pb_blur_options *opt, 
         m = pb_path_layer_axis(path);
     if (m == 0 && (fresh_input || longest_walk(path, opt, 0) < PB_X_LAYERS_MIN_SLICES))
         m = -1;
-    if (m >= 0 && shortest_walk(path, opt) < (double)PB_AB_WALK_FROM + 0.01) /* the margin: the kernels' float */
+    if (m >= 0 && (opt->ab_sampling == PB_AB_SAMPLING_CHORD ||
+                   shortest_walk(path, opt) < (double)PB_AB_WALK_FROM + 0.01)) /* the margin: the kernels' float */
         m = -1;
     if (m >= 0 && layers_fit(path->geometry.dims, m, layer_limits))
         return find_kernel(m == 0 ? PB_FAMILY_LAYERS_X : PB_FAMILY_LAYERS, opt);

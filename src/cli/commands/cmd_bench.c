@@ -71,14 +71,19 @@ typedef struct bench_files {
 
 /* The paper's methods as the paper ran them (AB and RM on one segment per
  * tracked interval), then every method petblur adds: AB-E and RM-E are AB and
- * RM with the default bound on the path error (pb_blur_options). */
+ * RM with the default bound on the path error (pb_blur_options), AB-C AB
+ * with it reading every segment exactly (PB_AB_SAMPLING_CHORD). */
 static const struct {
     const char *name;
     pb_method method;
     pb_path_model path;
-} methods[] = {{"AB", PB_METHOD_AB, PB_PATH_TRACKED},  {"RM", PB_METHOD_RM, PB_PATH_TRACKED},
-               {"CL", PB_METHOD_CL, PB_PATH_DEFAULT},  {"AB-E", PB_METHOD_AB, PB_PATH_DEFAULT},
-               {"RM-E", PB_METHOD_RM, PB_PATH_DEFAULT}};
+    pb_ab_sampling sampling;
+} methods[] = {{"AB", PB_METHOD_AB, PB_PATH_TRACKED, PB_AB_SAMPLING_DEFAULT},
+               {"RM", PB_METHOD_RM, PB_PATH_TRACKED, PB_AB_SAMPLING_DEFAULT},
+               {"CL", PB_METHOD_CL, PB_PATH_DEFAULT, PB_AB_SAMPLING_DEFAULT},
+               {"AB-E", PB_METHOD_AB, PB_PATH_DEFAULT, PB_AB_SAMPLING_DEFAULT},
+               {"RM-E", PB_METHOD_RM, PB_PATH_DEFAULT, PB_AB_SAMPLING_DEFAULT},
+               {"AB-C", PB_METHOD_AB, PB_PATH_DEFAULT, PB_AB_SAMPLING_CHORD}};
 
 /* "a,b,c" into tokens of at most 31 characters; calls take(token) for each. */
 static int for_each_token(const char *option, const char *list, int (*take)(const char *, void *), void *user)
@@ -339,7 +344,8 @@ static int bench_case(pb_context *ctx, const bench_config *c, bench_files *f, co
             work.fetches, work.max_slices, c->reference ? 0UL : c->points);
     for (size_t m = 0; m < sizeof methods / sizeof methods[0]; m++)
         for (int filt = 0; filt < 2; filt++) {
-            pb_blur_options opt = {methods[m].method, (pb_filter)filt, 0, 0, 0, 0, methods[m].path, 0.0, PB_AB_SAMPLING_DEFAULT, 0};
+            pb_blur_options opt = {methods[m].method, (pb_filter)filt, 0, 0, 0, 0, methods[m].path, 0.0,
+                                   methods[m].sampling, 0};
             size_t segments = 1;
             if ((rc = segments_of(&g, &motion, &opt, &segments)))
                 return rc;

@@ -28,8 +28,9 @@ static const pbc_option options[] = {
     {"--steps", NULL, "N", "RM, CL: samples per segment (default: as many slices as AB visits); AB: sub-segments"},
     {"--max-path-error", NULL, "E", "AB, RM: the most a voxel's path may leave its polyline, voxels (default 0.1; "
                                     "'paper': one segment per tracked interval)"},
-    {"--ab-sampling", NULL, "slice|sweep", "AB: read each slice at one point (default, the paper's), or at two "
-                                           "where the path sweeps sideways across it"},
+    {"--ab-sampling", NULL, "slice|sweep|chord", "AB: read each slice at one point (default, the paper's), at two "
+                                                 "where the path sweeps sideways across it, or every segment "
+                                                 "exactly, never walked (for segments of 6 voxels and more)"},
     {"--points", NULL, "K", "REF: random points per voxel (default 200)"},
     {"--seed", NULL, "S", "REF: seed of the random points (default 1)"},
     {"--jacobian", NULL, NULL, "with --fields: mass-preserving, each voxel weighed by its field's Jacobian "
