@@ -21,9 +21,10 @@ s / 80 mm radians, where the kind has noise). Kinds:
                the frame, 20 Hz log with noise
   rotation     20-60 degrees over the frame about a random axis, 10 Hz log
   translation  an oblique translation of 1-3 voxels at constant speed, 1 Hz log
-  translation-long  the same of 4-12 voxels: one straight segment, longer
-               than AB reads exactly (PB_AB_EXACT_TO, 3 voxels), so the walk's
-               own error shows (docs/methods.md, "Long segments")
+  translation-long  the same 4-12 voxels long (2.3-12 along its major
+               axis): one straight segment, mostly longer than AB reads
+               exactly (PB_AB_EXACT_TO, 3 voxels along the major axis), so
+               the walk's own error shows (docs/methods.md, "Long segments")
 
 The references (accuracy_case.py's resampling): the mean over equally spaced
 times of the frame of the activity resampled in world coordinates by scipy's

@@ -53,9 +53,11 @@ typedef struct motion_case {
  * so that its forward's walks are long enough for them,
  * PB_X_LAYERS_MIN_SLICES, while its gather reads the 3-D image there,
  * src/devices/kernel_choice.c), a large turn (cut into several segments by the
- * default path bound), and a track of several poses with the frame inside it. */
+ * default path bound), a track of several poses with the frame inside it, and
+ * a long translation with a turn too small to cut it, whose one long segment
+ * the scatter walks or reads as a chord. */
 #define GATHER_CASES 4
-#define CASES 6
+#define CASES 7
 static void make_cases(motion_case *c)
 {
     double tilt[3] = {pb_rand_range(-0.5, 0.5), 1.0, pb_rand_range(-0.5, 0.5)};
@@ -79,6 +81,10 @@ static void make_cases(motion_case *c)
     for (int k = 1; k < 5; k++)
         c[5].poses[k] = pb_test_pose(pb_rand_range(-2, 2), pb_rand_range(-2, 2), pb_rand_range(-2, 2), axis2,
                                      pb_rand_range(-8, 8));
+    c[6] = (motion_case){"translation and a small turn", {0, 1},
+                         {still, pb_test_pose(pb_rand_range(7.5, 11), pb_rand_range(-4, -2), pb_rand_range(2, 4), tilt,
+                                              pb_rand_range(0.5, 1.0))},
+                         2, {0, 1}};
 }
 
 /* The relative HARDWARE tolerance on NVIDIA for these x and y (both in
@@ -91,6 +97,11 @@ static double hw_tolerance(const float *x, const float *y, size_t n, int gather,
         yy += (double)y[i] * (double)y[i];
     }
     return 6.0 * NVIDIA_FETCH_ERROR * (sqrt(yy) + (gather ? sqrt(xx) : 0.0)) / fabs(lhs);
+}
+
+static const char *sampling_label(pb_ab_sampling s)
+{
+    return s == PB_AB_SAMPLING_CHORD ? " chord" : s == PB_AB_SAMPLING_SWEEP ? " sweep" : "";
 }
 
 static pb_motion motion_of(const motion_case *c)
@@ -134,7 +145,7 @@ int main(int argc, char **argv)
                 if (!pb_check(pb_test_blur(ctx, &g, x, &m, &opt, bx) == PB_OK &&
                                   pb_test_adjoint(ctx, &g, y, &m, &opt, bty) == PB_OK,
                               "%s steps %u%s %s: blur or adjoint failed", method_names[runs[r].method],
-                              runs[r].steps, runs[r].sampling ? " sweep" : "", cases[c].name))
+                              runs[r].steps, sampling_label(runs[r].sampling), cases[c].name))
                     continue;
                 double lhs = pb_dot(bx, y, n), rhs = pb_dot(x, bty, n);
                 double rel = fabs(lhs - rhs) / fabs(lhs);
@@ -144,7 +155,7 @@ int main(int argc, char **argv)
                 worst[filter] = fmax(worst[filter], rel);
                 pb_check(rel <= tol && isfinite(rel), "%s steps %u%s %s %s: <Bx,y> = %.9g, <x,B^T y> = %.9g, "
                          "relative mismatch %.3g > %.3g", method_names[runs[r].method], runs[r].steps,
-                         runs[r].sampling ? " sweep" : "", filter ? "EXACT" : "HARDWARE", cases[c].name, lhs, rhs,
+                         sampling_label(runs[r].sampling), filter ? "EXACT" : "HARDWARE", cases[c].name, lhs, rhs,
                          rel, tol);
             }
         }

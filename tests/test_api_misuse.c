@@ -39,6 +39,12 @@ static void test_fresh_messages(pb_context *ctx)
                  says(pb_last_error(ctx), "dimension y is 0"),
              "zero dims after a NULL plan: status %s, thread '%s', context '%s'", pb_status_string(st),
              pb_last_error(NULL), pb_last_error(ctx));
+    st = pb_options_check(&(pb_blur_options){.ab_sampling = (pb_ab_sampling)(PB_AB_SAMPLING_CHORD + 1)});
+    pb_check(st == PB_ERR_INVALID_ARGUMENT && says(pb_last_error(NULL), "unknown AB sampling 4"),
+             "AB sampling past CHORD: %s '%s'", pb_status_string(st), pb_last_error(NULL));
+    st = pb_options_check(&(pb_blur_options){.method = PB_METHOD_RM, .ab_sampling = PB_AB_SAMPLING_CHORD});
+    pb_check(st == PB_ERR_INVALID_ARGUMENT && says(pb_last_error(NULL), "ab_sampling is set, but the method is RM"),
+             "chord with RM: %s '%s'", pb_status_string(st), pb_last_error(NULL));
     st = pb_options_check(&(pb_blur_options){.path = PB_PATH_BOUNDED, .max_path_error = -1.0});
     pb_check(st == PB_ERR_INVALID_ARGUMENT && says(pb_last_error(NULL), "max_path_error -1"),
              "options after a context's failure: '%s'", pb_last_error(NULL));
@@ -239,7 +245,7 @@ static void test_names(void)
                  "filter %d round trip", f);
     }
     for (int a = PB_AB_SAMPLING_DEFAULT; a <= PB_AB_SAMPLING_CHORD; a++) {
-        pb_ab_sampling back = PB_AB_SAMPLING_CHORD;
+        pb_ab_sampling back = (pb_ab_sampling)-1;
         pb_check(pb_ab_sampling_parse(pb_ab_sampling_name((pb_ab_sampling)a), &back) == PB_OK &&
                      back == (pb_ab_sampling)a, "sampling %d round trip", a);
     }

@@ -183,12 +183,14 @@ int main(int argc, char **argv)
         for (int c = 0; c < 5; c++) {
             pb_motion m = motions[c];
             for (size_t r = 0; r < sizeof runs / sizeof runs[0]; r++)
-                for (int filter = 0; filter < 2 && (draw < 2 || r == 0 || r == 3); filter++) {
+                for (int filter = 0;
+                     filter < 2 && (draw < 2 || r == 0 || (runs[r].method == PB_METHOD_RM && runs[r].steps == 0));
+                     filter++) {
                     pb_blur_options opt = {runs[r].method, (pb_filter)filter, runs[r].steps, 0, 0, 0,
                                            PB_PATH_DEFAULT, 0.0, runs[r].sampling, 0};
                     char what[160];
                     snprintf(what, sizeof what, "draw %d, %s, %s%s steps %u %s", draw, motion_names[c],
-                             method_names[runs[r].method], runs[r].sampling ? " sweep" : "", runs[r].steps,
+                             method_names[runs[r].method], runs[r].sampling == PB_AB_SAMPLING_CHORD ? " chord" : runs[r].sampling ? " sweep" : "", runs[r].steps,
                              filter ? "EXACT" : "HARDWARE");
                     int taps = 0, walk_taps = 0, default_taps = 0;
                     set_limit(NULL);

@@ -246,25 +246,25 @@ def test_short_frame_noise_measured_about_it(rng, kind):
 
 
 def test_long_segment_walked_or_read_exactly(rng):
-    """Long segments (docs/methods.md, "Long segments: the walk's own error"):
-    an oblique translation of 4-12 voxels logged at 1 Hz is one straight
-    segment (or a few, where the frame starts between samples), longer than
-    AB reads exactly (PB_AB_EXACT_TO, 3 voxels). From PB_AB_WALK_FROM (6) on,
-    AB reads it by the paper's walk, one point a slice, which misses the
-    trilinear filter's kinks across each slice: on 120 fresh small draws
-    (bench/results/2026-12-04_cpu2_long-segments) 0.60 % RMS median and up
-    to 2.2 % on the smooth brain, 0.98 % and up to 8.6 % RMS (11.8 % max) on
-    sharp spheres, where the short kinds stand within 0.3 %. AB's chord
-    sampling reads every segment exactly, as do AB's `steps` at ceil(move /
-    3) sub-segments a segment (each at most 3 voxels): with the fine
-    0.01-voxel bound (as test_short_segments_read_exactly) both are held
-    within 0.3 % RMS and 0.5 % max of the dense reference (measured: at most
-    0.016 %). At the default bound what chord leaves is the path's own error
+    """Long segments (docs/methods.md, "Long segments: the walk's own error"): an
+    oblique translation 4-12 voxels long logged at 1 Hz is one straight segment
+    (or a few, where the frame starts between samples), mostly longer than AB
+    reads exactly (PB_AB_EXACT_TO, 3 voxels along its major axis). From
+    PB_AB_WALK_FROM (6) on, AB reads it by the paper's walk, one point a slice,
+    which misses the trilinear filter's kinks across each slice: on 120 fresh
+    small draws (bench/results/2026-12-04_cpu2_long-segments) 0.60 % RMS median
+    and up to 2.2 % on the smooth brain, 0.98 % and up to 8.6 % RMS (11.8 % max)
+    on sharp spheres, where the short kinds stand within 0.3 %. AB's chord
+    sampling reads every segment exactly, as do AB's `steps` at ceil(move / 3)
+    sub-segments a segment (each at most 3 voxels): with the fine 0.01-voxel
+    bound (as test_short_segments_read_exactly) both are held within 0.3 % RMS
+    and 0.5 % max of the dense reference (steps measured at most 0.016 % RMS on
+    those draws). At the default bound what chord leaves is the path's own error
     (the polyline fitted to a fast track whose frame starts between samples):
     measured at most 0.255 % RMS and 0.35 % max on 60 draws, held here within
-    0.5 % and issue 46's 1.0 %. The default's walk is held within 1.5 times
-    the envelope measured, which catches a walk broken, not one a little
-    worse. On the host and on PoCL."""
+    0.5 % and issue 46's 1.0 %. The default's walk, whose tail is heavy, is held
+    within 20 % RMS and 30 % max, over twice the worst measured: that catches a
+    walk broken, not one a little worse. On the host and on PoCL."""
     import petblur
     pc = _cases()
     case = pc.draw_case("translation-long", rng, small=True)
@@ -288,4 +288,4 @@ def test_long_segment_walked_or_read_exactly(rng):
         for name in ("chord, fine bound", "steps"):
             assert got[name]["rms_pct"] < 0.3 and got[name]["max_pct"] < 0.5, msg
         assert got["chord"]["rms_pct"] < 0.5 and got["chord"]["max_pct"] < 1.0, msg
-        assert got["default"]["rms_pct"] < 13.0 and got["default"]["max_pct"] < 18.0, msg
+        assert got["default"]["rms_pct"] < 20.0 and got["default"]["max_pct"] < 30.0, msg

@@ -41,8 +41,10 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
         return 0;
     size_t count = 2 + data[0] % 4;
     pb_blur_options opt = {(pb_method)(data[1] & 3), (pb_filter)(data[1] >> 2 & 1), (data[1] >> 3 & 3), 4, 4, 1,
-                           0.0, 0.0, (data[1] & 3) == PB_METHOD_AB && data[1] >> 5 & 1 ? PB_AB_SAMPLING_SWEEP
-                                                                                   : PB_AB_SAMPLING_DEFAULT, 0};
+                           0.0, 0.0, (data[1] & 3) != PB_METHOD_AB ? PB_AB_SAMPLING_DEFAULT
+                                     : data[1] >> 5 & 1                 ? PB_AB_SAMPLING_SWEEP
+                                     : data[1] >> 6 & 1                 ? PB_AB_SAMPLING_CHORD
+                                                                        : PB_AB_SAMPLING_DEFAULT, 0};
     const uint8_t *p = data + 2;
     size_t n = size - 2;
     double times[5];
