@@ -99,11 +99,6 @@ static double hw_tolerance(const float *x, const float *y, size_t n, int gather,
     return 6.0 * NVIDIA_FETCH_ERROR * (sqrt(yy) + (gather ? sqrt(xx) : 0.0)) / fabs(lhs);
 }
 
-static const char *sampling_label(pb_ab_sampling s)
-{
-    return s == PB_AB_SAMPLING_CHORD ? " chord" : s == PB_AB_SAMPLING_SWEEP ? " sweep" : "";
-}
-
 static pb_motion motion_of(const motion_case *c)
 {
     pb_motion m = {c->times, c->poses, c->count, c->frame[0], c->frame[1], 0, {0, 0, 0}};
@@ -144,8 +139,8 @@ int main(int argc, char **argv)
                                        runs[r].sampling, 0};
                 if (!pb_check(pb_test_blur(ctx, &g, x, &m, &opt, bx) == PB_OK &&
                                   pb_test_adjoint(ctx, &g, y, &m, &opt, bty) == PB_OK,
-                              "%s steps %u%s %s: blur or adjoint failed", method_names[runs[r].method],
-                              runs[r].steps, sampling_label(runs[r].sampling), cases[c].name))
+                              "%s steps %u sampling %s %s: blur or adjoint failed", method_names[runs[r].method],
+                              runs[r].steps, pb_ab_sampling_name(runs[r].sampling), cases[c].name))
                     continue;
                 double lhs = pb_dot(bx, y, n), rhs = pb_dot(x, bty, n);
                 double rel = fabs(lhs - rhs) / fabs(lhs);
@@ -153,9 +148,9 @@ int main(int argc, char **argv)
                              : nvidia                    ? hw_tolerance(x, y, n, c < GATHER_CASES, lhs)
                                                          : FLOAT_HW_TOL;
                 worst[filter] = fmax(worst[filter], rel);
-                pb_check(rel <= tol && isfinite(rel), "%s steps %u%s %s %s: <Bx,y> = %.9g, <x,B^T y> = %.9g, "
+                pb_check(rel <= tol && isfinite(rel), "%s steps %u sampling %s %s %s: <Bx,y> = %.9g, <x,B^T y> = %.9g, "
                          "relative mismatch %.3g > %.3g", method_names[runs[r].method], runs[r].steps,
-                         sampling_label(runs[r].sampling), filter ? "EXACT" : "HARDWARE", cases[c].name, lhs, rhs,
+                         pb_ab_sampling_name(runs[r].sampling), filter ? "EXACT" : "HARDWARE", cases[c].name, lhs, rhs,
                          rel, tol);
             }
         }

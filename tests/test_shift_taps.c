@@ -189,8 +189,8 @@ int main(int argc, char **argv)
                     pb_blur_options opt = {runs[r].method, (pb_filter)filter, runs[r].steps, 0, 0, 0,
                                            PB_PATH_DEFAULT, 0.0, runs[r].sampling, 0};
                     char what[160];
-                    snprintf(what, sizeof what, "draw %d, %s, %s%s steps %u %s", draw, motion_names[c],
-                             method_names[runs[r].method], runs[r].sampling == PB_AB_SAMPLING_CHORD ? " chord" : runs[r].sampling ? " sweep" : "", runs[r].steps,
+                    snprintf(what, sizeof what, "draw %d, %s, %s sampling %s steps %u %s", draw, motion_names[c],
+                             method_names[runs[r].method], pb_ab_sampling_name(runs[r].sampling), runs[r].steps,
                              filter ? "EXACT" : "HARDWARE");
                     int taps = 0, walk_taps = 0, default_taps = 0;
                     set_limit(NULL);
