@@ -7,7 +7,7 @@ paper's walk from PB_AB_WALK_FROM = 6 voxels on, both between 3 and 6), AB
 sweep, RM and AB chord (every segment exact) at the defaults, against the
 exact time average of the trilinear image along the path: AB with `steps` =
 ceil(L / 3), whose pieces are each read exactly. That reference is checked
-against scipy (the mean of order-1 map_coordinates over 60 L times) on the
+against scipy (accuracy_case's mean of order-1 resamplings over 60 L times) on the
 first draw's L = 6 and 12, inside the grid's middle. Relative RMS and max in
 percent (100 ||d|| / ||ref||, 100 max |d| / max |ref|), median / worst over
 the draws, exact filter, on --device (host by default).
@@ -20,22 +20,13 @@ import os
 import sys
 
 import numpy as np
-from scipy import ndimage
+from scipy.spatial.transform import Rotation
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from accuracy_case import errors, mean_resampled  # noqa: E402
 from path_cases import draw_object  # noqa: E402
 
 METHODS = (("ab", None), ("ab", "sweep"), ("rm", None), ("ab", "chord"))
-
-
-def scipy_mean(x, move, times):
-    """The time average of x moved by `move` voxels at constant speed, scipy's
-    order-1 resampling (zero outside) at `times` equal steps."""
-    g = np.indices(x.shape).astype(float)
-    acc = np.zeros(x.shape)
-    for s in (np.arange(times) + 0.5) / times:
-        acc += ndimage.map_coordinates(x, [g[i] - s * move[i] for i in range(3)], order=1, mode="constant")
-    return acc / times
 
 
 def main():
@@ -67,17 +58,18 @@ def main():
                 ref = petblur.BlurOperator(shape, tuple(vox), m, method="ab", filter="exact", device=a.device,
                                            steps=int(math.ceil(L / 3.0))).apply(x)
                 if draw == 0 and L in (6.0, 12.0):
-                    sp = scipy_mean(x, u * L, 60 * int(L))
+                    times = 60 * int(L)
+                    s = (np.arange(times) + 0.5) / times
+                    sp = mean_resampled(x, affine, np.zeros(3), Rotation.identity(times), np.outer(s, u * L * vox))
                     inner = (slice(12, 28),) * 3
-                    e = 100 * np.linalg.norm((ref - sp)[inner]) / np.linalg.norm(sp[inner])
-                    print(f"{obj}: the exact reference against scipy's {60 * int(L)}-time mean, L = {L:g}, the grid's "
+                    e = errors(sp[inner], ref[inner])["rms_pct"]
+                    print(f"{obj}: the exact reference against scipy's {times}-time mean, L = {L:g}, the grid's "
                           f"middle: {e:.4f} % RMS", flush=True)
                 for method, sampling in METHODS:
                     y = petblur.BlurOperator(shape, tuple(vox), m, method=method, filter="exact", device=a.device,
                                              ab_sampling=sampling).apply(x)
-                    d = y - ref
-                    res.setdefault((L, method, sampling), []).append(
-                        (100 * np.linalg.norm(d) / np.linalg.norm(ref), 100 * np.abs(d).max() / np.abs(ref).max()))
+                    e = errors(ref, y)
+                    res.setdefault((L, method, sampling), []).append((e["rms_pct"], e["max_pct"]))
         print(f"\n{obj}, {a.draws} draws: RMS % median / worst, max % median / worst, against the exact average\n")
         names = [f"{m}{' ' + s if s else ''}" for m, s in METHODS]
         print("| L (voxels) | " + " | ".join(names) + " |")
