@@ -12,28 +12,7 @@ mode_tapscompare() (
     echo "old: ${PB_OLD:-unknown}" | write_machine "$OUT/machine.txt"
     work=$(mktemp -d)
     bench_old_new "$old" taps "$work" --phantoms homogeneity --scenarios 1,2 --points 4 --runs 20 || exit 1
-    python3 - "$work" <<'PY' | tee "$OUT/taps.md"
-import csv, sys
-work = sys.argv[1]
-best = {}
-for which in ("old", "new"):
-    for r in (1, 2):
-        for row in csv.DictReader(open(f"{work}/{which}-{r}.csv")):
-            if row["method"] == "REF":
-                continue
-            key = (row["scenario"], row["method"], row["filter"])
-            for col in ("kernel_ms", "adjoint_ms"):
-                v = float(row[col]) if row[col] else float("nan")
-                best[(which, col) + key] = min(best.get((which, col) + key, v), v)
-keys = sorted({k[2:] for k in best}, key=lambda k: (int(k[0]), k[1], k[2]))
-print("| scenario | method | filter | forward old ms | forward new ms | new / old | adjoint old ms | adjoint new ms | new / old |")
-print("|---|---|---|---|---|---|---|---|---|")
-nan = float("nan")  # a method one tree's bench does not run
-for k in keys:
-    fo, fn = best.get(("old", "kernel_ms") + k, nan), best.get(("new", "kernel_ms") + k, nan)
-    ao, an = best.get(("old", "adjoint_ms") + k, nan), best.get(("new", "adjoint_ms") + k, nan)
-    print(f"| {k[0]} | {k[1]} | {k[2]} | {fo:.4f} | {fn:.4f} | {fn / fo:.3f} | {ao:.4f} | {an:.4f} | {an / ao:.3f} |")
-PY
+    python3 bench/gpu/best_of.py "$work" | tee "$OUT/taps.md"
     tar -C "$work" -czf "$OUT/runs.tar.gz" old-1.csv new-1.csv old-2.csv new-2.csv
     (cd /tmp && ncu --clock-control none --kernel-name regex:'^pb_shift_taps' --launch-skip 2 --launch-count 1 \
         --section SpeedOfLight --section ComputeWorkloadAnalysis --section MemoryWorkloadAnalysis --section Occupancy \
