@@ -7,7 +7,9 @@
  *   - the plan chose the taps where the limit allows them (PETBLUR_SHIFT_TAPS
  *     set far above it: a check that the comparisons below compare two
  *     different kernels), and the walk where it is set below their number;
- *     by default, the taps exactly where they are at most PB_SHIFT_TAPS_MAX;
+ *     by default, the taps exactly where they are at most the count worth
+ *     reading for the frame's method, filter and path (pb_shift_taps_limit,
+ *     never below PB_SHIFT_TAPS_MAX);
  *   - forward: the same weights summed in another order, so within float
  *     rounding, 2e-5 of the largest input (a tap outside its place, or one
  *     lost, costs far more: a voxel weight is at least 1e-3 here); where the
@@ -34,16 +36,24 @@
 
 static const char *method_names[] = {"AB", "RM", "CL", "REF"};
 
-/* The forward kernel a plan of one frame chose, under PETBLUR_SHIFT_TAPS=limit
- * (NULL: the default). */
+/* The forward kernel a plan of one frame chose, under the limit that
+ * PETBLUR_SHIFT_TAPS sets, and the limit of taps worth reading for that
+ * frame's path by default (pb_shift_taps_limit, without the variable). */
 static pb_kernel_id planned_kernel(pb_context *ctx, const pb_geometry *g, const pb_motion *m,
-                                   const pb_blur_options *opt, int *taps)
+                                   const pb_blur_options *opt, int *taps, long *worth)
 {
     pb_plan *plan = NULL;
     pb_kernel_id k = PB_KERNEL_COUNT;
     if (pb_check(pb_plan_create(ctx, g, m, opt, &plan) == PB_OK, "plan: %s", pb_last_error(ctx))) {
         k = plan->set.frame[0].forward_fresh;
         *taps = plan->set.frame[0].forward_prm.taps;
+        char *set = getenv("PETBLUR_SHIFT_TAPS");
+        set = set ? strdup(set) : NULL;
+        unsetenv("PETBLUR_SHIFT_TAPS");
+        *worth = pb_shift_taps_limit(opt, &plan->set.frame[0].path);
+        if (set)
+            setenv("PETBLUR_SHIFT_TAPS", set, 1);
+        free(set);
         pb_plan_destroy(plan);
     }
     return k;
@@ -193,25 +203,42 @@ int main(int argc, char **argv)
                              method_names[runs[r].method], pb_ab_sampling_name(runs[r].sampling), runs[r].steps,
                              filter ? "EXACT" : "HARDWARE");
                     int taps = 0, walk_taps = 0, default_taps = 0;
+                    long worth = 0, unused;
                     set_limit(NULL);
-                    pb_kernel_id chosen = planned_kernel(ctx, &g, &m, &opt, &default_taps);
+                    pb_kernel_id chosen = planned_kernel(ctx, &g, &m, &opt, &default_taps, &worth);
                     set_limit(FORCED);
-                    pb_kernel_id k = planned_kernel(ctx, &g, &m, &opt, &taps);
+                    pb_kernel_id k = planned_kernel(ctx, &g, &m, &opt, &taps, &unused);
                     set_limit("0");
-                    pb_kernel_id walk = planned_kernel(ctx, &g, &m, &opt, &walk_taps);
+                    pb_kernel_id walk = planned_kernel(ctx, &g, &m, &opt, &walk_taps, &unused);
                     kernels_met[k == PB_KERNEL_SHIFT_TAPS_TILE] += is_taps(k);
                     if (!pb_check(is_taps(k) && !is_taps(walk),
                                   "%s: kernels %s and %s, not the taps and the walk", what,
                                   k < PB_KERNEL_COUNT ? pb_kernel_table[k].name : "none",
                                   walk < PB_KERNEL_COUNT ? pb_kernel_table[walk].name : "none"))
                         continue;
-                    pb_check(is_taps(chosen) == (taps <= PB_SHIFT_TAPS_MAX),
-                             "%s: %d taps, the default chose %s", what, taps,
+                    pb_check(is_taps(chosen) == (taps <= worth) && worth >= PB_SHIFT_TAPS_MAX,
+                             "%s: %d taps, %ld worth reading, the default chose %s", what, taps, worth,
                              chosen < PB_KERNEL_COUNT ? pb_kernel_table[chosen].name : "none");
+                    /* Independently of the rule's code: every path here is worth its taps through the
+                     * EXACT filter and AB's chords, and a translation's walk or samples through HARDWARE
+                     * 40 + 2.1 L and 15 + 4.4 L of them, L its length along its major axis in voxels. */
+                    int walks = runs[r].method == PB_METHOD_RM ||
+                                (runs[r].method == PB_METHOD_AB && runs[r].sampling != PB_AB_SAMPLING_CHORD);
+                    if (filter == PB_FILTER_EXACT || !walks)
+                        pb_check(is_taps(chosen), "%s: %d taps, the default chose %s", what, taps,
+                                 chosen < PB_KERNEL_COUNT ? pb_kernel_table[chosen].name : "none");
+                    else if (c == 0) {
+                        double L = 0.0;
+                        for (int d = 0; d < 3; d++)
+                            L = fmax(L, fabs(t[d]) / g.voxel_size[d]);
+                        double want = fmax(PB_SHIFT_TAPS_MAX, runs[r].method == PB_METHOD_RM ? 15 + 4.4 * L : 40 + 2.1 * L);
+                        pb_check(fabs((double)worth - want) <= 1.0, "%s: %ld taps worth reading, not %g", what,
+                                 worth, want);
+                    }
                     char below[16];
                     snprintf(below, sizeof below, "%d", taps - 1);
                     set_limit(below);
-                    pb_check(taps == 0 || !is_taps(planned_kernel(ctx, &g, &m, &opt, &walk_taps)),
+                    pb_check(taps == 0 || !is_taps(planned_kernel(ctx, &g, &m, &opt, &walk_taps, &unused)),
                              "%s: %d taps chosen under a limit of %s", what, taps, below);
 
                     float *x = pb_random_volume(n), *y = pb_random_volume(n);

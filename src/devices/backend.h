@@ -220,16 +220,13 @@ pb_status pb_launch_frames_apply(pb_device *dev, const pb_frame_set *plan, size_
  * made for it and released after, the output read back into host. */
 pb_status pb_launch_read(pb_device *dev, pb_kernel_id kernel, const pb_kparams *prm, const void *in,
                          const size_t *dims, const void *plan, void *out, float *host);
-/* shift_taps.c: under a motion of translations whose path is short, the
- * frame's kernels become the convolution's (cl/pb_taps.cl), its poses buffer
- * their taps, measured on the device; otherwise the frame is left as it is.
- * Short: at most PB_SHIFT_TAPS_MAX taps. The taps grow about four times as
- * fast as the walk's slices, whose fetches the texture unit filters eight
- * voxels at a time; at this limit the taps cost 0.6 of the walk's kernel, and
- * the one case measured past it, 50 taps, still 0.94, so the limit keeps a
- * margin (docs/performance.md, "Short translations"). PETBLUR_SHIFT_TAPS sets
- * another limit, 0 none, for comparisons. */
+/* shift_taps.c: under a motion of translations whose taps cost less than
+ * the frame's kernel (pb_shift_taps_limit), the frame's kernels become the
+ * convolution's (cl/pb_taps.cl), its poses buffer their taps, measured on the
+ * device; otherwise the frame is left as it is. At most PB_SHIFT_TAPS_MAX
+ * taps are always taken. */
 #define PB_SHIFT_TAPS_MAX 24
+long pb_shift_taps_limit(const pb_blur_options *opt, const pb_path *path);
 pb_status pb_shift_taps_prepare(pb_device *dev, const pb_blur_options *opt, pb_plan_frame *frame);
 /* A buffer changed: what was made from it is out of date. */
 void pb_images_stale(pb_images *images);

@@ -6,6 +6,7 @@
  * to compute them (AB's slices, the sweep's two points, RM's and CL's
  * samples, sub-segments, the clipped parts of a path, the texture unit's
  * rounded weights). No second copy of the walk is written here. */
+#include <limits.h>
 #include <math.h>
 #include <stdlib.h>
 
@@ -19,14 +20,48 @@
  * far more than the limit. */
 #define PB_SHIFT_TAPS_GRID_MAX (64 * 64 * 64)
 
-static long taps_limit(void)
+/* Voxel 0's place (texel coordinates of its centre) under a key pose's map. */
+static void voxel0_at(const pb_path_pose *pose, double *p)
+{
+    const double *m = pose->map;
+    for (int r = 0; r < 3; r++)
+        p[r] = 0.5 * (m[4 * r] + m[4 * r + 1] + m[4 * r + 2]) + m[4 * r + 3] - 0.5;
+}
+
+/* The most taps worth reading instead of the frame's kernel. Each tap costs
+ * one read of the input a voxel, about 7 us at 256^3 on the H200; the
+ * kernels cost more wherever they read the texture through the EXACT filter
+ * (eight point reads a sample), read AB's chords, or sample as CL does: at
+ * least 2.4, 2.8 and 1.3 times the taps on 160 fresh translations of 0.5 to 40
+ * voxels, and more the longer the path, so there every measured count is
+ * worth it. AB's walk and RM's samples through the HARDWARE filter cost
+ * less, about 40 + 2.1 L and 15 + 4.4 L taps' worth (L the path's length
+ * along its major axis, in voxels; the lower edge of the same run's times),
+ * while an oblique path has up to 4 taps a slice: past those the kernel stays
+ * (docs/performance.md, "Short translations"). Below PB_SHIFT_TAPS_MAX the
+ * taps always are. PETBLUR_SHIFT_TAPS sets a fixed limit, 0 none, for
+ * comparisons. */
+long pb_shift_taps_limit(const pb_blur_options *opt, const pb_path *path)
 {
     const char *env = getenv("PETBLUR_SHIFT_TAPS");
-    if (!env || !*env)
-        return PB_SHIFT_TAPS_MAX;
-    char *end;
-    long v = strtol(env, &end, 10);
-    return *end == '\0' && v >= 0 ? v : PB_SHIFT_TAPS_MAX;
+    if (env && *env) {
+        char *end;
+        long v = strtol(env, &end, 10);
+        if (*end == '\0' && v >= 0)
+            return v;
+    }
+    int walks = opt->method == PB_METHOD_RM ||
+                (opt->method == PB_METHOD_AB && opt->ab_sampling != PB_AB_SAMPLING_CHORD);
+    if (opt->filter == PB_FILTER_EXACT || !walks)
+        return LONG_MAX;
+    double length = 0.0, a[3], b[3];
+    for (size_t i = 1; i < path->count; i++) {
+        voxel0_at(&path->poses[i - 1], a);
+        voxel0_at(&path->poses[i], b);
+        length += fmax(fabs(b[0] - a[0]), fmax(fabs(b[1] - a[1]), fabs(b[2] - a[2])));
+    }
+    double worth = opt->method == PB_METHOD_RM ? 15.0 + 4.4 * length : 40.0 + 2.1 * length;
+    return worth > PB_SHIFT_TAPS_MAX ? (long)worth : PB_SHIFT_TAPS_MAX;
 }
 
 /* The offsets d that voxel 0's path can reach, per axis [lo, hi], widened to
@@ -38,11 +73,11 @@ static int offset_box(const pb_path *path, long *lo, long *hi)
 {
     double least[3] = {HUGE_VAL, HUGE_VAL, HUGE_VAL}, most[3] = {-HUGE_VAL, -HUGE_VAL, -HUGE_VAL};
     for (size_t i = 0; i < path->count; i++) {
-        const double *m = path->poses[i].map;
+        double p[3];
+        voxel0_at(&path->poses[i], p);
         for (int r = 0; r < 3; r++) {
-            double p = 0.5 * (m[4 * r] + m[4 * r + 1] + m[4 * r + 2]) + m[4 * r + 3] - 0.5;
-            least[r] = fmin(least[r], p);
-            most[r] = fmax(most[r], p);
+            least[r] = fmin(least[r], p[r]);
+            most[r] = fmax(most[r], p[r]);
         }
     }
     double volume = 1.0;
@@ -96,7 +131,7 @@ static pb_status impulse_response(pb_device *dev, const pb_plan_frame *f, const 
 
 pb_status pb_shift_taps_prepare(pb_device *dev, const pb_blur_options *opt, pb_plan_frame *f)
 {
-    long limit = taps_limit(), lo[3], hi[3];
+    long limit = pb_shift_taps_limit(opt, &f->path), lo[3], hi[3];
     if (limit == 0 || !pb_path_shift_invariant(&f->path, opt) || !offset_box(&f->path, lo, hi))
         return PB_OK;
     size_t n[3], at[3];
