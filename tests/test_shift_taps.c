@@ -26,6 +26,7 @@
  *     voxel's centre, and reads its neighbours at weights of that size);
  *   - both taps kernels ran: pb_shift_taps_tile, which reads a group's input
  *     from local memory where the taps' window fits it, and pb_shift_taps. */
+#include <limits.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -169,8 +170,11 @@ int main(int argc, char **argv)
          * from the reference: taps that land partly outside, or nowhere); and
          * 4-5 voxels along y and z, whose taps' window is too large for the
          * kernel that holds a group's input in local memory (PB_TAP_TY),
-         * where the identity's one tap always fits it. */
-        double t[3], s[3], far[3], longer[3];
+         * where the identity's one tap always fits it; and 6.5-9 voxels along
+         * one axis, which AB and RM walk or sample (the rule by length walks
+         * a segment of PB_AB_WALK_FROM voxels or more). */
+        double t[3], s[3], far[3], longer[3], along[3];
+        int axis = (int)(pb_rand_uniform() * 3.0) % 3;
         for (int d = 0; d < 3; d++) {
             t[d] = pb_rand_range(-2.5, 2.5) * g.voxel_size[d];
             s[d] = pb_rand_range(-1.5, 1.5) * g.voxel_size[d];
@@ -178,19 +182,23 @@ int main(int argc, char **argv)
                      g.voxel_size[d];
             longer[d] = d == 0 ? pb_rand_range(-0.5, 0.5) * g.voxel_size[d]
                                : (pb_rand_uniform() < 0.5 ? -1.0 : 1.0) * pb_rand_range(4.0, 5.0) * g.voxel_size[d];
+            along[d] = (d == axis ? (pb_rand_uniform() < 0.5 ? -1.0 : 1.0) * pb_rand_range(6.5, 9.0)
+                                  : pb_rand_range(-1.5, 1.5)) * g.voxel_size[d];
         }
         pb_pose away = pb_test_pose(far[0], far[1], far[2], NULL, 0);
         pb_pose still = pb_test_pose(0, 0, 0, NULL, 0);
         pb_pose poses[3] = {still, pb_test_pose(t[0], t[1], t[2], NULL, 0), pb_test_pose(s[0], s[1], s[2], NULL, 0)};
         double times[3] = {0.0, pb_rand_range(0.3, 0.7), 1.0}, unit[2] = {0.0, 1.0};
-        pb_motion motions[5] = {{times, poses, 2, 0.0, times[1], 0, {0, 0, 0}}, {times, poses, 3, 0.0, 1.0, 0, {0, 0, 0}},
+        pb_motion motions[6] = {{times, poses, 2, 0.0, times[1], 0, {0, 0, 0}}, {times, poses, 3, 0.0, 1.0, 0, {0, 0, 0}},
                                 {unit, (pb_pose[]){still, still}, 2, 0.0, 1.0, 0, {0, 0, 0}},
                                 {unit, (pb_pose[]){away, away}, 2, 0.0, 1.0, 0, {0, 0, 0}},
                                 {unit, (pb_pose[]){still, pb_test_pose(longer[0], longer[1], longer[2], NULL, 0)}, 2,
+                                 0.0, 1.0, 0, {0, 0, 0}},
+                                {unit, (pb_pose[]){still, pb_test_pose(along[0], along[1], along[2], NULL, 0)}, 2,
                                  0.0, 1.0, 0, {0, 0, 0}}};
-        const char *motion_names[5] = {"a translation", "a track of translations", "the identity", "a pose far off",
-                                       "a longer translation"};
-        for (int c = 0; c < 5; c++) {
+        const char *motion_names[6] = {"a translation", "a track of translations", "the identity", "a pose far off",
+                                       "a longer translation", "a walked translation"};
+        for (int c = 0; c < 6; c++) {
             pb_motion m = motions[c];
             for (size_t r = 0; r < sizeof runs / sizeof runs[0]; r++)
                 for (int filter = 0;
@@ -220,20 +228,28 @@ int main(int argc, char **argv)
                              "%s: %d taps, %ld worth reading, the default chose %s", what, taps, worth,
                              chosen < PB_KERNEL_COUNT ? pb_kernel_table[chosen].name : "none");
                     /* Independently of the rule's code: every path here is worth its taps through the
-                     * EXACT filter and AB's chords, and a translation's walk or samples through HARDWARE
-                     * 40 + 2.1 L and 15 + 4.4 L of them, L its length along its major axis in voxels. */
-                    int walks = runs[r].method == PB_METHOD_RM ||
-                                (runs[r].method == PB_METHOD_AB && runs[r].sampling != PB_AB_SAMPLING_CHORD);
-                    if (filter == PB_FILTER_EXACT || !walks)
-                        pb_check(is_taps(chosen), "%s: %d taps, the default chose %s", what, taps,
-                                 chosen < PB_KERNEL_COUNT ? pb_kernel_table[chosen].name : "none");
-                    else if (c == 0) {
+                     * EXACT filter, AB's chord sampling and CL, and where the rule by length reads every
+                     * segment's chord (shorter than PB_AB_WALK_FROM, AB's sub-segments each); a
+                     * translation walked or sampled through HARDWARE 40 + 2.1 L (AB) and 15 + 4.4 L (RM) of
+                     * them, L its length along its major axis in voxels. */
+                    if (c == 0 || c == 5) {
+                        const double *d = c == 0 ? t : along;
                         double L = 0.0;
-                        for (int d = 0; d < 3; d++)
-                            L = fmax(L, fabs(t[d]) / g.voxel_size[d]);
-                        double want = fmax(PB_SHIFT_TAPS_MAX, runs[r].method == PB_METHOD_RM ? 15 + 4.4 * L : 40 + 2.1 * L);
-                        pb_check(fabs((double)worth - want) <= 1.0, "%s: %ld taps worth reading, not %g", what,
-                                 worth, want);
+                        for (int a = 0; a < 3; a++)
+                            L = fmax(L, fabs(d[a]) / g.voxel_size[a]);
+                        int rm = runs[r].method == PB_METHOD_RM, cl = runs[r].method == PB_METHOD_CL;
+                        int chord = runs[r].sampling == PB_AB_SAMPLING_CHORD;
+                        double sub = !rm && runs[r].steps > 1 ? L / runs[r].steps : L;
+                        int by_length = !rm || runs[r].steps == 0;
+                        if (filter == PB_FILTER_EXACT || cl || chord || (by_length && sub < (double)PB_AB_WALK_FROM))
+                            pb_check(is_taps(chosen) && worth == LONG_MAX,
+                                     "%s: %d taps, %ld worth reading, the default chose %s", what, taps, worth,
+                                     chosen < PB_KERNEL_COUNT ? pb_kernel_table[chosen].name : "none");
+                        else {
+                            double want = fmax(PB_SHIFT_TAPS_MAX, rm ? 15 + 4.4 * L : 40 + 2.1 * L);
+                            pb_check(fabs((double)worth - want) <= 1.0, "%s: %ld taps worth reading, not %g",
+                                     what, worth, want);
+                        }
                     }
                     char below[16];
                     snprintf(below, sizeof below, "%d", taps - 1);

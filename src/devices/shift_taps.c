@@ -31,11 +31,13 @@ static void voxel0_at(const pb_path_pose *pose, double *p)
 /* The most taps worth reading instead of the frame's kernel. Each tap costs
  * one read of the input a voxel, about 7 us at 256^3 on the H200; the
  * kernels cost more wherever they read the texture through the EXACT filter
- * (eight point reads a sample), read AB's chords, or sample as CL does: at
- * least 2.4, 2.8 and 1.3 times the taps on 160 fresh translations of 0.5 to 40
- * voxels, and more the longer the path, so there every measured count is
- * worth it. AB's walk and RM's samples through the HARDWARE filter cost
- * less, about 40 + 2.1 L and 15 + 4.4 L taps' worth (L the path's length
+ * (eight point reads a sample), read chords (AB's chord sampling, and AB's
+ * and RM's segments shorter than PB_AB_WALK_FROM voxels by the rule by
+ * length) or sample as CL does: at least 2.4, 2.8 and 1.3 times the taps on
+ * 160 fresh translations of 0.5 to 40 voxels, and more the longer the path,
+ * so there every measured count is worth it. AB's walk and RM's samples
+ * through the HARDWARE filter, on segments long enough to be walked alone,
+ * cost less, about 40 + 2.1 L and 15 + 4.4 L taps' worth (L the path's length
  * along its major axis, in voxels; the lower edge of the same run's times),
  * while an oblique path has up to 4 taps a slice: past those the kernel stays
  * (docs/performance.md, "Short translations"). Below PB_SHIFT_TAPS_MAX the
@@ -50,17 +52,27 @@ long pb_shift_taps_limit(const pb_blur_options *opt, const pb_path *path)
         if (*end == '\0' && v >= 0)
             return v;
     }
-    int walks = opt->method == PB_METHOD_RM ||
-                (opt->method == PB_METHOD_AB && opt->ab_sampling != PB_AB_SAMPLING_CHORD);
+    int rm = opt->method == PB_METHOD_RM;
+    int walks = rm || (opt->method == PB_METHOD_AB && opt->ab_sampling != PB_AB_SAMPLING_CHORD);
     if (opt->filter == PB_FILTER_EXACT || !walks)
         return LONG_MAX;
+    /* AB's sub-segments, and RM's segments unless it takes S samples, are
+     * each read by the rule by length. */
+    double pieces = rm ? 1.0 : (opt->steps > 1 ? (double)opt->steps : 1.0);
+    int by_length = !rm || opt->steps == 0, walked = 0;
     double length = 0.0, a[3], b[3];
     for (size_t i = 1; i < path->count; i++) {
         voxel0_at(&path->poses[i - 1], a);
         voxel0_at(&path->poses[i], b);
-        length += fmax(fabs(b[0] - a[0]), fmax(fabs(b[1] - a[1]), fabs(b[2] - a[2])));
+        double along = fmax(fabs(b[0] - a[0]), fmax(fabs(b[1] - a[1]), fabs(b[2] - a[2])));
+        walked += !by_length || along / pieces >= (double)PB_AB_WALK_FROM;
+        length += along;
     }
-    double worth = opt->method == PB_METHOD_RM ? 15.0 + 4.4 * length : 40.0 + 2.1 * length;
+    /* A path with no segment walked alone reads chords (or points, at one
+     * fetch each): it costs as chords do. */
+    if (!walked)
+        return LONG_MAX;
+    double worth = rm ? 15.0 + 4.4 * length : 40.0 + 2.1 * length;
     return worth > PB_SHIFT_TAPS_MAX ? (long)worth : PB_SHIFT_TAPS_MAX;
 }
 
