@@ -61,7 +61,7 @@ def draw(rng):
     voxels, its direction uniform on the sphere."""
     d = rng.normal(size=3)
     d /= np.abs(d).max()
-    return tuple(np.round(d * np.exp(rng.uniform(np.log(0.5), np.log(40.0))), 2))
+    return tuple(float(v) for v in np.round(d * np.exp(rng.uniform(np.log(0.5), np.log(40.0))), 2))
 
 
 def main():
