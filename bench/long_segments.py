@@ -3,7 +3,7 @@
 oblique translations of a fixed length L (voxels along
 the major axis) on fresh draws (a grid of 40^3 voxels of 2-3 mm, a random
 direction, path_cases' sharp spheres or smooth brain), each read by AB (the
-paper's walk from PB_AB_WALK_FROM = 6 voxels on, both between 3 and 6), AB
+paper's walk from PB_AB_WALK_FROM = 6 voxels on, both between 5 and 6), AB
 sweep, RM and AB chord (every segment exact) at the defaults, against the
 exact time average of the trilinear image along the path: AB with `steps` =
 ceil(L / 3), whose pieces are each read exactly. That reference is checked

@@ -23,7 +23,7 @@ s / 80 mm radians, where the kind has noise). Kinds:
   translation  an oblique translation of 1-3 voxels at constant speed, 1 Hz log
   translation-long  the same 4-12 voxels long (2.3-12 along its major
                axis): one straight segment, mostly longer than AB reads
-               exactly (PB_AB_EXACT_TO, 3 voxels along the major axis), so
+               exactly (PB_AB_EXACT_TO, 5 voxels along the major axis), so
                the walk's own error shows (docs/methods.md, "Long segments")
 
 The references (accuracy_case.py's resampling): the mean over equally spaced

@@ -56,8 +56,10 @@ typedef struct pb_kparams {
 /* AB reads a segment that moves at most PB_AB_EXACT_TO voxels along its
  * major axis exactly, one of at least PB_AB_WALK_FROM by the paper's walk
  * (cl/pb_blur.cl's pb_ab_walk_weight; the host backend and the kernel choice
- * follow them). */
-#define PB_AB_EXACT_TO 3.0f
+ * follow them). One in between is read both ways, which costs more than the
+ * chord alone: a narrow band keeps the blur continuous in the motion at the
+ * least cost (docs/methods.md, "Short segments, read exactly"). */
+#define PB_AB_EXACT_TO 5.0f
 #define PB_AB_WALK_FROM 6.0f
 
 /* Voxels along x per work item of pb_shift_ab_layers_x: 8 floats fill a

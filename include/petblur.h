@@ -513,7 +513,7 @@ typedef enum pb_method {
     /* Antialiased Bresenham: each tomograph voxel's object-space path is a
      * polyline (one segment per pair of consecutive poses), walked slice by slice
      * along its major axis, four voxels weighted per slice. A segment of at
-     * most 3 voxels along that axis is read as the trilinear image's exact
+     * most 5 voxels along that axis is read as the trilinear image's exact
      * time average over it, one of 6 or more by the walk, both weighed
      * between (docs/methods.md, "Short segments"). */
     PB_METHOD_AB = 0,
@@ -545,7 +545,7 @@ typedef enum pb_path_model {
     PB_PATH_TRACKED = 2  /* one segment per tracked interval: the paper's polyline */
 } pb_path_model;
 
-/* How AB reads a segment. Short segments (up to 3 voxels along their major
+/* How AB reads a segment. Short segments (up to 5 voxels along their major
  * axis) are always read exactly, as the trilinear image's time average over
  * the chord; long ones (6 voxels on, and in part between) by the paper's
  * walk, which reads each slice at one point, where the path crosses the

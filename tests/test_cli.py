@@ -234,7 +234,7 @@ class Motion(Case):
         """--ab-sampling sweep on a long oblique translation (the paper's walk):
         nearer the true blur (the mean of the linear interpolant over the path,
         by scipy) than the paper's one point a slice; slice is the default's
-        name; chord reads it exactly. On a short one (at most 3 voxels along
+        name; chord reads it exactly. On a short one (at most 5 voxels along
         its major axis) AB is the exact average every way."""
         from scipy import ndimage
         idx = np.stack(np.meshgrid(*[np.arange(n) for n in self.vol.shape], indexing="ij"), 0).reshape(3, -1)

@@ -192,9 +192,11 @@ static double error_percent(const float *ref, const float *x, size_t n)
     return 100.0 * num / den;
 }
 
-/* Where AB's walk takes over from the exact chord (PB_AB_WALK_FROM in
- * cl/pb_kernel_types.h, behind the library's boundary). */
+/* Where AB's walk takes over from the exact chord, and up to where the chord
+ * reads alone (PB_AB_WALK_FROM and PB_AB_EXACT_TO in cl/pb_kernel_types.h,
+ * behind the library's boundary). */
 #define AB_WALK_FROM 6.0
+#define AB_EXACT_TO 5.0
 
 /* AB under `sampling` against the analytic blur `exact` of the translation
  * by `move` voxels, with both filters: within `tol`, plus the texture unit's
@@ -250,11 +252,11 @@ static void test_analytic_translation(pb_context *ctx)
         double e = error_percent(exact, out, n);
         printf("AB, %u sub-segment(s), shift (%.2f, %.2f, %.2f): error %.3g%%\n", parts, shift[0], shift[1],
                shift[2], e);
-        /* Pieces of at most PB_AB_EXACT_TO (3) voxels are read exactly: from
+        /* Pieces of at most PB_AB_EXACT_TO voxels are read exactly: from
          * there on, float rounding. */
         double along = fmax(fabs(shift[0]), fmax(fabs(shift[1]), fabs(shift[2]))) / parts;
         pb_check(e < prev || e < 1e-4, "AB error falls with sub-segments (%u: %.3g%% after %.3g%%)", parts, e, prev);
-        if (along <= 3.0)
+        if (along <= AB_EXACT_TO)
             pb_check(e < 1e-4, "AB exact on pieces of %.2f voxels (%.3g%% from the analytic blur)", along, e);
         if (parts == 1)
             pb_check(e < 1.0, "AB on a diagonal translation within 1%% of the analytic blur (%.3g%%)", e);

@@ -8,7 +8,7 @@ map_coordinates resamplings, made without petblur); every kind on PoCL, those
 with short logs on the host too.
 
 What is asserted is what the kernels now earn: on these cases every segment
-is short (at most 3 voxels along its major axis), and AB and RM read it as
+is short (at most 5 voxels along its major axis), and AB and RM read it as
 the trilinear image's exact time average. With a fine path bound (0.01
 voxels) both stand within 0.5 % max and 0.3 % RMS of the reference (measured
 over 8 runs of the 7 kinds: at most 0.29 % max and 0.18 % RMS, on the
@@ -249,7 +249,7 @@ def test_long_segment_walked_or_read_exactly(rng):
     """Long segments (docs/methods.md, "Long segments: the walk's own error"): an
     oblique translation 4-12 voxels long logged at 1 Hz is one straight segment
     (or a few, where the frame starts between samples), mostly longer than AB
-    reads exactly (PB_AB_EXACT_TO, 3 voxels along its major axis). From
+    reads exactly (PB_AB_EXACT_TO, 5 voxels along its major axis). From
     PB_AB_WALK_FROM (6) on, AB reads it by the paper's walk, one point a slice,
     which misses the trilinear filter's kinks across each slice: on 120 fresh
     small draws (bench/results/2026-12-04_cpu2_long-segments) 0.60 % RMS median
