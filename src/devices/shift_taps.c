@@ -15,9 +15,9 @@
 
 /* The impulse grid's largest volume. It holds the offsets from 0 to the
  * path's, so a short path far from the frame's reference (up to about 60
- * voxels along every axis) still fits; past it the walk stays. A path that
- * spans 64 voxels or more along an axis is not measured: its taps would be
- * far more than the limit. */
+ * voxels along every axis) still fits; past it the kernel stays. A path that
+ * spans 64 voxels or more along an axis is not measured: its taps would cost
+ * more than the kernel, or their impulse grid more than they save. */
 #define PB_SHIFT_TAPS_GRID_MAX (64 * 64 * 64)
 
 /* Voxel 0's place (texel coordinates of its centre) under a key pose's map. */
@@ -73,6 +73,8 @@ long pb_shift_taps_limit(const pb_blur_options *opt, const pb_path *path)
     if (!walked)
         return LONG_MAX;
     double worth = rm ? 15.0 + 4.4 * length : 40.0 + 2.1 * length;
+    if (!(worth < 1e9)) /* costs more than the most taps an impulse grid holds */
+        return LONG_MAX;
     return worth > PB_SHIFT_TAPS_MAX ? (long)worth : PB_SHIFT_TAPS_MAX;
 }
 
