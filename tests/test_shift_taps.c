@@ -230,8 +230,8 @@ int main(int argc, char **argv)
                     /* Independently of the rule's code: every path here is worth its taps through the
                      * EXACT filter, AB's chord sampling and CL, and where the rule by length reads every
                      * segment's chord (shorter than PB_AB_WALK_FROM, AB's sub-segments each); a
-                     * translation walked or sampled through HARDWARE 40 + 2.1 L (AB) and 15 + 4.4 L (RM) of
-                     * them, L its length along its major axis in voxels. */
+                     * translation walked or sampled through HARDWARE 40 + 2.1 L (AB) and 15 + 4.4 S (RM) of
+                     * them, L its length along its major axis in voxels, S RM's samples (L by default). */
                     if (c == 0 || c == 5) {
                         const double *d = c == 0 ? t : along;
                         double L = 0.0;
@@ -246,7 +246,8 @@ int main(int argc, char **argv)
                                      "%s: %d taps, %ld worth reading, the default chose %s", what, taps, worth,
                                      chosen < PB_KERNEL_COUNT ? pb_kernel_table[chosen].name : "none");
                         else {
-                            double want = fmax(PB_SHIFT_TAPS_MAX, rm ? 15 + 4.4 * L : 40 + 2.1 * L);
+                            double S = runs[r].steps ? runs[r].steps : L; /* RM's samples, one segment */
+                            double want = fmax(PB_SHIFT_TAPS_MAX, rm ? 15 + 4.4 * S : 40 + 2.1 * L);
                             pb_check(fabs((double)worth - want) <= 1.0, "%s: %ld taps worth reading, not %g",
                                      what, worth, want);
                         }

@@ -33,16 +33,18 @@ static void voxel0_at(const pb_path_pose *pose, double *p)
  * kernels cost more wherever they read the texture through the EXACT filter
  * (eight point reads a sample), read chords (AB's chord sampling, and AB's
  * and RM's segments shorter than PB_AB_WALK_FROM voxels by the rule by
- * length) or sample as CL does: at least 2.4, 2.8 and 1.3 times the taps on
- * 160 fresh translations of 0.5 to 40 voxels, and more the longer the path,
+ * length) or sample as CL does: at least 2.1, 2.5 and 1.2 times the taps on
+ * 544 random translations of 0.5 to 40 voxels, and more the longer the path,
  * so there every measured count is worth it. AB's walk and RM's samples
  * through the HARDWARE filter, on segments long enough to be walked alone,
- * cost less, about 40 + 2.1 L and 15 + 4.4 L taps' worth (L the path's length
- * along its major axis, in voxels; the lower edge of the same run's times),
- * while an oblique path has up to 4 taps a slice: past those the kernel stays
- * (docs/performance.md, "Short translations"). Below PB_SHIFT_TAPS_MAX the
- * taps always are. PETBLUR_SHIFT_TAPS sets a fixed limit, 0 none, for
- * comparisons. */
+ * cost less, about 40 + 2.1 L and 15 + 4.4 S taps' worth (L the path's length
+ * along its major axis in voxels, S RM's samples a voxel, about L by default;
+ * the lower edge of the same run's times), while an oblique path has up to 4
+ * taps a slice: past those the kernel stays (docs/performance.md, "Short
+ * translations"). AB's sweep and sub-segments cost more than its walk, so its
+ * line leaves them no taps that cost more than they do. Below
+ * PB_SHIFT_TAPS_MAX the taps always are. PETBLUR_SHIFT_TAPS sets a fixed
+ * limit, 0 none, for comparisons. */
 long pb_shift_taps_limit(const pb_blur_options *opt, const pb_path *path)
 {
     const char *env = getenv("PETBLUR_SHIFT_TAPS");
@@ -59,9 +61,12 @@ long pb_shift_taps_limit(const pb_blur_options *opt, const pb_path *path)
     /* AB's sub-segments, and RM's segments unless it takes S samples, are
      * each read by the rule by length. */
     double pieces = rm ? 1.0 : (opt->steps > 1 ? (double)opt->steps : 1.0);
-    int by_length = !rm || opt->steps == 0, walked = 0;
+    int by_length = !rm || opt->steps == 0, walked = 0, segments = 0;
     double length = 0.0, a[3], b[3];
     for (size_t i = 1; i < path->count; i++) {
+        if (path->poses[i - 1].skip) /* read by no kernel */
+            continue;
+        segments++;
         voxel0_at(&path->poses[i - 1], a);
         voxel0_at(&path->poses[i], b);
         double along = fmax(fabs(b[0] - a[0]), fmax(fabs(b[1] - a[1]), fabs(b[2] - a[2])));
@@ -72,7 +77,8 @@ long pb_shift_taps_limit(const pb_blur_options *opt, const pb_path *path)
      * fetch each): it costs as chords do. */
     if (!walked)
         return LONG_MAX;
-    double worth = rm ? 15.0 + 4.4 * length : 40.0 + 2.1 * length;
+    double samples = rm && opt->steps ? (double)opt->steps * segments : length;
+    double worth = rm ? 15.0 + 4.4 * samples : 40.0 + 2.1 * length;
     if (!(worth < 1e9)) /* costs more than the most taps an impulse grid holds */
         return LONG_MAX;
     return worth > PB_SHIFT_TAPS_MAX ? (long)worth : PB_SHIFT_TAPS_MAX;
@@ -145,8 +151,11 @@ static pb_status impulse_response(pb_device *dev, const pb_plan_frame *f, const 
 
 pb_status pb_shift_taps_prepare(pb_device *dev, const pb_blur_options *opt, pb_plan_frame *f)
 {
-    long limit = pb_shift_taps_limit(opt, &f->path), lo[3], hi[3];
-    if (limit == 0 || !pb_path_shift_invariant(&f->path, opt) || !offset_box(&f->path, lo, hi))
+    long lo[3], hi[3];
+    if (!pb_path_shift_invariant(&f->path, opt) || !offset_box(&f->path, lo, hi))
+        return PB_OK;
+    long limit = pb_shift_taps_limit(opt, &f->path);
+    if (limit == 0)
         return PB_OK;
     size_t n[3], at[3];
     /* Tomograph voxel w of the grid reads the impulse at `at` through offset
