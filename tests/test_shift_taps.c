@@ -224,7 +224,7 @@ int main(int argc, char **argv)
                                   k < PB_KERNEL_COUNT ? pb_kernel_table[k].name : "none",
                                   walk < PB_KERNEL_COUNT ? pb_kernel_table[walk].name : "none"))
                         continue;
-                    pb_check(is_taps(chosen) == (taps <= worth) && worth >= PB_SHIFT_TAPS_MAX,
+                    pb_check(is_taps(chosen) == (taps <= worth),
                              "%s: %d taps, %ld worth reading, the default chose %s", what, taps, worth,
                              chosen < PB_KERNEL_COUNT ? pb_kernel_table[chosen].name : "none");
                     /* Independently of the rule's code: every path here is worth its taps through the
