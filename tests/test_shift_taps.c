@@ -39,9 +39,10 @@ static const char *method_names[] = {"AB", "RM", "CL", "REF"};
 
 /* The forward kernel a plan of one frame chose, under the limit that
  * PETBLUR_SHIFT_TAPS sets, and the limit of taps worth reading for that
- * frame's path by default (pb_shift_taps_limit, without the variable). */
+ * frame's path by default (pb_shift_taps_limit, without the variable), on
+ * this device and on a GPU. */
 static pb_kernel_id planned_kernel(pb_context *ctx, const pb_geometry *g, const pb_motion *m,
-                                   const pb_blur_options *opt, int *taps, long *worth)
+                                   const pb_blur_options *opt, int *taps, long *worth, long *gpu_worth)
 {
     pb_plan *plan = NULL;
     pb_kernel_id k = PB_KERNEL_COUNT;
@@ -51,7 +52,8 @@ static pb_kernel_id planned_kernel(pb_context *ctx, const pb_geometry *g, const 
         char *set = getenv("PETBLUR_SHIFT_TAPS");
         set = set ? strdup(set) : NULL;
         unsetenv("PETBLUR_SHIFT_TAPS");
-        *worth = pb_shift_taps_limit(opt, &plan->set.frame[0].path);
+        *worth = pb_shift_taps_limit(opt, &plan->set.frame[0].path, ctx->dev.info.is_gpu);
+        *gpu_worth = pb_shift_taps_limit(opt, &plan->set.frame[0].path, 1);
         if (set)
             setenv("PETBLUR_SHIFT_TAPS", set, 1);
         free(set);
@@ -211,13 +213,13 @@ int main(int argc, char **argv)
                              method_names[runs[r].method], pb_ab_sampling_name(runs[r].sampling), runs[r].steps,
                              filter ? "EXACT" : "HARDWARE");
                     int taps = 0, walk_taps = 0, default_taps = 0;
-                    long worth = 0, unused;
+                    long worth = 0, gpu_worth = 0, unused;
                     set_limit(NULL);
-                    pb_kernel_id chosen = planned_kernel(ctx, &g, &m, &opt, &default_taps, &worth);
+                    pb_kernel_id chosen = planned_kernel(ctx, &g, &m, &opt, &default_taps, &worth, &gpu_worth);
                     set_limit(FORCED);
-                    pb_kernel_id k = planned_kernel(ctx, &g, &m, &opt, &taps, &unused);
+                    pb_kernel_id k = planned_kernel(ctx, &g, &m, &opt, &taps, &unused, &unused);
                     set_limit("0");
-                    pb_kernel_id walk = planned_kernel(ctx, &g, &m, &opt, &walk_taps, &unused);
+                    pb_kernel_id walk = planned_kernel(ctx, &g, &m, &opt, &walk_taps, &unused, &unused);
                     kernels_met[k == PB_KERNEL_SHIFT_TAPS_TILE] += is_taps(k);
                     if (!pb_check(is_taps(k) && !is_taps(walk),
                                   "%s: kernels %s and %s, not the taps and the walk", what,
@@ -227,11 +229,17 @@ int main(int argc, char **argv)
                     pb_check(is_taps(chosen) == (taps <= worth),
                              "%s: %d taps, %ld worth reading, the default chose %s", what, taps, worth,
                              chosen < PB_KERNEL_COUNT ? pb_kernel_table[chosen].name : "none");
-                    /* Independently of the rule's code: every path here is worth its taps through the
-                     * EXACT filter, AB's chord sampling and CL, and where the rule by length reads every
-                     * segment's chord (shorter than PB_AB_WALK_FROM, AB's sub-segments each); a
-                     * translation walked or sampled through HARDWARE 40 + 2.1 L (AB) and 15 + 4.4 S (RM) of
-                     * them, L its length along its major axis in voxels, S RM's samples (L by default). */
+                    /* Independently of the rule's code: every path is worth its taps on a device without a
+                     * texture unit; on a GPU every path here through the EXACT filter, AB's chord sampling and
+                     * CL, and where the rule by length reads every segment's chord (shorter than
+                     * PB_AB_WALK_FROM, AB's sub-segments each); a translation walked or sampled through
+                     * HARDWARE 40 + 2.1 L (AB) and 15 + 4.4 S (RM) of them, L its length along its major axis in
+                     * voxels, S RM's samples (L by default). The GPU's rule is stated on every device. */
+                    if (!ctx->dev.info.is_gpu)
+                        pb_check(is_taps(chosen) && worth == LONG_MAX,
+                                 "%s: %d taps, %ld worth reading on a device without a texture unit, the default "
+                                 "chose %s", what, taps, worth,
+                                 chosen < PB_KERNEL_COUNT ? pb_kernel_table[chosen].name : "none");
                     if (c == 0 || c == 5) {
                         const double *d = c == 0 ? t : along;
                         double L = 0.0;
@@ -242,20 +250,20 @@ int main(int argc, char **argv)
                         double sub = !rm && runs[r].steps > 1 ? L / runs[r].steps : L;
                         int by_length = !rm || runs[r].steps == 0;
                         if (filter == PB_FILTER_EXACT || cl || chord || (by_length && sub < (double)PB_AB_WALK_FROM))
-                            pb_check(is_taps(chosen) && worth == LONG_MAX,
-                                     "%s: %d taps, %ld worth reading, the default chose %s", what, taps, worth,
-                                     chosen < PB_KERNEL_COUNT ? pb_kernel_table[chosen].name : "none");
+                            pb_check(gpu_worth == LONG_MAX && is_taps(chosen),
+                                     "%s: %d taps, %ld worth reading on a GPU, the default chose %s", what, taps,
+                                     gpu_worth, chosen < PB_KERNEL_COUNT ? pb_kernel_table[chosen].name : "none");
                         else {
                             double S = runs[r].steps ? runs[r].steps : L; /* RM's samples, one segment */
                             double want = fmax(PB_SHIFT_TAPS_MAX, rm ? 15 + 4.4 * S : 40 + 2.1 * L);
-                            pb_check(fabs((double)worth - want) <= 1.0, "%s: %ld taps worth reading, not %g",
-                                     what, worth, want);
+                            pb_check(fabs((double)gpu_worth - want) <= 1.0,
+                                     "%s: %ld taps worth reading on a GPU, not %g", what, gpu_worth, want);
                         }
                     }
                     char below[16];
                     snprintf(below, sizeof below, "%d", taps - 1);
                     set_limit(below);
-                    pb_check(taps == 0 || !is_taps(planned_kernel(ctx, &g, &m, &opt, &walk_taps, &unused)),
+                    pb_check(taps == 0 || !is_taps(planned_kernel(ctx, &g, &m, &opt, &walk_taps, &unused, &unused)),
                              "%s: %d taps chosen under a limit of %s", what, taps, below);
 
                     float *x = pb_random_volume(n), *y = pb_random_volume(n);

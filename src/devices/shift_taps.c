@@ -43,9 +43,11 @@ static void voxel0_at(const pb_path_pose *pose, double *p)
  * taps a slice: past those the kernel stays (docs/performance.md, "Short
  * translations"). AB's sweep and sub-segments cost more than its walk, so its
  * line leaves them no taps that cost more than they do. Below
- * PB_SHIFT_TAPS_MAX the taps always are. PETBLUR_SHIFT_TAPS sets a fixed
- * limit, 0 none, for comparisons. */
-long pb_shift_taps_limit(const pb_blur_options *opt, const pb_path *path)
+ * PB_SHIFT_TAPS_MAX the taps always are. A device without a texture unit
+ * (gpu 0: a CPU under OpenCL) filters in software, where every kernel cost
+ * 10-58 times its taps on PoCL, so there every count is worth it.
+ * PETBLUR_SHIFT_TAPS sets a fixed limit, 0 none, for comparisons. */
+long pb_shift_taps_limit(const pb_blur_options *opt, const pb_path *path, int gpu)
 {
     const char *env = getenv("PETBLUR_SHIFT_TAPS");
     if (env && *env) {
@@ -56,7 +58,7 @@ long pb_shift_taps_limit(const pb_blur_options *opt, const pb_path *path)
     }
     int rm = opt->method == PB_METHOD_RM;
     int walks = rm || (opt->method == PB_METHOD_AB && opt->ab_sampling != PB_AB_SAMPLING_CHORD);
-    if (opt->filter == PB_FILTER_EXACT || !walks)
+    if (!gpu || opt->filter == PB_FILTER_EXACT || !walks)
         return LONG_MAX;
     /* AB's sub-segments, and RM's segments unless it takes S samples, are
      * each read by the rule by length. */
@@ -154,7 +156,7 @@ pb_status pb_shift_taps_prepare(pb_device *dev, const pb_blur_options *opt, pb_p
     long lo[3], hi[3];
     if (!pb_path_shift_invariant(&f->path, opt) || !offset_box(&f->path, lo, hi))
         return PB_OK;
-    long limit = pb_shift_taps_limit(opt, &f->path);
+    long limit = pb_shift_taps_limit(opt, &f->path, dev->info.is_gpu);
     if (limit == 0)
         return PB_OK;
     size_t n[3], at[3];
