@@ -51,6 +51,7 @@ import numpy as np
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, HERE)
+from library_time import device_ms  # noqa: E402
 
 CALLS = ("forward", "adjoint", "adjoint-dense", "forward-dense")
 
@@ -112,18 +113,6 @@ class Case:
 
     def sync(self):
         self.torch.cuda.synchronize()
-
-
-def library_ms(op, call, n=5):
-    """The library's device time of the call: (kernels ms, input copy ms),
-    median of n calls (bench/python_torch.py's device_ms)."""
-    kernel, inputs = [], []
-    for _ in range(n):
-        call()
-        total, inp = op.last_device_ms()
-        kernel.append(total - inp)
-        inputs.append(inp)
-    return statistics.median(kernel), statistics.median(inputs)
 
 
 def cupti_events(torch, call):
@@ -206,7 +195,7 @@ def timing(a):
         c.sync()
         t = time.perf_counter()
         ms = event_ms(call, a.runs)
-        kern, inp = library_ms(F, call)
+        kern, inp = device_ms(F, call)
         st = kernel_stats(cupti_events(torch, call))
         names = sorted(k for k, v in st.items() if v["cat"] == "kernel" and k.startswith("pb_")) \
             if isinstance(st, dict) else []

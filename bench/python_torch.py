@@ -30,6 +30,7 @@ import petblur
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from fetch_floor import chord_slices  # noqa: E402
+from library_time import device_ms  # noqa: E402,F401 (its callers import it from here)
 from peers import TorchPeer  # noqa: E402
 
 # src/cli/bench/scenarios.h: translations in voxels, rotations in degrees about z.
@@ -62,18 +63,6 @@ def event_ms(fn, runs):
         pairs.append((a, b))
     torch.cuda.synchronize()
     return statistics.median(a.elapsed_time(b) for a, b in pairs)
-
-
-def device_ms(op, call):
-    """The library's own device time of op's last call, median of 5 calls:
-    (kernels ms, the input's copy into the texture ms)."""
-    kernel, inputs = [], []
-    for _ in range(5):
-        call()
-        total, inp = op.last_device_ms()
-        kernel.append(total - inp)
-        inputs.append(inp)
-    return statistics.median(kernel), statistics.median(inputs)
 
 
 def main():

@@ -21,10 +21,14 @@ import argparse
 import csv
 import os
 import statistics
+import sys
 
 import numpy as np
 
 import petblur
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from library_time import device_ms  # noqa: E402
 
 VS = 2.0
 CLASSES = (("ab", None), ("ab", "chord"), ("rm", None), ("cl", None))
@@ -36,18 +40,6 @@ def set_limit(value):
         os.environ.pop("PETBLUR_SHIFT_TAPS", None)
     else:
         os.environ["PETBLUR_SHIFT_TAPS"] = value
-
-
-def device_ms(op, call):
-    """The library's own device time of op's last call, median of 5 calls:
-    (kernels ms, the input's copy into the texture ms)."""
-    kernel, inputs = [], []
-    for _ in range(5):
-        call()
-        total, inp = op.last_device_ms()
-        kernel.append(total - inp)
-        inputs.append(inp)
-    return statistics.median(kernel), statistics.median(inputs)
 
 
 def operator(shape, t, method, sampling, filt, device):

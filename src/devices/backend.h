@@ -224,7 +224,8 @@ pb_status pb_launch_read(pb_device *dev, pb_kernel_id kernel, const pb_kparams *
  * the frame's kernel (pb_shift_taps_limit), the frame's kernels become the
  * convolution's (cl/pb_taps.cl), its poses buffer their taps, measured on the
  * device; otherwise the frame is left as it is. At most PB_SHIFT_TAPS_MAX
- * taps are always taken; gpu: whether the device filters in a texture unit. */
+ * taps are always taken; gpu: whether the device filters in a texture unit.
+ * The limit is for a path of translations (pb_path_shift_invariant). */
 #define PB_SHIFT_TAPS_MAX 24
 long pb_shift_taps_limit(const pb_blur_options *opt, const pb_path *path, int gpu);
 pb_status pb_shift_taps_prepare(pb_device *dev, const pb_blur_options *opt, pb_plan_frame *frame);

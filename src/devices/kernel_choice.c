@@ -73,6 +73,11 @@ static double segment_move(const pb_path *path, size_t j, int r)
     return fabs(path->poses[j + 1].map[4 * r + 3] - path->poses[j].map[4 * r + 3]);
 }
 
+double pb_path_segment_along(const pb_path *path, size_t j)
+{
+    return fmax(segment_move(path, j, 0), fmax(segment_move(path, j, 1), segment_move(path, j, 2)));
+}
+
 int pb_path_layer_axis(const pb_path *path)
 {
     int axis = -1;
@@ -113,7 +118,7 @@ static double shortest_walk(const pb_path *path, const pb_blur_options *opt)
     double least = HUGE_VAL;
     for (size_t j = 0; j + 1 < path->count; j++)
         if (!path->poses[j].skip)
-            least = fmin(least, fmax(segment_move(path, j, 0), fmax(segment_move(path, j, 1), segment_move(path, j, 2))));
+            least = fmin(least, pb_path_segment_along(path, j));
     return least / (opt->steps ? (double)opt->steps : 1.0);
 }
 

@@ -20,6 +20,9 @@ int pb_path_shift_invariant(const pb_path *path, const pb_blur_options *opt);
  * most (ties: the lower axis, as the kernels break them; segments of no
  * length take any), or -1 when two segments differ. */
 int pb_path_layer_axis(const pb_path *path);
+/* How far segment j of a motion of translations moves every voxel along its
+ * major axis, in voxels. */
+double pb_path_segment_along(const pb_path *path, size_t j);
 
 /* The forward kernel: for AB HARDWARE under translations along one axis
  * (along x: of at least PB_X_LAYERS_MIN_SLICES slices a walk, and an input

@@ -64,14 +64,12 @@ long pb_shift_taps_limit(const pb_blur_options *opt, const pb_path *path, int gp
      * each read by the rule by length. */
     double pieces = rm ? 1.0 : (opt->steps > 1 ? (double)opt->steps : 1.0);
     int by_length = !rm || opt->steps == 0, walked = 0, segments = 0;
-    double length = 0.0, a[3], b[3];
+    double length = 0.0;
     for (size_t i = 1; i < path->count; i++) {
         if (path->poses[i - 1].skip) /* read by no kernel */
             continue;
         segments++;
-        voxel0_at(&path->poses[i - 1], a);
-        voxel0_at(&path->poses[i], b);
-        double along = fmax(fabs(b[0] - a[0]), fmax(fabs(b[1] - a[1]), fabs(b[2] - a[2])));
+        double along = pb_path_segment_along(path, i - 1);
         walked += !by_length || along / pieces >= (double)PB_AB_WALK_FROM;
         length += along;
     }
