@@ -13,10 +13,11 @@ Each draw is a dynamic head series made with scipy from parameters drawn at rand
   from injection gets few), the scanner's resolution 4-6 mm.
 
 petblur runs as a user runs it (`petblur motion estimate` on a 4-D NIfTI and its BIDS-PET sidecar, defaults); the peer
-is SimpleITK's rigid registration of every frame to frame 0 (three levels, correlation or Mattes mutual information:
---sitk-metric). The error is what users measure: the displacement of points inside the head between the estimated and
-the true motion, mean over each frame's time, in mm; per draw its mean and worst frame. The truth holds still over
-frame 0, the reference of both. Beside them, the best that one pose a frame can do (the truth's mean pose over each
+is SimpleITK's rigid registration of every frame to the frame petblur took as its reference (its default chooses one;
+three levels, correlation or Mattes mutual information: --sitk-metric). The error is what users measure: the
+displacement of points inside the head between the estimated and the true motion, mean over each frame's time, in mm;
+per draw its mean and worst frame. Each track is judged relative to its own reference frame R: the truth re-expressed
+against its mean pose over R (the truth holds still over frame 0, so relative to frame 0 that is the truth as drawn). Beside them, the best that one pose a frame can do (the truth's mean pose over each
 frame), which motion inside frames can beat. Writes draws.jsonl (one line a draw, as it finishes) and family.md into --out.
 
     python3 bench/estimate_family.py --petblur build/src/cli/petblur --draws 20 --jobs 2 --out /tmp/family
@@ -280,8 +281,14 @@ def frame_table(out: str, frames: int) -> dict:
     return {"moving": moving, "unfollowed": unfollowed}
 
 
+def reference_said(out: str) -> int:
+    """The frame the program's summary says the track is relative to."""
+    line = next(x for x in out.splitlines() if x.strip().startswith("relative to frame "))
+    return int(line.split()[3])
+
+
 def one(petblur: str, seed: int, device: str, metric: str, threads: int, variants: dict = None,
-        sitk: dict = None) -> dict:
+        sitk: dict = None, sitk_reference: int = None) -> dict:
     """Draw `seed`, simulate it, estimate with petblur and SimpleITK: a dict of the draw and both errors; with
     variants ({name: {VARIABLE: value}}), petblur again under each variant's environment, in row["variants"]; with
     sitk (a row of an earlier run's draws.jsonl for the same seed), its SimpleITK result instead of running it."""
@@ -295,13 +302,18 @@ def one(petblur: str, seed: int, device: str, metric: str, threads: int, variant
            "jerks": [(round(a, 1), round(n, 2), round(g, 1), round(m, 1)) for a, n, g, _, m, _ in d.jerks],
            "nods": [(round(a, 1), round(n, 1), round(g, 1)) for a, n, g, _ in d.nods]}
 
-    def errors(times, maps):
-        e = hf.displacement_errors(hf.track_maps(times, maps), truth, bounds, points)
-        return {"mean_mm": round(float(e.mean()), 3), "max_mm": round(float(e.max()), 3),
-                "worst_frame": int(e.argmax()), "per_frame_mm": [round(float(x), 3) for x in e]}
+    means = frame_means(truth, bounds)
 
-    row["none"] = errors(np.array([bounds[0], bounds[-1]]), np.array([np.eye(4)] * 2))
-    row["frame_means"] = errors(*frame_means(truth, bounds))
+    def errors(times, maps, reference=0):
+        """Relative to frame `reference`: a point of that frame's object lies at the truth's mean pose over it, so
+        the track's maps, which start there, are compared after that pose."""
+        track, anchor = hf.track_maps(times, maps), means[1][1 + reference]
+        e = hf.displacement_errors(lambda t: track(t) @ anchor, truth, bounds, points)
+        return {"mean_mm": round(float(e.mean()), 3), "max_mm": round(float(e.max()), 3),
+                "worst_frame": int(e.argmax()), "per_frame_mm": [round(float(x), 3) for x in e],
+                "reference": reference}
+
+    row["frame_means"] = errors(*means)
     with tempfile.TemporaryDirectory() as tmp:
         nii, side = hf.write_series(tmp, frames, affine, bounds, "f")
         csv = os.path.join(tmp, "t.csv")
@@ -314,23 +326,29 @@ def one(petblur: str, seed: int, device: str, metric: str, threads: int, variant
             if r.returncode:
                 raise RuntimeError(f"seed {seed}: petblur motion estimate exited {r.returncode}: "
                                    f"{r.stderr[-2000:]}")
-            row["petblur"] = dict(errors(*hf.read_matrix_csv(csv)),
+            row["petblur"] = dict(errors(*hf.read_matrix_csv(csv), reference_said(r.stdout)),
                                   seconds=round(time.perf_counter() - started, 1),
                                   frames=frame_table(r.stdout, len(bounds) - 1))
         for name, env in (variants or {}).items():
-            os.remove(csv)  # a variant that writes nothing must not be scored on the run before
+            if os.path.exists(csv):
+                os.remove(csv)  # a variant that writes nothing must not be scored on the run before
             started = time.perf_counter()
-            r = subprocess.run([petblur, "motion", "estimate", nii, "--frames-from", side, "-o", csv, "-q",
-                                "--device", device], capture_output=True, text=True, env=dict(os.environ, **env))
+            options = [x for k, v in env.items() if k.startswith("--") for x in (k, v)]
+            r = subprocess.run([petblur, "motion", "estimate", nii, "--frames-from", side, "-o", csv,
+                                "--device", device, *options], capture_output=True, text=True,
+                               env=dict(os.environ, **{k: v for k, v in env.items() if not k.startswith("--")}))
             if r.returncode:
                 raise RuntimeError(f"seed {seed}, variant {name}: petblur exited {r.returncode}: {r.stderr[-2000:]}")
-            row.setdefault("variants", {})[name] = dict(errors(*hf.read_matrix_csv(csv)),
+            row.setdefault("variants", {})[name] = dict(errors(*hf.read_matrix_csv(csv), reference_said(r.stdout)),
                                                         seconds=round(time.perf_counter() - started, 1))
+    # SimpleITK against the frame petblur took (or was told to take: sitk_reference)
+    ref = sitk_reference if sitk_reference is not None else row["petblur"].get("reference", 0)
+    row["none"] = errors(np.array([bounds[0], bounds[-1]]), np.array([np.eye(4)] * 2), ref)
     if sitk is not None:
         row["sitk"] = sitk
         return row
     started = time.perf_counter()
-    row["sitk"] = dict(errors(*ev.sitk_track(frames, affine, bounds, threads, metric)),
+    row["sitk"] = dict(errors(*ev.sitk_track(frames, affine, bounds, threads, metric, ref), ref),
                        seconds=round(time.perf_counter() - started, 1))
     return row
 
@@ -363,18 +381,20 @@ def trust_summary(rows: list) -> list:
 
 
 def summary(rows: list, metric: str) -> str:
-    lines = [f"{len(rows)} draws; SimpleITK: every frame to frame 0, {metric}, three levels", "",
+    lines = [f"{len(rows)} draws; SimpleITK: every frame to petblur's reference frame, {metric}, three levels; "
+             "each track judged relative to its reference frame", "",
              "| seed | frames | voxel mm | frame s | from injection | counts/voxel | jerks (at s, s, deg, mm) | "
-             "petblur mean / worst mm | SimpleITK mean / worst mm | true mean pose a frame mean / worst mm | "
+             "reference | petblur mean / worst mm | SimpleITK mean / worst mm | true mean pose a frame mean / worst mm | "
              "none mean / worst mm | petblur s |",
-             "|---|---|---|---|---|---|---|---|---|---|---|---|"]
+             "|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for r in rows:
-        lines.append("| %d | %d | %s | %s | %s | %.1f | %s | %.3f / %.3f | %.3f / %.3f | %.3f / %.3f | %.2f / %.2f "
+        lines.append("| %d | %d | %s | %s | %s | %.1f | %s | %s | %.3f / %.3f | %.3f / %.3f | %.3f / %.3f | %.2f / %.2f "
                      "| %.1f |" % (
             r["seed"], r["frames"], "x".join("%.2f" % v for v in r["voxel_mm"]), "-".join("%g" % v for v in
                                                                                             r["frame_s"]),
             "yes" if r["from_injection"] else "no", r["counts_per_voxel"],
-            "; ".join("%g, %g, %g, %g" % tuple(j) for j in r["jerks"]), r["petblur"]["mean_mm"],
+            "; ".join("%g, %g, %g, %g" % tuple(j) for j in r["jerks"]), r["petblur"].get("reference", "-"),
+            r["petblur"]["mean_mm"],
             r["petblur"]["max_mm"],
             r["sitk"]["mean_mm"], r["sitk"]["max_mm"], r["frame_means"]["mean_mm"], r["frame_means"]["max_mm"],
             r["none"]["mean_mm"], r["none"]["max_mm"],
@@ -427,6 +447,9 @@ def main() -> int:
                         "estimator changes on the same draws)")
     p.add_argument("--sitk-from", metavar="DRAWS.JSONL", help="SimpleITK's results of an earlier run (its "
                    "draws.jsonl) for the draws it holds, not run again; replay its seeds with --seed")
+    p.add_argument("--references-from", metavar="DRAWS.JSONL", help="with --sitk-only: register each draw's frames "
+                   "to the reference frame petblur took in that run (its draws.jsonl), as a GPU run with --no-sitk "
+                   "wrote it")
     p.add_argument("--no-sitk", action="store_true", help="petblur alone (its variants against its default): "
                    "SimpleITK's columns are NaN")
     p.add_argument("--sitk-only", action="store_true", help="SimpleITK alone, petblur's columns NaN: run it where "
@@ -440,6 +463,10 @@ def main() -> int:
         p.error("--petblur is needed (unless --sitk-only or --summarize)")
     if a.sitk_only and (a.no_sitk or a.sitk_from or a.variant):
         p.error("--sitk-only runs SimpleITK alone: not with --no-sitk, --sitk-from or --variant")
+    references = {}
+    if a.references_from:
+        with open(a.references_from) as f:
+            references = {r["seed"]: r["petblur"]["reference"] for r in map(json.loads, f)}
     earlier = {}
     if a.sitk_from:
         with open(a.sitk_from) as f:
@@ -457,6 +484,10 @@ def main() -> int:
             rows = sorted(map(json.loads, f), key=lambda r: r["seed"])
         for r in rows:
             r["sitk"] = earlier.get(r["seed"], r["sitk"])
+            if not np.isnan(r["sitk"]["mean_mm"]) and r["sitk"].get("reference", 0) != r["petblur"].get("reference", 0):
+                p.error(f"seed {r['seed']}: SimpleITK's track is relative to frame {r['sitk'].get('reference', 0)}, "
+                        f"petblur's to frame {r['petblur'].get('reference', 0)}: run --sitk-only with "
+                        "--references-from the petblur run")
         os.makedirs(a.out, exist_ok=True)
         with open(os.path.join(a.out, "draws.jsonl"), "w") as f:
             f.writelines(json.dumps(r) + "\n" for r in rows)
@@ -472,7 +503,7 @@ def main() -> int:
         futures = [pool.submit(one, None if a.sitk_only else a.petblur, s, a.device, a.sitk_metric, a.sitk_threads,
                                variants,
                                {"mean_mm": float("nan"), "max_mm": float("nan"), "seconds": 0.0} if a.no_sitk
-                               else earlier.get(s)) for s in seeds]
+                               else earlier.get(s), references.get(s)) for s in seeds]
         for fut in concurrent.futures.as_completed(futures):
             r = fut.result()
             rows.append(r)

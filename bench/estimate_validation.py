@@ -35,9 +35,9 @@ SETUPS = {
 }
 
 
-def sitk_track(frames, affine, bounds, threads=2, metric="correlation"):
-    """SimpleITK: every frame registered rigidly to frame 0, one pose per frame (mid-time); metric "correlation" or
-    "mattes" (Mattes mutual information, 50 bins)."""
+def sitk_track(frames, affine, bounds, threads=2, metric="correlation", reference=0):
+    """SimpleITK: every frame registered rigidly to frame `reference`, one pose per frame (mid-time), the maps taking
+    that frame's object to each frame's; metric "correlation" or "mattes" (Mattes mutual information, 50 bins)."""
     import SimpleITK as sitk
 
     def image(vol):
@@ -52,10 +52,13 @@ def sitk_track(frames, affine, bounds, threads=2, metric="correlation"):
         return img
 
     sitk.ProcessObject.SetGlobalDefaultNumberOfThreads(threads)
-    fixed = image(frames[..., 0])
-    maps = [np.eye(4)]
+    fixed = image(frames[..., reference])
+    maps = []
     lps = np.diag([-1.0, -1.0, 1.0, 1.0])
-    for k in range(1, frames.shape[-1]):
+    for k in range(frames.shape[-1]):
+        if k == reference:
+            maps.append(np.eye(4))
+            continue
         moving = image(frames[..., k])
         reg = sitk.ImageRegistrationMethod()
         if metric == "mattes":
@@ -73,7 +76,7 @@ def sitk_track(frames, affine, bounds, threads=2, metric="correlation"):
                                                  sitk.CenteredTransformInitializerFilter.GEOMETRY)
         reg.SetInitialTransform(init, inPlace=False)
         t = reg.Execute(fixed, moving)
-        # t maps fixed points (frame 0's object) to moving points (frame k): the object's motion, in LPS
+        # t maps fixed points (the reference frame's object) to moving points (frame k): the object's motion, in LPS
         t = sitk.CompositeTransform(t).GetNthTransform(0) if isinstance(t, sitk.CompositeTransform) else t
         e = sitk.Euler3DTransform(t) if t.GetName() == "Euler3DTransform" else t
         m = np.eye(4)

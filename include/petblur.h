@@ -815,9 +815,16 @@ typedef struct pb_estimate_frame {
                             * the series' first and last frames: under the 15 % their one path must gain) */
 } pb_estimate_frame;
 
+/* pb_estimate_options.reference: the estimate chooses the frame (the
+ * program's and Python's default), and says which in pb_estimate_report.reference */
+#define PB_ESTIMATE_REFERENCE_AUTO ((size_t)-1)
+
 /* How pb_motion_estimate works. Zero-initialised: the defaults. */
 typedef struct pb_estimate_options {
-    size_t reference;      /* the frame whose object the motion moves: poses are relative to it */
+    size_t reference;      /* the frame whose object the motion moves: poses are relative to it (0: the first);
+                            * PB_ESTIMATE_REFERENCE_AUTO: the frame held still whose pose its registration
+                            * determines best, so that an early frame of few counts, whose pose is off by its
+                            * noise, does not move every other frame's */
     unsigned levels;       /* resolution levels, each halving the grid; 0: as many as keep 12 voxels a side, at most 3 */
     unsigned iterations;   /* Gauss-Newton iterations at most per level and frame; 0: 12 */
     int frame_poses_only;  /* nonzero: one pose per frame; 0: a frame that holds a jerk gets the poses on both sides */
@@ -831,6 +838,7 @@ typedef struct pb_estimate_report {
     double seconds;        /* the whole call's wall time */
     size_t moving_frames;  /* frames given motion inside them */
     pb_warnings warnings;  /* PB_WARN_BACKGROUND, PB_WARN_NO_STRUCTURE: what was found and what was done */
+    size_t reference;      /* the frame the track is relative to: the options' reference, or the one chosen */
 } pb_estimate_report;
 
 /* The patient's rigid motion estimated from the frames themselves. frames

@@ -26,7 +26,11 @@ class EstimateOptions(ctypes.Structure):
 
 
 class EstimateReport(ctypes.Structure):
-    _fields_ = [("seconds", ctypes.c_double), ("moving_frames", ctypes.c_size_t), ("warnings", _lib.Warnings)]
+    _fields_ = [("seconds", ctypes.c_double), ("moving_frames", ctypes.c_size_t), ("warnings", _lib.Warnings),
+                ("reference", ctypes.c_size_t)]
+
+
+REFERENCE_AUTO = ctypes.c_size_t(-1).value  # PB_ESTIMATE_REFERENCE_AUTO
 
 
 _lib.check_layout({"pb_estimate_options": EstimateOptions, "pb_estimate_report": EstimateReport,
@@ -119,8 +123,11 @@ def estimate(frames, affine, voxel_size, bounds, reference, device, frame_poses_
     for name, v, lo, hi in (("levels", levels, 0, 6), ("iterations", iterations, 0, 1000)):
         if not isinstance(v, (int, np.integer)) or not lo <= v <= hi:
             raise ArgumentError(f"{name} {v!r}: give a whole number from {lo} (the default) to {hi}")
-    if isinstance(reference, bool) or not isinstance(reference, (int, np.integer)) or not 0 <= reference < nt:
-        raise ArgumentError(f"reference {reference!r}: the series has frames 0 to {nt - 1}")
+    if isinstance(reference, str) and reference == "auto":
+        reference = REFERENCE_AUTO
+    elif isinstance(reference, bool) or not isinstance(reference, (int, np.integer)) or not 0 <= reference < nt:
+        raise ArgumentError(f"reference {reference!r}: the series has frames 0 to {nt - 1}, or give 'auto' (the "
+                            "still frame whose pose the series determines best)")
     given = fwhm
     fwhm = _finite(fwhm)
     if fwhm is None or not 0.0 <= fwhm <= 1000.0:

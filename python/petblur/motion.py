@@ -254,7 +254,7 @@ class Motion:
         return m
 
     @classmethod
-    def from_frames(cls, frames, affine=None, starts=None, durations=None, reference=0, device="auto", bounds=None,
+    def from_frames(cls, frames, affine=None, starts=None, durations=None, reference="auto", device="auto", bounds=None,
                     frame_poses_only=False, levels=0, iterations=0, fwhm=0.0, voxel_size=None, progress=None):
         """The head's rigid motion estimated from a dynamic series itself, as
         `petblur motion estimate` does (the C library's pb_motion_estimate):
@@ -265,7 +265,11 @@ class Motion:
         ``durations[k]`` seconds (BIDS-PET's FrameTimesStart and
         FrameDuration; or ``bounds``, the n + 1 boundaries, as
         frames_from_sidecar gives them). The motion moves the object seen in
-        frame ``reference`` (its pose is the identity); a frame holding a jerk
+        frame ``reference`` (its pose is the identity; the motion's
+        ``reference_frame``): by default ('auto') the frame held still whose
+        pose the series determines best, so that the first seconds' frame of
+        few counts, whose pose is off by its noise, does not move every
+        other frame's; a frame holding a jerk
         gets the poses on both sides of it unless ``frame_poses_only``.
         ``levels``, ``iterations`` and ``fwhm`` (mm) are the command line's
         --levels, --iterations and --fwhm (0: the defaults). ``progress``,
@@ -316,6 +320,7 @@ class Motion:
         m._format, m._source = fmt, "the motion estimated from the frames"
         m._coords = "grid" if affine is None else "world"
         m.estimate_seconds, m.moving_frames = report.seconds, int(report.moving_frames)
+        m.reference_frame = int(report.reference)
         m.frame_report = frames_report
         return m
 
@@ -569,11 +574,11 @@ class Motion:
                 continue
             if name in state:
                 v = state[name]
-                good = (_whole(v) if name == "moving_frames" else isinstance(v, numbers.Real) and
+                good = (_whole(v) if name in _WHOLE else isinstance(v, numbers.Real) and
                         not isinstance(v, bool) and np.isfinite(v))
                 if not good or v < 0:
                     raise ArgumentError(f"{name} is {shown(v)}; give a finite number, at least 0")
-                setattr(self, name, int(v) if name == "moving_frames" else float(v))
+                setattr(self, name, int(v) if name in _WHOLE else float(v))
         _Track(self)
         self._world(_grid((1, 1, 1), (1.0, 1.0, 1.0)), None, warn=False)  # the conventions' refusals
 
@@ -583,7 +588,8 @@ class Motion:
 # coordinates), and an estimate's report.
 _STATE = ("times", "translations", "quaternions", "center", "_format", "_lines", "_missing", "_source",
           "_calibration", "_reference_time", "_inverse", "_coords")
-_REPORT = ("estimate_seconds", "moving_frames", "frame_report")
+_REPORT = ("estimate_seconds", "moving_frames", "reference_frame", "frame_report")
+_WHOLE = ("moving_frames", "reference_frame")
 
 
 def _frame_report(v):

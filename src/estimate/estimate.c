@@ -1171,9 +1171,9 @@ static pb_status check_input(const pb_geometry *g, const float *frames, size_t c
     if (count < 2)
         return pb_error(NULL, PB_ERR_INVALID_ARGUMENT, "motion from the frames needs at least two frames, got %zu: "
                         "a 3-D image or a single frame has nothing to register; give a 4-D series", count);
-    if (o->reference >= count)
+    if (o->reference != PB_ESTIMATE_REFERENCE_AUTO && o->reference >= count)
         return pb_error(NULL, PB_ERR_INVALID_ARGUMENT, "the reference frame %zu is out of range: the series has "
-                        "frames 0 to %zu", o->reference, count - 1);
+                        "frames 0 to %zu (or PB_ESTIMATE_REFERENCE_AUTO)", o->reference, count - 1);
     if (o->iterations > 1000)
         return pb_error(NULL, PB_ERR_INVALID_ARGUMENT, "iterations is %u; give 1 to 1000 (0: the default)",
                         o->iterations);
@@ -1229,10 +1229,41 @@ static double now_seconds(void)
     return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
 }
 
+/* The frame the track is relative to where the caller leaves it to the
+ * estimate: of the frames held still that show structure and no motion
+ * inside, the one whose pose its registration determines best (the least
+ * spread of a point at the grid's RMS radius). Every pose is expressed
+ * against the reference frame's, so its error moves every frame, and an
+ * early frame of few counts or blood-dominated contrast is off by several
+ * times a late frame's (docs/estimate-log.md, "What anchors the track").
+ * The passes run against frame 0 as before; this only re-expresses the
+ * poses. fallback where no frame qualifies. */
+static size_t best_anchor(const estimate *e, const pbe_fit *fits, const int *moving, const double *unfollowed,
+                          size_t fallback)
+{
+    double r2 = 0.0, least = (double)INFINITY;
+    for (int a = 0; a < 3; a++) {
+        double side = (double)e->g.dims[a] * e->g.voxel_size[a];
+        r2 += side * side / 12.0;
+    }
+    size_t best = fallback;
+    for (size_t k = 0; k < e->count; k++) {
+        if (e->flat[k] || moving[k] || unfollowed[k] > 0.0)
+            continue;
+        double spread = pbe_pose_spread(&fits[k], sqrt(r2));
+        if (spread < least) {
+            least = spread;
+            best = k;
+        }
+    }
+    return best;
+}
+
 static pb_status estimate_run(estimate *e, const double *bounds, const pb_estimate_options *o, const double d[9],
                               const double corner[3], pb_track **track, pb_estimate_report *report)
 {
-    const size_t count = e->count, ref = o->reference;
+    const int chosen = o->reference == PB_ESTIMATE_REFERENCE_AUTO;
+    const size_t count = e->count, ref = chosen ? 0 : o->reference;
     pbe_fit *fits = calloc(count, sizeof *fits);
     int *moving = calloc(count, sizeof(int));
     frame_path *paths = calloc(count * PATHS, sizeof *paths);
@@ -1284,9 +1315,12 @@ static pb_status estimate_run(estimate *e, const double *bounds, const pb_estima
     /* 4: every pose corrected along the contrast, together */
     if (st == PB_OK)
         st = correct_together(e, ref, fits, paths, moving);
+    const size_t anchor = chosen && st == PB_OK ? best_anchor(e, fits, moving, unfollowed, ref) : ref;
+    if (report)
+        report->reference = anchor;
     if (st == PB_OK) {
         pb_pose back;
-        pb_pose_invert(&fits[ref].pose, &back);
+        pb_pose_invert(&fits[anchor].pose, &back);
         /* a moving first or last frame's keys reach the series' ends */
         if (!moving[0])
             key(&k, bounds[0], &fits[0].pose);

@@ -286,6 +286,17 @@ static double filter_smooth(size_t count, const int *use, const double *t, const
     return ll;
 }
 
+double pbe_pose_spread(const pbe_fit *fit, double r)
+{
+    double cov[D * D];
+    if (!spd_inverse(fit->information, cov, NULL))
+        return (double)INFINITY;
+    double v = 0.0;
+    for (int i = 0; i < D; i++)
+        v += cov[i * D + i] * (i < 3 ? 1.0 : r * r);
+    return isfinite(v) && v >= 0.0 ? v : (double)INFINITY;
+}
+
 double pbe_smooth_poses(pbe_fit *fits, const int *skip, const double *t, size_t count, size_t base, double r,
                         int *jumped)
 {

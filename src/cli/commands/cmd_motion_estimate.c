@@ -18,7 +18,8 @@ static const pbc_option options[] = {
     {"--frames-from", NULL, "SIDECAR.json", "the frames from a BIDS-PET sidecar (FrameTimesStart, FrameDuration)"},
     {"--format", NULL, "FORMAT", "matrix-csv (default: rigid maps about the world's origin) or csv (poses about the "
                                  "centre of FRAMES' grid, which blur then needs as its grid or --center)"},
-    {"--reference", NULL, "K", "the frame whose object the track moves, from 0 (default 0)"},
+    {"--reference", NULL, "K|auto", "the frame whose object the track moves, from 0; auto (the default): the "
+                                    "frame held still whose pose the series determines best, printed"},
     {"--frame-poses-only", NULL, NULL, "one pose per frame: no motion inside frames"},
     {"--levels", NULL, "N", "resolution levels, each halving the grid (default: up to 3)"},
     {"--iterations", NULL, "N", "Gauss-Newton steps at most per level and frame (default 12)"},
@@ -39,8 +40,10 @@ static const pbc_command command = {
     "too, or a nod out and back) gets that path, timed; and in a series of 12 frames or more every pose gets one\n"
     "correction along the contrast, against the bias changing uptake leaves (docs/motion.md, \"Motion from the\n"
     "frames\"). TRACK says where a point of the reference frame's object is at each time, in the world\n"
-    "coordinates of FRAMES' affine: give it to petblur blur --motion and petblur.Motion.from_file as it is. It\n"
-    "prints, a line a frame, the share of the frame's variance its fit explains (a frame of few counts, or of a\n"
+    "coordinates of FRAMES' affine: give it to petblur blur --motion and petblur.Motion.from_file as it is. The\n"
+    "reference frame is, unless --reference names one, the still frame whose pose the frames determine best (a\n"
+    "long late frame rather than the first seconds' few counts, whose error would move every pose). It prints\n"
+    "which, and, a line a frame, the share of the frame's variance its fit explains (a frame of few counts, or of a\n"
     "contrast unlike the others', has less: trust its pose less), when the track moves inside it, and where the\n"
     "frame shows motion inside it that the track does not follow (its pose is a mean over that motion: trust it\n"
     "less).",
@@ -116,7 +119,8 @@ static int options_from_args(const pbc_args *args, pb_estimate_options *o, int *
     *csv = 0;
     if ((v = pbc_arg(&command, args, "--format")) && (rc = pbc_parse_choice("--format", v, formats, 2, csv)))
         return rc;
-    if ((v = pbc_arg(&command, args, "--reference"))) {
+    o->reference = PB_ESTIMATE_REFERENCE_AUTO;
+    if ((v = pbc_arg(&command, args, "--reference")) && strcmp(v, "auto") != 0) {
         if ((rc = pbc_parse_count("--reference", v, 0, 1000000, &n)))
             return rc;
         o->reference = n;
@@ -147,7 +151,7 @@ static int options_from_args(const pbc_args *args, pb_estimate_options *o, int *
  * deserves less trust), and where the track moves inside it, or where motion
  * shows inside it that the track does not follow (its pose is a mean over
  * that motion). */
-static void print_summary(pb_context *ctx, const char *out_path, const pb_track *track, size_t frames, int csv,
+static void print_summary(const pbc_args *args, pb_context *ctx, const char *out_path, const pb_track *track, size_t frames, int csv,
                           const double *bounds, const pb_estimate_frame *per_frame, const pb_estimate_report *report)
 {
     char dev[600];
@@ -161,6 +165,10 @@ static void print_summary(pb_context *ctx, const char *out_path, const pb_track 
     printf("%s: %zu poses from %zu frames (%zu with motion inside%s), %s, on %s in %.1f s\n", out_path,
            pb_track_count(track), frames, report->moving_frames, jumps, csv ? "csv" : "matrix-csv", dev,
            report->seconds);
+    printf("  relative to frame %zu%s\n", report->reference,
+           pbc_arg(&command, args, "--reference") && strcmp(pbc_arg(&command, args, "--reference"), "auto") != 0
+               ? ""
+               : " (chosen: the still frame whose pose the frames determine best)");
     if (!per_frame)
         return;
     size_t unfollowed = 0;
@@ -182,7 +190,8 @@ static void print_summary(pb_context *ctx, const char *out_path, const pb_track 
                    100.0 * r->unfollowed);
         else
             printf("-");
-        printf("%s\n", r->jumped_at_start ? " (the head jumped at its start)" : "");
+        printf("%s%s\n", r->jumped_at_start ? " (the head jumped at its start)" : "",
+               f == report->reference ? " (the reference)" : "");
     }
 }
 
@@ -218,7 +227,7 @@ static int run(const pbc_args *args, const char *in_path, const char *out_path)
     else if (!rc && have != frames)
         rc = pbc_fail(PBC_EXIT_USAGE, "%s has %zu frames but %s gives %zu; give the frames of this series", in_path,
                       have, fv ? "--frames" : json, frames);
-    else if (!rc && o.reference >= frames)
+    else if (!rc && o.reference != PB_ESTIMATE_REFERENCE_AUTO && o.reference >= frames)
         rc = pbc_fail(PBC_EXIT_USAGE, "--reference %zu: the series has frames 0 to %zu", o.reference, frames - 1);
     double affine[16], center[3];
     if (!rc) {
@@ -249,7 +258,7 @@ static int run(const pbc_args *args, const char *in_path, const char *out_path)
         } else {
             pbc_print_warnings(&report.warnings);
             if (!(rc = write_track(out_path, track, csv, center)) && !quiet)
-                print_summary(ctx, out_path, track, frames, csv, bounds, o.frames, &report);
+                print_summary(args, ctx, out_path, track, frames, csv, bounds, o.frames, &report);
         }
         free(o.frames);
     }
