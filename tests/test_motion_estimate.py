@@ -55,9 +55,11 @@ class Estimate(unittest.TestCase):
 
     def test_track_against_truth(self):
         inside, frames = (os.path.join(self.dir.name, n) for n in ("inside.csv", "frames.csv"))
-        out, _ = run("motion", "estimate", self.nii, "--frames-from", self.json, "-o", inside)
+        out, _ = run("motion", "estimate", self.nii, "--frames-from", self.json, "-o", inside, "--reference", "0")
         self.assertIn("8 frames", out)
-        run("motion", "estimate", self.nii, "--frames-from", self.json, "-o", frames, "--frame-poses-only", "-q")
+        self.assertIn("relative to frame 0\n", out)
+        run("motion", "estimate", self.nii, "--frames-from", self.json, "-o", frames, "--frame-poses-only", "-q",
+            "--reference", "0")
         e_in, e_frames = self.errors(inside), self.errors(frames)
         none = hf.displacement_errors(lambda t: np.eye(4), self.truth, self.bounds, self.points)
         msg = f"seed {SEED}: per frame {np.round(e_in, 2)}, one pose per frame {np.round(e_frames, 2)}"

@@ -247,8 +247,9 @@ def estimate_motion(short, W, dims, p, affine, device, torch_mode, conv, to_host
               for y, s, r in zip(sinos, scales, backgrounds)]
     recon_s = time.perf_counter() - t
     b = np.asarray(bounds)
+    # relative to the first frame, where the phantom lies: the compensated images are compared with it
     m = petblur.Motion.from_frames(np.stack(images, axis=-1), affine, starts=b[:-1], durations=np.diff(b),
-                                   device=device)
+                                   reference=0, device=device)
     return m, images, recon_s
 
 

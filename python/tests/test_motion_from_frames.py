@@ -107,7 +107,7 @@ class Series:
     """Frames [x, y, z, t] float32 of a moving phantom, with the truth: maps[k]
     is frame k's world map (None for the jerk frame), truth(t) the map at t."""
 
-    def __init__(self, rng, shape, voxel, frames, jerk, seconds=10.0, counts=1e6, at=0.4):
+    def __init__(self, rng, shape, voxel, frames, jerk, seconds=10.0, counts=1e6, at=0.4, frame_counts=None):
         self.affine = _affine(rng, shape, voxel)
         self.phantom = Phantom(rng)
         self.starts = np.arange(frames) * seconds
@@ -140,7 +140,7 @@ class Series:
         self.frames = np.zeros(tuple(shape) + (frames,), np.float32)
         for k, m in enumerate(maps):
             v = view(m, k) if m is not None else at * view(self.before, k) + (1 - at) * view(self.after, k)
-            self.frames[..., k] = rng.poisson(v * (counts / v.sum()))
+            self.frames[..., k] = rng.poisson(v * ((counts if frame_counts is None else frame_counts[k]) / v.sum()))
 
     def truth(self, t):
         k = min(int(t // self.durations[0]), len(self.maps) - 1)
@@ -201,8 +201,8 @@ def test_matches_program(tmp_path, rng, cli, device, options):
     s = Series(rng, (24, 24, 24), (4.0, 4.0, 4.0), 5, jerk=2)
     nii, sidecar, frames, affine = s.write(tmp_path / "sub-01_pet")
     track = tmp_path / "track.csv"
-    subprocess.run([cli, "motion", "estimate", nii, "--frames-from", sidecar, "--device", device, "--format",
-                    "matrix-csv", "-o", str(track), "-q"] + args, check=True)
+    said = subprocess.run([cli, "motion", "estimate", nii, "--frames-from", sidecar, "--device", device, "--format",
+                           "matrix-csv", "-o", str(track)] + args, check=True, capture_output=True, text=True).stdout
     t, want = _read_matrix_csv(track)
 
     frames = np.asfortranarray(frames)  # read in place: it must come back as it was
@@ -236,9 +236,55 @@ def test_matches_program(tmp_path, rng, cli, device, options):
         assert m.moving_frames >= 1 and len(t) > len(mids) + 2
         inside = t[(t > s.starts[s.jerk]) & (t < s.starts[s.jerk] + s.durations[s.jerk])]
         assert len(inside) > 1, t
-    # the reference frame's pose is the identity
-    ref = kw.get("reference", 0)
+    # the reference frame's pose is the identity: the one asked for, or the one chosen, which the program names
+    ref = kw.get("reference", m.reference_frame)
+    assert m.reference_frame == ref
+    chosen = " (chosen: the still frame whose pose the frames determine best)" if "reference" not in kw else ""
+    assert f"relative to frame {ref}{chosen}\n" in said, said
     np.testing.assert_allclose(_map(m, mids[ref]), np.eye(4), rtol=0, atol=1e-9)
+
+
+def test_the_reference_frame_chosen(rng, device):
+    """By default the track is relative to the frame held still whose pose
+    the frames determine best, not to the first frame: a first frame of the
+    tracer's first seconds has few counts, its pose is off by their noise,
+    and relative to it every other frame would be off by as much. The passes
+    run against frame 0 either way, so the chosen track is the frame-0 track
+    re-expressed, and the identity at the chosen frame's middle."""
+    nf = 7
+    counts = np.full(nf, 1e6)
+    counts[0] = rng.uniform(1e4, 3e4)  # 1-3 % of the others' counts, as a first frame of a few seconds
+    s = Series(rng, (32, 32, 32), (4.0, 3.5, 4.0), nf, jerk=int(rng.integers(2, nf - 1)), frame_counts=counts)
+    m = petblur.Motion.from_frames(s.frames, s.affine, s.starts, s.durations, device=device)
+    zero = petblur.Motion.from_frames(s.frames, s.affine, s.starts, s.durations, reference=0, device=device)
+    r, j = m.reference_frame, s.jerk
+    assert zero.reference_frame == 0
+    rep = m.frame_report[r]
+    assert r not in (0, j) and rep["structure"] and rep["motion_inside"] is None and rep["unfollowed"] == 0, (r, rep)
+    mids = s.starts + s.durations / 2
+    np.testing.assert_allclose(_map(m, mids[r]), np.eye(4), rtol=0, atol=1e-9)
+    np.testing.assert_array_equal(m.times, zero.times)
+    back = np.linalg.inv(_map(zero, mids[r]))
+    for t in m.times:
+        np.testing.assert_allclose(_map(m, t), _map(zero, t) @ back, rtol=0, atol=1e-9)
+    # each track against the truth relative to its own reference frame, over the frames held still
+    still = [k for k in range(nf) if k != j]
+    inside = s.phantom.inside(rng)
+
+    def errors(motion, ref):
+        to_ref, points = np.linalg.inv(s.maps[ref]), inside @ s.maps[ref][:3, :3].T + s.maps[ref][:3, 3]
+        return np.array([_displacement(_map(motion, mids[k]), s.maps[k] @ to_ref, points) for k in still])
+
+    e_auto, e_zero = errors(m, r), errors(zero, 0)
+    msg = f"reference {r}: {np.round(e_auto, 3)} mm; relative to frame 0: {np.round(e_zero, 3)} mm"
+    print(msg)
+    # Measured while writing this test, 12 fresh series on the host: mean 0.09-0.25 mm against 0.13-0.37 relative to
+    # frame 0, lower on 11; on the twelfth frame 0 came out near its truth (0.154 against 0.120). Which reference
+    # serves users better is a question of distributions (issue 47's family, docs/motion.md); here, that the choice
+    # is never much worse than frame 0's.
+    assert e_auto.mean() < 0.6 and e_auto.mean() < e_zero.mean() + 0.1, msg
+    # pickled with the motion
+    assert pickle.loads(pickle.dumps(m)).reference_frame == r
 
 
 def test_orders_and_dtypes_agree(rng):
@@ -464,9 +510,9 @@ def test_frames_held_still_take_no_path_in_a_longer_series(rng, monkeypatch):
     maps = [np.eye(4)] + [_rigid(rng, 3.0, 3.0) for _ in range(nf - 1)]
     frames, affine, starts, durations, phantom = _moving_series(rng, nf, lambda t: maps[int(t // 10.0)],
                                                                 shape=(24, 24, 24), steps=1, counts=(2e5, 2e6))
-    m = petblur.Motion.from_frames(frames, affine, starts, durations)
+    m = petblur.Motion.from_frames(frames, affine, starts, durations, reference=0)
     monkeypatch.setenv("PETBLUR_ESTIMATE_DWELL", "fixed")
-    fixed = petblur.Motion.from_frames(frames, affine, starts, durations)
+    fixed = petblur.Motion.from_frames(frames, affine, starts, durations, reference=0)
     points = phantom.inside(rng)
     err = np.array([_displacement(_map(m, s + 5.0), maps[k], points) for k, s in enumerate(starts)])
     none = np.array([_displacement(np.eye(4), maps[k], points) for k in range(nf)])
@@ -525,7 +571,7 @@ def test_a_frame_given_twice_and_a_series_without_noise(rng):
     none = np.mean([_displacement(np.eye(4), m, points) for m in maps])
     err = {}
     for name, (f, s, d, which) in series.items():
-        m = petblur.Motion.from_frames(f, affine, s, d, device="host")
+        m = petblur.Motion.from_frames(f, affine, s, d, reference=0, device="host")
         assert np.all(np.isfinite(m.translations)) and np.all(np.isfinite(m.quaternions)), f"{name}: a pose not finite"
         err[name] = np.array([_displacement(_map(m, s[k] + 0.5 * d[k]), maps[which[k]], points)
                               for k in range(len(s))])
@@ -553,7 +599,7 @@ def test_a_grid_that_cuts_the_object(rng):
     maps = [np.eye(4)] + [_rigid(rng, 3.0, 3.0) for _ in range(nf - 1)]
     frames, affine, starts, durations, phantom = _moving_series(rng, nf, lambda t: maps[int(t // 10.0)],
                                                                 shape=(20, 20, 20), steps=1, counts=(2e5, 2e6))
-    m = petblur.Motion.from_frames(frames, affine, starts, durations, device="host")
+    m = petblur.Motion.from_frames(frames, affine, starts, durations, reference=0, device="host")
     points = phantom.inside(rng)
     err = np.array([_displacement(_map(m, s + 5.0), maps[k], points) for k, s in enumerate(starts)])
     none = np.array([_displacement(np.eye(4), maps[k], points) for k in range(nf)])
@@ -670,8 +716,9 @@ def test_motion_held_across_a_frame_boundary(rng):
         return nod if (k + 0.5) * seconds <= t < (k + 1.5) * seconds else np.eye(4)
 
     points = phantom.inside(rng)
-    m = petblur.Motion.from_frames(frames, affine, starts, durations, device="host")
-    one = petblur.Motion.from_frames(frames, affine, starts, durations, device="host", frame_poses_only=True)
+    m = petblur.Motion.from_frames(frames, affine, starts, durations, reference=0, device="host")
+    one = petblur.Motion.from_frames(frames, affine, starts, durations, reference=0, device="host",
+                                     frame_poses_only=True)
 
     def error(motion, f):
         times = (f + (np.arange(40) + 0.5) / 40) * seconds
@@ -745,7 +792,7 @@ def test_a_nod_that_turns_back_inside_a_frame(rng, monkeypatch):
     runs = {}
     for name in ("back", "off"):
         monkeypatch.setenv("PETBLUR_ESTIMATE_BACK", "1" if name == "back" else "0")
-        m = petblur.Motion.from_frames(frames, affine, starts, durations, device="host")
+        m = petblur.Motion.from_frames(frames, affine, starts, durations, reference=0, device="host")
         rep = m.frame_report
         runs[name] = (_frame_errors(m, truth, points, starts, durations),
                       [f["frame"] for f in rep if f["motion_inside"]],
@@ -764,7 +811,8 @@ def test_a_nod_that_turns_back_inside_a_frame(rng, monkeypatch):
     assert all(0.0 <= f["unfollowed"] <= 1.0 for f in rep_off), msg
     # the report points at the frame that is off: its error above every other frame's
     assert off[k] > np.delete(off, k).max(), msg
-    one = petblur.Motion.from_frames(frames, affine, starts, durations, device="host", frame_poses_only=True)
+    one = petblur.Motion.from_frames(frames, affine, starts, durations, reference=0, device="host",
+                                     frame_poses_only=True)
     assert all(f["unfollowed"] == 0.0 for f in one.frame_report), one.frame_report
 
 
@@ -805,9 +853,9 @@ def test_jump_at_a_frame_boundary_is_held_as_a_step(rng, monkeypatch):
 
     frames, affine, starts, durations, phantom = _moving_series(rng, nf, truth, steps=1)
     points = phantom.inside(rng)
-    m = petblur.Motion.from_frames(frames, affine, starts, durations, device="host")
+    m = petblur.Motion.from_frames(frames, affine, starts, durations, reference=0, device="host")
     monkeypatch.setenv("PETBLUR_ESTIMATE_BOUNDARY", "ramp")
-    ramp = petblur.Motion.from_frames(frames, affine, starts, durations, device="host")
+    ramp = petblur.Motion.from_frames(frames, affine, starts, durations, reference=0, device="host")
     err, err_ramp = (_frame_errors(x, truth, points, starts, durations) for x in (m, ramp))
     size = _displacement(jump, np.eye(4), points)
     msg = (f"{nf} frames, the jump before frame {j} ({size:.2f} mm): errors "
@@ -846,9 +894,9 @@ def test_motion_through_frames_is_not_taken_for_steps(rng, monkeypatch):
 
     frames, affine, starts, durations, phantom = _moving_series(rng, nf, truth)
     points = phantom.inside(rng)
-    m = petblur.Motion.from_frames(frames, affine, starts, durations, device="host")
+    m = petblur.Motion.from_frames(frames, affine, starts, durations, reference=0, device="host")
     monkeypatch.setenv("PETBLUR_ESTIMATE_BOUNDARY", "ramp")
-    ramp = petblur.Motion.from_frames(frames, affine, starts, durations, device="host")
+    ramp = petblur.Motion.from_frames(frames, affine, starts, durations, reference=0, device="host")
     err, err_ramp = (_frame_errors(x, truth, points, starts, durations) for x in (m, ramp))
     msg = f"{nf} frames: errors {np.round(err, 3)} mm, with ramps {np.round(err_ramp, 3)} mm; times {m.times}"
     print(msg)
