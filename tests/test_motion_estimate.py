@@ -148,6 +148,8 @@ class Estimate(unittest.TestCase):
         empty[..., 4] = 0
         self.refused(self.write("empty.nii", empty), "--frames-from", self.json, words=("frame 4", "no counts"))
         self.refused(self.nii, "--frames-from", self.json, "--reference", "8", words=("--reference",))
+        for bad in ("first", "-1", "1.5", ""):
+            self.refused(self.nii, "--frames-from", self.json, "--reference", bad, words=("--reference", "or auto"))
         self.refused(self.nii, "--frames-from", self.json, "--format", "polaris", words=("--format",))
         self.refused(self.nii, words=("--frames",))
         # the output must not replace an input

@@ -1237,7 +1237,9 @@ static double now_seconds(void)
  * early frame of few counts or blood-dominated contrast is off by several
  * times a late frame's (docs/estimate-log.md, "What anchors the track").
  * The passes run against frame 0 as before; this only re-expresses the
- * poses. fallback where no frame qualifies. */
+ * poses. Under frame_poses_only motion inside frames is not looked for, and
+ * a frame that holds some is passed over only by its fit's lesser
+ * information. fallback where no frame qualifies. */
 static size_t best_anchor(const estimate *e, const pbe_fit *fits, const int *moving, const double *unfollowed,
                           size_t fallback)
 {

@@ -121,6 +121,9 @@ static int options_from_args(const pbc_args *args, pb_estimate_options *o, int *
         return rc;
     o->reference = PB_ESTIMATE_REFERENCE_AUTO;
     if ((v = pbc_arg(&command, args, "--reference")) && strcmp(v, "auto") != 0) {
+        if (strspn(v, "0123456789") != strlen(v) || !v[0])
+            return pbc_fail(PBC_EXIT_USAGE, "--reference %s: give a frame's number, from 0, or auto (the still frame "
+                            "whose pose the frames determine best)", v);
         if ((rc = pbc_parse_count("--reference", v, 0, 1000000, &n)))
             return rc;
         o->reference = n;
