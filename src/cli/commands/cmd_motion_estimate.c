@@ -154,8 +154,9 @@ static int options_from_args(const pbc_args *args, pb_estimate_options *o, int *
  * deserves less trust), and where the track moves inside it, or where motion
  * shows inside it that the track does not follow (its pose is a mean over
  * that motion). */
-static void print_summary(const pbc_args *args, pb_context *ctx, const char *out_path, const pb_track *track, size_t frames, int csv,
-                          const double *bounds, const pb_estimate_frame *per_frame, const pb_estimate_report *report)
+static void print_summary(const pbc_args *args, pb_context *ctx, const char *out_path, const pb_track *track,
+                          size_t frames, int csv, const double *bounds, const pb_estimate_frame *per_frame,
+                          const pb_estimate_report *report)
 {
     char dev[600];
     pbc_describe_device(ctx, dev, sizeof dev);
