@@ -17,8 +17,9 @@ is SimpleITK's rigid registration of every frame to the frame petblur took as it
 three levels, correlation or Mattes mutual information: --sitk-metric). The error is what users measure: the
 displacement of points inside the head between the estimated and the true motion, mean over each frame's time, in mm;
 per draw its mean and worst frame. Each track is judged relative to its own reference frame R: the truth re-expressed
-against its mean pose over R (the truth holds still over frame 0, so relative to frame 0 that is the truth as drawn). Beside them, the best that one pose a frame can do (the truth's mean pose over each
-frame), which motion inside frames can beat. Writes draws.jsonl (one line a draw, as it finishes) and family.md into --out.
+against its mean pose over R (the truth holds still over frame 0, so relative to frame 0 that is the truth as drawn).
+Beside them, the best that one pose a frame can do (the truth's mean pose over each frame), which motion inside frames
+can beat. Writes draws.jsonl (one line a draw, as it finishes) and family.md into --out.
 
     python3 bench/estimate_family.py --petblur build/src/cli/petblur --draws 20 --jobs 2 --out /tmp/family
     python3 bench/estimate_family.py ... --seed 123 --seed 456          # replay draws
