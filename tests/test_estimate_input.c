@@ -2,7 +2,8 @@
  * sizes far outside a scanner's (refused before any work, by name and value,
  * never a crash), smoothing far wider than the grid, frame times near the
  * largest doubles, a failure's message its own, not an earlier call's, and
- * the report's warnings of a background and of frames of noise alone. */
+ * the report's warnings of a background and of frames of noise alone, and
+ * the reference frame the report names, asked for or chosen. */
 #include <float.h>
 #include <math.h>
 #include <stdio.h>
@@ -134,6 +135,57 @@ static void test_warnings(pb_context *ctx)
     free(f);
 }
 
+/* The frame the track is relative to: the one asked for, or, under
+ * PB_ESTIMATE_REFERENCE_AUTO, one the estimate chooses and names (neither a
+ * first frame of a tenth the others' signal, as a scan's first seconds, nor
+ * a frame of noise alone); the track is the identity at its middle. A
+ * reference out of range is refused, and its message names the automatic
+ * choice. */
+static void test_reference(pb_context *ctx)
+{
+    enum { N = 5 };
+    const size_t n = SIDE * SIDE * SIDE;
+    float *f = random_series(N);
+    size_t noise = 1 + (size_t)(pb_rand_uniform() * (N - 1)); /* frames 1 to N - 1 */
+    for (size_t i = 0; i < n; i++) {
+        f[noise * n + i] = (float)pb_rand_range(0.0, 10.0);
+        f[i] = 0.1f * f[i] + (float)pb_rand_range(0.0, 2.0);
+    }
+    pb_geometry g = {{SIDE, SIDE, SIDE}, {2, 2, 2}};
+    double b[N + 1] = {0, 10, 20, 30, 40, 50};
+    size_t asked[3] = {PB_ESTIMATE_REFERENCE_AUTO, 0, (size_t)(pb_rand_uniform() * N)};
+    for (int c = 0; c < 3; c++) {
+        pb_estimate_options o = {0};
+        o.reference = asked[c];
+        pb_estimate_report report = {0};
+        report.reference = 99;
+        pb_track *t = NULL;
+        pb_status st = pb_motion_estimate(ctx, &g, NULL, f, N, b, &o, &t, &report);
+        size_t r = report.reference;
+        pb_check(st == PB_OK && t && r < N && (c == 0 ? r != noise && r != 0 : r == asked[c]),
+                 "reference %zu asked (noise in frame %zu): status %d, named %zu, '%s'", asked[c], noise, st, r,
+                 pb_last_error(ctx));
+        for (size_t i = 0; st == PB_OK && t && r < N && i < pb_track_count(t); i++) {
+            if (pb_track_times(t)[i] != 0.5 * (b[r] + b[r + 1]))
+                continue;
+            const pb_pose *p = &pb_track_poses(t)[i];
+            double off = fabs(p->rotation[0] - 1.0);
+            for (int a = 0; a < 3; a++)
+                off = fmax(off, fmax(fabs(p->rotation[a + 1]), fabs(p->translation[a])));
+            pb_check(off < 1e-9, "reference %zu asked: frame %zu's pose is %g from the identity", asked[c], r, off);
+        }
+        pb_track_free(t);
+    }
+    pb_estimate_options o = {0};
+    o.reference = N + (size_t)(pb_rand_uniform() * 100.0);
+    pb_track *t = (pb_track *)1;
+    pb_status st = pb_motion_estimate(ctx, &g, NULL, f, N, b, &o, &t, NULL);
+    pb_check(st == PB_ERR_INVALID_ARGUMENT && t == NULL && strstr(pb_last_error(ctx), "out of range") &&
+                 strstr(pb_last_error(ctx), "PB_ESTIMATE_REFERENCE_AUTO"),
+             "reference %zu of %d frames: status %d, '%s'", o.reference, N, st, pb_last_error(ctx));
+    free(f);
+}
+
 int main(int argc, char **argv)
 {
     pb_test_seed();
@@ -141,6 +193,7 @@ int main(int argc, char **argv)
     test_voxel_sizes(ctx);
     test_own_message(ctx);
     test_warnings(ctx);
+    test_reference(ctx);
     pb_context_destroy(ctx);
     return pb_test_finish();
 }
