@@ -933,22 +933,30 @@ static pb_status hold_flat_frames(estimate *e, pbe_fit *fits)
  * leaves the poses as registered, for comparisons. */
 static double mid_time(double a, double b);
 
+/* The grid's RMS radius about its centre, mm: what puts turns and shifts on
+ * one scale (a turn of x radians moves a point there by about r x). */
+static double rms_radius(const pb_geometry *g)
+{
+    double r2 = 0.0;
+    for (int a = 0; a < 3; a++) {
+        double side = (double)g->dims[a] * g->voxel_size[a];
+        r2 += side * side / 12.0;
+    }
+    return sqrt(r2);
+}
+
 static pb_status smooth_still_poses(estimate *e, pbe_fit *fits, const double *bounds, size_t ref, int *jumped)
 {
     const char *env = getenv("PETBLUR_ESTIMATE_SMOOTH");
     if (env && strcmp(env, "0") == 0)
         return PB_OK;
-    double *t = malloc(sizeof(double) * e->count), r2 = 0.0;
+    double *t = malloc(sizeof(double) * e->count);
     if (!t)
         return PB_ERR_OUT_OF_MEMORY;
     for (size_t k = 0; k < e->count; k++)
         t[k] = mid_time(bounds[k], bounds[k + 1]);
     /* turns weighed by the grid's RMS radius about its centre */
-    for (int a = 0; a < 3; a++) {
-        double side = (double)e->g.dims[a] * e->g.voxel_size[a];
-        r2 += side * side / 12.0;
-    }
-    double rate = pbe_smooth_poses(fits, e->flat, t, e->count, ref, sqrt(r2), jumped);
+    double rate = pbe_smooth_poses(fits, e->flat, t, e->count, ref, rms_radius(&e->g), jumped);
     free(t);
     if (rate == PBE_SMOOTH_NO_MEMORY)
         return PB_ERR_OUT_OF_MEMORY;
@@ -1243,16 +1251,12 @@ static double now_seconds(void)
 static size_t best_anchor(const estimate *e, const pbe_fit *fits, const int *moving, const double *unfollowed,
                           size_t fallback)
 {
-    double r2 = 0.0, least = (double)INFINITY;
-    for (int a = 0; a < 3; a++) {
-        double side = (double)e->g.dims[a] * e->g.voxel_size[a];
-        r2 += side * side / 12.0;
-    }
+    double least = (double)INFINITY, r = rms_radius(&e->g);
     size_t best = fallback;
     for (size_t k = 0; k < e->count; k++) {
         if (e->flat[k] || moving[k] || unfollowed[k] > 0.0)
             continue;
-        double spread = pbe_pose_spread(&fits[k], sqrt(r2));
+        double spread = pbe_pose_spread(&fits[k], r);
         if (spread < least) {
             least = spread;
             best = k;
