@@ -1269,7 +1269,26 @@ static pb_status estimate_run(estimate *e, const double *bounds, const pb_estima
                               const double corner[3], pb_track **track, pb_estimate_report *report)
 {
     const int chosen = o->reference == PB_ESTIMATE_REFERENCE_AUTO;
-    const size_t count = e->count, ref = chosen ? 0 : o->reference;
+    const size_t count = e->count;
+    size_t ref = chosen ? 0 : o->reference;
+    /* PETBLUR_ESTIMATE_ANCHOR=counts: under the estimate's choice, the passes
+     * run against the frame of the most counts (its sum times its length)
+     * rather than frame 0, for comparisons */
+    const char *anchor_env = getenv("PETBLUR_ESTIMATE_ANCHOR");
+    if (chosen && anchor_env && strcmp(anchor_env, "counts") == 0) {
+        double most = -1.0;
+        for (size_t k = 0; k < count; k++) {
+            const float *f = e->frames[0] + k * e->level[0].n;
+            double sum = 0.0;
+            for (size_t i = 0; i < e->level[0].n; i++)
+                sum += (double)f[i];
+            sum *= bounds[k + 1] - bounds[k];
+            if (sum > most) {
+                most = sum;
+                ref = k;
+            }
+        }
+    }
     pbe_fit *fits = calloc(count, sizeof *fits);
     int *moving = calloc(count, sizeof(int));
     frame_path *paths = calloc(count * PATHS, sizeof *paths);
