@@ -254,8 +254,9 @@ class Motion:
         return m
 
     @classmethod
-    def from_frames(cls, frames, affine=None, starts=None, durations=None, reference="auto", device="auto", bounds=None,
-                    frame_poses_only=False, levels=0, iterations=0, fwhm=0.0, voxel_size=None, progress=None):
+    def from_frames(cls, frames, affine=None, starts=None, durations=None, reference="auto", device="auto",
+                    bounds=None, frame_poses_only=False, levels=0, iterations=0, fwhm=0.0, voxel_size=None,
+                    progress=None):
         """The head's rigid motion estimated from a dynamic series itself, as
         `petblur motion estimate` does (the C library's pb_motion_estimate):
         ``frames`` [x, y, z, t] (numpy, CuPy, torch or Dask, computed; read on the host),
