@@ -289,7 +289,8 @@ def test_background_to_the_faces_is_taken_out_and_warned(rng):
     bounds = np.arange(4) * 10.0
     frames, truth = _object_on_background(rng, rng.uniform(0.2, 0.6))
     with pytest.warns(UserWarning, match="uniform background that reaches the grid's faces.*subtracted"):
-        m = petblur.Motion.from_frames(frames, voxel_size=2.0, bounds=bounds, frame_poses_only=True, reference=0, device="host")
+        m = petblur.Motion.from_frames(frames, voxel_size=2.0, bounds=bounds, frame_poses_only=True, reference=0,
+                                       device="host")
     error = _displacement_error(m, bounds, truth)
     assert error < 0.5, f"off by {error:.2f} mm: {_frame_translations(m, bounds).tolist()} for {truth.tolist()}"
 
@@ -323,7 +324,8 @@ def test_a_frame_of_noise_takes_its_neighbours_pose(rng):
     bad = int(rng.integers(1, 5))
     frames[..., bad] = rng.poisson(rng.uniform(2, 20), frames.shape[:3])
     with pytest.warns(UserWarning, match=rf"1 of 5 frames \({bad}\) show no structure"):
-        m = petblur.Motion.from_frames(frames, voxel_size=2.0, bounds=bounds, frame_poses_only=True, reference=0, device="host")
+        m = petblur.Motion.from_frames(frames, voxel_size=2.0, bounds=bounds, frame_poses_only=True, reference=0,
+                                       device="host")
     got = _frame_translations(m, bounds)
     near = bad - 1
     assert got[bad].tolist() == got[near].tolist()
