@@ -839,7 +839,7 @@ def test_jump_at_a_frame_boundary_is_held_as_a_step(rng, monkeypatch):
     # a jump that moves the phantom's region (a ball of 25 mm about the origin) by 7.5 mm or more on average: a
     # smaller one on this smooth phantom may not part the two models by the 6 standard deviations asked, and is then
     # ramped (seed 44, 4.96 mm: the frames' evidence 35 against 36; at 6 mm, 3 of 41 seeds, among them CI's
-    # 2030472541 and 5112 at evidence 22, the same before and after 4 times the counts; at 7.5 mm, 83 of 83 held)
+    # 2030472541, and 5112 at evidence 22.5; both still ramped at 4 times the counts; at 7.5 mm, 83 of 83 held)
     ball = rng.normal(size=(2000, 3))
     ball *= 25.0 * rng.uniform(0, 1, (2000, 1)) ** (1 / 3) / np.linalg.norm(ball, axis=1, keepdims=True)
     while True:
