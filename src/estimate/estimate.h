@@ -224,13 +224,13 @@ double pbe_explained(const float *frame, size_t n, double sse);
  * jumped (count, or NULL): 1 for a sighting the walk restarted at after an
  * earlier one, where something was smoothed. */
 #define PBE_SMOOTH_NO_MEMORY (-2.0)
+double pbe_smooth_poses(pbe_fit *fits, const int *skip, const double *t, size_t count, size_t base, double r,
+                        int *jumped);
 
 /* How far a fit's pose is sure: the variance (mm^2) of a point's place at
  * radius r from the turns' centre that its information leaves, shifts and
  * turns together; infinity where the information is not positive definite. */
 double pbe_pose_spread(const pbe_fit *fit, double r);
-double pbe_smooth_poses(pbe_fit *fits, const int *skip, const double *t, size_t count, size_t base, double r,
-                        int *jumped);
 
 /* ---- contrast_poses.c: the poses moved together along the contrast ------------- */
 

@@ -154,9 +154,9 @@ static int options_from_args(const pbc_args *args, pb_estimate_options *o, int *
  * deserves less trust), and where the track moves inside it, or where motion
  * shows inside it that the track does not follow (its pose is a mean over
  * that motion). */
-static void print_summary(const pbc_args *args, pb_context *ctx, const char *out_path, const pb_track *track,
-                          size_t frames, int csv, const double *bounds, const pb_estimate_frame *per_frame,
-                          const pb_estimate_report *report)
+static void print_summary(pb_context *ctx, const char *out_path, const pb_track *track, size_t frames, int csv,
+                          const double *bounds, const pb_estimate_frame *per_frame, const pb_estimate_report *report,
+                          int chosen)
 {
     char dev[600];
     pbc_describe_device(ctx, dev, sizeof dev);
@@ -170,9 +170,7 @@ static void print_summary(const pbc_args *args, pb_context *ctx, const char *out
            pb_track_count(track), frames, report->moving_frames, jumps, csv ? "csv" : "matrix-csv", dev,
            report->seconds);
     printf("  relative to frame %zu%s\n", report->reference,
-           pbc_arg(&command, args, "--reference") && strcmp(pbc_arg(&command, args, "--reference"), "auto") != 0
-               ? ""
-               : " (chosen: the still frame whose pose the frames determine best)");
+           chosen ? " (chosen: the still frame whose pose the frames determine best)" : "");
     if (!per_frame)
         return;
     size_t unfollowed = 0;
@@ -262,7 +260,8 @@ static int run(const pbc_args *args, const char *in_path, const char *out_path)
         } else {
             pbc_print_warnings(&report.warnings);
             if (!(rc = write_track(out_path, track, csv, center)) && !quiet)
-                print_summary(args, ctx, out_path, track, frames, csv, bounds, o.frames, &report);
+                print_summary(ctx, out_path, track, frames, csv, bounds, o.frames, &report,
+                              o.reference == PB_ESTIMATE_REFERENCE_AUTO);
         }
         free(o.frames);
     }
