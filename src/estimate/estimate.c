@@ -945,9 +945,11 @@ static double rms_radius(const pb_geometry *g)
     return sqrt(r2);
 }
 
-static pb_status smooth_still_poses(estimate *e, pbe_fit *fits, const double *bounds, size_t ref, int *jumped)
+static pb_status smooth_still_poses(estimate *e, pbe_fit *fits, const double *bounds, size_t ref, int *jumped,
+                                    int *smoothed)
 {
     const char *env = getenv("PETBLUR_ESTIMATE_SMOOTH");
+    *smoothed = 0;
     if (env && strcmp(env, "0") == 0)
         return PB_OK;
     double *t = malloc(sizeof(double) * e->count);
@@ -960,6 +962,7 @@ static pb_status smooth_still_poses(estimate *e, pbe_fit *fits, const double *bo
     free(t);
     if (rate == PBE_SMOOTH_NO_MEMORY)
         return PB_ERR_OUT_OF_MEMORY;
+    *smoothed = rate > 0.0;
     give_flat_frames_poses(e, fits);
     return PB_OK;
 }
@@ -1103,6 +1106,96 @@ static void back_keys(keys *out, double t0, double t1, const pb_pose *s, const p
     dwell_shares(u, BACK_POINTS, w);
     back_poses(s, f, r, p);
     hold_keys(out, t0, t1, p, w, BACK_POINTS, w[0] > 0 ? NULL : s, w[BACK_POINTS - 1] > 0 ? NULL : r, from, to);
+}
+
+/* A moving frame's keys (its path's, as path_keys or back_keys lay them)
+ * into out; from, to: when its motion begins and ends. */
+static void moving_keys(const pbe_fit *fits, const frame_path *paths, const int *moving, const double *bounds,
+                        size_t f, keys *out, double *from, double *to)
+{
+    const frame_path *p = &paths[f * PATHS + (size_t)(moving[f] - 1)];
+    if (moving[f] - 1 == PATH_BACK)
+        back_keys(out, bounds[f], bounds[f + 1], &p->start, &p->end, &fits[f + 1].pose, p->dwell, from, to);
+    else
+        path_keys(out, bounds[f], bounds[f + 1], &p->start, &p->end, p->dwell, from, to);
+}
+
+/* A still frame's three knots of the track: at its start, its middle and
+ * its end; run: which run of still frames solved them together (from 1),
+ * 0 where they are the frame's pose. */
+typedef struct knot {
+    pb_pose pose;
+    size_t run;
+} knot;
+
+/* Each still frame's knots (knots[3 k + 0, 1, 2]). Each run of still frames
+ * between moving frames and steps is a walk whose mean over each frame is
+ * that frame's sighting (seen), its ends the moving neighbours' paths'
+ * (pbe_frame_mean_knots); a jump the smoothing found (jumped) that is not a
+ * step may lie anywhere between the two frames' middles. (A line through
+ * knots about a step that keeps both frames' means overshoots it by half
+ * the step, so a run ends at a step.) Where nothing was smoothed (jumped
+ * NULL), or a run is not solved, or PETBLUR_ESTIMATE_KNOTS=middles (for
+ * comparisons), every knot of a frame is its pose, and the track is linear
+ * between the frames' middles. */
+static pb_status still_knots(const estimate *e, const pbe_fit *fits, const pb_pose *seen, const frame_path *paths,
+                             const int *moving, const unsigned char *steps, const int *jumped, const double *bounds,
+                             knot *knots)
+{
+    const size_t count = e->count;
+    for (size_t f = 0; f < count; f++)
+        for (int i = 0; i < 3; i++)
+            knots[3 * f + (size_t)i] = (knot){fits[f].pose, 0};
+    const char *env = getenv("PETBLUR_ESTIMATE_KNOTS");
+    if ((env && strcmp(env, "middles") == 0) || !jumped)
+        return PB_OK;
+    enum { MOST = 2 * BACK_POINTS + 4 };
+    pb_pose *solved = malloc(sizeof(pb_pose) * (2 * count + 1)), scratch_p[MOST];
+    double scratch_t[MOST];
+    int *observed = malloc(sizeof(int) * count);
+    if (!solved || !observed) {
+        free(solved);
+        free(observed);
+        return PB_ERR_OUT_OF_MEMORY;
+    }
+    for (size_t f = 0; f < count; f++)
+        observed[f] = !e->flat[f];
+    size_t run = 0;
+    for (size_t first = 0; first < count;) {
+        if (moving[first]) {
+            first++;
+            continue;
+        }
+        size_t last = first;
+        while (last + 1 < count && !moving[last + 1] && !steps[last + 1])
+            last++;
+        pb_pose ends[2];
+        const pb_pose *pin[2] = {NULL, NULL};
+        for (int end = 0; end < 2; end++) {
+            const size_t f = end ? last + 1 : first - 1;
+            if (end ? last + 1 >= count : first == 0)
+                continue;
+            if (!moving[f])
+                continue;
+            keys scratch = {scratch_t, scratch_p, 0};
+            double from, to;
+            moving_keys(fits, paths, moving, bounds, f, &scratch, &from, &to);
+            if (scratch.n > 0) {
+                ends[end] = scratch.p[end ? 0 : scratch.n - 1];
+                pin[end] = &ends[end];
+            }
+        }
+        if (pbe_frame_mean_knots(fits, seen, observed, jumped, bounds, first, last, pin, rms_radius(&e->g), solved)) {
+            run++;
+            for (size_t f = first; f <= last; f++)
+                for (size_t i = 0; i < 3; i++)
+                    knots[3 * f + i] = (knot){solved[2 * (f - first) + i], run};
+        }
+        first = last + 1;
+    }
+    free(solved);
+    free(observed);
+    return PB_OK;
 }
 
 /* Whether a frame's side (g, h: side_evidence) is not nearer a ramp than a
@@ -1298,13 +1391,19 @@ static pb_status estimate_run(estimate *e, const double *bounds, const pb_estima
     double *unfollowed = calloc(count, sizeof(double));
     float *moved = malloc(sizeof(float) * e->level[0].n * count), *own = malloc(sizeof(float) * e->level[0].n);
     double *gram = malloc(sizeof(double) * count * (PBE_REFERENCE_OTHERS + 1));
+    /* each frame's pose as registered, as smoothed, and as its sighting of
+     * the track's mean (seen: registered, then moved as pass 4 moved it) */
+    pb_pose *registered = malloc(sizeof(pb_pose) * count), *smoothed = malloc(sizeof(pb_pose) * count);
+    pb_pose *seen = malloc(sizeof(pb_pose) * count);
+    knot *knots = malloc(sizeof(knot) * 3 * count);
+    int walked = 0;
     /* a frame's keys: at most two a point of PATH_BACK, its steps from and
      * to its neighbours, and two at its end's jump; the series' ends */
     const size_t most_keys = count * (2 * BACK_POINTS + 4) + 2;
     keys k = {malloc(sizeof(double) * most_keys), malloc(sizeof(pb_pose) * most_keys), 0};
     size_t moving_count = 0;
     pb_status st = fits && moving && paths && sides && steps && jumped && unfollowed && moved && own && gram && k.t &&
-                           k.p
+                           k.p && registered && smoothed && seen && knots
                        ? PB_OK
                        : PB_ERR_OUT_OF_MEMORY;
     for (size_t i = 0; i < count && fits; i++) {
@@ -1330,8 +1429,12 @@ static pb_status estimate_run(estimate *e, const double *bounds, const pb_estima
     if (st == PB_OK)
         st = hold_flat_frames(e, fits);
     /* the still frames' poses, each as sure as its registration, together in time */
+    for (size_t f = 0; f < count && st == PB_OK; f++)
+        registered[f] = fits[f].pose;
     if (st == PB_OK)
-        st = smooth_still_poses(e, fits, bounds, ref, jumped);
+        st = smooth_still_poses(e, fits, bounds, ref, jumped, &walked);
+    for (size_t f = 0; f < count && st == PB_OK; f++)
+        smoothed[f] = fits[f].pose;
     /* 3: inside frames, against the same references */
     if (st == PB_OK && !o->frame_poses_only)
         st = inside_frames(e, fits, ref, moved, gram, own, paths, moving, &moving_count, sides, unfollowed);
@@ -1340,39 +1443,54 @@ static pb_status estimate_run(estimate *e, const double *bounds, const pb_estima
     /* 4: every pose corrected along the contrast, together */
     if (st == PB_OK)
         st = correct_together(e, ref, fits, paths, moving);
+    for (size_t f = 0; f < count && st == PB_OK; f++) {
+        pb_pose undo, step;
+        pb_pose_invert(&smoothed[f], &undo);
+        pb_pose_compose(&undo, &registered[f], &step);
+        pb_pose_compose(&fits[f].pose, &step, &seen[f]);
+        pb_pose_normalized(&seen[f], &seen[f]);
+    }
+    if (st == PB_OK)
+        st = still_knots(e, fits, seen, paths, moving, steps, walked ? jumped : NULL, bounds, knots);
     const size_t anchor = chosen && st == PB_OK ? best_anchor(e, fits, moving, unfollowed, ref) : ref;
     if (report)
         report->reference = anchor;
     if (st == PB_OK) {
-        pb_pose back;
-        pb_pose_invert(&fits[anchor].pose, &back);
+        /* the track's mean over the reference frame is the identity: its
+         * knots' where they were solved, else its pose */
+        pb_pose held = fits[anchor].pose, back;
+        if (!moving[anchor] && knots[3 * anchor].run) {
+            pb_pose left, right;
+            pb_pose_interpolate(&knots[3 * anchor].pose, &knots[3 * anchor + 1].pose, 0.5, &left);
+            pb_pose_interpolate(&knots[3 * anchor + 1].pose, &knots[3 * anchor + 2].pose, 0.5, &right);
+            pb_pose_interpolate(&left, &right, 0.5, &held);
+        }
+        pb_pose_invert(&held, &back);
         /* a moving first or last frame's keys reach the series' ends */
         if (!moving[0])
-            key(&k, bounds[0], &fits[0].pose);
+            key(&k, bounds[0], &knots[0].pose);
         for (size_t f = 0; f < count; f++) {
             if (moving[f]) {
-                const frame_path *p = &paths[f * PATHS + (size_t)(moving[f] - 1)];
                 double from = 0.0, to = 0.0;
-                if (moving[f] - 1 == PATH_BACK)
-                    back_keys(&k, bounds[f], bounds[f + 1], &p->start, &p->end, &fits[f + 1].pose, p->dwell, &from,
-                              &to);
-                else
-                    path_keys(&k, bounds[f], bounds[f + 1], &p->start, &p->end, p->dwell, &from, &to);
+                moving_keys(fits, paths, moving, bounds, f, &k, &from, &to);
                 if (o->frames) {
                     o->frames[f].motion_from = from;
                     o->frames[f].motion_to = to;
                 }
+            } else {
+                /* a boundary inside a run of still frames is a knot of its own */
+                if (f > 0 && knots[3 * f].run && knots[3 * (f - 1)].run == knots[3 * f].run)
+                    key(&k, bounds[f], &knots[3 * f].pose);
+                key(&k, mid_time(bounds[f], bounds[f + 1]), &knots[3 * f + 1].pose);
             }
-            else
-                key(&k, mid_time(bounds[f], bounds[f + 1]), &fits[f].pose);
             if (steps[f + 1]) {
                 double h = 0.5 * STEP_FRACTION * fmin(bounds[f + 1] - bounds[f], bounds[f + 2] - bounds[f + 1]);
-                key(&k, bounds[f + 1] - h, &fits[f].pose);
-                key(&k, bounds[f + 1] + h, &fits[f + 1].pose);
+                key(&k, bounds[f + 1] - h, &knots[3 * f + 2].pose);
+                key(&k, bounds[f + 1] + h, &knots[3 * (f + 1)].pose);
             }
         }
         if (!moving[count - 1])
-            key(&k, bounds[count], &fits[count - 1].pose);
+            key(&k, bounds[count], &knots[3 * (count - 1) + 2].pose);
         for (size_t i = 0; i < k.n && st == PB_OK; i++) {
             pb_pose rel;
             pb_pose_compose(&k.p[i], &back, &rel);
@@ -1408,6 +1526,10 @@ static pb_status estimate_run(estimate *e, const double *bounds, const pb_estima
     free(gram);
     free(k.t);
     free(k.p);
+    free(registered);
+    free(smoothed);
+    free(seen);
+    free(knots);
     return st;
 }
 

@@ -191,6 +191,27 @@ static void turn_covariance(const double *cov, const double r[9], double *out)
     mat_mul(t, mt, out);
 }
 
+/* A fit's pose seen as a sighting on the chart about origin, in units of
+ * r: its position y and covariance (the inverse of its information, turned
+ * onto the chart). 0 where the information is not positive definite. */
+static int sighting(const pbe_fit *fit, const pb_pose *pose, const pb_pose *origin, double r, double *y, double *cov)
+{
+    double own[D * D], rot[9];
+    if (!spd_inverse(fit->information, own, NULL))
+        return 0;
+    chart(pose, origin, y, rot);
+    if (!pb_all_finite(y, D))
+        return 0;
+    turn_covariance(own, rot, cov);
+    for (int i = 0; i < D; i++) { /* shifts in units of r */
+        if (i < 3)
+            y[i] /= r;
+        for (int j = 0; j < D; j++)
+            cov[i * D + j] /= (i < 3 ? r : 1.0) * (j < 3 ? r : 1.0);
+    }
+    return 1;
+}
+
 /* One filter pass at rate q (r^2/s): the smoothed
  * chart positions into xs (where used), and the log-likelihood of the
  * sightings, each step a mixture of the walk's and a broad jump's; a step
@@ -317,21 +338,8 @@ double pbe_smooth_poses(pbe_fit *fits, const int *skip, const double *t, size_t 
     }
     size_t used = 0;
     for (size_t k = 0; k < count; k++) {
-        double own[D * D], rot[9];
-        if (skip[k] || !spd_inverse(fits[k].information, own, NULL))
-            continue;
-        chart(&fits[k].pose, &origin, y + k * D, rot);
-        if (!pb_all_finite(y + k * D, D))
-            continue;
-        turn_covariance(own, rot, cov + k * D * D);
-        for (int i = 0; i < D; i++) { /* shifts in units of r */
-            if (i < 3)
-                y[k * D + i] /= r;
-            for (int j = 0; j < D; j++)
-                cov[k * D * D + i * D + j] /= (i < 3 ? r : 1.0) * (j < 3 ? r : 1.0);
-        }
-        use[k] = 1;
-        used++;
+        use[k] = !skip[k] && sighting(&fits[k], &fits[k].pose, &origin, r, y + k * D, cov + k * D * D);
+        used += (size_t)use[k];
     }
     if (used < 3)
         goto done;
@@ -385,4 +393,248 @@ done:
     free(pf);
     free(pp);
     return best_q;
+}
+
+/* ---- the track's knots, each frame's pose its mean over the frame ------------- */
+
+/* The knots' system is banded: a frame's mean ties three knots together. */
+enum { BAND = 3 * D - 1 };
+#define AT(a, i, j) ((a)[(i) * (BAND + 1) + (j) + BAND - (i)]) /* lower half, i - BAND <= j <= i */
+
+/* Cholesky factor of an n x n banded matrix (lower half, AT) in place, and
+ * its log-determinant; 0 where it is not positive definite. */
+static int band_cholesky(double *a, size_t n, double *logdet)
+{
+    *logdet = 0.0;
+    for (size_t i = 0; i < n; i++) {
+        const size_t lo = i > BAND ? i - BAND : 0;
+        for (size_t j = lo; j <= i; j++) {
+            double s = AT(a, i, j);
+            for (size_t k = j > BAND && j - BAND > lo ? j - BAND : lo; k < j; k++)
+                s -= AT(a, i, k) * AT(a, j, k);
+            if (j < i) {
+                AT(a, i, j) = s / AT(a, j, j);
+            } else {
+                if (!(s > 0.0) || !isfinite(s))
+                    return 0;
+                AT(a, i, i) = sqrt(s);
+                *logdet += log(s);
+            }
+        }
+    }
+    return 1;
+}
+
+/* x = L^-1 x (forward), then, where back, x = L^-T x. */
+static void band_solve(const double *l, size_t n, double *x, int back)
+{
+    for (size_t i = 0; i < n; i++) {
+        for (size_t k = i > BAND ? i - BAND : 0; k < i; k++)
+            x[i] -= AT(l, i, k) * x[k];
+        x[i] /= AT(l, i, i);
+    }
+    for (size_t i = n; back && i-- > 0;) {
+        for (size_t k = i + 1; k < n && k <= i + BAND; k++)
+            x[i] -= AT(l, k, i) * x[k];
+        x[i] /= AT(l, i, i);
+    }
+}
+
+/* A run's sightings and the walk's knots between them. */
+typedef struct knot_run {
+    size_t knots, frames;
+    const int *jumped;       /* frame k's start: the walk jumped there (run-relative, 0 unused) */
+    const double *half;      /* each frame's half length, s */
+    const int *seen;         /* each frame: sighted */
+    const double *y, *cov;   /* each frame's sighting on the chart, and its covariance (D x D) */
+    const double *pinned[2]; /* the first and last knots' chart positions where given */
+    double *a, *rhs;         /* D knots rows, banded (AT); D knots */
+    double constant;         /* the energy's constant part */
+} knot_run;
+
+static const double *pin_of(const knot_run *s, size_t knot)
+{
+    return knot == 0 ? s->pinned[0] : knot + 1 == s->knots ? s->pinned[1] : NULL;
+}
+
+/* The term |sum_a h_a u_knot[a] - y|^2_W of the knots' energy into their
+ * normal equations (a pinned knot a constant there). */
+static void add_term(knot_run *s, const size_t *knot, const double *h, int terms, const double *w, const double *y)
+{
+    double r0[D], wr[D];
+    for (int i = 0; i < D; i++)
+        r0[i] = -y[i];
+    for (int a = 0; a < terms; a++) {
+        const double *pin = pin_of(s, knot[a]);
+        for (int i = 0; pin && i < D; i++)
+            r0[i] += h[a] * pin[i];
+    }
+    for (int i = 0; i < D; i++) {
+        wr[i] = 0.0;
+        for (int j = 0; j < D; j++)
+            wr[i] += w[i * D + j] * r0[j];
+        s->constant += r0[i] * wr[i];
+    }
+    for (int a = 0; a < terms; a++) {
+        const size_t ka = knot[a];
+        if (pin_of(s, ka))
+            continue;
+        for (int i = 0; i < D; i++)
+            s->rhs[ka * D + (size_t)i] -= h[a] * wr[i];
+        for (int b = 0; b < terms; b++) {
+            const size_t kb = knot[b];
+            if (pin_of(s, kb) || kb > ka)
+                continue;
+            for (int i = 0; i < D; i++)
+                for (int j = 0; j < D && (kb < ka || j <= i); j++)
+                    AT(s->a, ka * D + (size_t)i, kb * D + (size_t)j) += h[a] * h[b] * w[i * D + j];
+        }
+    }
+}
+
+/* The run's knots at walk rate q and noise scale s2: the likelihood of its
+ * sightings (less a constant), and, where x, the knots' chart positions.
+ * -HUGE_VAL where the system is not positive definite. */
+static double knots_at(knot_run *s, double q, double s2, double *x)
+{
+    const size_t n = D * s->knots;
+    memset(s->a, 0, sizeof(double) * n * (BAND + 1));
+    memset(s->rhs, 0, sizeof(double) * n);
+    s->constant = 0.0;
+    double logdet_prior = 0.0, logdet_noise = 0.0;
+    /* the walk between knots half a frame apart; where it jumped into a
+     * frame, the half frames on both sides of its start may hold the jump,
+     * a step of the spread smoothing allows one (JUMP_SHIFT, JUMP_TURN) */
+    for (size_t j = 0; j + 1 < s->knots; j++) {
+        const size_t frame = j / 2, start = j % 2 ? frame + 1 : frame;
+        const int jump = start > 0 && start < s->frames && s->jumped[start];
+        double w[D * D] = {0}, zero[D] = {0}, h[2] = {-1.0, 1.0};
+        for (int i = 0; i < D; i++) {
+            const double v = q * s->half[frame] + (jump ? (i < 3 ? JUMP_SHIFT * JUMP_SHIFT : JUMP_TURN * JUMP_TURN) : 0.0);
+            w[i * D + i] = 1.0 / v;
+            logdet_prior += log(w[i * D + i]);
+        }
+        if (!pb_all_finite(w, D * D))
+            return -HUGE_VAL;
+        size_t ks[2] = {j, j + 1};
+        add_term(s, ks, h, 2, w, zero);
+    }
+    /* each frame sighted: the track's mean over it, (start + 2 middle + end) / 4 */
+    for (size_t k = 0; k < s->frames; k++) {
+        double cov[D * D], w[D * D], logdet;
+        if (!s->seen[k])
+            continue;
+        for (int i = 0; i < D * D; i++)
+            cov[i] = s2 * s->cov[k * D * D + (size_t)i];
+        if (!spd_inverse(cov, w, &logdet))
+            continue;
+        logdet_noise += logdet;
+        const size_t ks[3] = {2 * k, 2 * k + 1, 2 * k + 2};
+        const double h[3] = {0.25, 0.5, 0.25};
+        add_term(s, ks, h, 3, w, s->y + k * D);
+    }
+    for (int end = 0; end < 2; end++) {
+        if (!s->pinned[end])
+            continue;
+        const size_t knot = end ? s->knots - 1 : 0;
+        for (int i = 0; i < D; i++) {
+            AT(s->a, knot * D + (size_t)i, knot * D + (size_t)i) = 1.0;
+            s->rhs[knot * D + (size_t)i] = s->pinned[end][i];
+        }
+    }
+    double logdet_a;
+    if (!band_cholesky(s->a, n, &logdet_a))
+        return -HUGE_VAL;
+    if (x) {
+        memcpy(x, s->rhs, sizeof(double) * n);
+        band_solve(s->a, n, x, 1);
+    }
+    /* the energy's least, c - b' A^-1 b; a pinned knot's rows stand apart */
+    band_solve(s->a, n, s->rhs, 0);
+    double fit = s->constant;
+    for (size_t i = 0; i < n; i++)
+        if (!pin_of(s, i / D))
+            fit -= s->rhs[i] * s->rhs[i];
+    const double ll = -0.5 * (fit + logdet_a - logdet_prior + logdet_noise);
+    return isfinite(ll) ? ll : -HUGE_VAL;
+}
+
+int pbe_frame_mean_knots(const pbe_fit *fits, const pb_pose *seen, const int *observed, const int *jumped,
+                         const double *bounds, size_t first, size_t last, const pb_pose *const pin[2], double r,
+                         pb_pose *knots)
+{
+    if (!(r > 0.0) || last < first)
+        return 0;
+    const size_t frames = last - first + 1, n = 2 * frames + 1, unknowns = D * n;
+    size_t origin_frame = SIZE_MAX;
+    for (size_t k = first; k <= last && origin_frame == SIZE_MAX; k++)
+        if (observed[k])
+            origin_frame = k;
+    if (origin_frame == SIZE_MAX && !pin[0] && !pin[1])
+        return 0;
+    const pb_pose origin = origin_frame != SIZE_MAX ? seen[origin_frame] : *(pin[0] ? pin[0] : pin[1]);
+    double pinned[2][D], rot[9];
+    int *use = calloc(frames, sizeof(int)), *jump = calloc(frames, sizeof(int));
+    double *half = malloc(sizeof(double) * frames), *y = malloc(sizeof(double) * frames * D);
+    double *cov = malloc(sizeof(double) * frames * D * D), *x = malloc(sizeof(double) * unknowns);
+    knot_run s = {n, frames, jump, half, use, y, cov, {NULL, NULL},
+                  calloc(unknowns * (BAND + 1), sizeof(double)), calloc(unknowns, sizeof(double)), 0.0};
+    int solved = 0;
+    if (!use || !jump || !half || !y || !cov || !x || !s.a || !s.rhs)
+        goto done;
+    size_t sighted = 0;
+    for (size_t k = 0; k < frames; k++) {
+        half[k] = 0.5 * (bounds[first + k + 1] - bounds[first + k]);
+        jump[k] = k > 0 && jumped[first + k];
+        use[k] = observed[first + k] && sighting(&fits[first + k], &seen[first + k], &origin, r, y + k * D,
+                                                  cov + k * D * D);
+        sighted += (size_t)use[k];
+    }
+    for (int end = 0; end < 2; end++)
+        if (pin[end]) {
+            chart(pin[end], &origin, pinned[end], rot);
+            for (int i = 0; i < 3; i++)
+                pinned[end][i] /= r;
+            s.pinned[end] = pinned[end];
+        }
+    if (sighted == 0 && !pin[0] && !pin[1])
+        goto done;
+    /* the walk and noise scale under which these sightings, each the
+     * track's mean over its frame, are likeliest: the least scale among the
+     * nearly likeliest, as pbe_smooth_poses chooses */
+    double ll[NOISE_STEPS_WIDE][RATE_STEPS], best_ll = -HUGE_VAL, best_q = -1.0, best_s = 1.0;
+    const int steps = noise_steps();
+    for (int j = 0; j < steps; j++)
+        for (int i = 0; i < RATE_STEPS; i++) {
+            ll[j][i] = knots_at(&s, rate(i), noise_scale2(j), NULL);
+            best_ll = fmax(best_ll, ll[j][i]);
+        }
+    for (int j = 0; j < steps && !(best_q > 0.0); j++) {
+        double top = -HUGE_VAL;
+        for (int i = 0; i < RATE_STEPS; i++)
+            if (ll[j][i] > -HUGE_VAL && ll[j][i] >= best_ll - LIKELIHOOD_SPAN && ll[j][i] > top) {
+                top = ll[j][i];
+                best_q = rate(i);
+                best_s = noise_scale2(j);
+            }
+    }
+    if (!(best_q > 0.0) || knots_at(&s, best_q, best_s, x) == -HUGE_VAL || !pb_all_finite(x, unknowns))
+        goto done;
+    for (size_t j = 0; j < n; j++) {
+        double p[D];
+        for (int i = 0; i < D; i++)
+            p[i] = x[j * D + (size_t)i] * (i < 3 ? r : 1.0);
+        unchart(p, &origin, &knots[j]);
+    }
+    solved = 1;
+done:
+    free(use);
+    free(jump);
+    free(half);
+    free(y);
+    free(cov);
+    free(x);
+    free(s.a);
+    free(s.rhs);
+    return solved;
 }
