@@ -7,8 +7,7 @@
  * the one pbe_smooth_poses chooses for those sightings, as the estimate
  * runs it. Against the track linear between the frames' middles (each
  * knot the frame's pose), the knots' track stands nearer the truth over
- * time; its mean over each frame keeps the sightings; a pinned end is
- * kept. */
+ * time, and its mean over each frame keeps the sightings. */
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -90,7 +89,6 @@ static pb_pose track_at(const double *t, const pb_pose *p, size_t n, double s)
 typedef struct outcome {
     double knots_rms, middles_rms; /* over time, mm at RADIUS */
     double mean_miss, middles_miss; /* the tracks' means over the frames against the truth's, RMS over frames */
-    double pin_miss;
 } outcome;
 
 static outcome series(int jumps, double sd_mm)
@@ -167,12 +165,11 @@ static outcome series(int jumps, double sd_mm)
     double kt[3 * MOST_FRAMES + 2], mt[3 * MOST_FRAMES];
     pb_pose keys[3 * MOST_FRAMES + 2];
     size_t nk = 0, nm = 0;
-    const pb_pose *none[2] = {NULL, NULL};
     for (size_t first = 0; first < frames;) {
         size_t last = first;
         while (last + 1 < frames && !(jumps && last + 1 == jump_frame))
             last++;
-        pb_check(pbe_frame_mean_knots(fits, seen, observed, jumped, bounds, first, last, none, RADIUS, solved),
+        pb_check(pbe_frame_mean_knots(fits, seen, observed, jumped, bounds, first, last, RADIUS, solved),
                  "the knots of frames %zu-%zu were solved", first, last);
         const double half = 0.005 * (bounds[first + 1] - bounds[first]);
         if (first > 0) {
@@ -228,14 +225,6 @@ static outcome series(int jumps, double sd_mm)
     }
     out.mean_miss = sqrt(miss / (double)frames);
     out.middles_miss = sqrt(mmiss / (double)frames);
-    /* the last knot pinned (a moving neighbour's path starts there) */
-    double px[6];
-    head_at(&h, end, px);
-    pb_pose pinned = from_vector(px);
-    const pb_pose *pin[2] = {NULL, &pinned};
-    pb_check(pbe_frame_mean_knots(fits, seen, observed, jumped, bounds, 0, frames - 1, pin, RADIUS, solved),
-             "the knots were solved with the end pinned");
-    out.pin_miss = distance(&solved[2 * frames], &pinned);
     return out;
 }
 
@@ -245,38 +234,37 @@ static int by_value(const void *a, const void *b)
     return (x > y) - (x < y);
 }
 
-static void family(int jumps, double sd_mm, double median_bound, const char *name)
+static void family(int jumps, double sd_mm, const char *name)
 {
-    double ratio[SERIES], worst = 0.0, worst_mean = 0.0, worst_pin = 0.0, mean_ratio[SERIES];
+    double ratio[SERIES], worst = 0.0, worst_mean = 0.0, mean_ratio[SERIES];
     for (int i = 0; i < SERIES; i++) {
         outcome o = series(jumps, sd_mm);
         ratio[i] = o.knots_rms / o.middles_rms;
         mean_ratio[i] = o.mean_miss / o.middles_miss;
         worst = fmax(worst, ratio[i]);
         worst_mean = fmax(worst_mean, o.mean_miss);
-        worst_pin = fmax(worst_pin, o.pin_miss);
     }
     qsort(ratio, SERIES, sizeof ratio[0], by_value);
     qsort(mean_ratio, SERIES, sizeof mean_ratio[0], by_value);
     const double p90 = ratio[(9 * SERIES) / 10];
     printf("%s: the knots' track / the middles' RMS error over time, median %.3f, 90th percentile %.3f, at most "
-           "%.3f; its mean over the frames off the truth's by at most %.3f mm (median ratio to the middles' %.3f); a "
-           "pinned end off by %.2g mm\n",
-           name, ratio[SERIES / 2], p90, worst, worst_mean, mean_ratio[SERIES / 2], worst_pin);
-    pb_check(ratio[SERIES / 2] < median_bound, "%s: the knots' track nearer the truth: median ratio %.3f", name,
+           "%.3f; its mean over the frames off the truth's by at most %.3f mm (median ratio to the middles' %.3f)\n",
+           name, ratio[SERIES / 2], p90, worst, worst_mean, mean_ratio[SERIES / 2]);
+    pb_check(ratio[SERIES / 2] < 0.8, "%s: the knots' track nearer the truth: median ratio %.3f", name,
              ratio[SERIES / 2]);
-    pb_check(p90 < 1.3, "%s: and few series further: 90th percentile %.3f", name, p90);
-    pb_check(worst < 4.0, "%s: none far further: worst ratio %.3f", name, worst);
-    pb_check(mean_ratio[SERIES / 2] < 0.8, "%s: its mean over each frame keeps the frame's: median ratio %.3f", name,
+    /* measured over 10 runs of each family: medians 0.55-0.72, 90th
+     * percentiles 0.72-0.93, the worst 0.83-1.47 */
+    pb_check(p90 < 1.0, "%s: and few series further: 90th percentile %.3f", name, p90);
+    pb_check(worst < 2.0, "%s: none far further: worst ratio %.3f", name, worst);
+    pb_check(mean_ratio[SERIES / 2] < 0.7, "%s: its mean over each frame keeps the frame's: median ratio %.3f", name,
              mean_ratio[SERIES / 2]);
-    pb_check(worst_pin < 1e-9, "%s: a pinned end is kept: %.3g mm", name, worst_pin);
 }
 
 int main(void)
 {
     pb_test_seed();
-    family(0, 0.03, 0.8, "a late scan's sharp frames, a drift and a nod");
-    family(1, 0.03, 0.8, "the same with a jump between two frames");
-    family(0, 0.3, 0.97, "frames sighted to tenths of a millimetre");
+    family(0, 0.03, "a late scan's sharp frames, a drift and a nod");
+    family(1, 0.03, "the same with a jump between two frames");
+    family(0, 0.3, "frames sighted to tenths of a millimetre");
     return pb_test_finish();
 }

@@ -1130,17 +1130,16 @@ typedef struct knot {
 
 /* Each still frame's knots (knots[3 k + 0, 1, 2]). Each run of still frames
  * between moving frames and steps is a walk whose mean over each frame is
- * that frame's sighting (seen), its ends the moving neighbours' paths'
- * (pbe_frame_mean_knots); a jump the smoothing found (jumped) that is not a
- * step may lie anywhere between the two frames' middles. (A line through
- * knots about a step that keeps both frames' means overshoots it by half
- * the step, so a run ends at a step.) Where nothing was smoothed (jumped
- * NULL), or a run is not solved, or PETBLUR_ESTIMATE_KNOTS=middles (for
- * comparisons), every knot of a frame is its pose, and the track is linear
- * between the frames' middles. */
-static pb_status still_knots(const estimate *e, const pbe_fit *fits, const pb_pose *seen, const frame_path *paths,
-                             const int *moving, const unsigned char *steps, const int *jumped, const double *bounds,
-                             knot *knots)
+ * that frame's sighting (seen; pbe_frame_mean_knots), and steps at its ends
+ * to the moving frames' paths; a jump the smoothing found (jumped) that is
+ * not a step may lie anywhere between the two frames' middles. (A line
+ * through knots that keeps a frame's mean and ends at a pose off it, a step
+ * or a path's start, overshoots by half the difference, so a run ends in a
+ * step.) Where nothing was smoothed (jumped NULL), or a run is not solved,
+ * or PETBLUR_ESTIMATE_KNOTS=middles (for comparisons), every knot of a
+ * frame is its pose, and the track is linear between the frames' middles. */
+static pb_status still_knots(const estimate *e, const pbe_fit *fits, const pb_pose *seen, const int *moving,
+                             const unsigned char *steps, const int *jumped, const double *bounds, knot *knots)
 {
     const size_t count = e->count;
     for (size_t f = 0; f < count; f++)
@@ -1149,9 +1148,7 @@ static pb_status still_knots(const estimate *e, const pbe_fit *fits, const pb_po
     const char *env = getenv("PETBLUR_ESTIMATE_KNOTS");
     if ((env && strcmp(env, "middles") == 0) || !jumped)
         return PB_OK;
-    enum { MOST = 2 * BACK_POINTS + 4 };
-    pb_pose *solved = malloc(sizeof(pb_pose) * (2 * count + 1)), scratch_p[MOST];
-    double scratch_t[MOST];
+    pb_pose *solved = malloc(sizeof(pb_pose) * (2 * count + 1));
     int *observed = malloc(sizeof(int) * count);
     if (!solved || !observed) {
         free(solved);
@@ -1169,23 +1166,7 @@ static pb_status still_knots(const estimate *e, const pbe_fit *fits, const pb_po
         size_t last = first;
         while (last + 1 < count && !moving[last + 1] && !steps[last + 1])
             last++;
-        pb_pose ends[2];
-        const pb_pose *pin[2] = {NULL, NULL};
-        for (int end = 0; end < 2; end++) {
-            const size_t f = end ? last + 1 : first - 1;
-            if (end ? last + 1 >= count : first == 0)
-                continue;
-            if (!moving[f])
-                continue;
-            keys scratch = {scratch_t, scratch_p, 0};
-            double from, to;
-            moving_keys(fits, paths, moving, bounds, f, &scratch, &from, &to);
-            if (scratch.n > 0) {
-                ends[end] = scratch.p[end ? 0 : scratch.n - 1];
-                pin[end] = &ends[end];
-            }
-        }
-        if (pbe_frame_mean_knots(fits, seen, observed, jumped, bounds, first, last, pin, rms_radius(&e->g), solved)) {
+        if (pbe_frame_mean_knots(fits, seen, observed, jumped, bounds, first, last, rms_radius(&e->g), solved)) {
             run++;
             for (size_t f = first; f <= last; f++)
                 for (size_t i = 0; i < 3; i++)
@@ -1196,6 +1177,13 @@ static pb_status still_knots(const estimate *e, const pbe_fit *fits, const pb_po
     free(solved);
     free(observed);
     return PB_OK;
+}
+
+/* Half a step's time at boundary b between two frames (STEP_FRACTION of
+ * the shorter). */
+static double step_half(const double *bounds, size_t b)
+{
+    return 0.5 * STEP_FRACTION * fmin(bounds[b] - bounds[b - 1], bounds[b + 1] - bounds[b]);
 }
 
 /* Whether a frame's side (g, h: side_evidence) is not nearer a ramp than a
@@ -1451,7 +1439,7 @@ static pb_status estimate_run(estimate *e, const double *bounds, const pb_estima
         pb_pose_normalized(&seen[f], &seen[f]);
     }
     if (st == PB_OK)
-        st = still_knots(e, fits, seen, paths, moving, steps, walked ? jumped : NULL, bounds, knots);
+        st = still_knots(e, fits, seen, moving, steps, walked ? jumped : NULL, bounds, knots);
     const size_t anchor = chosen && st == PB_OK ? best_anchor(e, fits, moving, unfollowed, ref) : ref;
     if (report)
         report->reference = anchor;
@@ -1478,13 +1466,19 @@ static pb_status estimate_run(estimate *e, const double *bounds, const pb_estima
                     o->frames[f].motion_to = to;
                 }
             } else {
-                /* a boundary inside a run of still frames is a knot of its own */
+                /* a boundary inside a run of still frames is a knot of its
+                 * own; beside a moving frame the run's end steps to the
+                 * path's (as at a step) */
                 if (f > 0 && knots[3 * f].run && knots[3 * (f - 1)].run == knots[3 * f].run)
                     key(&k, bounds[f], &knots[3 * f].pose);
+                if (f > 0 && knots[3 * f].run && moving[f - 1])
+                    key(&k, bounds[f] + step_half(bounds, f), &knots[3 * f].pose);
                 key(&k, mid_time(bounds[f], bounds[f + 1]), &knots[3 * f + 1].pose);
+                if (f + 1 < count && knots[3 * f].run && moving[f + 1])
+                    key(&k, bounds[f + 1] - step_half(bounds, f + 1), &knots[3 * f + 2].pose);
             }
             if (steps[f + 1]) {
-                double h = 0.5 * STEP_FRACTION * fmin(bounds[f + 1] - bounds[f], bounds[f + 2] - bounds[f + 1]);
+                const double h = step_half(bounds, f + 1);
                 key(&k, bounds[f + 1] - h, &knots[3 * f + 2].pose);
                 key(&k, bounds[f + 1] + h, &knots[3 * (f + 1)].pose);
             }

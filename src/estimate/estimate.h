@@ -238,13 +238,11 @@ double pbe_smooth_poses(pbe_fit *fits, const int *skip, const double *t, size_t 
  * at that frame's middle, 2 (last - first) + 3 in all, the track linear
  * between them. observed[k]: frame k is sighted; jumped[k] (first < k <=
  * last): the walk jumped into frame k (pbe_smooth_poses's jumped) but not
- * at a step (a run ends at a step). pin[0], pin[1]: the run's first and
- * last knots where they are given (a moving neighbour's path's end), else
- * NULL. r as for pbe_smooth_poses. Returns 0 where nothing was solved (no
- * sighting nor pin, out of memory, not positive definite). */
+ * at a step (a run ends at a step). r as for pbe_smooth_poses. Returns 0
+ * where nothing was solved (no sighting, out of memory, not positive
+ * definite). */
 int pbe_frame_mean_knots(const pbe_fit *fits, const pb_pose *seen, const int *observed, const int *jumped,
-                         const double *bounds, size_t first, size_t last, const pb_pose *const pin[2], double r,
-                         pb_pose *knots);
+                         const double *bounds, size_t first, size_t last, double r, pb_pose *knots);
 
 /* How far a fit's pose is sure: the variance (mm^2) of a point's place at
  * radius r from the turns' centre that its information leaves, shifts and

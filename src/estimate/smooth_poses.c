@@ -447,43 +447,28 @@ typedef struct knot_run {
     const double *half;      /* each frame's half length, s */
     const int *seen;         /* each frame: sighted */
     const double *y, *cov;   /* each frame's sighting on the chart, and its covariance (D x D) */
-    const double *pinned[2]; /* the first and last knots' chart positions where given */
     double *a, *rhs;         /* D knots rows, banded (AT); D knots */
     double constant;         /* the energy's constant part */
 } knot_run;
 
-static const double *pin_of(const knot_run *s, size_t knot)
-{
-    return knot == 0 ? s->pinned[0] : knot + 1 == s->knots ? s->pinned[1] : NULL;
-}
-
 /* The term |sum_a h_a u_knot[a] - y|^2_W of the knots' energy into their
- * normal equations (a pinned knot a constant there). */
+ * normal equations. */
 static void add_term(knot_run *s, const size_t *knot, const double *h, int terms, const double *w, const double *y)
 {
-    double r0[D], wr[D];
-    for (int i = 0; i < D; i++)
-        r0[i] = -y[i];
-    for (int a = 0; a < terms; a++) {
-        const double *pin = pin_of(s, knot[a]);
-        for (int i = 0; pin && i < D; i++)
-            r0[i] += h[a] * pin[i];
-    }
+    double wy[D];
     for (int i = 0; i < D; i++) {
-        wr[i] = 0.0;
+        wy[i] = 0.0;
         for (int j = 0; j < D; j++)
-            wr[i] += w[i * D + j] * r0[j];
-        s->constant += r0[i] * wr[i];
+            wy[i] += w[i * D + j] * y[j];
+        s->constant += y[i] * wy[i];
     }
     for (int a = 0; a < terms; a++) {
         const size_t ka = knot[a];
-        if (pin_of(s, ka))
-            continue;
         for (int i = 0; i < D; i++)
-            s->rhs[ka * D + (size_t)i] -= h[a] * wr[i];
+            s->rhs[ka * D + (size_t)i] += h[a] * wy[i];
         for (int b = 0; b < terms; b++) {
             const size_t kb = knot[b];
-            if (pin_of(s, kb) || kb > ka)
+            if (kb > ka)
                 continue;
             for (int i = 0; i < D; i++)
                 for (int j = 0; j < D && (kb < ka || j <= i); j++)
@@ -503,15 +488,34 @@ static double knots_at(knot_run *s, double q, double s2, double *x)
     s->constant = 0.0;
     double logdet_prior = 0.0, logdet_noise = 0.0;
     /* the walk between knots half a frame apart; where it jumped into a
-     * frame, the half frames on both sides of its start may hold the jump,
-     * a step of the spread smoothing allows one (JUMP_SHIFT, JUMP_TURN) */
+     * frame, between the two frames' middles by a step of the spread
+     * smoothing allows one (JUMP_SHIFT, JUMP_TURN), the knot at their
+     * boundary on the line between them as a bridge of the walk is (free
+     * on both sides, knots a half frame apart could swing to and fro about
+     * the frames' means) */
     for (size_t j = 0; j + 1 < s->knots; j++) {
         const size_t frame = j / 2, start = j % 2 ? frame + 1 : frame;
-        const int jump = start > 0 && start < s->frames && s->jumped[start];
+        if (start > 0 && start < s->frames && s->jumped[start]) {
+            if (j % 2) /* the middle before: both half frames at once */
+                continue;
+            const double a = s->half[frame - 1], b = s->half[frame], f = a / (a + b);
+            const size_t across[2] = {j - 1, j + 1}, bridge[3] = {j - 1, j, j + 1};
+            const double h2[2] = {-1.0, 1.0}, h3[3] = {-(1.0 - f), 1.0, -f};
+            double wj[D * D] = {0}, wb[D * D] = {0}, zero[D] = {0};
+            for (int i = 0; i < D; i++) {
+                wj[i * D + i] = 1.0 / (q * (a + b) + (i < 3 ? JUMP_SHIFT * JUMP_SHIFT : JUMP_TURN * JUMP_TURN));
+                wb[i * D + i] = 1.0 / (q * a * b / (a + b));
+                logdet_prior += log(wj[i * D + i]) + log(wb[i * D + i]);
+            }
+            if (!pb_all_finite(wj, D * D) || !pb_all_finite(wb, D * D))
+                return -HUGE_VAL;
+            add_term(s, across, h2, 2, wj, zero);
+            add_term(s, bridge, h3, 3, wb, zero);
+            continue;
+        }
         double w[D * D] = {0}, zero[D] = {0}, h[2] = {-1.0, 1.0};
         for (int i = 0; i < D; i++) {
-            const double v = q * s->half[frame] + (jump ? (i < 3 ? JUMP_SHIFT * JUMP_SHIFT : JUMP_TURN * JUMP_TURN) : 0.0);
-            w[i * D + i] = 1.0 / v;
+            w[i * D + i] = 1.0 / (q * s->half[frame]);
             logdet_prior += log(w[i * D + i]);
         }
         if (!pb_all_finite(w, D * D))
@@ -533,15 +537,6 @@ static double knots_at(knot_run *s, double q, double s2, double *x)
         const double h[3] = {0.25, 0.5, 0.25};
         add_term(s, ks, h, 3, w, s->y + k * D);
     }
-    for (int end = 0; end < 2; end++) {
-        if (!s->pinned[end])
-            continue;
-        const size_t knot = end ? s->knots - 1 : 0;
-        for (int i = 0; i < D; i++) {
-            AT(s->a, knot * D + (size_t)i, knot * D + (size_t)i) = 1.0;
-            s->rhs[knot * D + (size_t)i] = s->pinned[end][i];
-        }
-    }
     double logdet_a;
     if (!band_cholesky(s->a, n, &logdet_a))
         return -HUGE_VAL;
@@ -549,19 +544,17 @@ static double knots_at(knot_run *s, double q, double s2, double *x)
         memcpy(x, s->rhs, sizeof(double) * n);
         band_solve(s->a, n, x, 1);
     }
-    /* the energy's least, c - b' A^-1 b; a pinned knot's rows stand apart */
+    /* the energy's least, c - b' A^-1 b */
     band_solve(s->a, n, s->rhs, 0);
     double fit = s->constant;
     for (size_t i = 0; i < n; i++)
-        if (!pin_of(s, i / D))
-            fit -= s->rhs[i] * s->rhs[i];
+        fit -= s->rhs[i] * s->rhs[i];
     const double ll = -0.5 * (fit + logdet_a - logdet_prior + logdet_noise);
     return isfinite(ll) ? ll : -HUGE_VAL;
 }
 
 int pbe_frame_mean_knots(const pbe_fit *fits, const pb_pose *seen, const int *observed, const int *jumped,
-                         const double *bounds, size_t first, size_t last, const pb_pose *const pin[2], double r,
-                         pb_pose *knots)
+                         const double *bounds, size_t first, size_t last, double r, pb_pose *knots)
 {
     if (!(r > 0.0) || last < first)
         return 0;
@@ -570,15 +563,14 @@ int pbe_frame_mean_knots(const pbe_fit *fits, const pb_pose *seen, const int *ob
     for (size_t k = first; k <= last && origin_frame == SIZE_MAX; k++)
         if (observed[k])
             origin_frame = k;
-    if (origin_frame == SIZE_MAX && !pin[0] && !pin[1])
+    if (origin_frame == SIZE_MAX)
         return 0;
-    const pb_pose origin = origin_frame != SIZE_MAX ? seen[origin_frame] : *(pin[0] ? pin[0] : pin[1]);
-    double pinned[2][D], rot[9];
+    const pb_pose origin = seen[origin_frame];
     int *use = calloc(frames, sizeof(int)), *jump = calloc(frames, sizeof(int));
     double *half = malloc(sizeof(double) * frames), *y = malloc(sizeof(double) * frames * D);
     double *cov = malloc(sizeof(double) * frames * D * D), *x = malloc(sizeof(double) * unknowns);
-    knot_run s = {n, frames, jump, half, use, y, cov, {NULL, NULL},
-                  calloc(unknowns * (BAND + 1), sizeof(double)), calloc(unknowns, sizeof(double)), 0.0};
+    knot_run s = {n, frames, jump, half, use, y, cov, calloc(unknowns * (BAND + 1), sizeof(double)),
+                  calloc(unknowns, sizeof(double)), 0.0};
     int solved = 0;
     if (!use || !jump || !half || !y || !cov || !x || !s.a || !s.rhs)
         goto done;
@@ -590,14 +582,7 @@ int pbe_frame_mean_knots(const pbe_fit *fits, const pb_pose *seen, const int *ob
                                                   cov + k * D * D);
         sighted += (size_t)use[k];
     }
-    for (int end = 0; end < 2; end++)
-        if (pin[end]) {
-            chart(pin[end], &origin, pinned[end], rot);
-            for (int i = 0; i < 3; i++)
-                pinned[end][i] /= r;
-            s.pinned[end] = pinned[end];
-        }
-    if (sighted == 0 && !pin[0] && !pin[1])
+    if (sighted == 0)
         goto done;
     /* the walk and noise scale under which these sightings, each the
      * track's mean over its frame, are likeliest: the least scale among the
