@@ -60,6 +60,11 @@ enum { SERIES_GAIN_FRAMES = 8 };
  * between frame poses is not a nod's curve, so neither model fits there),
  * while their jumps at boundaries stood at 100-1100 (docs/estimate-log.md). */
 #define SEPARATION 6.0
+/* How far, in standard deviations of its noise, the frames' evidence must
+ * lean to a ramp through a boundary for the track to keep each frame's
+ * mean on both sides of it (still_knots) rather than ramp between the
+ * frames' middles. */
+#define TIE_SD 2.0
 /* The shortest time a path's step takes, as a fraction of its frame. */
 #define STEP_FRACTION 0.01
 /* A background at least this share of a frame's peak is warned about (it is
@@ -1128,56 +1133,6 @@ typedef struct knot {
     size_t run;
 } knot;
 
-/* Each still frame's knots (knots[3 k + 0, 1, 2]). Each run of still frames
- * between moving frames and steps is a walk whose mean over each frame is
- * that frame's sighting (seen; pbe_frame_mean_knots), and steps at its ends
- * to the moving frames' paths; a jump the smoothing found (jumped) that is
- * not a step may lie anywhere between the two frames' middles. (A line
- * through knots that keeps a frame's mean and ends at a pose off it, a step
- * or a path's start, overshoots by half the difference, so a run ends in a
- * step.) Where nothing was smoothed (jumped NULL), or a run is not solved,
- * or PETBLUR_ESTIMATE_KNOTS=middles (for comparisons), every knot of a
- * frame is its pose, and the track is linear between the frames' middles. */
-static pb_status still_knots(const estimate *e, const pbe_fit *fits, const pb_pose *seen, const int *moving,
-                             const unsigned char *steps, const int *jumped, const double *bounds, knot *knots)
-{
-    const size_t count = e->count;
-    for (size_t f = 0; f < count; f++)
-        for (int i = 0; i < 3; i++)
-            knots[3 * f + (size_t)i] = (knot){fits[f].pose, 0};
-    const char *env = getenv("PETBLUR_ESTIMATE_KNOTS");
-    if ((env && strcmp(env, "middles") == 0) || !jumped)
-        return PB_OK;
-    pb_pose *solved = malloc(sizeof(pb_pose) * (2 * count + 1));
-    int *observed = malloc(sizeof(int) * count);
-    if (!solved || !observed) {
-        free(solved);
-        free(observed);
-        return PB_ERR_OUT_OF_MEMORY;
-    }
-    for (size_t f = 0; f < count; f++)
-        observed[f] = !e->flat[f];
-    size_t run = 0;
-    for (size_t first = 0; first < count;) {
-        if (moving[first]) {
-            first++;
-            continue;
-        }
-        size_t last = first;
-        while (last + 1 < count && !moving[last + 1] && !steps[last + 1])
-            last++;
-        if (pbe_frame_mean_knots(fits, seen, observed, jumped, bounds, first, last, rms_radius(&e->g), solved)) {
-            run++;
-            for (size_t f = first; f <= last; f++)
-                for (size_t i = 0; i < 3; i++)
-                    knots[3 * f + i] = (knot){solved[2 * (f - first) + i], run};
-        }
-        first = last + 1;
-    }
-    free(solved);
-    free(observed);
-    return PB_OK;
-}
 
 /* Half a step's time at boundary b between two frames (STEP_FRACTION of
  * the shorter). */
@@ -1192,6 +1147,30 @@ static double step_half(const double *bounds, size_t b)
 static int leans_to_step(const double side[2])
 {
     return side[1] > 0.5 * side[0] - 2.0 * sqrt(side[0]);
+}
+
+/* Whether the two still frames about boundary b show their poses held to
+ * it (side_evidence: the sum of their h over half the sum of their g, where
+ * that sum is at least SEPARATION^2), neither frame nearer the ramp beyond
+ * its noise (leans_to_step). */
+static int held_to(const estimate *e, const int *moving, const double *sides, size_t b)
+{
+    const double *before = &sides[4 * (b - 1) + 2], *after = &sides[4 * b];
+    const double g = before[0] + after[0], h = before[1] + after[1];
+    return !moving[b - 1] && !moving[b] && !e->flat[b - 1] && !e->flat[b] && g >= SEPARATION * SEPARATION &&
+           h > 0.5 * g && leans_to_step(before) && leans_to_step(after);
+}
+
+/* Whether the two still frames about boundary b show the head moving on
+ * through it: the evidence leans to the ramp beyond TIE_SD standard
+ * deviations of its noise (2 sqrt(g) where the frames' images are g
+ * apart). */
+static int ramps_through(const estimate *e, const int *moving, const double *sides, size_t b)
+{
+    const double *before = &sides[4 * (b - 1) + 2], *after = &sides[4 * b];
+    const double g = before[0] + after[0], h = before[1] + after[1];
+    return !moving[b - 1] && !moving[b] && !e->flat[b - 1] && !e->flat[b] && g > 0.0 &&
+           h < 0.5 * g - TIE_SD * sqrt(g);
 }
 
 /* Where the head jumped at a boundary between still frames: steps[b] for
@@ -1213,12 +1192,66 @@ static void boundary_steps(const estimate *e, const int *moving, const int *jump
     memset(steps, 0, e->count + 1);
     if (env && strcmp(env, "ramp") == 0)
         return;
-    for (size_t b = 1; b < e->count; b++) {
-        const double *before = &sides[4 * (b - 1) + 2], *after = &sides[4 * b];
-        double g = before[0] + after[0], h = before[1] + after[1];
-        steps[b] = jumped[b] && !moving[b - 1] && !moving[b] && !e->flat[b - 1] && !e->flat[b] &&
-                   g >= SEPARATION * SEPARATION && h > 0.5 * g && leans_to_step(before) && leans_to_step(after);
+    for (size_t b = 1; b < e->count; b++)
+        steps[b] = jumped[b] && held_to(e, moving, sides, b);
+}
+
+/* Each still frame's knots (knots[3 k + 0, 1, 2]). Where the frames on
+ * both sides of a boundary show the head moving on through it
+ * (ramps_through), the track keeps each frame's mean on both sides: a run
+ * of such frames is a walk whose mean over each frame is that frame's
+ * sighting (seen; pbe_frame_mean_knots), and a jump of the walk inside it
+ * (jumped) lies anywhere between the two frames' middles. At a step or a
+ * moving neighbour a run's end is free, and the track steps there; at any
+ * other boundary it ramps between the two frames' middles, as it did
+ * before: a line that keeps each frame's mean across a boundary the head
+ * jumped at overshoots the jump by a sixth in each frame's middle (a head
+ * held at a pose of its own in each frame, test_motion_from_frames.py's
+ * series, went from 0.1-0.3 mm to 1.0-1.5 at frames' middles). Where
+ * nothing was smoothed (jumped NULL), or a run is not solved, or
+ * PETBLUR_ESTIMATE_KNOTS=middles (for comparisons), every knot of a frame
+ * is its pose, and the track is linear between the frames' middles. */
+static pb_status still_knots(const estimate *e, const pbe_fit *fits, const pb_pose *seen, const int *moving,
+                             const unsigned char *steps, const int *jumped, const double *sides,
+                             const double *bounds, knot *knots)
+{
+    const size_t count = e->count;
+    for (size_t f = 0; f < count; f++)
+        for (int i = 0; i < 3; i++)
+            knots[3 * f + (size_t)i] = (knot){fits[f].pose, 0};
+    const char *env = getenv("PETBLUR_ESTIMATE_KNOTS");
+    if ((env && strcmp(env, "middles") == 0) || !jumped)
+        return PB_OK;
+    /* PETBLUR_ESTIMATE_TIE=none keeps every boundary without a step inside a
+     * run, whatever the frames show, for comparisons */
+    const char *tie_env = getenv("PETBLUR_ESTIMATE_TIE");
+    const int tie = !(tie_env && strcmp(tie_env, "none") == 0);
+    pb_pose *solved = malloc(sizeof(pb_pose) * 3 * count);
+    int *observed = malloc(sizeof(int) * count);
+    size_t *run = malloc(sizeof(size_t) * count);
+    unsigned char *ramped = calloc(count + 1, 1);
+    if (!solved || !observed || !run || !ramped) {
+        free(solved);
+        free(observed);
+        free(run);
+        free(ramped);
+        return PB_ERR_OUT_OF_MEMORY;
     }
+    for (size_t f = 0, r = 0; f < count; f++) {
+        observed[f] = !e->flat[f];
+        ramped[f] = f > 0 && !moving[f - 1] && !moving[f] && !steps[f] && tie && !ramps_through(e, moving, sides, f);
+        r += !moving[f] && (f == 0 || moving[f - 1] || steps[f] || ramped[f]);
+        run[f] = moving[f] ? 0 : r;
+    }
+    if (pbe_frame_mean_knots(fits, seen, observed, jumped, ramped, bounds, run, count, rms_radius(&e->g), solved))
+        for (size_t f = 0; f < count; f++)
+            for (size_t i = 0; run[f] && i < 3; i++)
+                knots[3 * f + i] = (knot){solved[3 * f + i], run[f]};
+    free(solved);
+    free(observed);
+    free(run);
+    free(ramped);
+    return PB_OK;
 }
 
 /* A grid pose about c as a world map about the world's origin:
@@ -1431,29 +1464,23 @@ static pb_status estimate_run(estimate *e, const double *bounds, const pb_estima
     /* 4: every pose corrected along the contrast, together */
     if (st == PB_OK)
         st = correct_together(e, ref, fits, paths, moving);
+    const char *seen_env = getenv("PETBLUR_ESTIMATE_SEEN");
     for (size_t f = 0; f < count && st == PB_OK; f++) {
         pb_pose undo, step;
         pb_pose_invert(&smoothed[f], &undo);
         pb_pose_compose(&undo, &registered[f], &step);
         pb_pose_compose(&fits[f].pose, &step, &seen[f]);
         pb_pose_normalized(&seen[f], &seen[f]);
+        if (seen_env && strcmp(seen_env, "smoothed") == 0)
+            seen[f] = fits[f].pose;
     }
     if (st == PB_OK)
-        st = still_knots(e, fits, seen, moving, steps, walked ? jumped : NULL, bounds, knots);
+        st = still_knots(e, fits, seen, moving, steps, walked ? jumped : NULL, sides, bounds, knots);
     const size_t anchor = chosen && st == PB_OK ? best_anchor(e, fits, moving, unfollowed, ref) : ref;
     if (report)
         report->reference = anchor;
     if (st == PB_OK) {
-        /* the track's mean over the reference frame is the identity: its
-         * knots' where they were solved, else its pose */
-        pb_pose held = fits[anchor].pose, back;
-        if (!moving[anchor] && knots[3 * anchor].run) {
-            pb_pose left, right;
-            pb_pose_interpolate(&knots[3 * anchor].pose, &knots[3 * anchor + 1].pose, 0.5, &left);
-            pb_pose_interpolate(&knots[3 * anchor + 1].pose, &knots[3 * anchor + 2].pose, 0.5, &right);
-            pb_pose_interpolate(&left, &right, 0.5, &held);
-        }
-        pb_pose_invert(&held, &back);
+        pb_pose back;
         /* a moving first or last frame's keys reach the series' ends */
         if (!moving[0])
             key(&k, bounds[0], &knots[0].pose);
@@ -1485,6 +1512,8 @@ static pb_status estimate_run(estimate *e, const double *bounds, const pb_estima
         }
         if (!moving[count - 1])
             key(&k, bounds[count], &knots[3 * (count - 1) + 2].pose);
+        /* the track at the reference frame's middle is the identity */
+        pb_pose_invert(moving[anchor] ? &fits[anchor].pose : &knots[3 * anchor + 1].pose, &back);
         for (size_t i = 0; i < k.n && st == PB_OK; i++) {
             pb_pose rel;
             pb_pose_compose(&k.p[i], &back, &rel);

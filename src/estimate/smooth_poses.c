@@ -442,11 +442,12 @@ static void band_solve(const double *l, size_t n, double *x, int back)
 
 /* A run's sightings and the walk's knots between them. */
 typedef struct knot_run {
-    size_t knots, frames;
-    const int *jumped;       /* frame k's start: the walk jumped there (run-relative, 0 unused) */
-    const double *half;      /* each frame's half length, s */
-    const int *seen;         /* each frame: sighted */
-    const double *y, *cov;   /* each frame's sighting on the chart, and its covariance (D x D) */
+    size_t knots, frames;    /* unknown knots: 2 frames + 1, less a tied end's */
+    int tied[2];             /* its start, its end: the knot there is its frame's middle's (a ramp beyond) */
+    int *jumped;             /* frame k's start: the walk jumped there (run-relative, 0 unused) */
+    double *half;            /* each frame's half length, s */
+    int *seen;               /* each frame: sighted */
+    double *y, *cov;         /* each frame's sighting on the chart, and its covariance (D x D) */
     double *a, *rhs;         /* D knots rows, banded (AT); D knots */
     double constant;         /* the energy's constant part */
 } knot_run;
@@ -477,6 +478,17 @@ static void add_term(knot_run *s, const size_t *knot, const double *h, int terms
     }
 }
 
+/* Where knot j of a run (2 k + 0, 1, 2: frame k's start, middle, end) is
+ * among its unknowns: a tied end's is its frame's middle's. */
+static size_t slot(const knot_run *s, size_t j)
+{
+    if (s->tied[0] && j == 0)
+        j = 1;
+    if (s->tied[1] && j == 2 * s->frames)
+        j = 2 * s->frames - 1;
+    return j - (size_t)s->tied[0];
+}
+
 /* The run's knots at walk rate q and noise scale s2: the likelihood of its
  * sightings (less a constant), and, where x, the knots' chart positions.
  * -HUGE_VAL where the system is not positive definite. */
@@ -493,13 +505,14 @@ static double knots_at(knot_run *s, double q, double s2, double *x)
      * boundary on the line between them as a bridge of the walk is (free
      * on both sides, knots a half frame apart could swing to and fro about
      * the frames' means) */
-    for (size_t j = 0; j + 1 < s->knots; j++) {
+    for (size_t j = 0; j + 1 < 2 * s->frames + 1; j++) {
         const size_t frame = j / 2, start = j % 2 ? frame + 1 : frame;
         if (start > 0 && start < s->frames && s->jumped[start]) {
             if (j % 2) /* the middle before: both half frames at once */
                 continue;
             const double a = s->half[frame - 1], b = s->half[frame], f = a / (a + b);
-            const size_t across[2] = {j - 1, j + 1}, bridge[3] = {j - 1, j, j + 1};
+            const size_t across[2] = {slot(s, j - 1), slot(s, j + 1)},
+                         bridge[3] = {slot(s, j - 1), slot(s, j), slot(s, j + 1)};
             const double h2[2] = {-1.0, 1.0}, h3[3] = {-(1.0 - f), 1.0, -f};
             double wj[D * D] = {0}, wb[D * D] = {0}, zero[D] = {0};
             for (int i = 0; i < D; i++) {
@@ -513,6 +526,9 @@ static double knots_at(knot_run *s, double q, double s2, double *x)
             add_term(s, bridge, h3, 3, wb, zero);
             continue;
         }
+        const size_t ks[2] = {slot(s, j), slot(s, j + 1)};
+        if (ks[0] == ks[1])
+            continue;
         double w[D * D] = {0}, zero[D] = {0}, h[2] = {-1.0, 1.0};
         for (int i = 0; i < D; i++) {
             w[i * D + i] = 1.0 / (q * s->half[frame]);
@@ -520,7 +536,6 @@ static double knots_at(knot_run *s, double q, double s2, double *x)
         }
         if (!pb_all_finite(w, D * D))
             return -HUGE_VAL;
-        size_t ks[2] = {j, j + 1};
         add_term(s, ks, h, 2, w, zero);
     }
     /* each frame sighted: the track's mean over it, (start + 2 middle + end) / 4 */
@@ -533,7 +548,7 @@ static double knots_at(knot_run *s, double q, double s2, double *x)
         if (!spd_inverse(cov, w, &logdet))
             continue;
         logdet_noise += logdet;
-        const size_t ks[3] = {2 * k, 2 * k + 1, 2 * k + 2};
+        const size_t ks[3] = {slot(s, 2 * k), slot(s, 2 * k + 1), slot(s, 2 * k + 2)};
         const double h[3] = {0.25, 0.5, 0.25};
         add_term(s, ks, h, 3, w, s->y + k * D);
     }
@@ -553,45 +568,90 @@ static double knots_at(knot_run *s, double q, double s2, double *x)
     return isfinite(ll) ? ll : -HUGE_VAL;
 }
 
-int pbe_frame_mean_knots(const pbe_fit *fits, const pb_pose *seen, const int *observed, const int *jumped,
-                         const double *bounds, size_t first, size_t last, double r, pb_pose *knots)
+/* One run's sightings on the chart about its first, set up for knots_at. */
+typedef struct run_setup {
+    size_t first, last;
+    pb_pose origin;
+    knot_run s;
+    int ok;
+} run_setup;
+
+static void run_free(run_setup *u)
 {
-    if (!(r > 0.0) || last < first)
-        return 0;
-    const size_t frames = last - first + 1, n = 2 * frames + 1, unknowns = D * n;
+    free(u->s.jumped);
+    free(u->s.half);
+    free(u->s.seen);
+    free(u->s.y);
+    free(u->s.cov);
+    free(u->s.a);
+    free(u->s.rhs);
+}
+
+static int run_setup_make(run_setup *u, const pbe_fit *fits, const pb_pose *seen, const int *observed,
+                          const int *jumped, const unsigned char *ramped, const double *bounds, double r)
+{
+    const int tied[2] = {ramped[u->first] != 0, ramped[u->last + 1] != 0};
+    const size_t frames = u->last - u->first + 1, n = 2 * frames + 1 - (size_t)tied[0] - (size_t)tied[1],
+                 unknowns = D * n;
     size_t origin_frame = SIZE_MAX;
-    for (size_t k = first; k <= last && origin_frame == SIZE_MAX; k++)
+    for (size_t k = u->first; k <= u->last && origin_frame == SIZE_MAX; k++)
         if (observed[k])
             origin_frame = k;
-    if (origin_frame == SIZE_MAX)
-        return 0;
-    const pb_pose origin = seen[origin_frame];
     int *use = calloc(frames, sizeof(int)), *jump = calloc(frames, sizeof(int));
     double *half = malloc(sizeof(double) * frames), *y = malloc(sizeof(double) * frames * D);
-    double *cov = malloc(sizeof(double) * frames * D * D), *x = malloc(sizeof(double) * unknowns);
-    knot_run s = {n, frames, jump, half, use, y, cov, calloc(unknowns * (BAND + 1), sizeof(double)),
-                  calloc(unknowns, sizeof(double)), 0.0};
-    int solved = 0;
-    if (!use || !jump || !half || !y || !cov || !x || !s.a || !s.rhs)
-        goto done;
-    size_t sighted = 0;
+    double *cov = malloc(sizeof(double) * frames * D * D);
+    u->s = (knot_run){n, frames, {tied[0], tied[1]}, jump, half, use, y, cov,
+                      calloc(unknowns * (BAND + 1), sizeof(double)), calloc(unknowns, sizeof(double)), 0.0};
+    u->ok = 0;
+    if (!use || !jump || !half || !y || !cov || !u->s.a || !u->s.rhs)
+        return 0;
+    if (origin_frame == SIZE_MAX)
+        return 1; /* nothing sighted: left as it is */
+    u->origin = seen[origin_frame];
     for (size_t k = 0; k < frames; k++) {
-        half[k] = 0.5 * (bounds[first + k + 1] - bounds[first + k]);
-        jump[k] = k > 0 && jumped[first + k];
-        use[k] = observed[first + k] && sighting(&fits[first + k], &seen[first + k], &origin, r, y + k * D,
-                                                  cov + k * D * D);
-        sighted += (size_t)use[k];
+        half[k] = 0.5 * (bounds[u->first + k + 1] - bounds[u->first + k]);
+        jump[k] = k > 0 && jumped[u->first + k];
+        use[k] = observed[u->first + k] && sighting(&fits[u->first + k], &seen[u->first + k], &u->origin, r,
+                                                     y + k * D, cov + k * D * D);
+        u->ok |= use[k];
     }
-    if (sighted == 0)
+    return 1;
+}
+
+int pbe_frame_mean_knots(const pbe_fit *fits, const pb_pose *seen, const int *observed, const int *jumped,
+                         const unsigned char *ramped, const double *bounds, const size_t *run, size_t count, double r,
+                         pb_pose *knots)
+{
+    if (!(r > 0.0) || count == 0)
+        return 0;
+    size_t runs = 0;
+    for (size_t k = 0; k < count; k++)
+        runs += run[k] && (k == 0 || run[k - 1] != run[k]);
+    run_setup *u = calloc(runs ? runs : 1, sizeof *u);
+    double *x = malloc(sizeof(double) * D * (2 * count + 1));
+    int solved = 0, made = u && x;
+    for (size_t k = 0, i = 0; made && k < count; k++) {
+        if (!run[k] || (k > 0 && run[k - 1] == run[k]))
+            continue;
+        u[i].first = u[i].last = k;
+        while (u[i].last + 1 < count && run[u[i].last + 1] == run[k])
+            u[i].last++;
+        made = run_setup_make(&u[i++], fits, seen, observed, jumped, ramped, bounds, r);
+    }
+    if (!made)
         goto done;
-    /* the walk and noise scale under which these sightings, each the
-     * track's mean over its frame, are likeliest: the least scale among the
-     * nearly likeliest, as pbe_smooth_poses chooses */
+    /* the walk and noise scale under which the series' sightings, each the
+     * track's mean over its frame, are likeliest, every run together: the
+     * least scale among the nearly likeliest, as pbe_smooth_poses chooses
+     * (a run of two or three frames alone cannot tell noise from motion) */
     double ll[NOISE_STEPS_WIDE][RATE_STEPS], best_ll = -HUGE_VAL, best_q = -1.0, best_s = 1.0;
     const int steps = noise_steps();
     for (int j = 0; j < steps; j++)
         for (int i = 0; i < RATE_STEPS; i++) {
-            ll[j][i] = knots_at(&s, rate(i), noise_scale2(j), NULL);
+            ll[j][i] = 0.0;
+            for (size_t v = 0; v < runs; v++)
+                if (u[v].ok)
+                    ll[j][i] += knots_at(&u[v].s, rate(i), noise_scale2(j), NULL);
             best_ll = fmax(best_ll, ll[j][i]);
         }
     for (int j = 0; j < steps && !(best_q > 0.0); j++) {
@@ -603,23 +663,33 @@ int pbe_frame_mean_knots(const pbe_fit *fits, const pb_pose *seen, const int *ob
                 best_s = noise_scale2(j);
             }
     }
-    if (!(best_q > 0.0) || knots_at(&s, best_q, best_s, x) == -HUGE_VAL || !pb_all_finite(x, unknowns))
+    if (!(best_q > 0.0) || !(best_ll > -HUGE_VAL))
         goto done;
-    for (size_t j = 0; j < n; j++) {
-        double p[D];
-        for (int i = 0; i < D; i++)
-            p[i] = x[j * D + (size_t)i] * (i < 3 ? r : 1.0);
-        unchart(p, &origin, &knots[j]);
+    for (size_t v = 0; v < runs; v++) {
+        if (!u[v].ok)
+            continue;
+        const size_t n = u[v].s.knots;
+        if (knots_at(&u[v].s, best_q, best_s, x) == -HUGE_VAL || !pb_all_finite(x, D * n))
+            goto done;
+    }
+    for (size_t v = 0; v < runs; v++) { /* every run solved: written */
+        if (!u[v].ok)
+            continue;
+        knots_at(&u[v].s, best_q, best_s, x);
+        for (size_t k = u[v].first; k <= u[v].last; k++)
+            for (size_t i = 0; i < 3; i++) {
+                double p[D];
+                const size_t j = slot(&u[v].s, 2 * (k - u[v].first) + i);
+                for (int c = 0; c < D; c++)
+                    p[c] = x[j * D + (size_t)c] * (c < 3 ? r : 1.0);
+                unchart(p, &u[v].origin, &knots[3 * k + i]);
+            }
     }
     solved = 1;
 done:
-    free(use);
-    free(jump);
-    free(half);
-    free(y);
-    free(cov);
+    for (size_t v = 0; u && v < runs; v++)
+        run_free(&u[v]);
+    free(u);
     free(x);
-    free(s.a);
-    free(s.rhs);
     return solved;
 }
