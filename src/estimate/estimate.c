@@ -60,11 +60,6 @@ enum { SERIES_GAIN_FRAMES = 8 };
  * between frame poses is not a nod's curve, so neither model fits there),
  * while their jumps at boundaries stood at 100-1100 (docs/estimate-log.md). */
 #define SEPARATION 6.0
-/* How far, in standard deviations of its noise, the frames' evidence must
- * lean to a ramp through a boundary for the track to keep each frame's
- * mean on both sides of it (still_knots) rather than ramp between the
- * frames' middles. */
-#define TIE_SD 2.0
 /* The shortest time a path's step takes, as a fraction of its frame. */
 #define STEP_FRACTION 0.01
 /* A background at least this share of a frame's peak is warned about (it is
@@ -950,11 +945,9 @@ static double rms_radius(const pb_geometry *g)
     return sqrt(r2);
 }
 
-static pb_status smooth_still_poses(estimate *e, pbe_fit *fits, const double *bounds, size_t ref, int *jumped,
-                                    int *smoothed)
+static pb_status smooth_still_poses(estimate *e, pbe_fit *fits, const double *bounds, size_t ref, int *jumped)
 {
     const char *env = getenv("PETBLUR_ESTIMATE_SMOOTH");
-    *smoothed = 0;
     if (env && strcmp(env, "0") == 0)
         return PB_OK;
     double *t = malloc(sizeof(double) * e->count);
@@ -967,7 +960,6 @@ static pb_status smooth_still_poses(estimate *e, pbe_fit *fits, const double *bo
     free(t);
     if (rate == PBE_SMOOTH_NO_MEMORY)
         return PB_ERR_OUT_OF_MEMORY;
-    *smoothed = rate > 0.0;
     give_flat_frames_poses(e, fits);
     return PB_OK;
 }
@@ -1113,64 +1105,12 @@ static void back_keys(keys *out, double t0, double t1, const pb_pose *s, const p
     hold_keys(out, t0, t1, p, w, BACK_POINTS, w[0] > 0 ? NULL : s, w[BACK_POINTS - 1] > 0 ? NULL : r, from, to);
 }
 
-/* A moving frame's keys (its path's, as path_keys or back_keys lay them)
- * into out; from, to: when its motion begins and ends. */
-static void moving_keys(const pbe_fit *fits, const frame_path *paths, const int *moving, const double *bounds,
-                        size_t f, keys *out, double *from, double *to)
-{
-    const frame_path *p = &paths[f * PATHS + (size_t)(moving[f] - 1)];
-    if (moving[f] - 1 == PATH_BACK)
-        back_keys(out, bounds[f], bounds[f + 1], &p->start, &p->end, &fits[f + 1].pose, p->dwell, from, to);
-    else
-        path_keys(out, bounds[f], bounds[f + 1], &p->start, &p->end, p->dwell, from, to);
-}
-
-/* A still frame's three knots of the track: at its start, its middle and
- * its end; run: which run of still frames solved them together (from 1),
- * 0 where they are the frame's pose. */
-typedef struct knot {
-    pb_pose pose;
-    size_t run;
-} knot;
-
-
-/* Half a step's time at boundary b between two frames (STEP_FRACTION of
- * the shorter). */
-static double step_half(const double *bounds, size_t b)
-{
-    return 0.5 * STEP_FRACTION * fmin(bounds[b] - bounds[b - 1], bounds[b + 1] - bounds[b]);
-}
-
 /* Whether a frame's side (g, h: side_evidence) is not nearer a ramp than a
  * step by more than two standard deviations of its noise: h at least
  * halfway from -g to g, less 2 sqrt(g). */
 static int leans_to_step(const double side[2])
 {
     return side[1] > 0.5 * side[0] - 2.0 * sqrt(side[0]);
-}
-
-/* Whether the two still frames about boundary b show their poses held to
- * it (side_evidence: the sum of their h over half the sum of their g, where
- * that sum is at least SEPARATION^2), neither frame nearer the ramp beyond
- * its noise (leans_to_step). */
-static int held_to(const estimate *e, const int *moving, const double *sides, size_t b)
-{
-    const double *before = &sides[4 * (b - 1) + 2], *after = &sides[4 * b];
-    const double g = before[0] + after[0], h = before[1] + after[1];
-    return !moving[b - 1] && !moving[b] && !e->flat[b - 1] && !e->flat[b] && g >= SEPARATION * SEPARATION &&
-           h > 0.5 * g && leans_to_step(before) && leans_to_step(after);
-}
-
-/* Whether the two still frames about boundary b show the head moving on
- * through it: the evidence leans to the ramp beyond TIE_SD standard
- * deviations of its noise (2 sqrt(g) where the frames' images are g
- * apart). */
-static int ramps_through(const estimate *e, const int *moving, const double *sides, size_t b)
-{
-    const double *before = &sides[4 * (b - 1) + 2], *after = &sides[4 * b];
-    const double g = before[0] + after[0], h = before[1] + after[1];
-    return !moving[b - 1] && !moving[b] && !e->flat[b - 1] && !e->flat[b] && g > 0.0 &&
-           h < 0.5 * g - TIE_SD * sqrt(g);
 }
 
 /* Where the head jumped at a boundary between still frames: steps[b] for
@@ -1192,66 +1132,12 @@ static void boundary_steps(const estimate *e, const int *moving, const int *jump
     memset(steps, 0, e->count + 1);
     if (env && strcmp(env, "ramp") == 0)
         return;
-    for (size_t b = 1; b < e->count; b++)
-        steps[b] = jumped[b] && held_to(e, moving, sides, b);
-}
-
-/* Each still frame's knots (knots[3 k + 0, 1, 2]). Where the frames on
- * both sides of a boundary show the head moving on through it
- * (ramps_through), the track keeps each frame's mean on both sides: a run
- * of such frames is a walk whose mean over each frame is that frame's
- * sighting (seen; pbe_frame_mean_knots), and a jump of the walk inside it
- * (jumped) lies anywhere between the two frames' middles. At a step or a
- * moving neighbour a run's end is free, and the track steps there; at any
- * other boundary it ramps between the two frames' middles, as it did
- * before: a line that keeps each frame's mean across a boundary the head
- * jumped at overshoots the jump by a sixth in each frame's middle (a head
- * held at a pose of its own in each frame, test_motion_from_frames.py's
- * series, went from 0.1-0.3 mm to 1.0-1.5 at frames' middles). Where
- * nothing was smoothed (jumped NULL), or a run is not solved, or
- * PETBLUR_ESTIMATE_KNOTS=middles (for comparisons), every knot of a frame
- * is its pose, and the track is linear between the frames' middles. */
-static pb_status still_knots(const estimate *e, const pbe_fit *fits, const pb_pose *seen, const int *moving,
-                             const unsigned char *steps, const int *jumped, const double *sides,
-                             const double *bounds, knot *knots)
-{
-    const size_t count = e->count;
-    for (size_t f = 0; f < count; f++)
-        for (int i = 0; i < 3; i++)
-            knots[3 * f + (size_t)i] = (knot){fits[f].pose, 0};
-    const char *env = getenv("PETBLUR_ESTIMATE_KNOTS");
-    if ((env && strcmp(env, "middles") == 0) || !jumped)
-        return PB_OK;
-    /* PETBLUR_ESTIMATE_TIE=none keeps every boundary without a step inside a
-     * run, whatever the frames show, for comparisons */
-    const char *tie_env = getenv("PETBLUR_ESTIMATE_TIE");
-    const int tie = !(tie_env && strcmp(tie_env, "none") == 0);
-    pb_pose *solved = malloc(sizeof(pb_pose) * 3 * count);
-    int *observed = malloc(sizeof(int) * count);
-    size_t *run = malloc(sizeof(size_t) * count);
-    unsigned char *ramped = calloc(count + 1, 1);
-    if (!solved || !observed || !run || !ramped) {
-        free(solved);
-        free(observed);
-        free(run);
-        free(ramped);
-        return PB_ERR_OUT_OF_MEMORY;
+    for (size_t b = 1; b < e->count; b++) {
+        const double *before = &sides[4 * (b - 1) + 2], *after = &sides[4 * b];
+        double g = before[0] + after[0], h = before[1] + after[1];
+        steps[b] = jumped[b] && !moving[b - 1] && !moving[b] && !e->flat[b - 1] && !e->flat[b] &&
+                   g >= SEPARATION * SEPARATION && h > 0.5 * g && leans_to_step(before) && leans_to_step(after);
     }
-    for (size_t f = 0, r = 0; f < count; f++) {
-        observed[f] = !e->flat[f];
-        ramped[f] = f > 0 && !moving[f - 1] && !moving[f] && !steps[f] && tie && !ramps_through(e, moving, sides, f);
-        r += !moving[f] && (f == 0 || moving[f - 1] || steps[f] || ramped[f]);
-        run[f] = moving[f] ? 0 : r;
-    }
-    if (pbe_frame_mean_knots(fits, seen, observed, jumped, ramped, bounds, run, count, rms_radius(&e->g), solved))
-        for (size_t f = 0; f < count; f++)
-            for (size_t i = 0; run[f] && i < 3; i++)
-                knots[3 * f + i] = (knot){solved[3 * f + i], run[f]};
-    free(solved);
-    free(observed);
-    free(run);
-    free(ramped);
-    return PB_OK;
 }
 
 /* A grid pose about c as a world map about the world's origin:
@@ -1412,19 +1298,13 @@ static pb_status estimate_run(estimate *e, const double *bounds, const pb_estima
     double *unfollowed = calloc(count, sizeof(double));
     float *moved = malloc(sizeof(float) * e->level[0].n * count), *own = malloc(sizeof(float) * e->level[0].n);
     double *gram = malloc(sizeof(double) * count * (PBE_REFERENCE_OTHERS + 1));
-    /* each frame's pose as registered, as smoothed, and as its sighting of
-     * the track's mean (seen: registered, then moved as pass 4 moved it) */
-    pb_pose *registered = malloc(sizeof(pb_pose) * count), *smoothed = malloc(sizeof(pb_pose) * count);
-    pb_pose *seen = malloc(sizeof(pb_pose) * count);
-    knot *knots = malloc(sizeof(knot) * 3 * count);
-    int walked = 0;
     /* a frame's keys: at most two a point of PATH_BACK, its steps from and
      * to its neighbours, and two at its end's jump; the series' ends */
     const size_t most_keys = count * (2 * BACK_POINTS + 4) + 2;
     keys k = {malloc(sizeof(double) * most_keys), malloc(sizeof(pb_pose) * most_keys), 0};
     size_t moving_count = 0;
     pb_status st = fits && moving && paths && sides && steps && jumped && unfollowed && moved && own && gram && k.t &&
-                           k.p && registered && smoothed && seen && knots
+                           k.p
                        ? PB_OK
                        : PB_ERR_OUT_OF_MEMORY;
     for (size_t i = 0; i < count && fits; i++) {
@@ -1450,12 +1330,8 @@ static pb_status estimate_run(estimate *e, const double *bounds, const pb_estima
     if (st == PB_OK)
         st = hold_flat_frames(e, fits);
     /* the still frames' poses, each as sure as its registration, together in time */
-    for (size_t f = 0; f < count && st == PB_OK; f++)
-        registered[f] = fits[f].pose;
     if (st == PB_OK)
-        st = smooth_still_poses(e, fits, bounds, ref, jumped, &walked);
-    for (size_t f = 0; f < count && st == PB_OK; f++)
-        smoothed[f] = fits[f].pose;
+        st = smooth_still_poses(e, fits, bounds, ref, jumped);
     /* 3: inside frames, against the same references */
     if (st == PB_OK && !o->frame_poses_only)
         st = inside_frames(e, fits, ref, moved, gram, own, paths, moving, &moving_count, sides, unfollowed);
@@ -1464,56 +1340,39 @@ static pb_status estimate_run(estimate *e, const double *bounds, const pb_estima
     /* 4: every pose corrected along the contrast, together */
     if (st == PB_OK)
         st = correct_together(e, ref, fits, paths, moving);
-    const char *seen_env = getenv("PETBLUR_ESTIMATE_SEEN");
-    for (size_t f = 0; f < count && st == PB_OK; f++) {
-        pb_pose undo, step;
-        pb_pose_invert(&smoothed[f], &undo);
-        pb_pose_compose(&undo, &registered[f], &step);
-        pb_pose_compose(&fits[f].pose, &step, &seen[f]);
-        pb_pose_normalized(&seen[f], &seen[f]);
-        if (seen_env && strcmp(seen_env, "smoothed") == 0)
-            seen[f] = fits[f].pose;
-    }
-    if (st == PB_OK)
-        st = still_knots(e, fits, seen, moving, steps, walked ? jumped : NULL, sides, bounds, knots);
     const size_t anchor = chosen && st == PB_OK ? best_anchor(e, fits, moving, unfollowed, ref) : ref;
     if (report)
         report->reference = anchor;
     if (st == PB_OK) {
         pb_pose back;
+        pb_pose_invert(&fits[anchor].pose, &back);
         /* a moving first or last frame's keys reach the series' ends */
         if (!moving[0])
-            key(&k, bounds[0], &knots[0].pose);
+            key(&k, bounds[0], &fits[0].pose);
         for (size_t f = 0; f < count; f++) {
             if (moving[f]) {
+                const frame_path *p = &paths[f * PATHS + (size_t)(moving[f] - 1)];
                 double from = 0.0, to = 0.0;
-                moving_keys(fits, paths, moving, bounds, f, &k, &from, &to);
+                if (moving[f] - 1 == PATH_BACK)
+                    back_keys(&k, bounds[f], bounds[f + 1], &p->start, &p->end, &fits[f + 1].pose, p->dwell, &from,
+                              &to);
+                else
+                    path_keys(&k, bounds[f], bounds[f + 1], &p->start, &p->end, p->dwell, &from, &to);
                 if (o->frames) {
                     o->frames[f].motion_from = from;
                     o->frames[f].motion_to = to;
                 }
-            } else {
-                /* a boundary inside a run of still frames is a knot of its
-                 * own; beside a moving frame the run's end steps to the
-                 * path's (as at a step) */
-                if (f > 0 && knots[3 * f].run && knots[3 * (f - 1)].run == knots[3 * f].run)
-                    key(&k, bounds[f], &knots[3 * f].pose);
-                if (f > 0 && knots[3 * f].run && moving[f - 1])
-                    key(&k, bounds[f] + step_half(bounds, f), &knots[3 * f].pose);
-                key(&k, mid_time(bounds[f], bounds[f + 1]), &knots[3 * f + 1].pose);
-                if (f + 1 < count && knots[3 * f].run && moving[f + 1])
-                    key(&k, bounds[f + 1] - step_half(bounds, f + 1), &knots[3 * f + 2].pose);
             }
+            else
+                key(&k, mid_time(bounds[f], bounds[f + 1]), &fits[f].pose);
             if (steps[f + 1]) {
-                const double h = step_half(bounds, f + 1);
-                key(&k, bounds[f + 1] - h, &knots[3 * f + 2].pose);
-                key(&k, bounds[f + 1] + h, &knots[3 * (f + 1)].pose);
+                double h = 0.5 * STEP_FRACTION * fmin(bounds[f + 1] - bounds[f], bounds[f + 2] - bounds[f + 1]);
+                key(&k, bounds[f + 1] - h, &fits[f].pose);
+                key(&k, bounds[f + 1] + h, &fits[f + 1].pose);
             }
         }
         if (!moving[count - 1])
-            key(&k, bounds[count], &knots[3 * (count - 1) + 2].pose);
-        /* the track at the reference frame's middle is the identity */
-        pb_pose_invert(moving[anchor] ? &fits[anchor].pose : &knots[3 * anchor + 1].pose, &back);
+            key(&k, bounds[count], &fits[count - 1].pose);
         for (size_t i = 0; i < k.n && st == PB_OK; i++) {
             pb_pose rel;
             pb_pose_compose(&k.p[i], &back, &rel);
@@ -1549,10 +1408,6 @@ static pb_status estimate_run(estimate *e, const double *bounds, const pb_estima
     free(gram);
     free(k.t);
     free(k.p);
-    free(registered);
-    free(smoothed);
-    free(seen);
-    free(knots);
     return st;
 }
 

@@ -227,27 +227,6 @@ double pbe_explained(const float *frame, size_t n, double sse);
 double pbe_smooth_poses(pbe_fit *fits, const int *skip, const double *t, size_t count, size_t base, double r,
                         int *jumped);
 
-/* The track's knots in runs of frames the head went through as one walk
- * each (run[k]: frame k's run, numbered from 1 in order; 0 for a frame in
- * none), each frame's sighting (seen[k], as sure as fits[k]'s information)
- * taken as the track's mean over the frame rather than its pose at the
- * frame's middle (on a nod's curve the two differ, and a line through the
- * middles averages short of the frame at its top). The walk's rate and the
- * fits' noise scale are those under which the series' sightings, so taken,
- * are likeliest (as pbe_smooth_poses chooses its own), and the knots the
- * walk's likeliest: knots[3 k + 0, 1, 2] at frame k's start, middle and
- * end, the track linear between them. observed[k]: frame k is sighted;
- * jumped[k]: inside a run, the walk jumped into frame k (pbe_smooth_poses's
- * jumped). ramped[b] (count + 1): at boundary b between two runs the track
- * is linear from the one frame's middle to the other's, so each run's knot
- * there is its frame's middle's; elsewhere a run's end is free (a step, a
- * moving neighbour, the series' end). r as for pbe_smooth_poses. Returns 1
- * where every run with a sighting was solved (its frames' knots written),
- * else 0 and none. */
-int pbe_frame_mean_knots(const pbe_fit *fits, const pb_pose *seen, const int *observed, const int *jumped,
-                         const unsigned char *ramped, const double *bounds, const size_t *run, size_t count, double r,
-                         pb_pose *knots);
-
 /* How far a fit's pose is sure: the variance (mm^2) of a point's place at
  * radius r from the turns' centre that its information leaves, shifts and
  * turns together; infinity where the information is not positive definite. */
