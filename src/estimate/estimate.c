@@ -1265,30 +1265,36 @@ static size_t best_anchor(const estimate *e, const pbe_fit *fits, const int *mov
     return best;
 }
 
+/* The frame of the most counts: its sum (level 0) times its length. */
+static size_t most_counts(const estimate *e, const double *bounds)
+{
+    double most = -1.0;
+    size_t frame = 0;
+    for (size_t k = 0; k < e->count; k++) {
+        const float *f = e->frames[0] + k * e->level[0].n;
+        double sum = 0.0;
+        for (size_t i = 0; i < e->level[0].n; i++)
+            sum += (double)f[i];
+        sum *= bounds[k + 1] - bounds[k];
+        if (sum > most) {
+            most = sum;
+            frame = k;
+        }
+    }
+    return frame;
+}
+
 static pb_status estimate_run(estimate *e, const double *bounds, const pb_estimate_options *o, const double d[9],
                               const double corner[3], pb_track **track, pb_estimate_report *report)
 {
     const int chosen = o->reference == PB_ESTIMATE_REFERENCE_AUTO;
     const size_t count = e->count;
-    size_t ref = chosen ? 0 : o->reference;
     /* PETBLUR_ESTIMATE_ANCHOR=counts: under the estimate's choice, the passes
-     * run against the frame of the most counts (its sum times its length)
-     * rather than frame 0, for comparisons */
+     * run against the frame of the most counts rather than frame 0, for
+     * comparisons */
     const char *anchor_env = getenv("PETBLUR_ESTIMATE_ANCHOR");
-    if (chosen && anchor_env && strcmp(anchor_env, "counts") == 0) {
-        double most = -1.0;
-        for (size_t k = 0; k < count; k++) {
-            const float *f = e->frames[0] + k * e->level[0].n;
-            double sum = 0.0;
-            for (size_t i = 0; i < e->level[0].n; i++)
-                sum += (double)f[i];
-            sum *= bounds[k + 1] - bounds[k];
-            if (sum > most) {
-                most = sum;
-                ref = k;
-            }
-        }
-    }
+    const size_t ref = !chosen ? o->reference
+                               : anchor_env && strcmp(anchor_env, "counts") == 0 ? most_counts(e, bounds) : 0;
     pbe_fit *fits = calloc(count, sizeof *fits);
     int *moving = calloc(count, sizeof(int));
     frame_path *paths = calloc(count * PATHS, sizeof *paths);
