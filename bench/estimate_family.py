@@ -266,64 +266,6 @@ def frame_means(truth: Truth, bounds, samples: int = 40):
     return np.concatenate([[bounds[0]], mids, [bounds[-1]]]), np.array([maps[0]] + maps + [maps[-1]])
 
 
-def histopolated(times, maps, bounds):
-    """The track with its knots moved so that its mean over each frame it holds still is that frame's pose (the knot
-    at the frame's middle, a registration of the frame's time average), where between the middles it was linear
-    through those poses: at a nod's turn the mean of that line falls short of the frame's own pose. Frames whose only
-    key is their middle are moved, in runs, each run a tridiagonal system per component (translations, and turns on
-    a chart about the run's first rotation); a moving frame's keys and a step's stay. A key at the series' first or
-    last bound that holds its frame's pose moves with it."""
-    times, maps = np.asarray(times, float), np.array(maps, float)
-    mids = 0.5 * (bounds[:-1] + bounds[1:])
-    key = {}
-    for k, m in enumerate(mids):
-        inside = np.flatnonzero((times > bounds[k]) & (times < bounds[k + 1]))
-        if len(inside) == 1 and abs(times[inside[0]] - m) < 1e-6:
-            key[k] = int(inside[0])
-    runs, run = [], []
-    for k in range(len(mids)):
-        if k in key and (not run or key[k] == key[run[-1]] + 1):
-            run.append(k)
-        else:
-            if run:
-                runs.append(run)
-            run = [k] if k in key else []
-    if run:
-        runs.append(run)
-    out = maps.copy()
-    for run in runs:
-        ids = [key[k] for k in run]
-        tie_first = ids[0] == 1 and run[0] == 0 and np.allclose(maps[0], maps[1])
-        tie_last = ids[-1] == len(times) - 2 and run[-1] == len(mids) - 1 and np.allclose(maps[-1], maps[-2])
-        base = Rotation.from_matrix(maps[ids[0], :3, :3])
-        comp = np.array([np.concatenate([m[:3, 3], (base.inv() * Rotation.from_matrix(m[:3, :3])).as_rotvec()])
-                         for m in maps])  # every key, as 6 numbers
-        n = len(run)
-        a, rhs = np.zeros((n, n)), np.zeros((n, 6))
-        for r, k in enumerate(run):
-            i = ids[r]
-            rhs[r] = comp[i]
-            for half, (lo, hi) in enumerate(((bounds[k], mids[k]), (mids[k], bounds[k + 1]))):
-                j0, j1 = (i - 1, i) if half == 0 else (i, i + 1)
-                w = (0.5 * (lo + hi) - times[j0]) / (times[j1] - times[j0])
-                for j, c in ((j0, 0.5 * (1.0 - w)), (j1, 0.5 * w)):
-                    tied = (j == 0 and tie_first) or (j == len(times) - 1 and tie_last)
-                    col = 0 if j == 0 and tie_first else n - 1 if tied else (ids.index(j) if j in ids else None)
-                    if col is None:
-                        rhs[r] -= c * comp[j]
-                    else:
-                        a[r, col] += c
-        x = np.linalg.solve(a, rhs)
-        for r, i in enumerate(ids):
-            out[i, :3, 3] = x[r, :3]
-            out[i, :3, :3] = (base * Rotation.from_rotvec(x[r, 3:])).as_matrix()
-        if tie_first:
-            out[0] = out[ids[0]]
-        if tie_last:
-            out[-1] = out[ids[-1]]
-    return times, out
-
-
 def frame_table(out: str, frames: int) -> dict:
     """What the program's table a frame says: moving (a path followed) and unfollowed (the share of one pose's
     residual a path it does not follow explains, 0 where it names none)."""
@@ -388,7 +330,6 @@ def one(petblur: str, seed: int, device: str, metric: str, threads: int, variant
             said, track = reference_said(r.stdout), hf.read_matrix_csv(csv)
             row["petblur"] = dict(errors(*track, said), seconds=round(time.perf_counter() - started, 1),
                                   frames=frame_table(r.stdout, len(bounds) - 1))
-            row.setdefault("variants", {})["histopolated"] = errors(*histopolated(*track, bounds), said)
         for name, env in (variants or {}).items():
             if os.path.exists(csv):
                 os.remove(csv)  # a variant that writes nothing must not be scored on the run before

@@ -1011,15 +1011,38 @@ static double mid_time(double a, double b)
 typedef struct keys {
     double *t;
     pb_pose *p;
+    unsigned char *middle; /* a still frame's pose at its middle */
     size_t n;
 } keys;
 
-static void key(keys *k, double t, const pb_pose *p)
+static void key_of(keys *k, double t, const pb_pose *p, int middle)
 {
     if (k->n > 0 && !(t > k->t[k->n - 1]))
         return;
     k->t[k->n] = t;
+    k->middle[k->n] = (unsigned char)middle;
     k->p[k->n++] = *p;
+}
+
+static void key(keys *k, double t, const pb_pose *p)
+{
+    key_of(k, t, p, 0);
+}
+
+/* The keys with the curve through the still frames' middles (track_curve.c)
+ * in place of lines, into c; PETBLUR_ESTIMATE_CURVE=line keeps the lines,
+ * for comparisons. */
+static pb_status curve_keys(const keys *k, keys *c)
+{
+    const char *env = getenv("PETBLUR_ESTIMATE_CURVE");
+    if (env && strcmp(env, "line") == 0) {
+        memcpy(c->t, k->t, sizeof(double) * k->n);
+        memcpy(c->p, k->p, sizeof(pb_pose) * k->n);
+        c->n = k->n;
+        return PB_OK;
+    }
+    c->n = pbe_curve_keys(k->t, k->p, k->middle, k->n, c->t, c->p);
+    return c->n > 0 ? PB_OK : PB_ERR_OUT_OF_MEMORY;
 }
 
 /* A path's dwell as shares of the frame: each point's share of the total,
@@ -1306,11 +1329,12 @@ static pb_status estimate_run(estimate *e, const double *bounds, const pb_estima
     double *gram = malloc(sizeof(double) * count * (PBE_REFERENCE_OTHERS + 1));
     /* a frame's keys: at most two a point of PATH_BACK, its steps from and
      * to its neighbours, and two at its end's jump; the series' ends */
-    const size_t most_keys = count * (2 * BACK_POINTS + 4) + 2;
-    keys k = {malloc(sizeof(double) * most_keys), malloc(sizeof(pb_pose) * most_keys), 0};
+    const size_t most_keys = count * (2 * BACK_POINTS + 4) + 2, most_curved = most_keys * PBE_CURVE_KEYS;
+    keys k = {malloc(sizeof(double) * most_keys), malloc(sizeof(pb_pose) * most_keys), malloc(most_keys), 0};
+    keys curved = {malloc(sizeof(double) * most_curved), malloc(sizeof(pb_pose) * most_curved), NULL, 0};
     size_t moving_count = 0;
     pb_status st = fits && moving && paths && sides && steps && jumped && unfollowed && moved && own && gram && k.t &&
-                           k.p
+                           k.p && k.middle && curved.t && curved.p
                        ? PB_OK
                        : PB_ERR_OUT_OF_MEMORY;
     for (size_t i = 0; i < count && fits; i++) {
@@ -1370,7 +1394,7 @@ static pb_status estimate_run(estimate *e, const double *bounds, const pb_estima
                 }
             }
             else
-                key(&k, mid_time(bounds[f], bounds[f + 1]), &fits[f].pose);
+                key_of(&k, mid_time(bounds[f], bounds[f + 1]), &fits[f].pose, 1);
             if (steps[f + 1]) {
                 double h = 0.5 * STEP_FRACTION * fmin(bounds[f + 1] - bounds[f], bounds[f + 2] - bounds[f + 1]);
                 key(&k, bounds[f + 1] - h, &fits[f].pose);
@@ -1379,15 +1403,16 @@ static pb_status estimate_run(estimate *e, const double *bounds, const pb_estima
         }
         if (!moving[count - 1])
             key(&k, bounds[count], &fits[count - 1].pose);
-        for (size_t i = 0; i < k.n && st == PB_OK; i++) {
+        st = curve_keys(&k, &curved);
+        for (size_t i = 0; i < curved.n && st == PB_OK; i++) {
             pb_pose rel;
-            pb_pose_compose(&k.p[i], &back, &rel);
+            pb_pose_compose(&curved.p[i], &back, &rel);
             pb_pose_normalized(&rel, &rel);
-            st = world_pose(d, corner, e->c, &rel, &k.p[i]);
+            st = world_pose(d, corner, e->c, &rel, &curved.p[i]);
         }
         if (st == PB_OK)
-            st = pb_track_create("the motion estimated from the frames", PB_TRACK_MATRIX_CSV, k.t, k.p, NULL, NULL,
-                                 k.n, track);
+            st = pb_track_create("the motion estimated from the frames", PB_TRACK_MATRIX_CSV, curved.t, curved.p,
+                                 NULL, NULL, curved.n, track);
     }
     if (report)
         report->moving_frames = moving_count;
@@ -1414,6 +1439,9 @@ static pb_status estimate_run(estimate *e, const double *bounds, const pb_estima
     free(gram);
     free(k.t);
     free(k.p);
+    free(k.middle);
+    free(curved.t);
+    free(curved.p);
     return st;
 }
 

@@ -232,6 +232,24 @@ double pbe_smooth_poses(pbe_fit *fits, const int *skip, const double *t, size_t 
  * turns together; infinity where the information is not positive definite. */
 double pbe_pose_spread(const pbe_fit *fit, double r);
 
+/* x = log(P_base^-1 P), six numbers: the translation (mm) and rotation
+ * vector (radians) of P_base^-1 P; rot (or NULL): its rotation matrix. */
+void pbe_chart(const pb_pose *p, const pb_pose *base, double x[6], double rot[9]);
+/* P = P_base exp(x), the inverse of pbe_chart. */
+void pbe_unchart(const double x[6], const pb_pose *base, pb_pose *p);
+
+/* ---- track_curve.c: the track between the still frames' middles ------------- */
+
+/* Keys inserted between consecutive keys that are both still frames' middles
+ * (middle[i]): PBE_CURVE_KEYS - 1 of them, on a monotone cubic through the
+ * keys. */
+enum { PBE_CURVE_KEYS = 8 };
+/* The keys (t, p, n of them, middle[i] where key i is a still frame's pose at
+ * its middle) with the curve's keys between such pairs, into t_out and p_out
+ * (room for n + (n - 1) * (PBE_CURVE_KEYS - 1)); returns how many. */
+size_t pbe_curve_keys(const double *t, const pb_pose *p, const unsigned char *middle, size_t n, double *t_out,
+                      pb_pose *p_out);
+
 /* ---- contrast_poses.c: the poses moved together along the contrast ------------- */
 
 /* A frame's poses: one, or a path's ends where it moves (pass 3). */

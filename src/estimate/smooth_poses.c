@@ -10,7 +10,7 @@
  * among the nearly likeliest, so a series of sharp frames keeps its drift).
  * A sighting farther from the walk than noise goes (a jerk between frames,
  * or a frame that holds one) starts the walk anew there. The poses live on a
- * chart about the base frame's pose, x = log(P_base^-1 P_k) (chart()), the
+ * chart about the base frame's pose, x = log(P_base^-1 P_k) (pbe_chart()), the
  * walk's shifts over the radius r and its turns in radians. */
 #include <math.h>
 #include <stdlib.h>
@@ -143,7 +143,7 @@ static void mat_mul(const double *a, const double *b, double *o)
  * and its rotation vector by g's to first order (for the few degrees a head
  * turns, within a few per cent), so that a random walk of the head is about
  * one of x. rot: H's rotation matrix. */
-static void chart(const pb_pose *p, const pb_pose *base, double *x, double rot[9])
+void pbe_chart(const pb_pose *p, const pb_pose *base, double *x, double rot[9])
 {
     pb_pose inv, h;
     pb_pose_invert(base, &inv);
@@ -161,11 +161,12 @@ static void chart(const pb_pose *p, const pb_pose *base, double *x, double rot[9
         x[i] = h.translation[i];
         x[3 + i] = f * v[i];
     }
-    pb_quat_to_matrix(h.rotation, rot);
+    if (rot)
+        pb_quat_to_matrix(h.rotation, rot);
 }
 
-/* P = P_base exp(x), the inverse of chart */
-static void unchart(const double *x, const pb_pose *base, pb_pose *p)
+/* P = P_base exp(x), the inverse of pbe_chart */
+void pbe_unchart(const double *x, const pb_pose *base, pb_pose *p)
 {
     pb_pose h;
     double angle = sqrt(x[3] * x[3] + x[4] * x[4] + x[5] * x[5]);
@@ -320,7 +321,7 @@ double pbe_smooth_poses(pbe_fit *fits, const int *skip, const double *t, size_t 
         double own[D * D], rot[9];
         if (skip[k] || !spd_inverse(fits[k].information, own, NULL))
             continue;
-        chart(&fits[k].pose, &origin, y + k * D, rot);
+        pbe_chart(&fits[k].pose, &origin, y + k * D, rot);
         if (!pb_all_finite(y + k * D, D))
             continue;
         turn_covariance(own, rot, cov + k * D * D);
@@ -372,7 +373,7 @@ double pbe_smooth_poses(pbe_fit *fits, const int *skip, const double *t, size_t 
         for (int i = 0; i < D; i++)
             x[i] = xs[k * D + i] * (i < 3 ? r : 1.0);
         if (use[k] && pb_all_finite(x, D))
-            unchart(x, &origin, &fits[k].pose);
+            pbe_unchart(x, &origin, &fits[k].pose);
     }
 done:
     free(scaled);
