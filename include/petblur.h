@@ -862,9 +862,11 @@ typedef struct pb_estimate_report {
  * track in the world of affine: rigid maps about the world's origin that take
  * a point of the reference frame's object to where it is at each time, with
  * a pose at every frame's mid-time and at the first and last bound, a path's
- * poses inside a moving frame, and each pose held to the boundary where the
- * head jumped between two still frames; the reference frame's pose is the
- * identity. Refused: fewer than two frames, a
+ * poses inside a moving frame, each pose held to the boundary where the
+ * head jumped between two still frames, and between the mid-times of
+ * neighbouring still frames a monotone cubic through their poses (seven
+ * poses on it between each two, linear between those); the reference
+ * frame's pose is the identity. Refused: fewer than two frames, a
  * reference out of range, bounds that are not finite and increasing, frames
  * with NaN or infinite voxels, frames with no counts (all zero or negative),
  * grids under 8 voxels a side, voxel sizes outside PB_MIN_VOXEL_MM to

@@ -91,9 +91,11 @@ def test_track_reads_back_to_the_same_doubles(tmp_path, rng, cli, kind):
                     "--device", "host"], check=True, capture_output=True)
     back = petblur.Motion.from_file(track)
     want = np.concatenate([[bounds[0]], 0.5 * bounds[:-1] + 0.5 * bounds[1:], [bounds[-1]]])
-    assert back.times.tolist() == want.tolist(), f"times written {back.times.tolist()}, computed {want.tolist()}"
+    # every bound and mid-time as computed, the curve's keys between the middles, in order
+    assert np.all(np.isin(want, back.times)) and np.all(np.diff(back.times) > 0), \
+        f"times written {back.times.tolist()}, computed {want.tolist()}"
     mine = petblur.Motion.from_frames(frames, affine, bounds=bounds, frame_poses_only=True, device="host")
-    assert mine.times.tolist() == want.tolist()
+    assert mine.times.tolist() == back.times.tolist()
     assert back.translations.tolist() == mine.translations.tolist(), \
         f"translations read back {back.translations.tolist()}, computed {mine.translations.tolist()}"
     # and the program reads its own track over the same frames, on the series' grid

@@ -230,8 +230,8 @@ def test_matches_program(tmp_path, rng, cli, device, options):
     mids = s.starts + s.durations / 2
     assert np.all(np.isin(np.delete(mids, s.jerk), t))
     assert t[0] == s.starts[0] and t[-1] == s.starts[-1] + s.durations[-1]
-    if kw.get("frame_poses_only"):
-        assert m.moving_frames == 0 and len(t) == len(mids) + 2
+    if kw.get("frame_poses_only"):  # and the curve's seven between middles
+        assert m.moving_frames == 0 and len(t) == len(mids) + 2 + 7 * (len(mids) - 1)
     else:
         assert m.moving_frames >= 1 and len(t) > len(mids) + 2
         inside = t[(t > s.starts[s.jerk]) & (t < s.starts[s.jerk] + s.durations[s.jerk])]
@@ -463,7 +463,10 @@ def test_recovers_known_motion(rng, device):
     assert m.moving_frames == 1 and one.moving_frames == 0, msg
     inside = m.times[(m.times > s.starts[j]) & (m.times < s.starts[j] + s.durations[j])]
     assert len(inside) > 1 and np.all(np.isin(np.delete(mids, j), m.times)), m.times
-    np.testing.assert_array_equal(one.times, np.concatenate([[s.starts[0]], mids, [s.starts[-1] + 10.0]]))
+    # one pose a frame: a key at each middle and at the series' ends, and the curve's seven between middles
+    assert np.all(np.isin(np.concatenate([[s.starts[0]], mids, [s.starts[-1] + 10.0]]), one.times)), one.times
+    between = [np.count_nonzero((one.times > a) & (one.times < b)) for a, b in zip(mids[:-1], mids[1:])]
+    assert between == [7] * (nf - 1) and len(one.times) == nf + 2 + 7 * (nf - 1), (between, one.times)
     # the time the library reports is this call's
     assert 0.0 < m.estimate_seconds <= wall + 0.05, (m.estimate_seconds, wall)
     # the report a frame: times, fit, structure; the jerk's frame alone with motion inside, about the jerk's time

@@ -246,7 +246,8 @@ void pbe_unchart(const double x[6], const pb_pose *base, pb_pose *p);
 enum { PBE_CURVE_KEYS = 8 };
 /* The keys (t, p, n of them, middle[i] where key i is a still frame's pose at
  * its middle) with the curve's keys between such pairs, into t_out and p_out
- * (room for n + (n - 1) * (PBE_CURVE_KEYS - 1)); returns how many. */
+ * (room for n + (n - 1) * (PBE_CURVE_KEYS - 1)); returns how many, 0 where
+ * memory ran out. Times the doubles cannot hold apart are left out. */
 size_t pbe_curve_keys(const double *t, const pb_pose *p, const unsigned char *middle, size_t n, double *t_out,
                       pb_pose *p_out);
 

@@ -143,7 +143,7 @@ static void mat_mul(const double *a, const double *b, double *o)
  * and its rotation vector by g's to first order (for the few degrees a head
  * turns, within a few per cent), so that a random walk of the head is about
  * one of x. rot: H's rotation matrix. */
-void pbe_chart(const pb_pose *p, const pb_pose *base, double *x, double rot[9])
+void pbe_chart(const pb_pose *p, const pb_pose *base, double x[6], double rot[9])
 {
     pb_pose inv, h;
     pb_pose_invert(base, &inv);
@@ -166,7 +166,7 @@ void pbe_chart(const pb_pose *p, const pb_pose *base, double *x, double rot[9])
 }
 
 /* P = P_base exp(x), the inverse of pbe_chart */
-void pbe_unchart(const double *x, const pb_pose *base, pb_pose *p)
+void pbe_unchart(const double x[6], const pb_pose *base, pb_pose *p)
 {
     pb_pose h;
     double angle = sqrt(x[3] * x[3] + x[4] * x[4] + x[5] * x[5]);

@@ -11,7 +11,9 @@
  * Each run of consecutive middles is curved on one chart about its first
  * pose, component by component; the keys about a run (a step's, a moving
  * frame's, the series' ends) shape the slopes at its ends and stay as they
- * are, with lines to them. */
+ * are, with lines to them. A key that holds a frame's pose to a step or to
+ * the series' end gives the curve a level end there, which the track then
+ * keeps. */
 #include <stdlib.h>
 
 #include "estimate.h"
@@ -48,19 +50,17 @@ size_t pbe_curve_keys(const double *t, const pb_pose *p, const unsigned char *mi
         size_t a = i, m = i + 1;
         while (m + 1 < n && middle[m + 1])
             m++;
+        /* the run and a key on each side shape the slopes (one always
+         * precedes a middle and one follows: the series' ends hold the
+         * first and last frames' poses, so the curve meets them flat) */
         size_t lo = a > 0 ? a - 1 : a, hi = m + 1 < n ? m + 1 : m;
         for (size_t k = lo; k <= hi; k++)
             pbe_chart(&p[k], &p[a], x + D * k, NULL);
         for (size_t k = a; k <= m; k++)
             for (int c = 0; c < D; c++) {
-                if (k == lo || k == hi) { /* a series' end: the one secant */
-                    size_t j = k == lo ? k + 1 : k - 1;
-                    d[D * k + c] = (x[D * k + c] - x[D * j + c]) / (t[k] - t[j]);
-                    continue;
-                }
-                double h0 = t[k] - t[k - 1], h1 = t[k + 1] - t[k];
-                d[D * k + c] = slope(h0, h1, (x[D * k + c] - x[D * (k - 1) + c]) / h0,
-                                     (x[D * (k + 1) + c] - x[D * k + c]) / h1);
+                double s0 = k > lo ? (x[D * k + c] - x[D * (k - 1) + c]) / (t[k] - t[k - 1]) : 0.0;
+                double s1 = k < hi ? (x[D * (k + 1) + c] - x[D * k + c]) / (t[k + 1] - t[k]) : 0.0;
+                d[D * k + c] = k > lo && k < hi ? slope(t[k] - t[k - 1], t[k + 1] - t[k], s0, s1) : 0.0;
             }
         for (size_t k = a; k < m; k++) {
             double h = t[k + 1] - t[k];
@@ -73,7 +73,10 @@ size_t pbe_curve_keys(const double *t, const pb_pose *p, const unsigned char *mi
                 for (int c = 0; c < D; c++)
                     y[c] = h00 * x[D * k + c] + h10 * h * d[D * k + c] + h01 * x[D * (k + 1) + c] +
                            h11 * h * d[D * (k + 1) + c];
-                t_out[out] = t[k] + u * h;
+                double ts = t[k] + u * h;
+                if (!(ts > t_out[out - 1] && ts < t[k + 1]))
+                    continue; /* frames too short for the doubles about them */
+                t_out[out] = ts;
                 pbe_unchart(y, &p[a], &p_out[out++]);
             }
         }
