@@ -6,7 +6,7 @@
  * the turn and never overshoots the poses about it: a drift stays the line,
  * a pose held on both sides stays flat, and a jump between two middles stays
  * between their poses. On the truth's mean poses of 40 fresh draws of issue
- * 47's family it took the mean error from 0.555 to 0.474 mm (median) and was
+ * 47's family it took the mean error from 0.502 to 0.428 mm (median) and was
  * better on all 40 (docs/estimate-log.md, "The track through the middles").
  * Each run of consecutive middles is curved on one chart about its first
  * pose, component by component; the keys about a run (a step's, a moving
