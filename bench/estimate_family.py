@@ -18,8 +18,9 @@ three levels, correlation or Mattes mutual information: --sitk-metric). The erro
 displacement of points inside the head between the estimated and the true motion, mean over each frame's time, in mm;
 per draw its mean and worst frame. Each track is judged relative to its own reference frame R: the truth re-expressed
 against its mean pose over R (the truth holds still over frame 0, so relative to frame 0 that is the truth as drawn).
-Beside them, the best that one pose a frame can do (the truth's mean pose over each frame), which motion inside frames
-can beat. Writes draws.jsonl (one line a draw, as it finishes) and family.md into --out.
+Beside them, the best that one pose a frame can do (the truth's mean pose over each frame, joined by lines between the
+frames' middles), which motion inside frames can beat, and the same poses through a monotone cubic as the estimate's
+track joins still frames (`frame_means_curved`). Writes draws.jsonl (one line a draw, as it finishes) and family.md into --out.
 
     python3 bench/estimate_family.py --petblur build/src/cli/petblur --draws 20 --jobs 2 --out /tmp/family
     python3 bench/estimate_family.py ... --seed 123 --seed 456          # replay draws
@@ -266,6 +267,30 @@ def frame_means(truth: Truth, bounds, samples: int = 40):
     return np.concatenate([[bounds[0]], mids, [bounds[-1]]]), np.array([maps[0]] + maps + [maps[-1]])
 
 
+def curved(times, maps, keys: int = 8):
+    """A track's keys with a monotone cubic between consecutive frames' middles (scipy's PchipInterpolator per
+    component on a chart about the first key: translations and rotation vectors), keys - 1 poses on it between each
+    two, as the estimate lays its track through still frames (src/estimate/track_curve.c). For frame_means' track,
+    whose every key is a middle but the series' ends, which hold the first and last frames' poses."""
+    from scipy.interpolate import PchipInterpolator
+    times, maps = np.asarray(times, float), np.asarray(maps, float)
+    base = Rotation.from_matrix(maps[0, :3, :3])
+    comp = np.array([np.concatenate([m[:3, 3], (base.inv() * Rotation.from_matrix(m[:3, :3])).as_rotvec()])
+                     for m in maps])
+    f = PchipInterpolator(times, comp, axis=0)
+    inner = [times[0]]
+    for k in range(1, len(times)):
+        if 1 < k < len(times) - 1:  # between two middles
+            inner += list(times[k - 1] + (np.arange(1, keys) / keys) * (times[k] - times[k - 1]))
+        inner.append(times[k])
+    t = np.array(inner)
+    out = np.tile(np.eye(4), (len(t), 1, 1))
+    v = f(t)
+    out[:, :3, :3] = (base * Rotation.from_rotvec(v[:, 3:])).as_matrix()
+    out[:, :3, 3] = v[:, :3]
+    return t, out
+
+
 def frame_table(out: str, frames: int) -> dict:
     """What the program's table a frame says: moving (a path followed) and unfollowed (the share of one pose's
     residual a path it does not follow explains, 0 where it names none)."""
@@ -315,6 +340,7 @@ def one(petblur: str, seed: int, device: str, metric: str, threads: int, variant
                 "reference": reference}
 
     row["frame_means"] = errors(*means)
+    row["frame_means_curved"] = errors(*curved(*means))
     with tempfile.TemporaryDirectory() as tmp:
         nii, side = hf.write_series(tmp, frames, affine, bounds, "f")
         csv = os.path.join(tmp, "t.csv")
@@ -409,6 +435,9 @@ def summary(rows: list, metric: str) -> str:
               f"| petblur mean mm | {q(pm)} |", f"| petblur worst frame mm | {q(pw)} |",
               f"| SimpleITK mean mm | {q(sm)} |",
               f"| true mean pose a frame, mean mm | {q(np.array([r['frame_means']['mean_mm'] for r in rows]))} |",
+              *([f"| the same through a monotone cubic, mean mm | "
+                 f"{q(np.array([r['frame_means_curved']['mean_mm'] for r in rows]))} |"]
+                if all("frame_means_curved" in r for r in rows) else []),
               f"| petblur mean / SimpleITK's | {q(pm / sm)} |", ""]
     if not ran:  # a run with --no-sitk or --sitk-only: its targets are judged where both columns are merged
         lines.append("Issue 47's targets: not judged here (petblur or SimpleITK was not run; merge with --summarize).")
