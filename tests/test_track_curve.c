@@ -91,12 +91,26 @@ static double gap(const pb_pose *a, const pb_pose *b)
     return m;
 }
 
-/* A point at 90 mm from the centre along (1, 1, 1), moved by the pose: what
- * a nod moves most. */
-static void moved(const pb_pose *p, double out[3])
+/* How far apart poses a and b put a point at 90 mm from the centre along
+ * (1, 1, 1), where a nod moves most (mm). */
+static double apart(const pb_pose *a, const pb_pose *b)
 {
     const double c[3] = {0, 0, 0}, q[3] = {52.0, 52.0, 52.0};
-    pb_pose_apply(p, c, q, out);
+    double pa[3], pb[3];
+    pb_pose_apply(a, c, q, pa);
+    pb_pose_apply(b, c, q, pb);
+    return sqrt((pa[0] - pb[0]) * (pa[0] - pb[0]) + (pa[1] - pb[1]) * (pa[1] - pb[1]) +
+                (pa[2] - pb[2]) * (pa[2] - pb[2]));
+}
+
+/* A track of n keys at time tt, as petblur reads a track: linear between
+ * keys, held beyond them. */
+static void track_at(const double *t, const pb_pose *p, size_t n, double tt, pb_pose *out)
+{
+    size_t i = 1;
+    while (i + 1 < n && t[i] < tt)
+        i++;
+    pb_pose_interpolate(&p[i - 1], &p[i], fmin(fmax((tt - t[i - 1]) / (t[i] - t[i - 1]), 0.0), 1.0), out);
 }
 
 int main(void)
@@ -220,26 +234,11 @@ int main(void)
                     x[3 + c] = NOD(tt) * PI / 180.0 * nod_axis[c] / na;
                 pb_pose truth, curve, line;
                 pbe_unchart(x, &base, &truth);
-                /* both tracks as petblur reads a track: linear between keys */
-                size_t i = 1;
-                while (i + 1 < n && t_out[i] < tt)
-                    i++;
-                pb_pose_interpolate(&p_out[i - 1], &p_out[i], fmin(fmax((tt - t_out[i - 1]) / (t_out[i] - t_out[i - 1]), 0), 1),
-                                    &curve);
-                i = 1;
-                while (i + 1 < s.n && s.t[i] < tt)
-                    i++;
-                pb_pose_interpolate(&s.p[i - 1], &s.p[i], fmin(fmax((tt - s.t[i - 1]) / (s.t[i] - s.t[i - 1]), 0), 1),
-                                    &line);
-                double pt[3], pc[3], pl[3];
-                moved(&truth, pt);
-                moved(&curve, pc);
-                moved(&line, pl);
+                track_at(t_out, p_out, n, tt, &curve);
+                track_at(s.t, s.p, s.n, tt, &line);
                 double w = (s.bounds[k + 1] - s.bounds[k]) / 100;
-                e_curve += w * sqrt((pc[0] - pt[0]) * (pc[0] - pt[0]) + (pc[1] - pt[1]) * (pc[1] - pt[1]) +
-                                    (pc[2] - pt[2]) * (pc[2] - pt[2]));
-                e_line += w * sqrt((pl[0] - pt[0]) * (pl[0] - pt[0]) + (pl[1] - pt[1]) * (pl[1] - pt[1]) +
-                                   (pl[2] - pt[2]) * (pl[2] - pt[2]));
+                e_curve += w * apart(&curve, &truth);
+                e_line += w * apart(&line, &truth);
             }
 #undef NOD
         if (e_curve > e_line)

@@ -1030,17 +1030,13 @@ static void key(keys *k, double t, const pb_pose *p)
 }
 
 /* The keys with the curve through the still frames' middles (track_curve.c)
- * in place of lines, into c; PETBLUR_ESTIMATE_CURVE=line keeps the lines,
- * for comparisons. */
-static pb_status curve_keys(const keys *k, keys *c)
+ * in place of lines, into c; PETBLUR_ESTIMATE_CURVE=line keeps the lines
+ * (no key is taken for a middle, so every key is copied), for comparisons. */
+static pb_status curve_keys(keys *k, keys *c)
 {
     const char *env = getenv("PETBLUR_ESTIMATE_CURVE");
-    if (env && strcmp(env, "line") == 0) {
-        memcpy(c->t, k->t, sizeof(double) * k->n);
-        memcpy(c->p, k->p, sizeof(pb_pose) * k->n);
-        c->n = k->n;
-        return PB_OK;
-    }
+    if (env && strcmp(env, "line") == 0)
+        memset(k->middle, 0, k->n);
     c->n = pbe_curve_keys(k->t, k->p, k->middle, k->n, c->t, c->p);
     return c->n > 0 ? PB_OK : PB_ERR_OUT_OF_MEMORY;
 }
