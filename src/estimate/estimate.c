@@ -63,23 +63,19 @@ enum { SERIES_GAIN_FRAMES = 8 };
 /* The shortest time a path's step takes, as a fraction of its frame. */
 #define STEP_FRACTION 0.01
 /* A transition across a boundary where the head jumped
- * (boundary_transitions): its start and end on TRANSITION_TIMES times from
- * the earlier frame's middle to the later's (TRANSITION_GRID steps a half
- * frame), the start not after the end: TRANSITION_CANDIDATES in all, and
- * the curve's own shape after them. */
+ * (boundary_transitions): its start and end each on TRANSITION_GRID + 1
+ * times from the boundary to the frame's middle, TRANSITION_CANDIDATES in
+ * all, and the curve's own shape after them; each frame's dwell along the
+ * line between the two poses at DWELL_POINTS points. */
 enum {
     TRANSITION_GRID = 8,
-    TRANSITION_TIMES = 2 * TRANSITION_GRID + 1,
-    TRANSITION_CANDIDATES = TRANSITION_TIMES * (TRANSITION_TIMES + 1) / 2,
+    TRANSITION_CANDIDATES = (TRANSITION_GRID + 1) * (TRANSITION_GRID + 1),
     TRANSITION_STRIDE = 2 * (TRANSITION_CANDIDATES + 1) /* each residual, then each distance from the curve */
 };
 /* How much better than the curve, in the two frames' noise (as
  * side_evidence's units), a transition must fit: the SEPARATION^2 a step
  * asks of the models' distance. */
 #define TRANSITION_MARGIN (SEPARATION * SEPARATION)
-/* The most the poses beside a transition may move, as a share of its jump
- * (boundary_transitions). */
-#define TRANSITION_HELD 0.25
 /* A background at least this share of a frame's peak is warned about (it is
  * subtracted whatever its level). */
 #define BACKGROUND_WARNED 0.05
@@ -616,29 +612,19 @@ static pb_status one_pose_weighted(estimate *e, const pb_pose *own, const float 
 static double mid_time(double a, double b);
 
 /* The transition across boundary b (between frames b - 1 and b) of
- * candidate c (boundary_transitions): its start and end on the times from
- * the earlier frame's middle to the later's, TRANSITION_GRID steps a half
- * frame, the start not after the end (start 0 with every end, then start 1,
- * ...); c = TRANSITION_CANDIDATES is the curve's own shape between the
- * middles. */
-static double transition_time(const double *bounds, size_t b, int i)
-{
-    const double mid0 = mid_time(bounds[b - 1], bounds[b]), mid1 = mid_time(bounds[b], bounds[b + 1]);
-    return i <= TRANSITION_GRID ? bounds[b] - (double)(TRANSITION_GRID - i) / TRANSITION_GRID * (bounds[b] - mid0)
-                                : bounds[b] + (double)(i - TRANSITION_GRID) / TRANSITION_GRID * (mid1 - bounds[b]);
-}
-
+ * candidate c (boundary_transitions): its start from the boundary back to
+ * the earlier frame's middle, its end on to the later's, each in
+ * TRANSITION_GRID steps; c = TRANSITION_CANDIDATES is the curve's own shape
+ * between the middles. */
 static pbe_transition transition_of(const double *bounds, size_t b, int c)
 {
-    pbe_transition tr = {mid_time(bounds[b - 1], bounds[b]), mid_time(bounds[b], bounds[b + 1]), 1};
+    const double mid0 = mid_time(bounds[b - 1], bounds[b]), mid1 = mid_time(bounds[b], bounds[b + 1]);
+    pbe_transition tr = {mid0, mid1, 1};
     if (c < TRANSITION_CANDIDATES) {
-        int start = 0, left = c;
-        while (left >= TRANSITION_TIMES - start) {
-            left -= TRANSITION_TIMES - start;
-            start++;
-        }
-        tr.t0 = transition_time(bounds, b, start);
-        tr.t1 = transition_time(bounds, b, start + left);
+        const double back = (double)(c / (TRANSITION_GRID + 1)) / TRANSITION_GRID,
+                     on = (double)(c % (TRANSITION_GRID + 1)) / TRANSITION_GRID;
+        tr.t0 = bounds[b] - back * (bounds[b] - mid0);
+        tr.t1 = bounds[b] + on * (mid1 - bounds[b]);
         tr.smooth = 0;
     }
     return tr;
@@ -1291,15 +1277,10 @@ static void boundary_steps(const estimate *e, const int *moving, const int *jump
  * of their noise, where that is TRANSITION_MARGIN below the curve's; out[b]
  * then holds it, else out[b].t1 < out[b].t0 - 1 (none).
  * PETBLUR_ESTIMATE_TRANSITION=0 keeps the curve, for comparisons. */
-static void boundary_transitions(const estimate *e, const pbe_fit *fits, const double *bounds, const int *moving,
-                                 const int *jumped, const unsigned char *steps, const double *table,
-                                 const unsigned char *set, pbe_transition *out)
+static void boundary_transitions(const estimate *e, const double *bounds, const int *moving, const int *jumped,
+                                 const unsigned char *steps, const double *table, const unsigned char *set,
+                                 pbe_transition *out)
 {
-    double ext = 0.0, far[3];
-    for (int i = 0; i < 3; i++)
-        ext = fmax(ext, (double)e->g.dims[i] * e->g.voxel_size[i]);
-    for (int i = 0; i < 3; i++)
-        far[i] = e->c[i] + 0.5 * ext;
     const char *env = getenv("PETBLUR_ESTIMATE_TRANSITION");
     for (size_t b = 0; b <= e->count; b++)
         out[b] = (pbe_transition){0.0, -2.0, 0};
@@ -1317,11 +1298,7 @@ static void boundary_transitions(const estimate *e, const pbe_fit *fits, const d
         const double curve = before[TRANSITION_CANDIDATES] + after[TRANSITION_CANDIDATES];
         const double gain = curve - (before[best] + after[best]),
                      apart = before[TRANSITION_CANDIDATES + 1 + best] + after[TRANSITION_CANDIDATES + 1 + best];
-        const double jump = path_span(e, far, &fits[b - 1].pose, &fits[b].pose),
-                     before_moved = b >= 2 ? path_span(e, far, &fits[b - 2].pose, &fits[b - 1].pose) : 0.0,
-                     after_moved = b + 1 < e->count ? path_span(e, far, &fits[b].pose, &fits[b + 1].pose) : 0.0;
-        if (gain > TRANSITION_MARGIN && gain > 0.5 * apart && gain - apart <= SEPARATION * sqrt(apart) &&
-            fmax(before_moved, after_moved) <= TRANSITION_HELD * jump)
+        if (gain > TRANSITION_MARGIN && gain > 0.5 * apart && gain - apart <= SEPARATION * sqrt(apart))
             out[b] = transition_of(bounds, b, best);
     }
 }
@@ -1545,7 +1522,7 @@ static pb_status estimate_run(estimate *e, const double *bounds, const pb_estima
                            jumped, transitions, transition_set);
     if (st == PB_OK && !o->frame_poses_only) {
         boundary_steps(e, moving, jumped, sides, steps);
-        boundary_transitions(e, fits, bounds, moving, jumped, steps, transitions, transition_set, across);
+        boundary_transitions(e, bounds, moving, jumped, steps, transitions, transition_set, across);
     }
     /* 4: every pose corrected along the contrast, together */
     if (st == PB_OK)
@@ -1575,18 +1552,16 @@ static pb_status estimate_run(estimate *e, const double *bounds, const pb_estima
             }
             else
                 key_of(&k, mid_time(bounds[f], bounds[f + 1]), &fits[f].pose, 1);
-            /* a step at the boundary, or a transition across it: the
-             * pose before held to its start, the one after from its end
-             * (a step takes STEP_FRACTION of the shorter frame) */
             const pbe_transition *tr = &across[f + 1];
-            if (steps[f + 1] || tr->t1 >= tr->t0) {
-                const double h = 0.5 * STEP_FRACTION * fmin(bounds[f + 1] - bounds[f], bounds[f + 2] - bounds[f + 1]);
-                const double at = steps[f + 1] ? bounds[f + 1] : tr->t0;
-                const double from = steps[f + 1] || tr->t1 == tr->t0 ? at - h : tr->t0,
-                             to = steps[f + 1] || tr->t1 == tr->t0 ? at + h : tr->t1;
-                key(&k, from, &fits[f].pose);
-                if (to < mid_time(bounds[f + 1], bounds[f + 2]))
-                    key(&k, to, &fits[f + 1].pose);
+            if (steps[f + 1] || (tr->t1 >= tr->t0 && tr->t1 - tr->t0 == 0.0)) {
+                double h = 0.5 * STEP_FRACTION * fmin(bounds[f + 1] - bounds[f], bounds[f + 2] - bounds[f + 1]);
+                key(&k, bounds[f + 1] - h, &fits[f].pose);
+                key(&k, bounds[f + 1] + h, &fits[f + 1].pose);
+            }
+            else if (tr->t1 > tr->t0) {
+                key(&k, tr->t0, &fits[f].pose);
+                if (tr->t1 < mid_time(bounds[f + 1], bounds[f + 2]))
+                    key(&k, tr->t1, &fits[f + 1].pose);
             }
         }
         if (!moving[count - 1])
