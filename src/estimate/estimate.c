@@ -62,20 +62,6 @@ enum { SERIES_GAIN_FRAMES = 8 };
 #define SEPARATION 6.0
 /* The shortest time a path's step takes, as a fraction of its frame. */
 #define STEP_FRACTION 0.01
-/* A transition across a boundary where the head jumped
- * (boundary_transitions): its start and end each on TRANSITION_GRID + 1
- * times from the boundary to the frame's middle, TRANSITION_CANDIDATES in
- * all, and the curve's own shape after them; each frame's dwell along the
- * line between the two poses at DWELL_POINTS points. */
-enum {
-    TRANSITION_GRID = 8,
-    TRANSITION_CANDIDATES = (TRANSITION_GRID + 1) * (TRANSITION_GRID + 1),
-    TRANSITION_STRIDE = 2 * (TRANSITION_CANDIDATES + 1) /* each residual, then each distance from the curve */
-};
-/* How much better than the curve, in the two frames' noise (as
- * side_evidence's units), a transition must fit: the SEPARATION^2 a step
- * asks of the models' distance. */
-#define TRANSITION_MARGIN (SEPARATION * SEPARATION)
 /* A background at least this share of a frame's peak is warned about (it is
  * subtracted whatever its level). */
 #define BACKGROUND_WARNED 0.05
@@ -535,8 +521,7 @@ static int side_defined(const estimate *e, const pbe_fit *fits, size_t k, int si
  * give or take 2 sqrt(g) of noise. ev[4 * k + 2 * side] = g, + 1 = h (side 0
  * the start, 1 the end); 0 where there is no neighbour or the poses are
  * within a tenth of a voxel at the far corner (nothing to tell). */
-static pb_status side_evidence(estimate *e, const pbe_fit *fits, size_t k, const double far[3], double ev[4],
-                               double *volume)
+static pb_status side_evidence(estimate *e, const pbe_fit *fits, size_t k, const double far[3], double ev[4])
 {
     const pb_pose *own = &fits[k].pose;
     pbe_level *level = &e->level[0];
@@ -564,8 +549,7 @@ static pb_status side_evidence(estimate *e, const pbe_fit *fits, size_t k, const
             pbe_fit_scale(level->pool, level->host[0], frame, level->n, &scale, &offset, &one_sse);
             for (size_t v = 0; v < level->n; v++)
                 one[v] = (float)(scale * (double)level->host[0][v] + offset);
-            *volume = pbe_correlation_volume(&level->g, frame, one);
-            noise = *volume * one_sse / (double)level->n;
+            noise = pbe_correlation_volume(&level->g, frame, one) * one_sse / (double)level->n;
         }
         /* a ramp over the half to the poses' midpoint, its mean at the own pose */
         pb_pose back, on;
@@ -607,81 +591,6 @@ static pb_status one_pose_weighted(estimate *e, const pb_pose *own, const float 
     if (st == PB_OK)
         *sse = pbe_weighted_sse(level->pool, view, frame, level->host[PBE_SUPPORT], level->n);
     return st;
-}
-
-static double mid_time(double a, double b);
-
-/* The transition across boundary b (between frames b - 1 and b) of
- * candidate c (boundary_transitions): its start from the boundary back to
- * the earlier frame's middle, its end on to the later's, each in
- * TRANSITION_GRID steps; c = TRANSITION_CANDIDATES is the curve's own shape
- * between the middles. */
-static pbe_transition transition_of(const double *bounds, size_t b, int c)
-{
-    const double mid0 = mid_time(bounds[b - 1], bounds[b]), mid1 = mid_time(bounds[b], bounds[b + 1]);
-    pbe_transition tr = {mid0, mid1, 1};
-    if (c < TRANSITION_CANDIDATES) {
-        const double back = (double)(c / (TRANSITION_GRID + 1)) / TRANSITION_GRID,
-                     on = (double)(c % (TRANSITION_GRID + 1)) / TRANSITION_GRID;
-        tr.t0 = bounds[b] - back * (bounds[b] - mid0);
-        tr.t1 = bounds[b] + on * (mid1 - bounds[b]);
-        tr.smooth = 0;
-    }
-    return tr;
-}
-
-/* What frame k shows about a transition at its side (0 its start, 1 its
- * end), against its own reference: for every candidate and the curve
- * (transition_of), its weighted residual in units of its noise (its one
- * pose's residual a voxel of weight times the volume its residual is
- * correlated over, as side_evidence's). The frame is a time average along
- * the track: toward its neighbour across that side as the candidate has it,
- * and on its other half toward the neighbour there as the curve goes (a
- * smoothstep where the head jumped there too, a line where it moved on;
- * held where that neighbour's pose is its own), so that a candidate is not
- * preferred for keeping the frame's mean where its registration put it. */
-static pb_status transition_evidence(estimate *e, const pbe_fit *fits, const double *bounds, const int *jumped,
-                                     const double far[3], size_t k, int side, double volume, double *out)
-{
-    enum { L = BACK_LEG, M = 2 * L - 1, K = M + 1 };
-    pbe_level *level = &e->level[0];
-    const size_t b = side ? k + 1 : k, ob = side ? k : k + 1;
-    const pb_pose *own = &fits[k].pose;
-    const int other_defined = side_defined(e, fits, k, !side, far);
-    pb_pose poses[M];
-    double gram[K * K], h[K], ff, w[M];
-    for (int i = 0; i < L; i++) {
-        /* point L - 1 - i toward the frame before, L - 1 + i toward the one after */
-        const pb_pose *before = k > 0 ? &fits[k - 1].pose : own, *after = k + 1 < e->count ? &fits[k + 1].pose : own;
-        pb_pose_interpolate(own, before, (double)i / (L - 1), &poses[L - 1 - i]);
-        pb_pose_interpolate(own, after, (double)i / (L - 1), &poses[L - 1 + i]);
-        pb_pose_normalized(&poses[L - 1 - i], &poses[L - 1 - i]);
-        pb_pose_normalized(&poses[L - 1 + i], &poses[L - 1 + i]);
-    }
-    pb_status st = pbe_dwell_normal(e->ctx, level, e->frames[0] + k * level->n, e->c, poses, M, gram, h, &ff);
-    if (st != PB_OK)
-        return st;
-    for (int i = 0; i < M; i++)
-        w[i] = i == L - 1;
-    double scale;
-    const double weight = gram[M * K + M], one = pbe_fit_given(gram, h, ff, M, w, &scale);
-    const double noise = weight > 0 ? volume * one / weight : 0.0;
-    pbe_transition other = {0.0, 0.0, 0};
-    if (other_defined) {
-        other = transition_of(bounds, ob, TRANSITION_CANDIDATES);
-        other.smooth = jumped[ob];
-    }
-    double curve[M];
-    for (int c = TRANSITION_CANDIDATES; c >= 0; c--) {
-        pbe_transition tr = transition_of(bounds, b, c);
-        const pbe_transition *o = other_defined ? &other : NULL;
-        pbe_transition_weights(side ? o : &tr, side ? &tr : o, bounds[k], bounds[k + 1], L, w);
-        if (c == TRANSITION_CANDIDATES)
-            memcpy(curve, w, sizeof curve);
-        out[c] = noise > 0 ? pbe_fit_given(gram, h, ff, M, w, NULL) / noise : 0.0;
-        out[TRANSITION_CANDIDATES + 1 + c] = noise > 0 ? pbe_given_apart(gram, scale, M, w, curve) / noise : 0.0;
-    }
-    return PB_OK;
 }
 
 /* PATH_BACK's poses: from the frame before's pose s out to the far end f
@@ -771,8 +680,7 @@ static pb_status back_path(estimate *e, const pbe_fit *fits, size_t k, double on
 
 static pb_status inside_frames(estimate *e, const pbe_fit *fits, size_t reference, const float *moved,
                                const double *gram, float *own, frame_path *paths, int *moving, size_t *moving_count,
-                               double *sides, double *unfollowed, const double *bounds, const int *jumped,
-                               double *transitions, unsigned char *transition_set)
+                               double *sides, double *unfollowed)
 {
     int *anchor = calloc(e->count, sizeof(int)), *moves = calloc(e->count, sizeof(int));
     unsigned char *tried = calloc(e->count, 1);
@@ -817,26 +725,10 @@ static pb_status inside_frames(estimate *e, const pbe_fit *fits, size_t referenc
             st = back_path(e, fits, k, one, far, paths);
         /* ramps or steps at its boundaries, against the same reference */
         if (st == PB_OK && !e->flat[k] && (side_defined(e, fits, k, 0, far) || side_defined(e, fits, k, 1, far))) {
-            double volume = 0.0;
             if (!referenced)
                 st = frame_reference(e, moved, gram, k, own);
             if (st == PB_OK)
-                st = side_evidence(e, fits, k, far, &sides[4 * k], &volume);
-            /* and, where the head jumped at a boundary, a transition across it */
-            int weighted = referenced;
-            for (int side = 0; side < 2 && st == PB_OK && transitions; side++) {
-                if (!side_defined(e, fits, k, side, far) || !jumped[side ? k + 1 : k])
-                    continue;
-                if (!weighted) {
-                    double unused;
-                    st = one_pose_weighted(e, &fits[k].pose, e->frames[0] + k * e->level[0].n, &unused);
-                    weighted = 1;
-                }
-                if (st == PB_OK)
-                    st = transition_evidence(e, fits, bounds, jumped, far, k, side, volume,
-                                             &transitions[(2 * k + (size_t)side) * TRANSITION_STRIDE]);
-                transition_set[2 * k + (size_t)side] = st == PB_OK;
-            }
+                st = side_evidence(e, fits, k, far, &sides[4 * k]);
         }
         report_progress(e, 1.0);
     }
@@ -1039,6 +931,7 @@ static pb_status hold_flat_frames(estimate *e, pbe_fit *fits)
  * reference frame's among them; a frame of noise alone then takes its
  * nearest structured frame's smoothed pose. PETBLUR_ESTIMATE_SMOOTH=0
  * leaves the poses as registered, for comparisons. */
+static double mid_time(double a, double b);
 
 /* The grid's RMS radius about its centre, mm: what puts turns and shifts on
  * one scale (a turn of x radians moves a point there by about r x). */
@@ -1266,43 +1159,6 @@ static void boundary_steps(const estimate *e, const int *moving, const int *jump
     }
 }
 
-/* Where the head jumped at a boundary between still frames and the frames
- * do not show a step (boundary_steps), the track's curve between their
- * middles puts the jump halfway between them, a long frame's half beside it
- * in motion where a jerk of a second or two crossed the boundary (issue
- * 47's family: a jerk between a short early frame and a long one, the long
- * frame 3.6 mm off; docs/estimate-log.md, "What bounds the worst frame").
- * The two frames together say where it was: of the transitions
- * (transition_of) the one whose two frames' residuals sum least, in units
- * of their noise, where that is TRANSITION_MARGIN below the curve's; out[b]
- * then holds it, else out[b].t1 < out[b].t0 - 1 (none).
- * PETBLUR_ESTIMATE_TRANSITION=0 keeps the curve, for comparisons. */
-static void boundary_transitions(const estimate *e, const double *bounds, const int *moving, const int *jumped,
-                                 const unsigned char *steps, const double *table, const unsigned char *set,
-                                 pbe_transition *out)
-{
-    const char *env = getenv("PETBLUR_ESTIMATE_TRANSITION");
-    for (size_t b = 0; b <= e->count; b++)
-        out[b] = (pbe_transition){0.0, -2.0, 0};
-    if (env && strcmp(env, "0") == 0)
-        return;
-    for (size_t b = 1; b < e->count; b++) {
-        if (!jumped[b] || steps[b] || moving[b - 1] || moving[b] || !set[2 * (b - 1) + 1] || !set[2 * b])
-            continue;
-        const double *before = &table[(2 * (b - 1) + 1) * TRANSITION_STRIDE],
-                     *after = &table[2 * b * TRANSITION_STRIDE];
-        int best = 0;
-        for (int c = 1; c < TRANSITION_CANDIDATES; c++)
-            if (before[c] + after[c] < before[best] + after[best])
-                best = c;
-        const double curve = before[TRANSITION_CANDIDATES] + after[TRANSITION_CANDIDATES];
-        const double gain = curve - (before[best] + after[best]),
-                     apart = before[TRANSITION_CANDIDATES + 1 + best] + after[TRANSITION_CANDIDATES + 1 + best];
-        if (gain > TRANSITION_MARGIN && gain > 0.5 * apart && gain - apart <= SEPARATION * sqrt(apart))
-            out[b] = transition_of(bounds, b, best);
-    }
-}
-
 /* A grid pose about c as a world map about the world's origin:
  * R_w = D R D^T, t_w = D (c - R c + t) + o - R_w o. */
 static pb_status world_pose(const double d[9], const double o[3], const double c[3], const pb_pose *grid,
@@ -1475,9 +1331,6 @@ static pb_status estimate_run(estimate *e, const double *bounds, const pb_estima
     unsigned char *steps = calloc(count + 1, 1);
     int *jumped = calloc(count, sizeof(int));
     double *unfollowed = calloc(count, sizeof(double));
-    double *transitions = calloc(2 * count * TRANSITION_STRIDE, sizeof(double));
-    unsigned char *transition_set = calloc(2 * count, 1);
-    pbe_transition *across = calloc(count + 1, sizeof *across);
     float *moved = malloc(sizeof(float) * e->level[0].n * count), *own = malloc(sizeof(float) * e->level[0].n);
     double *gram = malloc(sizeof(double) * count * (PBE_REFERENCE_OTHERS + 1));
     /* a frame's keys: at most two a point of PATH_BACK, its steps from and
@@ -1486,9 +1339,8 @@ static pb_status estimate_run(estimate *e, const double *bounds, const pb_estima
     keys k = {malloc(sizeof(double) * most_keys), malloc(sizeof(pb_pose) * most_keys), malloc(most_keys), 0};
     keys curved = {malloc(sizeof(double) * most_curved), malloc(sizeof(pb_pose) * most_curved), NULL, 0};
     size_t moving_count = 0;
-    pb_status st = fits && moving && paths && sides && steps && jumped && unfollowed && transitions &&
-                           transition_set && across && moved && own && gram && k.t && k.p && k.middle && curved.t &&
-                           curved.p
+    pb_status st = fits && moving && paths && sides && steps && jumped && unfollowed && moved && own && gram && k.t &&
+                           k.p && k.middle && curved.t && curved.p
                        ? PB_OK
                        : PB_ERR_OUT_OF_MEMORY;
     for (size_t i = 0; i < count && fits; i++) {
@@ -1518,12 +1370,9 @@ static pb_status estimate_run(estimate *e, const double *bounds, const pb_estima
         st = smooth_still_poses(e, fits, bounds, ref, jumped);
     /* 3: inside frames, against the same references */
     if (st == PB_OK && !o->frame_poses_only)
-        st = inside_frames(e, fits, ref, moved, gram, own, paths, moving, &moving_count, sides, unfollowed, bounds,
-                           jumped, transitions, transition_set);
-    if (st == PB_OK && !o->frame_poses_only) {
+        st = inside_frames(e, fits, ref, moved, gram, own, paths, moving, &moving_count, sides, unfollowed);
+    if (st == PB_OK && !o->frame_poses_only)
         boundary_steps(e, moving, jumped, sides, steps);
-        boundary_transitions(e, bounds, moving, jumped, steps, transitions, transition_set, across);
-    }
     /* 4: every pose corrected along the contrast, together */
     if (st == PB_OK)
         st = correct_together(e, ref, fits, paths, moving);
@@ -1552,16 +1401,10 @@ static pb_status estimate_run(estimate *e, const double *bounds, const pb_estima
             }
             else
                 key_of(&k, mid_time(bounds[f], bounds[f + 1]), &fits[f].pose, 1);
-            const pbe_transition *tr = &across[f + 1];
-            if (steps[f + 1] || (tr->t1 >= tr->t0 && tr->t1 - tr->t0 == 0.0)) {
+            if (steps[f + 1]) {
                 double h = 0.5 * STEP_FRACTION * fmin(bounds[f + 1] - bounds[f], bounds[f + 2] - bounds[f + 1]);
                 key(&k, bounds[f + 1] - h, &fits[f].pose);
                 key(&k, bounds[f + 1] + h, &fits[f + 1].pose);
-            }
-            else if (tr->t1 > tr->t0) {
-                key(&k, tr->t0, &fits[f].pose);
-                if (tr->t1 < mid_time(bounds[f + 1], bounds[f + 2]))
-                    key(&k, tr->t1, &fits[f + 1].pose);
             }
         }
         if (!moving[count - 1])
@@ -1597,9 +1440,6 @@ static pb_status estimate_run(estimate *e, const double *bounds, const pb_estima
     free(steps);
     free(jumped);
     free(unfollowed);
-    free(transitions);
-    free(transition_set);
-    free(across);
     free(moved);
     free(own);
     free(gram);

@@ -188,42 +188,6 @@ pb_status pbe_dwell(pb_context *ctx, pbe_level *level, const float *frame, const
 pb_status pbe_dwell_at(pb_context *ctx, pbe_level *level, const float *frame, const double c[3],
                        const pb_pose *poses, size_t m, double *u, double *sse);
 
-/* The normal equations of that fit at m poses given, m at most
- * PBE_DWELL_MOST: gram ((m + 1) x (m + 1), row-major: the views' products
- * and the offset's column, each voxel weighed as pbe_dwell weighs it), h
- * (m + 1: their products with the frame) and *ff (the frame's weighted
- * square), for fits of weights given rather than fitted. */
-pb_status pbe_dwell_normal(pb_context *ctx, pbe_level *level, const float *frame, const double c[3],
-                           const pb_pose *poses, size_t m, double *gram, double *h, double *ff);
-
-/* A transition across a frame boundary (transition.c): the head at the
- * earlier frame's pose until t0, at the later frame's from t1, between them
- * steadily (smooth 0) or along smoothstep (1); t1 <= t0 is a step at t0. */
-typedef struct pbe_transition {
-    double t0, t1;
-    int smooth;
-} pbe_transition;
-
-/* The time a frame spanning [start, end] spends about each of 2 leg - 1
- * points, as shares of the frame: point leg - 1 its own pose, points
- * leg - 1 - i evenly along the line to the frame before's pose and
- * leg - 1 + i to the frame after's (i = 1 .. leg - 1). Before its middle the
- * head follows `before` (the transition across its start; NULL: held at its
- * own pose), after it `after`. */
-enum { PBE_TRANSITION_SAMPLES = 512 };
-void pbe_transition_weights(const pbe_transition *before, const pbe_transition *after, double start, double end,
-                            size_t leg, double *w);
-
-/* A dwell's weighted residual with the weights w (m of them) given, the
- * scale and offset fitted, from its normal equations (pbe_dwell_normal);
- * the scale into *scale where that is not NULL. */
-double pbe_fit_given(const double *gram, const double *h, double ff, size_t m, const double *w, double *scale);
-
-/* How far apart two such mixtures' images are, each scaled by scale and
- * the offset's share taken out: |scale V (a - b)|^2 less its mean's share,
- * from the same normal equations. */
-double pbe_given_apart(const double *gram, double scale, size_t m, const double *a, const double *b);
-
 /* Non-negative least squares on normal equations: minimises
  * |A u - f|^2 given G = A^T A (n x n, row-major), h = A^T f, with u[j] >= 0
  * for j < n_nonneg and the rest free. */

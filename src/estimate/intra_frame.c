@@ -41,7 +41,7 @@ void pbe_nnls(const double *gram, const double *h, size_t n, size_t n_nonneg, do
 
 /* The dwell's sums, each voxel by its weight: the views' Gram matrix with
  * the offset's column (upper triangle, row by row), their products with the
- * frame, the weights' sum and the frame's weighted square. */
+ * frame, and the weights' sum. */
 typedef struct dwell_job {
     const float *views; /* m of them, n voxels each, one after another */
     const float *frame;
@@ -70,7 +70,6 @@ static void dwell_sums(void *arg, size_t begin, size_t end, double *s)
             up[i] += (double)j->views[i * j->n + v] * f;
         up[m] += f;
         up[m + 1] += w;
-        up[m + 2] += f * (double)j->frame[v];
     }
 }
 
@@ -183,21 +182,22 @@ pb_status pbe_dwell(pb_context *ctx, pbe_level *level, const float *frame, const
     return st;
 }
 
-pb_status pbe_dwell_normal(pb_context *ctx, pbe_level *level, const float *frame, const double c[3],
-                           const pb_pose *poses, size_t m, double *gram, double *h, double *ff)
+pb_status pbe_dwell_at(pb_context *ctx, pbe_level *level, const float *frame, const double c[3],
+                       const pb_pose *poses, size_t m, double *u, double *sse)
 {
     const size_t n = level->n, k = m + 1; /* the views, and the offset */
-    const size_t terms = m * (m + 1) / 2 + m + k + 2;
+    const size_t terms = m * (m + 1) / 2 + m + k + 1;
     if (terms > PB_MOST_SUMS)
         return pb_error(NULL, PB_ERR_INVALID_ARGUMENT, "a dwell of %zu points has more sums than %d", m,
                         (int)PB_MOST_SUMS);
+    double *gram = calloc(k * k, sizeof(double)), *h = calloc(k, sizeof(double));
     float *views = pbe_level_views(level, m);
-    pb_status st = views ? PB_OK : PB_ERR_OUT_OF_MEMORY;
+    pb_status st = gram && h && views ? PB_OK : PB_ERR_OUT_OF_MEMORY;
     for (size_t i = 0; i < m && st == PB_OK; i++)
         st = pbe_view(ctx, level, &poses[i], c, views + i * n);
     if (st == PB_OK) {
         double sums[PB_MOST_SUMS];
-        dwell_job job = {views, frame, level->host[PBE_SUPPORT], n, m, NULL};
+        dwell_job job = {views, frame, level->host[PBE_SUPPORT], n, m, u};
         pb_pool_sums(level->pool, n, terms, dwell_sums, &job, sums);
         const double *up = sums;
         for (size_t i = 0; i < m; i++) {
@@ -208,26 +208,12 @@ pb_status pbe_dwell_normal(pb_context *ctx, pbe_level *level, const float *frame
         for (size_t i = 0; i < k; i++)
             h[i] = up[i];
         gram[m * k + m] = up[k];
-        *ff = up[k + 1];
         for (size_t i = 0; i < k; i++)
             for (size_t j = 0; j < i; j++)
                 gram[i * k + j] = gram[j * k + i];
-    }
-    return st;
-}
-
-pb_status pbe_dwell_at(pb_context *ctx, pbe_level *level, const float *frame, const double c[3],
-                       const pb_pose *poses, size_t m, double *u, double *sse)
-{
-    const size_t k = m + 1;
-    double *gram = calloc(k * k, sizeof(double)), *h = calloc(k, sizeof(double)), ff;
-    pb_status st = gram && h ? pbe_dwell_normal(ctx, level, frame, c, poses, m, gram, h, &ff)
-                             : PB_ERR_OUT_OF_MEMORY;
-    if (st == PB_OK) {
         pbe_nnls(gram, h, k, m, u);
-        dwell_job job = {level->views, frame, level->host[PBE_SUPPORT], level->n, m, u};
         double r;
-        pb_pool_sums(level->pool, level->n, 1, dwell_residual, &job, &r);
+        pb_pool_sums(level->pool, n, 1, dwell_residual, &job, &r);
         *sse = r > 0 ? r : 0.0;
     }
     free(gram);
