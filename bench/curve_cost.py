@@ -28,8 +28,7 @@ import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import estimate_family as ef  # noqa: E402
-from frames_cost import Device, Errors, frame_segments  # noqa: E402
-from path_cases import draw_object  # noqa: E402
+from frames_cost import Device, Errors, frame_segments, phantom  # noqa: E402
 
 VARIANTS = (("curve", None), ("line", "line"))
 
@@ -40,17 +39,6 @@ def clinical_affine(shape, voxel_mm):
     a = np.diag([voxel_mm, voxel_mm, voxel_mm, 1.0])
     a[:3, 3] = -voxel_mm * (np.array(shape) - 1) / 2.0
     return a
-
-
-def activity(seed, shape, voxel_mm):
-    """path_cases' smooth brain plus sharp hot spheres on the grid (the object is drawn in the grid's own frame; its
-    placement does not matter to the cost)."""
-    rng = np.random.default_rng([seed, 7])
-    vox = np.asarray(voxel_mm, dtype=float)
-    aff = np.eye(4)
-    aff[:3, :3] = np.diag(vox)
-    aff[:3, 3] = 0.5 * vox
-    return draw_object(rng, shape, vox, aff, "brain")[0] + draw_object(rng, shape, vox, aff, "spheres")[0]
 
 
 def estimate(petblur, frames, affine, bounds, device, curve):
@@ -100,7 +88,8 @@ def main():
         grids = (("series", tuple(d.shape), tuple(d.voxel), affine),
                  ("clinical", clinical, (a.voxel_mm,) * 3, clinical_affine(clinical, a.voxel_mm)))
         for grid, shape, vox, aff in grids:
-            x = dev.array(activity(seed, shape, vox))
+            # the object in the grid's own frame: its placement does not matter to the cost
+            x = dev.array(phantom(np.random.default_rng([seed, 7]), shape, vox))
             out, floor = {}, None
             for name, _ in VARIANTS:
                 F = petblur.FramesOperator(shape, vox, tracks[name], bounds, affine=aff, device=a.device)

@@ -128,10 +128,11 @@ def log_track(name, true_pose, seconds, rng, walk_mm):
     return times, rot, tr
 
 
-def phantom(rng, shape):
+def phantom(rng, shape, voxel_mm=VOXEL_MM):
     """path_cases' smooth brain (4.5 mm FWHM) plus its sharp hot spheres, in
-    the grid frame (voxel centres at (i + 0.5) 2 mm)."""
-    vox = np.full(3, VOXEL_MM)
+    the grid frame (voxel centres at (i + 0.5) voxel_mm: one size or one a
+    axis, 2 mm by default)."""
+    vox = np.broadcast_to(np.asarray(voxel_mm, dtype=float), (3,)).copy()
     affine = np.eye(4)
     affine[:3, :3] = np.diag(vox)
     affine[:3, 3] = 0.5 * vox
