@@ -103,14 +103,12 @@ static double apart(const pb_pose *a, const pb_pose *b)
                 (pa[2] - pb[2]) * (pa[2] - pb[2]));
 }
 
-/* A track of n keys at time tt, as petblur reads a track: linear between
- * keys, held beyond them. */
+/* A track of n keys at time tt (within its keys), as petblur reads a track
+ * (pb_motion_interpolate). */
 static void track_at(const double *t, const pb_pose *p, size_t n, double tt, pb_pose *out)
 {
-    size_t i = 1;
-    while (i + 1 < n && t[i] < tt)
-        i++;
-    pb_pose_interpolate(&p[i - 1], &p[i], fmin(fmax((tt - t[i - 1]) / (t[i] - t[i - 1]), 0.0), 1.0), out);
+    const pb_motion m = {t, p, n, t[0], t[n - 1], 0, {0, 0, 0}};
+    pb_motion_interpolate(&m, tt, out);
 }
 
 int main(void)
