@@ -964,6 +964,83 @@ static pb_status smooth_still_poses(estimate *e, pbe_fit *fits, const double *bo
     return PB_OK;
 }
 
+/* Which frames the link by mutual information moves: PETBLUR_ESTIMATE_LINK
+ * =0 none, =all every frame that shows structure, else (the default) those
+ * before the late frame they are linked to. */
+enum { LINK_NONE, LINK_BEFORE, LINK_ALL };
+
+static int link_kind(void)
+{
+    const char *env = getenv("PETBLUR_ESTIMATE_LINK");
+    if (env && strcmp(env, "0") == 0)
+        return LINK_NONE;
+    return env && strcmp(env, "all") == 0 ? LINK_ALL : LINK_BEFORE;
+}
+
+/* The levels the link runs on: the finest two. Its start, pass 2's pose,
+ * lies within a voxel or two, and a coarser level's few voxels spread a
+ * histogram of 50 bins thin. */
+enum { LINK_LEVELS = 2 };
+
+/* The frames' poses linked to a late frame by mutual information
+ * (mutual_information.c): pass 2 fits each frame to a reference of its own
+ * contrast, so its pose carries the bias that the contrast gives least
+ * squares, and the frames of the first minutes, whose blood and tissue
+ * stand in another ratio than a late frame's, carry it most. Mutual
+ * information lets each tissue keep its own intensity. The frame it links
+ * to is the one whose fit knows its pose best (the least spread), late and
+ * long in a dynamic scan; each frame's pose relative to it, D = T_k T_L^-1,
+ * is fitted from pass 2's, coarse to fine, and the frame keeps pass 2's
+ * information for the smoothing. */
+static pb_status link_by_information(estimate *e, pbe_fit *fits, int kind)
+{
+    const double r = rms_radius(&e->g);
+    size_t late = SIZE_MAX;
+    double least = (double)INFINITY;
+    for (size_t k = 0; k < e->count; k++) {
+        double spread = e->flat[k] ? (double)INFINITY : pbe_pose_spread(&fits[k], r);
+        if (spread < least) {
+            least = spread;
+            late = k;
+        }
+    }
+    if (late == SIZE_MAX) {
+        report_progress(e, (double)e->count);
+        return PB_OK;
+    }
+    const float *levels[8];
+    for (size_t l = 0; l < e->levels; l++)
+        levels[l] = e->frames[l] + late * e->level[l].n;
+    pb_status st = set_reference_levels(e, levels);
+    pb_pose back;
+    pb_pose_invert(&fits[late].pose, &back);
+    const size_t top = e->levels < LINK_LEVELS ? e->levels : LINK_LEVELS;
+    for (size_t k = 0; k < e->count && st == PB_OK; k++) {
+        if (k == late || e->flat[k] || (kind == LINK_BEFORE && k > late)) {
+            report_progress(e, 1.0);
+            continue;
+        }
+        pb_pose d;
+        pb_pose_compose(&fits[k].pose, &back, &d);
+        pb_pose_normalized(&d, &d);
+        for (size_t l = top; l-- > 0 && st == PB_OK;)
+            st = pbe_register_mi(e->ctx, &e->level[l], e->frames[l] + k * e->level[l].n, e->c, r, e->iterations,
+                                 &d, NULL);
+        /* a frame without contrast on the reference's support keeps pass 2's pose */
+        if (st == PB_ERR_INVALID_ARGUMENT) {
+            st = PB_OK;
+            report_progress(e, 1.0);
+            continue;
+        }
+        if (st == PB_OK) {
+            pb_pose_compose(&d, &fits[late].pose, &fits[k].pose);
+            pb_pose_normalized(&fits[k].pose, &fits[k].pose);
+        }
+        report_progress(e, 1.0);
+    }
+    return st;
+}
+
 /* One of pass 4's evaluations done: its share of the pass's progress. */
 static void together_tick(void *user)
 {
@@ -1365,6 +1442,13 @@ static pb_status estimate_run(estimate *e, const double *bounds, const pb_estima
     /* frames of noise alone: their poses are noise's, and their neighbours' paths are not to be built on them */
     if (st == PB_OK)
         st = hold_flat_frames(e, fits);
+    /* the poses linked to a late frame by a measure the contrast does not
+     * bias, and the frames moved back again by them for pass 3's references */
+    const int link = link_kind();
+    if (st == PB_OK && link != LINK_NONE)
+        st = link_by_information(e, fits, link);
+    if (st == PB_OK && link != LINK_NONE)
+        st = frames_moved_back(e, fits, moved, gram);
     /* the still frames' poses, each as sure as its registration, together in time */
     if (st == PB_OK)
         st = smooth_still_poses(e, fits, bounds, ref, jumped);
@@ -1519,7 +1603,7 @@ pb_status pb_motion_estimate(pb_context *ctx, const pb_geometry *geometry, const
      * needs, about as long as the three together (24 frames on the host: 34
      * of 65 s), reported as it evaluates */
     e.together = (double)count * (pbe_reference_rank(count) >= 3 ? 4.0 : 1.0);
-    e.total = 4.0 * (double)count + e.together;
+    e.total = (link_kind() != LINK_NONE ? 5.0 : 4.0) * (double)count + e.together;
 
     g = *geometry;
     for (size_t l = 0; l < e.levels && st == PB_OK; l++) {

@@ -114,6 +114,23 @@ double pbe_weighted_sse(pb_pool *pool, const float *a, const float *f, const flo
 void pbe_fit_scale(pb_pool *pool, const float *a, const float *f, size_t n, double *scale, double *offset,
                    double *sse);
 
+/* ---- mutual_information.c: one frame against a reference, by mutual information */
+
+/* Mattes mutual information of the frame and the level reference's view at
+ * pose (50 bins a side, the view's in cubic B-spline windows), each voxel
+ * weighed by the support's blur at ranges_at, where the bins' ranges are
+ * taken too; and its gradient in pb_pose_perturb's six perturbations (grad
+ * NULL: the value only). PB_ERR_INVALID_ARGUMENT where the frame or the view
+ * is constant on the weights. */
+pb_status pbe_mutual_information(pb_context *ctx, pbe_level *level, const float *frame, const double c[3],
+                                 const pb_pose *pose, const pb_pose *ranges_at, double *mi, double grad[6]);
+/* The pose of greatest mutual information from *pose (replaced), at most
+ * `iterations` quasi-Newton steps, turns weighed by r (mm a radian) against
+ * shifts; the weights and ranges held at the starting pose. *mi (or NULL):
+ * the measure at the end. */
+pb_status pbe_register_mi(pb_context *ctx, pbe_level *level, const float *frame, const double c[3], double r,
+                          unsigned iterations, pb_pose *pose, double *mi);
+
 /* ---- references.c: a reference per frame ---------------------------------- */
 
 /* Eigenvalues and vectors of a symmetric n x n matrix (row-major a, destroyed)
