@@ -2,10 +2,12 @@
  * on fresh heads each run: tissues of their own contrast (cortex, white
  * matter, lesions, a blood vessel), a late frame as the reference and an
  * early frame whose contrast is another (blood bright, tissue dim), moved by
- * a fresh pose. The gradient matches central differences of the measure;
- * the fit from the identity finds the measure's optimum, within a fifth of a
- * voxel of the pose where the head is (a tenth or less mostly); and the least-squares fit of register.c, which asks the
- * frame to be a scale and offset of the reference, is printed beside it. */
+ * a fresh pose. The gradient points as central differences of the measure
+ * do (its length within 15 %: the Jacobian is register.c's, from central
+ * differences of the reference); the fit from the identity ends at least as
+ * high as the truth stands and within a fifth of a voxel of it (a tenth or
+ * less mostly); the least-squares fit of register.c, which asks the frame to
+ * be a scale and offset of the reference, is printed beside it. */
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>

@@ -273,7 +273,7 @@ pb_status pbe_register_mi(pb_context *ctx, pbe_level *level, const float *frame,
 {
     mi_state s;
     pb_status st = begin(&s, ctx, level, frame, c, pose);
-    double mi = 0.0, g[6], gu[6], H[36];
+    double mi = 0.0, g[6] = {0}, gu[6], H[36];
     if (st == PB_OK)
         st = evaluate(&s, pose, &mi, g);
     /* BFGS on -MI in the scaled perturbation (shifts, turns times r), each
