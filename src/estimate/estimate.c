@@ -7,7 +7,9 @@
  *  2. twice, every frame against its own reference (references.c): the
  *     frame's projection onto the principal images of its nearest frames moved
  *     back onto the reference, which has the frame's contrast (uptake changes
- *     from frame to frame) and the noise of its window's counts;
+ *     from frame to frame) and the noise of its window's counts; then the
+ *     frames before a late frame linked to it by mutual information
+ *     (mutual_information.c), which the contrast does not bias;
  *  3. inside frames (intra_frame.c): a frame between two neighbours is fitted as
  *     a dwell along a path that starts or ends at a still neighbour's pose
  *     (between the two, from one on through its own pose, or out from one
@@ -1443,12 +1445,12 @@ static pb_status estimate_run(estimate *e, const double *bounds, const pb_estima
     if (st == PB_OK)
         st = hold_flat_frames(e, fits);
     /* the poses linked to a late frame by a measure the contrast does not
-     * bias, and the frames moved back again by them for pass 3's references */
+     * bias (pass 3's references stay pass 2's, its frames moved back by its
+     * first round's poses: moved again by the linked poses they changed no
+     * draw of 4 by more than 0.001 mm) */
     const int link = link_kind();
     if (st == PB_OK && link != LINK_NONE)
         st = link_by_information(e, fits, link);
-    if (st == PB_OK && link != LINK_NONE)
-        st = frames_moved_back(e, fits, moved, gram);
     /* the still frames' poses, each as sure as its registration, together in time */
     if (st == PB_OK)
         st = smooth_still_poses(e, fits, bounds, ref, jumped);

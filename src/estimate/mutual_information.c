@@ -28,6 +28,9 @@ static const pb_blur_options blur_options = {.method = PB_METHOD_AB, .filter = P
  * the family's peer; the outer PAD on each side hold the B-spline windows'
  * tails. */
 enum { BINS = 50, PAD = 2 };
+/* A fit ends where its step moves the head by less than this, mm: well
+ * below the 0.1 mm the family's best draws stand at. */
+#define SHORTEST_STEP 5e-3
 
 typedef struct mi_job {
     const float *view, *frame, *w;
@@ -172,23 +175,30 @@ typedef struct mi_state {
     double *total, *log_ratio, weight;
 } mi_state;
 
-/* The measure at pose (the view blurred), and its gradient in the pose's
- * six perturbations (pb_pose_perturb's) where grad is not NULL. */
-static pb_status evaluate(mi_state *s, const pb_pose *pose, double *mi, double grad[6])
+/* The measure at pose: the view blurred, and the joint histogram. */
+static pb_status measure(mi_state *s, const pb_pose *pose, double *mi)
+{
+    double times[2];
+    pb_pose poses[2];
+    pb_motion m;
+    pbe_static_motion(pose, s->c, times, poses, &m);
+    pb_status st = pbe_blur_reference(s->ctx, s->level, &m);
+    if (st == PB_OK)
+        *mi = mutual_information(s->level->pool, &s->job, s->total, s->log_ratio, &s->weight);
+    return st;
+}
+
+/* Its gradient in the pose's six perturbations (pb_pose_perturb's) at the
+ * pose the last measure() was taken at, whose view and histogram it uses. */
+static pb_status gradient(mi_state *s, const pb_pose *pose, double grad[6])
 {
     double times[2];
     pb_pose poses[2];
     pb_motion m;
     pbe_static_motion(pose, s->c, times, poses, &m);
     pbe_level *lv = s->level;
-    pb_status st = pbe_blur_reference(s->ctx, lv, &m);
-    if (st != PB_OK)
-        return st;
-    *mi = mutual_information(lv->pool, &s->job, s->total, s->log_ratio, &s->weight);
-    if (!grad)
-        return PB_OK;
     for (int i = 1; i < 7; i++) {
-        st = pb_blur(s->ctx, lv->in[i], &m, &blur_options, lv->out[i]);
+        pb_status st = pb_blur(s->ctx, lv->in[i], &m, &blur_options, lv->out[i]);
         if (st == PB_OK)
             st = pb_volume_download(lv->out[i], lv->host[i]);
         if (st != PB_OK)
@@ -199,6 +209,12 @@ static pb_status evaluate(mi_state *s, const pb_pose *pose, double *mi, double g
     for (int p = 0; p < 6; p++)
         grad[p] = s->weight > 0.0 ? sums[p] / s->weight : 0.0;
     return PB_OK;
+}
+
+static pb_status evaluate(mi_state *s, const pb_pose *pose, double *mi, double grad[6])
+{
+    pb_status st = measure(s, pose, mi);
+    return st == PB_OK && grad ? gradient(s, pose, grad) : st;
 }
 
 static double dot6(const double *a, const double *b)
@@ -280,7 +296,7 @@ pb_status pbe_register_mi(pb_context *ctx, pbe_level *level, const float *frame,
      * step's gradient taken in the chart of the pose it starts from;
      * backtracking along each direction (Armijo) */
     const double voxel = fmax(level->g.voxel_size[0], fmax(level->g.voxel_size[1], level->g.voxel_size[2]));
-    const double longest = voxel, shortest = 1e-3;
+    const double longest = voxel, shortest = SHORTEST_STEP;
     int fresh = 1;
     for (int i = 0; i < 6; i++)
         gu[i] = -(i < 3 ? g[i] : g[i] / r);
@@ -338,8 +354,8 @@ pb_status pbe_register_mi(pb_context *ctx, pbe_level *level, const float *frame,
             continue;
         }
         double g_new[6], gu_new[6];
-        /* the gradient at the step's end (the view there is host[0] still) */
-        st = evaluate(&s, &trial, &trial_mi, g_new);
+        /* the gradient at the step's end, whose view and histogram the line search left */
+        st = gradient(&s, &trial, g_new);
         if (st != PB_OK)
             break;
         for (int i = 0; i < 6; i++)
