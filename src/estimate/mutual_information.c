@@ -83,6 +83,18 @@ static double moving_bin(const mi_job *j, float v, int *inside)
     return t < lo ? lo : t > hi ? hi : t;
 }
 
+/* Voxel i's weight, its view's continuous bin t (and whether inside the
+ * range), and the row of its frame's bin; 0 where it has no weight. */
+static int voxel_bins(const mi_job *j, size_t i, double *w, double *t, int *inside, int *row)
+{
+    *w = (double)j->w[i];
+    if (!(*w > 0.0))
+        return 0;
+    *t = moving_bin(j, j->view[i], inside);
+    *row = fixed_bin(j, j->frame[i]) * BINS;
+    return 1;
+}
+
 static void hist_chunk(void *arg, size_t c)
 {
     const mi_job *j = arg;
@@ -90,12 +102,11 @@ static void hist_chunk(void *arg, size_t c)
     double *h = j->hist + c * BINS * BINS;
     memset(h, 0, sizeof(double) * BINS * BINS);
     for (size_t i = begin; i < end; i++) {
-        const double w = (double)j->w[i];
-        if (!(w > 0.0))
+        double w, t;
+        int inside, row;
+        if (!voxel_bins(j, i, &w, &t, &inside, &row))
             continue;
-        int inside;
-        const double t = moving_bin(j, j->view[i], &inside);
-        const int row = fixed_bin(j, j->frame[i]) * BINS, k0 = (int)floor(t) - 1;
+        const int k0 = (int)floor(t) - 1;
         for (int k = k0; k < k0 + 4; k++)
             h[row + k] += w * bspline3(t - (double)k);
     }
@@ -105,14 +116,11 @@ static void gradient_sums(void *arg, size_t begin, size_t end, double *s)
 {
     const mi_job *j = arg;
     for (size_t i = begin; i < end; i++) {
-        const double w = (double)j->w[i];
-        if (!(w > 0.0))
+        double w, t;
+        int inside, row;
+        if (!voxel_bins(j, i, &w, &t, &inside, &row) || !inside)
             continue;
-        int inside;
-        const double t = moving_bin(j, j->view[i], &inside);
-        if (!inside)
-            continue;
-        const int row = fixed_bin(j, j->frame[i]) * BINS, k0 = (int)floor(t) - 1;
+        const int k0 = (int)floor(t) - 1;
         double d = 0.0;
         for (int k = k0; k < k0 + 4; k++)
             d += bspline3_derivative(t - (double)k) * j->log_ratio[row + k];
