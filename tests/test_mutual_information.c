@@ -180,8 +180,10 @@ int main(int argc, char **argv)
             st = pbe_register(ctx, &level, frame, c, 60, &ls);
         pb_check(st == PB_OK, "case %d: the fits: %s", cs, pb_last_error(NULL));
         double mi_truth = 0.0, mi_start = 0.0;
-        pbe_mutual_information(ctx, &level, frame, c, &truth, &identity, &mi_truth, NULL);
-        pbe_mutual_information(ctx, &level, frame, c, &identity, &identity, &mi_start, NULL);
+        st = pbe_mutual_information(ctx, &level, frame, c, &truth, &identity, &mi_truth, NULL);
+        if (st == PB_OK)
+            st = pbe_mutual_information(ctx, &level, frame, c, &identity, &identity, &mi_start, NULL);
+        pb_check(st == PB_OK, "case %d: the measure at the truth and the start: %s", cs, pb_last_error(NULL));
 
         const double err = distance(&found, &truth), err_ls = distance(&ls.pose, &truth), moved = distance(&identity, &truth);
         printf("case %d: voxel %.2f mm, moved %.2f mm; mutual information %.3f mm off (MI %.4f), least squares %.3f mm off\n",
