@@ -38,7 +38,7 @@ typedef struct mi_job {
     const float *const *jac;   /* the view's six derivative images */
     double f_lo, f_per, m_lo, m_per; /* intensity to bin: (v - lo) * per + PAD */
     double *hist;              /* a histogram a chunk (value pass) */
-    const double *log_ratio;   /* log p(i, k) / p_m(k) (gradient pass) */
+    double *log_ratio;         /* log p(i, k) / p_m(k), from the value pass for the gradient pass */
     size_t n;
 } mi_job;
 
@@ -133,7 +133,7 @@ static void gradient_sums(void *arg, size_t begin, size_t end, double *s)
 /* The joint histogram of the view in level->host[0] against the frame
  * (chunks' histograms added in order), its mutual information, and
  * log p / p_m for the gradient. */
-static double mutual_information(pb_pool *pool, mi_job *j, double *total, double *log_ratio, double *weight)
+static double mutual_information(pb_pool *pool, mi_job *j, double *total, double *weight)
 {
     const size_t chunks = pb_chunks(j->n);
     pb_pool_for(pool, chunks, hist_chunk, j);
@@ -155,11 +155,10 @@ static double mutual_information(pb_pool *pool, mi_job *j, double *total, double
     for (int a = 0; a < BINS; a++)
         for (int b = 0; b < BINS; b++) {
             const double h = total[a * BINS + b];
-            log_ratio[a * BINS + b] = h > 0.0 && pm[b] > 0.0 ? log(h / pm[b]) : 0.0;
+            j->log_ratio[a * BINS + b] = h > 0.0 && pm[b] > 0.0 ? log(h / pm[b]) : 0.0;
             if (h > 0.0)
                 mi += h / W * log(h * W / (pf[a] * pm[b]));
         }
-    j->log_ratio = log_ratio;
     *weight = W;
     return mi;
 }
@@ -181,7 +180,7 @@ typedef struct mi_state {
     pbe_level *level;
     const double *c;
     mi_job job;
-    double *total, *log_ratio, weight;
+    double *total, weight;
 } mi_state;
 
 /* The measure at pose: the view blurred, and the joint histogram. */
@@ -193,7 +192,7 @@ static pb_status measure(mi_state *s, const pb_pose *pose, double *mi)
     pbe_static_motion(pose, s->c, times, poses, &m);
     pb_status st = pbe_blur_reference(s->ctx, s->level, &m);
     if (st == PB_OK)
-        *mi = mutual_information(s->level->pool, &s->job, s->total, s->log_ratio, &s->weight);
+        *mi = mutual_information(s->level->pool, &s->job, s->total, &s->weight);
     return st;
 }
 
@@ -241,10 +240,10 @@ static pb_status begin(mi_state *s, pb_context *ctx, pbe_level *level, const flo
                        const pb_pose *at)
 {
     const size_t chunks = pb_chunks(level->n);
-    *s = (mi_state){ctx, level, c, {0}, malloc(sizeof(double) * BINS * BINS), malloc(sizeof(double) * BINS * BINS),
-                    0.0};
+    *s = (mi_state){ctx, level, c, {0}, malloc(sizeof(double) * BINS * BINS), 0.0};
     s->job.hist = malloc(sizeof(double) * BINS * BINS * chunks);
-    pb_status st = s->total && s->log_ratio && s->job.hist ? PB_OK : PB_ERR_OUT_OF_MEMORY;
+    s->job.log_ratio = malloc(sizeof(double) * BINS * BINS);
+    pb_status st = s->total && s->job.log_ratio && s->job.hist ? PB_OK : PB_ERR_OUT_OF_MEMORY;
     double times[2];
     pb_pose poses[2];
     pb_motion m;
@@ -258,10 +257,9 @@ static pb_status begin(mi_state *s, pb_context *ctx, pbe_level *level, const flo
     double flo, fhi, mlo, mhi;
     range_of(frame, level->host[PBE_SUPPORT], level->n, &flo, &fhi);
     range_of(level->host[0], level->host[PBE_SUPPORT], level->n, &mlo, &mhi);
-    double *hist = s->job.hist;
     s->job = (mi_job){level->host[0], frame, level->host[PBE_SUPPORT], (const float *const *)(level->host + 1),
-                      flo, (BINS - 2 * PAD) / (fhi - flo), mlo, (BINS - 2 * PAD) / (mhi - mlo), hist, NULL,
-                      level->n};
+                      flo, (BINS - 2 * PAD) / (fhi - flo), mlo, (BINS - 2 * PAD) / (mhi - mlo), s->job.hist,
+                      s->job.log_ratio, level->n};
     /* a frame or view without contrast on the weights holds nothing to fit */
     return fhi > flo && mhi > mlo && isfinite(s->job.f_per) && isfinite(s->job.m_per) ? PB_OK
                                                                                       : PB_ERR_INVALID_ARGUMENT;
@@ -270,7 +268,7 @@ static pb_status begin(mi_state *s, pb_context *ctx, pbe_level *level, const flo
 static void end(mi_state *s)
 {
     free(s->total);
-    free(s->log_ratio);
+    free(s->job.log_ratio);
     free(s->job.hist);
 }
 
@@ -293,6 +291,13 @@ static void unscale(const double u[6], double r, double xi[6])
         xi[i] = i < 3 ? u[i] : u[i] / r;
 }
 
+/* The gradient of -MI in the scaled perturbation, from MI's in pb_pose_perturb's. */
+static void scaled_descent(const double g[6], double r, double gu[6])
+{
+    for (int i = 0; i < 6; i++)
+        gu[i] = -(i < 3 ? g[i] : g[i] / r);
+}
+
 pb_status pbe_register_mi(pb_context *ctx, pbe_level *level, const float *frame, const double c[3], double r,
                           unsigned iterations, pb_pose *pose, double *mi_out)
 {
@@ -307,8 +312,7 @@ pb_status pbe_register_mi(pb_context *ctx, pbe_level *level, const float *frame,
     const double voxel = fmax(level->g.voxel_size[0], fmax(level->g.voxel_size[1], level->g.voxel_size[2]));
     const double longest = voxel, shortest = SHORTEST_STEP;
     int fresh = 1;
-    for (int i = 0; i < 6; i++)
-        gu[i] = -(i < 3 ? g[i] : g[i] / r);
+    scaled_descent(g, r, gu);
     for (unsigned it = 0; it < iterations && st == PB_OK; it++) {
         double d[6], norm_g = sqrt(dot6(gu, gu));
         if (!(norm_g > 0.0) || !isfinite(norm_g))
@@ -367,8 +371,7 @@ pb_status pbe_register_mi(pb_context *ctx, pbe_level *level, const float *frame,
         st = gradient(&s, &trial, g_new);
         if (st != PB_OK)
             break;
-        for (int i = 0; i < 6; i++)
-            gu_new[i] = -(i < 3 ? g_new[i] : g_new[i] / r);
+        scaled_descent(g_new, r, gu_new);
         double y[6], ys, yy;
         for (int i = 0; i < 6; i++)
             y[i] = gu_new[i] - gu[i];
@@ -396,10 +399,13 @@ pb_status pbe_register_mi(pb_context *ctx, pbe_level *level, const float *frame,
         *pose = trial;
         mi = trial_mi;
         memcpy(gu, gu_new, sizeof gu);
-        /* a short quasi-Newton step (not one the line search cut) ends the fit
-         * where the gradient's own step is short too: trilinear views kink the
-         * measure at every voxel crossing, and a curvature met at a kink
-         * shortens the steps long before the top */
+        /* a short quasi-Newton step (not one the line search cut) starts the
+         * steps again from the gradient, a quarter voxel cut back by the line
+         * search: trilinear views kink the measure at every voxel crossing,
+         * and a curvature met at a kink shortens the steps long before the
+         * top. The fit ends where a gradient step finds no rise, at the
+         * iteration bound, or where even a gradient step is short (voxels
+         * under 0.02 mm) */
         if (len < shortest) {
             if (fresh)
                 break;
