@@ -3,8 +3,8 @@
  * matter, lesions, a blood vessel), a late frame as the reference and an
  * early frame whose contrast is another (blood bright, tissue dim), moved by
  * a fresh pose. The gradient points as central differences of the measure
- * do (its length within 15 %: the Jacobian is register.c's, from central
- * differences of the reference); the fit from the identity climbs all but
+ * do (its length within 15 %: the view's derivative is from its own central
+ * differences, view_jacobian.c); the fit from the identity climbs all but
  * 2 % of the way to the truth's measure and ends within 0.3 voxel of the
  * truth (a tenth mostly); the least-squares fit of register.c, which asks the frame to
  * be a scale and offset of the reference, is printed beside it. */
@@ -103,8 +103,7 @@ int main(int argc, char **argv)
         pb_geometry g = {{NX, NY, NZ}, {v, v * pb_rand_range(0.9, 1.1), v * pb_rand_range(0.9, 1.2)}};
         const size_t n = (size_t)NX * NY * NZ;
         float *t[TISSUES], *late = malloc(sizeof(float) * n), *early = malloc(sizeof(float) * n);
-        float *frame = malloc(sizeof(float) * n), *scratch = malloc(sizeof(float) * n * 6),
-              *tmp = malloc(sizeof(float) * 64);
+        float *frame = malloc(sizeof(float) * n), *tmp = malloc(sizeof(float) * 64);
         for (int k = 0; k < TISSUES; k++)
             t[k] = malloc(sizeof(float) * n);
         tissues(&g, t, tmp);
@@ -133,7 +132,7 @@ int main(int argc, char **argv)
         if (st == PB_OK)
             st = pbe_level_init(ctx, &level, &g, NULL);
         if (st == PB_OK)
-            st = pbe_level_set_reference(&level, late, c, scratch);
+            st = pbe_level_set_reference(&level, late);
         pb_check(st == PB_OK, "case %d: set up: %s", cs, pb_last_error(NULL));
         if (st != PB_OK)
             return pb_test_finish();
@@ -204,7 +203,6 @@ int main(int argc, char **argv)
         free(late);
         free(early);
         free(frame);
-        free(scratch);
         free(tmp);
     }
     pb_context_destroy(ctx);

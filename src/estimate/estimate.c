@@ -87,7 +87,7 @@ typedef struct estimate {
     float *frames[8];       /* per level: every frame, smoothed */
     unsigned char *known;   /* per frame, level 0: where its move back onto the reference reads inside its grid (/255) */
     pbe_level level[8];
-    float *scratch, *tmp;   /* six volumes of level 0 (a reference's derivative images, then its supports); one line */
+    float *scratch, *tmp;   /* two volumes of level 0 (the levels' supports); one line */
     pb_pool *pool;         /* threads: pass 4's frames; each level's loops where it is large enough (pbe_level's) */
     pb_progress_fn progress;
     void *progress_user;
@@ -126,7 +126,7 @@ static pb_status set_reference_levels(estimate *e, const float *const *levels)
 {
     pb_status st = PB_OK;
     for (size_t l = 0; l < e->levels && st == PB_OK; l++)
-        st = pbe_level_set_reference(&e->level[l], levels[l], e->c, e->scratch);
+        st = pbe_level_set_reference(&e->level[l], levels[l]);
     return st;
 }
 
@@ -300,8 +300,7 @@ static void support_chunk(void *arg, size_t c)
 /* Where frame k's reference is known: where every frame of its window
  * that shows structure was, moved back (the reference is a sum of them),
  * and never beyond the grid's own box, on every level. The levels' supports
- * lie one after another in e->scratch (at most twice level 0 in all), which
- * set_reference has done with. */
+ * lie one after another in e->scratch (at most twice level 0 in all). */
 static pb_status set_frame_support(estimate *e, size_t k)
 {
     const size_t n = e->level[0].n;
@@ -1615,7 +1614,7 @@ pb_status pb_motion_estimate(pb_context *ctx, const pb_geometry *geometry, const
         if (st == PB_OK && !(e.frames[l] = malloc(sizeof(float) * e.level[l].n * count)))
             st = PB_ERR_OUT_OF_MEMORY;
     }
-    if (st == PB_OK && (!(e.scratch = malloc(sizeof(float) * 6 * e.level[0].n)) ||
+    if (st == PB_OK && (!(e.scratch = malloc(sizeof(float) * 2 * e.level[0].n)) ||
                         !(e.tmp = malloc(sizeof(float) * pbe_longest_side(geometry)))))
         st = PB_ERR_OUT_OF_MEMORY;
     for (size_t k = 0; k < count && st == PB_OK; k++) {

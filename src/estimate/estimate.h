@@ -43,14 +43,33 @@ void pbe_smooth(pb_pool *pool, const pb_geometry *g, float *v, double fwhm_mm, f
 void pbe_pose_gradients(pb_pool *pool, const pb_geometry *g, const float *x, const double c[3],
                         float *const out[6]);
 
+/* ---- view_jacobian.c: a still pose's view differentiated in the pose ---------- */
+
+/* The derivative of a still pose's view (the reference read at one pose over
+ * the frame) in pb_pose_perturb's six perturbations, voxel by voxel from the
+ * view's own central differences: what the blurs of the reference's
+ * derivative images give, without blurring them. */
+typedef struct pbe_view_jacobian {
+    const float *view;
+    size_t dims[3], step[3];
+    double voxel[3];
+    double rows[3][3];   /* R: its row a turns the view's axis a into the object's */
+    double origin[3];    /* P(y) - c at the first voxel's centre */
+} pbe_view_jacobian;
+
+/* The view of pose about c on grid g (level->host[0] after its blur). */
+void pbe_view_jacobian_init(pbe_view_jacobian *J, const pb_geometry *g, const float *view, const pb_pose *pose,
+                            const double c[3]);
+/* Voxel at's six derivatives. */
+void pbe_view_jacobian_at(const pbe_view_jacobian *J, size_t at, double out[6]);
+
 /* ---- register.c: one frame against a reference ------------------------------ */
 
-/* The level's images: the reference, its six derivative images, and where
- * the reference is known (PBE_SUPPORT). */
-enum { PBE_SUPPORT = 7, PBE_IMAGES = 8 };
+/* The level's images: the reference and where it is known (PBE_SUPPORT). */
+enum { PBE_SUPPORT = 1, PBE_IMAGES = 2 };
 
-/* A reference on one level, on the device: the image, its six derivative
- * images and its support, and outputs for their blurs (with host copies).
+/* A reference on one level, on the device: the image and its support, and
+ * outputs for their blurs (with host copies).
  * The support is 1 on the grid's voxels but its outer layer, 0 there and
  * beyond: blurred under a pose it weighs each voxel of a frame by whether
  * the reference is known where that voxel's view reads it. Activity that a
@@ -60,7 +79,7 @@ enum { PBE_SUPPORT = 7, PBE_IMAGES = 8 };
 typedef struct pbe_level {
     pb_geometry g;
     size_t n;
-    pb_volume *in[PBE_IMAGES];    /* x, its derivative images, its support */
+    pb_volume *in[PBE_IMAGES];    /* x, its support */
     pb_volume *out[PBE_IMAGES];   /* B of each */
     float *host[PBE_IMAGES];      /* out downloaded */
     float *box;                   /* the grid's own support (host) */
@@ -70,8 +89,8 @@ typedef struct pbe_level {
 } pbe_level;
 
 pb_status pbe_level_init(pb_context *ctx, pbe_level *level, const pb_geometry *g, pb_pool *pool);
-/* Uploads a reference x and its derivative images about c. scratch holds six volumes. */
-pb_status pbe_level_set_reference(pbe_level *level, const float *x, const double c[3], float *scratch);
+/* Uploads a reference x (and the grid's box as its support). */
+pb_status pbe_level_set_reference(pbe_level *level, const float *x);
 void pbe_level_free(pbe_level *level);
 /* Uploads where the reference is known, in [0, 1] (NULL: the grid's box,
  * which pbe_level_set_reference sets too). */

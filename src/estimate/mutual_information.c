@@ -8,8 +8,9 @@
  * first minutes, whose blood and tissue stand in another ratio than a late
  * frame's, are linked to a late frame without the bias that their contrast
  * gives the least-squares pose (docs/estimate-log.md, "A link the contrast
- * does not bias"). The view and its Jacobian are register.c's: the blurs of
- * the reference and its derivative images at the pose, on the device.
+ * does not bias"). The view is register.c's, the reference's blur at the
+ * pose on the device; its derivative in the pose comes from its own
+ * differences (view_jacobian.c).
  *
  * Written here rather than taken from ITK: the fit runs on the library's
  * own blur of the reference on the device, with its support weights, inside
@@ -22,8 +23,6 @@
 #include "estimate.h"
 #include "motion.h"
 
-static const pb_blur_options blur_options = {.method = PB_METHOD_AB, .filter = PB_FILTER_EXACT};
-
 /* Bins of each axis of the joint histogram, as SimpleITK's Mattes metric in
  * the family's peer; the outer PAD on each side hold the B-spline windows'
  * tails. */
@@ -35,7 +34,7 @@ enum { BINS = 50, PAD = 2 };
 
 typedef struct mi_job {
     const float *view, *frame, *w;
-    const float *const *jac;   /* the view's six derivative images */
+    pbe_view_jacobian jac;     /* the view's derivative in the pose (gradient pass) */
     double f_lo, f_per, m_lo, m_per; /* intensity to bin: (v - lo) * per + PAD */
     double *hist;              /* a histogram a chunk (value pass) */
     double *log_ratio;         /* log p(i, k) / p_m(k), from the value pass for the gradient pass */
@@ -125,8 +124,10 @@ static void gradient_sums(void *arg, size_t begin, size_t end, double *s)
         for (int k = k0; k < k0 + 4; k++)
             d += bspline3_derivative(t - (double)k) * j->log_ratio[row + k];
         d *= w * j->m_per;
+        double jac[6];
+        pbe_view_jacobian_at(&j->jac, i, jac);
         for (int p = 0; p < 6; p++)
-            s[p] += d * (double)j->jac[p][i];
+            s[p] += d * jac[p];
     }
 }
 
@@ -200,18 +201,8 @@ static pb_status measure(mi_state *s, const pb_pose *pose, double *mi)
  * pose the last measure() was taken at, whose view and histogram it uses. */
 static pb_status gradient(mi_state *s, const pb_pose *pose, double grad[6])
 {
-    double times[2];
-    pb_pose poses[2];
-    pb_motion m;
-    pbe_static_motion(pose, s->c, times, poses, &m);
     pbe_level *lv = s->level;
-    for (int i = 1; i < 7; i++) {
-        pb_status st = pb_blur(s->ctx, lv->in[i], &m, &blur_options, lv->out[i]);
-        if (st == PB_OK)
-            st = pb_volume_download(lv->out[i], lv->host[i]);
-        if (st != PB_OK)
-            return st;
-    }
+    pbe_view_jacobian_init(&s->job.jac, &lv->g, lv->host[0], pose, s->c);
     double sums[6];
     pb_pool_sums(lv->pool, lv->n, 6, gradient_sums, &s->job, sums);
     for (int p = 0; p < 6; p++)
@@ -257,9 +248,8 @@ static pb_status begin(mi_state *s, pb_context *ctx, pbe_level *level, const flo
     double flo, fhi, mlo, mhi;
     range_of(frame, level->host[PBE_SUPPORT], level->n, &flo, &fhi);
     range_of(level->host[0], level->host[PBE_SUPPORT], level->n, &mlo, &mhi);
-    s->job = (mi_job){level->host[0], frame, level->host[PBE_SUPPORT], (const float *const *)(level->host + 1),
-                      flo, (BINS - 2 * PAD) / (fhi - flo), mlo, (BINS - 2 * PAD) / (mhi - mlo), s->job.hist,
-                      s->job.log_ratio, level->n};
+    s->job = (mi_job){level->host[0], frame, level->host[PBE_SUPPORT], {0}, flo, (BINS - 2 * PAD) / (fhi - flo),
+                      mlo, (BINS - 2 * PAD) / (mhi - mlo), s->job.hist, s->job.log_ratio, level->n};
     /* a frame or view without contrast on the weights holds nothing to fit */
     return fhi > flo && mhi > mlo && isfinite(s->job.f_per) && isfinite(s->job.m_per) ? PB_OK
                                                                                       : PB_ERR_INVALID_ARGUMENT;

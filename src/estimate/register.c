@@ -9,10 +9,9 @@
  * (weights that followed the trial pose would let it lower the residual by
  * moving the voxels it fits worst out of them); the steps are taken on the
  * weighted residual's share of the frame's weighted variance. The Jacobian
- * comes from the blurs of the reference's derivative images
- * (pbe_pose_gradients), so a step taken is seven blurs on the device (a step
- * refused, one; the weights one a fit) and a pass over the voxels here, on
- * the estimate's threads. */
+ * comes from the view's own differences (view_jacobian.c), so a step is one
+ * blur on the device (the weights one a fit) and a pass over the voxels
+ * here, on the estimate's threads. */
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -72,15 +71,9 @@ void pbe_level_free(pbe_level *level)
     memset(level, 0, sizeof *level);
 }
 
-pb_status pbe_level_set_reference(pbe_level *level, const float *x, const double c[3], float *scratch)
+pb_status pbe_level_set_reference(pbe_level *level, const float *x)
 {
-    float *d[6];
-    for (int j = 0; j < 6; j++)
-        d[j] = scratch + (size_t)j * level->n;
-    pbe_pose_gradients(level->pool, &level->g, x, c, d);
     pb_status st = pb_volume_upload(level->in[0], x);
-    for (int j = 0; j < 6 && st == PB_OK; j++)
-        st = pb_volume_upload(level->in[1 + j], d[j]);
     return st == PB_OK ? pbe_level_set_support(level, NULL) : st;
 }
 
@@ -277,6 +270,7 @@ static int solve(double *a, double *b, int n, double *x)
 typedef struct normal_job {
     const float *const *h;
     const float *frame;
+    const pbe_view_jacobian *jac;
     double a, b;
 } normal_job;
 
@@ -287,14 +281,15 @@ static void normal_sums(void *arg, size_t begin, size_t end, double *s)
     const normal_job *j = arg;
     const float *const *h = j->h;
     for (size_t i = begin; i < end; i++) {
-        double J[NP];
-        for (int k = 0; k < 6; k++)
-            J[k] = j->a * (double)h[1 + k][i];
-        J[6] = (double)h[0][i];
-        J[7] = 1.0;
         const double w = (double)h[PBE_SUPPORT][i];
         if (!(w > 0.0))
             continue;
+        double J[NP];
+        pbe_view_jacobian_at(j->jac, i, J);
+        for (int k = 0; k < 6; k++)
+            J[k] *= j->a;
+        J[6] = (double)h[0][i];
+        J[7] = 1.0;
         double r = j->a * (double)h[0][i] + j->b - (double)j->frame[i];
         double *up = s;
         for (int p = 0; p < NP; p++)
@@ -345,17 +340,16 @@ pb_status pbe_register(pb_context *ctx, pbe_level *level, const float *frame, co
         return first;
     for (unsigned it = 0; it <= iterations; it++) {
         pbe_static_motion(&trial, c, times, poses, &m);
-        /* the derivative images only for a step that is taken */
         pb_status st = blur_images(ctx, level, &m, 0, 1);
         if (st != PB_OK)
             return st;
         weighted_fit now = fit_scale_weighted(level->pool, level->host[0], frame, level->host[PBE_SUPPORT], n);
         if (now.share < best.share) {
             /* accepted: the normal equations at this pose */
-            if ((st = blur_images(ctx, level, &m, 1, 7)) != PB_OK)
-                return st;
             double A[NP * NP], g[NP], sums[NORMAL_SUMS];
-            normal_job job = {(const float *const *)level->host, frame, now.scale, now.offset};
+            pbe_view_jacobian jac;
+            pbe_view_jacobian_init(&jac, &level->g, level->host[0], &trial, c);
+            normal_job job = {(const float *const *)level->host, frame, &jac, now.scale, now.offset};
             pb_pool_sums(level->pool, n, NORMAL_SUMS, normal_sums, &job, sums);
             const double *up = sums;
             for (int p = 0; p < NP; p++)
