@@ -1174,16 +1174,36 @@ static void hold_keys(keys *out, double t0, double t1, const pb_pose *p, const d
         *from = *to = mid_time(t0, t1);
 }
 
-/* The points of a path from s to e in path order, each for its dwell u. */
-static void path_keys(keys *out, double t0, double t1, const pb_pose *s, const pb_pose *e, const double *u,
-                      double *from, double *to)
+/* Whether a path that does not dwell at a still neighbour's pose steps
+ * from (to) it at the boundary (path_keys); PETBLUR_ESTIMATE_PATH_ENDS=ramp
+ * leaves the track to ramp through the neighbour to its middle, for
+ * comparisons. */
+static int path_ends_step(void)
+{
+    const char *env = getenv("PETBLUR_ESTIMATE_PATH_ENDS");
+    return !(env && strcmp(env, "ramp") == 0);
+}
+
+/* The points of a path of a kind from s to e in path order, each for its
+ * dwell u. A path that starts at the frame before's pose (ends at the frame
+ * after's) but does not dwell there steps from (to) that pose at the
+ * boundary, as back_keys: the neighbour holds still to its ends, so the
+ * motion between its pose and the path's first (last) point held took place
+ * inside this frame. Without that step the track ramped from the last point
+ * held to the neighbour's middle, half a still frame of motion the frame
+ * does not show (issue 47's draw 3414265662: a jerk across the boundary of
+ * frames 2 and 3, frame 3 5.64 mm off on a ramp of 5 s). */
+static void path_keys(keys *out, double t0, double t1, int kind, const pb_pose *s, const pb_pose *e,
+                      const double *u, double *from, double *to)
 {
     double w[DWELL_POINTS];
     pb_pose p[DWELL_POINTS];
     dwell_shares(u, DWELL_POINTS, w);
     for (int i = 0; i < DWELL_POINTS; i++)
         pb_pose_interpolate(s, e, (double)i / (DWELL_POINTS - 1), &p[i]);
-    hold_keys(out, t0, t1, p, w, DWELL_POINTS, NULL, NULL, from, to);
+    const int step = path_ends_step();
+    hold_keys(out, t0, t1, p, w, DWELL_POINTS, step && starts_at_before(kind) && !(w[0] > 0) ? s : NULL,
+              step && ends_at_after(kind) && !(w[DWELL_POINTS - 1] > 0) ? e : NULL, from, to);
 }
 
 /* PATH_BACK's points (back_poses) in order, each for its dwell u. Where it
@@ -1478,7 +1498,8 @@ static pb_status estimate_run(estimate *e, const double *bounds, const pb_estima
                     back_keys(&k, bounds[f], bounds[f + 1], &p->start, &p->end, &fits[f + 1].pose, p->dwell, &from,
                               &to);
                 else
-                    path_keys(&k, bounds[f], bounds[f + 1], &p->start, &p->end, p->dwell, &from, &to);
+                    path_keys(&k, bounds[f], bounds[f + 1], moving[f] - 1, &p->start, &p->end, p->dwell, &from,
+                              &to);
                 if (o->frames) {
                     o->frames[f].motion_from = from;
                     o->frames[f].motion_to = to;
