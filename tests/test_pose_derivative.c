@@ -110,6 +110,20 @@ static void perturbed(const pb_motion *m, pb_pose *poses, int j, double eps)
         pb_pose_compose(&m->poses[i], &gi, &poses[i]);
 }
 
+/* The object x on the device and pb_blur_pose_derivative's six images of it
+ * under m (EXACT filter) into der. */
+static pb_status derivative_images(pb_context *ctx, const pb_geometry *g, const float *x, const pb_motion *m,
+                                   pb_volume **obj, pb_volume *der[6])
+{
+    pb_blur_options opt = {.filter = PB_FILTER_EXACT};
+    pb_status st = pb_volume_create(ctx, g, obj);
+    for (int j = 0; j < 6 && st == PB_OK; j++)
+        st = pb_volume_create(ctx, g, &der[j]);
+    if (st == PB_OK)
+        st = pb_volume_upload(*obj, x);
+    return st == PB_OK ? pb_blur_pose_derivative(ctx, *obj, m, &opt, der) : st;
+}
+
 static void test_derivative(pb_context *ctx)
 {
     pb_geometry g = {{NX, NY, NZ}, {2.0, 2.5, 2.2}};
@@ -129,13 +143,7 @@ static void test_derivative(pb_context *ctx)
     exact_derivatives(&g, blobs, m.center, exact_images);
     pb_blur_options opt = {.filter = PB_FILTER_EXACT};
     pb_volume *obj = NULL, *der[6] = {0};
-    pb_status st = pb_volume_create(ctx, &g, &obj);
-    for (int j = 0; j < 6 && st == PB_OK; j++)
-        st = pb_volume_create(ctx, &g, &der[j]);
-    if (st == PB_OK)
-        st = pb_volume_upload(obj, x);
-    if (st == PB_OK)
-        st = pb_blur_pose_derivative(ctx, obj, &m, &opt, der);
+    pb_status st = derivative_images(ctx, &g, x, &m, &obj, der);
     pb_check(st == PB_OK, "pb_blur_pose_derivative: %s", pb_last_error(ctx));
     for (int j = 0; j < 6 && st == PB_OK; j++) {
         char name[3] = {j < 3 ? 'v' : 'w', "xyz"[j % 3], 0};
@@ -208,13 +216,7 @@ static void test_view_jacobian(pb_context *ctx)
     pbe_static_motion(&pose, c, times, poses, &m);
     pb_blur_options opt = {.filter = PB_FILTER_EXACT};
     pb_volume *obj = NULL, *der[6] = {0};
-    pb_status st = pb_volume_create(ctx, &g, &obj);
-    for (int j = 0; j < 6 && st == PB_OK; j++)
-        st = pb_volume_create(ctx, &g, &der[j]);
-    if (st == PB_OK)
-        st = pb_volume_upload(obj, x);
-    if (st == PB_OK)
-        st = pb_blur_pose_derivative(ctx, obj, &m, &opt, der);
+    pb_status st = derivative_images(ctx, &g, x, &m, &obj, der);
     if (st == PB_OK)
         st = pb_test_blur(ctx, &g, x, &m, &opt, view);
     pb_check(st == PB_OK, "the view and pb_blur_pose_derivative: %s", pb_last_error(ctx));

@@ -10,7 +10,7 @@
  * registration's time. Under a shift alone the two are one arithmetic (a
  * trilinear read commutes with a whole-voxel difference); under a turn they
  * differ by the differences' directions, within the discretisation of
- * either (tests/test_view_jacobian.c measures it). */
+ * either (tests/test_pose_derivative.c measures it). */
 #include <string.h>
 
 #include "estimate.h"
