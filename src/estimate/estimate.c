@@ -73,6 +73,10 @@ enum { SERIES_GAIN_FRAMES = 8 };
  * from 16^3 up; the test series (heads at 2e4 to 1e6 counts a frame, blobs
  * under noise a third of their peak) at least 0.64. */
 #define STRUCTURE_EXPLAINED 0.4
+/* The least share of the most counts of a frame held still that the
+ * automatic reference is taken from (best_anchor): a quarter, noise twice
+ * the best frame's. */
+#define ANCHOR_COUNTS 0.25
 
 typedef struct estimate {
     pb_context *ctx;
@@ -1354,6 +1358,16 @@ static double now_seconds(void)
     return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
 }
 
+/* Frame k's counts: its sum times its length (the frames are rates). */
+static double frame_counts(const estimate *e, const double *bounds, size_t k)
+{
+    const float *f = e->frames[0] + k * e->level[0].n;
+    double sum = 0.0;
+    for (size_t i = 0; i < e->level[0].n; i++)
+        sum += (double)f[i];
+    return sum * (bounds[k + 1] - bounds[k]);
+}
+
 /* The frame the track is relative to where the caller leaves it to the
  * estimate: of the frames held still that show structure and no motion
  * inside, the one whose pose its registration determines best (the least
@@ -1367,28 +1381,39 @@ static double now_seconds(void)
  * every other frame but a faint first one showed such motion, and that
  * first frame, five times less sure, was taken (tests/test_estimate_input.c,
  * seed 1796408343821053).
+ * A frame of under ANCHOR_COUNTS of the most counts among the frames held
+ * still is taken only where no other qualifies: its noise is twice the
+ * best's or more, whatever its fit's residual says. A residual holds the
+ * misfit of the frame's reference as well as its noise, and a faint
+ * frame's misfit is faint too: on tests/test_estimate_input.c's series
+ * (a first frame of a tenth the signal) the faint frame's pose looked as
+ * sure as the bright frames' on one seed in ten, by the spread alone.
  * The passes run against frame 0 as before; this only re-expresses the
  * poses. Under frame_poses_only motion inside frames is not looked for, and
  * a frame that holds some is passed over only by its fit's lesser
  * information. fallback where no frame qualifies. */
 static size_t best_anchor(const estimate *e, const pbe_fit *fits, const int *moving, const double *unfollowed,
-                          size_t fallback)
+                          const double *bounds, size_t fallback)
 {
-    double least = (double)INFINITY, least_any = (double)INFINITY, r = rms_radius(&e->g);
+    double least = (double)INFINITY, least_any = (double)INFINITY, r = rms_radius(&e->g), most = 0.0;
     size_t best = fallback, best_any = fallback;
-    for (size_t k = 0; k < e->count; k++) {
-        if (e->flat[k] || moving[k])
-            continue;
-        double spread = pbe_pose_spread(&fits[k], r);
-        if (spread < least_any) {
-            least_any = spread;
-            best_any = k;
+    for (size_t k = 0; k < e->count; k++)
+        if (!e->flat[k] && !moving[k])
+            most = fmax(most, frame_counts(e, bounds, k));
+    for (int floor_kept = 1; floor_kept >= 0 && !(least_any < (double)INFINITY); floor_kept--)
+        for (size_t k = 0; k < e->count; k++) {
+            if (e->flat[k] || moving[k] || (floor_kept && frame_counts(e, bounds, k) < ANCHOR_COUNTS * most))
+                continue;
+            double spread = pbe_pose_spread(&fits[k], r);
+            if (spread < least_any) {
+                least_any = spread;
+                best_any = k;
+            }
+            if (unfollowed[k] <= 0.0 && spread < least) {
+                least = spread;
+                best = k;
+            }
         }
-        if (unfollowed[k] <= 0.0 && spread < least) {
-            least = spread;
-            best = k;
-        }
-    }
     return least_any < 0.25 * least ? best_any : best;
 }
 
@@ -1398,11 +1423,7 @@ static size_t most_counts(const estimate *e, const double *bounds)
     double most = -1.0;
     size_t frame = 0;
     for (size_t k = 0; k < e->count; k++) {
-        const float *f = e->frames[0] + k * e->level[0].n;
-        double sum = 0.0;
-        for (size_t i = 0; i < e->level[0].n; i++)
-            sum += (double)f[i];
-        sum *= bounds[k + 1] - bounds[k];
+        const double sum = frame_counts(e, bounds, k);
         if (sum > most) {
             most = sum;
             frame = k;
@@ -1481,7 +1502,7 @@ static pb_status estimate_run(estimate *e, const double *bounds, const pb_estima
     /* 4: every pose corrected along the contrast, together */
     if (st == PB_OK)
         st = correct_together(e, ref, fits, paths, moving);
-    const size_t anchor = chosen && st == PB_OK ? best_anchor(e, fits, moving, unfollowed, ref) : ref;
+    const size_t anchor = chosen && st == PB_OK ? best_anchor(e, fits, moving, unfollowed, bounds, ref) : ref;
     if (report)
         report->reference = anchor;
     if (st == PB_OK) {
