@@ -1397,12 +1397,16 @@ static size_t best_anchor(const estimate *e, const pbe_fit *fits, const int *mov
 {
     double least = (double)INFINITY, least_any = (double)INFINITY, r = rms_radius(&e->g), most = 0.0;
     size_t best = fallback, best_any = fallback;
-    for (size_t k = 0; k < e->count; k++)
-        if (!e->flat[k] && !moving[k])
-            most = fmax(most, frame_counts(e, bounds, k));
-    for (int floor_kept = 1; floor_kept >= 0 && !(least_any < (double)INFINITY); floor_kept--)
+    /* each frame's counts once (no room: no floor) */
+    double *counts = calloc(e->count, sizeof(double));
+    for (size_t k = 0; k < e->count && counts; k++)
+        if (!e->flat[k] && !moving[k]) {
+            counts[k] = frame_counts(e, bounds, k);
+            most = fmax(most, counts[k]);
+        }
+    for (int floor_kept = counts != NULL; floor_kept >= 0 && !(least_any < (double)INFINITY); floor_kept--)
         for (size_t k = 0; k < e->count; k++) {
-            if (e->flat[k] || moving[k] || (floor_kept && frame_counts(e, bounds, k) < ANCHOR_COUNTS * most))
+            if (e->flat[k] || moving[k] || (floor_kept && counts[k] < ANCHOR_COUNTS * most))
                 continue;
             double spread = pbe_pose_spread(&fits[k], r);
             if (spread < least_any) {
@@ -1414,6 +1418,7 @@ static size_t best_anchor(const estimate *e, const pbe_fit *fits, const int *mov
                 best = k;
             }
         }
+    free(counts);
     return least_any < 0.25 * least ? best_any : best;
 }
 

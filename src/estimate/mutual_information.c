@@ -400,11 +400,8 @@ pb_status pbe_register_mi(pb_context *ctx, pbe_level *level, const float *frame,
          * top. The fit ends where a gradient step finds no rise or at the
          * iteration bound (a gradient step, a quarter voxel, is never this
          * short) */
-        if (len < shortest) {
-            if (fresh)
-                break;
+        if (len < shortest)
             fresh = 1;
-        }
     }
     if (mi_out)
         *mi_out = mi;
