@@ -683,6 +683,39 @@ static pb_status back_path(estimate *e, const pbe_fit *fits, size_t k, double on
     return PB_OK;
 }
 
+static void dwell_shares(const double *u, int n, double *w);
+
+/* Whether a path on into the frame after (dir +1, PATH_ON) or from the
+ * frame before (-1, PATH_FROM) stops short of that neighbour: the frame
+ * holds no dwell at its far end (the point beside that neighbour; a share
+ * the keys keep, dwell_shares). Such a path does not claim that the motion
+ * went on into the neighbour, and the poses need not show it
+ * (motion_went_on): it holds the poses the head took inside the frame, and
+ * where the neighbour is still its pose holds from the boundary, as the
+ * path between's does (path_keys). A jerk inside a frame during a slow nod
+ * (issue 47's draw 3171377247, frame 6 of 84-114 s, a jerk of 8 degrees at
+ * 92.4 s): the path between the neighbours' poses misses the nod's turn
+ * (-24 %), the path on from the frame before gains 26 %, dwelling at that
+ * frame's pose for 0.27 of the frame and at 0.62-0.75 of the way for the
+ * rest; the frame after's pose lies short of where it would were the motion
+ * going on, and held to one pose the frame stood 3.71 mm off.
+ * PETBLUR_ESTIMATE_SHORT=0 asks every path into a still neighbour for the
+ * motion going on, for comparisons (short_paths). */
+static int short_paths(void)
+{
+    const char *env = getenv("PETBLUR_ESTIMATE_SHORT");
+    return !(env && strcmp(env, "0") == 0);
+}
+
+static int stops_short(const frame_path *p, int dir)
+{
+    if (!short_paths())
+        return 0;
+    double w[DWELL_POINTS];
+    dwell_shares(p->dwell, DWELL_POINTS, w);
+    return !(w[dir > 0 ? DWELL_POINTS - 1 : 0] > 0);
+}
+
 static pb_status inside_frames(estimate *e, const pbe_fit *fits, size_t reference, const float *moved,
                                const double *gram, float *own, frame_path *paths, int *moving, size_t *moving_count,
                                double *sides, double *unfollowed)
@@ -775,11 +808,11 @@ static pb_status inside_frames(estimate *e, const pbe_fit *fits, size_t referenc
         int between = paths[k * PATHS + PATH_BETWEEN].gain > dwell_gain;
         if (k + 1 == e->count ? on->gain <= UNSUPPORTED_GAIN
                               : !moves[k + 1] && (between || on->gain <= UNSUPPORTED_GAIN ||
-                                                  !motion_went_on(e, fits, k, +1)))
+                                                  !(motion_went_on(e, fits, k, +1) || stops_short(on, +1))))
             on->gain = 0.0;
         if (k == 0 ? from->gain <= UNSUPPORTED_GAIN
                    : !moves[k - 1] && (between || from->gain <= UNSUPPORTED_GAIN ||
-                                       !motion_went_on(e, fits, k, -1)))
+                                       !(motion_went_on(e, fits, k, -1) || stops_short(from, -1))))
             from->gain = 0.0;
     }
     /* the clearest first, of the paths still free */
@@ -1188,17 +1221,20 @@ static int path_ends_step(void)
     return !(env && strcmp(env, "ramp") == 0);
 }
 
-/* The points of a path of a kind from s to e in path order, each for its
- * dwell u. A path that starts at the frame before's pose (ends at the frame
- * after's) but does not dwell there steps from (to) that pose at the
- * boundary, as back_keys: the neighbour holds still to its ends, so the
- * motion between its pose and the path's first (last) point held took place
- * inside this frame. Without that step the track ramped from the last point
- * held to the neighbour's middle, half a still frame of motion the frame
- * does not show (issue 47's draw 3414265662: a jerk across the boundary of
- * frames 2 and 3, frame 3 5.64 mm off on a ramp of 5 s). */
-static void path_keys(keys *out, double t0, double t1, int kind, const pb_pose *s, const pb_pose *e,
-                      const double *u, double *from, double *to)
+/* The points of a path from s to e in path order, each for its dwell u.
+ * A path that starts at the frame before's pose (ends at the frame after's)
+ * but does not dwell there steps from (to) that pose at the boundary, as
+ * back_keys: the neighbour holds still to its ends, so the motion between
+ * its pose and the path's first (last) point held took place inside this
+ * frame. Without that step the track ramped from the last point held to the
+ * neighbour's middle, half a still frame of motion the frame does not show
+ * (issue 47's draw 3414265662: a jerk across the boundary of frames 2 and
+ * 3, frame 3 5.64 mm off on a ramp of 5 s). before (after): that still
+ * neighbour's pose, where the path starts (ends) there or stops short of it
+ * (stops_short), else NULL (the motion goes on into the neighbour, or the
+ * neighbour moves itself). */
+static void path_keys(keys *out, double t0, double t1, const pb_pose *s, const pb_pose *e, const pb_pose *before,
+                      const pb_pose *after, const double *u, double *from, double *to)
 {
     double w[DWELL_POINTS];
     pb_pose p[DWELL_POINTS];
@@ -1206,8 +1242,23 @@ static void path_keys(keys *out, double t0, double t1, int kind, const pb_pose *
     for (int i = 0; i < DWELL_POINTS; i++)
         pb_pose_interpolate(s, e, (double)i / (DWELL_POINTS - 1), &p[i]);
     const int step = path_ends_step();
-    hold_keys(out, t0, t1, p, w, DWELL_POINTS, step && starts_at_before(kind) && !(w[0] > 0) ? s : NULL,
-              step && ends_at_after(kind) && !(w[DWELL_POINTS - 1] > 0) ? e : NULL, from, to);
+    hold_keys(out, t0, t1, p, w, DWELL_POINTS, step && !(w[0] > 0) ? before : NULL,
+              step && !(w[DWELL_POINTS - 1] > 0) ? after : NULL, from, to);
+}
+
+/* The still neighbours' poses a moving frame f's path of a kind steps from
+ * and to where it holds no dwell at its ends (path_keys): the neighbour it
+ * starts or ends at, or one it stops short of (stops_short), still and not
+ * where the motion went on (motion_went_on). */
+static void path_neighbours(const estimate *e, const pbe_fit *fits, const int *moving, size_t f, int kind,
+                            const pb_pose **before, const pb_pose **after)
+{
+    const int stopped = short_paths();
+    *before = *after = NULL;
+    if (f > 0 && (starts_at_before(kind) || (stopped && !moving[f - 1] && !motion_went_on(e, fits, f, -1))))
+        *before = &fits[f - 1].pose;
+    if (f + 1 < e->count && (ends_at_after(kind) || (stopped && !moving[f + 1] && !motion_went_on(e, fits, f, +1))))
+        *after = &fits[f + 1].pose;
 }
 
 /* PATH_BACK's points (back_poses) in order, each for its dwell u. Where it
@@ -1523,9 +1574,11 @@ static pb_status estimate_run(estimate *e, const double *bounds, const pb_estima
                 if (moving[f] - 1 == PATH_BACK)
                     back_keys(&k, bounds[f], bounds[f + 1], &p->start, &p->end, &fits[f + 1].pose, p->dwell, &from,
                               &to);
-                else
-                    path_keys(&k, bounds[f], bounds[f + 1], moving[f] - 1, &p->start, &p->end, p->dwell, &from,
-                              &to);
+                else {
+                    const pb_pose *before, *after;
+                    path_neighbours(e, fits, moving, f, moving[f] - 1, &before, &after);
+                    path_keys(&k, bounds[f], bounds[f + 1], &p->start, &p->end, before, after, p->dwell, &from, &to);
+                }
                 if (o->frames) {
                     o->frames[f].motion_from = from;
                     o->frames[f].motion_to = to;
