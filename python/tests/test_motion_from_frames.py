@@ -946,12 +946,13 @@ def test_a_jerk_inside_a_drift_is_followed(rng, monkeypatch):
     at one pose). Against one pose a frame and against
     PETBLUR_ESTIMATE_SHORT=0, which asks that path for the motion going on
     and, where the path between fails, holds the frame at one pose.
-    Measured while writing this test, 22 fresh series: every jerk's frame
-    followed, at 0.42-0.76 of one pose's error (1.2-2.3 mm of a 10-14 mm
-    jerk: the path's nine points and the drift); where SHORT=0 held it at one
-    pose (8), the same; where SHORT=0 took another path (14), the same track
-    (4) or its jerk's frame at 0.35-0.67 of that path's error (10); the
-    series' mean at most 0.83 of one pose's a frame, never above SHORT=0's."""
+    Measured while writing this test, 32 fresh series (22 with the rule
+    asking for no dwell at the far end, 10 for under a twentieth): every
+    jerk's frame followed, at 0.34-0.82 of one pose's error (1.2-2.3 mm of a
+    10-14 mm jerk: the path's nine points and the drift); SHORT=0 held it at
+    one pose in 10, and in 22 took another path: the same track (7) or the
+    jerk's frame at 0.27-0.67 of that path's error (15); the series' mean at
+    most 0.84 of one pose's a frame, never above SHORT=0's."""
     nf, seconds = 7, 10.0
     k = int(rng.integers(2, nf - 2))
     v = rng.normal(size=3)
@@ -981,12 +982,10 @@ def test_a_jerk_inside_a_drift_is_followed(rng, monkeypatch):
     msg = (f"the jerk in frame {k} at {at:.2f} s; " + "; ".join(
         f"{n}: errors {np.round(e, 3)} mm, moving {mv}, reported not followed {u}" for n, (e, mv, u) in runs.items()))
     print(msg)
-    (err, moving, shown), (off, moving_off, _), one = runs["short"], runs["off"], runs["one"][0]
+    (err, moving, shown), off, one = runs["short"], runs["off"][0], runs["one"][0]
     assert moving == [k] and shown == [], msg
     assert err[k] < 0.9 * one[k] and err.mean() < one.mean(), msg
     assert err[k] <= off[k] + 0.01 and err.mean() <= off.mean() + 0.01, msg
-    if not moving_off:  # held at one pose without it
-        assert err[k] < 0.85 * off[k], msg
 
 
 def test_motion_through_frames_is_not_taken_for_steps(rng, monkeypatch):

@@ -50,6 +50,9 @@ _Static_assert((int)DWELL_POINTS <= (int)PBE_DWELL_MOST && (int)BACK_POINTS <= (
 /* How near each other a frame's neighbours must lie, against its own pose's
  * distance from them, for PATH_BACK to call its motion a return (back_path). */
 #define BACK_RETURN 0.5
+/* A path into a neighbour stops short of it where its far end holds less
+ * than this share of the frame's dwell (stops_short). */
+#define SHORT_SHARE 0.05
 /* The bar a series sets itself (series_gain). */
 #define SERIES_GAIN_TIMES 8.0
 #define SERIES_GAIN_FLOOR 0.01
@@ -683,16 +686,16 @@ static pb_status back_path(estimate *e, const pbe_fit *fits, size_t k, double on
     return PB_OK;
 }
 
-static void dwell_shares(const double *u, int n, double *w);
-
 /* Whether a path on into the frame after (dir +1, PATH_ON) or from the
  * frame before (-1, PATH_FROM) stops short of that neighbour: the frame
- * holds no dwell at its far end (the point beside that neighbour; a share
- * the keys keep, dwell_shares). Such a path does not claim that the motion
- * went on into the neighbour, and the poses need not show it
- * (motion_went_on): it holds the poses the head took inside the frame, and
- * where the neighbour is still its pose holds from the boundary, as the
- * path between's does (path_keys). A jerk inside a frame during a slow nod
+ * dwells at its far end (the point beside that neighbour) for under
+ * SHORT_SHARE of its time. Such a path does not claim that the motion went
+ * on into the neighbour, and the poses need not show it (motion_went_on):
+ * it holds the poses the head took inside the frame, and where the
+ * neighbour is still its pose holds from the boundary, as the path
+ * between's does (path_keys; the far end's remnant is dropped, a nod's
+ * spread or the noise: issue 47's draw 2167208435, a jerk inside a nod,
+ * dwelt there 3.5 % of its frame). A jerk inside a frame during a slow nod
  * (issue 47's draw 3171377247, frame 6 of 84-114 s, a jerk of 8 degrees at
  * 92.4 s): the path between the neighbours' poses misses the nod's turn
  * (-24 %), the path on from the frame before gains 26 %, dwelling at that
@@ -711,9 +714,10 @@ static int stops_short(const frame_path *p, int dir)
 {
     if (!short_paths())
         return 0;
-    double w[DWELL_POINTS];
-    dwell_shares(p->dwell, DWELL_POINTS, w);
-    return !(w[dir > 0 ? DWELL_POINTS - 1 : 0] > 0);
+    double total = 0.0;
+    for (int i = 0; i < DWELL_POINTS; i++)
+        total += fmax(p->dwell[i], 0.0);
+    return total > 0 && fmax(p->dwell[dir > 0 ? DWELL_POINTS - 1 : 0], 0.0) < SHORT_SHARE * total;
 }
 
 static pb_status inside_frames(estimate *e, const pbe_fit *fits, size_t reference, const float *moved,
@@ -1575,9 +1579,16 @@ static pb_status estimate_run(estimate *e, const double *bounds, const pb_estima
                     back_keys(&k, bounds[f], bounds[f + 1], &p->start, &p->end, &fits[f + 1].pose, p->dwell, &from,
                               &to);
                 else {
+                    const int kind = moving[f] - 1;
                     const pb_pose *before, *after;
-                    path_neighbours(e, fits, moving, f, moving[f] - 1, &before, &after);
-                    path_keys(&k, bounds[f], bounds[f + 1], &p->start, &p->end, before, after, p->dwell, &from, &to);
+                    double u[DWELL_POINTS];
+                    path_neighbours(e, fits, moving, f, kind, &before, &after);
+                    memcpy(u, p->dwell, sizeof u);
+                    if (before && !starts_at_before(kind) && stops_short(p, -1))
+                        u[0] = 0.0;
+                    if (after && !ends_at_after(kind) && stops_short(p, +1))
+                        u[DWELL_POINTS - 1] = 0.0;
+                    path_keys(&k, bounds[f], bounds[f + 1], &p->start, &p->end, before, after, u, &from, &to);
                 }
                 if (o->frames) {
                     o->frames[f].motion_from = from;
