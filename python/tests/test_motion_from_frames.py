@@ -980,7 +980,7 @@ def test_a_jerk_inside_a_drift_is_followed(rng, monkeypatch):
                       [f["frame"] for f in m.frame_report if f["motion_inside"]],
                       [(f["frame"], round(f["unfollowed"], 3)) for f in m.frame_report if f["unfollowed"] > 0])
     msg = (f"the jerk in frame {k} at {at:.2f} s; " + "; ".join(
-        f"{n}: errors {np.round(e, 3)} mm, moving {mv}, reported not followed {u}" for n, (e, mv, u) in runs.items()))
+        f"{n}: errors {np.round(e, 3)} mm, moving {mv}, reported not followed {r}" for n, (e, mv, r) in runs.items()))
     print(msg)
     (err, moving, shown), off, one = runs["short"], runs["off"][0], runs["one"][0]
     assert moving == [k] and shown == [], msg
