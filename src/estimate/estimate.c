@@ -703,16 +703,11 @@ static pb_status back_path(estimate *e, const pbe_fit *fits, size_t k, double on
  * rest; the frame after's pose lies short of where it would were the motion
  * going on, and held to one pose the frame stood 3.71 mm off.
  * PETBLUR_ESTIMATE_SHORT=0 asks every path into a still neighbour for the
- * motion going on, for comparisons (short_paths). */
-static int short_paths(void)
-{
-    const char *env = getenv("PETBLUR_ESTIMATE_SHORT");
-    return !(env && strcmp(env, "0") == 0);
-}
-
+ * motion going on, for comparisons. */
 static int stops_short(const frame_path *p, int dir)
 {
-    if (!short_paths())
+    const char *env = getenv("PETBLUR_ESTIMATE_SHORT");
+    if (env && strcmp(env, "0") == 0)
         return 0;
     double total = 0.0;
     for (int i = 0; i < DWELL_POINTS; i++)
@@ -1250,19 +1245,29 @@ static void path_keys(keys *out, double t0, double t1, const pb_pose *s, const p
               step && !(w[DWELL_POINTS - 1] > 0) ? after : NULL, from, to);
 }
 
-/* The still neighbours' poses a moving frame f's path of a kind steps from
- * and to where it holds no dwell at its ends (path_keys): the neighbour it
- * starts or ends at, or one it stops short of (stops_short), still and not
- * where the motion went on (motion_went_on). */
+/* The still neighbours' poses a moving frame f's path p of a kind steps
+ * from and to where it holds no dwell at its ends (path_keys): the
+ * neighbour it starts or ends at, or one it stops short of (stops_short),
+ * still and not where the motion went on (motion_went_on); u: p's dwell,
+ * less the remnant at an end it stops short at. */
 static void path_neighbours(const estimate *e, const pbe_fit *fits, const int *moving, size_t f, int kind,
-                            const pb_pose **before, const pb_pose **after)
+                            const frame_path *p, double u[DWELL_POINTS], const pb_pose **before,
+                            const pb_pose **after)
 {
-    const int stopped = short_paths();
+    memcpy(u, p->dwell, DWELL_POINTS * sizeof *u);
     *before = *after = NULL;
-    if (f > 0 && (starts_at_before(kind) || (stopped && !moving[f - 1] && !motion_went_on(e, fits, f, -1))))
+    if (f > 0 && starts_at_before(kind))
         *before = &fits[f - 1].pose;
-    if (f + 1 < e->count && (ends_at_after(kind) || (stopped && !moving[f + 1] && !motion_went_on(e, fits, f, +1))))
+    else if (f > 0 && !moving[f - 1] && !motion_went_on(e, fits, f, -1) && stops_short(p, -1)) {
+        *before = &fits[f - 1].pose;
+        u[0] = 0.0;
+    }
+    if (f + 1 < e->count && ends_at_after(kind))
         *after = &fits[f + 1].pose;
+    else if (f + 1 < e->count && !moving[f + 1] && !motion_went_on(e, fits, f, +1) && stops_short(p, +1)) {
+        *after = &fits[f + 1].pose;
+        u[DWELL_POINTS - 1] = 0.0;
+    }
 }
 
 /* PATH_BACK's points (back_poses) in order, each for its dwell u. Where it
@@ -1579,15 +1584,9 @@ static pb_status estimate_run(estimate *e, const double *bounds, const pb_estima
                     back_keys(&k, bounds[f], bounds[f + 1], &p->start, &p->end, &fits[f + 1].pose, p->dwell, &from,
                               &to);
                 else {
-                    const int kind = moving[f] - 1;
                     const pb_pose *before, *after;
                     double u[DWELL_POINTS];
-                    path_neighbours(e, fits, moving, f, kind, &before, &after);
-                    memcpy(u, p->dwell, sizeof u);
-                    if (before && !starts_at_before(kind) && stops_short(p, -1))
-                        u[0] = 0.0;
-                    if (after && !ends_at_after(kind) && stops_short(p, +1))
-                        u[DWELL_POINTS - 1] = 0.0;
+                    path_neighbours(e, fits, moving, f, moving[f] - 1, p, u, &before, &after);
                     path_keys(&k, bounds[f], bounds[f + 1], &p->start, &p->end, before, after, u, &from, &to);
                 }
                 if (o->frames) {
