@@ -948,7 +948,8 @@ def test_a_jerk_inside_a_drift_is_followed(rng, monkeypatch):
     and, where the path between fails, holds the frame at one pose.
     Measured while writing this test, 32 fresh series (22 with the rule
     asking for no dwell at the far end, 10 for under a twentieth): every
-    jerk's frame followed, at 0.34-0.82 of one pose's error (1.2-2.3 mm of a
+    jerk's frame followed, at 0.34-0.82 of one pose's error (0.32-0.88 over
+    20 more, hence the bound of 0.95; 1.2-2.3 mm of a
     10-14 mm jerk: the path's nine points and the drift); SHORT=0 held it at
     one pose in 10, and in 22 took another path: the same track (7) or the
     jerk's frame at 0.27-0.67 of that path's error (15); the series' mean at
@@ -984,7 +985,7 @@ def test_a_jerk_inside_a_drift_is_followed(rng, monkeypatch):
     print(msg)
     (err, moving, shown), off, one = runs["short"], runs["off"][0], runs["one"][0]
     assert moving == [k] and shown == [], msg
-    assert err[k] < 0.9 * one[k] and err.mean() < one.mean(), msg
+    assert err[k] < 0.95 * one[k] and err.mean() < one.mean(), msg
     assert err[k] <= off[k] + 0.01 and err.mean() <= off.mean() + 0.01, msg
 
 
