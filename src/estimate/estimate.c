@@ -724,6 +724,16 @@ static int stops_short(const frame_path *p, int dir)
     return total > 0 && fmax(p->dwell[dir > 0 ? DWELL_POINTS - 1 : 0], 0.0) < SHORT_SHARE * total;
 }
 
+/* Whether frame k moves by a path of its own, as a neighbour's support: one
+ * of its paths gains over DWELL_GAIN. */
+static int shows_motion(const frame_path *paths, size_t k)
+{
+    for (int kind = 0; kind < PATHS; kind++)
+        if (paths[k * PATHS + (size_t)kind].gain > DWELL_GAIN)
+            return 1;
+    return 0;
+}
+
 static pb_status inside_frames(estimate *e, const pbe_fit *fits, size_t reference, const float *moved,
                                const double *gram, float *own, frame_path *paths, int *moving, size_t *moving_count,
                                double *sides, double *unfollowed)
@@ -803,10 +813,8 @@ static pb_status inside_frames(estimate *e, const pbe_fit *fits, size_t referenc
     for (size_t k = 0; k < e->count; k++)
         for (int kind = 0; kind < PATHS; kind++)
             unfollowed[k] = fmax(unfollowed[k], paths[k * PATHS + (size_t)kind].gain);
-    for (size_t k = 1; k + 1 < e->count; k++) {
-        for (int kind = 0; kind < PATHS; kind++)
-            moves[k] |= paths[k * PATHS + (size_t)kind].gain > DWELL_GAIN;
-    }
+    for (size_t k = 1; k + 1 < e->count; k++)
+        moves[k] = shows_motion(paths, k);
     /* PATH_BACK ends at both neighbours' poses, which must hold still */
     for (size_t k = 1; k + 1 < e->count; k++)
         if (moves[k - 1] || moves[k + 1])
@@ -837,15 +845,11 @@ static pb_status inside_frames(estimate *e, const pbe_fit *fits, size_t referenc
                                            !(motion_went_on(e, fits, k, -1) || stops_short(from, -1))))
                 from->gain = 0.0;
         }
-        for (size_t k = 1; k + 1 < e->count && !support_by_gain; k++) {
-            int still_moves = 0;
-            for (int kind = 0; kind < PATHS; kind++)
-                still_moves |= paths[k * PATHS + (size_t)kind].gain > DWELL_GAIN;
-            if (moves[k] && !still_moves) {
+        for (size_t k = 1; k + 1 < e->count && !support_by_gain; k++)
+            if (moves[k] && !shows_motion(paths, k)) {
                 moves[k] = 0;
                 changed = 1;
             }
-        }
     }
     /* the clearest first, of the paths still free */
     *moving_count = 0;
