@@ -351,13 +351,20 @@ static pb_status frame_reference(estimate *e, const float *moved, const double *
  * blood : lesions 1 : 1.16 : 1.42 : 1.35 where it holds 1 : 0.82 : 1.04 :
  * 1.29, a late frame's contrast, and its misfit to its reference stood at
  * 4.5 times its noise (docs/estimate-log.md, "The own references' contrast").
- * PETBLUR_ESTIMATE_GRAM=raw takes them from the frames as moved, for
- * comparisons. */
-static pb_status moved_products(estimate *e, const float *moved, double *gram)
+ * PETBLUR_ESTIMATE_GRAM=raw takes them from the frames as moved, and =paths
+ * so but for pass 3's references, for comparisons. */
+enum { GRAM_SMOOTHED, GRAM_RAW, GRAM_PATHS };
+
+static int gram_kind(void)
+{
+    const char *env = getenv("PETBLUR_ESTIMATE_GRAM");
+    return env && strcmp(env, "raw") == 0 ? GRAM_RAW : env && strcmp(env, "paths") == 0 ? GRAM_PATHS : GRAM_SMOOTHED;
+}
+
+static pb_status moved_products(estimate *e, const float *moved, double *gram, int smoothed)
 {
     const size_t n = e->level[0].n;
-    const char *env = getenv("PETBLUR_ESTIMATE_GRAM");
-    if (env && strcmp(env, "raw") == 0) {
+    if (!smoothed) {
         pbe_gram_band(e->level[0].pool, moved, n, e->count, gram);
         return PB_OK;
     }
@@ -384,7 +391,7 @@ static pb_status frames_moved_back(estimate *e, const pbe_fit *fits, float *move
     for (size_t k = 0; k < e->count; k++)
         if (e->flat[k])
             memset(moved + k * e->level[0].n, 0, sizeof(float) * e->level[0].n);
-    return moved_products(e, moved, gram);
+    return moved_products(e, moved, gram, gram_kind() == GRAM_SMOOTHED);
 }
 
 /* Passes 2 and on: every frame against its own reference, from its pose. */
@@ -1631,6 +1638,8 @@ static pb_status estimate_run(estimate *e, const double *bounds, const pb_estima
     if (st == PB_OK)
         st = smooth_still_poses(e, fits, bounds, ref, jumped);
     /* 3: inside frames, against the same references */
+    if (st == PB_OK && !o->frame_poses_only && gram_kind() == GRAM_PATHS)
+        st = moved_products(e, moved, gram, 1);
     if (st == PB_OK && !o->frame_poses_only)
         st = inside_frames(e, fits, ref, moved, gram, own, paths, moving, &moving_count, sides, unfollowed);
     if (st == PB_OK && !o->frame_poses_only)
