@@ -115,22 +115,18 @@ static size_t voxels(const pb_geometry *g)
     return g->dims[0] * g->dims[1] * g->dims[2];
 }
 
-/* The smoothing of level l's images: the caller's FWHM, else twice the
- * level's largest voxel. */
-static double level_fwhm(const estimate *e, size_t l)
-{
-    const double *v = e->level[l].g.voxel_size;
-    return e->fwhm > 0 ? e->fwhm : 2.0 * fmax(v[0], fmax(v[1], v[2]));
-}
-
 /* Smoothed copies of src (level 0) on every level. */
 static void pyramid(estimate *e, const float *src, float *const *out)
 {
     memcpy(out[0], src, sizeof(float) * voxels(&e->level[0].g));
     for (size_t l = 1; l < e->levels; l++)
         pbe_downsample(&e->level[l - 1].g, out[l - 1], &e->level[l].g, out[l]);
-    for (size_t l = 0; l < e->levels; l++)
-        pbe_smooth(e->level[l].pool, &e->level[l].g, out[l], level_fwhm(e, l), e->tmp);
+    for (size_t l = 0; l < e->levels; l++) {
+        double fwhm = e->fwhm > 0 ? e->fwhm : 2.0 * fmax(e->level[l].g.voxel_size[0],
+                                                           fmax(e->level[l].g.voxel_size[1],
+                                                                e->level[l].g.voxel_size[2]));
+        pbe_smooth(e->level[l].pool, &e->level[l].g, out[l], fwhm, e->tmp);
+    }
 }
 
 /* The reference on every level from its pyramid (pyramid's levels). */
@@ -341,44 +337,6 @@ static pb_status frame_reference(estimate *e, const float *moved, const double *
     return st == PB_OK ? set_frame_support(e, k) : st;
 }
 
-/* The moved-back frames' inner products, from which each frame's own
- * reference takes its contrast (references.c): from copies smoothed as level
- * 0 is, where the frames' noise is a small part of their energy. From the
- * frames as moved, each principal image beyond the first carries the other
- * frames' noise as well as the contrast's change, and a frame's projection
- * onto it falls short by that share (the dilution of a regression on noisy
- * regressors): frame 10 of issue 47's draw 3259547278 took grey : white :
- * blood : lesions 1 : 1.16 : 1.42 : 1.35 where it holds 1 : 0.82 : 1.04 :
- * 1.29, a late frame's contrast, and its misfit to its reference stood at
- * 4.5 times its noise (docs/estimate-log.md, "The own references' contrast").
- * PETBLUR_ESTIMATE_GRAM=raw takes them from the frames as moved, and =paths
- * so but for pass 3's references, for comparisons. */
-enum { GRAM_SMOOTHED, GRAM_RAW, GRAM_PATHS };
-
-static int gram_kind(void)
-{
-    const char *env = getenv("PETBLUR_ESTIMATE_GRAM");
-    return env && strcmp(env, "raw") == 0 ? GRAM_RAW : env && strcmp(env, "paths") == 0 ? GRAM_PATHS : GRAM_SMOOTHED;
-}
-
-static pb_status moved_products(estimate *e, const float *moved, double *gram, int smoothed)
-{
-    const size_t n = e->level[0].n;
-    if (!smoothed) {
-        pbe_gram_band(e->level[0].pool, moved, n, e->count, gram);
-        return PB_OK;
-    }
-    float *smooth = malloc(sizeof(float) * n * e->count);
-    if (!smooth)
-        return PB_ERR_OUT_OF_MEMORY;
-    memcpy(smooth, moved, sizeof(float) * n * e->count);
-    for (size_t k = 0; k < e->count; k++)
-        pbe_smooth(e->level[0].pool, &e->level[0].g, smooth + k * n, level_fwhm(e, 0), e->tmp);
-    pbe_gram_band(e->level[0].pool, smooth, n, e->count, gram);
-    free(smooth);
-    return PB_OK;
-}
-
 /* The frames moved back onto the reference by their poses, those of noise
  * alone zeroed (they add only noise to the others' references, and at a
  * higher level than theirs would be their leading image), and the band of
@@ -391,7 +349,8 @@ static pb_status frames_moved_back(estimate *e, const pbe_fit *fits, float *move
     for (size_t k = 0; k < e->count; k++)
         if (e->flat[k])
             memset(moved + k * e->level[0].n, 0, sizeof(float) * e->level[0].n);
-    return moved_products(e, moved, gram, gram_kind() == GRAM_SMOOTHED);
+    pbe_gram_band(e->level[0].pool, moved, e->level[0].n, e->count, gram);
+    return PB_OK;
 }
 
 /* Passes 2 and on: every frame against its own reference, from its pose. */
@@ -1638,8 +1597,6 @@ static pb_status estimate_run(estimate *e, const double *bounds, const pb_estima
     if (st == PB_OK)
         st = smooth_still_poses(e, fits, bounds, ref, jumped);
     /* 3: inside frames, against the same references */
-    if (st == PB_OK && !o->frame_poses_only && gram_kind() == GRAM_PATHS)
-        st = moved_products(e, moved, gram, 1);
     if (st == PB_OK && !o->frame_poses_only)
         st = inside_frames(e, fits, ref, moved, gram, own, paths, moving, &moving_count, sides, unfollowed);
     if (st == PB_OK && !o->frame_poses_only)
