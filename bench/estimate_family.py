@@ -251,18 +251,20 @@ def simulate(d: Draw, rng: np.random.Generator, steps: int = 4, moving_steps: in
     return frames, affine, b, truth
 
 
+def mean_map(maps: np.ndarray) -> np.ndarray:
+    """The mean of 4x4 rigid maps: their rotations' mean and their translations' mean."""
+    m = np.eye(4)
+    m[:3, :3] = Rotation.from_matrix(maps[:, :3, :3]).mean().as_matrix()
+    m[:3, 3] = maps[:, :3, 3].mean(axis=0)
+    return m
+
+
 def frame_means(truth: Truth, bounds, samples: int = 40):
     """The best one pose a frame can do: the truth's mean pose over each frame, at the frame's middle, interpolated
     between them as the SimpleITK track is. What bounds a method that gives each frame one pose; motion inside
     frames (pass 3) can do better."""
-    maps = []
-    for k in range(len(bounds) - 1):
-        ms = np.array([truth(t) for t in bounds[k] + (np.arange(samples) + 0.5) / samples * (bounds[k + 1] -
-                                                                                             bounds[k])])
-        m = np.eye(4)
-        m[:3, :3] = Rotation.from_matrix(ms[:, :3, :3]).mean().as_matrix()
-        m[:3, 3] = ms[:, :3, 3].mean(axis=0)
-        maps.append(m)
+    maps = [mean_map(np.array([truth(t) for t in bounds[k] + (np.arange(samples) + 0.5) / samples *
+                               (bounds[k + 1] - bounds[k])])) for k in range(len(bounds) - 1)]
     mids = 0.5 * (bounds[:-1] + bounds[1:])
     return np.concatenate([[bounds[0]], mids, [bounds[-1]]]), np.array([maps[0]] + maps + [maps[-1]])
 

@@ -24,7 +24,6 @@ import sys
 
 import numpy as np
 from scipy import ndimage
-from scipy.spatial.transform import Rotation
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import estimate_family as ef  # noqa: E402
@@ -32,13 +31,6 @@ import head_frames as hf  # noqa: E402
 
 BARS = (1.0, 3.0)  # percent of a frame's noise energy
 STILL_MM = 0.05    # the truth's mean pose this near the truth over a frame: no motion inside it
-
-
-def mean_pose(maps: np.ndarray) -> np.ndarray:
-    m = np.eye(4)
-    m[:3, :3] = Rotation.from_matrix(maps[:, :3, :3]).mean().as_matrix()
-    m[:3, 3] = maps[:, :3, 3].mean(0)
-    return m
 
 
 def shares(seed: int) -> list:
@@ -64,7 +56,7 @@ def shares(seed: int) -> list:
         mask = clean > 0.05 * clean.max()
         scale = frames[..., k].sum() / clean.sum()
         y, yc = frames[..., k][mask].astype(np.float64), clean[mask] * scale
-        one = view([mean_pose(maps)] * len(ts))[mask] * scale
+        one = view([ef.mean_map(maps)] * len(ts))[mask] * scale
         x = np.column_stack([one, np.ones(len(one))])
         c, *_ = np.linalg.lstsq(x, yc, rcond=None)
         misfit = float(((yc - x @ c) ** 2).sum())
