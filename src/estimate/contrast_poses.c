@@ -15,7 +15,7 @@
  * in noise, and unweighted the sum is the noisiest frames' (docs/estimate-log.md:
  * a draw from injection whose short frames held 30-47 of the energy beyond,
  * its long ones 4-5, took a correction 1.3 mm wrong). The noise is measured
- * from each frame alone (frame_noise). Measured as the energy beyond at the
+ * from each frame alone (pbe_frame_noise). Measured as the energy beyond at the
  * registered poses, it held the bias sought as well: the frames most off
  * weighed least, and on CI's series 3179720955 the pass took the track from
  * 0.932 to 0.990 mm, where it now takes it to 0.537 (on 24 fresh series on
@@ -450,43 +450,6 @@ static pb_status minimise(collective *cv, double p[NG], double e0)
     return st;
 }
 
-/* A frame's noise from the frame alone: the median absolute finest Haar
- * detail (the 2x2x2 block's voxels with alternating signs, which a smooth
- * image and a plane edge leave near zero, so a misregistration does not
- * change it) over the blocks brighter than the frame's mean (the head: the
- * air outside holds no counts and no noise). 0 where no block qualifies,
- * -1 where host memory runs out. */
-static double frame_noise(const float *f, const size_t d[3])
-{
-    size_t bx = d[0] / 2, by = d[1] / 2, bz = d[2] / 2, n = d[0] * d[1] * d[2], used = 0;
-    double mean = 0.0;
-    for (size_t i = 0; i < n; i++)
-        mean += (double)f[i];
-    mean /= (double)n;
-    double *det = malloc(sizeof(double) * (bx * by * bz + 1));
-    if (!det)
-        return -1.0;
-    for (size_t z = 0; z < bz; z++)
-        for (size_t y = 0; y < by; y++)
-            for (size_t x = 0; x < bx; x++) {
-                double sum = 0.0, hhh = 0.0;
-                for (int c = 0; c < 8; c++) {
-                    size_t i = (2 * x + (c & 1)) + d[0] * ((2 * y + (c >> 1 & 1)) + d[1] * (2 * z + (c >> 2 & 1)));
-                    sum += (double)f[i];
-                    hhh += ((c & 1) ^ (c >> 1 & 1) ^ (c >> 2 & 1)) ? -(double)f[i] : (double)f[i];
-                }
-                if (sum > 8.0 * mean)
-                    det[used++] = fabs(hhh);
-            }
-    double med = 0.0;
-    if (used) {
-        qsort(det, used, sizeof(double), pb_compare_doubles);
-        med = det[used / 2];
-    }
-    free(det);
-    return med;
-}
-
 /* m of the still frames (of `still`), spread evenly from the first to the
  * last, in order. */
 static void pick_still(const pbe_collective_pose *poses, size_t count, size_t still, size_t *use, size_t m)
@@ -518,7 +481,7 @@ pb_status pbe_collective(pb_pool *pool, const pb_geometry *fine, const float *ra
     /* PETBLUR_ESTIMATE_CONTRAST=0 leaves the poses as registered, =coarse
      * halves the grid to LONGEST_SIDE whatever its voxels, =unweighted counts
      * every frame alike, =residual weighs them by their energy beyond at the
-     * registered poses (before frame_noise), =half takes a correction only
+     * registered poses (before pbe_frame_noise), =half takes a correction only
      * within half a voxel, =any whether or not the earlier half of the
      * frames shows the contrast alone (contrast_early), for comparisons */
     const char *env = getenv("PETBLUR_ESTIMATE_CONTRAST");
@@ -598,7 +561,7 @@ pb_status pbe_collective(pb_pool *pool, const pb_geometry *fine, const float *ra
         cv.radius = fmax(cv.radius, 0.5 * (double)cv.g.dims[i] * cv.g.voxel_size[i]);
     /* at p = 0 every weight moves nothing: this residual, which the
      * contrast weights are read from, is also minimise's start, once the
-     * frames are weighed by their noise (frame_noise). Under
+     * frames are weighed by their noise (pbe_frame_noise). Under
      * PETBLUR_ESTIMATE_CONTRAST=residual the noise is read from it
      * unweighted instead (pbe_noise_scales: each frame's energy beyond,
      * which holds the bias sought as well), and weighted once, not iterated:
@@ -608,7 +571,7 @@ pb_status pbe_collective(pb_pool *pool, const pb_geometry *fine, const float *ra
     double p[NG] = {0}, e0;
     if (st == PB_OK && scale && !residual_weights) {
         for (size_t i = 0; i < m && st == PB_OK; i++) {
-            double s = frame_noise(cv.frames + cv.use[i] * cv.n, cv.g.dims);
+            double s = pbe_frame_noise(cv.frames + cv.use[i] * cv.n, cv.g.dims);
             if (s < 0.0)
                 st = PB_ERR_OUT_OF_MEMORY;
             scale[i] = s * s;

@@ -91,6 +91,7 @@ typedef struct estimate {
     const float *raw;       /* the frames as given, or less their background (owned) */
     float *owned;
     int *flat;              /* per frame: shows no structure above its noise */
+    double *noise;          /* per frame: its noise's variance, measured on the frame as given (pbe_frame_noise) */
     pb_warnings *warnings;
     float *frames[8];       /* per level: every frame, smoothed */
     unsigned char *known;   /* per frame, level 0: where its move back onto the reference reads inside its grid (/255) */
@@ -328,10 +329,21 @@ static pb_status set_frame_support(estimate *e, size_t k)
     return st;
 }
 
+/* Whether the own references weigh the frames by their noise measured alone
+ * (pbe_frame_noise), the default; PETBLUR_ESTIMATE_REFERENCES=energy weighs
+ * them by their energy beyond the leading images, and projects as that did,
+ * for comparisons. */
+static int references_by_noise(void)
+{
+    const char *env = getenv("PETBLUR_ESTIMATE_REFERENCES");
+    return !(env && strcmp(env, "energy") == 0);
+}
+
 /* Frame k's own reference (references.c) on every level, with its support. */
 static pb_status frame_reference(estimate *e, const float *moved, const double *gram, size_t k, float *reference)
 {
-    pb_status st = pbe_frame_reference(e->level[0].pool, moved, e->level[0].n, e->count, gram, k, reference);
+    pb_status st = pbe_frame_reference(e->level[0].pool, moved, e->level[0].n, e->count, gram,
+                                       references_by_noise() ? e->noise : NULL, k, reference);
     if (st == PB_OK)
         st = set_reference(e, reference);
     return st == PB_OK ? set_frame_support(e, k) : st;
@@ -339,16 +351,25 @@ static pb_status frame_reference(estimate *e, const float *moved, const double *
 
 /* The frames moved back onto the reference by their poses, those of noise
  * alone zeroed (they add only noise to the others' references, and at a
- * higher level than theirs would be their leading image), and the band of
- * their inner products the references are built from. */
+ * higher level than theirs would be their leading image), each frame's noise,
+ * and the band of their inner products the references are built from. The
+ * noise is measured on the frame as given: trilinear resampling takes noise
+ * off by the pose, and weighed by what is left, the frames moved furthest
+ * weighed most, a frame that moved inside it (registered between its poses)
+ * among them (test_motion_held_across_a_frame_boundary failed so). */
 static pb_status frames_moved_back(estimate *e, const pbe_fit *fits, float *moved, double *gram)
 {
     pb_status st = move_back(e, fits, moved);
     if (st != PB_OK)
         return st;
-    for (size_t k = 0; k < e->count; k++)
+    for (size_t k = 0; k < e->count; k++) {
         if (e->flat[k])
             memset(moved + k * e->level[0].n, 0, sizeof(float) * e->level[0].n);
+        double s = e->flat[k] ? 0.0 : pbe_frame_noise(e->raw + k * e->level[0].n, e->level[0].g.dims);
+        if (s < 0.0)
+            return PB_ERR_OUT_OF_MEMORY;
+        e->noise[k] = s * s;
+    }
     pbe_gram_band(e->level[0].pool, moved, e->level[0].n, e->count, gram);
     return PB_OK;
 }
@@ -1720,7 +1741,7 @@ pb_status pb_motion_estimate(pb_context *ctx, const pb_geometry *geometry, const
     e.warnings = report ? &report->warnings : NULL;
     if (report)
         memset(&report->warnings, 0, sizeof report->warnings);
-    if (!(e.flat = calloc(count, sizeof(int))))
+    if (!(e.flat = calloc(count, sizeof(int))) || !(e.noise = calloc(count, sizeof(double))))
         st = PB_ERR_OUT_OF_MEMORY;
     if (st == PB_OK)
         st = remove_background(&e);
@@ -1780,6 +1801,7 @@ pb_status pb_motion_estimate(pb_context *ctx, const pb_geometry *geometry, const
     free(e.owned);
     free(e.known);
     free(e.flat);
+    free(e.noise);
     free(e.tmp);
     pb_pool_destroy(e.pool);
     ctx->dev.progress = e.progress;

@@ -187,10 +187,16 @@ void pbe_gram(pb_pool *pool, const float *moved, size_t n, size_t frames, double
 /* The inner products of frames within a window of one another: band[i (B +
  * 1) + d] = g_i . g_(i+d) for d <= B = PBE_REFERENCE_OTHERS. */
 void pbe_gram_band(pb_pool *pool, const float *moved, size_t n, size_t frames, double *band);
+/* A frame's noise from the frame alone (d its dims): the median absolute
+ * finest Haar detail over the head's 2x2x2 blocks. 0 where no block is in
+ * the head, -1 where host memory runs out. */
+double pbe_frame_noise(const float *f, const size_t d[3]);
 /* Frame k's reference: its projection onto the leading principal images of
- * the other frames of its window. */
+ * the other frames of its window, each weighed by its noise's variance
+ * (noise, a value per frame; NULL: by its energy beyond the leading images,
+ * pbe_noise_scales). */
 pb_status pbe_frame_reference(pb_pool *pool, const float *moved, size_t n, size_t frames, const double *band,
-                              size_t k, float *out);
+                              const double *noise, size_t k, float *out);
 
 /* ---- intra_frame.c: motion inside a frame ---------------------------------------- */
 

@@ -8,11 +8,15 @@
  * counts, none of its own noise. The others are its nearest in time, at most
  * PBE_REFERENCE_OTHERS: uptake changes slowly against a frame, and a window
  * keeps each frame's work fixed however long the series. Each other frame
- * counts by its noise (pbe_noise_scales, its energy beyond the leading images,
- * which holds a frame's misregistration too; pass 4, contrast_poses.c, now
- * measures each frame's noise from the frame alone instead): a
+ * counts by its noise, measured from the frame alone (pbe_frame_noise): a
  * frame of 3 s holds ten times the noise of one of 60 s, and unweighted the
- * principal images after the first are the short frames' noise. */
+ * principal images after the first are the short frames' noise. Weighed by
+ * their energy beyond the leading images instead (pbe_noise_scales, as
+ * before), the frames whose uptake differs most, the first minutes', weighed
+ * least, and their contrast left the leading images: on issue 47's draws from
+ * injection the references stood 7-17 % RMS of the clean frame off it (its
+ * contrast a late frame's), against 1-1.3 % so (docs/estimate-log.md, "The
+ * own references' contrast"). */
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -200,8 +204,64 @@ void pbe_weights_of_variances(double *scale, size_t m, double *sorted)
         scale[i] = least > 0 ? 1.0 / sqrt(fmax(scale[i], least)) : 1.0;
 }
 
+/* A frame's noise from the frame alone: the median absolute finest Haar
+ * detail (the 2x2x2 block's voxels with alternating signs, which a smooth
+ * image and a plane edge leave near zero, so a misregistration does not
+ * change it) over the blocks brighter than the frame's mean (the head: the
+ * air outside holds no counts and no noise). 0 where no block qualifies,
+ * -1 where host memory runs out. */
+double pbe_frame_noise(const float *f, const size_t d[3])
+{
+    size_t bx = d[0] / 2, by = d[1] / 2, bz = d[2] / 2, n = d[0] * d[1] * d[2], used = 0;
+    double mean = 0.0;
+    for (size_t i = 0; i < n; i++)
+        mean += (double)f[i];
+    mean /= (double)n;
+    double *det = malloc(sizeof(double) * (bx * by * bz + 1));
+    if (!det)
+        return -1.0;
+    for (size_t z = 0; z < bz; z++)
+        for (size_t y = 0; y < by; y++)
+            for (size_t x = 0; x < bx; x++) {
+                double sum = 0.0, hhh = 0.0;
+                for (int c = 0; c < 8; c++) {
+                    size_t i = (2 * x + (c & 1)) + d[0] * ((2 * y + (c >> 1 & 1)) + d[1] * (2 * z + (c >> 2 & 1)));
+                    sum += (double)f[i];
+                    hhh += ((c & 1) ^ (c >> 1 & 1) ^ (c >> 2 & 1)) ? -(double)f[i] : (double)f[i];
+                }
+                if (sum > 8.0 * mean)
+                    det[used++] = fabs(hhh);
+            }
+    double med = 0.0;
+    if (used) {
+        qsort(det, used, sizeof(double), pb_compare_doubles);
+        med = det[used / 2];
+    }
+    free(det);
+    return med;
+}
+
+/* The noise's eigenvalue of a whitened Gram matrix: the median of its
+ * eigenvalues beyond the leading ones (lead, count of them), those of frames
+ * without energy (noise alone, zeroed) left out. 0 where none is left. */
+static double noise_eigenvalue(const double *w, size_t m, const size_t *lead, size_t count, double top, double *tail)
+{
+    size_t t = 0;
+    for (size_t j = 0; j < m; j++) {
+        int leading = 0;
+        for (size_t c = 0; c < count; c++)
+            leading |= lead[c] == j;
+        if (!leading && w[j] > 1e-12 * top)
+            tail[t++] = w[j];
+    }
+    if (!t)
+        return 0.0;
+    qsort(tail, t, sizeof(double), pb_compare_doubles);
+    return t % 2 ? tail[t / 2] : 0.5 * (tail[t / 2 - 1] + tail[t / 2]);
+}
+
 pb_status pbe_frame_reference(pb_pool *pool, const float *moved, size_t n, size_t frames, const double *band,
-                              size_t k, float *out)
+                              const double *noise, size_t k, float *out)
 {
     size_t first, end;
     pbe_reference_window(frames, k, &first, &end);
@@ -217,17 +277,23 @@ pb_status pbe_frame_reference(pb_pool *pool, const float *moved, size_t n, size_
     for (size_t i = first, j = 0; i < end; i++)
         if (i != k)
             other[j++] = i;
-    /* the other frames weighed by their noise (pbe_noise_scales), or alike
+    /* the other frames weighed by their noise measured alone (noise), or by
+     * their energy beyond the leading images where noise is NULL, or alike
      * with PETBLUR_ESTIMATE_REFERENCES=unweighted, for comparisons */
     const char *env = getenv("PETBLUR_ESTIMATE_REFERENCES");
     for (size_t i = 0; i < m; i++)
         for (size_t j = 0; j < m; j++)
             gram[i * m + j] = band_at(band, other[i], other[j]);
-    if (env && strcmp(env, "unweighted") == 0)
+    if (env && strcmp(env, "unweighted") == 0) {
         for (size_t i = 0; i < m; i++)
             scale[i] = 1.0;
-    else
+    } else if (noise) {
+        for (size_t i = 0; i < m; i++)
+            scale[i] = noise[other[i]];
+        pbe_weights_of_variances(scale, m, w);
+    } else {
         pbe_noise_scales(gram, m, r, a, w, v, scale);
+    }
     for (size_t i = 0; i < m; i++)
         for (size_t j = 0; j < m; j++)
             a[i * m + j] = scale[i] * scale[j] * gram[i * m + j];
@@ -235,12 +301,21 @@ pb_status pbe_frame_reference(pb_pool *pool, const float *moved, size_t n, size_
     /* The principal images of the frames g_i weighed by s_i are
      * U_j = sum_i s_i g_i v_ij / sqrt(w_j); frame k's projection onto them is
      * sum_j U_j (U_j . g_k), a weight per other frame:
-     * s_i sum_j v_ij (sum_l v_lj s_l g_l . g_k) / w_j. */
+     * s_i sum_j v_ij (sum_l v_lj s_l g_l . g_k) / w_j.
+     * Each U_j . U_j holds the noise of the frames in it, which g_k . U_j
+     * (other frames' noise) does not: with the frames weighed by their noise,
+     * that is the same share of every eigenvalue, the noise's own (those
+     * beyond the leading ones), and a projection that divides by the whole
+     * w_j falls short by it, most on the images of the contrast's change,
+     * which stand a few times the noise's eigenvalue. So the noise's
+     * eigenvalue is taken off each w_j, at most half of it. */
     double top = 0.0;
     for (size_t j = 0; j < m; j++)
         top = fmax(top, w[j]);
     size_t lead[PBE_RANK_MOST];
-    for (size_t c = 0, count = pbe_leading(w, m, r, lead); c < count; c++) {
+    const size_t count = pbe_leading(w, m, r, lead);
+    const double floor = noise ? noise_eigenvalue(w, m, lead, count, top, gram) : 0.0;
+    for (size_t c = 0; c < count; c++) {
         const size_t best = lead[c];
         if (!(w[best] > 1e-12 * top))
             continue;
@@ -248,7 +323,7 @@ pb_status pbe_frame_reference(pb_pool *pool, const float *moved, size_t n, size_
         for (size_t i = 0; i < m; i++)
             dot += v[i * m + best] * scale[i] * band_at(band, other[i], k);
         for (size_t i = 0; i < m; i++)
-            coef[i] += scale[i] * v[i * m + best] * dot / w[best];
+            coef[i] += scale[i] * v[i * m + best] * dot / fmax(w[best] - floor, 0.5 * w[best]);
     }
     weigh_job job = {moved, n, m, other, coef, out};
     pb_pool_for(pool, pb_chunks(n), weigh_chunk, &job);
