@@ -330,13 +330,17 @@ static pb_status set_frame_support(estimate *e, size_t k)
 }
 
 /* Whether the own references weigh the frames by their noise measured alone
- * (pbe_frame_noise), the default; PETBLUR_ESTIMATE_REFERENCES=energy weighs
- * them by their energy beyond the leading images, and projects as that did,
- * for comparisons. */
+ * (pbe_frame_noise): PETBLUR_ESTIMATE_REFERENCES=noise, and =unshifted
+ * without the noise's eigenvalue taken off (references.c), for comparisons.
+ * By default they weigh them by their energy beyond the leading images: the
+ * references of the frames' own contrast that noise weights give left the
+ * family's draws as they were, better on some and worse on more, as pass 3
+ * followed other frames (docs/estimate-log.md, "The own references'
+ * weights"). */
 static int references_by_noise(void)
 {
     const char *env = getenv("PETBLUR_ESTIMATE_REFERENCES");
-    return !(env && strcmp(env, "energy") == 0);
+    return env && (strcmp(env, "noise") == 0 || strcmp(env, "unshifted") == 0);
 }
 
 /* Frame k's own reference (references.c) on every level, with its support. */

@@ -8,15 +8,19 @@
  * counts, none of its own noise. The others are its nearest in time, at most
  * PBE_REFERENCE_OTHERS: uptake changes slowly against a frame, and a window
  * keeps each frame's work fixed however long the series. Each other frame
- * counts by its noise, measured from the frame alone (pbe_frame_noise): a
- * frame of 3 s holds ten times the noise of one of 60 s, and unweighted the
- * principal images after the first are the short frames' noise. Weighed by
- * their energy beyond the leading images instead (pbe_noise_scales, as
- * before), the frames whose uptake differs most, the first minutes', weighed
- * least, and their contrast left the leading images: on issue 47's draws from
- * injection the references stood 7-17 % RMS of the clean frame off it (its
- * contrast a late frame's), against 1-1.3 % so (docs/estimate-log.md, "The
- * own references' contrast"). */
+ * counts by its noise: a frame of 3 s holds ten times the noise of one of
+ * 60 s, and unweighted the principal images after the first are the short
+ * frames' noise. By default that noise is the frame's energy beyond the
+ * leading images (pbe_noise_scales), which holds a frame's misregistration
+ * and its contrast's change too: on a series from injection the frames whose
+ * uptake differs most, the first minutes', weigh least, their contrast leaves
+ * the leading images, and a frame's reference takes a later frame's contrast.
+ * Given each frame's noise measured alone (pbe_frame_noise), the frames weigh
+ * by it and the noise's eigenvalue is taken off each leading image's: on 16
+ * fresh draws of issue 47's family the references of the frames from
+ * injection stood 1.2-15 % RMS of the clean frame off it (median over each
+ * draw's frames) by default and 0.2-3.8 % so, for up to 1.6 times their noise
+ * (docs/estimate-log.md, "The own references' weights"). */
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -314,7 +318,8 @@ pb_status pbe_frame_reference(pb_pool *pool, const float *moved, size_t n, size_
         top = fmax(top, w[j]);
     size_t lead[PBE_RANK_MOST];
     const size_t count = pbe_leading(w, m, r, lead);
-    const double floor = noise ? noise_eigenvalue(w, m, lead, count, top, gram) : 0.0;
+    const int shift = noise && !(env && strcmp(env, "unshifted") == 0); /* =unshifted, for comparisons */
+    const double floor = shift ? noise_eigenvalue(w, m, lead, count, top, gram) : 0.0;
     for (size_t c = 0; c < count; c++) {
         const size_t best = lead[c];
         if (!(w[best] > 1e-12 * top))
