@@ -355,9 +355,9 @@ static pb_status frame_reference(estimate *e, const float *moved, const double *
 
 /* The frames moved back onto the reference by their poses, those of noise
  * alone zeroed (they add only noise to the others' references, and at a
- * higher level than theirs would be their leading image), each frame's noise,
- * and the band of their inner products the references are built from. The
- * noise is measured on the frame as given: trilinear resampling takes noise
+ * higher level than theirs would be their leading image), each frame's noise
+ * where the references weigh by it, and the band of their inner products the
+ * references are built from. The noise is measured on the frame as given: trilinear resampling takes noise
  * off by the pose, and weighed by what is left, the frames moved furthest
  * weighed most, a frame that moved inside it (registered between its poses)
  * among them (test_motion_held_across_a_frame_boundary failed so). */
@@ -366,10 +366,15 @@ static pb_status frames_moved_back(estimate *e, const pbe_fit *fits, float *move
     pb_status st = move_back(e, fits, moved);
     if (st != PB_OK)
         return st;
-    for (size_t k = 0; k < e->count; k++) {
+    for (size_t k = 0; k < e->count; k++)
         if (e->flat[k])
             memset(moved + k * e->level[0].n, 0, sizeof(float) * e->level[0].n);
-        double s = e->flat[k] ? 0.0 : pbe_frame_noise(e->raw + k * e->level[0].n, e->level[0].g.dims);
+    for (size_t k = 0; k < e->count && references_by_noise(); k++) {
+        if (e->flat[k] || e->noise[k] > 0.0) { /* none, or measured before: the frames as given stay */
+            e->noise[k] = e->flat[k] ? 0.0 : e->noise[k];
+            continue;
+        }
+        double s = pbe_frame_noise(e->raw + k * e->level[0].n, e->level[0].g.dims);
         if (s < 0.0)
             return PB_ERR_OUT_OF_MEMORY;
         e->noise[k] = s * s;
