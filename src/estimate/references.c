@@ -16,11 +16,10 @@
  * uptake differs most, the first minutes', weigh least, their contrast leaves
  * the leading images, and a frame's reference takes a later frame's contrast.
  * Given each frame's noise measured alone (pbe_frame_noise), the frames weigh
- * by it and the noise's eigenvalue is taken off each leading image's: on 16
- * fresh draws of issue 47's family the references of the frames from
- * injection stood 1.2-15 % RMS of the clean frame off it (median over each
- * draw's frames) by default and 0.2-3.8 % so, for up to 1.6 times their noise
- * (docs/estimate-log.md, "The own references' weights"). */
+ * by it and the noise's eigenvalue is taken off each leading image's: the
+ * references then hold the frame's own contrast, and more noise
+ * (docs/estimate-log.md, "The own references' weights", measures both and
+ * says why that is not the default). */
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
