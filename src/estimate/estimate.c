@@ -329,25 +329,16 @@ static pb_status set_frame_support(estimate *e, size_t k)
     return st;
 }
 
-/* Whether the own references weigh the frames by their noise measured alone
- * (pbe_frame_noise): PETBLUR_ESTIMATE_REFERENCES=noise, and =unshifted
- * without the noise's eigenvalue taken off (references.c), for comparisons.
- * By default they weigh them by their energy beyond the leading images: the
- * references of the frames' own contrast that noise weights give left the
- * family's draws as they were, better on some and worse on more, as pass 3
- * followed other frames (docs/estimate-log.md, "The own references'
- * weights"). */
-static int references_by_noise(void)
-{
-    const char *env = getenv("PETBLUR_ESTIMATE_REFERENCES");
-    return env && (strcmp(env, "noise") == 0 || strcmp(env, "unshifted") == 0);
-}
-
 /* Frame k's own reference (references.c) on every level, with its support. */
 static pb_status frame_reference(estimate *e, const float *moved, const double *gram, size_t k, float *reference)
 {
+    /* by default the frames weigh by their energy beyond the leading images:
+     * references of the frames' own contrast, weighed by their noise, left the
+     * family's draws as they were, better on some and worse on more, as pass 3
+     * followed other frames (docs/estimate-log.md, "The own references'
+     * weights") */
     pb_status st = pbe_frame_reference(e->level[0].pool, moved, e->level[0].n, e->count, gram,
-                                       references_by_noise() ? e->noise : NULL, k, reference);
+                                       pbe_references_by_noise() ? e->noise : NULL, k, reference);
     if (st == PB_OK)
         st = set_reference(e, reference);
     return st == PB_OK ? set_frame_support(e, k) : st;
@@ -369,15 +360,15 @@ static pb_status frames_moved_back(estimate *e, const pbe_fit *fits, float *move
     for (size_t k = 0; k < e->count; k++)
         if (e->flat[k])
             memset(moved + k * e->level[0].n, 0, sizeof(float) * e->level[0].n);
-    for (size_t k = 0; k < e->count && references_by_noise(); k++) {
-        if (e->flat[k] || e->noise[k] > 0.0) { /* none, or measured before: the frames as given stay */
-            e->noise[k] = e->flat[k] ? 0.0 : e->noise[k];
-            continue;
+    for (size_t k = 0; k < e->count && pbe_references_by_noise(); k++) {
+        if (e->flat[k]) {
+            e->noise[k] = 0.0; /* zeroed above */
+        } else if (e->noise[k] == 0.0) { /* measured once: the frames as given stay */
+            double s = pbe_frame_noise(e->raw + k * e->level[0].n, e->level[0].g.dims);
+            if (s < 0.0)
+                return PB_ERR_OUT_OF_MEMORY;
+            e->noise[k] = s * s;
         }
-        double s = pbe_frame_noise(e->raw + k * e->level[0].n, e->level[0].g.dims);
-        if (s < 0.0)
-            return PB_ERR_OUT_OF_MEMORY;
-        e->noise[k] = s * s;
     }
     pbe_gram_band(e->level[0].pool, moved, e->level[0].n, e->count, gram);
     return PB_OK;

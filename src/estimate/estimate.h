@@ -191,6 +191,10 @@ void pbe_gram_band(pb_pool *pool, const float *moved, size_t n, size_t frames, d
  * finest Haar detail over the head's 2x2x2 blocks. 0 where no block is in
  * the head, -1 where host memory runs out. */
 double pbe_frame_noise(const float *f, const size_t d[3]);
+/* Whether the own references weigh the frames by their noise measured alone
+ * (PETBLUR_ESTIMATE_REFERENCES=noise or =unshifted, for comparisons): then
+ * pbe_frame_reference asks each frame's. */
+int pbe_references_by_noise(void);
 /* Frame k's reference: its projection onto the leading principal images of
  * the other frames of its window, each weighed by its noise's variance
  * (noise, a value per frame; NULL: by its energy beyond the leading images,

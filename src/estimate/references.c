@@ -244,6 +244,29 @@ double pbe_frame_noise(const float *f, const size_t d[3])
     return med;
 }
 
+/* PETBLUR_ESTIMATE_REFERENCES, for comparisons: =unweighted counts every
+ * other frame alike, =noise weighs them by their noise measured alone with the
+ * noise's eigenvalue taken off, =unshifted so weighs them without it; unset,
+ * by their energy beyond the leading images. */
+enum { WEIGHED_BY_ENERGY, WEIGHED_ALIKE, WEIGHED_BY_NOISE, WEIGHED_BY_NOISE_UNSHIFTED };
+
+static int reference_weights(void)
+{
+    const char *env = getenv("PETBLUR_ESTIMATE_REFERENCES");
+    if (!env)
+        return WEIGHED_BY_ENERGY;
+    return strcmp(env, "unweighted") == 0  ? WEIGHED_ALIKE
+           : strcmp(env, "noise") == 0     ? WEIGHED_BY_NOISE
+           : strcmp(env, "unshifted") == 0 ? WEIGHED_BY_NOISE_UNSHIFTED
+                                           : WEIGHED_BY_ENERGY;
+}
+
+int pbe_references_by_noise(void)
+{
+    const int kind = reference_weights();
+    return kind == WEIGHED_BY_NOISE || kind == WEIGHED_BY_NOISE_UNSHIFTED;
+}
+
 /* The noise's eigenvalue of a whitened Gram matrix: the median of its
  * eigenvalues beyond the leading ones (lead, count of them), those of frames
  * without energy (noise alone, zeroed) left out. 0 where none is left. */
@@ -282,12 +305,12 @@ pb_status pbe_frame_reference(pb_pool *pool, const float *moved, size_t n, size_
             other[j++] = i;
     /* the other frames weighed by their noise measured alone (noise), or by
      * their energy beyond the leading images where noise is NULL, or alike
-     * with PETBLUR_ESTIMATE_REFERENCES=unweighted, for comparisons */
-    const char *env = getenv("PETBLUR_ESTIMATE_REFERENCES");
+     * (reference_weights) */
+    const int kind = reference_weights();
     for (size_t i = 0; i < m; i++)
         for (size_t j = 0; j < m; j++)
             gram[i * m + j] = band_at(band, other[i], other[j]);
-    if (env && strcmp(env, "unweighted") == 0) {
+    if (kind == WEIGHED_ALIKE) {
         for (size_t i = 0; i < m; i++)
             scale[i] = 1.0;
     } else if (noise) {
@@ -317,7 +340,7 @@ pb_status pbe_frame_reference(pb_pool *pool, const float *moved, size_t n, size_
         top = fmax(top, w[j]);
     size_t lead[PBE_RANK_MOST];
     const size_t count = pbe_leading(w, m, r, lead);
-    const int shift = noise && !(env && strcmp(env, "unshifted") == 0); /* =unshifted, for comparisons */
+    const int shift = noise && kind != WEIGHED_BY_NOISE_UNSHIFTED;
     const double floor = shift ? noise_eigenvalue(w, m, lead, count, top, gram) : 0.0;
     for (size_t c = 0; c < count; c++) {
         const size_t best = lead[c];
