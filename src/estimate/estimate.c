@@ -66,6 +66,10 @@ enum { SERIES_GAIN_FRAMES = 8 };
  * between frame poses is not a nod's curve, so neither model fits there),
  * while their jumps at boundaries stood at 100-1100 (docs/estimate-log.md). */
 #define SEPARATION 6.0
+/* The Levenberg-Marquardt steps of a frame's two poses (PATH_TWO). */
+enum { TWO_POSE_STEPS = 30 };
+/* The share of a frame's time its two poses must hold (two_poses_held). */
+#define TWO_HELD_SHARE 0.9
 /* The shortest time a path's step takes, as a fraction of its frame. */
 #define STEP_FRACTION 0.01
 /* A background at least this share of a frame's peak is warned about (it is
@@ -396,10 +400,13 @@ static pb_status register_own(estimate *e, pbe_fit *fits, float *moved, double *
  * lies off the line between its still neighbours' went out and came back
  * inside it (a nod, or two jerks): PATH_BACK, from the frame before's pose
  * out and on to the frame after's (back_path). */
-enum { PATH_BETWEEN, PATH_ON, PATH_FROM, PATH_BACK, PATHS };
+/* PATH_TWO: two poses of the frame's own, held in turn (two_pose_frames),
+ * fitted after the others are chosen. */
+enum { PATH_BETWEEN, PATH_ON, PATH_FROM, PATH_BACK, PATH_TWO, PATHS };
 
 typedef struct frame_path {
-    double gain;       /* 1 - its residual / one pose's; 0: not tried */
+    double gain;       /* 1 - its residual / one pose's; 0: not tried, or refused */
+    double fitted;     /* the gain as fitted, before any refusal */
     pb_pose start, end;
     double dwell[PBE_DWELL_MOST + 1]; /* DWELL_POINTS, PATH_BACK's BACK_POINTS, and the offset */
 } frame_path;
@@ -703,7 +710,7 @@ static pb_status back_path(estimate *e, const pbe_fit *fits, size_t k, double on
                                 back->dwell, &sse);
     if (st != PB_OK)
         return st;
-    back->gain = 1.0 - sse / one;
+    back->gain = back->fitted = 1.0 - sse / one;
     if (apart >= e->g.voxel_size[0] ? back->gain <= UNSUPPORTED_GAIN
                                     : apart > BACK_RETURN * out &&
                                           back->gain * BACK_RETURN * out <= UNSUPPORTED_GAIN * apart)
@@ -755,6 +762,17 @@ static int shows_motion(const frame_path *paths, size_t k)
     return 0;
 }
 
+/* Where the passes measure how far poses lie apart: a point half the grid's
+ * longest extent from the centre along every axis. */
+static void far_corner(const estimate *e, double far[3])
+{
+    double ext = 0.0;
+    for (int i = 0; i < 3; i++)
+        ext = fmax(ext, (double)e->g.dims[i] * e->g.voxel_size[i]);
+    for (int i = 0; i < 3; i++)
+        far[i] = e->c[i] + 0.5 * ext;
+}
+
 static pb_status inside_frames(estimate *e, const pbe_fit *fits, size_t reference, const float *moved,
                                const double *gram, float *own, frame_path *paths, int *moving, size_t *moving_count,
                                double *sides, double *unfollowed)
@@ -768,11 +786,8 @@ static pb_status inside_frames(estimate *e, const pbe_fit *fits, size_t referenc
         return PB_ERR_OUT_OF_MEMORY;
     }
     pb_status st = PB_OK;
-    double ext = 0.0, far[3];
-    for (int i = 0; i < 3; i++)
-        ext = fmax(ext, (double)e->g.dims[i] * e->g.voxel_size[i]);
-    for (int i = 0; i < 3; i++)
-        far[i] = e->c[i] + 0.5 * ext;
+    double far[3];
+    far_corner(e, far);
     for (size_t k = 0; k < e->count && st == PB_OK; k++) {
         int referenced = 0;
         double one = 0.0; /* one pose's weighted residual */
@@ -795,7 +810,7 @@ static pb_status inside_frames(estimate *e, const pbe_fit *fits, size_t referenc
                 st = pbe_dwell(e->ctx, &e->level[0], e->frames[0] + k * e->level[0].n, e->c, &p->start, &p->end,
                                DWELL_POINTS, p->dwell, &sse);
             if (st == PB_OK && one > 0)
-                p->gain = 1.0 - sse / one;
+                p->gain = p->fitted = 1.0 - sse / one;
             tried[k] = 1;
         }
         if (st == PB_OK && referenced)
@@ -905,6 +920,133 @@ static pb_status inside_frames(estimate *e, const pbe_fit *fits, size_t referenc
     free(anchor);
     free(moves);
     free(tried);
+    return st;
+}
+
+/* Where a path of frame k's dwells: the first and second of its points
+ * split where the two groups' mean places along it lie furthest apart,
+ * weighed by their dwells (a jerk's two poses, a nod's two halves), as
+ * fractions of the path. 0 where the path holds no dwell. */
+static int dwell_halves(const frame_path *p, int points, double *first, double *second)
+{
+    double best = -1.0;
+    for (int cut = 1; cut < points; cut++) {
+        double w[2] = {0.0, 0.0}, t[2] = {0.0, 0.0};
+        for (int i = 0; i < points; i++) {
+            const double u = fmax(p->dwell[i], 0.0), at = (double)i / (points - 1);
+            w[i >= cut] += u;
+            t[i >= cut] += u * at;
+        }
+        if (!(w[0] > 0) || !(w[1] > 0))
+            continue;
+        const double apart = w[0] * w[1] * (t[1] / w[1] - t[0] / w[0]) * (t[1] / w[1] - t[0] / w[0]);
+        if (apart > best) {
+            best = apart;
+            *first = t[0] / w[0];
+            *second = t[1] / w[1];
+        }
+    }
+    return best >= 0.0;
+}
+
+/* Whether PATH_TWO is tried (PETBLUR_ESTIMATE_TWO=1), for comparisons. */
+static int two_poses_tried(void)
+{
+    const char *env = getenv("PETBLUR_ESTIMATE_TWO");
+    return env && strcmp(env, "1") == 0;
+}
+
+/* Whether frame k's two poses a and b (PATH_TWO) are what it holds: let
+ * to dwell anywhere along the line through them, half as far again beyond
+ * each (DWELL_POINTS points, a and b at the third and the seventh), it dwells
+ * at them for TWO_HELD_SHARE of its time or more. A jerk inside a long frame
+ * dwells there (issue 47's draw 142718924, a jerk of 0.8 s in a frame of
+ * 58 s: 1.000), motion spread over the frame does not (a nod out and back,
+ * a jerk of 1.4 s inside a nod across a frame of 3 s: 0.26-0.58), and two
+ * poses in turn would misplace it. The weights are the frame's, as set. */
+static pb_status two_poses_held(estimate *e, const float *frame, const pb_pose *a, const pb_pose *b, int *held)
+{
+    pb_pose s, t;
+    double u[PBE_DWELL_MOST + 1], sse, total = 0.0;
+    pb_pose_interpolate(a, b, -0.5, &s);
+    pb_pose_interpolate(a, b, 1.5, &t);
+    pb_pose_normalized(&s, &s);
+    pb_pose_normalized(&t, &t);
+    pb_status st = pbe_dwell(e->ctx, &e->level[0], frame, e->c, &s, &t, DWELL_POINTS, u, &sse);
+    for (int i = 0; i < DWELL_POINTS && st == PB_OK; i++)
+        total += fmax(u[i], 0.0);
+    _Static_assert(DWELL_POINTS == 9, "a and b lie at the third and seventh points");
+    *held = st == PB_OK && total > 0 && u[2] + u[6] >= TWO_HELD_SHARE * total;
+    return st;
+}
+
+/* PATH_TWO: the frame as two poses of its own held in turn (two_poses.c),
+ * from the two halves of its best path. Tried for each frame that shows
+ * motion inside it that no path follows (unfollowed: its best path gained
+ * above the series' bar and was refused, its neighbours moving themselves
+ * or the path unsupported), and for the series' first or last frame on its
+ * one path, whose far end is only the frame's own pose taken as far again
+ * (test_jerk_in_the_series_first_or_last_frame: 2 mm off the pose the head
+ * held, now and then). Taken where it explains the frame better than that
+ * path did, holds each pose for at least SHORT_SHARE of the frame, and the
+ * frame dwells at the two poses (two_poses_held); no neighbour's path may
+ * start or end at the frame's pose. Which pose came first the frame cannot
+ * tell: the one nearer the frame before's pose (the first frame: the one
+ * further from the frame after's). */
+static pb_status two_pose_frames(estimate *e, const pbe_fit *fits, const float *moved, const double *gram,
+                                 float *own, frame_path *paths, int *moving, size_t *moving_count,
+                                 double *unfollowed)
+{
+    double far[3];
+    far_corner(e, far);
+    pb_status st = PB_OK;
+    for (size_t k = 0; k < e->count && st == PB_OK; k++) {
+        /* the series' first or last frame on its one path, whose far end is
+         * the frame's own pose taken as far again: the two poses may place it */
+        const int edge = (k == 0 && moving[k] - 1 == PATH_FROM) || (k + 1 == e->count && moving[k] - 1 == PATH_ON);
+        if (!(edge || (!moving[k] && unfollowed[k] > 0.0)) || e->flat[k] ||
+            (k > 0 && moving[k - 1] && ends_at_after(moving[k - 1] - 1)) ||
+            (k + 1 < e->count && moving[k + 1] && starts_at_before(moving[k + 1] - 1)))
+            continue;
+        const frame_path *best = edge ? &paths[k * PATHS + (size_t)(moving[k] - 1)] : NULL;
+        for (int kind = 0; kind < PATH_BACK && !edge; kind++) {
+            const frame_path *p = &paths[k * PATHS + (size_t)kind];
+            if (p->fitted != 0.0 && (!best || p->fitted > best->fitted))
+                best = p;
+        }
+        double first = 0.0, second = 1.0;
+        if (!best || !dwell_halves(best, DWELL_POINTS, &first, &second))
+            continue;
+        pb_pose a, b;
+        pb_pose_interpolate(&best->start, &best->end, first, &a);
+        pb_pose_interpolate(&best->start, &best->end, second, &b);
+        pb_pose_normalized(&a, &a);
+        pb_pose_normalized(&b, &b);
+        const float *frame = e->frames[0] + k * e->level[0].n;
+        double one = 0.0, share_a, sse;
+        st = frame_reference(e, moved, gram, k, own);
+        if (st == PB_OK)
+            st = one_pose_weighted(e, &fits[k].pose, frame, &one);
+        if (st == PB_OK)
+            st = pbe_two_poses(e->ctx, &e->level[0], frame, e->c, &a, &b, TWO_POSE_STEPS, &share_a, &sse);
+        if (st != PB_OK || !(one > 0) || share_a < SHORT_SHARE || share_a > 1.0 - SHORT_SHARE ||
+            !(1.0 - sse / one > (edge ? best->fitted : unfollowed[k])) || !poses_apart(e, far, &a, &b))
+            continue;
+        int held = 0;
+        if ((st = two_poses_held(e, frame, &a, &b, &held)) != PB_OK || !held)
+            continue;
+        const int a_first = k > 0 ? path_span(e, far, &a, &fits[k - 1].pose) <= path_span(e, far, &b, &fits[k - 1].pose)
+                                  : path_span(e, far, &a, &fits[k + 1].pose) >= path_span(e, far, &b, &fits[k + 1].pose);
+        frame_path *two = &paths[k * PATHS + PATH_TWO];
+        two->gain = 1.0 - sse / one;
+        two->start = a_first ? a : b;
+        two->end = a_first ? b : a;
+        two->dwell[0] = a_first ? share_a : 1.0 - share_a;
+        two->dwell[1] = 1.0 - two->dwell[0];
+        *moving_count += !moving[k];
+        moving[k] = 1 + PATH_TWO;
+        unfollowed[k] = 0.0;
+    }
     return st;
 }
 
@@ -1620,6 +1762,8 @@ static pb_status estimate_run(estimate *e, const double *bounds, const pb_estima
     /* 3: inside frames, against the same references */
     if (st == PB_OK && !o->frame_poses_only)
         st = inside_frames(e, fits, ref, moved, gram, own, paths, moving, &moving_count, sides, unfollowed);
+    if (st == PB_OK && !o->frame_poses_only && two_poses_tried())
+        st = two_pose_frames(e, fits, moved, gram, own, paths, moving, &moving_count, unfollowed);
     if (st == PB_OK && !o->frame_poses_only)
         boundary_steps(e, moving, jumped, sides, steps);
     /* 4: every pose corrected along the contrast, together */
@@ -1638,7 +1782,10 @@ static pb_status estimate_run(estimate *e, const double *bounds, const pb_estima
             if (moving[f]) {
                 const frame_path *p = &paths[f * PATHS + (size_t)(moving[f] - 1)];
                 double from = 0.0, to = 0.0;
-                if (moving[f] - 1 == PATH_BACK)
+                if (moving[f] - 1 == PATH_TWO) {
+                    const pb_pose held[2] = {p->start, p->end};
+                    hold_keys(&k, bounds[f], bounds[f + 1], held, p->dwell, 2, NULL, NULL, &from, &to);
+                } else if (moving[f] - 1 == PATH_BACK)
                     back_keys(&k, bounds[f], bounds[f + 1], &p->start, &p->end, &fits[f + 1].pose, p->dwell, &from,
                               &to);
                 else {

@@ -239,6 +239,17 @@ pb_status pbe_dwell_at(pb_context *ctx, pbe_level *level, const float *frame, co
  * for j < n_nonneg and the rest free. */
 void pbe_nnls(const double *gram, const double *h, size_t n, size_t n_nonneg, double *u);
 
+/* ---- two_poses.c: a frame as two poses held in turn ------------------------- */
+
+/* The frame as a V(A) + b V(B) + o, a and b non-negative, each view pbe_view's,
+ * A and B fitted from *a and *b (replaced) by at most `iterations`
+ * Levenberg-Marquardt steps, each voxel weighed by level->host[PBE_SUPPORT]
+ * as set. *share_a: a / (a + b), the share of the frame held at A, or -1
+ * where no fit with both shares above zero was found (*a, *b kept); *sse:
+ * the weighted residual. The level's reference must be set. */
+pb_status pbe_two_poses(pb_context *ctx, pbe_level *level, const float *frame, const double c[3], pb_pose *a,
+                        pb_pose *b, unsigned iterations, double *share_a, double *sse);
+
 /* ---- sinc_shears.c: rigid moves that keep a volume's energy --------------------- */
 
 /* The padded grid a volume on g is moved in: odd sizes, a margin each side. */
