@@ -949,11 +949,12 @@ static int dwell_halves(const frame_path *p, int points, double *first, double *
     return best >= 0.0;
 }
 
-/* Whether PATH_TWO is tried (PETBLUR_ESTIMATE_TWO=1), for comparisons. */
+/* Whether PATH_TWO is tried (PETBLUR_ESTIMATE_TWO=1; =2 on frames that
+ * follow a path too), for comparisons. */
 static int two_poses_tried(void)
 {
     const char *env = getenv("PETBLUR_ESTIMATE_TWO");
-    return env && strcmp(env, "1") == 0;
+    return env && (strcmp(env, "1") == 0 || strcmp(env, "2") == 0) ? env[0] - '0' : 0;
 }
 
 /* Whether frame k's two poses a and b (PATH_TWO) are what it holds: let
@@ -1006,12 +1007,13 @@ static pb_status two_pose_frames(estimate *e, const pbe_fit *fits, const float *
     far_corner(e, far);
     pb_status st = PB_OK;
     for (size_t k = 0; k < e->count && st == PB_OK; k++) {
-        if (moving[k] || !(unfollowed[k] > 0.0) || e->flat[k] ||
+        const int on_path = two_poses_tried() == 2 && moving[k] && moving[k] - 1 != PATH_BACK;
+        if (!(on_path || (!moving[k] && unfollowed[k] > 0.0)) || e->flat[k] ||
             (k > 0 && moving[k - 1] && ends_at_after(moving[k - 1] - 1)) ||
             (k + 1 < e->count && moving[k + 1] && starts_at_before(moving[k + 1] - 1)))
             continue;
-        const frame_path *best = NULL;
-        for (int kind = 0; kind < PATH_BACK; kind++) {
+        const frame_path *best = on_path ? &paths[k * PATHS + (size_t)(moving[k] - 1)] : NULL;
+        for (int kind = 0; kind < PATH_BACK && !on_path; kind++) {
             const frame_path *p = &paths[k * PATHS + (size_t)kind];
             if (p->fitted != 0.0 && (!best || p->fitted > best->fitted))
                 best = p;
@@ -1033,7 +1035,7 @@ static pb_status two_pose_frames(estimate *e, const pbe_fit *fits, const float *
         if (st == PB_OK)
             st = pbe_two_poses(e->ctx, &e->level[0], frame, e->c, &a, &b, TWO_POSE_STEPS, &share_a, &sse);
         if (st != PB_OK || !(one > 0) || share_a < SHORT_SHARE || share_a > 1.0 - SHORT_SHARE ||
-            !(1.0 - sse / one > unfollowed[k]) || !poses_apart(e, far, &a, &b) ||
+            !(1.0 - sse / one > (on_path ? best->fitted : unfollowed[k])) || !poses_apart(e, far, &a, &b) ||
             fmax(path_span(e, far, &a0, &a), path_span(e, far, &b0, &b)) > 0.5 * path_span(e, far, &a0, &b0))
             continue;
         int held = 0;
@@ -1047,8 +1049,8 @@ static pb_status two_pose_frames(estimate *e, const pbe_fit *fits, const float *
         two->end = a_first ? b : a;
         two->dwell[0] = a_first ? share_a : 1.0 - share_a;
         two->dwell[1] = 1.0 - two->dwell[0];
+        *moving_count += !moving[k];
         moving[k] = 1 + PATH_TWO;
-        ++*moving_count;
         unfollowed[k] = 0.0;
     }
     return st;
