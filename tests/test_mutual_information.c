@@ -14,84 +14,12 @@
 #include <string.h>
 
 #include "estimate.h"
+#include "heads.h"
 #include "motion.h"
 #include "testlib.h"
 
-enum { NX = 40, NY = 36, NZ = 30, TISSUES = 4, CASES = 4 };
-#define RADIUS_MM 45.0
-
-static double gauss(void)
-{
-    double u = fmax(pb_rand_uniform(), 1e-300), v = pb_rand_uniform();
-    return sqrt(-2.0 * log(u)) * cos(2.0 * 3.14159265358979323846 * v);
-}
-
-/* Each tissue's image: an ellipsoid of cortex, white matter inside it, a
- * few lesions and a vessel along z, smoothed to a PET resolution. */
-static void tissues(const pb_geometry *g, float *const t[TISSUES], float *tmp)
-{
-    const size_t n = g->dims[0] * g->dims[1] * g->dims[2];
-    double axes[3], centre[3], lesion[3][3], vessel[2];
-    for (int a = 0; a < 3; a++) {
-        axes[a] = pb_rand_range(0.30, 0.38) * (double)g->dims[a];
-        centre[a] = pb_rand_range(0.45, 0.55) * (double)g->dims[a];
-    }
-    for (int q = 0; q < 3; q++)
-        for (int a = 0; a < 3; a++)
-            lesion[q][a] = centre[a] + pb_rand_range(-0.6, 0.6) * axes[a];
-    vessel[0] = centre[0] + pb_rand_range(-0.3, 0.3) * axes[0];
-    vessel[1] = centre[1] + pb_rand_range(-0.3, 0.3) * axes[1];
-    for (int k = 0; k < TISSUES; k++)
-        memset(t[k], 0, sizeof(float) * n);
-    for (size_t z = 0; z < g->dims[2]; z++)
-        for (size_t y = 0; y < g->dims[1]; y++)
-            for (size_t x = 0; x < g->dims[0]; x++) {
-                const double p[3] = {(double)x, (double)y, (double)z};
-                const size_t i = x + g->dims[0] * (y + g->dims[1] * z);
-                double e = 0.0;
-                for (int a = 0; a < 3; a++)
-                    e += (p[a] - centre[a]) * (p[a] - centre[a]) / (axes[a] * axes[a]);
-                int label = e < 0.35 ? 1 : e < 1.0 ? 0 : -1;
-                for (int q = 0; q < 3; q++) {
-                    double d = 0.0;
-                    for (int a = 0; a < 3; a++)
-                        d += (p[a] - lesion[q][a]) * (p[a] - lesion[q][a]);
-                    if (d < 2.5 * 2.5 && e < 1.0)
-                        label = 2;
-                }
-                if ((p[0] - vessel[0]) * (p[0] - vessel[0]) + (p[1] - vessel[1]) * (p[1] - vessel[1]) < 1.6 * 1.6)
-                    label = 3;
-                if (label >= 0)
-                    t[label][i] = 1.0f;
-            }
-    for (int k = 0; k < TISSUES; k++)
-        pbe_smooth(NULL, g, t[k], 2.0 * g->voxel_size[0], tmp);
-}
-
-static void mix(const float *const t[TISSUES], const double *c, size_t n, float *out)
-{
-    for (size_t i = 0; i < n; i++) {
-        double s = 0.0;
-        for (int k = 0; k < TISSUES; k++)
-            s += c[k] * (double)t[k][i];
-        out[i] = (float)s;
-    }
-}
-
-/* How far pose a lies from b where the head is: the RMS displacement of
- * points spread over a ball of RADIUS_MM about the centre. */
-static double distance(const pb_pose *a, const pb_pose *b)
-{
-    pb_pose inv, d;
-    pb_pose_invert(a, &inv);
-    pb_pose_compose(&inv, b, &d);
-    pb_pose_normalized(&d, &d);
-    double s = sqrt(d.rotation[1] * d.rotation[1] + d.rotation[2] * d.rotation[2] + d.rotation[3] * d.rotation[3]);
-    double angle = 2.0 * atan2(s, fabs(d.rotation[0]));
-    double t2 = d.translation[0] * d.translation[0] + d.translation[1] * d.translation[1] +
-                d.translation[2] * d.translation[2];
-    return sqrt(t2 + 0.4 * RADIUS_MM * RADIUS_MM * angle * angle);
-}
+enum { NX = 40, NY = 36, NZ = 30, TISSUES = PBT_TISSUES, CASES = 4 };
+#define RADIUS_MM PBT_RADIUS_MM
 
 int main(int argc, char **argv)
 {
@@ -106,7 +34,7 @@ int main(int argc, char **argv)
         float *frame = malloc(sizeof(float) * n), *tmp = malloc(sizeof(float) * 64);
         for (int k = 0; k < TISSUES; k++)
             t[k] = malloc(sizeof(float) * n);
-        tissues(&g, t, tmp);
+        pbt_head_tissues(&g, t, tmp);
         /* late: cortex over white matter, lesions hot, blood washed out;
          * early: blood far above everything, tissue still dim */
         const double late_c[TISSUES] = {1.0, pb_rand_range(0.25, 0.4), pb_rand_range(1.5, 2.5),
@@ -114,10 +42,10 @@ int main(int argc, char **argv)
         /* an early frame's: blood above tissue, tissue dim */
         const double early_c[TISSUES] = {pb_rand_range(0.3, 0.5), pb_rand_range(0.1, 0.2),
                                          pb_rand_range(0.3, 0.6), pb_rand_range(1.0, 2.0)};
-        mix((const float *const *)t, late_c, n, late);
-        mix((const float *const *)t, early_c, n, early);
+        pbt_mix((const float *const *)t, late_c, n, late);
+        pbt_mix((const float *const *)t, early_c, n, early);
         const double c[3] = {0.5 * NX * g.voxel_size[0], 0.5 * NY * g.voxel_size[1], 0.5 * NZ * g.voxel_size[2]};
-        double axis[3] = {gauss(), gauss(), gauss()};
+        double axis[3] = {pbt_gauss(), pbt_gauss(), pbt_gauss()};
         pb_pose truth = pb_test_pose(pb_rand_range(-2.0, 2.0), pb_rand_range(-2.0, 2.0), pb_rand_range(-2.0, 2.0),
                                      axis, pb_rand_range(1.0, 3.0));
         double times[2];
@@ -127,7 +55,7 @@ int main(int argc, char **argv)
         pb_status st = pb_test_blur(ctx, &g, early, &m, NULL, frame);
         double peak = pb_max_abs(frame, n);
         for (size_t i = 0; i < n; i++)
-            frame[i] += (float)(0.01 * peak * gauss());
+            frame[i] += (float)(0.01 * peak * pbt_gauss());
         pbe_level level;
         if (st == PB_OK)
             st = pbe_level_init(ctx, &level, &g, NULL);
@@ -143,7 +71,7 @@ int main(int argc, char **argv)
          * 1796447021641646) */
         double jitter[6], length = 0.0, off = pb_rand_range(0.5, 1.0) * v;
         for (int p = 0; p < 6; p++) {
-            jitter[p] = gauss();
+            jitter[p] = pbt_gauss();
             length += jitter[p] * jitter[p];
         }
         for (int p = 0; p < 6; p++) /* turns in units of the head's displacement, RADIUS_MM a radian */
@@ -192,7 +120,7 @@ int main(int argc, char **argv)
             st = pbe_mutual_information(ctx, &level, frame, c, &identity, &identity, &mi_start, NULL);
         pb_check(st == PB_OK, "case %d: the measure at the truth and the start: %s", cs, pb_last_error(NULL));
 
-        const double err = distance(&found, &truth), err_ls = distance(&ls.pose, &truth), moved = distance(&identity, &truth);
+        const double err = pbt_pose_distance(&found, &truth), err_ls = pbt_pose_distance(&ls.pose, &truth), moved = pbt_pose_distance(&identity, &truth);
         printf("case %d: voxel %.2f mm, moved %.2f mm; mutual information %.3f mm off (MI %.4f), least squares %.3f mm off\n",
                cs, v, moved, err, mi_end, err_ls);
         /* the fit climbs to the measure's top: it closes all but 2 % of the gap between the start's measure and

@@ -68,7 +68,11 @@ enum { SERIES_GAIN_FRAMES = 8 };
 #define SEPARATION 6.0
 /* The Levenberg-Marquardt steps of a frame's two poses (PATH_TWO). */
 enum { TWO_POSE_STEPS = 30 };
-/* The share of a frame's time its two poses must hold (two_poses_held). */
+/* The share of a frame's time its two poses must hold (pbe_two_poses_held):
+ * a jerk inside a long frame dwells there (issue 47's draw 142718924, a
+ * jerk of 0.8 s in a frame of 58 s: 1.000), motion spread over the frame
+ * does not (a nod out and back, a jerk of 1.4 s inside a nod across a
+ * frame of 3 s: 0.26-0.58), and two poses in turn would misplace it. */
 #define TWO_HELD_SHARE 0.9
 /* The shortest time a path's step takes, as a fraction of its frame. */
 #define STEP_FRACTION 0.01
@@ -957,30 +961,6 @@ static int two_poses_tried(void)
     return env && (strcmp(env, "1") == 0 || strcmp(env, "2") == 0) ? env[0] - '0' : 0;
 }
 
-/* Whether frame k's two poses a and b (PATH_TWO) are what it holds: let
- * to dwell anywhere along the line through them, half as far again beyond
- * each (DWELL_POINTS points, a and b at the third and the seventh), it dwells
- * at them for TWO_HELD_SHARE of its time or more. A jerk inside a long frame
- * dwells there (issue 47's draw 142718924, a jerk of 0.8 s in a frame of
- * 58 s: 1.000), motion spread over the frame does not (a nod out and back,
- * a jerk of 1.4 s inside a nod across a frame of 3 s: 0.26-0.58), and two
- * poses in turn would misplace it. The weights are the frame's, as set. */
-static pb_status two_poses_held(estimate *e, const float *frame, const pb_pose *a, const pb_pose *b, int *held)
-{
-    pb_pose s, t;
-    double u[PBE_DWELL_MOST + 1], sse, total = 0.0;
-    pb_pose_interpolate(a, b, -0.5, &s);
-    pb_pose_interpolate(a, b, 1.5, &t);
-    pb_pose_normalized(&s, &s);
-    pb_pose_normalized(&t, &t);
-    pb_status st = pbe_dwell(e->ctx, &e->level[0], frame, e->c, &s, &t, DWELL_POINTS, u, &sse);
-    for (int i = 0; i < DWELL_POINTS && st == PB_OK; i++)
-        total += fmax(u[i], 0.0);
-    _Static_assert(DWELL_POINTS == 9, "a and b lie at the third and seventh points");
-    *held = st == PB_OK && total > 0 && u[2] + u[6] >= TWO_HELD_SHARE * total;
-    return st;
-}
-
 /* PATH_TWO: the frame as two poses of its own held in turn (two_poses.c),
  * from the two halves of its best path, for each frame that shows motion
  * inside it that no path follows (unfollowed: its best path gained above
@@ -991,7 +971,7 @@ static pb_status two_poses_held(estimate *e, const float *frame, const pb_pose *
  * leaves fits the reference's misfit, not the motion: issue 47's draw
  * 2895735097, a frame of 60 s still but for 0.4 s, gained 22 % on a second
  * pose 190 mm from the first, held 7 % of the frame, where its paths gained
- * 3 %), and the frame dwells at the two poses (two_poses_held); no
+ * 3 %), and the frame dwells at the two poses (pbe_two_poses_held); no
  * neighbour's path may start or end at the frame's pose. Which pose came
  * first the frame cannot tell: the one nearer the frame before's pose (the
  * first frame: the one further from the frame after's). The series' first
@@ -1038,8 +1018,10 @@ static pb_status two_pose_frames(estimate *e, const pbe_fit *fits, const float *
             !(1.0 - sse / one > (on_path ? best->fitted : unfollowed[k])) || !poses_apart(e, far, &a, &b) ||
             fmax(path_span(e, far, &a0, &a), path_span(e, far, &b0, &b)) > 0.5 * path_span(e, far, &a0, &b0))
             continue;
-        int held = 0;
-        if ((st = two_poses_held(e, frame, &a, &b, &held)) != PB_OK || !held)
+        double held = 0.0;
+        if ((st = pbe_two_poses_held(e->ctx, &e->level[0], frame, e->c, &a, &b,
+                                     e->g.voxel_size[0] / path_span(e, far, &a, &b), &held)) != PB_OK ||
+            !(held >= TWO_HELD_SHARE))
             continue;
         const int a_first = k > 0 ? path_span(e, far, &a, &fits[k - 1].pose) <= path_span(e, far, &b, &fits[k - 1].pose)
                                   : path_span(e, far, &a, &fits[k + 1].pose) >= path_span(e, far, &b, &fits[k + 1].pose);

@@ -249,6 +249,16 @@ void pbe_nnls(const double *gram, const double *h, size_t n, size_t n_nonneg, do
  * the weighted residual. The level's reference must be set. */
 pb_status pbe_two_poses(pb_context *ctx, pbe_level *level, const float *frame, const double c[3], pb_pose *a,
                         pb_pose *b, unsigned iterations, double *share_a, double *sse);
+/* How much of the frame's time it dwells at a and b (*held, in [0, 1]), let
+ * to dwell anywhere along the line through them, half as far again beyond
+ * each (pbe_dwell at nine points, a quarter of their distance apart, a and b
+ * the third and the seventh): what tells two poses held in turn from motion
+ * spread over the frame. A point within `within` of a or b (in their
+ * distance; at most 0.25, the points beside them) counts as theirs: views
+ * less than a voxel apart are nearly alike, and a dwell splits between them
+ * by the noise. The weights are level->host[PBE_SUPPORT] as set. */
+pb_status pbe_two_poses_held(pb_context *ctx, pbe_level *level, const float *frame, const double c[3],
+                             const pb_pose *a, const pb_pose *b, double within, double *held);
 
 /* ---- sinc_shears.c: rigid moves that keep a volume's energy --------------------- */
 

@@ -260,3 +260,27 @@ pb_status pbe_two_poses(pb_context *ctx, pbe_level *level, const float *frame, c
     free(va);
     return st;
 }
+
+pb_status pbe_two_poses_held(pb_context *ctx, pbe_level *level, const float *frame, const double c[3],
+                             const pb_pose *a, const pb_pose *b, double within, double *held)
+{
+    enum { POINTS = 9 }; /* a at the third, b at the seventh: a quarter of their distance apart */
+    _Static_assert((int)POINTS <= (int)PBE_DWELL_MOST, "a dwell of more poses than it has sums for");
+    pb_pose s, t;
+    double u[POINTS + 1], sse, total = 0.0, near = 0.0;
+    pb_pose_interpolate(a, b, -0.5, &s);
+    pb_pose_interpolate(a, b, 1.5, &t);
+    pb_pose_normalized(&s, &s);
+    pb_pose_normalized(&t, &t);
+    *held = 0.0;
+    pb_status st = pbe_dwell(ctx, level, frame, c, &s, &t, POINTS, u, &sse);
+    for (int i = 0; i < POINTS && st == PB_OK; i++) {
+        const double at = -0.5 + 0.25 * i, w = fmax(u[i], 0.0);
+        total += w;
+        if (fmin(fabs(at), fabs(at - 1.0)) <= fmin(within, 0.25) + 1e-9)
+            near += w;
+    }
+    if (st == PB_OK && total > 0)
+        *held = near / total;
+    return st;
+}

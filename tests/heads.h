@@ -1,0 +1,26 @@
+/* Fresh PET heads for the estimator's tests: four tissues of their own
+ * contrast on a grid, smoothed to a PET resolution, and how far two poses
+ * lie apart where the head is. */
+#ifndef PB_TEST_HEADS_H
+#define PB_TEST_HEADS_H
+
+#include <stddef.h>
+
+#include "petblur.h"
+
+enum { PBT_TISSUES = 4 }; /* cortex, white matter, lesions, a blood vessel */
+#define PBT_RADIUS_MM 45.0
+
+/* A standard normal draw. */
+double pbt_gauss(void);
+/* Each tissue's image on g (t[k], n voxels each): an ellipsoid of cortex,
+ * white matter inside it, a few lesions and a vessel along z, smoothed by a
+ * Gaussian of twice the voxel. tmp holds the grid's longest line. */
+void pbt_head_tissues(const pb_geometry *g, float *const t[PBT_TISSUES], float *tmp);
+/* out = sum of c[k] t[k]. */
+void pbt_mix(const float *const t[PBT_TISSUES], const double *c, size_t n, float *out);
+/* The RMS displacement between poses a and b of points spread over a ball of
+ * PBT_RADIUS_MM about the turns' centre, mm. */
+double pbt_pose_distance(const pb_pose *a, const pb_pose *b);
+
+#endif
