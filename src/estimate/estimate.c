@@ -411,6 +411,7 @@ enum { PATH_BETWEEN, PATH_ON, PATH_FROM, PATH_BACK, PATH_TWO, PATHS };
 typedef struct frame_path {
     double gain;       /* 1 - its residual / one pose's; 0: not tried, or refused */
     double fitted;     /* the gain as fitted, before any refusal */
+    int replaced;      /* PATH_TWO: 1 + the kind of the path it replaced, 0 for none */
     pb_pose start, end;
     double dwell[PBE_DWELL_MOST + 1]; /* DWELL_POINTS, PATH_BACK's BACK_POINTS, and the offset */
 } frame_path;
@@ -1026,6 +1027,7 @@ static pb_status two_pose_frames(estimate *e, const pbe_fit *fits, const float *
         const int a_first = k > 0 ? path_span(e, far, &a, &fits[k - 1].pose) <= path_span(e, far, &b, &fits[k - 1].pose)
                                   : path_span(e, far, &a, &fits[k + 1].pose) >= path_span(e, far, &b, &fits[k + 1].pose);
         frame_path *two = &paths[k * PATHS + PATH_TWO];
+        two->replaced = on_path ? moving[k] : 0;
         two->gain = 1.0 - sse / one;
         two->start = a_first ? a : b;
         two->end = a_first ? b : a;
@@ -1771,8 +1773,13 @@ static pb_status estimate_run(estimate *e, const double *bounds, const pb_estima
                 const frame_path *p = &paths[f * PATHS + (size_t)(moving[f] - 1)];
                 double from = 0.0, to = 0.0;
                 if (moving[f] - 1 == PATH_TWO) {
-                    const pb_pose held[2] = {p->start, p->end};
-                    hold_keys(&k, bounds[f], bounds[f + 1], held, p->dwell, 2, NULL, NULL, &from, &to);
+                    /* in place of a path, the still neighbours it stepped from and to */
+                    const pb_pose held[2] = {p->start, p->end}, *before = NULL, *after = NULL;
+                    double u[DWELL_POINTS];
+                    if (p->replaced)
+                        path_neighbours(e, fits, moving, f, p->replaced - 1, &paths[f * PATHS + (size_t)(p->replaced - 1)],
+                                        u, &before, &after);
+                    hold_keys(&k, bounds[f], bounds[f + 1], held, p->dwell, 2, before, after, &from, &to);
                 } else if (moving[f] - 1 == PATH_BACK)
                     back_keys(&k, bounds[f], bounds[f + 1], &p->start, &p->end, &fits[f + 1].pose, p->dwell, &from,
                               &to);
