@@ -7,6 +7,21 @@
 #include "motion.h"
 #include "testlib.h"
 
+pb_geometry pbt_head_grid(size_t nx, size_t ny, size_t nz)
+{
+    const double v = pb_rand_range(2.0, 3.0);
+    pb_geometry g = {{nx, ny, nz}, {v, v * pb_rand_range(0.9, 1.1), v * pb_rand_range(0.9, 1.2)}};
+    return g;
+}
+
+void pbt_late_contrast(double c[PBT_TISSUES])
+{
+    c[0] = 1.0;
+    c[1] = pb_rand_range(0.25, 0.4);
+    c[2] = pb_rand_range(1.5, 2.5);
+    c[3] = pb_rand_range(0.1, 0.3);
+}
+
 double pbt_gauss(void)
 {
     double u = fmax(pb_rand_uniform(), 1e-300), v = pb_rand_uniform();

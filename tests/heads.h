@@ -11,6 +11,12 @@
 enum { PBT_TISSUES = 4 }; /* cortex, white matter, lesions, a blood vessel */
 #define PBT_RADIUS_MM 45.0
 
+/* A grid of nx x ny x nz voxels of v = 2-3 mm along x, 0.9-1.1 v along y,
+ * 0.9-1.2 v along z. */
+pb_geometry pbt_head_grid(size_t nx, size_t ny, size_t nz);
+/* A late frame's contrast: cortex 1, white matter 0.25-0.4, lesions 1.5-2.5,
+ * blood washed out to 0.1-0.3. */
+void pbt_late_contrast(double c[PBT_TISSUES]);
 /* A standard normal draw. */
 double pbt_gauss(void);
 /* Each tissue's image on g (t[k], n voxels each): an ellipsoid of cortex,

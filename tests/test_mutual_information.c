@@ -27,8 +27,8 @@ int main(int argc, char **argv)
     pb_test_deadline(600, "mutual information");
     pb_context *ctx = pb_test_context(argc, argv);
     for (int cs = 0; cs < CASES; cs++) {
-        const double v = pb_rand_range(2.0, 3.0);
-        pb_geometry g = {{NX, NY, NZ}, {v, v * pb_rand_range(0.9, 1.1), v * pb_rand_range(0.9, 1.2)}};
+        pb_geometry g = pbt_head_grid(NX, NY, NZ);
+        const double v = g.voxel_size[0];
         const size_t n = (size_t)NX * NY * NZ;
         float *t[TISSUES], *late = malloc(sizeof(float) * n), *early = malloc(sizeof(float) * n);
         float *frame = malloc(sizeof(float) * n), *tmp = malloc(sizeof(float) * 64);
@@ -37,8 +37,8 @@ int main(int argc, char **argv)
         pbt_head_tissues(&g, t, tmp);
         /* late: cortex over white matter, lesions hot, blood washed out;
          * early: blood far above everything, tissue still dim */
-        const double late_c[TISSUES] = {1.0, pb_rand_range(0.25, 0.4), pb_rand_range(1.5, 2.5),
-                                        pb_rand_range(0.1, 0.3)};
+        double late_c[TISSUES];
+        pbt_late_contrast(late_c);
         /* an early frame's: blood above tissue, tissue dim */
         const double early_c[TISSUES] = {pb_rand_range(0.3, 0.5), pb_rand_range(0.1, 0.2),
                                          pb_rand_range(0.3, 0.6), pb_rand_range(1.0, 2.0)};

@@ -50,16 +50,16 @@ int main(int argc, char **argv)
     pb_test_deadline(600, "two poses");
     pb_context *ctx = pb_test_context(argc, argv);
     for (int cs = 0; cs < CASES; cs++) {
-        const double v = pb_rand_range(2.0, 3.0);
-        pb_geometry g = {{NX, NY, NZ}, {v, v * pb_rand_range(0.9, 1.1), v * pb_rand_range(0.9, 1.2)}};
+        pb_geometry g = pbt_head_grid(NX, NY, NZ);
+        const double v = g.voxel_size[0];
         const size_t n = (size_t)NX * NY * NZ;
         float *t[PBT_TISSUES], *late = malloc(sizeof(float) * n), *frame = malloc(sizeof(float) * n);
         float *va = malloc(sizeof(float) * n), *tmp = malloc(sizeof(float) * 64);
         for (int k = 0; k < PBT_TISSUES; k++)
             t[k] = malloc(sizeof(float) * n);
         pbt_head_tissues(&g, t, tmp);
-        const double late_c[PBT_TISSUES] = {1.0, pb_rand_range(0.25, 0.4), pb_rand_range(1.5, 2.5),
-                                            pb_rand_range(0.1, 0.3)};
+        double late_c[PBT_TISSUES];
+        pbt_late_contrast(late_c);
         pbt_mix((const float *const *)t, late_c, n, late);
         const double c[3] = {0.5 * NX * g.voxel_size[0], 0.5 * NY * g.voxel_size[1], 0.5 * NZ * g.voxel_size[2]};
         double axis[3] = {pbt_gauss(), pbt_gauss(), pbt_gauss()}, jaxis[3] = {pbt_gauss(), pbt_gauss(), pbt_gauss()};

@@ -975,7 +975,10 @@ static int two_poses_tried(void)
  * 3 %), and the frame dwells at the two poses (pbe_two_poses_held); no
  * neighbour's path may start or end at the frame's pose. Which pose came
  * first the frame cannot tell: the one nearer the frame before's pose (the
- * first frame: the one further from the frame after's). The series' first
+ * first frame: the one further from the frame after's). Under
+ * PETBLUR_ESTIMATE_TWO=2 a frame on a path (not PATH_BACK) tries it too,
+ * against that path's gain, and steps from and to the still neighbours
+ * that path stepped from and to (path_keys). The series' first
  * and last frames' one path (PATH_ON, PATH_FROM), whose far end is the
  * frame's own pose taken as far again, was fitted so too and not kept: on
  * 20 series of test_jerk_in_the_series_first_or_last_frame, 1 of 40 frames

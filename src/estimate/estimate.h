@@ -127,6 +127,9 @@ float *pbe_level_views(pbe_level *level, size_t m);
  * found. */
 pb_status pbe_register(pb_context *ctx, pbe_level *level, const float *frame, const double c[3],
                        unsigned iterations, pbe_fit *fit);
+/* Solves the n x n system (row-major a and b, both destroyed) for x by
+ * Gaussian elimination with partial pivoting; 0 when singular. */
+int pbe_solve(double *a, double *b, int n, double *x);
 /* The weighted residual of f on [a, 1] (weights w), least squares. */
 double pbe_weighted_sse(pb_pool *pool, const float *a, const float *f, const float *w, size_t n);
 /* Least squares of f on [a, 1]: the scale, offset and residual. */

@@ -228,9 +228,7 @@ void pbe_fit_scale(pb_pool *pool, const float *a, const float *f, size_t n, doub
     *sse = rest > 0 ? rest : 0.0;
 }
 
-/* Solves the n x n system (row-major a, destroyed) for x by Gaussian
- * elimination with partial pivoting; 0 when singular. */
-static int solve(double *a, double *b, int n, double *x)
+int pbe_solve(double *a, double *b, int n, double *x)
 {
     for (int c = 0; c < n; c++) {
         int p = c;
@@ -379,7 +377,7 @@ pb_status pbe_register(pb_context *ctx, pbe_level *level, const float *frame, co
         }
         /* A singular or overflowing system ends the fit at the best pose so far
          * (checked here: a refusal of pb_pose_perturb would write an error text). */
-        if (!solve(A, g, NP, step) || !pb_all_finite(step, 6))
+        if (!pbe_solve(A, g, NP, step) || !pb_all_finite(step, 6))
             break;
         pb_pose_perturb(&best_pose, step, &trial);
         fit->iterations = it + 1;

@@ -126,39 +126,6 @@ static pb_status evaluate(pb_context *ctx, pbe_level *level, const float *frame,
     return PB_OK;
 }
 
-/* Solves the n x n system (a destroyed) by Cholesky; 0 where not positive
- * definite. */
-static int cholesky_solve(double *a, const double *b, int n, double *x)
-{
-    for (int j = 0; j < n; j++) {
-        double d = a[j * n + j];
-        for (int k = 0; k < j; k++)
-            d -= a[j * n + k] * a[j * n + k];
-        if (!(d > 0.0))
-            return 0;
-        a[j * n + j] = sqrt(d);
-        for (int i = j + 1; i < n; i++) {
-            double v = a[i * n + j];
-            for (int k = 0; k < j; k++)
-                v -= a[i * n + k] * a[j * n + k];
-            a[i * n + j] = v / a[j * n + j];
-        }
-    }
-    for (int i = 0; i < n; i++) {
-        double v = b[i];
-        for (int k = 0; k < i; k++)
-            v -= a[i * n + k] * x[k];
-        x[i] = v / a[i * n + i];
-    }
-    for (int i = n - 1; i >= 0; i--) {
-        double v = x[i];
-        for (int k = i + 1; k < n; k++)
-            v -= a[k * n + i] * x[k];
-        x[i] = v / a[i * n + i];
-    }
-    return 1;
-}
-
 /* The pose block's normal equations at state s with the linear unknowns
  * eliminated: A = Jp'WJp - Jp'WL (L'WL)^-1 L'WJp, g = Jp'W r. */
 static int reduced_normal(pb_pool *pool, const pb_geometry *g, const float *frame, const float *w, const float *va,
@@ -184,7 +151,7 @@ static int reduced_normal(pb_pool *pool, const pb_geometry *g, const float *fram
         double G[NLIN * NLIN], e[NLIN] = {0.0, 0.0, 0.0};
         memcpy(G, s->gram, sizeof G);
         e[q] = 1.0;
-        if (!cholesky_solve(G, e, NLIN, &inv[q * NLIN]))
+        if (!pbe_solve(G, e, NLIN, &inv[q * NLIN]))
             return 0;
     }
     for (int p = 0; p < NPOSE; p++)
@@ -227,7 +194,7 @@ pb_status pbe_two_poses(pb_context *ctx, pbe_level *level, const float *frame, c
                 M[p * NPOSE + p] *= 1.0 + lambda;
                 rhs[p] = -grad[p];
             }
-            if (!cholesky_solve(M, rhs, NPOSE, step) || !pb_all_finite(step, NPOSE)) {
+            if (!pbe_solve(M, rhs, NPOSE, step) || !pb_all_finite(step, NPOSE)) {
                 lambda *= 8.0;
                 continue;
             }
