@@ -71,8 +71,10 @@ enum { TWO_POSE_STEPS = 30 };
 /* The share of a frame's time its two poses must hold (pbe_two_poses_held):
  * a jerk inside a long frame dwells there (issue 47's draw 142718924, a
  * jerk of 0.8 s in a frame of 58 s: 1.000), motion spread over the frame
- * does not (a nod out and back, a jerk of 1.4 s inside a nod across a
- * frame of 3 s: 0.26-0.58), and two poses in turn would misplace it. */
+ * does not (nods, one with a jerk of 1.1-1.4 s inside: 0.23-0.80), and two
+ * poses in turn would misplace it. Clean two-pose frames of jerks of 5-8 mm
+ * at 2-3 mm voxels stand at 0.82-0.99 (tests/test_two_poses.c): the bar
+ * refuses about half of them (docs/estimate-log.md). */
 #define TWO_HELD_SHARE 0.9
 /* The shortest time a path's step takes, as a fraction of its frame. */
 #define STEP_FRACTION 0.01
