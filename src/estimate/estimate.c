@@ -714,7 +714,7 @@ static pb_status back_path(estimate *e, const pbe_fit *fits, size_t k, double on
     back_poses(&back->start, &back->end, &fits[k + 1].pose, p);
     double sse = 0.0;
     pb_status st = pbe_dwell_at(e->ctx, &e->level[0], e->frames[0] + k * e->level[0].n, e->c, p, BACK_POINTS,
-                                back->dwell, &sse);
+                                back->dwell, &sse, NULL);
     if (st != PB_OK)
         return st;
     back->gain = back->fitted = 1.0 - sse / one;
@@ -992,8 +992,9 @@ static pb_status two_pose_frames(estimate *e, const pbe_fit *fits, const float *
     double far[3];
     far_corner(e, far);
     pb_status st = PB_OK;
+    const int in_place_of_paths = two_poses_tried() == 2;
     for (size_t k = 0; k < e->count && st == PB_OK; k++) {
-        const int on_path = two_poses_tried() == 2 && moving[k] && moving[k] - 1 != PATH_BACK;
+        const int on_path = in_place_of_paths && moving[k] && moving[k] - 1 != PATH_BACK;
         if (!(on_path || (!moving[k] && unfollowed[k] > 0.0)) || e->flat[k] ||
             (k > 0 && moving[k - 1] && ends_at_after(moving[k - 1] - 1)) ||
             (k + 1 < e->count && moving[k + 1] && starts_at_before(moving[k + 1] - 1)))

@@ -233,9 +233,11 @@ pb_status pbe_dwell(pb_context *ctx, pbe_level *level, const float *frame, const
                     const pb_pose *e, size_t m, double *u, double *sse);
 
 /* The same at m poses given (a path of several legs), m at most
- * PBE_DWELL_MOST. */
+ * PBE_DWELL_MOST; the views stay in pbe_level_views(level, m). gram_out (or
+ * NULL): the least squares' normal matrix, (m + 1) x (m + 1), the offset's
+ * row and column last. */
 pb_status pbe_dwell_at(pb_context *ctx, pbe_level *level, const float *frame, const double c[3],
-                       const pb_pose *poses, size_t m, double *u, double *sse);
+                       const pb_pose *poses, size_t m, double *u, double *sse, double *gram_out);
 
 /* Non-negative least squares on normal equations: minimises
  * |A u - f|^2 given G = A^T A (n x n, row-major), h = A^T f, with u[j] >= 0

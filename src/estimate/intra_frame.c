@@ -177,13 +177,13 @@ pb_status pbe_dwell(pb_context *ctx, pbe_level *level, const float *frame, const
         return PB_ERR_OUT_OF_MEMORY;
     for (size_t i = 0; i < m; i++)
         pb_pose_interpolate(s, e, (double)i / (double)(m - 1), &poses[i]);
-    pb_status st = pbe_dwell_at(ctx, level, frame, c, poses, m, u, sse);
+    pb_status st = pbe_dwell_at(ctx, level, frame, c, poses, m, u, sse, NULL);
     free(poses);
     return st;
 }
 
 pb_status pbe_dwell_at(pb_context *ctx, pbe_level *level, const float *frame, const double c[3],
-                       const pb_pose *poses, size_t m, double *u, double *sse)
+                       const pb_pose *poses, size_t m, double *u, double *sse, double *gram_out)
 {
     const size_t n = level->n, k = m + 1; /* the views, and the offset */
     const size_t terms = m * (m + 1) / 2 + m + k + 1;
@@ -211,6 +211,8 @@ pb_status pbe_dwell_at(pb_context *ctx, pbe_level *level, const float *frame, co
         for (size_t i = 0; i < k; i++)
             for (size_t j = 0; j < i; j++)
                 gram[i * k + j] = gram[j * k + i];
+        if (gram_out)
+            memcpy(gram_out, gram, k * k * sizeof *gram);
         pbe_nnls(gram, h, k, m, u);
         double r;
         pb_pool_sums(level->pool, n, 1, dwell_residual, &job, &r);

@@ -8,8 +8,8 @@
  * their shares are what the frame itself determines.
  *
  * Levenberg-Marquardt on the twelve pose numbers (pb_pose_perturb's for
- * each), a, b and o solved at every trial (non-negative least squares on
- * three unknowns) and eliminated from the step (their Schur complement, as
+ * each), a, b and o solved at every trial (pbe_dwell_at: a dwell at the two
+ * poses, non-negative least squares) and eliminated from the step (their Schur complement, as
  * register.c's information), each voxel weighed by level->host[PBE_SUPPORT]
  * as the caller set it, held through the fit. The Jacobian of each pose is
  * its view's own (view_jacobian.c). */
@@ -24,9 +24,6 @@ enum { NPOSE = 12, NLIN = 3 };
 /* the pose block's upper triangle, its cross terms with the linear
  * unknowns, and the pose gradient */
 enum { POSE_SUMS = NPOSE * (NPOSE + 1) / 2 + NPOSE * NLIN + NPOSE };
-/* the linear block (VA VA, VA VB, VA, VB VB, VB, W), its products with f,
- * and f f */
-enum { LINEAR_SUMS = 6 + 3 + 1 };
 _Static_assert((int)POSE_SUMS <= (int)PB_MOST_SUMS, "the two poses' normal equations have more sums than a pass takes");
 
 typedef struct two_job {
@@ -34,27 +31,6 @@ typedef struct two_job {
     const pbe_view_jacobian *ja, *jb;
     double lin[NLIN];
 } two_job;
-
-static void linear_sums(void *arg, size_t begin, size_t end, double *s)
-{
-    const two_job *j = arg;
-    for (size_t i = begin; i < end; i++) {
-        const double w = (double)j->w[i];
-        if (!(w > 0.0))
-            continue;
-        const double a = (double)j->va[i], b = (double)j->vb[i], f = (double)j->f[i];
-        s[0] += w * a * a;
-        s[1] += w * a * b;
-        s[2] += w * a;
-        s[3] += w * b * b;
-        s[4] += w * b;
-        s[5] += w;
-        s[6] += w * a * f;
-        s[7] += w * b * f;
-        s[8] += w * f;
-        s[9] += w * f * f;
-    }
-}
 
 static void pose_sums(void *arg, size_t begin, size_t end, double *s)
 {
@@ -84,46 +60,21 @@ static void pose_sums(void *arg, size_t begin, size_t end, double *s)
     }
 }
 
-/* The views of A and B, and the linear unknowns at them with the weighted
- * residual; 0 where the weights hold no frame or either share is zero. */
+/* The linear unknowns at A and B (pbe_dwell_at: a dwell at two poses, with
+ * the offset), the weighted residual and the normal matrix; the views stay
+ * in pbe_level_views(level, 2). usable: both shares above zero. */
 typedef struct two_state {
     pb_pose a, b;
     double lin[NLIN], sse, gram[NLIN * NLIN];
 } two_state;
 
 static pb_status evaluate(pb_context *ctx, pbe_level *level, const float *frame, const double c[3], two_state *s,
-                          float *va, float *vb, int *usable)
+                          int *usable)
 {
-    pb_status st = pbe_view(ctx, level, &s->a, c, va);
-    if (st == PB_OK)
-        st = pbe_view(ctx, level, &s->b, c, vb);
-    *usable = 0;
-    if (st != PB_OK)
-        return st;
-    two_job job = {va, vb, frame, level->host[PBE_SUPPORT], NULL, NULL, {0.0, 0.0, 0.0}};
-    double sums[LINEAR_SUMS];
-    pb_pool_sums(level->pool, level->n, LINEAR_SUMS, linear_sums, &job, sums);
-    double *G = s->gram;
-    G[0] = sums[0];
-    G[1] = G[3] = sums[1];
-    G[2] = G[6] = sums[2];
-    G[4] = sums[3];
-    G[5] = G[7] = sums[4];
-    G[8] = sums[5];
-    const double h[NLIN] = {sums[6], sums[7], sums[8]};
-    if (!(G[8] > 0.0))
-        return PB_OK;
-    pbe_nnls(G, h, NLIN, 2, s->lin);
-    /* |f - L u|^2 = f'f - 2 h'u + u'Gu: the sums are of a few hundred
-     * thousand voxels, and a fit that explains most of f loses digits here;
-     * the fit only compares residuals of one frame, which lose alike */
-    double quad = 0.0;
-    for (int p = 0; p < NLIN; p++)
-        for (int q = 0; q < NLIN; q++)
-            quad += s->lin[p] * G[p * NLIN + q] * s->lin[q];
-    s->sse = fmax(0.0, sums[9] - 2.0 * (h[0] * s->lin[0] + h[1] * s->lin[1] + h[2] * s->lin[2]) + quad);
-    *usable = s->lin[0] > 0.0 && s->lin[1] > 0.0;
-    return PB_OK;
+    const pb_pose poses[2] = {s->a, s->b};
+    pb_status st = pbe_dwell_at(ctx, level, frame, c, poses, 2, s->lin, &s->sse, s->gram);
+    *usable = st == PB_OK && s->lin[0] > 0.0 && s->lin[1] > 0.0;
+    return st;
 }
 
 /* The pose block's normal equations at state s with the linear unknowns
@@ -171,17 +122,19 @@ pb_status pbe_two_poses(pb_context *ctx, pbe_level *level, const float *frame, c
     float *views = pbe_level_views(level, 2);
     if (!views)
         return PB_ERR_OUT_OF_MEMORY;
-    /* the best state's views are kept beside the trial's */
+    /* the best state's views, A's then B's, kept beside the trial's (views) */
     float *va = malloc(sizeof(float) * level->n * 2);
     if (!va)
         return PB_ERR_OUT_OF_MEMORY;
-    float *vb = va + level->n, *ta = views, *tb = views + level->n;
+    float *vb = va + level->n;
     two_state best = {*a, *b, {0.0}, (double)INFINITY, {0.0}}, trial = best;
     int usable = 0;
     double lambda = 1e-3;
     *share_a = -1.0;
     *sse = (double)INFINITY;
-    pb_status st = evaluate(ctx, level, frame, c, &best, va, vb, &usable);
+    pb_status st = evaluate(ctx, level, frame, c, &best, &usable);
+    if (st == PB_OK)
+        memcpy(va, views, sizeof(float) * level->n * 2);
     for (unsigned it = 0; it < iterations && st == PB_OK && usable; it++) {
         double A[NPOSE * NPOSE], grad[NPOSE], step[NPOSE];
         if (!reduced_normal(level->pool, &level->g, frame, level->host[PBE_SUPPORT], va, vb, c, &best, A, grad))
@@ -201,13 +154,12 @@ pb_status pbe_two_poses(pb_context *ctx, pbe_level *level, const float *frame, c
             pb_pose_perturb(&best.a, step, &trial.a);
             pb_pose_perturb(&best.b, step + 6, &trial.b);
             int ok = 0;
-            if ((st = evaluate(ctx, level, frame, c, &trial, ta, tb, &ok)) != PB_OK)
+            if ((st = evaluate(ctx, level, frame, c, &trial, &ok)) != PB_OK)
                 break;
             if (ok && trial.sse < best.sse) {
                 const double gain = best.sse - trial.sse;
                 best = trial;
-                memcpy(va, ta, sizeof(float) * level->n);
-                memcpy(vb, tb, sizeof(float) * level->n);
+                memcpy(va, views, sizeof(float) * level->n * 2);
                 lambda = fmax(lambda / 3.0, 1e-7);
                 improved = 1;
                 if (gain < 1e-7 * best.sse)
