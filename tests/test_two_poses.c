@@ -13,8 +13,10 @@
  * leaves (register.c's fit from the frame's mean pose). A frame held at
  * one pose has no second pose to find: on those 160 the fit gave a share
  * under a twentieth or none (56) or moved a pose from its start by more
- * than half the starts' distance (108), which PATH_TWO refuses (estimate.c,
- * two_pose_frames); one of the two is asserted. */
+ * than half the starts' distance (108), and the frame dwelt at its two
+ * poses under 0.9 of its time in 157; PATH_TWO refuses each (estimate.c,
+ * two_pose_frames). That one of them holds is asserted: a fifth seed in
+ * 80 had neither of the first two. */
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -134,7 +136,9 @@ int main(int argc, char **argv)
         pb_check(held >= 0.75, "case %d: the frame dwells at its two poses for %.3f of its time", cs, held);
 
         /* a frame held at A alone, from starts as fresh: a second pose may fit its noise, but then it leaves
-         * its start by more than half the starts' distance, or the shares say one pose */
+         * its start by more than half the starts' distance, or the shares say one pose, or the frame does not
+         * dwell at the two poses for PATH_TWO's 0.9 of its time (PETBLUR_TEST_SEED=1796521555417326: share
+         * 0.825, a pose moved 3.46 mm of 3.69, held 0.869) */
         pbe_static_motion(&a_true, c, times, poses, &m);
         for (size_t i = 0; i < n; i++)
             frame[i] = va[i] + (float)(0.01 * peak * pbt_gauss());
@@ -153,7 +157,7 @@ int main(int argc, char **argv)
         printf("case %d: a still frame: share %.3f, A %.3f mm and B %.3f mm off its pose, moved %.3f mm against "
                "%.3f; held %.3f\n", cs, found_share, pbt_pose_distance(&a, &a_true), pbt_pose_distance(&b, &a_true),
                moved, half, held);
-        pb_check(found_share < 0.05 || found_share > 0.95 || moved > half,
+        pb_check(found_share < 0.05 || found_share > 0.95 || moved > half || held < 0.9,
                  "case %d: a still frame taken for two poses (share %.3f, moved %.3f mm of %.3f, held %.3f)", cs,
                  found_share, moved, half, held);
         pbe_level_free(&level);
