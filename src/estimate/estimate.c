@@ -964,6 +964,16 @@ static int two_poses_tried(void)
     return env && (strcmp(env, "1") == 0 || strcmp(env, "2") == 0) ? env[0] - '0' : 0;
 }
 
+/* The share of the frame PATH_TWO's two poses must hold (TWO_HELD_SHARE;
+ * PETBLUR_ESTIMATE_TWO_HELD=S, 0.5 to 1, for comparisons). */
+static double two_held_share(void)
+{
+    const char *env = getenv("PETBLUR_ESTIMATE_TWO_HELD");
+    char *end = NULL;
+    const double share = env ? strtod(env, &end) : 0.0;
+    return env && end != env && *end == '\0' && share >= 0.5 && share <= 1.0 ? share : TWO_HELD_SHARE;
+}
+
 /* PATH_TWO: the frame as two poses of its own held in turn (two_poses.c),
  * from the two halves of its best path, for each frame that shows motion
  * inside it that no path follows (unfollowed: its best path gained above
@@ -1028,7 +1038,7 @@ static pb_status two_pose_frames(estimate *e, const pbe_fit *fits, const float *
         double held = 0.0;
         if ((st = pbe_two_poses_held(e->ctx, &e->level[0], frame, e->c, &a, &b,
                                      e->g.voxel_size[0] / path_span(e, far, &a, &b), &held)) != PB_OK ||
-            !(held >= TWO_HELD_SHARE))
+            !(held >= two_held_share()))
             continue;
         const int a_first = k > 0 ? path_span(e, far, &a, &fits[k - 1].pose) <= path_span(e, far, &b, &fits[k - 1].pose)
                                   : path_span(e, far, &a, &fits[k + 1].pose) >= path_span(e, far, &b, &fits[k + 1].pose);
