@@ -956,12 +956,16 @@ static int dwell_halves(const frame_path *p, int points, double *first, double *
     return best >= 0.0;
 }
 
-/* Whether PATH_TWO is tried (PETBLUR_ESTIMATE_TWO=1; =2 on frames that
- * follow a path too), for comparisons. */
+/* Where PATH_TWO is tried: 2 (the default) on frames reported unfollowed
+ * and in place of a path; PETBLUR_ESTIMATE_TWO=1 on unfollowed frames
+ * only, =0 nowhere, for comparisons. On 32 fresh family draws (H100 and
+ * host) in place of a path it took the median draw 0.380 -> 0.369 and
+ * 0.423 -> 0.353 mm, better on 11, worse on 3 by at most 0.020 mm
+ * (docs/estimate-log.md, "A frame as two poses of its own"). */
 static int two_poses_tried(void)
 {
     const char *env = getenv("PETBLUR_ESTIMATE_TWO");
-    return env && (strcmp(env, "1") == 0 || strcmp(env, "2") == 0) ? env[0] - '0' : 0;
+    return env && (strcmp(env, "0") == 0 || strcmp(env, "1") == 0) ? env[0] - '0' : 2;
 }
 
 /* The share of the frame PATH_TWO's two poses must hold (TWO_HELD_SHARE;
@@ -987,8 +991,8 @@ static double two_held_share(void)
  * 3 %), and the frame dwells at the two poses (pbe_two_poses_held); no
  * neighbour's path may start or end at the frame's pose. Which pose came
  * first the frame cannot tell: the one nearer the frame before's pose (the
- * first frame: the one further from the frame after's). Under
- * PETBLUR_ESTIMATE_TWO=2 a frame on a path (not PATH_BACK) tries it too,
+ * first frame: the one further from the frame after's). By default a
+ * frame on a path (not PATH_BACK) tries it too,
  * against that path's gain, and steps from and to the still neighbours
  * that path stepped from and to (path_keys). The series' first
  * and last frames' one path (PATH_ON, PATH_FROM), whose far end is the
