@@ -978,14 +978,21 @@ static int two_poses_tried(void)
     return env && (strcmp(env, "0") == 0 || strcmp(env, "1") == 0) ? env[0] - '0' : 2;
 }
 
+/* The number environment variable `name` holds where it is one in [low,
+ * high], else `otherwise`: a bar set for comparisons. */
+static double env_number(const char *name, double low, double high, double otherwise)
+{
+    const char *env = getenv(name);
+    char *end = NULL;
+    const double v = env ? strtod(env, &end) : 0.0;
+    return env && end != env && *end == '\0' && v >= low && v <= high ? v : otherwise;
+}
+
 /* The share of the frame PATH_TWO's two poses must hold (TWO_HELD_SHARE;
  * PETBLUR_ESTIMATE_TWO_HELD=S, 0.5 to 1, for comparisons). */
 static double two_held_share(void)
 {
-    const char *env = getenv("PETBLUR_ESTIMATE_TWO_HELD");
-    char *end = NULL;
-    const double share = env ? strtod(env, &end) : 0.0;
-    return env && end != env && *end == '\0' && share >= 0.5 && share <= 1.0 ? share : TWO_HELD_SHARE;
+    return env_number("PETBLUR_ESTIMATE_TWO_HELD", 0.5, 1.0, TWO_HELD_SHARE);
 }
 
 /* The share of a path's unexplained residual that PATH_TWO must explain
@@ -993,10 +1000,7 @@ static double two_held_share(void)
  * for comparisons: 0 asks only that it beat the path). */
 static double two_beyond_path(void)
 {
-    const char *env = getenv("PETBLUR_ESTIMATE_TWO_BEYOND");
-    char *end = NULL;
-    const double share = env ? strtod(env, &end) : 0.0;
-    return env && end != env && *end == '\0' && share >= 0.0 && share <= 0.5 ? share : TWO_BEYOND_PATH;
+    return env_number("PETBLUR_ESTIMATE_TWO_BEYOND", 0.0, 0.5, TWO_BEYOND_PATH);
 }
 
 /* PATH_TWO: the frame as two poses of its own held in turn (two_poses.c),
