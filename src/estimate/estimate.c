@@ -967,11 +967,11 @@ static int dwell_halves(const frame_path *p, int points, double *first, double *
 }
 
 /* Where PATH_TWO is tried: 2 (the default) on frames reported unfollowed
- * and in place of a path; PETBLUR_ESTIMATE_TWO=1 on unfollowed frames
- * only, =0 nowhere, for comparisons. On 32 fresh family draws (H100 and
- * host) in place of a path it took the median draw 0.380 -> 0.369 and
- * 0.423 -> 0.353 mm, better on 11, worse on 3 by at most 0.020 mm
- * (docs/estimate-log.md, "A frame as two poses of its own"). */
+ * and in place of a path, where the path is badly wrong because the
+ * neighbours it runs between move themselves (on fresh family draws the
+ * worst frame at the median draw fell by up to 0.42 mm; docs/estimate-log.md,
+ * "A frame as two poses of its own"); PETBLUR_ESTIMATE_TWO=1 on unfollowed
+ * frames only, =0 nowhere, for comparisons. */
 static int two_poses_tried(void)
 {
     const char *env = getenv("PETBLUR_ESTIMATE_TWO");
