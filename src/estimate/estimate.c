@@ -1018,9 +1018,9 @@ static double two_beyond_path(void)
  * first the frame cannot tell: the one nearer the frame before's pose (the
  * first frame: the one further from the frame after's). By default a
  * frame on a path (not PATH_BACK) tries it too, where it explains
- * TWO_BEYOND_PATH of what that path leaves, and steps from and to the still neighbours
- * that path stepped from and to (path_keys). The series' first
- * and last frames' one path (PATH_ON, PATH_FROM), whose far end is the
+ * TWO_BEYOND_PATH of what that path leaves, and steps from and to the
+ * still neighbours that path stepped from and to (path_keys). The series'
+ * first and last frames' one path (PATH_ON, PATH_FROM), whose far end is the
  * frame's own pose taken as far again, was fitted so too and not kept: on
  * 20 series of test_jerk_in_the_series_first_or_last_frame, 1 of 40 frames
  * better, 2 worse (docs/estimate-log.md). */
@@ -1032,6 +1032,7 @@ static pb_status two_pose_frames(estimate *e, const pbe_fit *fits, const float *
     far_corner(e, far);
     pb_status st = PB_OK;
     const int in_place_of_paths = two_poses_tried() == 2;
+    const double beyond = two_beyond_path(), held_bar = two_held_share();
     for (size_t k = 0; k < e->count && st == PB_OK; k++) {
         const int on_path = in_place_of_paths && moving[k] && moving[k] - 1 != PATH_BACK;
         if (!(on_path || (!moving[k] && unfollowed[k] > 0.0)) || e->flat[k] ||
@@ -1061,14 +1062,14 @@ static pb_status two_pose_frames(estimate *e, const pbe_fit *fits, const float *
         if (st == PB_OK)
             st = pbe_two_poses(e->ctx, &e->level[0], frame, e->c, &a, &b, TWO_POSE_STEPS, &share_a, &sse);
         if (st != PB_OK || !(one > 0) || share_a < SHORT_SHARE || share_a > 1.0 - SHORT_SHARE ||
-            !(1.0 - sse / one > (on_path ? best->fitted + two_beyond_path() * (1.0 - best->fitted) : unfollowed[k])) ||
+            !(1.0 - sse / one > (on_path ? best->fitted + beyond * (1.0 - best->fitted) : unfollowed[k])) ||
             !poses_apart(e, far, &a, &b) ||
             fmax(path_span(e, far, &a0, &a), path_span(e, far, &b0, &b)) > 0.5 * path_span(e, far, &a0, &b0))
             continue;
         double held = 0.0;
         if ((st = pbe_two_poses_held(e->ctx, &e->level[0], frame, e->c, &a, &b,
                                      e->g.voxel_size[0] / path_span(e, far, &a, &b), &held)) != PB_OK ||
-            !(held >= two_held_share()))
+            !(held >= held_bar))
             continue;
         const int a_first = k > 0 ? path_span(e, far, &a, &fits[k - 1].pose) <= path_span(e, far, &b, &fits[k - 1].pose)
                                   : path_span(e, far, &a, &fits[k + 1].pose) >= path_span(e, far, &b, &fits[k + 1].pose);
