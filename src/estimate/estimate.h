@@ -25,6 +25,13 @@ size_t pbe_longest_side(const pb_geometry *g);
  * mm from its first voxel's outer corner: where the passes measure how far a
  * pose moves the grid. */
 void pbe_grid_corner(const pb_geometry *g, int corner, double p[3]);
+/* Whether pose p moves no corner of the grid farther from where pose from
+ * puts it than the grid's diagonal: how far a fit's step may carry a pose.
+ * Beyond it the views hold nothing of the frame's object, and on grids whose
+ * voxels differ by orders of magnitude between axes the normal equations are
+ * near singular: a step may carry a pose past the translations any view
+ * accepts (1e12 mm), a failure of the whole estimate, not a step too long. */
+int pbe_within_grid(const pb_geometry *g, const double c[3], const pb_pose *from, const pb_pose *p);
 /* The volume (voxels) over which the residual a - b is correlated, as
  * smoothed white noise's, from its correlation at one voxel along each
  * axis; at least 1. A sum over the grid of that residual times a smooth

@@ -369,17 +369,26 @@ pb_status pbe_register(pb_context *ctx, pbe_level *level, const float *frame, co
         }
         if (it == iterations)
             break;
-        double A[NP * NP], g[NP], step[NP];
-        memcpy(A, best_a, sizeof A);
-        for (int p = 0; p < NP; p++) {
-            A[p * NP + p] *= 1.0 + lambda;
-            g[p] = -best_g[p];
-        }
         /* A singular or overflowing system ends the fit at the best pose so far
-         * (checked here: a refusal of pb_pose_perturb would write an error text). */
-        if (!pbe_solve(A, g, NP, step) || !pb_all_finite(step, 6))
+         * (checked here: a refusal of pb_pose_perturb would write an error text);
+         * a step beyond the grid (pbe_within_grid) is damped as one that fits worse. */
+        double step[NP];
+        int solved = 0;
+        for (; lambda <= 1e6; lambda *= 8.0) {
+            double A[NP * NP], g[NP];
+            memcpy(A, best_a, sizeof A);
+            for (int p = 0; p < NP; p++) {
+                A[p * NP + p] *= 1.0 + lambda;
+                g[p] = -best_g[p];
+            }
+            if (!pbe_solve(A, g, NP, step) || !pb_all_finite(step, 6))
+                break;
+            pb_pose_perturb(&best_pose, step, &trial);
+            if ((solved = pbe_within_grid(&level->g, c, &fit->pose, &trial)))
+                break;
+        }
+        if (!solved)
             break;
-        pb_pose_perturb(&best_pose, step, &trial);
         fit->iterations = it + 1;
         double move = sqrt(step[0] * step[0] + step[1] * step[1] + step[2] * step[2]);
         double turn = sqrt(step[3] * step[3] + step[4] * step[4] + step[5] * step[5]);

@@ -119,6 +119,7 @@ static int reduced_normal(pb_pool *pool, const pb_geometry *g, const float *fram
 pb_status pbe_two_poses(pb_context *ctx, pbe_level *level, const float *frame, const double c[3], pb_pose *a,
                         pb_pose *b, unsigned iterations, double *share_a, double *sse)
 {
+    const pb_pose a0 = *a, b0 = *b;
     float *views = pbe_level_views(level, 2);
     if (!views)
         return PB_ERR_OUT_OF_MEMORY;
@@ -154,6 +155,10 @@ pb_status pbe_two_poses(pb_context *ctx, pbe_level *level, const float *frame, c
             pb_pose_perturb(&best.a, step, &trial.a);
             pb_pose_perturb(&best.b, step + 6, &trial.b);
             int ok = 0;
+            if (!pbe_within_grid(&level->g, c, &a0, &trial.a) || !pbe_within_grid(&level->g, c, &b0, &trial.b)) {
+                lambda *= 8.0;
+                continue;
+            }
             if ((st = evaluate(ctx, level, frame, c, &trial, &ok)) != PB_OK)
                 break;
             if (ok && trial.sse < best.sse) {
