@@ -294,11 +294,12 @@ def curved(times, maps, keys: int = 8):
 
 
 def frame_table(out: str, frames: int) -> dict:
-    """What the program's table a frame says: moving (a path followed) and unfollowed (the share of one pose's
-    residual a path it does not follow explains, 0 where it names none)."""
+    """What the program's table a frame says: moving (a path followed), unfollowed (the share of one pose's
+    residual a path it does not follow explains, 0 where it names none) and jumped (a step laid at its start: the
+    track holds each neighbour's pose to the boundary)."""
     lines = out.splitlines()
     head = next(i for i, line in enumerate(lines) if line.split()[:2] == ["frame", "start"])
-    moving, unfollowed = [], []
+    moving, unfollowed, jumped = [], [], []
     for k, line in enumerate(lines[head + 1:head + 1 + frames]):
         f, _, _, _, _, said = line.split(maxsplit=5)
         if int(f) != k:
@@ -306,7 +307,22 @@ def frame_table(out: str, frames: int) -> dict:
         moving.append(said.startswith("from "))
         unfollowed.append(float(said.split("explains ")[1].split()[0]) / 100 if said.startswith("not followed")
                           else 0.0)
-    return {"moving": moving, "unfollowed": unfollowed}
+        jumped.append("(the head jumped at its start)" in said)
+    return {"moving": moving, "unfollowed": unfollowed, "jumped": jumped}
+
+
+def step_distances(jumped: list, bounds, jerks) -> list:
+    """For each boundary the track steps at (jumped[b]: before frame b), [b, s]: s seconds from the boundary to the
+    nearest jerk's motion (0 where a jerk moves across it); a step far from every jerk is laid where the head moved
+    otherwise (a nod's fast part) or not at all."""
+    out = []
+    for b, j in enumerate(jumped):
+        if not j:
+            continue
+        t = float(bounds[b])
+        gaps = [max(at - t, t - (at + length), 0.0) for at, length, *_ in jerks]
+        out.append([b, round(min(gaps), 2) if gaps else None])
+    return out
 
 
 def reference_said(out: str) -> int:
@@ -358,6 +374,7 @@ def one(petblur: str, seed: int, device: str, metric: str, threads: int, variant
             said, track = reference_said(r.stdout), hf.read_matrix_csv(csv)
             row["petblur"] = dict(errors(*track, said), seconds=round(time.perf_counter() - started, 1),
                                   frames=frame_table(r.stdout, len(bounds) - 1))
+            row["petblur"]["steps"] = step_distances(row["petblur"]["frames"]["jumped"], bounds, d.jerks)
         for name, env in (variants or {}).items():
             if os.path.exists(csv):
                 os.remove(csv)  # a variant that writes nothing must not be scored on the run before
@@ -406,6 +423,30 @@ def trust_summary(rows: list) -> list:
         lines.append("| %s | %d | %s |" % (name, len(v), spread))
     lines += ["", "Frames reported not followed: the draw's worst frame in %d of %d draws; %d of the %d frames over "
               "1 mm." % (worst_flagged, len(rows), over1_flagged, over1)]
+    return lines + step_summary(rows)
+
+
+def step_summary(rows: list) -> list:
+    """The steps the track lays at boundaries (the report's "the head jumped at its start"), by how far the nearest
+    true jerk's motion lies from the boundary, with the error of the frames either side against the true mean pose
+    a frame through a monotone cubic (frame_means_curved): whether a step is laid where the head jumped."""
+    rows = [r for r in rows if "steps" in r["petblur"]]
+    if not rows:
+        return []
+    near, far = [], []
+    for r in rows:
+        e, bound = r["petblur"]["per_frame_mm"], r["frame_means_curved"]["per_frame_mm"]
+        for b, gap in r["petblur"]["steps"]:
+            side = (r["seed"], b, e[b - 1] + e[b], bound[b - 1] + bound[b])
+            (near if gap is not None and gap <= 1.0 else far).append(side)
+    lines = ["", "Steps laid at a boundary (the frames either side, the sum of their errors against the true mean "
+             "pose a frame through a monotone cubic, mm):", "",
+             "| steps | count | petblur, median | the bound, median | draw: boundary (petblur / bound) |",
+             "|---|---|---|---|---|"]
+    for name, v in (("within 1 s of a true jerk's motion", near), ("farther from every jerk", far)):
+        listed = ", ".join("%d: %d (%.2f / %.2f)" % x for x in v[:8]) + (", ..." if len(v) > 8 else "")
+        lines.append("| %s | %d | %s | %s | %s |" % (name, len(v), "%.3f" % np.median([x[2] for x in v]) if v else "-",
+                                                    "%.3f" % np.median([x[3] for x in v]) if v else "-", listed or "-"))
     return lines
 
 
