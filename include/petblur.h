@@ -825,7 +825,8 @@ typedef struct pb_estimate_options {
                             * PB_ESTIMATE_REFERENCE_AUTO: the frame held still whose pose its registration
                             * determines best, so that an early frame of few counts, whose pose is off by its
                             * noise, does not move every other frame's */
-    unsigned levels;       /* resolution levels, each halving the grid; 0: as many as keep 12 voxels a side, at most 3 */
+    unsigned levels;       /* resolution levels, each halving the grid, at most this many: none under 4 voxels a side
+                            * or of voxels over PB_MAX_VOXEL_MM; 0: as many as keep 12 voxels a side, at most 3 */
     unsigned iterations;   /* Gauss-Newton iterations at most per level and frame; 0: 12 */
     int frame_poses_only;  /* nonzero: one pose per frame; 0: a frame that holds a jerk gets the poses on both sides */
     double fwhm_mm;        /* smoothing before registration, mm; 0: two voxels of each level */

@@ -73,6 +73,18 @@ static void test_voxel_sizes(pb_context *ctx)
                  "status %d, '%s'", g.voxel_size[0], g.voxel_size[1], g.voxel_size[2], st, pb_last_error(ctx));
         pb_track_free(t);
     }
+    /* two levels asked of voxels over half the range's top: the coarser
+     * level's would be over it, so there is one level, not a refusal that
+     * names a size the caller never gave (found by fuzz_estimate) */
+    pb_geometry big = {{SIDE, SIDE, SIDE}, {2, 2, 2}};
+    big.voxel_size[(int)(pb_rand_uniform() * 3)] = pb_rand_range(0.5 * PB_MAX_VOXEL_MM, PB_MAX_VOXEL_MM);
+    pb_estimate_options two = {0};
+    two.levels = 2;
+    pb_track *t = NULL;
+    pb_status st = pb_motion_estimate(ctx, &big, NULL, f, FRAMES, b, &two, &t, NULL);
+    pb_check(st == PB_OK && t, "two levels of %g, %g, %g mm voxels: status %d, '%s'", big.voxel_size[0],
+             big.voxel_size[1], big.voxel_size[2], st, pb_last_error(ctx));
+    pb_track_free(t);
     free(f);
 }
 

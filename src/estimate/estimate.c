@@ -1945,8 +1945,11 @@ pb_status pb_motion_estimate(pb_context *ctx, const pb_geometry *geometry, const
         pb_geometry c;
         pbe_coarser(&g, &c);
         size_t want = o.levels ? o.levels : 3;
+        /* a level coarser than the volumes' largest voxel would be refused
+         * deep in the registration, naming a size the caller never gave */
         int fits = c.dims[0] >= (o.levels ? 4 : 12) && c.dims[1] >= (o.levels ? 4 : 12) &&
-                   c.dims[2] >= (o.levels ? 4 : 12);
+                   c.dims[2] >= (o.levels ? 4 : 12) &&
+                   fmax(c.voxel_size[0], fmax(c.voxel_size[1], c.voxel_size[2])) <= PB_MAX_VOXEL_MM;
         if (e.levels >= want || !fits)
             break;
         g = c;
