@@ -60,8 +60,7 @@ static void test_voxel_sizes(pb_context *ctx)
     /* the range's ends, and smoothing of 1000 mm over 0.0001 mm voxels: a
      * Gaussian ten million lines wide, cut to the grid. The middle axis's
      * size drawn over the range in mm and over its decades: between such
-     * axes the fits' normal equations are near singular (two_poses.c's
-     * within_grid) */
+     * axes the fits' normal equations are near singular (pbe_within_grid) */
     for (int trial = 0; trial < 4; trial++) {
         const double middle = trial % 2 ? pow(10.0, pb_rand_range(-4.0, 4.0)) : pb_rand_range(1e-4, 1e4);
         pb_geometry g = {{SIDE, SIDE, SIDE}, {1e-4, middle, 1e4}};

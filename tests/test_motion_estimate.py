@@ -164,12 +164,12 @@ class Together(unittest.TestCase):
     series of this setup (bench/pass4_family.py on CUDA, bench/results/2026-11-29_H200_42c3321_contrast) it took
     13-71 % off the mean (median 44 %) and never made the worst frame worse; on one series CI drew (seed 432804490,
     host and PoCL alike) it added 4 % to the mean (0.890 -> 0.925 mm) and 0.01 mm to the worst frame; on seed
-    2269693955 (drawn by a run of the suite on the host) 12 % (0.442 -> 0.497 mm) and 0.03 mm, its correction of 0.8 mm as large as on
-    series it helps, where 12 fresh series on the host at 25fc14c gained 14-65 % (median 47 %). So one draw asserts
-    what holds on every series seen, in mm as a user measures it: the pass may not add more than 0.1 mm to the mean
-    nor to the worst frame, and the track stays within the bounds below; the gain itself is the family's to show.
-    The bounds:
-    on 48 fresh series at d690735 (bench/results/2026-12-02_H200_d690735_pass4-family) the mean with the pass
+    2269693955 (drawn by a run of the suite on the host) 12 % (0.442 -> 0.497 mm) and 0.03 mm, its correction of
+    0.8 mm as large as on series it helps, where 12 fresh series on the host at 25fc14c gained 14-65 % (median 47 %).
+    So one draw asserts what holds on every series seen, in mm as a user measures it: the pass may not add more than
+    0.1 mm to the mean nor to the worst frame, and the track stays within the bounds below; the gain itself is the
+    family's to show. The bounds: on 48 fresh series at d690735
+    (bench/results/2026-12-02_H200_d690735_pass4-family) the mean with the pass
     0.257-0.883 mm and without it 0.863-1.087, the worst frame at most 1.80 mm; CI drew seed 1700318083, where the
     pass takes 1.003 to 0.994 mm on the CPU and on CUDA alike, above the 0.95 mm this bound was then. So the mean
     within 1.2 mm, above every series seen with the pass or without it: a sanity bound on the estimate. CI also drew
