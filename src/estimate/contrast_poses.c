@@ -197,23 +197,6 @@ static int second_image(collective *cv, const double *gram, size_t m, size_t *fi
     return cv->w[second] > bar * noise;
 }
 
-/* How far pose a takes the grid's corners from where pose b takes them, mm,
- * the most over the eight. */
-static double corner_distance(const collective *cv, const pb_pose *a, const pb_pose *b)
-{
-    double most = 0.0;
-    for (int corner = 0; corner < 8; corner++) {
-        double p[3], pa[3], pb[3], d = 0.0;
-        pbe_grid_corner(&cv->g, corner, p);
-        pb_pose_apply(a, cv->c, p, pa);
-        pb_pose_apply(b, cv->c, p, pb);
-        for (int i = 0; i < 3; i++)
-            d += (pa[i] - pb[i]) * (pa[i] - pb[i]);
-        most = fmax(most, sqrt(d));
-    }
-    return most;
-}
-
 /* Whether the n frames of the sum at indices part show the second image by
  * themselves at bar times the noise's; too few of them to tell (fewer than
  * the whole series' test asks), the whole series decides: 1. 0 where host
@@ -257,7 +240,7 @@ static int contrast_near_reference(collective *cv, size_t ref)
     if (!near)
         return 0;
     for (size_t i = 0; i < m; i++)
-        if (corner_distance(cv, &cv->poses[cv->use[i]].pose, &cv->poses[ref].pose) <= voxel)
+        if (pbe_corner_distance(&cv->g, cv->c, &cv->poses[cv->use[i]].pose, &cv->poses[ref].pose) <= voxel)
             near[n++] = i;
     int shows = part_shows(cv, near, n, CONTRAST_OVER_NOISE);
     free(near);
@@ -285,7 +268,7 @@ static int weights_follow_uptake(const collective *cv)
     }
     for (size_t i = 1; i < m; i++) {
         const size_t a = cv->use[i - 1], b = cv->use[i];
-        if (corner_distance(cv, &cv->poses[a].pose, &cv->poses[b].pose) > voxel &&
+        if (pbe_corner_distance(&cv->g, cv->c, &cv->poses[a].pose, &cv->poses[b].pose) > voxel &&
             fabs(cv->weight[b] - cv->weight[a]) >= JUMP_STEP_SHARE * (hi - lo))
             return 0;
     }

@@ -25,6 +25,9 @@ size_t pbe_longest_side(const pb_geometry *g);
  * mm from its first voxel's outer corner: where the passes measure how far a
  * pose moves the grid. */
 void pbe_grid_corner(const pb_geometry *g, int corner, double p[3]);
+/* How far pose a takes the grid's corners (about c) from where pose b
+ * takes them, mm, the most over the eight; NaN where a pose is. */
+double pbe_corner_distance(const pb_geometry *g, const double c[3], const pb_pose *a, const pb_pose *b);
 /* Whether pose p moves no corner of the grid farther from where pose from
  * puts it than the grid's diagonal: how far a fit's step may carry a pose.
  * Beyond it the views hold nothing of the frame's object, and on grids whose

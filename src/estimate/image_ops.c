@@ -28,23 +28,27 @@ void pbe_grid_corner(const pb_geometry *g, int corner, double p[3])
         p[a] = (corner >> a & 1) ? (double)g->dims[a] * g->voxel_size[a] : 0.0;
 }
 
-int pbe_within_grid(const pb_geometry *g, const double c[3], const pb_pose *from, const pb_pose *p)
+double pbe_corner_distance(const pb_geometry *g, const double c[3], const pb_pose *a, const pb_pose *b)
 {
-    double diagonal = 0.0, far[3];
-    pbe_grid_corner(g, 7, far);
-    for (int i = 0; i < 3; i++)
-        diagonal += far[i] * far[i];
+    double most = 0.0;
     for (int corner = 0; corner < 8; corner++) {
         double q[3], u[3], v[3], d = 0.0;
         pbe_grid_corner(g, corner, q);
-        pb_pose_apply(from, c, q, u);
-        pb_pose_apply(p, c, q, v);
+        pb_pose_apply(a, c, q, u);
+        pb_pose_apply(b, c, q, v);
         for (int i = 0; i < 3; i++)
             d += (u[i] - v[i]) * (u[i] - v[i]);
-        if (!(d <= diagonal))
-            return 0;
+        if (isnan(d) || d > most) /* a NaN, once in, stays */
+            most = d;
     }
-    return 1;
+    return sqrt(most);
+}
+
+int pbe_within_grid(const pb_geometry *g, const double c[3], const pb_pose *from, const pb_pose *p)
+{
+    double far[3];
+    pbe_grid_corner(g, 7, far);
+    return pbe_corner_distance(g, c, from, p) <= sqrt(far[0] * far[0] + far[1] * far[1] + far[2] * far[2]);
 }
 
 void pbe_downsample(const pb_geometry *fine, const float *in, const pb_geometry *coarse, float *out)
