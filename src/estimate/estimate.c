@@ -1003,27 +1003,6 @@ static double two_beyond_path(void)
     return env_number("PETBLUR_ESTIMATE_TWO_BEYOND", 0.0, 0.5, TWO_BEYOND_PATH);
 }
 
-/* PATH_TWO: the frame as two poses of its own held in turn (two_poses.c),
- * from the two halves of its best path, for each frame that shows motion
- * inside it that no path follows (unfollowed: its best path gained above
- * the series' bar and was refused, its neighbours moving themselves or the
- * path unsupported). Taken where it explains the frame better than that
- * path did, holds each pose for at least SHORT_SHARE of the frame, each
- * pose stays within half the halves' distance of its half (a pose that
- * leaves fits the reference's misfit, not the motion: issue 47's draw
- * 2895735097, a frame of 60 s still but for 0.4 s, gained 22 % on a second
- * pose 190 mm from the first, held 7 % of the frame, where its paths gained
- * 3 %), and the frame dwells at the two poses (pbe_two_poses_held); no
- * neighbour's path may start or end at the frame's pose. Which pose came
- * first the frame cannot tell: the one nearer the frame before's pose (the
- * first frame: the one further from the frame after's). By default a
- * frame on a path (not PATH_BACK) tries it too, where it explains
- * TWO_BEYOND_PATH of what that path leaves, and steps from and to the
- * still neighbours that path stepped from and to (path_keys). The series'
- * first and last frames' one path (PATH_ON, PATH_FROM), whose far end is the
- * frame's own pose taken as far again, was fitted so too and not kept: on
- * 20 series of test_jerk_in_the_series_first_or_last_frame, 1 of 40 frames
- * better, 2 worse (docs/estimate-log.md). */
 /* The pose the track holds at frame k's start (side 0) or end (side 1),
  * from the neighbour there: a still one's pose, or where a moving one's
  * path ends (starts). NULL: no neighbour. */
@@ -1063,6 +1042,27 @@ static int held_first(const estimate *e, const double far[3], const pbe_fit *fit
     return a_first <= b_first;
 }
 
+/* PATH_TWO: the frame as two poses of its own held in turn (two_poses.c),
+ * from the two halves of its best path, for each frame that shows motion
+ * inside it that no path follows (unfollowed: its best path gained above
+ * the series' bar and was refused, its neighbours moving themselves or the
+ * path unsupported). Taken where it explains the frame better than that
+ * path did, holds each pose for at least SHORT_SHARE of the frame, each
+ * pose stays within half the halves' distance of its half (a pose that
+ * leaves fits the reference's misfit, not the motion: issue 47's draw
+ * 2895735097, a frame of 60 s still but for 0.4 s, gained 22 % on a second
+ * pose 190 mm from the first, held 7 % of the frame, where its paths gained
+ * 3 %), and the frame dwells at the two poses (pbe_two_poses_held); no
+ * neighbour's path may start or end at the frame's pose. Which pose came
+ * first the frame cannot tell: the order nearer the poses its neighbours
+ * hold at its boundaries (held_first). By default a
+ * frame on a path (not PATH_BACK) tries it too, where it explains
+ * TWO_BEYOND_PATH of what that path leaves, and steps from and to the
+ * still neighbours that path stepped from and to (path_keys). The series'
+ * first and last frames' one path (PATH_ON, PATH_FROM), whose far end is the
+ * frame's own pose taken as far again, was fitted so too and not kept: on
+ * 20 series of test_jerk_in_the_series_first_or_last_frame, 1 of 40 frames
+ * better, 2 worse (docs/estimate-log.md). */
 static pb_status two_pose_frames(estimate *e, const pbe_fit *fits, const float *moved, const double *gram,
                                  float *own, frame_path *paths, int *moving, size_t *moving_count,
                                  double *unfollowed)
