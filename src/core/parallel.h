@@ -9,7 +9,7 @@
 
 typedef struct pb_pool pb_pool;
 /* Voxels a chunk of a sum; a sum has at most PB_MOST_SUMS terms. */
-enum { PB_CHUNK = 16384, PB_MOST_SUMS = 128 };
+enum { PB_CHUNK = 16384, PB_MOST_SUMS = 256 };
 /* Threads on the cores this process may run on (its CPU affinity; at most
  * 32), the caller one of them; NULL where there is one core or no thread
  * starts: every loop then runs on the caller. */

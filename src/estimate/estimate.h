@@ -275,6 +275,20 @@ pb_status pbe_two_poses(pb_context *ctx, pbe_level *level, const float *frame, c
 pb_status pbe_two_poses_held(pb_context *ctx, pbe_level *level, const float *frame, const double c[3],
                              const pb_pose *a, const pb_pose *b, double within, double *held);
 
+/* ---- line_dwell.c: a frame as a dwell along a line with fitted ends -------- */
+
+/* The most points a line's dwell takes. */
+enum { PBE_LINE_MOST = 9 };
+/* The frame as sum_i u_i V(P_i) + o, the P_i m points spaced evenly from A to
+ * B (pb_pose_interpolate), u non-negative, A and B fitted from *a and *b
+ * (replaced) by at most `iterations` Levenberg-Marquardt steps a round, the
+ * line trimmed to its first and last points held between rounds; each voxel
+ * weighed by level->host[PBE_SUPPORT] as set. u: m dwells and the offset;
+ * *sse: the weighted residual (infinite, *a and *b kept, where no dwell was
+ * found). m is 2 to PBE_LINE_MOST. The level's reference must be set. */
+pb_status pbe_line_dwell(pb_context *ctx, pbe_level *level, const float *frame, const double c[3], pb_pose *a,
+                         pb_pose *b, size_t m, unsigned iterations, double *u, double *sse);
+
 /* ---- sinc_shears.c: rigid moves that keep a volume's energy --------------------- */
 
 /* The padded grid a volume on g is moved in: odd sizes, a margin each side. */
