@@ -913,9 +913,13 @@ def test_a_jerk_that_ends_at_a_boundary_steps_there(rng, monkeypatch):
     on the other 13 the tracks were the path's. 20 more drew seed
     1383856037, 0.540 -> 1.598 mm (one pose 1.884), the mean 0.151 mm above
     the path's and 0.165 below one pose a frame's. A jerk of 6-7 s is a
-    ramp over most of the frame, which two poses held in turn are not. The
-    default must still follow it: the jerk's frame below 0.95 of one pose's
-    error, the series' mean below one pose a frame's."""
+    ramp over most of the frame, which two poses held in turn are not: since
+    PATH_TWO asks a line with fitted ends through the two poses whether the
+    frame dwelt between them (TWO_LINE_BETWEEN), on 30 fresh series two
+    poses replaced the path on 2 where they had on 8 (the mean 0.056 and
+    0.068 mm above the path's), and on 20 more on none. The default must follow the jerk: the jerk's
+    frame below 0.95 of one pose's error, the series' mean below one pose a
+    frame's and within 0.1 mm of the path's."""
     nf, seconds = 7, 10.0
     k = int(rng.integers(2, nf - 2))
     jerk = _rigid(rng, float(rng.uniform(12.0, 16.0)), 0.0)
@@ -953,6 +957,7 @@ def test_a_jerk_that_ends_at_a_boundary_steps_there(rng, monkeypatch):
     # the default, two poses of the frame's own in place of the path where they fit better by the bar
     assert moving_default == [k] and err_default[k] < 0.95 * err_one[k], msg
     assert err_default.mean() < err_one.mean(), msg
+    assert err_default.mean() < err.mean() + 0.1, msg
     assert moving == [k], msg
     stepped = abs(inside[1] - starts[k + 1]) < 1e-6
     assert np.all(err <= err_ramp + 0.04), msg

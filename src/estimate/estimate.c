@@ -86,6 +86,19 @@ enum { TWO_POSE_STEPS = 30 };
  * 0.968-0.997, eight were worse (0.21-2.32 mm -> 0.44-2.99) and four better
  * by 0.06-0.25 mm (docs/estimate-log.md, "A frame as two poses of its own"). */
 #define TWO_BEYOND_PATH 0.05
+/* The most of its dwell a line with fitted ends through a frame's two poses
+ * may hold between them (line_dwell.c; its points 2 to DWELL_POINTS - 3)
+ * for PATH_TWO to take them: a frame held at two poses in turn dwells at the
+ * line's ends, one whose head ramped from one pose towards the other over
+ * much of it dwells along the way, and two poses held in turn put the ramp
+ * at a pose inside it. On 30 fresh series of a jerk of 12-16 degrees and
+ * 10-14 mm over 5-7 s of a 10 s frame (test_a_jerk_that_ends_at_a_boundary_
+ * steps_there's kind), two poses replaced the path on 8, each worse (the
+ * jerk's frame 0.37-1.09 -> 1.05-1.49 mm); six of their lines held
+ * 0.29-0.42 between the ends, two 0.00 and 0.15 (those still take two
+ * poses). The six family frames traced where two poses won or were taken
+ * held 0.00-0.02 (docs/estimate-log.md, "A line with fitted ends"). */
+#define TWO_LINE_BETWEEN 0.2
 /* The shortest time a path's step takes, as a fraction of its frame. */
 #define STEP_FRACTION 0.01
 /* A background at least this share of a frame's peak is warned about (it is
@@ -424,7 +437,6 @@ typedef struct frame_path {
     double gain;       /* 1 - its residual / one pose's; 0: not tried, or refused */
     double fitted;     /* the gain as fitted, before any refusal */
     int replaced;      /* PATH_TWO: 1 + the kind of the path it replaced, 0 for none */
-    int points;        /* PATH_TWO: the points it dwells at, 2 (two poses) or DWELL_POINTS (a line) */
     pb_pose start, end;
     double dwell[PBE_DWELL_MOST + 1]; /* DWELL_POINTS, PATH_BACK's BACK_POINTS, and the offset */
 } frame_path;
@@ -1004,18 +1016,34 @@ static double two_beyond_path(void)
     return env_number("PETBLUR_ESTIMATE_TWO_BEYOND", 0.0, 0.5, TWO_BEYOND_PATH);
 }
 
-/* A line with fitted ends (line_dwell.c) for PATH_TWO's frames, for
- * comparisons (PETBLUR_ESTIMATE_LINE): 0 nowhere (the default), 1 the line
- * in place of the two poses where they replace a path, 2 on unfollowed frames
- * too, 3 two poses refused where the line dwells more than
- * PETBLUR_ESTIMATE_LINE_BAR (0.2) between its ends (its points 2 to
- * DWELL_POINTS - 3): a ramp over much of the frame, not a jerk. Not the
- * default: the line's dwell is not identifiable at jumps of a few voxels
- * (tests/test_line_dwell.c; docs/estimate-log.md, "A line with fitted
- * ends"). */
-static int line_tried(void)
+/* Whether PATH_TWO asks a line with fitted ends whether its frame dwelt at
+ * the two poses (TWO_LINE_BETWEEN; PETBLUR_ESTIMATE_LINE=0 does not, for
+ * comparisons). */
+static int line_judges(void)
 {
-    return (int)env_number("PETBLUR_ESTIMATE_LINE", 0.0, 3.0, 0.0);
+    const char *env = getenv("PETBLUR_ESTIMATE_LINE");
+    return !(env && strcmp(env, "0") == 0);
+}
+
+/* The share of frame k's dwell between its two poses a and b along a line
+ * with fitted ends through them (pbe_line_dwell, from a quarter beyond
+ * either), its points 2 to DWELL_POINTS - 3: what a ramp leaves there and a
+ * jump between two poses held does not. */
+static pb_status dwell_between(estimate *e, const float *frame, const pb_pose *a, const pb_pose *b, double *between)
+{
+    pb_pose s, t;
+    double u[DWELL_POINTS + 1], sse, total = 0.0, inside = 0.0;
+    pb_pose_interpolate(a, b, -0.25, &s);
+    pb_pose_interpolate(a, b, 1.25, &t);
+    pb_pose_normalized(&s, &s);
+    pb_pose_normalized(&t, &t);
+    pb_status st = pbe_line_dwell(e->ctx, &e->level[0], frame, e->c, &s, &t, DWELL_POINTS, TWO_POSE_STEPS, u, &sse);
+    for (int i = 0; i < DWELL_POINTS && st == PB_OK && isfinite(sse); i++) {
+        total += fmax(u[i], 0.0);
+        inside += i >= 2 && i + 2 < DWELL_POINTS ? fmax(u[i], 0.0) : 0.0;
+    }
+    *between = total > 0 ? inside / total : 1.0;
+    return st;
 }
 
 /* The pose the track holds at frame k's start (side 0) or end (side 1),
@@ -1067,7 +1095,8 @@ static int held_first(const estimate *e, const double far[3], const pbe_fit *fit
  * leaves fits the reference's misfit, not the motion: issue 47's draw
  * 2895735097, a frame of 60 s still but for 0.4 s, gained 22 % on a second
  * pose 190 mm from the first, held 7 % of the frame, where its paths gained
- * 3 %), and the frame dwells at the two poses (pbe_two_poses_held); no
+ * 3 %), and the frame dwells at the two poses (pbe_two_poses_held) and not
+ * between them along a line with fitted ends (TWO_LINE_BETWEEN); no
  * neighbour's path may start or end at the frame's pose. Which pose came
  * first the frame cannot tell: the order nearer the poses its neighbours
  * hold at its boundaries (held_first). By default a
@@ -1087,7 +1116,6 @@ static pb_status two_pose_frames(estimate *e, const pbe_fit *fits, const float *
     pb_status st = PB_OK;
     const int in_place_of_paths = two_poses_tried() == 2;
     const double beyond = two_beyond_path(), held_bar = two_held_share();
-    const int line = line_tried();
     for (size_t k = 0; k < e->count && st == PB_OK; k++) {
         const int on_path = in_place_of_paths && moving[k] && moving[k] - 1 != PATH_BACK;
         if (!(on_path || (!moving[k] && unfollowed[k] > 0.0)) || e->flat[k] ||
@@ -1121,54 +1149,21 @@ static pb_status two_pose_frames(estimate *e, const pbe_fit *fits, const float *
             !poses_apart(e, far, &a, &b) ||
             fmax(path_span(e, far, &a0, &a), path_span(e, far, &b0, &b)) > 0.5 * path_span(e, far, &a0, &b0))
             continue;
+        double held = 0.0, between = 0.0;
+        if ((st = pbe_two_poses_held(e->ctx, &e->level[0], frame, e->c, &a, &b,
+                                     e->g.voxel_size[0] / path_span(e, far, &a, &b), &held)) != PB_OK ||
+            !(held >= held_bar))
+            continue;
+        if (line_judges() && ((st = dwell_between(e, frame, &a, &b, &between)) != PB_OK || between > TWO_LINE_BETWEEN))
+            continue;
+        const int a_first = held_first(e, far, fits, paths, moving, k, &a, &b);
         frame_path *two = &paths[k * PATHS + PATH_TWO];
-        pb_pose s, t;
-        double u[DWELL_POINTS + 1], line_sse = (double)INFINITY, interior = 0.0;
-        if (line) {
-            /* the line from a quarter beyond either pose, trimmed to where it dwells */
-            pb_pose_interpolate(&a, &b, -0.25, &s);
-            pb_pose_interpolate(&a, &b, 1.25, &t);
-            pb_pose_normalized(&s, &s);
-            pb_pose_normalized(&t, &t);
-            if ((st = pbe_line_dwell(e->ctx, &e->level[0], frame, e->c, &s, &t, DWELL_POINTS, TWO_POSE_STEPS, u,
-                                     &line_sse)) != PB_OK)
-                break;
-            double tot = 0.0;
-            for (int i = 0; i < DWELL_POINTS; i++) {
-                tot += fmax(u[i], 0.0);
-                interior += i >= 2 && i + 2 < DWELL_POINTS ? fmax(u[i], 0.0) : 0.0;
-            }
-            interior = tot > 0 ? interior / tot : 0.0;
-        }
-        if ((line == 1 && on_path) || line == 2) {
-            if (!(1.0 - line_sse / one > (on_path ? best->fitted + beyond * (1.0 - best->fitted) : unfollowed[k])) ||
-                !poses_apart(e, far, &s, &t) ||
-                fmax(path_span(e, far, &a0, &s), path_span(e, far, &b0, &t)) > path_span(e, far, &a0, &b0))
-                continue;
-            const int s_first = held_first(e, far, fits, paths, moving, k, &s, &t);
-            two->points = DWELL_POINTS;
-            two->gain = 1.0 - line_sse / one;
-            two->start = s_first ? s : t;
-            two->end = s_first ? t : s;
-            for (int i = 0; i < DWELL_POINTS; i++)
-                two->dwell[i] = u[s_first ? i : DWELL_POINTS - 1 - i];
-        } else {
-            if (line == 3 && interior > env_number("PETBLUR_ESTIMATE_LINE_BAR", 0.0, 1.0, 0.2))
-                continue;
-            double held = 0.0;
-            if ((st = pbe_two_poses_held(e->ctx, &e->level[0], frame, e->c, &a, &b,
-                                         e->g.voxel_size[0] / path_span(e, far, &a, &b), &held)) != PB_OK ||
-                !(held >= held_bar))
-                continue;
-            const int a_first = held_first(e, far, fits, paths, moving, k, &a, &b);
-            two->points = 2;
-            two->gain = 1.0 - sse / one;
-            two->start = a_first ? a : b;
-            two->end = a_first ? b : a;
-            two->dwell[0] = a_first ? share_a : 1.0 - share_a;
-            two->dwell[1] = 1.0 - two->dwell[0];
-        }
         two->replaced = on_path ? moving[k] : 0;
+        two->gain = 1.0 - sse / one;
+        two->start = a_first ? a : b;
+        two->end = a_first ? b : a;
+        two->dwell[0] = a_first ? share_a : 1.0 - share_a;
+        two->dwell[1] = 1.0 - two->dwell[0];
         *moving_count += !moving[k];
         moving[k] = 1 + PATH_TWO;
         unfollowed[k] = 0.0;
@@ -1910,18 +1905,12 @@ static pb_status estimate_run(estimate *e, const double *bounds, const pb_estima
                 double from = 0.0, to = 0.0;
                 if (moving[f] - 1 == PATH_TWO) {
                     /* in place of a path, the still neighbours it stepped from and to */
-                    const pb_pose *before = NULL, *after = NULL;
-                    pb_pose held[DWELL_POINTS];
-                    double u[DWELL_POINTS], w[DWELL_POINTS];
+                    const pb_pose held[2] = {p->start, p->end}, *before = NULL, *after = NULL;
+                    double u[DWELL_POINTS];
                     if (p->replaced)
                         path_neighbours(e, fits, moving, f, p->replaced - 1, &paths[f * PATHS + (size_t)(p->replaced - 1)],
                                         u, &before, &after);
-                    held[0] = p->start;
-                    held[p->points - 1] = p->end;
-                    for (int i = 1; i + 1 < p->points; i++)
-                        pb_pose_interpolate(&p->start, &p->end, (double)i / (p->points - 1), &held[i]);
-                    dwell_shares(p->dwell, p->points, w);
-                    hold_keys(&k, bounds[f], bounds[f + 1], held, w, p->points, before, after, &from, &to);
+                    hold_keys(&k, bounds[f], bounds[f + 1], held, p->dwell, 2, before, after, &from, &to);
                 } else if (moving[f] - 1 == PATH_BACK)
                     back_keys(&k, bounds[f], bounds[f + 1], &p->start, &p->end, &fits[f + 1].pose, p->dwell, &from,
                               &to);
