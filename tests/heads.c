@@ -1,5 +1,6 @@
 /* Fresh PET heads for the estimator's tests (heads.h). */
 #include <math.h>
+#include <stdlib.h>
 #include <string.h>
 
 #include "estimate.h"
@@ -95,3 +96,55 @@ double pbt_pose_distance(const pb_pose *a, const pb_pose *b)
     return sqrt(t2 + 0.4 * PBT_RADIUS_MM * PBT_RADIUS_MM * angle * angle);
 }
 
+
+pb_status pbt_late_head(const pb_geometry *g, float *out)
+{
+    const size_t n = g->dims[0] * g->dims[1] * g->dims[2];
+    const size_t longest = g->dims[0] > g->dims[1] ? (g->dims[0] > g->dims[2] ? g->dims[0] : g->dims[2])
+                                                   : (g->dims[1] > g->dims[2] ? g->dims[1] : g->dims[2]);
+    float *t[PBT_TISSUES] = {NULL}, *tmp = malloc(sizeof(float) * longest);
+    int room = tmp != NULL;
+    for (int k = 0; k < PBT_TISSUES; k++)
+        room &= (t[k] = malloc(sizeof(float) * n)) != NULL;
+    if (room) {
+        double c[PBT_TISSUES];
+        pbt_head_tissues(g, t, tmp);
+        pbt_late_contrast(c);
+        pbt_mix((const float *const *)t, c, n, out);
+    }
+    for (int k = 0; k < PBT_TISSUES; k++)
+        free(t[k]);
+    free(tmp);
+    return room ? PB_OK : PB_ERR_OUT_OF_MEMORY;
+}
+
+pb_pose pbt_jittered(const pb_pose *p, double mm)
+{
+    double xi[6], length = 0.0;
+    for (int i = 0; i < 6; i++) {
+        xi[i] = pbt_gauss();
+        length += xi[i] * xi[i];
+    }
+    for (int i = 0; i < 6; i++)
+        xi[i] *= mm / sqrt(length) / (i < 3 ? 1.0 : PBT_RADIUS_MM);
+    pb_pose out;
+    pb_pose_perturb(p, xi, &out);
+    pb_pose_normalized(&out, &out);
+    return out;
+}
+
+void pbt_jerk(double lo, double hi, pb_pose *a, pb_pose *b)
+{
+    double axis[3] = {pbt_gauss(), pbt_gauss(), pbt_gauss()}, jaxis[3] = {pbt_gauss(), pbt_gauss(), pbt_gauss()};
+    *a = pb_test_pose(pb_rand_range(-2.0, 2.0), pb_rand_range(-2.0, 2.0), pb_rand_range(-2.0, 2.0), axis,
+                      pb_rand_range(0.0, 3.0));
+    double shift[3] = {pbt_gauss(), pbt_gauss(), pbt_gauss()}, len = 0.0;
+    for (int i = 0; i < 3; i++)
+        len += shift[i] * shift[i];
+    const double jump = pb_rand_range(lo, hi);
+    for (int i = 0; i < 3; i++)
+        shift[i] *= jump / sqrt(len);
+    const pb_pose step = pb_test_pose(shift[0], shift[1], shift[2], jaxis, pb_rand_range(lo, hi));
+    pb_pose_compose(&step, a, b);
+    pb_pose_normalized(b, b);
+}

@@ -30,21 +30,6 @@ enum { NX = 40, NY = 36, NZ = 30, CASES = 3, RAMP_VIEWS = 24, POINTS = 9 };
 /* the least share of the line's dwell within a voxel of the truth's path */
 #define ALONG 0.85
 
-static pb_pose jittered(const pb_pose *p, double mm)
-{
-    double xi[6], length = 0.0;
-    for (int i = 0; i < 6; i++) {
-        xi[i] = pbt_gauss();
-        length += xi[i] * xi[i];
-    }
-    for (int i = 0; i < 6; i++)
-        xi[i] *= mm / sqrt(length) / (i < 3 ? 1.0 : PBT_RADIUS_MM);
-    pb_pose out;
-    pb_pose_perturb(p, xi, &out);
-    pb_pose_normalized(&out, &out);
-    return out;
-}
-
 static pb_status view_of(pb_context *ctx, const pb_geometry *g, const float *x, const pb_pose *p, const double c[3],
                          float *out)
 {
@@ -66,8 +51,8 @@ static pb_status fit(pb_context *ctx, pbe_level *level, const float *frame, cons
     pb_pose_interpolate(at, bt, hi, &q3);
     pb_pose_interpolate(at, bt, 0.5, &mean);
     pb_pose_normalized(&mean, &mean);
-    q1 = jittered(&q1, pb_rand_range(0.5, 1.5));
-    q3 = jittered(&q3, pb_rand_range(0.5, 1.5));
+    q1 = pbt_jittered(&q1, pb_rand_range(0.5, 1.5));
+    q3 = pbt_jittered(&q3, pb_rand_range(0.5, 1.5));
     pb_pose_interpolate(&q1, &q3, -0.25, s);
     pb_pose_interpolate(&q1, &q3, 1.25, t);
     pb_pose_normalized(s, s);
@@ -118,32 +103,16 @@ int main(int argc, char **argv)
         pb_geometry g = pbt_head_grid(NX, NY, NZ);
         const double v = g.voxel_size[0];
         const size_t n = (size_t)NX * NY * NZ;
-        float *t[PBT_TISSUES], *late = malloc(sizeof(float) * n), *frame = malloc(sizeof(float) * n);
-        float *va = malloc(sizeof(float) * n), *tmp = malloc(sizeof(float) * 64);
-        for (int k = 0; k < PBT_TISSUES; k++)
-            t[k] = malloc(sizeof(float) * n);
-        pbt_head_tissues(&g, t, tmp);
-        double late_c[PBT_TISSUES];
-        pbt_late_contrast(late_c);
-        pbt_mix((const float *const *)t, late_c, n, late);
+        float *late = malloc(sizeof(float) * n), *frame = malloc(sizeof(float) * n), *va = malloc(sizeof(float) * n);
+        pb_status st = late && frame && va ? pbt_late_head(&g, late) : PB_ERR_OUT_OF_MEMORY;
         const double c[3] = {0.5 * NX * g.voxel_size[0], 0.5 * NY * g.voxel_size[1], 0.5 * NZ * g.voxel_size[2]};
-        double axis[3] = {pbt_gauss(), pbt_gauss(), pbt_gauss()}, jaxis[3] = {pbt_gauss(), pbt_gauss(), pbt_gauss()};
-        const pb_pose a_true = pb_test_pose(pb_rand_range(-2.0, 2.0), pb_rand_range(-2.0, 2.0),
-                                            pb_rand_range(-2.0, 2.0), axis, pb_rand_range(0.0, 3.0));
-        double shift[3] = {pbt_gauss(), pbt_gauss(), pbt_gauss()}, len = 0.0;
-        for (int i = 0; i < 3; i++)
-            len += shift[i] * shift[i];
-        const double jump = pb_rand_range(6.0, 9.0);
-        for (int i = 0; i < 3; i++)
-            shift[i] *= jump / sqrt(len);
-        const pb_pose step = pb_test_pose(shift[0], shift[1], shift[2], jaxis, pb_rand_range(6.0, 9.0));
-        pb_pose b_true;
-        pb_pose_compose(&step, &a_true, &b_true);
-        pb_pose_normalized(&b_true, &b_true);
+        pb_pose a_true, b_true;
+        pbt_jerk(6.0, 9.0, &a_true, &b_true);
 
         /* a slow jerk: A held for a share of 0.3-0.5, then an even ramp to B */
         const double held = pb_rand_range(0.3, 0.5);
-        pb_status st = view_of(ctx, &g, late, &a_true, c, frame);
+        if (st == PB_OK)
+            st = view_of(ctx, &g, late, &a_true, c, frame);
         for (size_t i = 0; i < n && st == PB_OK; i++)
             frame[i] = (float)(held * (double)frame[i]);
         for (int r = 0; r < RAMP_VIEWS && st == PB_OK; r++) {
@@ -200,12 +169,9 @@ int main(int argc, char **argv)
         pb_check(sse < one_sse, "case %d: the jerk: the line leaves %.4g, one pose %.4g", cs, sse, one_sse);
         pb_check(along >= ALONG, "case %d: the jerk: %.3f of the line's dwell along the path", cs, along);
         pbe_level_free(&level);
-        for (int k = 0; k < PBT_TISSUES; k++)
-            free(t[k]);
         free(late);
         free(frame);
         free(va);
-        free(tmp);
     }
     pb_context_destroy(ctx);
     return pb_test_finish();

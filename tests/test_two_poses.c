@@ -29,23 +29,6 @@
 
 enum { NX = 40, NY = 36, NZ = 30, CASES = 4 };
 
-/* pose p moved by a random displacement of size mm (turns in units of the
- * head's displacement, PBT_RADIUS_MM a radian) */
-static pb_pose jittered(const pb_pose *p, double mm)
-{
-    double xi[6], length = 0.0;
-    for (int i = 0; i < 6; i++) {
-        xi[i] = pbt_gauss();
-        length += xi[i] * xi[i];
-    }
-    for (int i = 0; i < 6; i++)
-        xi[i] *= mm / sqrt(length) / (i < 3 ? 1.0 : PBT_RADIUS_MM);
-    pb_pose out;
-    pb_pose_perturb(p, xi, &out);
-    pb_pose_normalized(&out, &out);
-    return out;
-}
-
 int main(int argc, char **argv)
 {
     pb_test_seed();
@@ -55,28 +38,11 @@ int main(int argc, char **argv)
         pb_geometry g = pbt_head_grid(NX, NY, NZ);
         const double v = g.voxel_size[0];
         const size_t n = (size_t)NX * NY * NZ;
-        float *t[PBT_TISSUES], *late = malloc(sizeof(float) * n), *frame = malloc(sizeof(float) * n);
-        float *va = malloc(sizeof(float) * n), *tmp = malloc(sizeof(float) * 64);
-        for (int k = 0; k < PBT_TISSUES; k++)
-            t[k] = malloc(sizeof(float) * n);
-        pbt_head_tissues(&g, t, tmp);
-        double late_c[PBT_TISSUES];
-        pbt_late_contrast(late_c);
-        pbt_mix((const float *const *)t, late_c, n, late);
+        float *late = malloc(sizeof(float) * n), *frame = malloc(sizeof(float) * n), *va = malloc(sizeof(float) * n);
+        pb_status st = late && frame && va ? pbt_late_head(&g, late) : PB_ERR_OUT_OF_MEMORY;
         const double c[3] = {0.5 * NX * g.voxel_size[0], 0.5 * NY * g.voxel_size[1], 0.5 * NZ * g.voxel_size[2]};
-        double axis[3] = {pbt_gauss(), pbt_gauss(), pbt_gauss()}, jaxis[3] = {pbt_gauss(), pbt_gauss(), pbt_gauss()};
-        const pb_pose a_true = pb_test_pose(pb_rand_range(-2.0, 2.0), pb_rand_range(-2.0, 2.0),
-                                            pb_rand_range(-2.0, 2.0), axis, pb_rand_range(0.0, 3.0));
-        double shift[3] = {pbt_gauss(), pbt_gauss(), pbt_gauss()}, len = 0.0;
-        for (int i = 0; i < 3; i++)
-            len += shift[i] * shift[i];
-        const double jump = pb_rand_range(5.0, 8.0);
-        for (int i = 0; i < 3; i++)
-            shift[i] *= jump / sqrt(len);
-        const pb_pose step = pb_test_pose(shift[0], shift[1], shift[2], jaxis, pb_rand_range(5.0, 8.0));
-        pb_pose b_true, mean;
-        pb_pose_compose(&step, &a_true, &b_true);
-        pb_pose_normalized(&b_true, &b_true);
+        pb_pose a_true, b_true, mean;
+        pbt_jerk(5.0, 8.0, &a_true, &b_true);
         const double share = pb_rand_range(0.2, 0.8);
         pb_pose_interpolate(&a_true, &b_true, 1.0 - share, &mean);
         pb_pose_normalized(&mean, &mean);
@@ -86,7 +52,8 @@ int main(int argc, char **argv)
         pb_pose poses[2];
         pb_motion m;
         pbe_static_motion(&a_true, c, times, poses, &m);
-        pb_status st = pb_test_blur(ctx, &g, late, &m, NULL, va);
+        if (st == PB_OK)
+            st = pb_test_blur(ctx, &g, late, &m, NULL, va);
         pbe_static_motion(&b_true, c, times, poses, &m);
         if (st == PB_OK)
             st = pb_test_blur(ctx, &g, late, &m, NULL, frame);
@@ -117,7 +84,7 @@ int main(int argc, char **argv)
         const double one_sse = st == PB_OK ? pbe_weighted_sse(NULL, view, frame, level.host[PBE_SUPPORT], n) : 0.0;
 
         /* the two poses from starts off each */
-        pb_pose a = jittered(&a_true, pb_rand_range(0.5, 1.5)), b = jittered(&b_true, pb_rand_range(0.5, 1.5));
+        pb_pose a = pbt_jittered(&a_true, pb_rand_range(0.5, 1.5)), b = pbt_jittered(&b_true, pb_rand_range(0.5, 1.5));
         double found_share = -1.0, sse = 0.0;
         if (st == PB_OK)
             st = pbe_two_poses(ctx, &level, frame, c, &a, &b, 30, &found_share, &sse);
@@ -142,7 +109,7 @@ int main(int argc, char **argv)
         pbe_static_motion(&a_true, c, times, poses, &m);
         for (size_t i = 0; i < n; i++)
             frame[i] = va[i] + (float)(0.01 * peak * pbt_gauss());
-        const pb_pose a0 = jittered(&a_true, pb_rand_range(0.5, 1.5)), b0 = jittered(&b_true, pb_rand_range(0.5, 1.5));
+        const pb_pose a0 = pbt_jittered(&a_true, pb_rand_range(0.5, 1.5)), b0 = pbt_jittered(&b_true, pb_rand_range(0.5, 1.5));
         a = a0;
         b = b0;
         held = 0.0;
@@ -161,13 +128,10 @@ int main(int argc, char **argv)
                  "case %d: a still frame taken for two poses (share %.3f, moved %.3f mm of %.3f, held %.3f)", cs,
                  found_share, moved, half, held);
         pbe_level_free(&level);
-        for (int k = 0; k < PBT_TISSUES; k++)
-            free(t[k]);
         free(late);
         free(frame);
         free(va);
         free(view);
-        free(tmp);
     }
     pb_context_destroy(ctx);
     return pb_test_finish();

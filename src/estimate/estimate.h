@@ -275,6 +275,34 @@ pb_status pbe_two_poses(pb_context *ctx, pbe_level *level, const float *frame, c
 pb_status pbe_two_poses_held(pb_context *ctx, pbe_level *level, const float *frame, const double c[3],
                              const pb_pose *a, const pb_pose *b, double within, double *held);
 
+/* A fit of two poses' twelve numbers (A's six perturbations, pb_pose_perturb's,
+ * then B's) by Levenberg-Marquardt, as two_poses.c and line_dwell.c take it:
+ * normal() gives the normal equations at the fit so far, a and b (12 x 12,
+ * row-major, and the gradient; 0 where there are none); trial() evaluates a
+ * pair of poses and keeps it as its fit so far where it fits better, *gain
+ * then what it took off the residual and *sse the residual (*gain left 0
+ * where not kept). A step that moves a grid corner of g farther than the
+ * grid's diagonal from a0 or b0 (pbe_within_grid) is not tried. */
+typedef struct pbe_pair_steps {
+    int (*normal)(void *user, double *A, double *grad);
+    pb_status (*trial)(void *user, const pb_pose *a, const pb_pose *b, double *gain, double *sse);
+    void *user;
+    const pb_geometry *g;
+    const double *c;
+    pb_pose a0, b0; /* where the fit started */
+    pb_pose a, b;   /* the fit so far, as trial() last kept it */
+} pbe_pair_steps;
+/* At most `iterations` steps; ends where a step gains under 1e-7 of the
+ * residual or none is found. */
+pb_status pbe_pair_descend(pbe_pair_steps *f, unsigned iterations);
+/* The most linear unknowns pbe_pair_eliminate takes. */
+enum { PBE_PAIR_LINEAR_MOST = 10 };
+/* The twelve numbers' normal matrix A with nl linear unknowns eliminated (a
+ * Schur complement): A -= X G^-1 X^T, X (12 x nl) their cross terms, G (nl
+ * x nl) their normal matrix. 0 where G is singular or nl is over
+ * PBE_PAIR_LINEAR_MOST. */
+int pbe_pair_eliminate(double *A, const double *cross, const double *gram, size_t nl);
+
 /* ---- line_dwell.c: a frame as a dwell along a line with fitted ends -------- */
 
 /* The most points a line's dwell takes. */

@@ -85,6 +85,7 @@ static void line_sums(void *arg, size_t begin, size_t end, double *s)
 
 static void line_poses(const line_state *s, size_t m, pb_pose *p)
 {
+    memset(p, 0, PBE_LINE_MOST * sizeof *p);
     for (size_t i = 0; i < m; i++) {
         pb_pose_interpolate(&s->a, &s->b, (double)i / (double)(m - 1), &p[i]);
         pb_pose_normalized(&p[i], &p[i]);
@@ -140,77 +141,43 @@ static int reduced_normal(pb_pool *pool, const pb_geometry *g, const float *fram
     size_t idx[NLIN_MOST];
     memcpy(idx, job.free, job.nfree * sizeof *idx);
     idx[job.nfree] = m;
-    double inv[NLIN_MOST * NLIN_MOST];
-    for (size_t q = 0; q < nl; q++) {
-        double G[NLIN_MOST * NLIN_MOST], e[NLIN_MOST] = {0.0};
-        for (size_t x = 0; x < nl; x++)
-            for (size_t y = 0; y < nl; y++)
-                G[x * nl + y] = s->gram[idx[x] * k + idx[y]];
-        e[q] = 1.0;
-        if (!pbe_solve(G, e, (int)nl, &inv[q * nl]))
-            return 0;
-    }
-    for (int a = 0; a < NPOSE; a++)
-        for (int b = 0; b < NPOSE; b++) {
-            double t = 0.0;
-            for (size_t x = 0; x < nl; x++)
-                for (size_t y = 0; y < nl; y++)
-                    t += cross[a * nl + x] * inv[x * nl + y] * cross[b * nl + y];
-            A[a * NPOSE + b] -= t;
-        }
-    return 1;
+    double G[NLIN_MOST * NLIN_MOST];
+    for (size_t x = 0; x < nl; x++)
+        for (size_t y = 0; y < nl; y++)
+            G[x * nl + y] = s->gram[idx[x] * k + idx[y]];
+    return pbe_pair_eliminate(A, cross, G, nl);
 }
 
-/* Levenberg-Marquardt from *best (its dwell evaluated, its views in keep),
- * at most `iterations` steps, neither end leaving the grid from a0 or b0. */
-static pb_status descend(pb_context *ctx, pbe_level *level, const float *frame, const double c[3], size_t m,
-                         unsigned iterations, const pb_pose *a0, const pb_pose *b0, float *keep, line_state *best)
+/* the line's fit so far (best, its views in keep) and its trials */
+typedef struct line_fit {
+    pb_context *ctx;
+    pbe_level *level;
+    const float *frame, *views;
+    const double *c;
+    size_t m;
+    float *keep;
+    line_state best, trial;
+} line_fit;
+
+static int line_normal(void *user, double *A, double *grad)
 {
-    const size_t n = level->n;
-    float *views = pbe_level_views(level, m);
-    if (!views)
-        return PB_ERR_OUT_OF_MEMORY;
-    line_state trial = *best;
-    double lambda = 1e-3;
-    pb_status st = PB_OK;
-    for (unsigned it = 0; it < iterations && st == PB_OK; it++) {
-        double A[NPOSE * NPOSE], grad[NPOSE], step[NPOSE];
-        if (!reduced_normal(level->pool, &level->g, frame, level->host[PBE_SUPPORT], keep, m, c, best, A, grad))
-            break;
-        int improved = 0;
-        while (!improved && lambda <= 1e6) {
-            double M[NPOSE * NPOSE], rhs[NPOSE];
-            memcpy(M, A, sizeof M);
-            for (int p = 0; p < NPOSE; p++) {
-                M[p * NPOSE + p] *= 1.0 + lambda;
-                rhs[p] = -grad[p];
-            }
-            if (!pbe_solve(M, rhs, NPOSE, step) || !pb_all_finite(step, NPOSE)) {
-                lambda *= 8.0;
-                continue;
-            }
-            pb_pose_perturb(&best->a, step, &trial.a);
-            pb_pose_perturb(&best->b, step + 6, &trial.b);
-            if (!pbe_within_grid(&level->g, c, a0, &trial.a) || !pbe_within_grid(&level->g, c, b0, &trial.b)) {
-                lambda *= 8.0;
-                continue;
-            }
-            int ok = 0;
-            if ((st = evaluate(ctx, level, frame, c, m, &trial, &ok)) != PB_OK)
-                break;
-            if (ok && trial.sse < best->sse) {
-                const double gain = best->sse - trial.sse;
-                *best = trial;
-                memcpy(keep, views, sizeof(float) * n * m);
-                lambda = fmax(lambda / 3.0, 1e-7);
-                improved = 1;
-                if (gain < 1e-7 * best->sse)
-                    it = iterations;
-            } else
-                lambda *= 8.0;
-        }
-        if (!improved)
-            break;
+    line_fit *f = user;
+    return reduced_normal(f->level->pool, &f->level->g, f->frame, f->level->host[PBE_SUPPORT], f->keep, f->m, f->c,
+                          &f->best, A, grad);
+}
+
+static pb_status line_trial(void *user, const pb_pose *a, const pb_pose *b, double *gain, double *sse)
+{
+    line_fit *f = user;
+    int ok = 0;
+    f->trial.a = *a;
+    f->trial.b = *b;
+    pb_status st = evaluate(f->ctx, f->level, f->frame, f->c, f->m, &f->trial, &ok);
+    if (st == PB_OK && ok && f->trial.sse < f->best.sse) {
+        *gain = f->best.sse - f->trial.sse;
+        f->best = f->trial;
+        *sse = f->best.sse;
+        memcpy(f->keep, f->views, sizeof(float) * f->level->n * f->m);
     }
     return st;
 }
@@ -251,33 +218,36 @@ pb_status pbe_line_dwell(pb_context *ctx, pbe_level *level, const float *frame, 
     *sse = (double)INFINITY;
     if (m < 2 || m > PBE_LINE_MOST)
         return pb_error(NULL, PB_ERR_INVALID_ARGUMENT, "a line of %zu points (2 to %d)", m, (int)PBE_LINE_MOST);
-    const pb_pose a0 = *a, b0 = *b;
-    float *keep = malloc(sizeof(float) * level->n * m);
-    if (!keep)
+    float *views = pbe_level_views(level, m), *keep = malloc(sizeof(float) * level->n * m);
+    if (!views || !keep) {
+        free(keep);
         return PB_ERR_OUT_OF_MEMORY;
-    line_state best = {.a = *a, .b = *b, .sse = (double)INFINITY};
+    }
+    line_fit f = {.ctx = ctx, .level = level, .frame = frame, .views = views, .c = c, .m = m, .keep = keep,
+                  .best = {.a = *a, .b = *b, .sse = (double)INFINITY}};
+    f.trial = f.best;
     int usable = 0;
-    pb_status st = evaluate(ctx, level, frame, c, m, &best, &usable);
+    pb_status st = evaluate(ctx, level, frame, c, m, &f.best, &usable);
     /* fits, each from the last trimmed to its points held: a trim moves the
      * points, so each is a new dwell, kept only where it fits no worse */
     for (int round = 0; round < 3 && st == PB_OK && usable; round++) {
-        memcpy(keep, pbe_level_views(level, m), sizeof(float) * level->n * m);
-        st = descend(ctx, level, frame, c, m, iterations, &a0, &b0, keep, &best);
-        line_state shorter = best;
+        memcpy(keep, views, sizeof(float) * level->n * m);
+        st = pbe_pair_descend(&(pbe_pair_steps){line_normal, line_trial, &f, &level->g, c, *a, *b, f.best.a, f.best.b},
+                              iterations);
+        line_state shorter = f.best;
         if (st != PB_OK || !trimmed(&shorter, m))
             break;
         int ok = 0;
-        if ((st = evaluate(ctx, level, frame, c, m, &shorter, &ok)) != PB_OK || !ok || !(shorter.sse <= best.sse))
+        if ((st = evaluate(ctx, level, frame, c, m, &shorter, &ok)) != PB_OK || !ok || !(shorter.sse <= f.best.sse))
             break;
-        best = shorter;
+        f.best = shorter;
     }
-    if (st == PB_OK && usable && isfinite(best.sse)) {
-        *a = best.a;
-        *b = best.b;
-        memcpy(u, best.u, (m + 1) * sizeof *u);
-        *sse = best.sse;
+    if (st == PB_OK && usable && isfinite(f.best.sse)) {
+        *a = f.best.a;
+        *b = f.best.b;
+        memcpy(u, f.best.u, (m + 1) * sizeof *u);
+        *sse = f.best.sse;
     }
     free(keep);
     return st;
 }
-

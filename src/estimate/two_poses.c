@@ -97,52 +97,43 @@ static int reduced_normal(pb_pool *pool, const pb_geometry *g, const float *fram
             cross[p * NLIN + q] = *up++;
         grad[p] = *up++;
     }
-    double inv[NLIN * NLIN];
-    for (int q = 0; q < NLIN; q++) {
-        double G[NLIN * NLIN], e[NLIN] = {0.0, 0.0, 0.0};
-        memcpy(G, s->gram, sizeof G);
+    return pbe_pair_eliminate(A, cross, s->gram, NLIN);
+}
+
+int pbe_pair_eliminate(double *A, const double *cross, const double *gram, size_t nl)
+{
+    double inv[PBE_PAIR_LINEAR_MOST * PBE_PAIR_LINEAR_MOST];
+    if (nl > PBE_PAIR_LINEAR_MOST)
+        return 0;
+    for (size_t q = 0; q < nl; q++) {
+        double G[PBE_PAIR_LINEAR_MOST * PBE_PAIR_LINEAR_MOST], e[PBE_PAIR_LINEAR_MOST] = {0.0};
+        memcpy(G, gram, nl * nl * sizeof *G);
         e[q] = 1.0;
-        if (!pbe_solve(G, e, NLIN, &inv[q * NLIN]))
+        if (!pbe_solve(G, e, (int)nl, &inv[q * nl]))
             return 0;
     }
     for (int p = 0; p < NPOSE; p++)
         for (int q = 0; q < NPOSE; q++) {
             double t = 0.0;
-            for (int u = 0; u < NLIN; u++)
-                for (int v = 0; v < NLIN; v++)
-                    t += cross[p * NLIN + u] * inv[u * NLIN + v] * cross[q * NLIN + v];
+            for (size_t u = 0; u < nl; u++)
+                for (size_t v = 0; v < nl; v++)
+                    t += cross[p * nl + u] * inv[u * nl + v] * cross[q * nl + v];
             A[p * NPOSE + q] -= t;
         }
     return 1;
 }
 
-pb_status pbe_two_poses(pb_context *ctx, pbe_level *level, const float *frame, const double c[3], pb_pose *a,
-                        pb_pose *b, unsigned iterations, double *share_a, double *sse)
+pb_status pbe_pair_descend(pbe_pair_steps *f, unsigned iterations)
 {
-    const pb_pose a0 = *a, b0 = *b;
-    float *views = pbe_level_views(level, 2);
-    if (!views)
-        return PB_ERR_OUT_OF_MEMORY;
-    /* the best state's views, A's then B's, kept beside the trial's (views) */
-    float *va = malloc(sizeof(float) * level->n * 2);
-    if (!va)
-        return PB_ERR_OUT_OF_MEMORY;
-    float *vb = va + level->n;
-    two_state best = {*a, *b, {0.0}, (double)INFINITY, {0.0}}, trial = best;
-    int usable = 0;
     double lambda = 1e-3;
-    *share_a = -1.0;
-    *sse = (double)INFINITY;
-    pb_status st = evaluate(ctx, level, frame, c, &best, &usable);
-    if (st == PB_OK)
-        memcpy(va, views, sizeof(float) * level->n * 2);
-    for (unsigned it = 0; it < iterations && st == PB_OK && usable; it++) {
+    pb_status st = PB_OK;
+    for (unsigned it = 0; it < iterations && st == PB_OK; it++) {
         double A[NPOSE * NPOSE], grad[NPOSE], step[NPOSE];
-        if (!reduced_normal(level->pool, &level->g, frame, level->host[PBE_SUPPORT], va, vb, c, &best, A, grad))
+        if (!f->normal(f->user, A, grad))
             break;
         int improved = 0;
         while (!improved && lambda <= 1e6) {
-            double M[NPOSE * NPOSE], rhs[NPOSE];
+            double M[NPOSE * NPOSE], rhs[NPOSE], gain = 0.0, sse = 0.0;
             memcpy(M, A, sizeof M);
             for (int p = 0; p < NPOSE; p++) {
                 M[p * NPOSE + p] *= 1.0 + lambda;
@@ -152,22 +143,18 @@ pb_status pbe_two_poses(pb_context *ctx, pbe_level *level, const float *frame, c
                 lambda *= 8.0;
                 continue;
             }
-            pb_pose_perturb(&best.a, step, &trial.a);
-            pb_pose_perturb(&best.b, step + 6, &trial.b);
-            int ok = 0;
-            if (!pbe_within_grid(&level->g, c, &a0, &trial.a) || !pbe_within_grid(&level->g, c, &b0, &trial.b)) {
-                lambda *= 8.0;
-                continue;
-            }
-            if ((st = evaluate(ctx, level, frame, c, &trial, &ok)) != PB_OK)
+            pb_pose a, b;
+            pb_pose_perturb(&f->a, step, &a);
+            pb_pose_perturb(&f->b, step + 6, &b);
+            if (pbe_within_grid(f->g, f->c, &f->a0, &a) && pbe_within_grid(f->g, f->c, &f->b0, &b) &&
+                (st = f->trial(f->user, &a, &b, &gain, &sse)) != PB_OK)
                 break;
-            if (ok && trial.sse < best.sse) {
-                const double gain = best.sse - trial.sse;
-                best = trial;
-                memcpy(va, views, sizeof(float) * level->n * 2);
+            if (gain > 0.0) {
+                f->a = a;
+                f->b = b;
                 lambda = fmax(lambda / 3.0, 1e-7);
                 improved = 1;
-                if (gain < 1e-7 * best.sse)
+                if (gain < 1e-7 * sse)
                     it = iterations;
             } else
                 lambda *= 8.0;
@@ -175,11 +162,67 @@ pb_status pbe_two_poses(pb_context *ctx, pbe_level *level, const float *frame, c
         if (!improved)
             break;
     }
+    return st;
+}
+
+/* pbe_two_poses' fit so far (best, its views in va and vb) and its trials */
+typedef struct two_fit {
+    pb_context *ctx;
+    pbe_level *level;
+    const float *frame, *views;
+    const double *c;
+    float *va, *vb;
+    two_state best, trial;
+} two_fit;
+
+static int two_normal(void *user, double *A, double *grad)
+{
+    two_fit *f = user;
+    return reduced_normal(f->level->pool, &f->level->g, f->frame, f->level->host[PBE_SUPPORT], f->va, f->vb, f->c,
+                          &f->best, A, grad);
+}
+
+static pb_status two_trial(void *user, const pb_pose *a, const pb_pose *b, double *gain, double *sse)
+{
+    two_fit *f = user;
+    int ok = 0;
+    f->trial.a = *a;
+    f->trial.b = *b;
+    pb_status st = evaluate(f->ctx, f->level, f->frame, f->c, &f->trial, &ok);
+    if (st == PB_OK && ok && f->trial.sse < f->best.sse) {
+        *gain = f->best.sse - f->trial.sse;
+        f->best = f->trial;
+        *sse = f->best.sse;
+        memcpy(f->va, f->views, sizeof(float) * f->level->n * 2);
+    }
+    return st;
+}
+
+pb_status pbe_two_poses(pb_context *ctx, pbe_level *level, const float *frame, const double c[3], pb_pose *a,
+                        pb_pose *b, unsigned iterations, double *share_a, double *sse)
+{
+    float *views = pbe_level_views(level, 2);
+    if (!views)
+        return PB_ERR_OUT_OF_MEMORY;
+    /* the best state's views, A's then B's, kept beside the trial's (views) */
+    float *va = malloc(sizeof(float) * level->n * 2);
+    if (!va)
+        return PB_ERR_OUT_OF_MEMORY;
+    two_fit f = {ctx, level, frame, views, c, va, va + level->n, {*a, *b, {0.0}, (double)INFINITY, {0.0}},
+                 {*a, *b, {0.0}, (double)INFINITY, {0.0}}};
+    int usable = 0;
+    *share_a = -1.0;
+    *sse = (double)INFINITY;
+    pb_status st = evaluate(ctx, level, frame, c, &f.best, &usable);
+    if (st == PB_OK)
+        memcpy(va, views, sizeof(float) * level->n * 2);
+    if (st == PB_OK && usable)
+        st = pbe_pair_descend(&(pbe_pair_steps){two_normal, two_trial, &f, &level->g, c, *a, *b, *a, *b}, iterations);
     if (st == PB_OK && usable) {
-        *a = best.a;
-        *b = best.b;
-        *share_a = best.lin[0] / (best.lin[0] + best.lin[1]);
-        *sse = best.sse;
+        *a = f.best.a;
+        *b = f.best.b;
+        *share_a = f.best.lin[0] / (f.best.lin[0] + f.best.lin[1]);
+        *sse = f.best.sse;
     }
     free(va);
     return st;
