@@ -81,7 +81,7 @@ static pb_status fit(pb_context *ctx, pbe_level *level, const float *frame, cons
         pb_pose p, q;
         pb_pose_interpolate(s, t, (double)i / (POINTS - 1), &p);
         pb_pose_normalized(&p, &p);
-        double d = INFINITY;
+        double d = (double)INFINITY;
         for (int j = 0; j <= 40; j++) {
             pb_pose_interpolate(at, bt, j / 40.0, &q);
             pb_pose_normalized(&q, &q);

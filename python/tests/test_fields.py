@@ -10,6 +10,7 @@ import warnings
 import numpy as np
 import pytest
 import scipy.ndimage as ndi
+from scipy.spatial.transform import Rotation, Slerp
 
 import petblur
 
@@ -171,13 +172,22 @@ def _rotation(q):
 
 def test_rigid_track_as_fields(rng, device):
     """A field series made from a rigid track is that track: with one segment
-    per tracked interval ('paper') both walk the same chords; against the
-    default error-bounded rigid blur, within the issue's 1 % max and 0.3 %
-    RMS (the chords against SLERP's arcs, a few degrees a sample)."""
+    per tracked interval ('paper') both walk the same chords; and fields taken
+    densely along the track (scipy's Slerp of its rotations, its shifts
+    linear, 16 a tracked interval) blur as the track moves the object: within
+    the issue's 1 % max and 0.3 % RMS of the classical blur, scipy's
+    trilinear resampling averaged over 801 times of the frame.
+
+    Against the track's own default (error-bounded) blur, as this test stood
+    until 2026-12-06, CI's seed 4132050034 failed: turns of up to 6 degrees
+    between samples a second apart, and the bounded blur stood 0.63 % RMS
+    from the classical one where the dense fields stood at 0.06 % (at the
+    bound 0.01, 0.11 %): the rigid path's own error at its default, issue
+    46's, not the fields'."""
     n, voxel, times = _case(rng)
     x = _sharp_object(rng, n)
-    # Against the error-bounded blur, whose bound splits the arcs into pieces and so moves AB's slice ends: an
-    # object as a PET image holds it, its edges smoothed by a voxel (sharp boxes are compared with the chords).
+    # Against the classical blur: an object as a PET image holds it, its edges smoothed by a voxel (sharp boxes are
+    # compared with the chords).
     smooth = ndi.gaussian_filter(x, 1.0).astype(np.float32)
     K = len(times)
     quats, trans = [], []
@@ -195,6 +205,20 @@ def test_rigid_track_as_fields(rng, device):
     # Frame ends on samples: between samples a track's pose is SLERP's, on
     # the arc, a field's the chord's point.
     t0, t1 = times[1], times[-2]
+    rotations = Rotation.from_quat(quats[:, [1, 2, 3, 0]])
+    assert np.allclose(rotations.as_matrix(), [_rotation(q) for q in quats], atol=1e-12)
+
+    def along(at):
+        """The track's fields at times `at`: its turns by scipy's Slerp, its shifts linear."""
+        turns = Slerp(times, rotations)(at).as_matrix()
+        shifts = np.stack([np.interp(at, times, trans[:, i]) for i in range(3)], -1)
+        return np.stack([(r - centre - t) @ m + centre - r for m, t in zip(turns, shifts)])
+
+    fine = np.unique(np.concatenate([np.linspace(a, b, 17) for a, b in zip(times[:-1], times[1:])]))
+    dense = petblur.FieldMotion(fine, along(fine))
+    classical = np.mean([ndi.map_coordinates(smooth.astype(np.float64), np.moveaxis(_indices(n) + d / voxel, -1, 0),
+                                             order=1, mode="grid-constant") for d in along(np.linspace(t0, t1, 801))],
+                        axis=0)
     # The exact filter: key points mapped by a pose and by a field differ by
     # float rounding, which NVIDIA's texture unit can turn into a step of
     # its 1/256 weights.
@@ -202,12 +226,11 @@ def test_rigid_track_as_fields(rng, device):
         f = petblur.BlurOperator(n, voxel, fm, frame=(t0, t1), method=method, filter="exact", device=device)(x)
         chords = petblur.BlurOperator(n, voxel, track, frame=(t0, t1), method=method, filter="exact",
                                       device=device, max_path_error="paper")(x)
-        bounded = petblur.BlurOperator(n, voxel, track, frame=(t0, t1), method=method, filter="exact",
-                                       device=device)(smooth)
         assert np.abs(f - chords).max() <= 2e-4 * np.abs(chords).max(), (method, np.abs(f - chords).max())
-        f = petblur.BlurOperator(n, voxel, fm, frame=(t0, t1), method=method, filter="exact", device=device)(smooth)
-        rms, mx = _errors(f, bounded.astype(np.float64))
-        print(f"{method}: fields against the bounded rigid blur rms {rms:.3f} % max {mx:.3f} %")
+        f = petblur.BlurOperator(n, voxel, dense, frame=(t0, t1), method=method, filter="exact",
+                                 device=device)(smooth)
+        rms, mx = _errors(f, classical)
+        print(f"{method}: dense fields against the classical blur rms {rms:.3f} % max {mx:.3f} %")
         assert rms <= 0.3 and mx <= 1.0, (method, rms, mx)
 
 
