@@ -27,12 +27,13 @@ void pbt_head_tissues(const pb_geometry *g, float *const t[PBT_TISSUES], float *
  * pbt_head_tissues mixed by pbt_late_contrast. PB_ERR_OUT_OF_MEMORY where
  * its tissues find no room. */
 pb_status pbt_late_head(const pb_geometry *g, float *out);
-/* Pose p moved by a random displacement of mm (a shift and a turn, the turn
- * in units of the head's displacement: PBT_RADIUS_MM a radian). */
+/* Pose p moved by a random perturbation of norm mm over its six numbers
+ * (pb_pose_perturb's: the shift in mm, the turn in units of the head's
+ * displacement, PBT_RADIUS_MM a radian). */
 pb_pose pbt_jittered(const pb_pose *p, double mm);
-/* A jerk's two poses: *a near the identity (shifts up to 2 mm, a turn up to
- * 3 degrees), *b a shift of lo-hi mm and a turn of lo-hi degrees from it,
- * each about a fresh axis. */
+/* A jerk's two poses: *a near the identity (shifts up to 2 mm along each
+ * axis, a turn up to 3 degrees), *b a shift of lo-hi mm and a turn of lo-hi
+ * degrees from it, each about a fresh axis. */
 void pbt_jerk(double lo, double hi, pb_pose *a, pb_pose *b);
 /* out = sum of c[k] t[k]. */
 void pbt_mix(const float *const t[PBT_TISSUES], const double *c, size_t n, float *out);

@@ -1029,6 +1029,7 @@ static int line_judges(void)
  * with fitted ends through them (pbe_line_dwell, from a quarter beyond
  * either), its points 2 to DWELL_POINTS - 3: what a ramp leaves there and a
  * jump between two poses held does not. */
+_Static_assert((int)DWELL_POINTS <= (int)PBE_LINE_MOST, "a line of more points than its fit takes");
 static pb_status dwell_between(estimate *e, const float *frame, const pb_pose *a, const pb_pose *b, double *between)
 {
     pb_pose s, t;

@@ -312,8 +312,9 @@ enum { PBE_LINE_MOST = 9 };
  * (replaced) by at most `iterations` Levenberg-Marquardt steps a round, the
  * line trimmed to its first and last points held between rounds; each voxel
  * weighed by level->host[PBE_SUPPORT] as set. u: m dwells and the offset;
- * *sse: the weighted residual (infinite, *a and *b kept, where no dwell was
- * found). m is 2 to PBE_LINE_MOST. The level's reference must be set. */
+ * *sse: the weighted residual (infinite, *a, *b and u untouched, where no
+ * dwell was found). m is 2 to PBE_LINE_MOST. The level's reference must be
+ * set. */
 pb_status pbe_line_dwell(pb_context *ctx, pbe_level *level, const float *frame, const double c[3], pb_pose *a,
                          pb_pose *b, size_t m, unsigned iterations, double *u, double *sse);
 

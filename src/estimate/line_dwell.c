@@ -93,7 +93,8 @@ static void line_poses(const line_state *s, size_t m, pb_pose *p)
 }
 
 /* The dwell and offset at the state's line, its residual and the normal
- * matrix; the views stay in pbe_level_views(level, m). usable: some dwell. */
+ * matrix; the views stay in pbe_level_views(level, m). usable: some dwell
+ * and a finite residual. */
 static pb_status evaluate(pb_context *ctx, pbe_level *level, const float *frame, const double c[3], size_t m,
                           line_state *s, int *usable)
 {
@@ -200,10 +201,10 @@ static int trimmed(line_state *s, size_t m)
         lo++;
     while (hi > lo && !(s->u[hi] > HELD_SHARE * total))
         hi--;
-    if (lo == 0 && hi == m - 1)
-        return 0;
     if (lo == hi) /* one point held: keep a line about it, a point's width either side */
         lo = lo > 0 ? lo - 1 : lo, hi = hi + 1 < m ? hi + 1 : hi;
+    if (lo == 0 && hi == m - 1)
+        return 0;
     pb_pose a, b;
     pb_pose_interpolate(&s->a, &s->b, (double)lo / (double)(m - 1), &a);
     pb_pose_interpolate(&s->a, &s->b, (double)hi / (double)(m - 1), &b);
