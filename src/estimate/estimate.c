@@ -567,11 +567,14 @@ static double series_gain(const frame_path *paths, const unsigned char *tried, s
 }
 
 /* Whether frame k has evidence to give on a side (0 its start, 1 its end):
- * a neighbour there with structure, at a pose apart from its own. */
+ * a neighbour there with structure, at a pose apart from its own, and not
+ * beyond the grid's reach from it (pbe_within_extent: a ramp to it is
+ * blurred). */
 static int side_defined(const estimate *e, const pbe_fit *fits, size_t k, int side, const double far[3])
 {
-    return (side ? k + 1 < e->count : k > 0) && !e->flat[side ? k + 1 : k - 1] &&
-           poses_apart(e, far, &fits[k].pose, &fits[side ? k + 1 : k - 1].pose);
+    const pb_pose *own = &fits[k].pose, *other = &fits[side ? k + 1 : k - 1].pose;
+    return (side ? k + 1 < e->count : k > 0) && !e->flat[side ? k + 1 : k - 1] && poses_apart(e, far, own, other) &&
+           pbe_within_extent(&e->g, e->c, own, other);
 }
 
 /* Between two still frames the track is linear from one's middle to the

@@ -51,6 +51,20 @@ int pbe_within_grid(const pb_geometry *g, const double c[3], const pb_pose *from
     return pbe_corner_distance(g, c, from, p) <= sqrt(far[0] * far[0] + far[1] * far[1] + far[2] * far[2]);
 }
 
+int pbe_within_extent(const pb_geometry *g, const double c[3], const pb_pose *a, const pb_pose *b)
+{
+    for (int corner = 0; corner < 8; corner++) {
+        double q[3], u[3], v[3];
+        pbe_grid_corner(g, corner, q);
+        pb_pose_apply(a, c, q, u);
+        pb_pose_apply(b, c, q, v);
+        for (int i = 0; i < 3; i++)
+            if (!(fabs(u[i] - v[i]) <= (double)g->dims[i] * g->voxel_size[i]))
+                return 0;
+    }
+    return 1;
+}
+
 void pbe_downsample(const pb_geometry *fine, const float *in, const pb_geometry *coarse, float *out)
 {
     const size_t nx = fine->dims[0], ny = fine->dims[1], nz = fine->dims[2];
