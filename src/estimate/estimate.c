@@ -572,9 +572,11 @@ static double series_gain(const frame_path *paths, const unsigned char *tried, s
  * blurred). */
 static int side_defined(const estimate *e, const pbe_fit *fits, size_t k, int side, const double far[3])
 {
-    const pb_pose *own = &fits[k].pose, *other = &fits[side ? k + 1 : k - 1].pose;
-    return (side ? k + 1 < e->count : k > 0) && !e->flat[side ? k + 1 : k - 1] && poses_apart(e, far, own, other) &&
-           pbe_within_extent(&e->g, e->c, own, other);
+    if (!(side ? k + 1 < e->count : k > 0))
+        return 0;
+    const size_t n = side ? k + 1 : k - 1;
+    return !e->flat[n] && poses_apart(e, far, &fits[k].pose, &fits[n].pose) &&
+           pbe_within_extent(&e->g, e->c, &fits[k].pose, &fits[n].pose);
 }
 
 /* Between two still frames the track is linear from one's middle to the

@@ -73,6 +73,39 @@ static pb_status plan_ref_steps(struct pb_context *ctx, const pb_blur_options *o
     return PB_OK;
 }
 
+/* The voxels a segment's walk crosses along each object axis, the most over
+ * the grid's corners (skipped segments are not walked), refused beyond
+ * PB_WALK_GRIDS grids (at least PB_WALK_LEAST voxels) for AB and RM, whose
+ * walks take a step a slice. */
+static pb_status check_walk(struct pb_context *ctx, const pb_blur_options *opt, const pb_path *plan)
+{
+    const pb_geometry *g = &plan->geometry;
+    if (opt->method != PB_METHOD_AB && opt->method != PB_METHOD_RM)
+        return PB_OK;
+    for (size_t j = 0; j + 1 < plan->count; j++) {
+        const double *a = plan->poses[j].map, *b = plan->poses[j + 1].map;
+        for (int axis = 0; axis < 3 && !plan->poses[j].skip; axis++) {
+            const double limit = fmax((double)PB_WALK_LEAST, (double)PB_WALK_GRIDS * (double)g->dims[axis]);
+            double most = 0.0;
+            for (int corner = 0; corner < 8; corner++) {
+                double d = b[4 * axis + 3] - a[4 * axis + 3];
+                for (int i = 0; i < 3; i++)
+                    d += (b[4 * axis + i] - a[4 * axis + i]) * ((corner >> i) & 1 ? (double)g->dims[i] : 0.0);
+                most = fmax(most, fabs(d));
+            }
+            if (!(most <= limit))
+                return pb_error(ctx, PB_ERR_INVALID_ARGUMENT,
+                                "the motion carries the object %.3g voxels along %c (%.6g mm voxels) between %.6g "
+                                "and %.6g s, more than the %.0f a blur walks (%d times the grid's %zu, at least %d): "
+                                "check the units of the motion and of the voxel sizes (micrometres read as mm?)",
+                                most, "xyz"[axis], g->voxel_size[axis], plan->poses[j].time,
+                                plan->poses[j + 1].time, limit, (int)PB_WALK_GRIDS, g->dims[axis],
+                                (int)PB_WALK_LEAST);
+        }
+    }
+    return PB_OK;
+}
+
 pb_status pb_path_create(struct pb_context *ctx, const pb_geometry *g, const pb_motion *m,
                          const pb_blur_options *opt, pb_path *plan)
 {
@@ -152,6 +185,10 @@ pb_status pb_path_create(struct pb_context *ctx, const pb_geometry *g, const pb_
         pb_path_pose *p = &plan->poses[j];
         pb_pose_texel_map(&p->pose, plan->center, g->voxel_size, p->map);
         p->weight = j + 1 < plan->count && !p->skip ? (plan->poses[j + 1].time - p->time) / span : 0.0;
+    }
+    if ((st = check_walk(ctx, opt, plan)) != PB_OK) {
+        pb_path_destroy(plan);
+        return st;
     }
     if (opt->method == PB_METHOD_REF) {
         st = plan_ref_steps(ctx, opt, plan);
