@@ -35,11 +35,12 @@ double pbe_corner_distance(const pb_geometry *g, const double c[3], const pb_pos
  * near singular: a step may carry a pose past the translations any view
  * accepts (1e12 mm), a failure of the whole estimate, not a step too long. */
 int pbe_within_grid(const pb_geometry *g, const double c[3], const pb_pose *from, const pb_pose *p);
-/* Whether no corner of the grid moves from pose a to pose b farther along
- * any of the grid's axes than the grid reaches along it: a blur along the
- * path between them walks at most the grid's width in voxels along each
- * axis. The diagonal does not bound that on grids whose voxels differ by
- * orders of magnitude (fuzz_estimate: 0.0001 x 9761 x 10000 mm voxels, a
+/* Whether the grid's corners, read at pose a and then at pose b, move no
+ * farther along any of the object's axes than the grid's voxels along it (in
+ * the object texels a blur walks, pb_pose_texel_map's, as the planner's walk
+ * check counts them): a blur along the path between them walks at most the
+ * grid's width. The diagonal does not bound that on grids whose voxels differ
+ * by orders of magnitude (fuzz_estimate: 0.0001 x 9761 x 10000 mm voxels, a
  * path of 1e9 voxels along x between two frames' poses, walked for
  * minutes). */
 int pbe_within_extent(const pb_geometry *g, const double c[3], const pb_pose *a, const pb_pose *b);

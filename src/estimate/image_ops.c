@@ -53,15 +53,17 @@ int pbe_within_grid(const pb_geometry *g, const double c[3], const pb_pose *from
 
 int pbe_within_extent(const pb_geometry *g, const double c[3], const pb_pose *a, const pb_pose *b)
 {
-    for (int corner = 0; corner < 8; corner++) {
-        double q[3], u[3], v[3];
-        pbe_grid_corner(g, corner, q);
-        pb_pose_apply(a, c, q, u);
-        pb_pose_apply(b, c, q, v);
-        for (int i = 0; i < 3; i++)
-            if (!(fabs(u[i] - v[i]) <= (double)g->dims[i] * g->voxel_size[i]))
+    double ma[12], mb[12];
+    pb_pose_texel_map(a, c, g->voxel_size, ma);
+    pb_pose_texel_map(b, c, g->voxel_size, mb);
+    for (int axis = 0; axis < 3; axis++)
+        for (int corner = 0; corner < 8; corner++) {
+            double d = mb[4 * axis + 3] - ma[4 * axis + 3];
+            for (int i = 0; i < 3; i++)
+                d += (mb[4 * axis + i] - ma[4 * axis + i]) * ((corner >> i) & 1 ? (double)g->dims[i] : 0.0);
+            if (!(fabs(d) <= (double)g->dims[axis]))
                 return 0;
-    }
+        }
     return 1;
 }
 

@@ -97,12 +97,13 @@ void pb_path_field_point(const pb_path *plan, const pb_path_knot *knot, const do
 /* The most segments one blur may walk; far above what any sane bound needs (a
  * full turn at 0.01 voxels on a 512^3 grid takes about 6000). */
 enum { PB_MAX_SEGMENTS = 100000 };
-/* The most voxels one segment's walk (AB, RM) crosses along an axis, as a
- * multiple of the grid's voxels along it (PB_WALK_GRIDS), and never fewer
- * than PB_WALK_LEAST: a head moves a few of its widths at most, and a walk
- * of millions (a grid of 0.0001 mm voxels across a turn of degrees) runs
- * for hours. */
-enum { PB_WALK_GRIDS = 16, PB_WALK_LEAST = 1024 };
+/* The most voxels one segment's walk (AB, RM, CL) crosses along an axis,
+ * as a multiple of the grid's voxels along it (PB_WALK_GRIDS), and never
+ * fewer than PB_WALK_LEAST; a frame's segments together PB_WALK_SEGMENTS
+ * times that. A head moves a few of its widths at most, and a walk of
+ * millions (a grid of 0.0001 mm voxels across a turn of degrees) runs for
+ * hours. */
+enum { PB_WALK_GRIDS = 16, PB_WALK_LEAST = 1024, PB_WALK_SEGMENTS = 64 };
 
 /* Error-bounded polylines (path_split.c): the plan with every interval cut
  * into the equal pieces that keep each voxel centre within max_error voxels of

@@ -75,13 +75,16 @@ static pb_status plan_ref_steps(struct pb_context *ctx, const pb_blur_options *o
 
 /* The voxels a segment's walk crosses along each object axis, the most over
  * the grid's corners (skipped segments are not walked), refused beyond
- * PB_WALK_GRIDS grids (at least PB_WALK_LEAST voxels) for AB and RM, whose
- * walks take a step a slice. */
+ * PB_WALK_GRIDS grids (at least PB_WALK_LEAST voxels) a segment and
+ * PB_WALK_SEGMENTS times that over the frame, for the methods that step a
+ * slice at a time (AB, RM and CL without fixed steps): a tight path bound
+ * cuts a long segment into short ones and walks them all. */
 static pb_status check_walk(struct pb_context *ctx, const pb_blur_options *opt, const pb_path *plan)
 {
     const pb_geometry *g = &plan->geometry;
-    if (opt->method != PB_METHOD_AB && opt->method != PB_METHOD_RM)
+    if (opt->method == PB_METHOD_REF || opt->steps)
         return PB_OK;
+    double total[3] = {0.0, 0.0, 0.0};
     for (size_t j = 0; j + 1 < plan->count; j++) {
         const double *a = plan->poses[j].map, *b = plan->poses[j + 1].map;
         for (int axis = 0; axis < 3 && !plan->poses[j].skip; axis++) {
@@ -93,14 +96,16 @@ static pb_status check_walk(struct pb_context *ctx, const pb_blur_options *opt, 
                     d += (b[4 * axis + i] - a[4 * axis + i]) * ((corner >> i) & 1 ? (double)g->dims[i] : 0.0);
                 most = fmax(most, fabs(d));
             }
-            if (!(most <= limit))
+            total[axis] += most;
+            if (!(most <= limit) || !(total[axis] <= (double)PB_WALK_SEGMENTS * limit))
                 return pb_error(ctx, PB_ERR_INVALID_ARGUMENT,
-                                "the motion carries the object %.3g voxels along %c (%.6g mm voxels) between %.6g "
-                                "and %.6g s, more than the %.0f a blur walks (%d times the grid's %zu, at least %d): "
-                                "check the units of the motion and of the voxel sizes (micrometres read as mm?)",
-                                most, "xyz"[axis], g->voxel_size[axis], plan->poses[j].time,
-                                plan->poses[j + 1].time, limit, (int)PB_WALK_GRIDS, g->dims[axis],
-                                (int)PB_WALK_LEAST);
+                                "the motion carries the object %.3g voxels along %c (%.6g mm voxels) %s %.9g s, "
+                                "more than a blur walks (%.0f a segment, %d times the grid's %zu voxels or %d; %d "
+                                "times that a frame): check the units of the motion and of the voxel sizes "
+                                "(micrometres read as mm?)",
+                                most <= limit ? total[axis] : most, "xyz"[axis], g->voxel_size[axis],
+                                most <= limit ? "by" : "in the segment from", plan->poses[j].time, limit,
+                                (int)PB_WALK_GRIDS, g->dims[axis], (int)PB_WALK_LEAST, (int)PB_WALK_SEGMENTS);
         }
     }
     return PB_OK;
