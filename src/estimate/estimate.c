@@ -1030,11 +1030,11 @@ static int line_judges(void)
     return !(env && strcmp(env, "0") == 0);
 }
 
-/* The share of frame k's dwell between its two poses a and b along a line
+_Static_assert((int)DWELL_POINTS <= (int)PBE_LINE_MOST, "a line of more points than its fit takes");
+/* The share of a frame's dwell between its two poses a and b along a line
  * with fitted ends through them (pbe_line_dwell, from a quarter beyond
  * either), its points 2 to DWELL_POINTS - 3: what a ramp leaves there and a
  * jump between two poses held does not. */
-_Static_assert((int)DWELL_POINTS <= (int)PBE_LINE_MOST, "a line of more points than its fit takes");
 static pb_status dwell_between(estimate *e, const float *frame, const pb_pose *a, const pb_pose *b, double *between)
 {
     pb_pose s, t;
