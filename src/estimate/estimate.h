@@ -36,10 +36,9 @@ double pbe_corner_distance(const pb_geometry *g, const double c[3], const pb_pos
  * accepts (1e12 mm), a failure of the whole estimate, not a step too long. */
 int pbe_within_grid(const pb_geometry *g, const double c[3], const pb_pose *from, const pb_pose *p);
 /* Whether the grid's corners, read at pose a and then at pose b, move no
- * farther along any of the object's axes than the grid's voxels along it (in
- * the object texels a blur walks, pb_pose_texel_map's, as the planner's walk
- * check counts them): a blur along the path between them walks at most the
- * grid's width. The diagonal does not bound that on grids whose voxels differ
+ * farther along any of the object's axes than the grid's voxels along it
+ * (pb_texel_map_walk, as the planner's walk check counts them): a blur along
+ * the path between them walks at most the grid's width. The diagonal does not bound that on grids whose voxels differ
  * by orders of magnitude (fuzz_estimate: 0.0001 x 9761 x 10000 mm voxels, a
  * path of 1e9 voxels along x between two frames' poses, walked for
  * minutes). */

@@ -57,13 +57,8 @@ int pbe_within_extent(const pb_geometry *g, const double c[3], const pb_pose *a,
     pb_pose_texel_map(a, c, g->voxel_size, ma);
     pb_pose_texel_map(b, c, g->voxel_size, mb);
     for (int axis = 0; axis < 3; axis++)
-        for (int corner = 0; corner < 8; corner++) {
-            double d = mb[4 * axis + 3] - ma[4 * axis + 3];
-            for (int i = 0; i < 3; i++)
-                d += (mb[4 * axis + i] - ma[4 * axis + i]) * ((corner >> i) & 1 ? (double)g->dims[i] : 0.0);
-            if (!(fabs(d) <= (double)g->dims[axis]))
-                return 0;
-        }
+        if (!(pb_texel_map_walk(ma, mb, g->dims, axis) <= (double)g->dims[axis]))
+            return 0;
     return 1;
 }
 

@@ -43,6 +43,11 @@ void pb_pose_interpolate(const pb_pose *a, const pb_pose *b, double s, pb_pose *
  * (texel i's centre at i + 0.5) of a pose: u_obj = M[:, 0:3] u_tomo + M[:, 3],
  * row-major 3x4. */
 void pb_pose_texel_map(const pb_pose *pose, const double center[3], const double voxel[3], double m[12]);
+/* How far the grid's voxels (texel coordinates 0 to dims) move along object
+ * axis `axis` from texel map a to texel map b, in object texels: the largest
+ * over the grid's corners, where an affine change is largest. What a walk
+ * between the two maps crosses along that axis. */
+double pb_texel_map_walk(const double a[12], const double b[12], const size_t dims[3], int axis);
 
 /* A copy of the pose with its quaternion scaled to unit norm. */
 void pb_pose_normalized(const pb_pose *in, pb_pose *out);

@@ -178,6 +178,19 @@ void pb_pose_texel_map(const pb_pose *pose, const double center[3], const double
         m[4 * row + 3] = origin[row] / voxel[row];
 }
 
+double pb_texel_map_walk(const double a[12], const double b[12], const size_t dims[3], int axis)
+{
+    double most = 0.0;
+    for (int corner = 0; corner < 8; corner++) {
+        double d = b[4 * axis + 3] - a[4 * axis + 3];
+        for (int i = 0; i < 3; i++)
+            d += (b[4 * axis + i] - a[4 * axis + i]) * ((corner >> i) & 1 ? (double)dims[i] : 0.0);
+        if (isnan(d) || fabs(d) > most) /* a NaN, once in, stays */
+            most = fabs(d);
+    }
+    return most;
+}
+
 void pb_pose_normalized(const pb_pose *in, pb_pose *out)
 {
     *out = *in;

@@ -89,13 +89,7 @@ static pb_status check_walk(struct pb_context *ctx, const pb_blur_options *opt, 
         const double *a = plan->poses[j].map, *b = plan->poses[j + 1].map;
         for (int axis = 0; axis < 3 && !plan->poses[j].skip; axis++) {
             const double limit = fmax((double)PB_WALK_LEAST, (double)PB_WALK_GRIDS * (double)g->dims[axis]);
-            double most = 0.0;
-            for (int corner = 0; corner < 8; corner++) {
-                double d = b[4 * axis + 3] - a[4 * axis + 3];
-                for (int i = 0; i < 3; i++)
-                    d += (b[4 * axis + i] - a[4 * axis + i]) * ((corner >> i) & 1 ? (double)g->dims[i] : 0.0);
-                most = fmax(most, fabs(d));
-            }
+            const double most = pb_texel_map_walk(a, b, g->dims, axis);
             total[axis] += most;
             if (!(most <= limit) || !(total[axis] <= (double)PB_WALK_SEGMENTS * limit))
                 return pb_error(ctx, PB_ERR_INVALID_ARGUMENT,
