@@ -575,8 +575,8 @@ typedef struct pb_blur_options {
     unsigned steps;
     unsigned ref_points;     /* REF: random points per voxel; 0 = 200 (the paper); at most 100000 */
     /* REF: time steps per segment; 0 = max(16, 2 * the largest displacement of the
-     * grid's corners over the segment, in voxels), so that every path is sampled
-     * at least every half voxel. At most 100000. */
+     * grid's corners over the segment, each axis in its own voxels), so that every
+     * path is sampled at least every half voxel. At most 100000. */
     unsigned ref_time_steps;
     uint32_t seed;           /* REF: random points are a pure function of the seed */
     /* AB and RM walk straight segments between key poses; a voxel's true path

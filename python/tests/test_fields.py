@@ -424,3 +424,64 @@ def test_reach_counts_the_field_under_the_image(rng):
     with pytest.raises(petblur.ArgumentError, match="twice the image grid's diagonal"):
         petblur.BlurOperator(n, voxel, petblur.FieldMotion([0.0, 1.0], near, affine=field), frame=(0, 1),
                              affine=image, device="host")
+
+
+def test_a_field_walk_of_millions_of_voxels_is_refused(rng):
+    """A field's blur walks each voxel's path slice by slice, as a track's
+    does: on a grid whose voxels along one axis are micrometres a field of
+    millimetres walks millions of voxels, and the blur ran for minutes to
+    hours (100 mm across 0.0001 mm voxels on a 10^3 grid: 23 s with AB, REF
+    past a minute, before 2026-12-06). Every method is refused at once, by
+    its segment or by the frame's segments together, naming the axis and the
+    fields' units, whether time or a surrogate drives the fields; a field
+    region the image never reads is not counted; a body's field on a PET
+    grid is blurred as before."""
+    import time
+
+    n = (10, 10, 10)
+    thin = int(rng.integers(0, 3))
+    voxel = rng.uniform(100.0, 5000.0, 3)
+    voxel[thin] = 10 ** rng.uniform(-4.0, -3.0)
+    d = np.zeros((2,) + n + (3,))
+    d[1, ..., thin] = rng.uniform(1.0, 100.0) * rng.choice([-1.0, 1.0])  # mm: thousands of voxels or more
+    x = rng.random(n).astype(np.float32)
+    def words(where):
+        return f"fields carry the object .* voxels along {'xyz'[thin]} .*{where} .*units of the fields"
+    for motion in (petblur.FieldMotion([0.0, 1.0], d),
+                   petblur.FieldMotion.from_surrogate([0.0, 1.0], d, [0.0, 1.0, 2.0], [0.0, 1.0, 0.0])):
+        for method in ("ab", "rm", "cl", "ref"):
+            start = time.monotonic()
+            # a surrogate's value bins may be refused first, for as many bins as this walk: the same units named
+            with pytest.raises(petblur.ArgumentError,
+                               match="units of the fields" if motion.values is not None else words("in the segment")):
+                petblur.BlurOperator(n, voxel, motion, frame=(0.0, 1.0), method=method, device="host")(x)
+            assert time.monotonic() - start < 10.0, method
+    # Back and forth, each segment under a segment's limit, the frame's together past 64 times it.
+    k = 100
+    swing = np.zeros((k,) + n + (3,))
+    swing[1::2, ..., thin] = rng.uniform(0.9, 1.0) * 1000.0 * voxel[thin]  # 900-1000 voxels a segment, 89100 or more
+    with pytest.raises(petblur.ArgumentError, match=words("voxels.* by")):
+        petblur.BlurOperator(n, voxel, petblur.FieldMotion(np.arange(k, dtype=float), swing), frame=(0.0, k - 1.0),
+                             device="host")(x)
+    # A field grid of its own, wider than the image: far from it a region moves a million voxels along the thin
+    # axis, under it a tenth of one. Only what the image reads counts: blurred, as with the far region still.
+    fdims = (30, 30, 30)
+    fvox = np.full(3, 2.0) * voxel
+    field = np.diag(list(fvox) + [1.0])
+    field[:3, 3] = -10.0 * fvox  # the image's voxels lie on field voxels 0-5 of 10-15, under their middle
+    near = np.zeros((2,) + fdims + (3,))
+    near[1, ..., thin] = 0.1 * voxel[thin]
+    far = near.copy()
+    far[1, -3:, -3:, -3:, thin] = 1e6 * voxel[thin]
+    image = np.diag(list(voxel) + [1.0])
+    ref = petblur.BlurOperator(n, voxel, petblur.FieldMotion([0.0, 1.0], near, affine=field), frame=(0, 1),
+                               affine=image, device="host")(x)
+    got = petblur.BlurOperator(n, voxel, petblur.FieldMotion([0.0, 1.0], far, affine=field), frame=(0, 1),
+                               affine=image, device="host")(x)
+    np.testing.assert_array_equal(got, ref)
+    assert np.abs(ref - x).max() > 1e-3  # it moved
+    # Breathing on a PET grid: walked.
+    m, v, times = _case(rng)
+    y = petblur.BlurOperator(m, v, petblur.FieldMotion(times, _breathing(rng, m, times, 15.0)), frame=(1, 9),
+                             device="host")(_sharp_object(rng, m))
+    assert np.isfinite(y).all() and np.abs(y).max() > 0

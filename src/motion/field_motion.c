@@ -32,10 +32,7 @@ size_t pb_field_voxels(const pb_field_motion *f)
  * a chord's slices, and REF's steps, follow the displacement's length. */
 #define PB_FIELD_REACH 2.0
 
-/* The field voxels an image voxel's reading can reach, per axis [lo, hi]:
- * with a map, the box of the image grid's corners in field voxels, one voxel
- * wider for the trilinear reading; without one, the grids are the same. */
-static void field_reach_box(const pb_geometry *g, const pb_field_motion *f, size_t lo[3], size_t hi[3])
+void pb_field_reach_box(const pb_geometry *g, const pb_field_motion *f, size_t lo[3], size_t hi[3])
 {
     for (int a = 0; a < 3; a++) {
         lo[a] = 0;
@@ -67,7 +64,7 @@ pb_status pb_field_check_reach(struct pb_context *ctx, const pb_geometry *g, con
     for (int c = 0; c < 3; c++)
         diagonal += ((double)g->dims[c] * g->voxel_size[c]) * ((double)g->dims[c] * g->voxel_size[c]);
     diagonal = sqrt(diagonal);
-    field_reach_box(g, f, lo, hi);
+    pb_field_reach_box(g, f, lo, hi);
     for (size_t k = 0; k < f->count; k++) {
         const float *d = f->displacements + k * n * 3;
         for (size_t l = lo[2]; l <= hi[2]; l++)

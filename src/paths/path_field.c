@@ -38,13 +38,12 @@ static pb_status locate(struct pb_context *ctx, const pb_field_motion *f, double
     return st;
 }
 
-/* The largest move of any field voxel between two knots, in voxels of the
- * smallest image voxel size (data in texel units). */
+/* The largest move of any field voxel between two knots, each axis in its
+ * own image voxels (data in texel units), as a track's REF counts it. */
 static double largest_move(const pb_path *plan, const pb_path_knot *a, const pb_path_knot *b)
 {
     const pb_path_field *pf = plan->field;
-    const double *v = plan->geometry.voxel_size;
-    double vmin = fmin(v[0], fmin(v[1], v[2])), worst = 0.0;
+    double worst = 0.0;
     size_t n = pf->dims[0] * pf->dims[1] * pf->dims[2];
     const float *a0 = pf->data + a->f0 * n * 3, *a1 = pf->data + a->f1 * n * 3;
     const float *b0 = pf->data + b->f0 * n * 3, *b1 = pf->data + b->f1 * n * 3;
@@ -54,10 +53,9 @@ static double largest_move(const pb_path *plan, const pb_path_knot *a, const pb_
             size_t x = 3 * i + (size_t)c;
             double da = (1.0 - a->alpha) * (double)a0[x] + a->alpha * (double)a1[x];
             double db = (1.0 - b->alpha) * (double)b0[x] + b->alpha * (double)b1[x];
-            double mm = (db - da) * v[c];
-            s += mm * mm;
+            s += (db - da) * (db - da);
         }
-        worst = fmax(worst, sqrt(s) / vmin);
+        worst = fmax(worst, sqrt(s));
     }
     return worst;
 }
@@ -109,6 +107,66 @@ static pb_status plan_ref_knots(struct pb_context *ctx, const pb_field_motion *f
         }
     plan->ref_count = total ? total : 1; /* none walked: one step of weight 0 keeps the buffer non-empty */
     free(per);
+    return st;
+}
+
+/* Where a key point lies among the fields, in (global) field indices. */
+static double knot_place(const pb_path_knot *k)
+{
+    return (1.0 - k->alpha) * (double)k->f0 + k->alpha * (double)k->f1;
+}
+
+/* How far each walked segment carries the object along each image axis, in
+ * its voxels, checked by pb_path_walk_check. The displacement is linear in
+ * the field index between fields, so between two key points it changes by at
+ * most each field interval's largest difference (over the field voxels under
+ * the image, pb_field_reach_box) times the share of that interval the segment
+ * spans: exact where a segment lies inside one interval, as time's do. Before
+ * the key points are made local; the fields' differences read once each. */
+static pb_status check_field_walk(struct pb_context *ctx, const pb_geometry *g, const pb_field_motion *f,
+                                  const pb_blur_options *opt, const pb_path *plan)
+{
+    const pb_path_knot *kn = plan->field->knots;
+    double first = HUGE_VAL, last = -HUGE_VAL;
+    for (size_t j = 0; j + 1 < plan->count; j++)
+        if (!plan->poses[j].skip) {
+            first = fmin(first, fmin(knot_place(&kn[j]), knot_place(&kn[j + 1])));
+            last = fmax(last, fmax(knot_place(&kn[j]), knot_place(&kn[j + 1])));
+        }
+    if (!pb_path_walk_counts(opt) || !(last > first))
+        return PB_OK;
+    const size_t k0 = (size_t)floor(first), k1 = (size_t)ceil(last), n = pb_field_voxels(f);
+    double *most = calloc(3 * (k1 - k0), sizeof *most);
+    if (!most)
+        return pb_error(ctx, PB_ERR_OUT_OF_MEMORY, "out of host memory checking a frame's fields");
+    size_t lo[3], hi[3];
+    pb_field_reach_box(g, f, lo, hi);
+    for (size_t k = k0; k < k1; k++) {
+        const float *a = f->displacements + k * n * 3, *b = a + n * 3;
+        double *m = most + 3 * (k - k0);
+        for (size_t l = lo[2]; l <= hi[2]; l++)
+            for (size_t j = lo[1]; j <= hi[1]; j++)
+                for (size_t i = lo[0]; i <= hi[0]; i++) {
+                    const size_t v = 3 * (i + f->dims[0] * (j + f->dims[1] * l));
+                    for (int c = 0; c < 3; c++)
+                        m[c] = fmax(m[c], fabs((double)b[v + c] - (double)a[v + c]) / g->voxel_size[c]);
+                }
+    }
+    double total[3] = {0.0, 0.0, 0.0};
+    pb_status st = PB_OK;
+    for (size_t j = 0; j + 1 < plan->count && st == PB_OK; j++) {
+        if (plan->poses[j].skip)
+            continue;
+        const double sa = fmin(knot_place(&kn[j]), knot_place(&kn[j + 1]));
+        const double sb = fmax(knot_place(&kn[j]), knot_place(&kn[j + 1]));
+        double walk[3] = {0.0, 0.0, 0.0};
+        for (size_t k = (size_t)floor(sa); k < k1 && (double)k < sb; k++)
+            for (int c = 0; c < 3; c++)
+                walk[c] += (fmin(sb, (double)k + 1.0) - fmax(sa, (double)k)) * most[3 * (k - k0) + (size_t)c];
+        for (int c = 0; c < 3 && st == PB_OK; c++)
+            st = pb_path_walk_check(ctx, g, "fields", c, walk[c], &total[c], plan->poses[j].time);
+    }
+    free(most);
     return st;
 }
 
@@ -247,6 +305,11 @@ pb_status pb_path_create_field(struct pb_context *ctx, const pb_geometry *g, con
     else
         st = time_knots(ctx, f, iv, intervals, total, plan);
     if (st != PB_OK) {
+        free(local);
+        pb_path_destroy(plan);
+        return st;
+    }
+    if ((st = check_field_walk(ctx, g, f, opt, plan)) != PB_OK) {
         free(local);
         pb_path_destroy(plan);
         return st;

@@ -10,23 +10,22 @@
 
 #include "error.h"
 
-/* Largest distance any point of the grid moves between two poses, in voxels of
- * the smallest voxel size. The displacement is affine in the point, so its norm
- * is largest at a corner. */
+/* Largest distance any point of the grid moves between two poses, each axis
+ * in its own voxels (what a trilinear read resolves). The displacement is
+ * affine in the point, so its norm is largest at a corner. */
 static double largest_corner_motion(const pb_path *plan, const pb_pose *a, const pb_pose *b)
 {
     const double *v = plan->geometry.voxel_size;
-    double vmin = fmin(v[0], fmin(v[1], v[2]));
     double worst = 0.0;
     for (int c = 0; c < 8; c++) {
-        double p[3], pa[3], pb[3];
+        double p[3], pa[3], pb[3], d = 0.0;
         for (int i = 0; i < 3; i++)
             p[i] = (c >> i & 1) ? (double)plan->geometry.dims[i] * v[i] : 0.0;
         pb_pose_apply_inverse(a, plan->center, p, pa);
         pb_pose_apply_inverse(b, plan->center, p, pb);
-        double d = sqrt((pa[0] - pb[0]) * (pa[0] - pb[0]) + (pa[1] - pb[1]) * (pa[1] - pb[1]) +
-                        (pa[2] - pb[2]) * (pa[2] - pb[2]));
-        worst = fmax(worst, d / vmin);
+        for (int i = 0; i < 3; i++)
+            d += (pa[i] - pb[i]) / v[i] * ((pa[i] - pb[i]) / v[i]);
+        worst = fmax(worst, sqrt(d));
     }
     return worst;
 }
@@ -42,7 +41,8 @@ static pb_status plan_ref_steps(struct pb_context *ctx, const pb_blur_options *o
         unsigned n = plan->poses[j].skip ? 0 : opt->ref_time_steps;
         if (n == 0 && !plan->poses[j].skip) {
             double d = largest_corner_motion(plan, &plan->poses[j].pose, &plan->poses[j + 1].pose);
-            n = (unsigned)fmax(16.0, 2.0 * ceil(d));
+            /* check_walk bounds d; the cast is kept defined all the same */
+            n = (unsigned)fmin(4e9, fmax(16.0, 2.0 * ceil(d)));
         }
         per[j] = n;
         total += n;
@@ -73,36 +73,42 @@ static pb_status plan_ref_steps(struct pb_context *ctx, const pb_blur_options *o
     return PB_OK;
 }
 
+int pb_path_walk_counts(const pb_blur_options *opt)
+{
+    return opt->method == PB_METHOD_REF ? !opt->ref_time_steps : !opt->steps;
+}
+
+pb_status pb_path_walk_check(struct pb_context *ctx, const pb_geometry *g, const char *what, int axis, double most,
+                             double *total, double time)
+{
+    const double limit = fmax((double)PB_WALK_LEAST, (double)PB_WALK_GRIDS * (double)g->dims[axis]);
+    *total += most;
+    if (most <= limit && *total <= (double)PB_WALK_SEGMENTS * limit)
+        return PB_OK;
+    return pb_error(ctx, PB_ERR_INVALID_ARGUMENT,
+                    "the %s %s the object %.3g voxels along %c (%.6g mm voxels) %s %.9g s, more than a blur "
+                    "walks (%.0f a segment, %d times the grid's %zu voxels or %d; %d times that a frame): check the "
+                    "units of the %s and of the voxel sizes (micrometres read as mm?)",
+                    what, what[strlen(what) - 1] == 's' ? "carry" : "carries", most <= limit ? *total : most, "xyz"[axis], g->voxel_size[axis],
+                    most <= limit ? "by" : "in the segment from", time, limit, (int)PB_WALK_GRIDS, g->dims[axis],
+                    (int)PB_WALK_LEAST, (int)PB_WALK_SEGMENTS, what);
+}
+
 /* The voxels a segment's walk crosses along each object axis, the most over
- * the grid's corners (skipped segments are not walked), refused beyond
- * PB_WALK_GRIDS grids (at least PB_WALK_LEAST voxels) a segment and
- * PB_WALK_SEGMENTS times that over the frame, for the methods that step a
- * slice at a time (AB, RM and CL without fixed steps): a tight path bound
- * cuts a long segment into short ones and walks them all. */
+ * the grid's corners (skipped segments are not walked). */
 static pb_status check_walk(struct pb_context *ctx, const pb_blur_options *opt, const pb_path *plan)
 {
-    const pb_geometry *g = &plan->geometry;
-    if (opt->method == PB_METHOD_REF || opt->steps)
+    if (!pb_path_walk_counts(opt))
         return PB_OK;
     double total[3] = {0.0, 0.0, 0.0};
-    for (size_t j = 0; j + 1 < plan->count; j++) {
-        const double *a = plan->poses[j].map, *b = plan->poses[j + 1].map;
-        for (int axis = 0; axis < 3 && !plan->poses[j].skip; axis++) {
-            const double limit = fmax((double)PB_WALK_LEAST, (double)PB_WALK_GRIDS * (double)g->dims[axis]);
-            const double most = pb_texel_map_walk(a, b, g->dims, axis);
-            total[axis] += most;
-            if (!(most <= limit) || !(total[axis] <= (double)PB_WALK_SEGMENTS * limit))
-                return pb_error(ctx, PB_ERR_INVALID_ARGUMENT,
-                                "the motion carries the object %.3g voxels along %c (%.6g mm voxels) %s %.9g s, "
-                                "more than a blur walks (%.0f a segment, %d times the grid's %zu voxels or %d; %d "
-                                "times that a frame): check the units of the motion and of the voxel sizes "
-                                "(micrometres read as mm?)",
-                                most <= limit ? total[axis] : most, "xyz"[axis], g->voxel_size[axis],
-                                most <= limit ? "by" : "in the segment from", plan->poses[j].time, limit,
-                                (int)PB_WALK_GRIDS, g->dims[axis], (int)PB_WALK_LEAST, (int)PB_WALK_SEGMENTS);
-        }
-    }
-    return PB_OK;
+    pb_status st = PB_OK;
+    for (size_t j = 0; j + 1 < plan->count && st == PB_OK; j++)
+        for (int axis = 0; axis < 3 && !plan->poses[j].skip && st == PB_OK; axis++)
+            st = pb_path_walk_check(ctx, &plan->geometry, "motion", axis,
+                                    pb_texel_map_walk(plan->poses[j].map, plan->poses[j + 1].map,
+                                                      plan->geometry.dims, axis),
+                                    &total[axis], plan->poses[j].time);
+    return st;
 }
 
 pb_status pb_path_create(struct pb_context *ctx, const pb_geometry *g, const pb_motion *m,

@@ -24,9 +24,9 @@
 
 #include "error.h"
 
-/* The largest move of any field voxel between fields k and k + 1, in image
- * voxels of the smallest size. */
-static double field_step(const pb_field_motion *f, size_t k, double vmin)
+/* The largest move of any field voxel between fields k and k + 1, each axis
+ * in its own image voxels. */
+static double field_step(const pb_field_motion *f, size_t k, const double voxel[3])
 {
     size_t n = pb_field_voxels(f);
     const float *a = f->displacements + k * n * 3, *b = a + n * 3;
@@ -34,12 +34,12 @@ static double field_step(const pb_field_motion *f, size_t k, double vmin)
     for (size_t i = 0; i < n; i++) {
         double s = 0.0;
         for (int c = 0; c < 3; c++) {
-            double d = (double)b[3 * i + (size_t)c] - (double)a[3 * i + (size_t)c];
+            double d = ((double)b[3 * i + (size_t)c] - (double)a[3 * i + (size_t)c]) / voxel[c];
             s += d * d;
         }
         worst = fmax(worst, s);
     }
-    return sqrt(worst) / vmin;
+    return sqrt(worst);
 }
 
 typedef struct moments {
@@ -123,8 +123,7 @@ static pb_path_knot knot_at(const bins *b, size_t k, double s)
 pb_status pb_path_surrogate_knots(struct pb_context *ctx, const pb_field_motion *f, const double *iv,
                                   size_t intervals, double total, double max_move, pb_path *plan)
 {
-    const double *v = f->times, *vs = plan->geometry.voxel_size;
-    double vmin = fmin(vs[0], fmin(vs[1], vs[2]));
+    const double *v = f->times;
     /* The signal's extremes in an interval are at its ends or at samples
      * inside: each must lie within the fields' values (the error says when). */
     for (size_t i = 0; i < intervals; i++) {
@@ -164,14 +163,15 @@ pb_status pb_path_surrogate_knots(struct pb_context *ctx, const pb_field_motion 
         if (v[k + 1] < smin || v[k] > smax)
             nb += 1;
         else
-            nb += (size_t)fmin(1e5, fmax(1.0, ceil(field_step(f, k, vmin) / max_move)));
+            nb += (size_t)fmin(1e5, fmax(1.0, ceil(field_step(f, k, plan->geometry.voxel_size) / max_move)));
     }
     b.first[f->count - 1] = nb;
     b.fields = f->count;
     if (nb > PB_MAX_SEGMENTS / 2) {
         free(b.first);
         return pb_error(ctx, PB_ERR_INVALID_ARGUMENT, "the fields move a voxel up to %.3g voxels over their values: "
-                        "%zu value bins at this path bound, more than one blur walks; give a larger max_path_error",
+                        "%zu value bins at this path bound, more than one blur walks; check the units of the fields and of "
+                        "the voxel sizes (micrometres read as mm?), or give a larger max_path_error",
                         max_move * (double)nb, nb);
     }
     b.acc = calloc(nb, sizeof *b.acc);

@@ -1,8 +1,10 @@
 /* libFuzzer harness: the library's motion checks and planner on a motion made
  * of the bytes given (times, translations, quaternions, a centre, a frame and
- * options, as raw doubles), then a blur on the host backend of a 4x3x2 grid:
- * any motion must be refused with a status or blurred in bounded time, never
- * crash or write NaN. */
+ * options, as raw doubles), then a blur on the host backend of a 4x3x2 grid
+ * (its voxel sizes from three bytes past the doubles, 1e-4 to 1e4 mm, where
+ * there are: a walk's length is the motion over them): any motion must be
+ * refused with a status or blurred in bounded time, never crash or write
+ * NaN. */
 #include <math.h>
 #include <stdint.h>
 #include <stdlib.h>
@@ -61,13 +63,29 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
         m.center[k] = take(&p, &n);
     opt.path = (pb_path_model)(data[1] >> 5 & 3);
     opt.max_path_error = take(&p, &n);
-    if (pb_blur(ctx, in, &m, &opt, out) == PB_OK) {
+    pb_volume *vin = in, *vout = out;
+    if (n >= 3) {
+        pb_geometry g = {{4, 3, 2}, {0, 0, 0}};
+        for (int k = 0; k < 3; k++)
+            g.voxel_size[k] = pow(10.0, (double)(p[k] % 9) - 4.0); /* PB_MIN_VOXEL_MM to PB_MAX_VOXEL_MM */
+        float ones[24];
+        for (int i = 0; i < 24; i++)
+            ones[i] = 1.0f;
+        if (pb_volume_create(ctx, &g, &vin) != PB_OK || pb_volume_create(ctx, &g, &vout) != PB_OK ||
+            pb_volume_upload(vin, ones) != PB_OK)
+            abort();
+    }
+    if (pb_blur(ctx, vin, &m, &opt, vout) == PB_OK) {
         float res[24];
-        if (pb_volume_download(out, res) != PB_OK)
+        if (pb_volume_download(vout, res) != PB_OK)
             abort();
         for (int i = 0; i < 24; i++)
             if (!isfinite(res[i]))
                 abort(); /* NaN with a status of success */
+    }
+    if (vin != in) {
+        pb_volume_destroy(vin);
+        pb_volume_destroy(vout);
     }
     return 0;
 }
