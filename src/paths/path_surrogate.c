@@ -24,9 +24,9 @@
 
 #include "error.h"
 
-/* The largest move of any field voxel between fields k and k + 1, each axis
- * in its own image voxels. */
-static double field_step(const pb_field_motion *f, size_t k, const double voxel[3])
+/* The largest move of any field voxel between fields k and k + 1, in image
+ * voxels of the smallest size. */
+static double field_step(const pb_field_motion *f, size_t k, double vmin)
 {
     size_t n = pb_field_voxels(f);
     const float *a = f->displacements + k * n * 3, *b = a + n * 3;
@@ -34,12 +34,12 @@ static double field_step(const pb_field_motion *f, size_t k, const double voxel[
     for (size_t i = 0; i < n; i++) {
         double s = 0.0;
         for (int c = 0; c < 3; c++) {
-            double d = ((double)b[3 * i + (size_t)c] - (double)a[3 * i + (size_t)c]) / voxel[c];
+            double d = (double)b[3 * i + (size_t)c] - (double)a[3 * i + (size_t)c];
             s += d * d;
         }
         worst = fmax(worst, s);
     }
-    return sqrt(worst);
+    return sqrt(worst) / vmin;
 }
 
 typedef struct moments {
@@ -123,7 +123,8 @@ static pb_path_knot knot_at(const bins *b, size_t k, double s)
 pb_status pb_path_surrogate_knots(struct pb_context *ctx, const pb_field_motion *f, const double *iv,
                                   size_t intervals, double total, double max_move, pb_path *plan)
 {
-    const double *v = f->times;
+    const double *v = f->times, *vs = plan->geometry.voxel_size;
+    double vmin = fmin(vs[0], fmin(vs[1], vs[2]));
     /* The signal's extremes in an interval are at its ends or at samples
      * inside: each must lie within the fields' values (the error says when). */
     for (size_t i = 0; i < intervals; i++) {
@@ -163,7 +164,7 @@ pb_status pb_path_surrogate_knots(struct pb_context *ctx, const pb_field_motion 
         if (v[k + 1] < smin || v[k] > smax)
             nb += 1;
         else
-            nb += (size_t)fmin(1e5, fmax(1.0, ceil(field_step(f, k, plan->geometry.voxel_size) / max_move)));
+            nb += (size_t)fmin(1e5, fmax(1.0, ceil(field_step(f, k, vmin) / max_move)));
     }
     b.first[f->count - 1] = nb;
     b.fields = f->count;
