@@ -257,7 +257,8 @@ def test_a_walk_of_millions_of_voxels_is_refused(rng):
     turn of degrees carries the object millions of voxels along it, and the
     walk ran for hours (a 10^3 grid of 0.0001 x 5000 x 5000 mm turned 5
     degrees: over 60 s before 2026-12-06). It is refused at once, naming the
-    axis and the units; a head's motion on a PET grid is walked as before."""
+    axis and the units, by every method, and by a gate's intervals together;
+    a head's motion on a PET grid is walked as before."""
     import time
 
     n = (10, 10, 10)
@@ -289,6 +290,18 @@ def test_a_walk_of_millions_of_voxels_is_refused(rng):
     np.testing.assert_array_equal(y, petblur.BlurOperator(n, coarse, slide, method="ref", device="host")(x))
     cl = petblur.BlurOperator(n, voxel, slide, method="cl", steps=4000, filter="exact", device="host")(x)
     assert np.sqrt(((y - cl) ** 2).sum() / (cl ** 2).sum()) <= 0.01 and np.abs(y - cl).max() <= 0.025 * cl.max()
+    # A gate of many intervals, each walked within a frame's limits, all of them together past a frame's.
+    k = 100
+    swing = np.zeros((k + 1, 3))
+    swing[1::2, thin] = rng.uniform(0.9, 1.0) * 1000.0 * voxel[thin]  # 900-1000 voxels an interval
+    log = petblur.Motion(np.arange(k + 1, dtype=float), swing, [[1.0, 0.0, 0.0, 0.0]] * (k + 1))
+    gate = [[(float(i), i + 1.0) for i in range(k)]]
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # the swing takes the grid out of the field of view, and back
+        with pytest.raises(petblur.ArgumentError, match=f"voxels along {'xyz'[thin]}.* by .*units"):
+            petblur.FramesOperator(n, voxel, log, gate, device="host")(x)
+        few = petblur.FramesOperator(n, voxel, log, [gate[0][:10]], device="host")(x)
+    assert np.isfinite(few).all() and np.abs(few).max() > 0
     # a head's turn and shift on a PET grid: walked
     grid = (32, 32, 24)
     head = petblur.Motion([0.0, 1.0], [[0.0, 0.0, 0.0], rng.uniform(-10.0, 10.0, 3)], [[1.0, 0.0, 0.0, 0.0], q])

@@ -113,6 +113,10 @@ int pb_path_walk_counts(const pb_blur_options *options);
  * "fields") to check the units of. */
 pb_status pb_path_walk_check(struct pb_context *ctx, const pb_geometry *geometry, const char *what, int axis,
                              double most, double *total, double time);
+/* A planned track's walks (its key poses' texel maps; skipped segments not
+ * walked) through pb_path_walk_check: each segment, and the frame's, or a
+ * gate's intervals', together. */
+pb_status pb_path_check_walk(struct pb_context *ctx, const pb_blur_options *options, const pb_path *plan);
 
 /* Error-bounded polylines (path_split.c): the plan with every interval cut
  * into the equal pieces that keep each voxel centre within max_error voxels of

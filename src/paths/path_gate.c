@@ -112,6 +112,9 @@ pb_status pb_path_create_gate(struct pb_context *ctx, const pb_geometry *g, cons
             pb_error_append(ctx, where);
         }
     }
+    /* Each interval's walk was checked alone; a gate of many walks them all. */
+    if (st == PB_OK)
+        st = pb_path_check_walk(ctx, opt, plan);
     if (st != PB_OK)
         pb_path_destroy(plan);
     return st;

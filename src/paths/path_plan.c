@@ -41,7 +41,7 @@ static pb_status plan_ref_steps(struct pb_context *ctx, const pb_blur_options *o
         unsigned n = plan->poses[j].skip ? 0 : opt->ref_time_steps;
         if (n == 0 && !plan->poses[j].skip) {
             double d = largest_corner_motion(plan, &plan->poses[j].pose, &plan->poses[j + 1].pose);
-            /* check_walk bounds d; the cast is kept defined all the same */
+            /* pb_path_check_walk bounds d; the cast is kept defined all the same */
             n = (unsigned)fmin(4e9, fmax(16.0, 2.0 * ceil(d)));
         }
         per[j] = n;
@@ -94,9 +94,7 @@ pb_status pb_path_walk_check(struct pb_context *ctx, const pb_geometry *g, const
                     (int)PB_WALK_LEAST, (int)PB_WALK_SEGMENTS, what);
 }
 
-/* The voxels a segment's walk crosses along each object axis, the most over
- * the grid's corners (skipped segments are not walked). */
-static pb_status check_walk(struct pb_context *ctx, const pb_blur_options *opt, const pb_path *plan)
+pb_status pb_path_check_walk(struct pb_context *ctx, const pb_blur_options *opt, const pb_path *plan)
 {
     if (!pb_path_walk_counts(opt))
         return PB_OK;
@@ -191,7 +189,7 @@ pb_status pb_path_create(struct pb_context *ctx, const pb_geometry *g, const pb_
         pb_pose_texel_map(&p->pose, plan->center, g->voxel_size, p->map);
         p->weight = j + 1 < plan->count && !p->skip ? (plan->poses[j + 1].time - p->time) / span : 0.0;
     }
-    if ((st = check_walk(ctx, opt, plan)) != PB_OK) {
+    if ((st = pb_path_check_walk(ctx, opt, plan)) != PB_OK) {
         pb_path_destroy(plan);
         return st;
     }
