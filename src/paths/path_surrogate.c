@@ -62,8 +62,10 @@ static size_t bin_of(const bins *b, double s)
     if (lo > b->fields - 2)
         lo = b->fields - 2;
     size_t n = b->first[lo + 1] - b->first[lo];
+    /* Compared before the cast: a value within the signal's tolerance past the
+     * top field, over a top interval far narrower than that, is 1e80 bins up. */
     double u = (s - b->v[lo]) / (b->v[lo + 1] - b->v[lo]) * (double)n;
-    size_t i = u <= 0.0 ? 0 : (size_t)u;
+    size_t i = !(u > 0.0) ? 0 : u < (double)n ? (size_t)u : n - 1;
     return b->first[lo] + (i < n ? i : n - 1);
 }
 
