@@ -666,7 +666,12 @@ PB_API pb_status pb_path_noise(const pb_geometry *geometry, const pb_motion *mot
 /* Blurs an object-space volume along the motion into a tomograph-space volume of
  * the same geometry (the paper's eq. 1, gather form: one work item per
  * tomograph voxel). options may be NULL (defaults). object and tomograph must be
- * different volumes of the same context. */
+ * different volumes of the same context. A motion that carries the object
+ * along an axis more than 16 times the grid's voxels along it (and 1024) in
+ * a segment, or 64 times that in a frame or a gate's intervals, is refused
+ * with PB_ERR_INVALID_ARGUMENT before anything runs, for every method but
+ * those with fixed steps (its walk would take hours; the units are the
+ * likely cause); field motions alike. */
 PB_API pb_status pb_blur(pb_context *ctx, const pb_volume *object, const pb_motion *motion,
                          const pb_blur_options *options, pb_volume *tomograph);
 
