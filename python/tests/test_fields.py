@@ -443,7 +443,7 @@ def test_a_field_walk_of_millions_of_voxels_is_refused(rng):
     voxel = rng.uniform(100.0, 5000.0, 3)
     voxel[thin] = 10 ** rng.uniform(-4.0, -3.0)
     d = np.zeros((2,) + n + (3,))
-    d[1, ..., thin] = rng.uniform(1.0, 100.0) * rng.choice([-1.0, 1.0])  # mm: thousands of voxels or more
+    d[1, ..., thin] = rng.uniform(2.0, 100.0) * rng.choice([-1.0, 1.0])  # mm: 2000 voxels or more
     x = rng.random(n).astype(np.float32)
     def words(where):
         return f"fields carry the object .* voxels along {'xyz'[thin]} .*{where} .*units of the fields"
@@ -456,6 +456,24 @@ def test_a_field_walk_of_millions_of_voxels_is_refused(rng):
                                match="units of the fields" if motion.values is not None else words("in the segment")):
                 petblur.BlurOperator(n, voxel, motion, frame=(0.0, 1.0), method=method, device="host")(x)
             assert time.monotonic() - start < 10.0, method
+    # With a bound that lets the surrogate's value bins pass, the bins' walk is refused, by its surrogate value;
+    # and AB's steps, which cut a segment into pieces walked alike, do not lift the check.
+    belt = petblur.FieldMotion.from_surrogate([0.0, 1.0], d, [0.0, 1.0, 2.0], [0.0, 1.0, 0.0])
+    for options in ({"max_path_error": 1000.0}, {"steps": 1, "max_path_error": 1000.0}):
+        with pytest.raises(petblur.ArgumentError, match=words("in the segment from the surrogate's value")):
+            petblur.BlurOperator(n, voxel, belt, frame=(0.0, 2.0), device="host", **options)(x)
+    with pytest.raises(petblur.ArgumentError, match=words("in the segment from 0 s,")):
+        petblur.BlurOperator(n, voxel, petblur.FieldMotion([0.0, 1.0], d), frame=(0.0, 1.0), steps=1,
+                             device="host")(x)
+    # A frame ending inside a field interval walks its share of the fields' difference: 0.5 % of 100000 voxels,
+    # walked (the grid sees the first 2 % of it); 2 %, refused.
+    far = np.zeros((2,) + n + (3,))
+    far[1, ..., thin] = 1e5 * voxel[thin]
+    start = time.monotonic()
+    y = petblur.BlurOperator(n, voxel, petblur.FieldMotion([0.0, 1.0], far), frame=(0.0, 0.005), device="host")(x)
+    assert np.isfinite(y).all() and np.abs(y).max() > 0 and time.monotonic() - start < 10.0
+    with pytest.raises(petblur.ArgumentError, match=words("in the segment from 0 s,")):
+        petblur.BlurOperator(n, voxel, petblur.FieldMotion([0.0, 1.0], far), frame=(0.0, 0.02), device="host")(x)
     # Back and forth, each segment under a segment's limit, the frame's together past 64 times it.
     k = 100
     swing = np.zeros((k,) + n + (3,))
@@ -474,12 +492,14 @@ def test_a_field_walk_of_millions_of_voxels_is_refused(rng):
     far = near.copy()
     far[1, -3:, -3:, -3:, thin] = 1e6 * voxel[thin]
     image = np.diag(list(voxel) + [1.0])
-    ref = petblur.BlurOperator(n, voxel, petblur.FieldMotion([0.0, 1.0], near, affine=field), frame=(0, 1),
-                               affine=image, device="host")(x)
-    got = petblur.BlurOperator(n, voxel, petblur.FieldMotion([0.0, 1.0], far, affine=field), frame=(0, 1),
-                               affine=image, device="host")(x)
-    np.testing.assert_array_equal(got, ref)
-    assert np.abs(ref - x).max() > 1e-3  # it moved
+    for method in ("ab", "ref"):  # REF's time steps too: counted where it reads, they were 1e5 a segment here
+        start = time.monotonic()
+        ref = petblur.BlurOperator(n, voxel, petblur.FieldMotion([0.0, 1.0], near, affine=field), frame=(0, 1),
+                                   affine=image, method=method, device="host")(x)
+        got = petblur.BlurOperator(n, voxel, petblur.FieldMotion([0.0, 1.0], far, affine=field), frame=(0, 1),
+                                   affine=image, method=method, device="host")(x)
+        np.testing.assert_array_equal(got, ref)
+        assert np.abs(ref - x).max() > 1e-3 and time.monotonic() - start < 10.0, method  # it moved, in time
     # Breathing on a PET grid: walked.
     m, v, times = _case(rng)
     y = petblur.BlurOperator(m, v, petblur.FieldMotion(times, _breathing(rng, m, times, 15.0)), frame=(1, 9),

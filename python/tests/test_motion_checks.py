@@ -276,18 +276,24 @@ def test_a_walk_of_millions_of_voxels_is_refused(rng):
         with pytest.raises(petblur.ArgumentError, match=f"voxels along {'xyz'[thin]}.*units"):
             petblur.BlurOperator(n, voxel, m, method=method, device="host")(x)
         assert time.monotonic() - start < 10.0, method
-    # REF counted its time steps in the smallest voxels, whatever the axis: a shift of voxels along a coarse axis
-    # took 2e10 steps on this grid (an unsigned overflow) and ran for hours. In each axis's own voxels: a few.
+    # AB's steps cut a segment into pieces that are walked all the same: no way past the check.
+    with pytest.raises(petblur.ArgumentError, match=f"voxels along {'xyz'[thin]}.*units"):
+        petblur.BlurOperator(n, voxel, m, method="ab", steps=int(rng.integers(1, 5)), device="host")(x)
+    # REF counted its time steps in the smallest voxels, whatever the axis: a shift of voxels along a coarser axis
+    # took 2e10 steps on this grid (an unsigned overflow) and ran for hours. Each axis in its own voxels: a shift of
+    # 9-14 voxels along the middle axis takes 18-28 steps, as on a grid of the middle axis's voxels (counted in the
+    # coarsest voxels, as many as 16).
+    mid, coarse_axis = (thin + 1) % 3, (thin + 2) % 3
+    voxel[mid], voxel[coarse_axis] = rng.uniform(100.0, 1000.0), rng.uniform(2500.0, 5000.0)
     shift = np.zeros(3)
-    shift[(thin + 1) % 3] = rng.uniform(2.0, 6.0) * voxel[(thin + 1) % 3]
+    shift[mid] = rng.uniform(9.0, 14.0) * voxel[mid] * rng.choice([-1.0, 1.0])
     slide = petblur.Motion([0.0, 1.0], [np.zeros(3), shift], [[1.0, 0.0, 0.0, 0.0]] * 2)
     start = time.monotonic()
     y = petblur.BlurOperator(n, voxel, slide, method="ref", device="host")(x)
     assert time.monotonic() - start < 10.0
-    # the same steps as on a grid of the coarse axis's voxels, and the blur a dense CL gives, to REF's own
-    # sampling of a noise object (20 seeds: 0.60-0.74 % RMS, 1.16-1.71 % max)
-    coarse = np.full(3, voxel[(thin + 1) % 3])
-    np.testing.assert_array_equal(y, petblur.BlurOperator(n, coarse, slide, method="ref", device="host")(x))
+    np.testing.assert_array_equal(y, petblur.BlurOperator(n, np.full(3, voxel[mid]), slide, method="ref",
+                                                          device="host")(x))
+    # and the blur a dense CL gives, to REF's own sampling of a noise object
     cl = petblur.BlurOperator(n, voxel, slide, method="cl", steps=4000, filter="exact", device="host")(x)
     assert np.sqrt(((y - cl) ** 2).sum() / (cl ** 2).sum()) <= 0.01 and np.abs(y - cl).max() <= 0.025 * cl.max()
     # A gate of many intervals, each walked within a frame's limits, all of them together past a frame's.

@@ -32,7 +32,7 @@ size_t pb_field_voxels(const pb_field_motion *f)
  * a chord's slices, and REF's steps, follow the displacement's length. */
 #define PB_FIELD_REACH 2.0
 
-void pb_field_reach_box(const pb_geometry *g, const pb_field_motion *f, size_t lo[3], size_t hi[3])
+void pb_field_reach_box(const pb_geometry *g, const pb_field_motion *f, double margin, size_t lo[3], size_t hi[3])
 {
     for (int a = 0; a < 3; a++) {
         lo[a] = 0;
@@ -42,8 +42,9 @@ void pb_field_reach_box(const pb_geometry *g, const pb_field_motion *f, size_t l
         return;
     double mn[3] = {HUGE_VAL, HUGE_VAL, HUGE_VAL}, mx[3] = {-HUGE_VAL, -HUGE_VAL, -HUGE_VAL};
     for (int c = 0; c < 8; c++) {
-        const double u[3] = {c & 1 ? (double)g->dims[0] - 1.0 : 0.0, c & 2 ? (double)g->dims[1] - 1.0 : 0.0,
-                             c & 4 ? (double)g->dims[2] - 1.0 : 0.0};
+        const double u[3] = {c & 1 ? (double)g->dims[0] - 1.0 + margin : -margin,
+                             c & 2 ? (double)g->dims[1] - 1.0 + margin : -margin,
+                             c & 4 ? (double)g->dims[2] - 1.0 + margin : -margin};
         for (int a = 0; a < 3; a++) {
             const double *m = f->field_from_grid + 4 * a, q = m[0] * u[0] + m[1] * u[1] + m[2] * u[2] + m[3];
             mn[a] = fmin(mn[a], q);
@@ -64,7 +65,7 @@ pb_status pb_field_check_reach(struct pb_context *ctx, const pb_geometry *g, con
     for (int c = 0; c < 3; c++)
         diagonal += ((double)g->dims[c] * g->voxel_size[c]) * ((double)g->dims[c] * g->voxel_size[c]);
     diagonal = sqrt(diagonal);
-    pb_field_reach_box(g, f, lo, hi);
+    pb_field_reach_box(g, f, 0.0, lo, hi);
     for (size_t k = 0; k < f->count; k++) {
         const float *d = f->displacements + k * n * 3;
         for (size_t l = lo[2]; l <= hi[2]; l++)

@@ -92,9 +92,12 @@ pb_status pb_field_validate(struct pb_context *ctx, const pb_geometry *geometry,
  * image's geometry. */
 pb_status pb_field_check_reach(struct pb_context *ctx, const pb_geometry *geometry, const pb_field_motion *field);
 /* The field voxels an image voxel's reading can reach, per axis [lo, hi]:
- * with a map, the box of the image grid's corners in field voxels, one voxel
- * wider for the trilinear reading; without one, the grids are the same. */
-void pb_field_reach_box(const pb_geometry *geometry, const pb_field_motion *field, size_t lo[3], size_t hi[3]);
+ * with a map, the box of the image grid's corners (widened by `margin` image
+ * voxels: REF's random points reach half a voxel past the centres) in field
+ * voxels, one voxel wider for the trilinear reading; without one, the grids
+ * are the same. */
+void pb_field_reach_box(const pb_geometry *geometry, const pb_field_motion *field, double margin, size_t lo[3],
+                        size_t hi[3]);
 /* Checks that frame [t0, t1] lies inside a validated field motion's times. */
 pb_status pb_field_frame_check(struct pb_context *ctx, const pb_field_motion *field, double t0, double t1);
 /* The field at time t inside the motion's span: (1 - alpha) D_f0 + alpha

@@ -104,19 +104,22 @@ enum { PB_MAX_SEGMENTS = 100000 };
  * millions (a grid of 0.0001 mm voxels across a turn of degrees) runs for
  * hours. */
 enum { PB_WALK_GRIDS = 16, PB_WALK_LEAST = 1024, PB_WALK_SEGMENTS = 64 };
-/* Whether a blur's cost follows its walks: AB, RM and CL without fixed steps
- * step a slice at a time, REF without fixed time steps takes two a voxel. */
+/* Whether a blur's cost follows its walks: AB steps a slice at a time
+ * (its steps cut a segment into pieces walked alike), RM and CL without
+ * fixed steps too, REF without fixed time steps takes two a voxel. */
 int pb_path_walk_counts(const pb_blur_options *options);
-/* One segment's walk of `most` voxels along object axis `axis` (from `time`
- * s), added to the frame's `total` along it: refused beyond the limits above,
- * the message naming the axis, the voxels and `what` moved (a "motion", the
- * "fields") to check the units of. */
+/* One segment's walk of `most` voxels along object axis `axis` (from `place`,
+ * a time in s, or with by_value a surrogate's value), added to the frame's
+ * `total` along it: refused beyond the limits above, the message naming the
+ * axis, the voxels and `what` moved (a "motion", the "fields") to check the
+ * units of. */
 pb_status pb_path_walk_check(struct pb_context *ctx, const pb_geometry *geometry, const char *what, int axis,
-                             double most, double *total, double time);
+                             double most, double *total, double place, int by_value);
 /* A planned track's walks (its key poses' texel maps; skipped segments not
- * walked) through pb_path_walk_check: each segment, and the frame's, or a
- * gate's intervals', together. */
-pb_status pb_path_check_walk(struct pb_context *ctx, const pb_blur_options *options, const pb_path *plan);
+ * walked) through pb_path_walk_check, added to total[3] (zeros for a frame;
+ * a gate's running sums across its intervals). */
+pb_status pb_path_check_walk(struct pb_context *ctx, const pb_blur_options *options, const pb_path *plan,
+                             double total[3]);
 
 /* Error-bounded polylines (path_split.c): the plan with every interval cut
  * into the equal pieces that keep each voxel centre within max_error voxels of

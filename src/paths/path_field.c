@@ -38,25 +38,33 @@ static pb_status locate(struct pb_context *ctx, const pb_field_motion *f, double
     return st;
 }
 
-/* The largest move of any field voxel between two knots, each axis in its
- * own image voxels (data in texel units), as a track's REF counts it. */
-static double largest_move(const pb_path *plan, const pb_path_knot *a, const pb_path_knot *b)
+/* REF's reach: its random points lie up to half an image voxel past the
+ * centres, so the field voxels they read. */
+#define PB_REF_REACH 0.5
+
+/* The largest move of any field voxel REF reads (box [lo, hi]) between two
+ * knots, each axis in its own image voxels (data in texel units), as a
+ * track's REF counts it. */
+static double largest_move(const pb_path *plan, const size_t lo[3], const size_t hi[3], const pb_path_knot *a,
+                           const pb_path_knot *b)
 {
     const pb_path_field *pf = plan->field;
     double worst = 0.0;
     size_t n = pf->dims[0] * pf->dims[1] * pf->dims[2];
     const float *a0 = pf->data + a->f0 * n * 3, *a1 = pf->data + a->f1 * n * 3;
     const float *b0 = pf->data + b->f0 * n * 3, *b1 = pf->data + b->f1 * n * 3;
-    for (size_t i = 0; i < n; i++) {
-        double s = 0.0;
-        for (int c = 0; c < 3; c++) {
-            size_t x = 3 * i + (size_t)c;
-            double da = (1.0 - a->alpha) * (double)a0[x] + a->alpha * (double)a1[x];
-            double db = (1.0 - b->alpha) * (double)b0[x] + b->alpha * (double)b1[x];
-            s += (db - da) * (db - da);
-        }
-        worst = fmax(worst, sqrt(s));
-    }
+    for (size_t l = lo[2]; l <= hi[2]; l++)
+        for (size_t j = lo[1]; j <= hi[1]; j++)
+            for (size_t i = lo[0]; i <= hi[0]; i++) {
+                const size_t v = 3 * (i + pf->dims[0] * (j + pf->dims[1] * l));
+                double s = 0.0;
+                for (size_t c = 0; c < 3; c++) {
+                    double da = (1.0 - a->alpha) * (double)a0[v + c] + a->alpha * (double)a1[v + c];
+                    double db = (1.0 - b->alpha) * (double)b0[v + c] + b->alpha * (double)b1[v + c];
+                    s += (db - da) * (db - da);
+                }
+                worst = fmax(worst, sqrt(s));
+            }
     return worst;
 }
 
@@ -67,14 +75,15 @@ static double largest_move(const pb_path *plan, const pb_path_knot *a, const pb_
 static pb_status plan_ref_knots(struct pb_context *ctx, const pb_field_motion *f, const size_t *local,
                                 const pb_blur_options *opt, pb_path *plan)
 {
-    size_t nseg = plan->count - 1, total = 0;
+    size_t nseg = plan->count - 1, total = 0, lo[3], hi[3];
     unsigned *per = calloc(nseg, sizeof *per);
     if (!per)
         return pb_error(ctx, PB_ERR_OUT_OF_MEMORY, "out of host memory planning the reference");
+    pb_field_reach_box(&plan->geometry, f, PB_REF_REACH, lo, hi);
     for (size_t j = 0; j < nseg; j++) {
         unsigned n = plan->poses[j].skip ? 0 : opt->ref_time_steps;
         if (n == 0 && !plan->poses[j].skip) {
-            double d = largest_move(plan, &plan->field->knots[j], &plan->field->knots[j + 1]);
+            double d = largest_move(plan, lo, hi, &plan->field->knots[j], &plan->field->knots[j + 1]);
             n = (unsigned)fmin(100000.0, fmax(16.0, 2.0 * ceil(d)));
         }
         per[j] = n;
@@ -124,7 +133,7 @@ static double knot_place(const pb_path_knot *k)
  * spans: exact where a segment lies inside one interval, as time's do. Before
  * the key points are made local; the fields' differences read once each. */
 static pb_status check_field_walk(struct pb_context *ctx, const pb_geometry *g, const pb_field_motion *f,
-                                  const pb_blur_options *opt, const pb_path *plan)
+                                  const pb_blur_options *opt, const pb_path *plan, int by_value)
 {
     const pb_path_knot *kn = plan->field->knots;
     double first = HUGE_VAL, last = -HUGE_VAL;
@@ -140,7 +149,7 @@ static pb_status check_field_walk(struct pb_context *ctx, const pb_geometry *g, 
     if (!most)
         return pb_error(ctx, PB_ERR_OUT_OF_MEMORY, "out of host memory checking a frame's fields");
     size_t lo[3], hi[3];
-    pb_field_reach_box(g, f, lo, hi);
+    pb_field_reach_box(g, f, opt->method == PB_METHOD_REF ? PB_REF_REACH : 0.0, lo, hi);
     for (size_t k = k0; k < k1; k++) {
         const float *a = f->displacements + k * n * 3, *b = a + n * 3;
         double *m = most + 3 * (k - k0);
@@ -164,7 +173,7 @@ static pb_status check_field_walk(struct pb_context *ctx, const pb_geometry *g, 
             for (int c = 0; c < 3; c++)
                 walk[c] += (fmin(sb, (double)k + 1.0) - fmax(sa, (double)k)) * most[3 * (k - k0) + (size_t)c];
         for (int c = 0; c < 3 && st == PB_OK; c++)
-            st = pb_path_walk_check(ctx, g, "fields", c, walk[c], &total[c], plan->poses[j].time);
+            st = pb_path_walk_check(ctx, g, "fields", c, walk[c], &total[c], plan->poses[j].time, by_value);
     }
     free(most);
     return st;
@@ -297,7 +306,8 @@ pb_status pb_path_create_field(struct pb_context *ctx, const pb_geometry *g, con
     /* A surrogate's frame by the values it visits (path_surrogate.c), unless
      * its samples are asked for (the paper's polyline) or REF's reference
      * walks them densely in time. */
-    if (f->signal_count && opt->method != PB_METHOD_REF && opt->path != PB_PATH_TRACKED)
+    const int by_value = f->signal_count && opt->method != PB_METHOD_REF && opt->path != PB_PATH_TRACKED;
+    if (by_value)
         st = pb_path_surrogate_knots(ctx, f, iv, intervals, total,
                                      PB_VALUE_BIN_MOVES * (opt->path == PB_PATH_BOUNDED ? opt->max_path_error
                                                                                         : PB_DEFAULT_MAX_PATH_ERROR),
@@ -309,7 +319,7 @@ pb_status pb_path_create_field(struct pb_context *ctx, const pb_geometry *g, con
         pb_path_destroy(plan);
         return st;
     }
-    if ((st = check_field_walk(ctx, g, f, opt, plan)) != PB_OK) {
+    if ((st = check_field_walk(ctx, g, f, opt, plan, by_value)) != PB_OK) {
         free(local);
         pb_path_destroy(plan);
         return st;

@@ -85,6 +85,9 @@ pb_status pb_path_create_gate(struct pb_context *ctx, const pb_geometry *g, cons
     pb_status st = gate_time(ctx, iv, intervals, &total);
     if (st != PB_OK)
         return st;
+    /* Each interval's walk is checked alone as it is planned; a gate of many
+     * walks them all, summed as each is laid on, before REF's steps pile up. */
+    double walked[3] = {0.0, 0.0, 0.0};
     for (size_t i = 0; i < intervals && st == PB_OK; i++) {
         pb_motion part, whole = *track;
         pb_path piece;
@@ -104,7 +107,10 @@ pb_status pb_path_create_gate(struct pb_context *ctx, const pb_geometry *g, cons
                 plan->geometry = piece.geometry;
                 memcpy(plan->center, piece.center, sizeof plan->center);
             }
-            st = append_piece(ctx, plan, &piece, (iv[2 * i + 1] - iv[2 * i]) / total, i + 1 == intervals);
+            if ((st = pb_path_check_walk(ctx, opt, &piece, walked)) != PB_OK)
+                pb_path_destroy(&piece);
+            else
+                st = append_piece(ctx, plan, &piece, (iv[2 * i + 1] - iv[2 * i]) / total, i + 1 == intervals);
         }
         if (st != PB_OK && intervals > 1) {
             char where[64];
@@ -112,9 +118,6 @@ pb_status pb_path_create_gate(struct pb_context *ctx, const pb_geometry *g, cons
             pb_error_append(ctx, where);
         }
     }
-    /* Each interval's walk was checked alone; a gate of many walks them all. */
-    if (st == PB_OK)
-        st = pb_path_check_walk(ctx, opt, plan);
     if (st != PB_OK)
         pb_path_destroy(plan);
     return st;

@@ -5,6 +5,7 @@
 #include "path.h"
 
 #include <math.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -75,37 +76,39 @@ static pb_status plan_ref_steps(struct pb_context *ctx, const pb_blur_options *o
 
 int pb_path_walk_counts(const pb_blur_options *opt)
 {
-    return opt->method == PB_METHOD_REF ? !opt->ref_time_steps : !opt->steps;
+    /* AB's steps cut a segment into pieces that are walked all the same */
+    return opt->method == PB_METHOD_REF ? !opt->ref_time_steps : opt->method == PB_METHOD_AB || !opt->steps;
 }
 
 pb_status pb_path_walk_check(struct pb_context *ctx, const pb_geometry *g, const char *what, int axis, double most,
-                             double *total, double time)
+                             double *total, double place, int by_value)
 {
     const double limit = fmax((double)PB_WALK_LEAST, (double)PB_WALK_GRIDS * (double)g->dims[axis]);
     *total += most;
     if (most <= limit && *total <= (double)PB_WALK_SEGMENTS * limit)
         return PB_OK;
+    char at[64];
+    snprintf(at, sizeof at, by_value ? "the surrogate's value %.9g" : "%.9g s", place);
     return pb_error(ctx, PB_ERR_INVALID_ARGUMENT,
-                    "the %s %s the object %.3g voxels along %c (%.6g mm voxels) %s %.9g s, more than a blur "
-                    "walks (%.0f a segment, %d times the grid's %zu voxels or %d; %d times that a frame): check the "
-                    "units of the %s and of the voxel sizes (micrometres read as mm?)",
-                    what, what[strlen(what) - 1] == 's' ? "carry" : "carries", most <= limit ? *total : most, "xyz"[axis], g->voxel_size[axis],
-                    most <= limit ? "by" : "in the segment from", time, limit, (int)PB_WALK_GRIDS, g->dims[axis],
-                    (int)PB_WALK_LEAST, (int)PB_WALK_SEGMENTS, what);
+                    "the %s %s the object %.3g voxels along %c (%.6g mm voxels) %s %s, more than a blur walks (%.0f "
+                    "a segment, %d times the grid's %zu voxels or %d; %d times that a frame): check the units of the "
+                    "%s and of the voxel sizes (micrometres read as mm?)",
+                    what, what[strlen(what) - 1] == 's' ? "carry" : "carries", most <= limit ? *total : most,
+                    "xyz"[axis], g->voxel_size[axis], most <= limit ? "by" : "in the segment from", at, limit,
+                    (int)PB_WALK_GRIDS, g->dims[axis], (int)PB_WALK_LEAST, (int)PB_WALK_SEGMENTS, what);
 }
 
-pb_status pb_path_check_walk(struct pb_context *ctx, const pb_blur_options *opt, const pb_path *plan)
+pb_status pb_path_check_walk(struct pb_context *ctx, const pb_blur_options *opt, const pb_path *plan, double total[3])
 {
     if (!pb_path_walk_counts(opt))
         return PB_OK;
-    double total[3] = {0.0, 0.0, 0.0};
     pb_status st = PB_OK;
     for (size_t j = 0; j + 1 < plan->count && st == PB_OK; j++)
         for (int axis = 0; axis < 3 && !plan->poses[j].skip && st == PB_OK; axis++)
             st = pb_path_walk_check(ctx, &plan->geometry, "motion", axis,
                                     pb_texel_map_walk(plan->poses[j].map, plan->poses[j + 1].map,
                                                       plan->geometry.dims, axis),
-                                    &total[axis], plan->poses[j].time);
+                                    &total[axis], plan->poses[j].time, 0);
     return st;
 }
 
@@ -189,7 +192,8 @@ pb_status pb_path_create(struct pb_context *ctx, const pb_geometry *g, const pb_
         pb_pose_texel_map(&p->pose, plan->center, g->voxel_size, p->map);
         p->weight = j + 1 < plan->count && !p->skip ? (plan->poses[j + 1].time - p->time) / span : 0.0;
     }
-    if ((st = pb_path_check_walk(ctx, opt, plan)) != PB_OK) {
+    double walked[3] = {0.0, 0.0, 0.0};
+    if ((st = pb_path_check_walk(ctx, opt, plan, walked)) != PB_OK) {
         pb_path_destroy(plan);
         return st;
     }

@@ -161,12 +161,16 @@ pb_status pb_path_surrogate_knots(struct pb_context *ctx, const pb_field_motion 
             smax = fmax(smax, fmax(sa, sb));
         }
     size_t nb = 0;
+    double moved = 0.0; /* over the intervals visited, uncapped: what the refusal below reports */
     for (size_t k = 0; k + 1 < f->count; k++) {
         b.first[k] = nb;
-        if (v[k + 1] < smin || v[k] > smax)
+        if (v[k + 1] < smin || v[k] > smax) {
             nb += 1;
-        else
-            nb += (size_t)fmin(1e5, fmax(1.0, ceil(field_step(f, k, vmin) / max_move)));
+        } else {
+            const double step = field_step(f, k, vmin);
+            moved += step;
+            nb += (size_t)fmin(1e5, fmax(1.0, ceil(step / max_move)));
+        }
     }
     b.first[f->count - 1] = nb;
     b.fields = f->count;
@@ -175,7 +179,7 @@ pb_status pb_path_surrogate_knots(struct pb_context *ctx, const pb_field_motion 
         return pb_error(ctx, PB_ERR_INVALID_ARGUMENT, "the fields move a voxel up to %.3g voxels over their values: "
                         "%zu value bins at this path bound, more than one blur walks; check the units of the fields and of "
                         "the voxel sizes (micrometres read as mm?), or give a larger max_path_error",
-                        max_move * (double)nb, nb);
+                        moved, nb);
     }
     b.acc = calloc(nb, sizeof *b.acc);
     if (!b.acc) {

@@ -4,8 +4,9 @@
  * refused with a status or blurred in bounded time, never crash or write
  * NaN with a status of success.
  *
- * Layout: a byte of options (method, filter, Jacobian, surrogate, map), a
- * byte of counts (fields 2-4, signal samples 2-5), three bytes of voxel sizes
+ * Layout: a byte of options (method, filter, Jacobian, surrogate, map, fixed
+ * steps, a coarse path bound), a byte of counts (fields 2-4, signal samples
+ * 2-5, steps 1-4), three bytes of voxel sizes
  * (1e-4 to 1e4 mm), then raw doubles: each field's time and base vector, the
  * map's 12 entries (with a map), the frame's ends, the signal's times and
  * values (with a surrogate); then a byte per field voxel and component that
@@ -63,6 +64,12 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     opt.filter = (pb_filter)(flags >> 2 & 1);
     opt.jacobian = flags >> 3 & 1;
     opt.ref_points = 4;
+    if (flags >> 6 & 1) /* fixed steps (RM, CL: samples; AB: pieces, walked all the same; REF: time steps) */
+        opt.steps = opt.ref_time_steps = 1 + (counts >> 6);
+    if (flags >> 7 & 1) { /* a coarse bound, for a surrogate's bins */
+        opt.path = PB_PATH_BOUNDED;
+        opt.max_path_error = 1000.0;
+    }
     const int surrogate = flags >> 4 & 1, has_map = flags >> 5 & 1;
     pb_geometry g = {{4, 3, 2}, {0, 0, 0}};
     for (int k = 0; k < 3; k++)
