@@ -671,7 +671,8 @@ PB_API pb_status pb_path_noise(const pb_geometry *geometry, const pb_motion *mot
  * a segment, or 64 times that in a frame or a gate's intervals, is refused
  * with PB_ERR_INVALID_ARGUMENT before anything runs, for every method but
  * those with fixed steps (its walk would take hours; the units are the
- * likely cause); field motions alike. */
+ * likely cause); field motions alike. Fixed steps (RM and CL's steps, REF's
+ * time steps) are refused where steps times the frame's segments pass 1e7. */
 PB_API pb_status pb_blur(pb_context *ctx, const pb_volume *object, const pb_motion *motion,
                          const pb_blur_options *options, pb_volume *tomograph);
 

@@ -296,6 +296,15 @@ def test_a_walk_of_millions_of_voxels_is_refused(rng):
     # and the blur a dense CL gives, to REF's own sampling of a noise object
     cl = petblur.BlurOperator(n, voxel, slide, method="cl", steps=4000, filter="exact", device="host")(x)
     assert np.sqrt(((y - cl) ** 2).sum() / (cl ** 2).sum()) <= 0.01 and np.abs(y - cl).max() <= 0.025 * cl.max()
+    # Fixed steps cost steps times segments whatever the motion: 100000 steps on each of 200 tracked intervals (2e7
+    # samples a voxel) are refused at once; a dense reference of 4000 on one segment is taken (above).
+    log = petblur.Motion(np.linspace(0.0, 10.0, 201), rng.normal(0.0, 0.2, (201, 3)), [[1.0, 0.0, 0.0, 0.0]] * 201)
+    for method in ("cl", "rm"):
+        start = time.monotonic()
+        with pytest.raises(petblur.ArgumentError, match=r"200 segments at 100000 fixed steps each take 2e\+07 samples"):
+            petblur.BlurOperator((12, 12, 12), 2.0, log, method=method, steps=100000, max_path_error="paper",
+                                 device="host")(rng.random((12, 12, 12)).astype(np.float32))
+        assert time.monotonic() - start < 10.0, method
     # A gate of many intervals, each walked within a frame's limits, all of them together past a frame's.
     k = 100
     swing = np.zeros((k + 1, 3))

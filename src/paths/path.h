@@ -115,9 +115,19 @@ int pb_path_walk_counts(const pb_blur_options *options);
  * units of. */
 pb_status pb_path_walk_check(struct pb_context *ctx, const pb_geometry *geometry, const char *what, int axis,
                              double most, double *total, double place, int by_value);
+/* Fixed steps (RM and CL's steps, REF's time steps) cost steps times the
+ * walked segments a voxel, whatever the motion: each is capped (100000), and
+ * so is a frame's segments (PB_MAX_SEGMENTS), but not their product, which
+ * reached 1e10 samples a voxel (days on a host) where a dense reference
+ * takes thousands to a million. Refused beyond PB_FIXED_SAMPLES a frame, the
+ * sum added to *total (a gate's running sum). */
+enum { PB_FIXED_SAMPLES = 10000000 };
+pb_status pb_path_check_samples(struct pb_context *ctx, const pb_blur_options *options, const pb_path *plan,
+                                double *total);
 /* A planned track's walks (its key poses' texel maps; skipped segments not
  * walked) through pb_path_walk_check, added to total[3] (zeros for a frame;
- * a gate's running sums across its intervals). */
+ * a gate's running sums across its intervals); with fixed steps, its samples
+ * through pb_path_check_samples, summed in total[0]. */
 pb_status pb_path_check_walk(struct pb_context *ctx, const pb_blur_options *options, const pb_path *plan,
                              double total[3]);
 

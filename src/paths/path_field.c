@@ -142,7 +142,11 @@ static pb_status check_field_walk(struct pb_context *ctx, const pb_geometry *g, 
             first = fmin(first, fmin(knot_place(&kn[j]), knot_place(&kn[j + 1])));
             last = fmax(last, fmax(knot_place(&kn[j]), knot_place(&kn[j + 1])));
         }
-    if (!pb_path_walk_counts(opt) || !(last > first))
+    if (!pb_path_walk_counts(opt)) {
+        double samples = 0.0;
+        return pb_path_check_samples(ctx, opt, plan, &samples);
+    }
+    if (!(last > first))
         return PB_OK;
     const size_t k0 = (size_t)floor(first), k1 = (size_t)ceil(last), n = pb_field_voxels(f);
     double *most = calloc(3 * (k1 - k0), sizeof *most);

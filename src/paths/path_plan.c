@@ -98,10 +98,27 @@ pb_status pb_path_walk_check(struct pb_context *ctx, const pb_geometry *g, const
                     (int)PB_WALK_GRIDS, g->dims[axis], (int)PB_WALK_LEAST, (int)PB_WALK_SEGMENTS, what);
 }
 
+pb_status pb_path_check_samples(struct pb_context *ctx, const pb_blur_options *opt, const pb_path *plan,
+                                double *total)
+{
+    const unsigned steps = opt->method == PB_METHOD_REF ? opt->ref_time_steps : opt->steps;
+    const char *what = opt->method == PB_METHOD_REF ? "time steps" : "steps";
+    size_t walked = 0;
+    for (size_t j = 0; j + 1 < plan->count; j++)
+        walked += !plan->poses[j].skip;
+    *total += (double)walked * (double)steps;
+    if (*total <= (double)PB_FIXED_SAMPLES)
+        return PB_OK;
+    return pb_error(ctx, PB_ERR_INVALID_ARGUMENT,
+                    "%zu segments at %u fixed %s each take %.3g samples a voxel in the frame, more than the %.0e a "
+                    "blur takes: use fewer %s, or AB or RM with a path error bound, which merges a log's samples",
+                    walked, steps, what, *total, (double)PB_FIXED_SAMPLES, what);
+}
+
 pb_status pb_path_check_walk(struct pb_context *ctx, const pb_blur_options *opt, const pb_path *plan, double total[3])
 {
     if (!pb_path_walk_counts(opt))
-        return PB_OK;
+        return pb_path_check_samples(ctx, opt, plan, &total[0]);
     pb_status st = PB_OK;
     for (size_t j = 0; j + 1 < plan->count && st == PB_OK; j++)
         for (int axis = 0; axis < 3 && !plan->poses[j].skip && st == PB_OK; axis++)
