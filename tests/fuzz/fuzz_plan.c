@@ -2,9 +2,10 @@
  * of the bytes given (times, translations, quaternions, a centre, a frame and
  * options, as raw doubles), then a blur on the host backend of a 4x3x2 grid
  * (its voxel sizes from three bytes past the doubles, 1e-4 to 1e4 mm, where
- * there are: a walk's length is the motion over them): any motion must be
- * refused with a status or blurred in bounded time, never crash or write
- * NaN. */
+ * there are: a walk's length is the motion over them), or, where a fourth
+ * byte asks for one, a gate of 1-4 intervals (doubles after it), forward and
+ * adjoint: any motion must be refused with a status or blurred in bounded
+ * time, never crash or write NaN. */
 #include <math.h>
 #include <stdint.h>
 #include <stdlib.h>
@@ -13,6 +14,13 @@
 #include "petblur.h"
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);
+
+static void bytes_skip(const uint8_t **p, size_t *n, size_t k)
+{
+    k = k < *n ? k : *n;
+    *p += k;
+    *n -= k;
+}
 
 static double take(const uint8_t **p, size_t *n)
 {
@@ -64,8 +72,8 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     opt.path = (pb_path_model)(data[1] >> 5 & 3);
     opt.max_path_error = take(&p, &n);
     pb_volume *vin = in, *vout = out;
+    pb_geometry g = {{4, 3, 2}, {1.5, 1.0, 2.0}};
     if (n >= 3) {
-        pb_geometry g = {{4, 3, 2}, {0, 0, 0}};
         for (int k = 0; k < 3; k++)
             g.voxel_size[k] = pow(10.0, (double)(p[k] % 9) - 4.0); /* PB_MIN_VOXEL_MM to PB_MAX_VOXEL_MM */
         float ones[24];
@@ -75,7 +83,25 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
             pb_volume_upload(vin, ones) != PB_OK)
             abort();
     }
-    if (pb_blur(ctx, vin, &m, &opt, vout) == PB_OK) {
+    pb_status st;
+    const size_t gate = n >= 4 ? p[3] % 5 : 0;
+    if (gate) { /* a gate of that many intervals, a start and an end each, from the doubles after the byte */
+        bytes_skip(&p, &n, 4);
+        double iv[8];
+        for (size_t i = 0; i < 2 * gate; i++)
+            iv[i] = take(&p, &n);
+        pb_plan *plan = NULL;
+        st = pb_plan_create_gates(ctx, &g, &m, iv, &gate, 1, &opt, &plan);
+        if (st == PB_OK) {
+            st = pb_plan_forward(plan, 0, vin, vout);
+            if (st == PB_OK && pb_plan_adjoint(plan, 0, vin, vout, 0) != PB_OK)
+                abort(); /* the forward ran: its transpose must */
+            pb_plan_destroy(plan);
+        }
+    } else {
+        st = pb_blur(ctx, vin, &m, &opt, vout);
+    }
+    if (st == PB_OK) {
         float res[24];
         if (pb_volume_download(vout, res) != PB_OK)
             abort();
