@@ -135,6 +135,10 @@ static double knot_place(const pb_path_knot *k)
 static pb_status check_field_walk(struct pb_context *ctx, const pb_geometry *g, const pb_field_motion *f,
                                   const pb_blur_options *opt, const pb_path *plan, int by_value)
 {
+    if (!pb_path_walk_counts(opt)) {
+        double samples = 0.0;
+        return pb_path_check_samples(ctx, opt, plan, &samples);
+    }
     const pb_path_knot *kn = plan->field->knots;
     double first = HUGE_VAL, last = -HUGE_VAL;
     for (size_t j = 0; j + 1 < plan->count; j++)
@@ -142,10 +146,6 @@ static pb_status check_field_walk(struct pb_context *ctx, const pb_geometry *g, 
             first = fmin(first, fmin(knot_place(&kn[j]), knot_place(&kn[j + 1])));
             last = fmax(last, fmax(knot_place(&kn[j]), knot_place(&kn[j + 1])));
         }
-    if (!pb_path_walk_counts(opt)) {
-        double samples = 0.0;
-        return pb_path_check_samples(ctx, opt, plan, &samples);
-    }
     if (!(last > first))
         return PB_OK;
     const size_t k0 = (size_t)floor(first), k1 = (size_t)ceil(last), n = pb_field_voxels(f);
