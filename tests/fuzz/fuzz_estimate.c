@@ -14,22 +14,12 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "fuzz_bytes.h"
 #include "petblur.h"
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);
 
 enum { MOST_FRAMES = 4, SIDE_MOST = 11 };
-
-static double take(const uint8_t **p, size_t *n)
-{
-    double v = 0.0;
-    if (*n >= sizeof v) {
-        memcpy(&v, *p, sizeof v);
-        *p += sizeof v;
-        *n -= sizeof v;
-    }
-    return v;
-}
 
 /* xorshift: the noise, from the input's bytes alone */
 static uint32_t next(uint32_t *s)
@@ -60,18 +50,18 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     /* the doubles given: raw where a flag says so, else a voxel size of the
      * scanners' range (0.5 to 8 mm) drawn from them */
     for (int a = 0; a < 3; a++) {
-        double v = take(&p, &left);
+        double v = pbc_fuzz_take(&p, &left);
         g.voxel_size[a] = flags & 1 ? v : 0.5 + fmod(fabs(isfinite(v) ? v : 1.0), 7.5);
     }
     double affine[16], *world = NULL;
     if (flags & 2) {
         for (int i = 0; i < 16; i++)
-            affine[i] = take(&p, &left);
+            affine[i] = pbc_fuzz_take(&p, &left);
         world = affine;
     }
     double bounds[MOST_FRAMES + 1] = {0.0};
     for (size_t k = 0; k <= count; k++) {
-        double v = take(&p, &left);
+        double v = pbc_fuzz_take(&p, &left);
         bounds[k] = flags & 4 ? v : (k ? bounds[k - 1] : 0.0) + 1.0 + fmod(fabs(isfinite(v) ? v : 1.0), 60.0);
     }
     pb_estimate_options o = {0};
@@ -79,7 +69,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     o.iterations = 1 + (flags >> 4 & 3);
     o.frame_poses_only = flags >> 6 & 1;
     o.reference = flags >> 7 ? PB_ESTIMATE_REFERENCE_AUTO : data[7] % (count + 1); /* count: out of range */
-    o.fwhm_mm = data[7] & 0x80 ? take(&p, &left) : 0.0;
+    o.fwhm_mm = data[7] & 0x80 ? pbc_fuzz_take(&p, &left) : 0.0;
     pb_estimate_frame report_frames[MOST_FRAMES];
     o.frames = report_frames;
     /* a blob per frame, where the next bytes put it, over noise */

@@ -16,6 +16,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "fuzz_bytes.h"
 #include "petblur.h"
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);
@@ -37,13 +38,7 @@ static uint8_t take_byte(bytes *b)
 
 static double take(bytes *b)
 {
-    double v = 0.0;
-    if (b->n >= sizeof v) {
-        memcpy(&v, b->p, sizeof v);
-        b->p += sizeof v;
-        b->n -= sizeof v;
-    }
-    return v;
+    return pbc_fuzz_take(&b->p, &b->n);
 }
 
 enum { FIELDS_MOST = 4, SIGNAL_MOST = 5, VOXELS = 24 };

@@ -11,6 +11,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "fuzz_bytes.h"
 #include "petblur.h"
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);
@@ -20,17 +21,6 @@ static void bytes_skip(const uint8_t **p, size_t *n, size_t k)
     k = k < *n ? k : *n;
     *p += k;
     *n -= k;
-}
-
-static double take(const uint8_t **p, size_t *n)
-{
-    double v = 0.0;
-    if (*n >= sizeof v) {
-        memcpy(&v, *p, sizeof v);
-        *p += sizeof v;
-        *n -= sizeof v;
-    }
-    return v;
 }
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
@@ -60,17 +50,19 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     double times[5];
     pb_pose poses[5];
     for (size_t i = 0; i < count; i++) {
-        times[i] = take(&p, &n);
+        times[i] = pbc_fuzz_take(&p, &n);
         for (int k = 0; k < 3; k++)
-            poses[i].translation[k] = take(&p, &n);
+            poses[i].translation[k] = pbc_fuzz_take(&p, &n);
         for (int k = 0; k < 4; k++)
-            poses[i].rotation[k] = take(&p, &n);
+            poses[i].rotation[k] = pbc_fuzz_take(&p, &n);
     }
-    pb_motion m = {times, poses, count, take(&p, &n), take(&p, &n), (int)(size & 1), {0, 0, 0}};
+    /* the frame's ends taken in turn: an initializer's order is unspecified */
+    const double start = pbc_fuzz_take(&p, &n), end = pbc_fuzz_take(&p, &n);
+    pb_motion m = {times, poses, count, start, end, (int)(size & 1), {0, 0, 0}};
     for (int k = 0; k < 3; k++)
-        m.center[k] = take(&p, &n);
+        m.center[k] = pbc_fuzz_take(&p, &n);
     opt.path = (pb_path_model)(data[1] >> 5 & 3);
-    opt.max_path_error = take(&p, &n);
+    opt.max_path_error = pbc_fuzz_take(&p, &n);
     pb_volume *vin = in, *vout = out;
     pb_geometry g = {{4, 3, 2}, {1.5, 1.0, 2.0}};
     if (n >= 3) {
@@ -89,7 +81,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
         bytes_skip(&p, &n, 4);
         double iv[8];
         for (size_t i = 0; i < 2 * gate; i++)
-            iv[i] = take(&p, &n);
+            iv[i] = pbc_fuzz_take(&p, &n);
         pb_plan *plan = NULL;
         st = pb_plan_create_gates(ctx, &g, &m, iv, &gate, 1, &opt, &plan);
         if (st == PB_OK) {
