@@ -761,9 +761,11 @@ static pb_status back_path(estimate *e, const pbe_fit *fits, size_t k, double on
 static void far_corner(const estimate *e, double far[3]);
 
 /* Whether point i of a path lies within a voxel of its far end towards dir
- * (+1 its last point, -1 its first) at the far corner, where a frame cannot
- * tell one from the other (PATH_BACK's twins, held alike). Under
- * PETBLUR_ESTIMATE_SHORT=end the far end's point alone, for comparisons. */
+ * (+1 its last point, -1 its first: the point beside that neighbour) at the
+ * far corner, where a frame cannot tell one from the other (PATH_BACK's
+ * twins, held alike), and within a quarter of the path, so that a short
+ * path's far end stays an end. Under PETBLUR_ESTIMATE_SHORT=end the far
+ * end's point alone, for comparisons. */
 static int near_far_end(const estimate *e, const frame_path *p, int dir, int i)
 {
     const int end = dir > 0 ? DWELL_POINTS - 1 : 0;
@@ -775,13 +777,13 @@ static int near_far_end(const estimate *e, const frame_path *p, int dir, int i)
     far_corner(e, far);
     pb_pose_interpolate(&p->start, &p->end, (double)i / (DWELL_POINTS - 1), &a);
     pb_pose_interpolate(&p->start, &p->end, (double)end / (DWELL_POINTS - 1), &b);
-    return path_span(e, far, &a, &b) < e->g.voxel_size[0];
+    return path_span(e, far, &a, &b) < fmin(e->g.voxel_size[0], 0.25 * path_span(e, far, &p->start, &p->end));
 }
 
 /* Whether a path on into the frame after (dir +1, PATH_ON) or from the
  * frame before (-1, PATH_FROM) stops short of that neighbour: the frame
- * dwells at its far end (the points within a voxel of the neighbour's
- * pose, near_far_end) for under SHORT_SHARE of its time. Such a path does
+ * dwells at its far end (the point beside that neighbour and those within
+ * a voxel of it, near_far_end) for under SHORT_SHARE of its time. Such a path does
  * not claim that the motion went
  * on into the neighbour, and the poses need not show it (motion_went_on):
  * it holds the poses the head took inside the frame, and where the
@@ -795,12 +797,13 @@ static int near_far_end(const estimate *e, const frame_path *p, int dir, int i)
  * frame's pose for 0.27 of the frame and at 0.62-0.75 of the way for the
  * rest; the frame after's pose lies short of where it would were the motion
  * going on, and held to one pose the frame stood 3.71 mm off. The far end
- * is its points within a voxel, not its last point alone: a nod out and
- * back inside a frame dwelt 0.04 at the still frame before's pose and 0.50
- * at the next point, 3.1 mm on along a path of 24.5 mm on 4 mm voxels
- * (test_a_nod_that_turns_back_inside_a_frame's seed 2063815128), and the
- * path from that pose, taken as stopping short, laid the nod on as a ramp
- * 4.08 mm off where its path out and back stands at 0.83.
+ * is its points within a voxel, not its last point alone: on a nod out and
+ * back inside a frame, the path from the frame before (its far end the
+ * frame's own pose taken as far again from the frame after's) dwelt 0.04
+ * at that end and 0.50 at the next point, 3.1 mm on along 24.5 mm on 4 mm
+ * voxels (test_a_nod_that_turns_back_inside_a_frame's seed 2063815128),
+ * and, taken as stopping short, laid the nod as a ramp 4.08 mm off where
+ * one pose stands at 3.31 and its path out and back at 0.83.
  * PETBLUR_ESTIMATE_SHORT=0 asks every path into a still neighbour for the
  * motion going on, for comparisons. */
 static int stops_short(const estimate *e, const frame_path *p, int dir)
@@ -845,11 +848,13 @@ static pb_status inside_frames(estimate *e, const pbe_fit *fits, size_t referenc
     int *anchor = calloc(e->count, sizeof(int)), *moves = calloc(e->count, sizeof(int));
     unsigned char *tried = calloc(e->count, 1);
     double *back_gain = calloc(e->count, sizeof(double));
-    if (!anchor || !moves || !tried || !back_gain) {
+    unsigned char *back_zeroed = calloc(e->count, 1);
+    if (!anchor || !moves || !tried || !back_gain || !back_zeroed) {
         free(anchor);
         free(moves);
         free(tried);
         free(back_gain);
+        free(back_zeroed);
         return PB_ERR_OUT_OF_MEMORY;
     }
     pb_status st = PB_OK;
@@ -926,18 +931,21 @@ static pb_status inside_frames(estimate *e, const pbe_fit *fits, size_t referenc
      * where its path stands at 1.383). */
     for (size_t k = 1; k + 1 < e->count; k++) {
         back_gain[k] = paths[k * PATHS + PATH_BACK].gain;
-        if (moves[k - 1] || moves[k + 1])
+        if (moves[k - 1] || moves[k + 1]) {
             paths[k * PATHS + PATH_BACK].gain = 0.0;
+            back_zeroed[k] = 1;
+        }
     }
     /* A neighbour supports a path into it only while a path of its own
      * stands: one whose every path was refused here holds one pose in the
      * track, and a path into it would lay the motion where the track has
-     * none. Refusals only take support away, so they are repeated until
-     * none changes. Issue 47's draw 123620333: frame 13's path (6.1 %, a
-     * jerk near its end) was refused at 15 %, yet it supported frame 14's
-     * path from it at the series' 1 % (4.2 %, a nod out and back), which
-     * laid a jump of 2.5 mm at the frame's middle: 3.95 mm where one pose
-     * stood 2.45. PETBLUR_ESTIMATE_SUPPORT=gain keeps the support of a gain
+     * none. Refusals only take support away (a frame's moves[] only falls,
+     * and PATH_BACK's gain, given back where both neighbours end still, is
+     * given back once), so they are repeated until none changes. Issue
+     * 47's draw 123620333: frame 13's path (6.1 %, a jerk near its end) was
+     * refused at 15 %, yet it supported frame 14's path from it at the
+     * series' 1 % (4.2 %, a nod out and back), which laid a jump of 2.5 mm
+     * at the frame's middle: 3.95 mm where one pose stood 2.45. PETBLUR_ESTIMATE_SUPPORT=gain keeps the support of a gain
      * alone, refused or not, for comparisons. */
     const char *support_env = getenv("PETBLUR_ESTIMATE_SUPPORT");
     const int support_by_gain = support_env && strcmp(support_env, "gain") == 0;
@@ -956,8 +964,9 @@ static pb_status inside_frames(estimate *e, const pbe_fit *fits, size_t referenc
                 from->gain = 0.0;
         }
         for (size_t k = 1; k + 1 < e->count; k++)
-            if (!moves[k - 1] && !moves[k + 1] && paths[k * PATHS + PATH_BACK].gain != back_gain[k]) {
+            if (back_zeroed[k] && !moves[k - 1] && !moves[k + 1]) {
                 paths[k * PATHS + PATH_BACK].gain = back_gain[k];
+                back_zeroed[k] = 0;
                 changed = 1;
             }
         for (size_t k = 1; k + 1 < e->count && !support_by_gain; k++)
@@ -1000,6 +1009,7 @@ static pb_status inside_frames(estimate *e, const pbe_fit *fits, size_t referenc
     free(moves);
     free(tried);
     free(back_gain);
+    free(back_zeroed);
     return st;
 }
 
