@@ -760,62 +760,66 @@ static pb_status back_path(estimate *e, const pbe_fit *fits, size_t k, double on
 
 static void far_corner(const estimate *e, double far[3]);
 
-/* Whether point i of a path lies within a voxel of its far end towards dir
- * (+1 its last point, -1 its first: the point beside that neighbour) at the
- * far corner, where a frame cannot tell one from the other (PATH_BACK's
- * twins, held alike), and within a quarter of the path, so that a short
- * path's far end stays an end. Under PETBLUR_ESTIMATE_SHORT=end the far
- * end's point alone, for comparisons. */
-static int near_far_end(const estimate *e, const frame_path *p, int dir, int i)
+static void far_corner(const estimate *e, double far[3]);
+
+/* A path's far end towards dir (+1 its last point, -1 its first: the point
+ * beside that neighbour) into end[i]: that point and those within a voxel
+ * of it at the far corner, where a frame cannot tell one from the other
+ * (PATH_BACK's twins, held alike), and within a quarter of the path, so
+ * that a short path's far end stays an end. Under PETBLUR_ESTIMATE_SHORT=end
+ * the far end's point alone, for comparisons. */
+static void far_end(const estimate *e, const frame_path *p, int dir, unsigned char end[DWELL_POINTS])
 {
-    const int end = dir > 0 ? DWELL_POINTS - 1 : 0;
+    const int last = dir > 0 ? DWELL_POINTS - 1 : 0;
     const char *env = getenv("PETBLUR_ESTIMATE_SHORT");
-    if (i == end || (env && strcmp(env, "end") == 0))
-        return i == end;
+    const int alone = env && strcmp(env, "end") == 0;
     double far[3];
-    pb_pose a, b;
+    pb_pose b;
     far_corner(e, far);
-    pb_pose_interpolate(&p->start, &p->end, (double)i / (DWELL_POINTS - 1), &a);
-    pb_pose_interpolate(&p->start, &p->end, (double)end / (DWELL_POINTS - 1), &b);
-    return path_span(e, far, &a, &b) < fmin(e->g.voxel_size[0], 0.25 * path_span(e, far, &p->start, &p->end));
+    pb_pose_interpolate(&p->start, &p->end, (double)last / (DWELL_POINTS - 1), &b);
+    const double reach = fmin(e->g.voxel_size[0], 0.25 * path_span(e, far, &p->start, &p->end));
+    for (int i = 0; i < DWELL_POINTS; i++) {
+        pb_pose a;
+        pb_pose_interpolate(&p->start, &p->end, (double)i / (DWELL_POINTS - 1), &a);
+        end[i] = i == last || (!alone && path_span(e, far, &a, &b) < reach);
+    }
 }
 
 /* Whether a path on into the frame after (dir +1, PATH_ON) or from the
  * frame before (-1, PATH_FROM) stops short of that neighbour: the frame
- * dwells at its far end (the point beside that neighbour and those within
- * a voxel of it, near_far_end) for under SHORT_SHARE of its time. Such a path does
- * not claim that the motion went
- * on into the neighbour, and the poses need not show it (motion_went_on):
- * it holds the poses the head took inside the frame, and where the
- * neighbour is still its pose holds from the boundary, as the path
- * between's does (path_keys; the far end's remnant is dropped, a nod's
- * spread or the noise: issue 47's draw 2167208435, a jerk inside a nod,
- * dwelt there 3.5 % of its frame). A jerk inside a frame during a slow nod
- * (issue 47's draw 3171377247, frame 6 of 84-114 s, a jerk of 8 degrees at
- * 92.4 s): the path between the neighbours' poses misses the nod's turn
- * (-24 %), the path on from the frame before gains 26 %, dwelling at that
- * frame's pose for 0.27 of the frame and at 0.62-0.75 of the way for the
- * rest; the frame after's pose lies short of where it would were the motion
- * going on, and held to one pose the frame stood 3.71 mm off. The far end
- * is its points within a voxel, not its last point alone: on a nod out and
- * back inside a frame, the path from the frame before (its far end the
- * frame's own pose taken as far again from the frame after's) dwelt 0.04
- * at that end and 0.50 at the next point, 3.1 mm on along 24.5 mm on 4 mm
- * voxels (test_a_nod_that_turns_back_inside_a_frame's seed 2063815128),
- * and, taken as stopping short, laid the nod as a ramp 4.08 mm off where
- * one pose stands at 3.31 and its path out and back at 0.83.
+ * dwells at its far end (far_end, into end[]) for under SHORT_SHARE of its
+ * time. Such a path does not claim that the motion went on into the
+ * neighbour, and the poses need not show it (motion_went_on): it holds the
+ * poses the head took inside the frame, and where the neighbour is still
+ * its pose holds from the boundary, as the path between's does (path_keys;
+ * the far end's remnant is dropped, a nod's spread or the noise: issue 47's
+ * draw 2167208435, a jerk inside a nod, dwelt there 3.5 % of its frame). A
+ * jerk inside a frame during a slow nod (issue 47's draw 3171377247, frame
+ * 6 of 84-114 s, a jerk of 8 degrees at 92.4 s): the path between the
+ * neighbours' poses misses the nod's turn (-24 %), the path on from the
+ * frame before gains 26 %, dwelling at that frame's pose for 0.27 of the
+ * frame and at 0.62-0.75 of the way for the rest; the frame after's pose
+ * lies short of where it would were the motion going on, and held to one
+ * pose the frame stood 3.71 mm off. The far end is its points within a
+ * voxel, not its last point alone: on a nod out and back inside a frame,
+ * the path from the frame before (its far end the frame's own pose taken as
+ * far again from the frame after's) dwelt 0.04 at that end and 0.50 at the
+ * next point, 3.1 mm on along 24.5 mm on 4 mm voxels
+ * (test_a_nod_that_turns_back_inside_a_frame's seed 2063815128), and, taken
+ * as stopping short, laid the nod as a ramp 4.08 mm off where one pose
+ * stands at 3.31 and its path out and back at 0.83.
  * PETBLUR_ESTIMATE_SHORT=0 asks every path into a still neighbour for the
  * motion going on, for comparisons. */
-static int stops_short(const estimate *e, const frame_path *p, int dir)
+static int stops_short(const estimate *e, const frame_path *p, int dir, unsigned char end[DWELL_POINTS])
 {
     const char *env = getenv("PETBLUR_ESTIMATE_SHORT");
     if (env && strcmp(env, "0") == 0)
         return 0;
+    far_end(e, p, dir, end);
     double total = 0.0, there = 0.0;
     for (int i = 0; i < DWELL_POINTS; i++) {
         total += fmax(p->dwell[i], 0.0);
-        if (near_far_end(e, p, dir, i))
-            there += fmax(p->dwell[i], 0.0);
+        there += end[i] ? fmax(p->dwell[i], 0.0) : 0.0;
     }
     return total > 0 && there < SHORT_SHARE * total;
 }
@@ -848,13 +852,11 @@ static pb_status inside_frames(estimate *e, const pbe_fit *fits, size_t referenc
     int *anchor = calloc(e->count, sizeof(int)), *moves = calloc(e->count, sizeof(int));
     unsigned char *tried = calloc(e->count, 1);
     double *back_gain = calloc(e->count, sizeof(double));
-    unsigned char *back_zeroed = calloc(e->count, 1);
-    if (!anchor || !moves || !tried || !back_gain || !back_zeroed) {
+    if (!anchor || !moves || !tried || !back_gain) {
         free(anchor);
         free(moves);
         free(tried);
         free(back_gain);
-        free(back_zeroed);
         return PB_ERR_OUT_OF_MEMORY;
     }
     pb_status st = PB_OK;
@@ -929,13 +931,11 @@ static pb_status inside_frames(estimate *e, const pbe_fit *fits, size_t referenc
      * back_inside_a_frame's seed 3938814174: frame 1's 5.3 % path from a
      * still frame 0 was refused, frame 2's nod kept one pose, 2.245 mm off
      * where its path stands at 1.383). */
-    for (size_t k = 1; k + 1 < e->count; k++) {
-        back_gain[k] = paths[k * PATHS + PATH_BACK].gain;
+    for (size_t k = 1; k + 1 < e->count; k++)
         if (moves[k - 1] || moves[k + 1]) {
+            back_gain[k] = paths[k * PATHS + PATH_BACK].gain; /* 0 where none is held back */
             paths[k * PATHS + PATH_BACK].gain = 0.0;
-            back_zeroed[k] = 1;
         }
-    }
     /* A neighbour supports a path into it only while a path of its own
      * stands: one whose every path was refused here holds one pose in the
      * track, and a path into it would lay the motion where the track has
@@ -945,8 +945,9 @@ static pb_status inside_frames(estimate *e, const pbe_fit *fits, size_t referenc
      * 47's draw 123620333: frame 13's path (6.1 %, a jerk near its end) was
      * refused at 15 %, yet it supported frame 14's path from it at the
      * series' 1 % (4.2 %, a nod out and back), which laid a jump of 2.5 mm
-     * at the frame's middle: 3.95 mm where one pose stood 2.45. PETBLUR_ESTIMATE_SUPPORT=gain keeps the support of a gain
-     * alone, refused or not, for comparisons. */
+     * at the frame's middle: 3.95 mm where one pose stood 2.45.
+     * PETBLUR_ESTIMATE_SUPPORT=gain keeps the support of a gain alone,
+     * refused or not, for comparisons. */
     const char *support_env = getenv("PETBLUR_ESTIMATE_SUPPORT");
     const int support_by_gain = support_env && strcmp(support_env, "gain") == 0;
     for (int changed = 1; changed;) {
@@ -954,19 +955,20 @@ static pb_status inside_frames(estimate *e, const pbe_fit *fits, size_t referenc
         for (size_t k = 0; k < e->count; k++) {
             frame_path *on = &paths[k * PATHS + PATH_ON], *from = &paths[k * PATHS + PATH_FROM];
             int between = paths[k * PATHS + PATH_BETWEEN].gain > dwell_gain;
+            unsigned char end[DWELL_POINTS];
             if (k + 1 == e->count ? on->gain <= UNSUPPORTED_GAIN
                                   : !moves[k + 1] && (between || on->gain <= UNSUPPORTED_GAIN ||
-                                                      !(motion_went_on(e, fits, k, +1) || stops_short(e, on, +1))))
+                                                      !(motion_went_on(e, fits, k, +1) || stops_short(e, on, +1, end))))
                 on->gain = 0.0;
             if (k == 0 ? from->gain <= UNSUPPORTED_GAIN
                        : !moves[k - 1] && (between || from->gain <= UNSUPPORTED_GAIN ||
-                                           !(motion_went_on(e, fits, k, -1) || stops_short(e, from, -1))))
+                                           !(motion_went_on(e, fits, k, -1) || stops_short(e, from, -1, end))))
                 from->gain = 0.0;
         }
         for (size_t k = 1; k + 1 < e->count; k++)
-            if (back_zeroed[k] && !moves[k - 1] && !moves[k + 1]) {
+            if (back_gain[k] != 0.0 && !moves[k - 1] && !moves[k + 1]) {
                 paths[k * PATHS + PATH_BACK].gain = back_gain[k];
-                back_zeroed[k] = 0;
+                back_gain[k] = 0.0;
                 changed = 1;
             }
         for (size_t k = 1; k + 1 < e->count && !support_by_gain; k++)
@@ -1009,7 +1011,6 @@ static pb_status inside_frames(estimate *e, const pbe_fit *fits, size_t referenc
     free(moves);
     free(tried);
     free(back_gain);
-    free(back_zeroed);
     return st;
 }
 
@@ -1631,29 +1632,27 @@ static void path_keys(keys *out, double t0, double t1, const pb_pose *s, const p
  * from and to where it holds no dwell at its ends (path_keys): the
  * neighbour it starts or ends at, or one it stops short of (stops_short),
  * still and not where the motion went on (motion_went_on); u: p's dwell,
- * less the remnant at an end it stops short at (its points within a voxel
- * of that end). */
+ * less the remnant at an end it stops short at (far_end). */
 static void path_neighbours(const estimate *e, const pbe_fit *fits, const int *moving, size_t f, int kind,
                             const frame_path *p, double u[DWELL_POINTS], const pb_pose **before,
                             const pb_pose **after)
 {
     memcpy(u, p->dwell, DWELL_POINTS * sizeof *u);
     *before = *after = NULL;
+    unsigned char end[DWELL_POINTS];
     if (f > 0 && starts_at_before(kind))
         *before = &fits[f - 1].pose;
-    else if (f > 0 && !moving[f - 1] && !motion_went_on(e, fits, f, -1) && stops_short(e, p, -1)) {
+    else if (f > 0 && !moving[f - 1] && !motion_went_on(e, fits, f, -1) && stops_short(e, p, -1, end)) {
         *before = &fits[f - 1].pose;
         for (int i = 0; i < DWELL_POINTS; i++)
-            if (near_far_end(e, p, -1, i))
-                u[i] = 0.0;
+            u[i] = end[i] ? 0.0 : u[i];
     }
     if (f + 1 < e->count && ends_at_after(kind))
         *after = &fits[f + 1].pose;
-    else if (f + 1 < e->count && !moving[f + 1] && !motion_went_on(e, fits, f, +1) && stops_short(e, p, +1)) {
+    else if (f + 1 < e->count && !moving[f + 1] && !motion_went_on(e, fits, f, +1) && stops_short(e, p, +1, end)) {
         *after = &fits[f + 1].pose;
         for (int i = 0; i < DWELL_POINTS; i++)
-            if (near_far_end(e, p, +1, i))
-                u[i] = 0.0;
+            u[i] = end[i] ? 0.0 : u[i];
     }
 }
 
