@@ -999,7 +999,7 @@ static pb_status inside_frames(estimate *e, const pbe_fit *fits, size_t referenc
      * drift off the line, the uptake), so beside a one-way path that still
      * stands it must explain BACK_BEYOND_PATH of what that path leaves
      * (back_beyond). test_a_jerk_inside_a_drift_is_followed's seed
-     * 3480099802: a jerk of 10 mm with a drift across it, PATH_ON gaining
+     * 3480099802: a jerk of 10.6 mm with a drift across it, PATH_ON gaining
      * 0.569 and PATH_BACK 0.574, which laid the jerk out past its end and
      * back: the frame 2.674 mm off where one pose stands at 2.659 and the
      * path on at 1.934. */
