@@ -1001,9 +1001,9 @@ def test_a_jerk_inside_a_drift_is_followed(rng, monkeypatch):
     Bounds 1.3 and 0.05 mm. Another drew seed 3480099802: the path out and
     back (PATH_BACK) gained 0.004 more than the path on and laid the jerk
     past its end and back, the frame at 1.006 of one pose's error; PATH_BACK
-    on neighbours a voxel apart now explains a twentieth of what a path on
-    leaves, or yields to it (1.934 mm, 0.73 of one pose's; 20 fresh series
-    then, all passed)."""
+    on neighbours a voxel apart now explains a twentieth of what a one-way
+    path leaves, or yields to it (1.934 mm, 0.73 of one pose's; 20 fresh
+    series then, all passed)."""
     nf, seconds = 7, 10.0
     k = int(rng.integers(2, nf - 2))
     v = rng.normal(size=3)

@@ -681,16 +681,6 @@ static void back_poses(const pb_pose *s, const pb_pose *f, const pb_pose *r, pb_
     }
 }
 
-/* Whether PATH_BACK on neighbours a voxel apart must explain
- * BACK_BEYOND_PATH of what a one-way path leaves (inside_frames);
- * PETBLUR_ESTIMATE_BACK=even compares their gains as they stand, for
- * comparisons. */
-static int back_beyond(void)
-{
-    const char *env = getenv("PETBLUR_ESTIMATE_BACK");
-    return !(env && strcmp(env, "even") == 0);
-}
-
 /* PATH_BACK for a frame between still neighbours whose poses show that its
  * motion went on into neither (motion_went_on, both ways: its own pose lies
  * off the line between theirs, where for a pose on it one of the two holds)
@@ -735,7 +725,8 @@ static int back_beyond(void)
  * UNSUPPORTED_GAIN, as a path into a neighbour that shows no motion does
  * (issue 47's 668173037 and 2014871130, neighbours 10.2 and 15.9 mm apart,
  * gained 19.5 % and 77 %).
- * PETBLUR_ESTIMATE_BACK=0 turns it off, for comparisons. Fitted for frame k
+ * PETBLUR_ESTIMATE_BACK=0 turns it off, =even lets it stand beside a one-way
+ * path on its gain alone (back_yields), for comparisons. Fitted for frame k
  * against its reference as its other paths were (one: one pose's weighted
  * residual there); whether its neighbours hold still is known only once
  * every frame's paths are (inside_frames). */
@@ -858,6 +849,27 @@ static void far_corner(const estimate *e, double far[3])
         ext = fmax(ext, (double)e->g.dims[i] * e->g.voxel_size[i]);
     for (int i = 0; i < 3; i++)
         far[i] = e->c[i] + 0.5 * ext;
+}
+
+/* Whether frame k's PATH_BACK yields to a one-way path of its own
+ * (PATH_ON, PATH_FROM) that still stands. Where the neighbours lie a voxel
+ * apart or more, PATH_BACK says the head came part of the way back towards
+ * the frame after's pose. Its two legs hold more points than a one-way
+ * path, and their mixture of views fits some of what no path explains (a
+ * drift off the line, the uptake), so beside such a path it must explain
+ * BACK_BEYOND_PATH of what that path leaves.
+ * test_a_jerk_inside_a_drift_is_followed's seed 3480099802: a jerk of 10.6
+ * mm with a drift across it, PATH_ON gaining 0.569 and PATH_BACK 0.574,
+ * which laid the jerk out past its end and back: the frame 2.674 mm off
+ * where one pose stands at 2.659 and PATH_ON at 1.934. */
+static int back_yields(const estimate *e, const pbe_fit *fits, const frame_path *paths, size_t k, double bar,
+                       const double far[3])
+{
+    const frame_path *back = &paths[k * PATHS + PATH_BACK];
+    const double one_way = fmax(paths[k * PATHS + PATH_ON].gain, paths[k * PATHS + PATH_FROM].gain);
+    return back->gain > 0.0 && one_way > bar &&
+           path_span(e, far, &fits[k - 1].pose, &fits[k + 1].pose) >= e->g.voxel_size[0] &&
+           !(back->gain > one_way + BACK_BEYOND_PATH * (1.0 - one_way));
 }
 
 static pb_status inside_frames(estimate *e, const pbe_fit *fits, size_t reference, const float *moved,
@@ -992,25 +1004,12 @@ static pb_status inside_frames(estimate *e, const pbe_fit *fits, size_t referenc
                 changed = 1;
             }
     }
-    /* PATH_BACK where its neighbours lie a voxel apart or more says the
-     * head came part of the way back towards the frame after's pose. Its
-     * two legs hold more points than a one-way path (PATH_ON, PATH_FROM),
-     * and their mixture of views fits some of what no path explains (a
-     * drift off the line, the uptake), so beside a one-way path that still
-     * stands it must explain BACK_BEYOND_PATH of what that path leaves
-     * (back_beyond). test_a_jerk_inside_a_drift_is_followed's seed
-     * 3480099802: a jerk of 10.6 mm with a drift across it, PATH_ON gaining
-     * 0.569 and PATH_BACK 0.574, which laid the jerk out past its end and
-     * back: the frame 2.674 mm off where one pose stands at 2.659 and the
-     * path on at 1.934. */
-    for (size_t k = 1; k + 1 < e->count; k++) {
-        frame_path *back = &paths[k * PATHS + PATH_BACK];
-        const double one_way = fmax(paths[k * PATHS + PATH_ON].gain, paths[k * PATHS + PATH_FROM].gain);
-        if (back->gain > 0.0 && back_beyond() &&
-            path_span(e, far, &fits[k - 1].pose, &fits[k + 1].pose) >= e->g.voxel_size[0] && one_way > dwell_gain &&
-            !(back->gain > one_way + BACK_BEYOND_PATH * (1.0 - one_way)))
-            back->gain = 0.0;
-    }
+    /* PETBLUR_ESTIMATE_BACK=even: PATH_BACK stands beside a one-way path on
+     * its gain alone, for comparisons */
+    const char *back_env = getenv("PETBLUR_ESTIMATE_BACK");
+    for (size_t k = 1; k + 1 < e->count && !(back_env && strcmp(back_env, "even") == 0); k++)
+        if (back_yields(e, fits, paths, k, dwell_gain, far))
+            paths[k * PATHS + PATH_BACK].gain = 0.0;
     /* the clearest first, of the paths still free */
     *moving_count = 0;
     for (;;) {
