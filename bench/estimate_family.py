@@ -490,7 +490,8 @@ def summary(rows: list, metric: str) -> str:
                          "met" if np.median(pm) <= 0.4 else "NOT met", "met" if np.median(pw) <= 1.0 else "NOT met",
                          "met" if pm.max() <= 0.6 else "NOT met", int(np.sum(pm <= sm)), len(rows)))
     lines += trust_summary(rows)
-    names = sorted({n for r in rows for n in r.get("variants", {})})
+    # a variant of every draw only: runs merged for --summarize may each have run other variants
+    names = sorted(set.intersection(*(set(r.get("variants", {})) for r in rows))) if rows else []
     if names:
         inj = np.array([r["from_injection"] for r in rows])
         lines += ["", "Variants (the same draws; petblur under each's environment):", "",
