@@ -861,12 +861,21 @@ static void far_corner(const estimate *e, double far[3])
  * test_a_jerk_inside_a_drift_is_followed's seed 3480099802: a jerk of 10.6
  * mm with a drift across it, PATH_ON gaining 0.569 and PATH_BACK 0.574,
  * which laid the jerk out past its end and back: the frame 2.674 mm off
- * where one pose stands at 2.659 and PATH_ON at 1.934. */
+ * where one pose stands at 2.659 and PATH_ON at 1.934. It does not yield
+ * where a neighbour's path that ends (starts) at the frame's pose gains
+ * more than the one-way path: taken first (the clearest first), that path
+ * would hold the frame still, which PATH_BACK, the clearer of the two, had
+ * not let it (the series' first and last frames, whose own paths are never
+ * asked whether they hold still). */
 static int back_yields(const estimate *e, const pbe_fit *fits, const frame_path *paths, size_t k, double bar,
                        const double far[3])
 {
     const frame_path *back = &paths[k * PATHS + PATH_BACK];
     const double one_way = fmax(paths[k * PATHS + PATH_ON].gain, paths[k * PATHS + PATH_FROM].gain);
+    for (int kind = 0; kind < PATHS; kind++)
+        if ((ends_at_after(kind) && paths[(k - 1) * PATHS + (size_t)kind].gain > one_way) ||
+            (starts_at_before(kind) && paths[(k + 1) * PATHS + (size_t)kind].gain > one_way))
+            return 0;
     return back->gain > 0.0 && one_way > bar &&
            path_span(e, far, &fits[k - 1].pose, &fits[k + 1].pose) >= e->g.voxel_size[0] &&
            !(back->gain > one_way + BACK_BEYOND_PATH * (1.0 - one_way));
