@@ -766,8 +766,6 @@ static pb_status back_path(estimate *e, const pbe_fit *fits, size_t k, double on
 
 static void far_corner(const estimate *e, double far[3]);
 
-static void far_corner(const estimate *e, double far[3]);
-
 /* A path's far end towards dir (+1 its last point, -1 its first: the point
  * beside that neighbour) into end[i]: that point and those within a voxel
  * of it at the far corner, where a frame cannot tell one from the other
@@ -1016,7 +1014,8 @@ static pb_status inside_frames(estimate *e, const pbe_fit *fits, size_t referenc
     /* PETBLUR_ESTIMATE_BACK=even: PATH_BACK stands beside a one-way path on
      * its gain alone, for comparisons */
     const char *back_env = getenv("PETBLUR_ESTIMATE_BACK");
-    for (size_t k = 1; k + 1 < e->count && !(back_env && strcmp(back_env, "even") == 0); k++)
+    const int back_even = back_env && strcmp(back_env, "even") == 0;
+    for (size_t k = 1; k + 1 < e->count && !back_even; k++)
         if (back_yields(e, fits, paths, k, dwell_gain, far))
             paths[k * PATHS + PATH_BACK].gain = 0.0;
     /* the clearest first, of the paths still free */
