@@ -879,9 +879,33 @@ static int back_yields(const estimate *e, const pbe_fit *fits, const frame_path 
            !(back->gain > one_way + BACK_BEYOND_PATH * (1.0 - one_way));
 }
 
+/* Whether the head jumped at frame k's boundary on the side of a one-way
+ * path's far end (dir +1: PATH_ON, into the frame after; -1: PATH_FROM,
+ * from the frame before) and the path, not the path between, explains the
+ * frame on the fixed bar. A jump there (smooth_poses.c restarted its walk
+ * at the frame after the boundary: a jerk across it) leaves the
+ * neighbour's pose at the boundary, so the path starts (or ends) where the
+ * head jumped to and asks no motion of that neighbour, as a moving
+ * neighbour's support would not: issue 47's draw 1364193535, a 10.6 degree
+ * jerk across a boundary inside a 5 degree nod, the frame after it
+ * returning along the nod; its path from the jump gained 13 % with its
+ * dwell spread along it, refused at UNSUPPORTED_GAIN, and the frame held
+ * one pose 2.69 mm off. PETBLUR_ESTIMATE_JUMP_PATH=0 keeps the
+ * neighbour's support the only one, for comparisons. */
+static int jump_paths(void)
+{
+    const char *env = getenv("PETBLUR_ESTIMATE_JUMP_PATH");
+    return !(env && strcmp(env, "0") == 0);
+}
+
+static int jumped_beside(const int *jumped, size_t k, int dir, int between, double gain)
+{
+    return jump_paths() && jumped[dir > 0 ? k + 1 : k] && !between && gain > DWELL_GAIN;
+}
+
 static pb_status inside_frames(estimate *e, const pbe_fit *fits, size_t reference, const float *moved,
                                const double *gram, float *own, frame_path *paths, int *moving, size_t *moving_count,
-                               double *sides, double *unfollowed)
+                               double *sides, double *unfollowed, const int *jumped)
 {
     int *anchor = calloc(e->count, sizeof(int)), *moves = calloc(e->count, sizeof(int));
     unsigned char *tried = calloc(e->count, 1);
@@ -991,12 +1015,14 @@ static pb_status inside_frames(estimate *e, const pbe_fit *fits, size_t referenc
             int between = paths[k * PATHS + PATH_BETWEEN].gain > dwell_gain;
             unsigned char end[DWELL_POINTS];
             if (k + 1 == e->count ? on->gain <= UNSUPPORTED_GAIN
-                                  : !moves[k + 1] && (between || on->gain <= UNSUPPORTED_GAIN ||
-                                                      !(motion_went_on(e, fits, k, +1) || stops_short(e, on, +1, end))))
+                                  : !moves[k + 1] && !jumped_beside(jumped, k, +1, between, on->gain) &&
+                                        (between || on->gain <= UNSUPPORTED_GAIN ||
+                                         !(motion_went_on(e, fits, k, +1) || stops_short(e, on, +1, end))))
                 on->gain = 0.0;
             if (k == 0 ? from->gain <= UNSUPPORTED_GAIN
-                       : !moves[k - 1] && (between || from->gain <= UNSUPPORTED_GAIN ||
-                                           !(motion_went_on(e, fits, k, -1) || stops_short(e, from, -1, end))))
+                       : !moves[k - 1] && !jumped_beside(jumped, k, -1, between, from->gain) &&
+                             (between || from->gain <= UNSUPPORTED_GAIN ||
+                              !(motion_went_on(e, fits, k, -1) || stops_short(e, from, -1, end))))
                 from->gain = 0.0;
         }
         for (size_t k = 1; k + 1 < e->count; k++)
@@ -1657,7 +1683,7 @@ static int path_ends_step(void)
  * (stops_short), else NULL (the motion goes on into the neighbour, or the
  * neighbour moves itself). */
 static void path_keys(keys *out, double t0, double t1, const pb_pose *s, const pb_pose *e, const pb_pose *before,
-                      const pb_pose *after, const double *u, double *from, double *to)
+                      const pb_pose *after, const int jumps[2], const double *u, double *from, double *to)
 {
     double w[DWELL_POINTS];
     pb_pose p[DWELL_POINTS];
@@ -1665,8 +1691,8 @@ static void path_keys(keys *out, double t0, double t1, const pb_pose *s, const p
     for (int i = 0; i < DWELL_POINTS; i++)
         pb_pose_interpolate(s, e, (double)i / (DWELL_POINTS - 1), &p[i]);
     const int step = path_ends_step();
-    hold_keys(out, t0, t1, p, w, DWELL_POINTS, step && !(w[0] > 0) ? before : NULL,
-              step && !(w[DWELL_POINTS - 1] > 0) ? after : NULL, from, to);
+    hold_keys(out, t0, t1, p, w, DWELL_POINTS, jumps[0] || (step && !(w[0] > 0)) ? before : NULL,
+              jumps[1] || (step && !(w[DWELL_POINTS - 1] > 0)) ? after : NULL, from, to);
 }
 
 /* The still neighbours' poses a moving frame f's path p of a kind steps
@@ -1674,12 +1700,13 @@ static void path_keys(keys *out, double t0, double t1, const pb_pose *s, const p
  * neighbour it starts or ends at, or one it stops short of (stops_short),
  * still and not where the motion went on (motion_went_on); u: p's dwell,
  * less the remnant at an end it stops short at (far_end). */
-static void path_neighbours(const estimate *e, const pbe_fit *fits, const int *moving, size_t f, int kind,
-                            const frame_path *p, double u[DWELL_POINTS], const pb_pose **before,
-                            const pb_pose **after)
+static void path_neighbours(const estimate *e, const pbe_fit *fits, const int *moving, const int *jumped, size_t f,
+                            int kind, const frame_path *p, double u[DWELL_POINTS], const pb_pose **before,
+                            const pb_pose **after, int jumps[2])
 {
     memcpy(u, p->dwell, DWELL_POINTS * sizeof *u);
     *before = *after = NULL;
+    jumps[0] = jumps[1] = 0;
     unsigned char end[DWELL_POINTS];
     if (f > 0 && starts_at_before(kind))
         *before = &fits[f - 1].pose;
@@ -1687,6 +1714,9 @@ static void path_neighbours(const estimate *e, const pbe_fit *fits, const int *m
         *before = &fits[f - 1].pose;
         for (int i = 0; i < DWELL_POINTS; i++)
             u[i] = end[i] ? 0.0 : u[i];
+    } else if (f > 0 && !moving[f - 1] && jump_paths() && jumped[f]) {
+        *before = &fits[f - 1].pose;
+        jumps[0] = 1;
     }
     if (f + 1 < e->count && ends_at_after(kind))
         *after = &fits[f + 1].pose;
@@ -1694,6 +1724,9 @@ static void path_neighbours(const estimate *e, const pbe_fit *fits, const int *m
         *after = &fits[f + 1].pose;
         for (int i = 0; i < DWELL_POINTS; i++)
             u[i] = end[i] ? 0.0 : u[i];
+    } else if (f + 1 < e->count && !moving[f + 1] && jump_paths() && jumped[f + 1]) {
+        *after = &fits[f + 1].pose;
+        jumps[1] = 1;
     }
 }
 
@@ -1988,7 +2021,7 @@ static pb_status estimate_run(estimate *e, const double *bounds, const pb_estima
         st = smooth_still_poses(e, fits, bounds, ref, jumped);
     /* 3: inside frames, against the same references */
     if (st == PB_OK && !o->frame_poses_only)
-        st = inside_frames(e, fits, ref, moved, gram, own, paths, moving, &moving_count, sides, unfollowed);
+        st = inside_frames(e, fits, ref, moved, gram, own, paths, moving, &moving_count, sides, unfollowed, jumped);
     if (st == PB_OK && !o->frame_poses_only && two_poses_tried())
         st = two_pose_frames(e, fits, moved, gram, own, paths, moving, &moving_count, unfollowed);
     if (st == PB_OK && !o->frame_poses_only)
@@ -2013,9 +2046,10 @@ static pb_status estimate_run(estimate *e, const double *bounds, const pb_estima
                     /* in place of a path, the still neighbours it stepped from and to */
                     const pb_pose held[2] = {p->start, p->end}, *before = NULL, *after = NULL;
                     double u[DWELL_POINTS];
+                    int jumps[2];
                     if (p->replaced)
-                        path_neighbours(e, fits, moving, f, p->replaced - 1, &paths[f * PATHS + (size_t)(p->replaced - 1)],
-                                        u, &before, &after);
+                        path_neighbours(e, fits, moving, jumped, f, p->replaced - 1,
+                                        &paths[f * PATHS + (size_t)(p->replaced - 1)], u, &before, &after, jumps);
                     hold_keys(&k, bounds[f], bounds[f + 1], held, p->dwell, 2, before, after, &from, &to);
                 } else if (moving[f] - 1 == PATH_BACK)
                     back_keys(&k, bounds[f], bounds[f + 1], &p->start, &p->end, &fits[f + 1].pose, p->dwell, &from,
@@ -2023,8 +2057,9 @@ static pb_status estimate_run(estimate *e, const double *bounds, const pb_estima
                 else {
                     const pb_pose *before, *after;
                     double u[DWELL_POINTS];
-                    path_neighbours(e, fits, moving, f, moving[f] - 1, p, u, &before, &after);
-                    path_keys(&k, bounds[f], bounds[f + 1], &p->start, &p->end, before, after, u, &from, &to);
+                    int jumps[2];
+                    path_neighbours(e, fits, moving, jumped, f, moving[f] - 1, p, u, &before, &after, jumps);
+                    path_keys(&k, bounds[f], bounds[f + 1], &p->start, &p->end, before, after, jumps, u, &from, &to);
                 }
                 if (o->frames) {
                     o->frames[f].motion_from = from;
