@@ -898,9 +898,21 @@ static int jump_paths(void)
     return !(env && strcmp(env, "0") == 0);
 }
 
-static int jumped_beside(const int *jumped, size_t k, int dir, int between, double gain)
+static int shows_step(const int *jumped, const double *sides, size_t b);
+
+/* Whether the head jumped at the boundary before frame b, as the frames
+ * beside it show (shows_step, as boundary_steps asks between still frames:
+ * the frame that moves shows a step at its side too, where a jump called
+ * inside a slow nod shows the frame ramping through it, issue 47's draw
+ * 3617464807's frame 7, h = -223 at g = 27). */
+static int jumped_at(const int *jumped, const double *sides, size_t b)
 {
-    return jump_paths() && jumped[dir > 0 ? k + 1 : k] && !between && gain > DWELL_GAIN;
+    return jump_paths() && shows_step(jumped, sides, b);
+}
+
+static int jumped_beside(const int *jumped, const double *sides, size_t k, int dir, int between, double gain)
+{
+    return jumped_at(jumped, sides, dir > 0 ? k + 1 : k) && !between && gain > DWELL_GAIN;
 }
 
 static pb_status inside_frames(estimate *e, const pbe_fit *fits, size_t reference, const float *moved,
@@ -1015,12 +1027,12 @@ static pb_status inside_frames(estimate *e, const pbe_fit *fits, size_t referenc
             int between = paths[k * PATHS + PATH_BETWEEN].gain > dwell_gain;
             unsigned char end[DWELL_POINTS];
             if (k + 1 == e->count ? on->gain <= UNSUPPORTED_GAIN
-                                  : !moves[k + 1] && !jumped_beside(jumped, k, +1, between, on->gain) &&
+                                  : !moves[k + 1] && !jumped_beside(jumped, sides, k, +1, between, on->gain) &&
                                         (between || on->gain <= UNSUPPORTED_GAIN ||
                                          !(motion_went_on(e, fits, k, +1) || stops_short(e, on, +1, end))))
                 on->gain = 0.0;
             if (k == 0 ? from->gain <= UNSUPPORTED_GAIN
-                       : !moves[k - 1] && !jumped_beside(jumped, k, -1, between, from->gain) &&
+                       : !moves[k - 1] && !jumped_beside(jumped, sides, k, -1, between, from->gain) &&
                              (between || from->gain <= UNSUPPORTED_GAIN ||
                               !(motion_went_on(e, fits, k, -1) || stops_short(e, from, -1, end))))
                 from->gain = 0.0;
@@ -1700,8 +1712,8 @@ static void path_keys(keys *out, double t0, double t1, const pb_pose *s, const p
  * neighbour it starts or ends at, or one it stops short of (stops_short),
  * still and not where the motion went on (motion_went_on); u: p's dwell,
  * less the remnant at an end it stops short at (far_end). */
-static void path_neighbours(const estimate *e, const pbe_fit *fits, const int *moving, const int *jumped, size_t f,
-                            int kind, const frame_path *p, double u[DWELL_POINTS], const pb_pose **before,
+static void path_neighbours(const estimate *e, const pbe_fit *fits, const int *moving, const int *jumped,
+                            const double *sides, size_t f, int kind, const frame_path *p, double u[DWELL_POINTS], const pb_pose **before,
                             const pb_pose **after, int jumps[2])
 {
     memcpy(u, p->dwell, DWELL_POINTS * sizeof *u);
@@ -1714,7 +1726,7 @@ static void path_neighbours(const estimate *e, const pbe_fit *fits, const int *m
         *before = &fits[f - 1].pose;
         for (int i = 0; i < DWELL_POINTS; i++)
             u[i] = end[i] ? 0.0 : u[i];
-    } else if (f > 0 && !moving[f - 1] && jump_paths() && jumped[f]) {
+    } else if (f > 0 && !moving[f - 1] && jumped_at(jumped, sides, f)) {
         *before = &fits[f - 1].pose;
         jumps[0] = 1;
     }
@@ -1724,7 +1736,7 @@ static void path_neighbours(const estimate *e, const pbe_fit *fits, const int *m
         *after = &fits[f + 1].pose;
         for (int i = 0; i < DWELL_POINTS; i++)
             u[i] = end[i] ? 0.0 : u[i];
-    } else if (f + 1 < e->count && !moving[f + 1] && jump_paths() && jumped[f + 1]) {
+    } else if (f + 1 < e->count && !moving[f + 1] && jumped_at(jumped, sides, f + 1)) {
         *after = &fits[f + 1].pose;
         jumps[1] = 1;
     }
@@ -1754,6 +1766,15 @@ static int leans_to_step(const double side[2])
     return side[1] > 0.5 * side[0] - 2.0 * sqrt(side[0]);
 }
 
+/* Whether the head jumped at the boundary before frame b as its two frames
+ * show it (boundary_steps, below, says how). */
+static int shows_step(const int *jumped, const double *sides, size_t b)
+{
+    const double *before = &sides[4 * (b - 1) + 2], *after = &sides[4 * b];
+    const double g = before[0] + after[0], h = before[1] + after[1];
+    return jumped[b] && g >= SEPARATION * SEPARATION && h > 0.5 * g && leans_to_step(before) && leans_to_step(after);
+}
+
 /* Where the head jumped at a boundary between still frames: steps[b] for
  * the boundary before frame b, where the poses jumped into frame b (more than
  * the walk of smooth_poses.c goes, jumped[b]: none where the poses were not
@@ -1773,12 +1794,8 @@ static void boundary_steps(const estimate *e, const int *moving, const int *jump
     memset(steps, 0, e->count + 1);
     if (env && strcmp(env, "ramp") == 0)
         return;
-    for (size_t b = 1; b < e->count; b++) {
-        const double *before = &sides[4 * (b - 1) + 2], *after = &sides[4 * b];
-        double g = before[0] + after[0], h = before[1] + after[1];
-        steps[b] = jumped[b] && !moving[b - 1] && !moving[b] && !e->flat[b - 1] && !e->flat[b] &&
-                   g >= SEPARATION * SEPARATION && h > 0.5 * g && leans_to_step(before) && leans_to_step(after);
-    }
+    for (size_t b = 1; b < e->count; b++)
+        steps[b] = !moving[b - 1] && !moving[b] && !e->flat[b - 1] && !e->flat[b] && shows_step(jumped, sides, b);
 }
 
 /* A grid pose about c as a world map about the world's origin:
@@ -2048,7 +2065,7 @@ static pb_status estimate_run(estimate *e, const double *bounds, const pb_estima
                     double u[DWELL_POINTS];
                     int jumps[2];
                     if (p->replaced)
-                        path_neighbours(e, fits, moving, jumped, f, p->replaced - 1,
+                        path_neighbours(e, fits, moving, jumped, sides, f, p->replaced - 1,
                                         &paths[f * PATHS + (size_t)(p->replaced - 1)], u, &before, &after, jumps);
                     hold_keys(&k, bounds[f], bounds[f + 1], held, p->dwell, 2, before, after, &from, &to);
                 } else if (moving[f] - 1 == PATH_BACK)
@@ -2058,7 +2075,7 @@ static pb_status estimate_run(estimate *e, const double *bounds, const pb_estima
                     const pb_pose *before, *after;
                     double u[DWELL_POINTS];
                     int jumps[2];
-                    path_neighbours(e, fits, moving, jumped, f, moving[f] - 1, p, u, &before, &after, jumps);
+                    path_neighbours(e, fits, moving, jumped, sides, f, moving[f] - 1, p, u, &before, &after, jumps);
                     path_keys(&k, bounds[f], bounds[f + 1], &p->start, &p->end, before, after, jumps, u, &from, &to);
                 }
                 if (o->frames) {
