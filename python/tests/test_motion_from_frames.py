@@ -864,7 +864,11 @@ def test_jump_at_a_frame_boundary_is_held_as_a_step(rng, monkeypatch):
     frames, affine, starts, durations, phantom = _moving_series(rng, nf, truth, steps=1)
     points = phantom.inside(rng)
     m = petblur.Motion.from_frames(frames, affine, starts, durations, reference=0, device="host")
+    # the line between the middles: the monotone cubic the track now lays there (f519df7) bends its ramp towards the
+    # boundary, and with the frames' own error late in a series the step's gain over it fell under the bound below
+    # on 3 of 55 fresh seeds (2701752237, 1754053573: 0.54 and 0.41 mm against 0.56 and 0.52), with the line on none
     monkeypatch.setenv("PETBLUR_ESTIMATE_BOUNDARY", "ramp")
+    monkeypatch.setenv("PETBLUR_ESTIMATE_CURVE", "line")
     ramp = petblur.Motion.from_frames(frames, affine, starts, durations, reference=0, device="host")
     err, err_ramp = (_frame_errors(x, truth, points, starts, durations) for x in (m, ramp))
     size = _displacement(jump, np.eye(4), points)
