@@ -174,6 +174,12 @@ def _displacement(a, b, points):
     return np.linalg.norm(points @ (a[:3, :3] - b[:3, :3]).T + (a[:3, 3] - b[:3, 3]), axis=1).mean()
 
 
+def _ball(rng, n=2000, radius=25.0):
+    """n points uniform in a ball of radius mm about the origin: the phantom's region, by which a move is sized."""
+    ball = rng.normal(size=(n, 3))
+    return ball * radius * rng.uniform(0, 1, (n, 1)) ** (1 / 3) / np.linalg.norm(ball, axis=1, keepdims=True)
+
+
 def _read_matrix_csv(path):
     """The program's matrix-csv track (t, r00, r01, r02, tx, r10, ...), read
     with numpy: times and 4x4 maps."""
@@ -849,8 +855,7 @@ def test_jump_at_a_frame_boundary_is_held_as_a_step(rng, monkeypatch):
     # smaller one on this smooth phantom may not part the two models by the 6 standard deviations asked, and is then
     # ramped (seed 44, 4.96 mm: the frames' evidence 35 against 36; at 6 mm, 3 of 41 seeds, among them CI's
     # 2030472541, and 5112 at evidence 22.5; both still ramped at 4 times the counts; at 7.5 mm, 83 of 83 held)
-    ball = rng.normal(size=(2000, 3))
-    ball *= 25.0 * rng.uniform(0, 1, (2000, 1)) ** (1 / 3) / np.linalg.norm(ball, axis=1, keepdims=True)
+    ball = _ball(rng)
     while True:
         jump = _rigid(rng, float(rng.uniform(6.0, 10.0)), 0.0)
         v = rng.normal(size=3)
@@ -1077,8 +1082,7 @@ def test_a_move_after_a_jump_at_a_boundary_is_followed(rng, monkeypatch):
     # the phantom's region (a ball of 25 mm about the origin) moved by at most 15 mm on average at the end: the two
     # moves in line (up to 28 degrees and 25 mm) took frames past what the registration finds on this 28^3 grid of
     # 4 mm (seed 2981417670: 20 mm off from the jerk on, one pose a frame alike)
-    ball = rng.normal(size=(2000, 3))
-    ball *= 25.0 * rng.uniform(0, 1, (2000, 1)) ** (1 / 3) / np.linalg.norm(ball, axis=1, keepdims=True)
+    ball = _ball(rng)
     while True:
         moves, end = [], np.eye(4)
         for deg, mm in ((rng.uniform(12.0, 16.0), rng.uniform(10.0, 14.0)),

@@ -494,6 +494,17 @@ static double path_span(const estimate *e, const double far[3], const pb_pose *a
     return sqrt(d);
 }
 
+/* How far frame k's neighbours' poses lie apart (apart) and how far its own
+ * lies from the nearer of them (out), at the far corner, mm: whether the
+ * head came back inside the frame (back_path, jumped_beside). */
+static void neighbours_apart(const estimate *e, const pbe_fit *fits, size_t k, const double far[3], double *apart,
+                             double *out)
+{
+    *apart = path_span(e, far, &fits[k - 1].pose, &fits[k + 1].pose);
+    *out = fmin(path_span(e, far, &fits[k].pose, &fits[k - 1].pose),
+                path_span(e, far, &fits[k].pose, &fits[k + 1].pose));
+}
+
 /* Whether two poses are far enough apart for a frame to tell a motion
  * between them from one pose: a tenth of a voxel at the far corner. */
 static int poses_apart(const estimate *e, const double far[3], const pb_pose *a, const pb_pose *b)
@@ -739,9 +750,8 @@ static pb_status back_path(estimate *e, const pbe_fit *fits, size_t k, double on
     if ((env && strcmp(env, "0") == 0) || !path_defined(k, e->count, PATH_BACK) || !(one > 0) ||
         fmax(on->gain, from->gain) <= DWELL_GAIN || motion_went_on(e, fits, k, +1) || motion_went_on(e, fits, k, -1))
         return PB_OK;
-    const double apart = path_span(e, far, &fits[k - 1].pose, &fits[k + 1].pose),
-                 out = fmin(path_span(e, far, &fits[k].pose, &fits[k - 1].pose),
-                            path_span(e, far, &fits[k].pose, &fits[k + 1].pose));
+    double apart, out;
+    neighbours_apart(e, fits, k, far, &apart, &out);
     pb_pose p[BACK_POINTS];
     back->start = fits[k - 1].pose;
     back->end = on->gain >= from->gain ? on->end : from->start;
@@ -930,9 +940,8 @@ static int jumped_beside(const estimate *e, const pbe_fit *fits, const double fa
     if (k == 0 || k + 1 >= e->count || between || !(gain > DWELL_GAIN) ||
         !(dir > 0 ? jumped_at(jumped, sides, k + 1, k + 1) : jumped_at(jumped, sides, k, k - 1)))
         return 0;
-    const double apart = path_span(e, far, &fits[k - 1].pose, &fits[k + 1].pose),
-                 out = fmin(path_span(e, far, &fits[k].pose, &fits[k - 1].pose),
-                            path_span(e, far, &fits[k].pose, &fits[k + 1].pose));
+    double apart, out;
+    neighbours_apart(e, fits, k, far, &apart, &out);
     return apart > BACK_RETURN * out;
 }
 
